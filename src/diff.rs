@@ -1,0 +1,169 @@
+//! Differentiation: partial derivatives by a symbol and the total time derivative.
+//!
+//! Both are memoised per (node, variable) in a [`Differentiator`], so a DAG with shared
+//! subexpressions is differentiated once per distinct node, and repeated derivatives of the
+//! same Lagrangian (all the `∂L/∂q'_i`, then their `∂/∂q'_j`) reuse each other's work.
+
+use std::collections::{BTreeSet, HashMap};
+
+use crate::expr::{Expr, Func, Node, Symbol};
+
+/// A memo table for derivatives. Keep one alive across many derivatives of related
+/// expressions to share work.
+#[derive(Default)]
+pub struct Differentiator {
+    memo: HashMap<(Expr, Symbol), Expr>,
+}
+
+impl Differentiator {
+    /// An empty memo table.
+    pub fn new() -> Differentiator {
+        Differentiator::default()
+    }
+
+    /// `∂e/∂var`, treating every other symbol as independent of `var`.
+    pub fn diff(&mut self, e: &Expr, var: &Symbol) -> Expr {
+        let key = (e.clone(), var.clone());
+        if let Some(d) = self.memo.get(&key) {
+            return d.clone();
+        }
+        let d = self.diff_node(e, var);
+        self.memo.insert(key, d.clone());
+        d
+    }
+
+    fn diff_node(&mut self, e: &Expr, var: &Symbol) -> Expr {
+        match e.node() {
+            Node::Num(_) => Expr::zero(),
+            Node::Undefined => Expr::undefined(),
+            Node::Sym(s) => {
+                if s == var {
+                    Expr::one()
+                } else {
+                    Expr::zero()
+                }
+            }
+            Node::Add(ts) => Expr::add(ts.iter().map(|t| self.diff(t, var))),
+            Node::Mul(fs) => {
+                let mut terms = Vec::new();
+                for i in 0..fs.len() {
+                    let d = self.diff(&fs[i], var);
+                    if d.is_zero() {
+                        continue;
+                    }
+                    let mut prod: Vec<Expr> = Vec::with_capacity(fs.len());
+                    prod.extend(fs[..i].iter().cloned());
+                    prod.push(d);
+                    prod.extend(fs[i + 1..].iter().cloned());
+                    terms.push(Expr::mul(prod));
+                }
+                Expr::add(terms)
+            }
+            Node::Pow(b, x) => {
+                let db = self.diff(b, var);
+                let dx = self.diff(x, var);
+                let mut terms = Vec::new();
+                if !db.is_zero() {
+                    // x b^(x-1) b'
+                    terms.push(Expr::mul([x.clone(), Expr::pow(b.clone(), x.minus(&Expr::one())), db]));
+                }
+                if !dx.is_zero() {
+                    // b^x log(b) x'
+                    terms.push(Expr::mul([e.clone(), Expr::call(Func::Log, vec![b.clone()]), dx]));
+                }
+                Expr::add(terms)
+            }
+            Node::Call(f, args) => self.diff_call(*f, args, var),
+            Node::Apply { name, orders, args } => {
+                let mut terms = Vec::new();
+                for (i, a) in args.iter().enumerate() {
+                    let da = self.diff(a, var);
+                    if da.is_zero() {
+                        continue;
+                    }
+                    let mut o = orders.clone();
+                    o[i] += 1;
+                    terms.push(Expr::apply(name, o, args.clone()).times(&da));
+                }
+                Expr::add(terms)
+            }
+        }
+    }
+
+    fn diff_call(&mut self, f: Func, args: &[Expr], var: &Symbol) -> Expr {
+        let u = &args[0];
+        if f == Func::Atan2 {
+            // atan2(y, x)' = (x y' − y x') / (x² + y²)
+            let (y, x) = (&args[0], &args[1]);
+            let dy = self.diff(y, var);
+            let dx = self.diff(x, var);
+            if dy.is_zero() && dx.is_zero() {
+                return Expr::zero();
+            }
+            let num = x.times(&dy).minus(&y.times(&dx));
+            return num.over(&x.powi(2).plus(&y.powi(2)));
+        }
+        let du = self.diff(u, var);
+        if du.is_zero() {
+            return Expr::zero();
+        }
+        let one = Expr::one();
+        let outer = match f {
+            Func::Sin => Expr::call(Func::Cos, vec![u.clone()]),
+            Func::Cos => Expr::call(Func::Sin, vec![u.clone()]).neg(),
+            Func::Tan => Expr::call(Func::Cos, vec![u.clone()]).powi(-2),
+            Func::Exp => Expr::call(Func::Exp, vec![u.clone()]),
+            Func::Log => u.powi(-1),
+            Func::Sinh => Expr::call(Func::Cosh, vec![u.clone()]),
+            Func::Cosh => Expr::call(Func::Sinh, vec![u.clone()]),
+            Func::Tanh => Expr::call(Func::Cosh, vec![u.clone()]).powi(-2),
+            Func::Asin => Expr::pow(one.minus(&u.powi(2)), Expr::frac(-1, 2)),
+            Func::Acos => Expr::pow(one.minus(&u.powi(2)), Expr::frac(-1, 2)).neg(),
+            Func::Atan => one.plus(&u.powi(2)).powi(-1),
+            // d|u|/du = |u|/u, defined wherever u ≠ 0.
+            Func::Abs => Expr::call(Func::Abs, vec![u.clone()]).over(u),
+            Func::Atan2 => Expr::undefined(),
+        };
+        outer.times(&du)
+    }
+
+    /// The total time derivative
+    /// `d/dt F = ∂F/∂t + Σ_s s' ∂F/∂s` over every time-dependent symbol `s` in `F`.
+    ///
+    /// A symbol depends on time when its base name is in `coordinates` or when it carries a
+    /// prime (then its base must be a function of time too). Other symbols are constants.
+    pub fn dt(&mut self, e: &Expr, coordinates: &BTreeSet<String>) -> Expr {
+        let syms = e.free_symbols();
+        let mut terms = Vec::new();
+        for s in &syms {
+            if s.is_time() {
+                terms.push(self.diff(e, s));
+            } else if s.primes() > 0 || coordinates.contains(s.name()) {
+                let d = self.diff(e, s);
+                if !d.is_zero() {
+                    terms.push(Expr::sym(s.prime()).times(&d));
+                }
+            }
+        }
+        Expr::add(terms)
+    }
+}
+
+/// `∂e/∂var` with a fresh memo table.
+pub fn diff(e: &Expr, var: &Symbol) -> Expr {
+    Differentiator::new().diff(e, var)
+}
+
+/// The names of all symbols in `e` that depend on time by the rule of [`Differentiator::dt`]
+/// with no declared coordinates: those that appear with a prime somewhere in `e`.
+pub fn primed_names(e: &Expr) -> BTreeSet<String> {
+    e.free_symbols().into_iter().filter(|s| s.primes() > 0).map(|s| s.name().to_string()).collect()
+}
+
+/// `d/dt e`, where the time-dependent symbols are those that appear primed in `e` plus
+/// `coordinates`.
+pub fn dt(e: &Expr, coordinates: &BTreeSet<String>) -> Expr {
+    let mut all = primed_names(e);
+    all.extend(coordinates.iter().cloned());
+    Differentiator::new().dt(e, &all)
+}

@@ -1,0 +1,1085 @@
+//! The expression core: a hash-consed DAG in canonical form.
+//!
+//! Every [`Expr`] is built through the constructors here ([`Expr::add`], [`Expr::mul`],
+//! [`Expr::pow`], [`Expr::call`], …), which keep one canonical form:
+//!
+//! * sums and products are n-ary, flattened and sorted by one deterministic order
+//!   ([`Expr::canonical_cmp`]); there are no subtraction or division nodes (`a − b` is
+//!   `a + (−1)·b`, `a/b` is `a·b⁻¹`);
+//! * like terms are collected (`2x + 3x = 5x`) and so are like powers (`x·x² = x³`);
+//! * a sum carries its rational constant first, a product its rational coefficient first;
+//! * coefficients are exact [`BigRational`]s, so they never overflow.
+//!
+//! Associativity and commutativity are therefore never rewrite rules: the e-graph in
+//! [`crate::simplify`] works on identities a canonical form cannot see.
+//!
+//! Nodes are interned for the life of the process (like a symbol table), so structurally equal
+//! expressions are the same pointer: equality and hashing are O(1), derivative and evaluation
+//! memo tables key on nodes, and deep expressions are never dropped recursively.
+
+use std::cmp::Ordering;
+use std::collections::{BTreeSet, HashMap, HashSet};
+use std::fmt;
+use std::hash::{BuildHasher, Hash, Hasher};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use num_bigint::BigInt;
+use num_integer::Integer;
+use num_rational::BigRational;
+use num_traits::{One, Signed, ToPrimitive, Zero};
+
+/// Exact rational numbers, the coefficients of every expression.
+pub type Rational = BigRational;
+
+/// The largest result, in bits, that a power of two rationals is folded into. Larger powers
+/// (`2^(10^10)`, `10^99999999`) stay unevaluated instead of exhausting memory.
+pub const MAX_FOLD_BITS: u64 = 1 << 16;
+
+/// A real-valued variable. Primes count time derivatives: `x'` is the velocity of `x`.
+#[derive(Clone, PartialEq, Eq, Hash)]
+pub struct Symbol {
+    name: Arc<str>,
+    primes: u8,
+    positive: bool,
+}
+
+impl Symbol {
+    /// A real symbol with no sign assumption.
+    pub fn new(name: &str) -> Symbol {
+        Symbol { name: Arc::from(name), primes: 0, positive: false }
+    }
+
+    /// A symbol known to be strictly positive (a mass, a length, `g`), which lets
+    /// simplification use `sqrt(m^2) = m`.
+    pub fn positive(name: &str) -> Symbol {
+        Symbol { name: Arc::from(name), primes: 0, positive: true }
+    }
+
+    /// The same symbol with `primes` time derivatives (`x` → `x''` for 2).
+    pub fn with_primes(&self, primes: u8) -> Symbol {
+        Symbol { name: self.name.clone(), primes, positive: self.positive && primes == 0 }
+    }
+
+    /// The time derivative of this symbol: `x` → `x'`.
+    pub fn prime(&self) -> Symbol {
+        Symbol { name: self.name.clone(), primes: self.primes.saturating_add(1), positive: false }
+    }
+
+    /// The underlying symbol with no primes (`x''` → `x`).
+    pub fn base(&self) -> Symbol {
+        self.with_primes(0)
+    }
+
+    /// The name without primes.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// How many time derivatives the symbol carries.
+    pub fn primes(&self) -> u8 {
+        self.primes
+    }
+
+    /// Whether the symbol was declared positive.
+    pub fn is_positive(&self) -> bool {
+        self.positive
+    }
+
+    /// Whether this is the time variable `t`.
+    pub fn is_time(&self) -> bool {
+        self.primes == 0 && &*self.name == "t"
+    }
+}
+
+impl PartialOrd for Symbol {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Symbol {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.name.cmp(&other.name).then(self.primes.cmp(&other.primes)).then(self.positive.cmp(&other.positive))
+    }
+}
+
+impl fmt::Debug for Symbol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{}", self.name, "'".repeat(self.primes as usize))
+    }
+}
+
+impl fmt::Display for Symbol {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Debug::fmt(self, f)
+    }
+}
+
+/// The built-in functions of the grammar. `sqrt` is not here: it is the power `x^(1/2)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Func {
+    Sin,
+    Cos,
+    Tan,
+    Exp,
+    Log,
+    Sinh,
+    Cosh,
+    Tanh,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Abs,
+}
+
+impl Func {
+    /// Every built-in function, in declaration order.
+    pub const ALL: [Func; 13] = [
+        Func::Sin,
+        Func::Cos,
+        Func::Tan,
+        Func::Exp,
+        Func::Log,
+        Func::Sinh,
+        Func::Cosh,
+        Func::Tanh,
+        Func::Asin,
+        Func::Acos,
+        Func::Atan,
+        Func::Atan2,
+        Func::Abs,
+    ];
+
+    /// The name as written in the grammar.
+    pub fn name(self) -> &'static str {
+        match self {
+            Func::Sin => "sin",
+            Func::Cos => "cos",
+            Func::Tan => "tan",
+            Func::Exp => "exp",
+            Func::Log => "log",
+            Func::Sinh => "sinh",
+            Func::Cosh => "cosh",
+            Func::Tanh => "tanh",
+            Func::Asin => "asin",
+            Func::Acos => "acos",
+            Func::Atan => "atan",
+            Func::Atan2 => "atan2",
+            Func::Abs => "abs",
+        }
+    }
+
+    /// Looks a built-in up by name.
+    pub fn from_name(name: &str) -> Option<Func> {
+        Func::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// How many arguments the function takes.
+    pub fn arity(self) -> usize {
+        if self == Func::Atan2 {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Evaluates the function on floats.
+    pub fn eval(self, args: &[f64]) -> f64 {
+        let x = args[0];
+        match self {
+            Func::Sin => x.sin(),
+            Func::Cos => x.cos(),
+            Func::Tan => x.tan(),
+            Func::Exp => x.exp(),
+            Func::Log => x.ln(),
+            Func::Sinh => x.sinh(),
+            Func::Cosh => x.cosh(),
+            Func::Tanh => x.tanh(),
+            Func::Asin => x.asin(),
+            Func::Acos => x.acos(),
+            Func::Atan => x.atan(),
+            Func::Atan2 => x.atan2(args[1]),
+            Func::Abs => x.abs(),
+        }
+    }
+}
+
+/// One node of the DAG. Build nodes only through the [`Expr`] constructors, which keep the
+/// canonical form.
+#[derive(Clone, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// An exact rational number.
+    Num(Rational),
+    /// A variable.
+    Sym(Symbol),
+    /// A sum of at least two terms: constant first, no nested sums, like terms collected.
+    Add(Vec<Expr>),
+    /// A product of at least two factors: coefficient first (never 1), no nested products,
+    /// like bases collected.
+    Mul(Vec<Expr>),
+    /// `base ^ exponent`.
+    Pow(Expr, Expr),
+    /// A built-in function applied to its arguments.
+    Call(Func, Vec<Expr>),
+    /// A declared but undefined function (`V(r)`) or one of its partial derivatives:
+    /// `orders[i]` counts derivatives by argument `i` (`V'(r)` has `orders = [1]`).
+    Apply { name: Arc<str>, orders: Vec<u32>, args: Vec<Expr> },
+    /// The result of an undefined operation such as `1/0`; absorbs everything it touches.
+    Undefined,
+}
+
+struct ExprData {
+    node: Node,
+    hash: u64,
+}
+
+/// A shared, immutable, canonical expression. Cloning is a reference-count increment.
+#[derive(Clone)]
+pub struct Expr(Arc<ExprData>);
+
+impl PartialEq for Expr {
+    fn eq(&self, other: &Self) -> bool {
+        // Interning makes structural equality pointer equality.
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+impl Eq for Expr {}
+
+impl Hash for Expr {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        state.write_u64(self.0.hash);
+    }
+}
+
+/// Interning key: a node whose children are already interned, so comparing two keys is
+/// shallow (children compare by pointer).
+struct Interner {
+    table: HashMap<u64, Vec<Expr>>,
+}
+
+fn interner() -> &'static Mutex<Interner> {
+    static INTERNER: OnceLock<Mutex<Interner>> = OnceLock::new();
+    INTERNER.get_or_init(|| Mutex::new(Interner { table: HashMap::new() }))
+}
+
+/// A fixed hasher, so node hashes (and anything ordered by them) never vary between runs.
+#[derive(Default, Clone, Copy)]
+struct FixedState;
+impl BuildHasher for FixedState {
+    type Hasher = std::collections::hash_map::DefaultHasher;
+    fn build_hasher(&self) -> Self::Hasher {
+        std::collections::hash_map::DefaultHasher::new()
+    }
+}
+
+fn intern(node: Node) -> Expr {
+    let hash = FixedState.hash_one(&node);
+    let mut guard = match interner().lock() {
+        Ok(guard) => guard,
+        Err(poisoned) => poisoned.into_inner(),
+    };
+    let bucket = guard.table.entry(hash).or_default();
+    if let Some(found) = bucket.iter().find(|e| e.0.node == node) {
+        return found.clone();
+    }
+    let expr = Expr(Arc::new(ExprData { node, hash }));
+    bucket.push(expr.clone());
+    expr
+}
+
+/// Integer part and sign helpers on rationals.
+fn is_integer(r: &Rational) -> bool {
+    r.is_integer()
+}
+
+fn rational_bits(r: &Rational) -> u64 {
+    r.numer().bits().max(r.denom().bits())
+}
+
+impl Expr {
+    // ----- leaves -----------------------------------------------------------------------
+
+    /// An exact rational constant.
+    pub fn num(r: Rational) -> Expr {
+        intern(Node::Num(r))
+    }
+
+    /// An integer constant.
+    pub fn int(i: i64) -> Expr {
+        Expr::num(Rational::from_integer(BigInt::from(i)))
+    }
+
+    /// The rational `n/d` (`d` must not be zero).
+    pub fn frac(n: i64, d: i64) -> Expr {
+        Expr::num(Rational::new(BigInt::from(n), BigInt::from(d)))
+    }
+
+    /// `0`.
+    pub fn zero() -> Expr {
+        Expr::int(0)
+    }
+
+    /// `1`.
+    pub fn one() -> Expr {
+        Expr::int(1)
+    }
+
+    /// A variable.
+    pub fn sym(s: Symbol) -> Expr {
+        intern(Node::Sym(s))
+    }
+
+    /// A variable with no assumptions, by name.
+    pub fn var(name: &str) -> Expr {
+        Expr::sym(Symbol::new(name))
+    }
+
+    /// The undefined value (`1/0`).
+    pub fn undefined() -> Expr {
+        intern(Node::Undefined)
+    }
+
+    // ----- accessors --------------------------------------------------------------------
+
+    /// The node behind this expression.
+    pub fn node(&self) -> &Node {
+        &self.0.node
+    }
+
+    /// The rational value, if this is a number.
+    pub fn as_num(&self) -> Option<&Rational> {
+        match self.node() {
+            Node::Num(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The symbol, if this is a variable.
+    pub fn as_sym(&self) -> Option<&Symbol> {
+        match self.node() {
+            Node::Sym(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Whether this is exactly the number `r`.
+    pub fn is_num(&self, r: i64) -> bool {
+        self.as_num().is_some_and(|v| *v == Rational::from_integer(BigInt::from(r)))
+    }
+
+    /// Whether this is `0`.
+    pub fn is_zero(&self) -> bool {
+        self.as_num().is_some_and(Zero::is_zero)
+    }
+
+    /// Whether this is `1`.
+    pub fn is_one(&self) -> bool {
+        self.as_num().is_some_and(One::is_one)
+    }
+
+    /// Whether this expression is (or contains) an undefined value.
+    pub fn is_undefined(&self) -> bool {
+        matches!(self.node(), Node::Undefined)
+    }
+
+    /// Terms of a sum (a non-sum is a one-term sum).
+    pub fn terms(&self) -> Vec<Expr> {
+        match self.node() {
+            Node::Add(ts) => ts.clone(),
+            _ => vec![self.clone()],
+        }
+    }
+
+    /// Factors of a product (a non-product is a one-factor product).
+    pub fn factors(&self) -> Vec<Expr> {
+        match self.node() {
+            Node::Mul(fs) => fs.clone(),
+            _ => vec![self.clone()],
+        }
+    }
+
+    /// Splits a term into its rational coefficient and the rest: `-3 x y` → `(-3, x y)`.
+    pub fn coeff_rest(&self) -> (Rational, Expr) {
+        match self.node() {
+            Node::Num(r) => (r.clone(), Expr::one()),
+            Node::Mul(fs) => match fs[0].node() {
+                Node::Num(r) => {
+                    let rest = if fs.len() == 2 { fs[1].clone() } else { intern(Node::Mul(fs[1..].to_vec())) };
+                    (r.clone(), rest)
+                }
+                _ => (Rational::one(), self.clone()),
+            },
+            _ => (Rational::one(), self.clone()),
+        }
+    }
+
+    /// Splits a factor into base and exponent: `x^3` → `(x, 3)`, `x` → `(x, 1)`.
+    pub fn base_exp(&self) -> (Expr, Expr) {
+        match self.node() {
+            Node::Pow(b, e) => (b.clone(), e.clone()),
+            _ => (self.clone(), Expr::one()),
+        }
+    }
+
+    /// Whether the printed form would start with a minus sign: a negative number, or a
+    /// product or sum led by one.
+    pub fn is_negative_form(&self) -> bool {
+        match self.node() {
+            Node::Num(r) => r.is_negative(),
+            Node::Mul(fs) => fs[0].as_num().is_some_and(Signed::is_negative),
+            Node::Add(ts) => {
+                let lead = ts.iter().find(|t| t.as_num().is_none()).unwrap_or(&ts[0]);
+                lead.is_negative_form()
+            }
+            _ => false,
+        }
+    }
+
+    // ----- canonical constructors -------------------------------------------------------
+
+    /// The canonical sum of `terms`.
+    pub fn add(terms: impl IntoIterator<Item = Expr>) -> Expr {
+        let mut constant = Rational::zero();
+        let mut collected: Vec<(Expr, Rational)> = Vec::new();
+        let push = |t: &Expr, constant: &mut Rational, collected: &mut Vec<(Expr, Rational)>| match t.node() {
+            Node::Num(r) => *constant += r,
+            _ => {
+                let (c, rest) = t.coeff_rest();
+                collected.push((rest, c));
+            }
+        };
+        for t in terms {
+            match t.node() {
+                Node::Undefined => return Expr::undefined(),
+                Node::Add(ts) => {
+                    for inner in ts {
+                        push(inner, &mut constant, &mut collected);
+                    }
+                }
+                _ => push(&t, &mut constant, &mut collected),
+            }
+        }
+        collected.sort_by(|a, b| a.0.canonical_cmp(&b.0));
+        let mut out: Vec<Expr> = Vec::with_capacity(collected.len() + 1);
+        if !constant.is_zero() {
+            out.push(Expr::num(constant));
+        }
+        let mut iter = collected.into_iter().peekable();
+        while let Some((rest, mut c)) = iter.next() {
+            while let Some((next, c2)) = iter.peek() {
+                if *next == rest {
+                    c += c2;
+                    iter.next();
+                } else {
+                    break;
+                }
+            }
+            if !c.is_zero() {
+                out.push(Expr::scale(c, rest));
+            }
+        }
+        match out.len() {
+            0 => Expr::zero(),
+            1 => out.pop().unwrap_or_else(Expr::zero),
+            _ => intern(Node::Add(out)),
+        }
+    }
+
+    /// `c · rest` where `rest` carries no coefficient of its own.
+    fn scale(c: Rational, rest: Expr) -> Expr {
+        if c.is_one() {
+            return rest;
+        }
+        if rest.is_one() {
+            return Expr::num(c);
+        }
+        let mut fs = vec![Expr::num(c)];
+        match rest.node() {
+            Node::Mul(inner) => fs.extend(inner.iter().cloned()),
+            _ => fs.push(rest),
+        }
+        intern(Node::Mul(fs))
+    }
+
+    /// `a + b`.
+    pub fn plus(&self, other: &Expr) -> Expr {
+        Expr::add([self.clone(), other.clone()])
+    }
+
+    /// `a − b`.
+    pub fn minus(&self, other: &Expr) -> Expr {
+        Expr::add([self.clone(), other.neg()])
+    }
+
+    /// `−a`.
+    pub fn neg(&self) -> Expr {
+        Expr::mul([Expr::int(-1), self.clone()])
+    }
+
+    /// `a · b`.
+    pub fn times(&self, other: &Expr) -> Expr {
+        Expr::mul([self.clone(), other.clone()])
+    }
+
+    /// `a / b`.
+    pub fn over(&self, other: &Expr) -> Expr {
+        Expr::mul([self.clone(), Expr::pow(other.clone(), Expr::int(-1))])
+    }
+
+    /// `a ^ n` for an integer `n`.
+    pub fn powi(&self, n: i64) -> Expr {
+        Expr::pow(self.clone(), Expr::int(n))
+    }
+
+    /// `sqrt(a)`, i.e. `a^(1/2)`.
+    pub fn sqrt(&self) -> Expr {
+        Expr::pow(self.clone(), Expr::frac(1, 2))
+    }
+
+    /// The canonical product of `factors`.
+    pub fn mul(factors: impl IntoIterator<Item = Expr>) -> Expr {
+        let mut coeff = Rational::one();
+        let mut collected: Vec<(Expr, Expr)> = Vec::new();
+        let push = |f: &Expr, coeff: &mut Rational, collected: &mut Vec<(Expr, Expr)>| match f.node() {
+            Node::Num(r) => *coeff *= r,
+            _ => collected.push(f.base_exp()),
+        };
+        for f in factors {
+            match f.node() {
+                Node::Undefined => return Expr::undefined(),
+                Node::Mul(fs) => {
+                    for inner in fs {
+                        push(inner, &mut coeff, &mut collected);
+                    }
+                }
+                _ => push(&f, &mut coeff, &mut collected),
+            }
+        }
+        if coeff.is_zero() {
+            return Expr::zero();
+        }
+        collected.sort_by(|a, b| a.0.canonical_cmp(&b.0));
+        let mut out: Vec<Expr> = Vec::with_capacity(collected.len());
+        let mut iter = collected.into_iter().peekable();
+        let mut extra_coeff = Rational::one();
+        while let Some((base, exp)) = iter.next() {
+            let mut exps = vec![exp];
+            while let Some((next, e2)) = iter.peek() {
+                if *next == base {
+                    exps.push(e2.clone());
+                    iter.next();
+                } else {
+                    break;
+                }
+            }
+            let exp = if exps.len() == 1 { exps.pop().unwrap_or_else(Expr::one) } else { Expr::add(exps) };
+            let factor = Expr::pow(base, exp);
+            match factor.node() {
+                Node::Num(r) => extra_coeff *= r,
+                Node::Undefined => return Expr::undefined(),
+                Node::Mul(fs) => {
+                    // A power that split (e.g. 2^(3/2) = 2·2^(1/2)): fold its pieces in.
+                    for f in fs {
+                        match f.node() {
+                            Node::Num(r) => extra_coeff *= r,
+                            _ => out.push(f.clone()),
+                        }
+                    }
+                }
+                _ => out.push(factor),
+            }
+        }
+        coeff *= extra_coeff;
+        if coeff.is_zero() {
+            return Expr::zero();
+        }
+        // Re-collect if splitting produced duplicates (rare); otherwise keep the order.
+        out.sort_by(|a, b| a.base_exp().0.canonical_cmp(&b.base_exp().0));
+        let dup = out.windows(2).any(|w| w[0].base_exp().0 == w[1].base_exp().0);
+        if dup {
+            let mut fs = vec![Expr::num(coeff)];
+            fs.extend(out);
+            return Expr::mul(fs);
+        }
+        // A rational coefficient times a single sum distributes: 2(x + y) = 2x + 2y. This keeps
+        // `(x + y) − (x + y)` collapsing to 0 in the sum constructor.
+        if !coeff.is_one() && out.len() == 1 {
+            if let Node::Add(ts) = out[0].node() {
+                let ts = ts.clone();
+                return Expr::add(ts.into_iter().map(|t| Expr::mul([Expr::num(coeff.clone()), t])));
+            }
+        }
+        match (out.len(), coeff.is_one()) {
+            (0, _) => Expr::num(coeff),
+            (1, true) => out.pop().unwrap_or_else(Expr::one),
+            _ => {
+                let mut fs = Vec::with_capacity(out.len() + 1);
+                if !coeff.is_one() {
+                    fs.push(Expr::num(coeff));
+                }
+                fs.extend(out);
+                intern(Node::Mul(fs))
+            }
+        }
+    }
+
+    /// The canonical power `base ^ exp`.
+    ///
+    /// Rewrites applied here hold for every real value where both sides are defined:
+    /// `(x^a)^n = x^(an)` for integer `n`; `(x^(2k))^b = |x|^(2kb)`; `(xy)^n = x^n y^n` for
+    /// integer `n`, and for any `b` when the split-off factors are positive.
+    pub fn pow(base: Expr, exp: Expr) -> Expr {
+        if base.is_undefined() || exp.is_undefined() {
+            return Expr::undefined();
+        }
+        if exp.is_zero() {
+            return Expr::one();
+        }
+        if exp.is_one() || base.is_one() {
+            return base;
+        }
+        if let (Some(b), Some(e)) = (base.as_num(), exp.as_num()) {
+            if let Some(folded) = fold_num_pow(b, e) {
+                return folded;
+            }
+            return intern(Node::Pow(base, exp));
+        }
+        if let Some(e) = exp.as_num() {
+            let int_exp = is_integer(e);
+            match base.node() {
+                Node::Pow(b, a) => {
+                    if int_exp || b.is_positive() {
+                        return Expr::pow(b.clone(), a.times(&exp));
+                    }
+                    if let Some(ar) = a.as_num() {
+                        if is_integer(ar) && ar.to_integer().is_even() {
+                            let abs = Expr::call(Func::Abs, vec![b.clone()]);
+                            return Expr::pow(abs, Expr::num(ar * e));
+                        }
+                    }
+                }
+                Node::Mul(fs) => {
+                    if int_exp {
+                        return Expr::mul(fs.iter().map(|f| Expr::pow(f.clone(), exp.clone())));
+                    }
+                    let (pos, rest): (Vec<Expr>, Vec<Expr>) = fs.iter().cloned().partition(|f| f.is_positive());
+                    if !pos.is_empty() {
+                        let mut out: Vec<Expr> = pos.into_iter().map(|f| Expr::pow(f, exp.clone())).collect();
+                        if !rest.is_empty() {
+                            out.push(intern_pow_raw(Expr::mul(rest), exp.clone()));
+                        }
+                        return Expr::mul(out);
+                    }
+                }
+                Node::Call(Func::Abs, args) if int_exp && e.to_integer().is_even() => {
+                    return Expr::pow(args[0].clone(), exp.clone());
+                }
+                _ => {}
+            }
+        }
+        intern(Node::Pow(base, exp))
+    }
+
+    /// A built-in function call, with exact values and symmetries folded in.
+    pub fn call(func: Func, args: Vec<Expr>) -> Expr {
+        if args.iter().any(Expr::is_undefined) {
+            return Expr::undefined();
+        }
+        let x = &args[0];
+        match func {
+            Func::Sin | Func::Tan | Func::Sinh | Func::Tanh | Func::Asin | Func::Atan => {
+                if x.is_zero() {
+                    return Expr::zero();
+                }
+                if x.is_negative_form() {
+                    return Expr::call(func, vec![x.neg()]).neg();
+                }
+            }
+            Func::Cos | Func::Cosh => {
+                if x.is_zero() {
+                    return Expr::one();
+                }
+                if x.is_negative_form() {
+                    return Expr::call(func, vec![x.neg()]);
+                }
+            }
+            Func::Exp => {
+                if x.is_zero() {
+                    return Expr::one();
+                }
+            }
+            Func::Log => {
+                if x.is_one() {
+                    return Expr::zero();
+                }
+            }
+            Func::Acos => {
+                if x.is_one() {
+                    return Expr::zero();
+                }
+            }
+            Func::Abs => {
+                if let Some(r) = x.as_num() {
+                    return Expr::num(r.abs());
+                }
+                if x.is_positive() {
+                    return x.clone();
+                }
+                if x.is_negative_form() {
+                    return Expr::call(Func::Abs, vec![x.neg()]);
+                }
+                if let Node::Call(Func::Abs, _) = x.node() {
+                    return x.clone();
+                }
+            }
+            Func::Atan2 => {}
+        }
+        intern(Node::Call(func, args))
+    }
+
+    /// A declared function applied to arguments, with `orders[i]` partial derivatives by
+    /// argument `i`.
+    pub fn apply(name: &str, orders: Vec<u32>, args: Vec<Expr>) -> Expr {
+        if args.iter().any(Expr::is_undefined) {
+            return Expr::undefined();
+        }
+        intern(Node::Apply { name: Arc::from(name), orders, args })
+    }
+
+    // ----- queries ----------------------------------------------------------------------
+
+    /// Whether the expression is known to be strictly positive: positive numbers, positive
+    /// symbols, and products, sums and real powers of those, `exp`, `cosh`.
+    pub fn is_positive(&self) -> bool {
+        match self.node() {
+            Node::Num(r) => r.is_positive(),
+            Node::Sym(s) => s.positive,
+            Node::Mul(fs) => fs.iter().all(Expr::is_positive),
+            Node::Add(ts) => ts.iter().all(Expr::is_positive),
+            Node::Pow(b, e) => {
+                b.is_positive()
+                    || e.as_num().is_some_and(|r| is_integer(r) && r.to_integer().is_even() && b.is_nonzero_known())
+            }
+            Node::Call(Func::Exp | Func::Cosh, _) => true,
+            _ => false,
+        }
+    }
+
+    fn is_nonzero_known(&self) -> bool {
+        self.is_positive() || self.as_num().is_some_and(|r| !r.is_zero())
+    }
+
+    /// The free symbols, in canonical order.
+    pub fn free_symbols(&self) -> BTreeSet<Symbol> {
+        let mut out = BTreeSet::new();
+        let mut seen = HashSet::new();
+        self.collect_symbols(&mut out, &mut seen);
+        out
+    }
+
+    fn collect_symbols(&self, out: &mut BTreeSet<Symbol>, seen: &mut HashSet<Expr>) {
+        if !seen.insert(self.clone()) {
+            return;
+        }
+        match self.node() {
+            Node::Sym(s) => {
+                out.insert(s.clone());
+            }
+            _ => self.for_each_child(|c| c.collect_symbols(out, seen)),
+        }
+    }
+
+    /// Whether `sym` occurs in the expression.
+    pub fn contains(&self, sym: &Symbol) -> bool {
+        self.free_symbols().contains(sym)
+    }
+
+    /// The names of the declared functions the expression applies (`V` in `V'(r)`).
+    pub fn applied_functions(&self) -> BTreeSet<String> {
+        let mut out = BTreeSet::new();
+        let mut seen = HashSet::new();
+        fn walk(e: &Expr, out: &mut BTreeSet<String>, seen: &mut HashSet<Expr>) {
+            if !seen.insert(e.clone()) {
+                return;
+            }
+            if let Node::Apply { name, .. } = e.node() {
+                out.insert(name.to_string());
+            }
+            e.for_each_child(|c| walk(c, out, seen));
+        }
+        walk(self, &mut out, &mut seen);
+        out
+    }
+
+    /// Calls `f` on each direct child.
+    pub fn for_each_child(&self, mut f: impl FnMut(&Expr)) {
+        match self.node() {
+            Node::Num(_) | Node::Sym(_) | Node::Undefined => {}
+            Node::Add(xs) | Node::Mul(xs) | Node::Call(_, xs) | Node::Apply { args: xs, .. } => {
+                xs.iter().for_each(&mut f)
+            }
+            Node::Pow(b, e) => {
+                f(b);
+                f(e);
+            }
+        }
+    }
+
+    /// Rebuilds this node from new children (in the order of [`Expr::for_each_child`]),
+    /// through the canonical constructors.
+    pub fn with_children(&self, children: Vec<Expr>) -> Expr {
+        match self.node() {
+            Node::Num(_) | Node::Sym(_) | Node::Undefined => self.clone(),
+            Node::Add(_) => Expr::add(children),
+            Node::Mul(_) => Expr::mul(children),
+            Node::Pow(..) => {
+                let mut it = children.into_iter();
+                match (it.next(), it.next()) {
+                    (Some(b), Some(e)) => Expr::pow(b, e),
+                    _ => Expr::undefined(),
+                }
+            }
+            Node::Call(f, _) => Expr::call(*f, children),
+            Node::Apply { name, orders, .. } => Expr::apply(name, orders.clone(), children),
+        }
+    }
+
+    /// Rewrites the expression bottom-up: `f` sees each node after its children were
+    /// rewritten and may replace it. Shared subexpressions are visited once.
+    pub fn map_bottom_up(&self, f: &mut impl FnMut(&Expr) -> Option<Expr>) -> Expr {
+        let mut memo: HashMap<Expr, Expr> = HashMap::new();
+        self.map_rec(f, &mut memo)
+    }
+
+    fn map_rec(&self, f: &mut impl FnMut(&Expr) -> Option<Expr>, memo: &mut HashMap<Expr, Expr>) -> Expr {
+        if let Some(done) = memo.get(self) {
+            return done.clone();
+        }
+        let mut children = Vec::new();
+        let mut changed = false;
+        self.for_each_child(|c| children.push(c.clone()));
+        for c in children.iter_mut() {
+            let new = c.map_rec(f, memo);
+            if new != *c {
+                changed = true;
+                *c = new;
+            }
+        }
+        let rebuilt = if changed { self.with_children(children) } else { self.clone() };
+        let out = f(&rebuilt).unwrap_or(rebuilt);
+        memo.insert(self.clone(), out.clone());
+        out
+    }
+
+    /// Substitutes expressions for symbols, simultaneously.
+    pub fn subs(&self, map: &HashMap<Symbol, Expr>) -> Expr {
+        if map.is_empty() {
+            return self.clone();
+        }
+        self.map_bottom_up(&mut |e| match e.node() {
+            Node::Sym(s) => map.get(s).cloned(),
+            _ => None,
+        })
+    }
+
+    /// Substitutes one expression for one symbol.
+    pub fn subs1(&self, sym: &Symbol, value: &Expr) -> Expr {
+        let mut map = HashMap::new();
+        map.insert(sym.clone(), value.clone());
+        self.subs(&map)
+    }
+
+    /// The number of distinct nodes in the DAG.
+    pub fn dag_size(&self) -> usize {
+        let mut seen = HashSet::new();
+        fn walk(e: &Expr, seen: &mut HashSet<Expr>) {
+            if seen.insert(e.clone()) {
+                e.for_each_child(|c| walk(c, seen));
+            }
+        }
+        walk(self, &mut seen);
+        seen.len()
+    }
+
+    /// The number of arithmetic operations the printed tree spells out (each `+`, `−`, `·`,
+    /// `/`, `^` and function call counts one): the figure compared against other systems.
+    pub fn op_count(&self) -> usize {
+        match self.node() {
+            Node::Num(_) | Node::Sym(_) | Node::Undefined => 0,
+            Node::Add(xs) | Node::Mul(xs) => xs.len() - 1 + xs.iter().map(Expr::op_count).sum::<usize>(),
+            Node::Pow(b, e) => 1 + b.op_count() + e.op_count(),
+            Node::Call(_, xs) | Node::Apply { args: xs, .. } => 1 + xs.iter().map(Expr::op_count).sum::<usize>(),
+        }
+    }
+
+    // ----- ordering ---------------------------------------------------------------------
+
+    /// The deterministic total order used to sort sums and products. It never depends on
+    /// pointers or hashes, so canonical forms are the same on every run.
+    ///
+    /// Powers sort by base then exponent (so `x`, `x^2`, `y` come in that order); products
+    /// compare their factors from the left; numbers come first, then symbols, then compound
+    /// expressions.
+    pub fn canonical_cmp(&self, other: &Expr) -> Ordering {
+        if self == other {
+            return Ordering::Equal;
+        }
+        let (b1, e1) = self.base_exp();
+        let (b2, e2) = other.base_exp();
+        if b1 != *self || b2 != *other {
+            return b1.canonical_cmp(&b2).then_with(|| e1.canonical_cmp(&e2));
+        }
+        let rank = |e: &Expr| match e.node() {
+            Node::Num(_) => 0,
+            Node::Sym(_) => 1,
+            Node::Mul(_) => 2,
+            Node::Add(_) => 3,
+            Node::Pow(..) => 4,
+            Node::Call(..) => 5,
+            Node::Apply { .. } => 6,
+            Node::Undefined => 7,
+        };
+        rank(self).cmp(&rank(other)).then_with(|| match (self.node(), other.node()) {
+            (Node::Num(a), Node::Num(b)) => a.cmp(b),
+            (Node::Sym(a), Node::Sym(b)) => a.cmp(b),
+            (Node::Mul(a), Node::Mul(b)) => cmp_lists(skip_coeff(a), skip_coeff(b)),
+            (Node::Add(a), Node::Add(b)) => cmp_lists(a, b),
+            (Node::Call(f, a), Node::Call(g, b)) => cmp_lists(a, b).then(f.cmp(g)),
+            (Node::Apply { name: n1, orders: o1, args: a1 }, Node::Apply { name: n2, orders: o2, args: a2 }) => {
+                n1.cmp(n2).then_with(|| o1.cmp(o2)).then_with(|| cmp_lists(a1, a2))
+            }
+            _ => Ordering::Equal,
+        })
+    }
+}
+
+fn skip_coeff(fs: &[Expr]) -> &[Expr] {
+    match fs.first() {
+        Some(f) if f.as_num().is_some() => &fs[1..],
+        _ => fs,
+    }
+}
+
+fn cmp_lists(a: &[Expr], b: &[Expr]) -> Ordering {
+    for (x, y) in a.iter().zip(b) {
+        let c = x.canonical_cmp(y);
+        if c != Ordering::Equal {
+            return c;
+        }
+    }
+    a.len().cmp(&b.len())
+}
+
+fn intern_pow_raw(base: Expr, exp: Expr) -> Expr {
+    if exp.is_one() {
+        return base;
+    }
+    intern(Node::Pow(base, exp))
+}
+
+/// Folds `b^e` for rationals when the result is rational and small enough.
+fn fold_num_pow(b: &Rational, e: &Rational) -> Option<Expr> {
+    if b.is_zero() {
+        return Some(if e.is_negative() { Expr::undefined() } else { Expr::zero() });
+    }
+    if b.is_one() {
+        return Some(Expr::one());
+    }
+    if is_integer(e) {
+        let n = e.to_integer();
+        let n_abs = n.abs().to_u64()?;
+        if rational_bits(b).saturating_mul(n_abs) > MAX_FOLD_BITS {
+            return None;
+        }
+        let n_abs = u32::try_from(n_abs).ok()?;
+        let p = Rational::new(b.numer().pow(n_abs), b.denom().pow(n_abs));
+        return Some(Expr::num(if n.is_negative() { p.recip() } else { p }));
+    }
+    // A rational root: exact when numerator and denominator are perfect powers.
+    let k = e.denom().to_u32()?;
+    if k > 64 || b.is_negative() && k % 2 == 0 {
+        return None;
+    }
+    let root = |n: &BigInt| -> Option<BigInt> {
+        let r = n.abs().nth_root(k);
+        if r.pow(k) == n.abs() {
+            Some(if n.is_negative() { -r } else { r })
+        } else {
+            None
+        }
+    };
+    if let (Some(rn), Some(rd)) = (root(b.numer()), root(b.denom())) {
+        let rooted = Rational::new(rn, rd);
+        return fold_num_pow(&rooted, &Rational::from_integer(e.numer().clone()));
+    }
+    // Split off the integer part of the exponent: 2^(3/2) = 2 · 2^(1/2).
+    let whole = e.floor();
+    if !whole.is_zero() {
+        let frac = e - &whole;
+        let int_part = fold_num_pow(b, &whole)?;
+        return Some(Expr::mul([int_part, intern(Node::Pow(Expr::num(b.clone()), Expr::num(frac)))]));
+    }
+    None
+}
+
+impl fmt::Debug for Expr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", crate::print::plain(self))
+    }
+}
+
+impl fmt::Display for Expr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", crate::print::plain(self))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn x() -> Expr {
+        Expr::var("x")
+    }
+    fn y() -> Expr {
+        Expr::var("y")
+    }
+
+    #[test]
+    fn sums_are_order_independent_and_collect_like_terms() {
+        assert_eq!(x().plus(&y()), y().plus(&x()));
+        assert_eq!(x().plus(&x()), Expr::int(2).times(&x()));
+        assert_eq!(x().plus(&y()).minus(&x().plus(&y())), Expr::zero());
+    }
+
+    #[test]
+    fn products_collect_powers() {
+        assert_eq!(x().times(&x()), x().powi(2));
+        assert_eq!(x().powi(2).over(&x()), x());
+        assert_eq!(x().over(&x()), Expr::one());
+    }
+
+    #[test]
+    fn numeric_powers_fold_exactly_or_stay_unevaluated() {
+        assert_eq!(Expr::pow(Expr::int(4), Expr::frac(1, 2)), Expr::int(2));
+        assert_eq!(Expr::pow(Expr::int(2), Expr::int(10)), Expr::int(1024));
+        let huge = Expr::pow(Expr::int(2), Expr::int(10_000_000_000));
+        assert!(matches!(huge.node(), Node::Pow(..)));
+        assert!(Expr::pow(Expr::zero(), Expr::int(-1)).is_undefined());
+    }
+
+    #[test]
+    fn square_root_of_square_needs_positivity() {
+        let m = Expr::sym(Symbol::positive("m"));
+        assert_eq!(m.powi(2).sqrt(), m);
+        assert_eq!(x().powi(2).sqrt(), Expr::call(Func::Abs, vec![x()]));
+    }
+
+    #[test]
+    fn odd_and_even_functions_normalise_the_sign_of_their_argument() {
+        let d = y().minus(&x());
+        assert_eq!(Expr::call(Func::Cos, vec![d.clone()]), Expr::call(Func::Cos, vec![x().minus(&y())]));
+        assert_eq!(Expr::call(Func::Sin, vec![d]), Expr::call(Func::Sin, vec![x().minus(&y())]).neg());
+    }
+}

@@ -1,0 +1,519 @@
+//! Parsing: text → [`Expr`], with pest for the shapes and one Pratt parser for precedence.
+//!
+//! No pest type leaves this module. Errors carry the byte span, line and column of the
+//! problem, what was expected there and, where one is known, a hint.
+//!
+//! Nesting depth is guarded here, before pest or the Pratt parser recurse: pest's own call
+//! limit is process-global and counts calls rather than depth, and both parsers recurse on
+//! deeply nested input.
+
+use std::collections::BTreeSet;
+use std::fmt;
+use std::sync::OnceLock;
+
+use num_bigint::BigInt;
+use num_traits::{Num, Signed, ToPrimitive, Zero};
+use pest::iterators::{Pair, Pairs};
+use pest::pratt_parser::{Assoc, Op, PrattParser};
+use pest::Parser as _;
+
+use crate::expr::{Expr, Func, Rational, Symbol};
+
+#[derive(pest_derive::Parser)]
+#[grammar = "../grammar/expr.pest"]
+struct ExprGrammar;
+
+/// The deepest nesting of parentheses, calls, unary signs or `^` chains accepted.
+pub const MAX_DEPTH: usize = 200;
+
+/// The longest input accepted, in bytes.
+pub const MAX_INPUT: usize = 4 << 20;
+
+/// The largest decimal exponent written out in a literal (`1e5000`); larger ones are kept
+/// as an unevaluated power of ten.
+const MAX_LITERAL_EXPONENT: u64 = 1 << 40;
+
+/// What the parser needs to know beyond the text: which names are declared functions and
+/// which symbols are positive.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Declarations {
+    /// Undefined functions the user declared (`V` so that `V(r)` is a call).
+    pub functions: BTreeSet<String>,
+    /// Symbols known to be strictly positive.
+    pub positive: BTreeSet<String>,
+}
+
+impl Declarations {
+    /// No functions, no assumptions.
+    pub fn new() -> Declarations {
+        Declarations::default()
+    }
+
+    /// Declares functions by name.
+    pub fn with_functions<S: AsRef<str>>(mut self, names: impl IntoIterator<Item = S>) -> Declarations {
+        self.functions.extend(names.into_iter().map(|s| s.as_ref().to_string()));
+        self
+    }
+
+    /// Declares positive symbols by name.
+    pub fn with_positive<S: AsRef<str>>(mut self, names: impl IntoIterator<Item = S>) -> Declarations {
+        self.positive.extend(names.into_iter().map(|s| s.as_ref().to_string()));
+        self
+    }
+
+    /// The symbol `name` with `primes` time derivatives, positive if declared so.
+    pub fn symbol(&self, name: &str, primes: u8) -> Symbol {
+        if primes == 0 && self.positive.contains(name) {
+            Symbol::positive(name)
+        } else {
+            Symbol::new(name).with_primes(primes)
+        }
+    }
+}
+
+/// A parse error with its location.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ParseError {
+    /// What went wrong.
+    pub message: String,
+    /// Byte range of the offending text.
+    pub span: (usize, usize),
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column, in characters.
+    pub column: usize,
+    /// The source line the error is on.
+    pub source_line: String,
+    /// A suggestion, when one is known.
+    pub hint: Option<String>,
+}
+
+impl ParseError {
+    fn new(input: &str, span: (usize, usize), message: impl Into<String>) -> ParseError {
+        let start = span.0.min(input.len());
+        let before = &input[..floor_char_boundary(input, start)];
+        let line = before.matches('\n').count() + 1;
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        let column = before[line_start..].chars().count() + 1;
+        let line_end = input[line_start..].find('\n').map_or(input.len(), |i| line_start + i);
+        ParseError {
+            message: message.into(),
+            span: (start, span.1.max(start)),
+            line,
+            column,
+            source_line: input[line_start..line_end].to_string(),
+            hint: None,
+        }
+    }
+
+    fn with_hint(mut self, hint: impl Into<String>) -> ParseError {
+        self.hint = Some(hint.into());
+        self
+    }
+}
+
+fn floor_char_boundary(s: &str, mut i: usize) -> usize {
+    while i > 0 && !s.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "error: {} (line {}, column {})", self.message, self.line, self.column)?;
+        writeln!(f, "  | {}", self.source_line)?;
+        write!(f, "  | {}^", " ".repeat(self.column.saturating_sub(1)))?;
+        if let Some(h) = &self.hint {
+            write!(f, "\n  = hint: {h}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ParseError {}
+
+fn pratt() -> &'static PrattParser<Rule> {
+    static PRATT: OnceLock<PrattParser<Rule>> = OnceLock::new();
+    PRATT.get_or_init(|| {
+        PrattParser::new()
+            .op(Op::infix(Rule::add, Assoc::Left) | Op::infix(Rule::sub, Assoc::Left))
+            .op(Op::infix(Rule::mul, Assoc::Left)
+                | Op::infix(Rule::div, Assoc::Left)
+                | Op::infix(Rule::implicit, Assoc::Left))
+            .op(Op::prefix(Rule::neg) | Op::prefix(Rule::plus))
+            .op(Op::infix(Rule::pow, Assoc::Right))
+    })
+}
+
+/// Parses an expression with no declared functions or assumptions.
+pub fn parse(input: &str) -> Result<Expr, ParseError> {
+    parse_with(input, &Declarations::default())
+}
+
+/// Parses an expression.
+pub fn parse_with(input: &str, decls: &Declarations) -> Result<Expr, ParseError> {
+    if input.len() > MAX_INPUT {
+        return Err(ParseError::new(
+            input,
+            (MAX_INPUT, input.len()),
+            format!("input too long ({} bytes; the limit is {MAX_INPUT})", input.len()),
+        ));
+    }
+    if input.trim().is_empty() {
+        return Err(ParseError::new(input, (0, input.len()), "empty input: expected an expression"));
+    }
+    check_paren_depth(input)?;
+    let pairs = ExprGrammar::parse(Rule::input, input).map_err(|e| from_pest(input, e))?;
+    let mut ctx = Ctx { input, decls };
+    let mut exprs = pairs.filter(|p| p.as_rule() == Rule::expr);
+    let Some(top) = exprs.next() else {
+        return Err(ParseError::new(input, (0, input.len()), "expected an expression"));
+    };
+    let e = ctx.expr(top.clone())?;
+    if e.is_undefined() {
+        let span = top.as_span();
+        return Err(ParseError::new(
+            input,
+            (span.start(), span.end()),
+            "the expression is undefined (it divides by zero)",
+        ));
+    }
+    Ok(e)
+}
+
+/// Rejects nesting deeper than [`MAX_DEPTH`] before any recursive parser sees it.
+fn check_paren_depth(input: &str) -> Result<(), ParseError> {
+    let mut depth = 0usize;
+    for (i, c) in input.char_indices() {
+        match c {
+            '(' => {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(ParseError::new(input, (i, i + 1), format!("nesting deeper than {MAX_DEPTH} levels"))
+                        .with_hint("split the expression into named parts"));
+                }
+            }
+            ')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+fn friendly(rule: &Rule) -> &'static str {
+    match rule {
+        Rule::expr | Rule::paren | Rule::call | Rule::symbol | Rule::number | Rule::call_head => "an expression",
+        Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::pow | Rule::implicit => "an operator",
+        Rule::neg | Rule::plus => "a sign",
+        Rule::EOI => "end of input",
+        Rule::name => "a name",
+        Rule::primes => "`'`",
+        Rule::partials => "`∂`",
+        _ => "something else",
+    }
+}
+
+fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
+    let (start, end) = match e.location {
+        pest::error::InputLocation::Pos(p) => (p, p),
+        pest::error::InputLocation::Span(s) => s,
+    };
+    let message = match &e.variant {
+        pest::error::ErrorVariant::ParsingError { positives, .. } => {
+            let mut expected: Vec<&str> = positives.iter().map(friendly).collect();
+            expected.sort_unstable();
+            expected.dedup();
+            let found = input[start.min(input.len())..].chars().next();
+            let found = match found {
+                Some(')') if expected.contains(&"an expression") && !expected.contains(&"an operator") => {
+                    "`)`".to_string()
+                }
+                Some(c) => format!("`{c}`"),
+                None => "end of input".to_string(),
+            };
+            if expected.is_empty() {
+                format!("unexpected {found}")
+            } else {
+                format!("expected {}, found {found}", expected.join(" or "))
+            }
+        }
+        pest::error::ErrorVariant::CustomError { message } => message.clone(),
+    };
+    let mut err = ParseError::new(input, (start, end.max(start + 1)), message);
+    let rest = &input[start.min(input.len())..];
+    if rest.starts_with(')') {
+        err = err.with_hint("a parenthesis or call is empty or unbalanced");
+    } else if rest.is_empty() && input.matches('(').count() > input.matches(')').count() {
+        err = err.with_hint("a `(` is never closed");
+    } else if rest.starts_with(')') || input.matches(')').count() > input.matches('(').count() {
+        err = err.with_hint("a `)` has no matching `(`");
+    }
+    err
+}
+
+struct Ctx<'a> {
+    input: &'a str,
+    decls: &'a Declarations,
+}
+
+impl Ctx<'_> {
+    fn err(&self, pair: &Pair<Rule>, message: impl Into<String>) -> ParseError {
+        let s = pair.as_span();
+        ParseError::new(self.input, (s.start(), s.end()), message)
+    }
+
+    fn expr(&mut self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        self.check_chains(pair.clone().into_inner())?;
+        let input = self.input;
+        let ctx = &*self;
+        pratt()
+            .map_primary(|p| ctx.primary(p))
+            .map_prefix(|op, rhs| {
+                let rhs = rhs?;
+                Ok(match op.as_rule() {
+                    Rule::neg => rhs.neg(),
+                    _ => rhs,
+                })
+            })
+            .map_infix(|lhs, op, rhs| {
+                let (lhs, rhs) = (lhs?, rhs?);
+                Ok(match op.as_rule() {
+                    Rule::add => lhs.plus(&rhs),
+                    Rule::sub => lhs.minus(&rhs),
+                    Rule::mul | Rule::implicit => lhs.times(&rhs),
+                    Rule::div => {
+                        if rhs.is_zero() {
+                            let s = op.as_span();
+                            return Err(ParseError::new(input, (s.start(), s.end()), "division by zero"));
+                        }
+                        lhs.over(&rhs)
+                    }
+                    _ => Expr::pow(lhs, rhs),
+                })
+            })
+            .parse(pair.into_inner())
+    }
+
+    /// Guards the Pratt parser's recursion: runs of unary signs and chains of `^`.
+    fn check_chains(&self, pairs: Pairs<Rule>) -> Result<(), ParseError> {
+        let mut run = 0usize;
+        for p in pairs {
+            match p.as_rule() {
+                Rule::neg | Rule::plus | Rule::pow => {
+                    run += 1;
+                    if run > MAX_DEPTH {
+                        return Err(self
+                            .err(&p, format!("more than {MAX_DEPTH} chained signs or powers"))
+                            .with_hint("split the expression into named parts"));
+                    }
+                }
+                Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::implicit => run = 0,
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn primary(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        match pair.as_rule() {
+            Rule::number => self.number(&pair),
+            Rule::symbol => self.symbol(pair),
+            Rule::paren => {
+                let inner = pair.into_inner().next();
+                match inner {
+                    Some(e) => {
+                        let mut ctx = Ctx { input: self.input, decls: self.decls };
+                        ctx.expr(e)
+                    }
+                    None => Err(ParseError::new(self.input, (0, 0), "empty parentheses")),
+                }
+            }
+            Rule::call => self.call(pair),
+            _ => Err(self.err(&pair, "unexpected input")),
+        }
+    }
+
+    fn number(&self, pair: &Pair<Rule>) -> Result<Expr, ParseError> {
+        let text = pair.as_str();
+        let (mantissa, exponent) = match text.find(['e', 'E']) {
+            Some(i) => (&text[..i], &text[i + 1..]),
+            None => (text, ""),
+        };
+        let (int_part, frac_part) = match mantissa.find('.') {
+            Some(i) => (&mantissa[..i], &mantissa[i + 1..]),
+            None => (mantissa, ""),
+        };
+        let digits = format!("{int_part}{frac_part}");
+        let digits = if digits.is_empty() { "0".to_string() } else { digits };
+        let numer = BigInt::from_str_radix(&digits, 10).map_err(|_| self.err(pair, "malformed number"))?;
+        let mut exp10 = BigInt::from(-(frac_part.len() as i64));
+        if !exponent.is_empty() {
+            let e = BigInt::from_str_radix(exponent.trim_start_matches('+'), 10)
+                .map_err(|_| self.err(pair, "malformed exponent"))?;
+            exp10 += e;
+        }
+        if exp10.abs() > BigInt::from(MAX_LITERAL_EXPONENT) {
+            return Err(
+                self.err(pair, format!("decimal exponent {exp10} is too large (the limit is {MAX_LITERAL_EXPONENT})"))
+            );
+        }
+        let mantissa = Expr::num(Rational::from_integer(numer.clone()));
+        if exp10.is_zero() || numer.is_zero() {
+            return Ok(mantissa);
+        }
+        let e = exp10.to_i64().unwrap_or(0);
+        // Expr::pow folds 10^e exactly while the result stays small, and keeps it
+        // unevaluated beyond that (`1e99999999`).
+        Ok(mantissa.times(&Expr::pow(Expr::int(10), Expr::int(e))))
+    }
+
+    fn symbol(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        let text = pair.as_str();
+        let mut name = text;
+        let mut primes = 0usize;
+        for p in pair.clone().into_inner() {
+            match p.as_rule() {
+                Rule::name => name = p.as_str(),
+                Rule::primes => primes = p.as_str().len(),
+                _ => {}
+            }
+        }
+        if Func::from_name(name).is_some() || ["sqrt", "cot"].contains(&name) {
+            return Err(self
+                .err(&pair, format!("`{name}` is a function and needs its argument in parentheses"))
+                .with_hint(format!("write `{name}(x)`, with no space before `(`")));
+        }
+        if self.decls.functions.contains(name) {
+            return Err(self
+                .err(&pair, format!("`{name}` is declared a function, so it must be called"))
+                .with_hint(format!("write `{name}(…)` with its arguments")));
+        }
+        let primes = u8::try_from(primes).map_err(|_| self.err(&pair, "too many primes"))?;
+        Ok(Expr::sym(self.decls.symbol(name, primes)))
+    }
+
+    fn call(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        let mut inner = pair.clone().into_inner();
+        let Some(head) = inner.next() else {
+            return Err(self.err(&pair, "malformed call"));
+        };
+        let mut name = "";
+        let mut primes = 0usize;
+        let mut partials: Vec<u32> = Vec::new();
+        for p in head.clone().into_inner() {
+            match p.as_rule() {
+                Rule::name => name = p.as_str(),
+                Rule::primes => primes = p.as_str().len(),
+                Rule::partials => {
+                    for part in p.as_str().split('∂').filter(|s| !s.is_empty()) {
+                        let n: String = part
+                            .chars()
+                            .filter_map(|c| (c as u32).checked_sub(0x2080).and_then(|d| char::from_digit(d, 10)))
+                            .collect();
+                        partials.push(n.parse().unwrap_or(0));
+                    }
+                }
+                _ => {}
+            }
+        }
+        let mut args = Vec::new();
+        for a in inner {
+            let mut ctx = Ctx { input: self.input, decls: self.decls };
+            args.push(ctx.expr(a)?);
+        }
+        let builtin_arity = match name {
+            "sqrt" | "cot" => Some(1),
+            _ => Func::from_name(name).map(Func::arity),
+        };
+        if let Some(want) = builtin_arity {
+            if primes > 0 || !partials.is_empty() {
+                return Err(self
+                    .err(&head, format!("`{name}` is a built-in function; primes and `∂` apply to declared functions"))
+                    .with_hint(format!("differentiate explicitly, or declare your own function instead of `{name}`")));
+            }
+            if args.len() != want {
+                let what =
+                    if args.is_empty() { "no arguments".to_string() } else { format!("{} arguments", args.len()) };
+                return Err(self.err(
+                    &pair,
+                    format!("`{name}` takes {want} argument{}, found {what}", if want == 1 { "" } else { "s" }),
+                ));
+            }
+            return Ok(match (name, Func::from_name(name)) {
+                ("sqrt", _) => args[0].sqrt(),
+                ("cot", _) => Expr::call(Func::Cos, args.clone()).over(&Expr::call(Func::Sin, args)),
+                (_, Some(f)) => Expr::call(f, args),
+                (_, None) => return Err(self.err(&head, format!("unknown function `{name}`"))),
+            });
+        }
+        if self.decls.functions.contains(name) {
+            if args.is_empty() {
+                return Err(self.err(&pair, format!("`{name}` needs at least one argument")));
+            }
+            let mut orders = vec![0u32; args.len()];
+            if primes > 0 {
+                if args.len() != 1 {
+                    return Err(self
+                        .err(&head, "primes differentiate a function of one argument")
+                        .with_hint(format!("write `∂₁{name}(…)` for a partial derivative by the first argument")));
+                }
+                orders[0] = primes as u32;
+            }
+            for k in partials {
+                if k == 0 || k as usize > args.len() {
+                    return Err(self.err(
+                        &head,
+                        format!(
+                            "`∂{}` names argument {k}, but `{name}` has {} argument(s)",
+                            crate::print::subscript(&k.to_string()),
+                            args.len()
+                        ),
+                    ));
+                }
+                orders[k as usize - 1] += 1;
+            }
+            return Ok(Expr::apply(name, orders, args));
+        }
+        Err(self.err(&head, format!("unknown function `{name}`")).with_hint(format!(
+            "for a product write `{name} (…)` or `{name}*(…)`; to use `{name}` as a function, declare it (for example `--functions {name}`)"
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(s: &str) -> Expr {
+        match parse(s) {
+            Ok(e) => e,
+            Err(e) => panic!("{s}: {e}"),
+        }
+    }
+
+    #[test]
+    fn precedence_and_juxtaposition() {
+        assert_eq!(p("-x^2"), p("-(x^2)"));
+        assert_eq!(p("2^3^2"), Expr::int(512));
+        assert_eq!(p("1/2 m l^2"), p("(1/2)*m*(l^2)"));
+        assert_eq!(p("a/b c"), p("(a/b)*c"));
+        assert_eq!(p("m (x+1)"), p("m*(x+1)"));
+    }
+
+    #[test]
+    fn decimals_are_exact() {
+        assert_eq!(p("0.5"), Expr::frac(1, 2));
+        assert_eq!(p("1e-3"), Expr::frac(1, 1000));
+        assert_eq!(p("2.5E2"), Expr::int(250));
+    }
+
+    #[test]
+    fn calls_need_declarations() {
+        let err = parse("m(x+1)").unwrap_err();
+        assert!(err.message.contains("unknown function `m`"), "{err}");
+        assert!(err.hint.as_deref().is_some_and(|h| h.contains("m (…)")));
+        let d = Declarations::new().with_functions(["V"]);
+        assert!(parse_with("V(r) + V'(r)", &d).is_ok());
+    }
+}

@@ -1,0 +1,422 @@
+//! Printing: plain text (which re-parses to the identical expression), Unicode and LaTeX.
+//!
+//! All three share one layout pass: a sum prints its constant last and its negative terms
+//! with `−`; a product splits into numerator and denominator (`p_x^2/(2 m)`); `x^(1/2)`
+//! prints as a square root. Only the spelling of symbols, operators and powers differs.
+
+use std::fmt::Write;
+
+use num_traits::{One, Signed};
+
+use crate::expr::{Expr, Func, Node, Rational, Symbol};
+
+/// The three renderings of an expression.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// ASCII operators, primes for time derivatives; re-parses to the same expression.
+    Plain,
+    /// `θ̇`, `θ̈`, superscript powers, `√`.
+    Unicode,
+    /// LaTeX math: `\dot{\theta}`, `\frac`, `\sin`.
+    Latex,
+}
+
+impl std::str::FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Format, String> {
+        match s {
+            "plain" => Ok(Format::Plain),
+            "unicode" => Ok(Format::Unicode),
+            "latex" => Ok(Format::Latex),
+            other => Err(format!("unknown format `{other}` (expected plain, unicode or latex)")),
+        }
+    }
+}
+
+/// Renders `e` in the plain form.
+pub fn plain(e: &Expr) -> String {
+    render(e, Format::Plain)
+}
+
+/// Renders `e` in the given format.
+pub fn render(e: &Expr, format: Format) -> String {
+    Printer { format }.expr(e).text
+}
+
+/// Renders a symbol on its own (coordinate names in tables and JSON).
+pub fn symbol(s: &Symbol, format: Format) -> String {
+    Printer { format }.symbol(s)
+}
+
+// Binding strength of the printed form, lowest first.
+const SUM: u8 = 1;
+const PRODUCT: u8 = 2;
+const UNARY: u8 = 3;
+const POWER: u8 = 4;
+const ATOM: u8 = 5;
+
+struct Piece {
+    text: String,
+    prec: u8,
+}
+
+struct Printer {
+    format: Format,
+}
+
+impl Printer {
+    fn expr(&self, e: &Expr) -> Piece {
+        match e.node() {
+            Node::Num(r) => self.number(r),
+            Node::Sym(s) => Piece { text: self.symbol(s), prec: ATOM },
+            Node::Add(ts) => self.sum(ts),
+            Node::Mul(_) | Node::Pow(..) => self.product(e),
+            Node::Call(f, args) => Piece { text: self.call(*f, args), prec: ATOM },
+            Node::Apply { name, orders, args } => Piece { text: self.apply(name, orders, args), prec: ATOM },
+            Node::Undefined => Piece { text: "undefined".into(), prec: ATOM },
+        }
+    }
+
+    fn wrap(&self, p: Piece, min: u8) -> String {
+        if p.prec >= min {
+            p.text
+        } else if self.format == Format::Latex {
+            format!("\\left({}\\right)", p.text)
+        } else {
+            format!("({})", p.text)
+        }
+    }
+
+    fn number(&self, r: &Rational) -> Piece {
+        let neg = r.is_negative();
+        let a = r.abs();
+        let text = if a.is_integer() {
+            a.numer().to_string()
+        } else if self.format == Format::Latex {
+            format!("\\frac{{{}}}{{{}}}", a.numer(), a.denom())
+        } else {
+            format!("{}/{}", a.numer(), a.denom())
+        };
+        let prec = if a.is_integer() || self.format == Format::Latex { ATOM } else { PRODUCT };
+        if neg {
+            Piece { text: format!("-{text}"), prec: UNARY }
+        } else {
+            Piece { text, prec }
+        }
+    }
+
+    fn symbol(&self, s: &Symbol) -> String {
+        let primes = s.primes() as usize;
+        match self.format {
+            Format::Plain => format!("{}{}", s.name(), "'".repeat(primes)),
+            Format::Unicode => {
+                let mark = match primes {
+                    0 => "",
+                    1 => "\u{307}",
+                    2 => "\u{308}",
+                    3 => "\u{20db}",
+                    _ => "",
+                };
+                if primes > 3 {
+                    format!("{}{}", s.name(), "'".repeat(primes))
+                } else {
+                    // The combining dot goes on the first character (θ̇1, not θ1̇).
+                    let mut chars = s.name().chars();
+                    let first = chars.next().unwrap_or('?');
+                    format!("{first}{mark}{}", chars.as_str())
+                }
+            }
+            Format::Latex => {
+                let core = latex_name(s.name());
+                match primes {
+                    0 => core,
+                    1 => format!("\\dot{{{core}}}"),
+                    2 => format!("\\ddot{{{core}}}"),
+                    3 => format!("\\dddot{{{core}}}"),
+                    n => format!("{core}^{{({n})}}"),
+                }
+            }
+        }
+    }
+
+    fn sum(&self, ts: &[Expr]) -> Piece {
+        // Constant last (`x + 1`, not `1 + x`), and a positive term first where there is one
+        // (`1 - cos(θ)`, not `-cos(θ) + 1`).
+        let mut order: Vec<&Expr> = ts.iter().filter(|t| t.as_num().is_none()).collect();
+        order.extend(ts.iter().filter(|t| t.as_num().is_some()));
+        if let Some(i) = order.iter().position(|t| !t.is_negative_form()) {
+            let lead = order.remove(i);
+            order.insert(0, lead);
+        }
+        let mut out = String::new();
+        for (i, t) in order.into_iter().enumerate() {
+            let negative = t.is_negative_form();
+            let body = if negative { t.neg() } else { t.clone() };
+            let text = self.wrap(self.expr(&body), PRODUCT);
+            match (i, negative) {
+                (0, false) => out.push_str(&text),
+                (0, true) => {
+                    out.push('-');
+                    out.push_str(&text);
+                }
+                (_, false) => {
+                    out.push_str(" + ");
+                    out.push_str(&text);
+                }
+                (_, true) => {
+                    out.push_str(" - ");
+                    out.push_str(&text);
+                }
+            }
+        }
+        Piece { text: out, prec: SUM }
+    }
+
+    /// Products and powers: coefficient and positive powers above, negative powers below.
+    fn product(&self, e: &Expr) -> Piece {
+        let (coeff, rest) = e.coeff_rest();
+        if coeff.is_negative() {
+            let inner = self.product(&Expr::mul([Expr::num(-coeff), rest]));
+            let text = format!("-{}", self.wrap(inner, PRODUCT));
+            return Piece { text, prec: UNARY };
+        }
+        let mut numer: Vec<Piece> = Vec::new();
+        let mut denom: Vec<Piece> = Vec::new();
+        if !coeff.numer().is_one() || rest.is_one() {
+            numer.push(Piece { text: coeff.numer().to_string(), prec: ATOM });
+        }
+        if !coeff.denom().is_one() {
+            denom.push(Piece { text: coeff.denom().to_string(), prec: ATOM });
+        }
+        for f in rest.factors() {
+            let (b, x) = f.base_exp();
+            if x.is_negative_form() {
+                denom.push(self.power(&b, &x.neg()));
+            } else {
+                numer.push(self.power(&b, &x));
+            }
+        }
+        if numer.is_empty() {
+            numer.push(Piece { text: "1".into(), prec: ATOM });
+        }
+        let single_atom_numer = numer.len() == 1;
+        let numer_prec = if single_atom_numer { numer[0].prec } else { PRODUCT };
+        let num_text = self.join_factors(numer);
+        if denom.is_empty() {
+            return Piece { text: num_text, prec: numer_prec };
+        }
+        let den_prec = if denom.len() == 1 { denom[0].prec } else { PRODUCT };
+        let den_text = self.join_factors(denom);
+        let text = match self.format {
+            Format::Latex => format!("\\frac{{{num_text}}}{{{den_text}}}"),
+            _ => {
+                let den = self.wrap(Piece { text: den_text, prec: den_prec }, POWER);
+                format!("{num_text}/{den}")
+            }
+        };
+        let prec = if self.format == Format::Latex { ATOM } else { PRODUCT };
+        Piece { text, prec }
+    }
+
+    fn join_factors(&self, pieces: Vec<Piece>) -> String {
+        let mut out = String::new();
+        for (i, p) in pieces.into_iter().enumerate() {
+            let text = self.wrap(p, POWER);
+            if i > 0 {
+                let starts_numeric = text.starts_with(|c: char| c.is_ascii_digit() || c == '.');
+                let sep = match (self.format, starts_numeric) {
+                    (Format::Plain, true) => "*",
+                    (Format::Unicode, true) => "·",
+                    (Format::Latex, true) => " \\cdot ",
+                    _ => " ",
+                };
+                out.push_str(sep);
+            }
+            out.push_str(&text);
+        }
+        out
+    }
+
+    /// `b^x` with a non-negative-form exponent.
+    fn power(&self, b: &Expr, x: &Expr) -> Piece {
+        if x.is_one() {
+            return self.expr(b);
+        }
+        if x.as_num().is_some_and(|r| *r == Rational::new(1.into(), 2.into())) {
+            let inner = self.expr(b);
+            let text = match self.format {
+                Format::Plain => format!("sqrt({})", inner.text),
+                Format::Unicode => format!("√{}", self.wrap(inner, ATOM)),
+                Format::Latex => format!("\\sqrt{{{}}}", inner.text),
+            };
+            return Piece { text, prec: ATOM };
+        }
+        let base = self.wrap(self.expr(b), ATOM);
+        let text = match (self.format, x.as_num()) {
+            (Format::Unicode, Some(r)) if r.is_integer() => format!("{base}{}", superscript(&r.numer().to_string())),
+            (Format::Latex, _) => format!("{base}^{{{}}}", self.expr(x).text),
+            _ => format!("{base}^{}", self.wrap(self.expr(x), POWER)),
+        };
+        Piece { text, prec: POWER }
+    }
+
+    fn call(&self, f: Func, args: &[Expr]) -> String {
+        let parts: Vec<String> = args.iter().map(|a| self.expr(a).text).collect();
+        let joined = parts.join(", ");
+        match self.format {
+            Format::Latex => match f {
+                Func::Abs => format!("\\left|{joined}\\right|"),
+                Func::Atan2 => format!("\\operatorname{{atan2}}\\left({joined}\\right)"),
+                Func::Asin => format!("\\arcsin\\left({joined}\\right)"),
+                Func::Acos => format!("\\arccos\\left({joined}\\right)"),
+                Func::Atan => format!("\\arctan\\left({joined}\\right)"),
+                _ => format!("\\{}\\left({joined}\\right)", f.name()),
+            },
+            _ => format!("{}({joined})", f.name()),
+        }
+    }
+
+    fn apply(&self, name: &str, orders: &[u32], args: &[Expr]) -> String {
+        let parts: Vec<String> = args.iter().map(|a| self.expr(a).text).collect();
+        let joined = parts.join(", ");
+        let total: u32 = orders.iter().sum();
+        let latex = self.format == Format::Latex;
+        let fname = if latex { latex_name(name) } else { name.to_string() };
+        let (open, close) = if latex { ("\\left(", "\\right)") } else { ("(", ")") };
+        if total == 0 {
+            return format!("{fname}{open}{joined}{close}");
+        }
+        if args.len() == 1 {
+            let primes = "'".repeat(total as usize);
+            return format!("{fname}{primes}{open}{joined}{close}");
+        }
+        let mut head = String::new();
+        for (i, &n) in orders.iter().enumerate() {
+            for _ in 0..n {
+                if latex {
+                    let _ = write!(head, "\\partial_{{{}}}", i + 1);
+                } else {
+                    head.push('∂');
+                    head.push_str(&subscript(&(i + 1).to_string()));
+                }
+            }
+        }
+        format!("{head}{fname}{open}{joined}{close}")
+    }
+}
+
+fn superscript(digits: &str) -> String {
+    digits
+        .chars()
+        .map(|c| match c {
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            '9' => '⁹',
+            '-' => '⁻',
+            other => other,
+        })
+        .collect()
+}
+
+/// Subscript digits, as used by `∂₁` in the grammar.
+pub fn subscript(digits: &str) -> String {
+    digits.chars().map(|c| c.to_digit(10).and_then(|d| char::from_u32(0x2080 + d)).unwrap_or(c)).collect()
+}
+
+const GREEK: [(char, &str); 48] = [
+    ('α', "alpha"),
+    ('β', "beta"),
+    ('γ', "gamma"),
+    ('δ', "delta"),
+    ('ε', "epsilon"),
+    ('ζ', "zeta"),
+    ('η', "eta"),
+    ('θ', "theta"),
+    ('ι', "iota"),
+    ('κ', "kappa"),
+    ('λ', "lambda"),
+    ('μ', "mu"),
+    ('ν', "nu"),
+    ('ξ', "xi"),
+    ('ο', "o"),
+    ('π', "pi"),
+    ('ρ', "rho"),
+    ('σ', "sigma"),
+    ('τ', "tau"),
+    ('υ', "upsilon"),
+    ('φ', "phi"),
+    ('χ', "chi"),
+    ('ψ', "psi"),
+    ('ω', "omega"),
+    ('Α', "A"),
+    ('Β', "B"),
+    ('Γ', "\\Gamma"),
+    ('Δ', "\\Delta"),
+    ('Ε', "E"),
+    ('Ζ', "Z"),
+    ('Η', "H"),
+    ('Θ', "\\Theta"),
+    ('Ι', "I"),
+    ('Κ', "K"),
+    ('Λ', "\\Lambda"),
+    ('Μ', "M"),
+    ('Ν', "N"),
+    ('Ξ', "\\Xi"),
+    ('Ο', "O"),
+    ('Π', "\\Pi"),
+    ('Ρ', "P"),
+    ('Σ', "\\Sigma"),
+    ('Τ', "T"),
+    ('Υ', "\\Upsilon"),
+    ('Φ', "\\Phi"),
+    ('Χ', "X"),
+    ('Ψ', "\\Psi"),
+    ('Ω', "\\Omega"),
+];
+
+/// `θ1` → `\theta_{1}`, `p_x` → `p_{x}`, `omega0` → `omega_{0}`.
+fn latex_name(name: &str) -> String {
+    let (stem, sub) = match name.find('_') {
+        Some(i) => (&name[..i], Some(&name[i + 1..])),
+        None => {
+            let cut = name.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+            if cut > 0 && cut < name.len() {
+                (&name[..cut], Some(&name[cut..]))
+            } else {
+                (name, None)
+            }
+        }
+    };
+    let mut out = String::new();
+    for c in stem.chars() {
+        match GREEK.iter().find(|(g, _)| *g == c) {
+            Some((_, tex)) if tex.starts_with('\\') => out.push_str(tex),
+            Some((_, tex)) if tex.len() > 1 => {
+                out.push('\\');
+                out.push_str(tex);
+            }
+            Some((_, tex)) => out.push_str(tex),
+            None => out.push(c),
+        }
+        if !c.is_ascii() && stem.chars().count() > 1 {
+            out.push(' ');
+        }
+    }
+    let out = out.trim_end().to_string();
+    let out = if stem.chars().count() > 1 && stem.chars().all(|c| c.is_ascii_alphabetic()) {
+        format!("\\mathrm{{{out}}}")
+    } else {
+        out
+    };
+    match sub {
+        Some(s) if !s.is_empty() => format!("{out}_{{{}}}", latex_name(s)),
+        _ => out,
+    }
+}
