@@ -13,11 +13,16 @@
 //! The pipeline, one module per stage (see `ARCHITECTURE.md`):
 //! [`parse`] text → [`expr`] canonical DAG → [`simplify`] (egg) → [`diff`] → [`print`] / [`eval`].
 
+pub mod canonical;
+pub mod compile;
 pub mod diff;
 pub mod eval;
 pub mod expr;
+pub mod integrate;
+pub mod mechanics;
 pub mod parse;
 pub mod print;
+pub mod scene;
 pub mod simplify;
 
 pub use expr::{Expr, Func, Node, Rational, Symbol};
