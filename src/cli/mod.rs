@@ -10,6 +10,7 @@ use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod core;
+mod mechanics;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
+    #[command(flatten)]
+    Mechanics(mechanics::MechanicsCommand),
 }
 
 /// Options every expression command takes.
@@ -121,6 +124,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Core(c) => core::run(c),
+        Command::Mechanics(c) => mechanics::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
