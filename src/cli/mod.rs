@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
+mod canonical;
 mod core;
 mod mechanics;
 
@@ -26,6 +27,8 @@ enum Command {
     Core(core::CoreCommand),
     #[command(flatten)]
     Mechanics(mechanics::MechanicsCommand),
+    #[command(flatten)]
+    Canonical(canonical::CanonicalCommand),
 }
 
 /// Options every expression command takes.
@@ -125,6 +128,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Core(c) => core::run(c),
         Command::Mechanics(c) => mechanics::run(c),
+        Command::Canonical(c) => canonical::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
