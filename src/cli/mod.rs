@@ -11,6 +11,7 @@ use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod canonical;
 mod core;
+mod mechanics;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
@@ -24,6 +25,8 @@ struct Cli {
 enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
+    #[command(flatten)]
+    Mechanics(mechanics::MechanicsCommand),
     #[command(flatten)]
     Canonical(canonical::CanonicalCommand),
 }
@@ -124,6 +127,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Core(c) => core::run(c),
+        Command::Mechanics(c) => mechanics::run(c),
         Command::Canonical(c) => canonical::run(c),
     };
     match result {
