@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
+mod canonical;
 mod core;
 
 #[derive(Parser)]
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
+    #[command(flatten)]
+    Canonical(canonical::CanonicalCommand),
 }
 
 /// Options every expression command takes.
@@ -121,6 +124,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Core(c) => core::run(c),
+        Command::Canonical(c) => canonical::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
