@@ -47,7 +47,7 @@ fn separable_cases<S: Separable + ?Sized>(
 ) {
     for (name, make, h) in steps {
         let m = make(1.0);
-        let ord = <Splitting as Method<S>>::info(&m).order;
+        let ord = m.info().order;
         check(&format!("{label} / {name}"), ord, order(&|h| make(h).compensated(), sys, y0, t, exact, *h));
     }
 }

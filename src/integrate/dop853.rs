@@ -25,6 +25,10 @@ impl Dop853 {
     pub fn new(rtol: f64, atol: f64) -> Self {
         Dop853 { rtol, atol, h_max: None, h0: None }
     }
+    /// Name, order and properties.
+    pub fn info(&self) -> MethodInfo {
+        MethodInfo { name: "DOP853", order: 8, symplectic: false, symmetric: false, adaptive: true }
+    }
     /// Caps the step size.
     pub fn with_h_max(mut self, h: f64) -> Self {
         self.h_max = Some(h);
@@ -114,7 +118,7 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
     type Work = Dop853Work;
 
     fn info(&self) -> MethodInfo {
-        MethodInfo { name: "DOP853", order: 8, symplectic: false, symmetric: false, adaptive: true }
+        Dop853::info(self)
     }
 
     fn dim(&self, sys: &S) -> usize {

@@ -64,6 +64,16 @@ impl Gauss {
         self.max_iterations = n;
         self
     }
+    /// Name, order and properties.
+    pub fn info(&self) -> MethodInfo {
+        MethodInfo {
+            name: self.tableau.name,
+            order: self.tableau.order,
+            symplectic: self.tableau.symplectic,
+            symmetric: self.tableau.symmetric,
+            adaptive: false,
+        }
+    }
     /// The tableau.
     pub fn tableau(&self) -> &Tableau {
         &self.tableau
@@ -140,13 +150,7 @@ impl<S: Rhs + ?Sized> Method<S> for Gauss {
     type Work = GaussWork;
 
     fn info(&self) -> MethodInfo {
-        MethodInfo {
-            name: self.tableau.name,
-            order: self.tableau.order,
-            symplectic: self.tableau.symplectic,
-            symmetric: self.tableau.symmetric,
-            adaptive: false,
-        }
+        Gauss::info(self)
     }
 
     fn dim(&self, sys: &S) -> usize {

@@ -30,6 +30,16 @@ impl ExplicitRk {
         self.compensated = true;
         self
     }
+    /// Name, order and properties.
+    pub fn info(&self) -> MethodInfo {
+        MethodInfo {
+            name: self.tableau.name,
+            order: self.tableau.order,
+            symplectic: self.tableau.symplectic,
+            symmetric: self.tableau.symmetric,
+            adaptive: false,
+        }
+    }
     /// The tableau.
     pub fn tableau(&self) -> &Tableau {
         &self.tableau
@@ -48,13 +58,7 @@ impl<S: Rhs + ?Sized> Method<S> for ExplicitRk {
     type Work = RkWork;
 
     fn info(&self) -> MethodInfo {
-        MethodInfo {
-            name: self.tableau.name,
-            order: self.tableau.order,
-            symplectic: self.tableau.symplectic,
-            symmetric: self.tableau.symmetric,
-            adaptive: false,
-        }
+        ExplicitRk::info(self)
     }
 
     fn dim(&self, sys: &S) -> usize {

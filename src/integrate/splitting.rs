@@ -84,6 +84,16 @@ impl Splitting {
         self.compensated = true;
         self
     }
+    /// Name, order and properties (every splitting is symplectic).
+    pub fn info(&self) -> MethodInfo {
+        MethodInfo {
+            name: self.scheme.name,
+            order: self.scheme.order,
+            symplectic: true,
+            symmetric: self.scheme.symmetric,
+            adaptive: false,
+        }
+    }
     /// The coefficient data.
     pub fn scheme(&self) -> &'static SplittingScheme {
         self.scheme
@@ -112,13 +122,7 @@ impl<S: Separable + ?Sized> Method<S> for Splitting {
     type Work = SplittingWork;
 
     fn info(&self) -> MethodInfo {
-        MethodInfo {
-            name: self.scheme.name,
-            order: self.scheme.order,
-            symplectic: true,
-            symmetric: self.scheme.symmetric,
-            adaptive: false,
-        }
+        Splitting::info(self)
     }
 
     fn dim(&self, sys: &S) -> usize {
