@@ -170,10 +170,16 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
                 None => self.initial_step(sys, w, t, y, h_max, dir)?,
             };
         }
-        loop {
+        // A right-hand side that fails at a trial stage (the stage left its domain) makes the
+        // step shrink like an error-test failure; it is reported only if the step collapses.
+        let mut stage_failure = None;
+        'trial: loop {
             let h = dir * w.h.abs().min(h_max);
             if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(f64::MIN_POSITIVE) || h == 0.0 {
-                return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
+                return Err(match stage_failure {
+                    Some(e) => StepFailure(FailureReason::Rhs(e)),
+                    None => StepFailure(FailureReason::StepSizeCollapse { h }),
+                });
             }
             for i in 1..12 {
                 w.stage.copy_from_slice(y);
@@ -182,7 +188,13 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
                         *st += h * a * kj;
                     }
                 }
-                sys.try_eval(t + C[i] * h, &w.stage, &mut w.k[i])?;
+                if let Err(e) = sys.try_eval(t + C[i] * h, &w.stage, &mut w.k[i]) {
+                    stage_failure = Some(e);
+                    w.h = h.abs() * 0.1;
+                    w.reject = true;
+                    w.rejected += 1;
+                    continue 'trial;
+                }
             }
             w.y_new.copy_from_slice(y);
             w.err3.fill(0.0);
@@ -228,7 +240,13 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
             let mut h_new = h.abs() / fac;
             if err <= 1.0 {
                 w.facold = err.max(1e-4);
-                sys.try_eval(t + h, &w.y_new, &mut w.k[12])?;
+                if let Err(e) = sys.try_eval(t + h, &w.y_new, &mut w.k[12]) {
+                    stage_failure = Some(e);
+                    w.h = h.abs() * 0.1;
+                    w.reject = true;
+                    w.rejected += 1;
+                    continue;
+                }
                 check_finite(&w.y_new)?;
                 check_finite(&w.k[12])?;
                 if w.reject {
