@@ -10,12 +10,14 @@ use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod core;
+mod product;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
 struct Cli {
+    /// The subcommand; none starts the REPL.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 /// Every subcommand, grouped by pipeline stage.
@@ -23,6 +25,8 @@ struct Cli {
 enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
+    #[command(flatten)]
+    Product(product::ProductCommand),
 }
 
 /// Options every expression command takes.
@@ -120,7 +124,9 @@ pub fn emit(input: &str, result: &Expr, format: OutFormat) {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Core(c) => core::run(c),
+        Some(Command::Core(c)) => core::run(c),
+        Some(Command::Product(c)) => product::run(c),
+        None => product::repl(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
