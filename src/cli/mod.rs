@@ -9,13 +9,17 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
+mod canonical;
 mod core;
+mod mechanics;
+mod product;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
 struct Cli {
+    /// The subcommand; none starts the REPL.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 /// Every subcommand, grouped by pipeline stage.
@@ -23,6 +27,12 @@ struct Cli {
 enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
+    #[command(flatten)]
+    Mechanics(mechanics::MechanicsCommand),
+    #[command(flatten)]
+    Canonical(canonical::CanonicalCommand),
+    #[command(flatten)]
+    Product(product::ProductCommand),
 }
 
 /// Options every expression command takes.
@@ -120,7 +130,11 @@ pub fn emit(input: &str, result: &Expr, format: OutFormat) {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Core(c) => core::run(c),
+        Some(Command::Core(c)) => core::run(c),
+        Some(Command::Mechanics(c)) => mechanics::run(c),
+        Some(Command::Canonical(c)) => canonical::run(c),
+        Some(Command::Product(c)) => product::run(c),
+        None => product::repl(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
