@@ -204,7 +204,7 @@ fn close_kepler_encounters_at_e099() {
         // Only the optimised and high-order compositions resolve the encounter at this step
         // (leapfrog would need h ~ 1e-6): their energy error is small, their phase error
         // is amplified by the pericentre passage like DOP853's.
-        if ["Blanes-Moan 4", "Yoshida 6"].contains(&m.info().name) {
+        if ["Blanes-Moan 4", "Yoshida 6", "Yoshida 8"].contains(&m.info().name) {
             assert!(err < 0.05 && de < 1e-10, "{}: error {err:e}", m.info().name);
         } else {
             assert!(de < 0.05, "{}: energy error {de:e}", m.info().name);
