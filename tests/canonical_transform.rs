@@ -223,11 +223,16 @@ fn explicit_map_canonicity() {
     assert!(matches!(r.canonicity, Canonicity::NotCanonical { .. }));
     assert!(r.canonicity.describe().starts_with("not canonical"), "{}", r.canonicity.describe());
     assert!(r.hamiltonian.expect("asked").is_err());
-    // Canonical, but only a numeric check can tell: {Q, P} is a rational identity.
-    let r = check_map(&map("q", "p_q (1/(1 + q) + 1/(1 - q)) (1 - q^2)/2"), None);
+    // Canonical (for q > 0), but only a numeric check can tell: {Q, P} = 1 + log(q²) − 2 log q.
+    let r = check_map(&map("q", "p_q (1 + log(q^2) - 2 log(q))"), None);
     assert!(matches!(r.canonicity, Canonicity::NumericOnly { .. }), "{:?}", r.canonicity);
     assert!(r.canonicity.describe().contains("not a proof"));
-    let lines: Vec<String> =
-        r.brackets.iter().map(|b| format!("{} = {}: {}", b.name, b.value, b.check.describe())).collect();
+    let lines: Vec<String> = r
+        .brackets
+        .iter()
+        .map(|b| {
+            format!("{} = {} (expected {}; the difference is {})", b.name, b.value, b.expected, b.check.describe())
+        })
+        .collect();
     snap("canonical_explicit_numeric_only", format!("{}\n{}", r.canonicity.describe(), lines.join("\n")));
 }

@@ -504,7 +504,13 @@ fn print_map_report(r: &canonical::MapReport, format: OutFormat) {
     let word = if r.canonicity.is_canonical() { "yes" } else { "no" };
     println!("canonical: {word}: {}", r.canonicity.describe());
     for b in &r.brackets {
-        println!("  {} = {}  ({})", b.name, out.e(&b.value), b.check.describe());
+        println!(
+            "  {} = {} (expected {}; the difference is {})",
+            b.name,
+            out.e(&b.value),
+            out.e(&b.expected),
+            b.check.describe()
+        );
     }
     if let Some(Ok(inv)) = &r.inverse {
         for (s, e) in inv {
