@@ -96,6 +96,25 @@ fn integral_lie_action_average() {
     assert_eq!(code, 0);
     let j: Expr = parse(line_after(&out, "J = ∂⟨L⟩/∂w = ")).expect("re-parses");
     assert_eq!(j, parse("m w A^2/2").expect("parses"));
+    // The anharmonic example, solved to first order in σ (hand result in
+    // tests/canonical_average.rs): B = σA³/16, C = 0.
+    let (code, out, err) = run(&[
+        "average",
+        "1/2 m x'^2 - 1/2 m ω0^2 (x^2 + σ x^4/l0^2)",
+        "--trial",
+        "x = l0 (A cos(θ) + B cos(3θ) + C sin(3θ))",
+        "--phase",
+        "θ",
+        "--frequency",
+        "ω",
+        "--small",
+        "σ",
+        "--unperturbed",
+        "ω0",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(parse(line_after(&out, "  B = ")).expect("re-parses"), parse("σ A^3/16").expect("parses"));
+    assert_eq!(line_after(&out, "  C = "), "0");
 }
 
 #[test]

@@ -163,6 +163,15 @@ pub enum CanonicalCommand {
         /// The amplitudes A_k (default: symbols of the trials absent from L).
         #[arg(long, value_delimiter = ',')]
         amplitudes: Vec<String>,
+        /// Solve the relations to first order in this small parameter (needs --unperturbed).
+        #[arg(long, requires = "unperturbed")]
+        small: Option<String>,
+        /// The frequency at zeroth order in --small, e.g. `ω0`.
+        #[arg(long, requires = "small", allow_hyphen_values = true)]
+        unperturbed: Option<String>,
+        /// The amplitude left free in the leading-order solution (default: the first).
+        #[arg(long)]
+        principal: Option<String>,
         #[command(flatten)]
         common: Common,
     },
@@ -334,7 +343,17 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 }
             }
         }
-        CanonicalCommand::Average { lagrangian, trial, phase, frequency, amplitudes, common } => {
+        CanonicalCommand::Average {
+            lagrangian,
+            trial,
+            phase,
+            frequency,
+            amplitudes,
+            small,
+            unperturbed,
+            principal,
+            common,
+        } => {
             let decls = common.declarations();
             let (_, l) = parse_arg(&lagrangian, &decls)?;
             let mut trials = Vec::new();
@@ -360,8 +379,26 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             };
             let avg = canonical::average_lagrangian(&l, &trials, &th, &w, &amps)
                 .map_err(|e| bad_input(format!("error: {e}")))?;
+            let lead = match (&small, &unperturbed) {
+                (Some(sm), Some(w0)) => {
+                    let sm = parse_var(sm, &decls)?;
+                    let (_, w0) = parse_arg(w0, &decls)?;
+                    let pr = match &principal {
+                        Some(a) => parse_var(a, &decls)?,
+                        None => amps.first().cloned().ok_or_else(|| bad_input("error: no amplitudes to solve for"))?,
+                    };
+                    Some(
+                        canonical::leading_order(&avg, &w, &w0, &sm, &pr)
+                            .map_err(|e| bad_input(format!("error: {e}")))?,
+                    )
+                }
+                _ => None,
+            };
             let out = Out { format: common.format };
             if common.format == OutFormat::Json {
+                let lo = lead
+                    .as_ref()
+                    .map(|lo| json!({"frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
                 let rel: Vec<Value> = avg
                     .relations
                     .iter()
@@ -369,7 +406,8 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                     .collect();
                 println!(
                     "{}",
-                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string()})
+                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string(),
+                           "leading_order": lo})
                 );
             } else {
                 println!("⟨L⟩ = {}", out.e(&avg.lagrangian));
@@ -377,6 +415,13 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                     println!("∂⟨L⟩/∂{} = {} = 0", out.s(a), out.e(e));
                 }
                 println!("J = ∂⟨L⟩/∂{} = {}", out.s(&w), out.e(&avg.action));
+                if let Some(lo) = &lead {
+                    println!("to first order in {}:", small.as_deref().unwrap_or("σ"));
+                    println!("  {}", out.eq(&w, &lo.frequency));
+                    for (a, e) in &lo.amplitudes {
+                        println!("  {}", out.eq(a, e));
+                    }
+                }
             }
         }
     }
