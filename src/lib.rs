@@ -22,6 +22,7 @@ pub mod expr;
 pub mod integrate;
 pub mod mechanics;
 pub mod parse;
+pub mod plot;
 pub mod print;
 pub mod scene;
 pub mod simplify;

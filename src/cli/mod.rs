@@ -11,12 +11,15 @@ use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod canonical;
 mod core;
+mod mechanics;
+mod product;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
 struct Cli {
+    /// The subcommand; none starts the REPL.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 /// Every subcommand, grouped by pipeline stage.
@@ -25,7 +28,11 @@ enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
     #[command(flatten)]
+    Mechanics(mechanics::MechanicsCommand),
+    #[command(flatten)]
     Canonical(canonical::CanonicalCommand),
+    #[command(flatten)]
+    Product(product::ProductCommand),
 }
 
 /// Options every expression command takes.
@@ -123,8 +130,11 @@ pub fn emit(input: &str, result: &Expr, format: OutFormat) {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Core(c) => core::run(c),
-        Command::Canonical(c) => canonical::run(c),
+        Some(Command::Core(c)) => core::run(c),
+        Some(Command::Mechanics(c)) => mechanics::run(c),
+        Some(Command::Canonical(c)) => canonical::run(c),
+        Some(Command::Product(c)) => product::run(c),
+        None => product::repl(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,409 @@
+//! Plots with plotters, as SVG or PNG (chosen by the file extension): time series, phase
+//! portraits with contours of `H` (fixed points marked O — elliptic — and X — hyperbolic —,
+//! and the separatrix through X), configuration-space paths, energy error on a log scale,
+//! and Poincaré sections.
+//!
+//! Text needs a font for both back ends (plotters measures text with it). The DejaVu Sans
+//! font is embedded (`assets/fonts/`, Bitstream Vera licence, which allows redistribution
+//! with its notice, in `assets/fonts/LICENSE-DejaVu.txt`), so output does not depend on the
+//! fonts of the machine.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+const FAMILY: &str = "sans-serif";
+const SIZE: (u32, u32) = (960, 680);
+
+fn ensure_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The embedded font is valid; if registration failed, plotting reports a font error.
+        let _ = plotters::style::register_font(FAMILY, FontStyle::Normal, FONT);
+    });
+}
+
+/// One named curve or point set.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// Points `(x, y)`.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A function of the phase plane whose level sets are drawn (`H(q, p)` or `h(q, q')`).
+pub struct Contours {
+    f: Box<dyn Fn(f64, f64) -> f64>,
+}
+
+impl Contours {
+    /// Contours of `f`.
+    pub fn new(f: Box<dyn Fn(f64, f64) -> f64>) -> Contours {
+        Contours { f }
+    }
+}
+
+/// How a figure draws its series.
+enum Style {
+    Lines,
+    Scatter,
+    LogY,
+    Phase(Option<Contours>),
+}
+
+/// A figure ready to draw.
+pub struct Figure {
+    title: String,
+    xlabel: String,
+    ylabel: String,
+    series: Vec<Series>,
+    style: Style,
+}
+
+/// A fixed point of the phase portrait.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedPoint {
+    /// Its coordinate (the velocity or momentum is zero).
+    pub q: f64,
+    /// `true` for a centre (O, a minimum of the energy along `p = 0`), `false` for a
+    /// saddle (X).
+    pub elliptic: bool,
+    /// The energy there.
+    pub level: f64,
+}
+
+impl Figure {
+    /// Curves.
+    pub fn lines(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Lines }
+    }
+
+    /// Points.
+    pub fn scatter(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Scatter }
+    }
+
+    /// Curves on a logarithmic y axis (non-positive values are left out).
+    pub fn log_y(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogY }
+    }
+
+    /// A phase portrait: orbits and, optionally, contours of an energy function.
+    pub fn phase(title: &str, q: &str, p: &str, orbits: Vec<Series>, contours: Option<Contours>) -> Figure {
+        Figure {
+            title: title.into(),
+            xlabel: q.into(),
+            ylabel: p.into(),
+            series: orbits,
+            style: Style::Phase(contours),
+        }
+    }
+
+    /// The plotted ranges `(x0, x1, y0, y1)`.
+    fn ranges(&self) -> (f64, f64, f64, f64) {
+        let pts = self.series.iter().flat_map(|s| s.points.iter()).filter(|(x, y)| x.is_finite() && y.is_finite());
+        let mut r = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for &(x, y) in pts {
+            if matches!(self.style, Style::LogY) && y <= 0.0 {
+                continue;
+            }
+            r = (r.0.min(x), r.1.max(x), r.2.min(y), r.3.max(y));
+        }
+        if let Style::Phase(Some(c)) = &self.style {
+            if !r.0.is_finite() {
+                // No orbit: frame the fixed points and the separatrix.
+                let (q0, q1) = (-1.25 * std::f64::consts::PI, 1.25 * std::f64::consts::PI);
+                let fps = fixed_points(&*c.f, q0, q1);
+                let centre = fps.iter().find(|f| f.elliptic).map_or(0.0, |f| f.q);
+                let base = (c.f)(centre, 0.0);
+                let top = match fps.iter().filter(|f| !f.elliptic).map(|f| f.level).reduce(f64::max) {
+                    Some(x) => base + 1.6 * (x - base),
+                    None => (c.f)(q1, 0.0).max((c.f)(q0, 0.0)),
+                };
+                let p = momentum_reaching(&*c.f, centre, top).unwrap_or(2.0);
+                return (q0, q1, -p, p);
+            }
+        }
+        if !r.0.is_finite() {
+            return (0.0, 1.0, 0.0, 1.0);
+        }
+        let pad = |a: f64, b: f64| {
+            let w = if b > a { b - a } else { a.abs().max(1.0) };
+            (a - 0.05 * w, b + 0.05 * w)
+        };
+        if matches!(self.style, Style::LogY) {
+            let (x0, x1) = pad(r.0, r.1);
+            let y0 = r.2.max(1e-18);
+            let y1 = if r.3 > y0 { r.3 } else { y0 * 10.0 };
+            return (x0, x1, y0 / 2.0, y1 * 2.0);
+        }
+        let (x0, x1) = pad(r.0, r.1);
+        let (y0, y1) = pad(r.2, r.3);
+        (x0, x1, y0, y1)
+    }
+}
+
+/// Fixed points along `v = 0`: zeros of `∂f/∂q` (central differences on a grid, refined by
+/// bisection), classified by the sign of the second difference.
+pub fn fixed_points(f: &dyn Fn(f64, f64) -> f64, q0: f64, q1: f64) -> Vec<FixedPoint> {
+    let n = 400;
+    let h = (q1 - q0) / n as f64;
+    let e = h * 1e-3;
+    let slope = |q: f64| f(q + e, 0.0) - f(q - e, 0.0);
+    let mut out = Vec::new();
+    let mut prev = slope(q0);
+    for i in 1..=n {
+        let q = q0 + h * i as f64;
+        let cur = slope(q);
+        if prev.is_finite() && cur.is_finite() && (prev == 0.0 || prev.signum() != cur.signum()) {
+            let (mut a, mut b) = (q - h, q);
+            for _ in 0..60 {
+                let m = 0.5 * (a + b);
+                if slope(a).signum() == slope(m).signum() {
+                    a = m;
+                } else {
+                    b = m;
+                }
+            }
+            let x = 0.5 * (a + b);
+            let curv = f(x + h, 0.0) + f(x - h, 0.0) - 2.0 * f(x, 0.0);
+            if curv != 0.0 && !out.iter().any(|p: &FixedPoint| (p.q - x).abs() < 2.0 * h) {
+                out.push(FixedPoint { q: x, elliptic: curv > 0.0, level: f(x, 0.0) });
+            }
+        }
+        prev = cur;
+    }
+    out
+}
+
+/// The smallest `p > 0` with `f(q, p) = level`, by doubling then bisection.
+fn momentum_reaching(f: &dyn Fn(f64, f64) -> f64, q: f64, level: f64) -> Option<f64> {
+    let mut hi = 1e-3;
+    while f(q, hi) < level {
+        hi *= 2.0;
+        if hi > 1e9 || !f(q, hi).is_finite() {
+            return None;
+        }
+    }
+    let mut lo = 0.0;
+    for _ in 0..80 {
+        let m = 0.5 * (lo + hi);
+        if f(q, m) < level {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    Some(hi * 1.05)
+}
+
+/// Line segments of the level set `f = level` on a grid (marching squares).
+fn contour_segments(values: &[Vec<f64>], xs: &[f64], ys: &[f64], level: f64) -> Vec<((f64, f64), (f64, f64))> {
+    let mut segs = Vec::new();
+    let lerp = |a: f64, b: f64, fa: f64, fb: f64| {
+        if fb == fa {
+            0.5 * (a + b)
+        } else {
+            a + (level - fa) / (fb - fa) * (b - a)
+        }
+    };
+    for j in 0..ys.len() - 1 {
+        for i in 0..xs.len() - 1 {
+            let f00 = values[j][i];
+            let f10 = values[j][i + 1];
+            let f01 = values[j + 1][i];
+            let f11 = values[j + 1][i + 1];
+            if ![f00, f10, f01, f11].iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            let (x0, x1, y0, y1) = (xs[i], xs[i + 1], ys[j], ys[j + 1]);
+            let mut pts = Vec::with_capacity(4);
+            if (f00 < level) != (f10 < level) {
+                pts.push((lerp(x0, x1, f00, f10), y0));
+            }
+            if (f10 < level) != (f11 < level) {
+                pts.push((x1, lerp(y0, y1, f10, f11)));
+            }
+            if (f11 < level) != (f01 < level) {
+                pts.push((lerp(x0, x1, f01, f11), y1));
+            }
+            if (f01 < level) != (f00 < level) {
+                pts.push((x0, lerp(y0, y1, f00, f01)));
+            }
+            if pts.len() >= 2 {
+                segs.push((pts[0], pts[1]));
+            }
+            if pts.len() == 4 {
+                segs.push((pts[2], pts[3]));
+            }
+        }
+    }
+    segs
+}
+
+/// Draws `fig` into `path` (SVG or PNG by extension).
+pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
+    ensure_font();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext == "png" {
+        let root = BitMapBackend::new(path, SIZE).into_drawing_area();
+        render(fig, &root)?;
+        root.present().map_err(|e| e.to_string())
+    } else {
+        let root = SVGBackend::new(path, SIZE).into_drawing_area();
+        render(fig, &root)?;
+        root.present().map_err(|e| e.to_string())
+    }
+}
+
+fn render<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let (x0, x1, y0, y1) = fig.ranges();
+    let mut builder = ChartBuilder::on(root);
+    builder.caption(&fig.title, (FAMILY, 24)).margin(16).x_label_area_size(48).y_label_area_size(80);
+    if let Style::LogY = fig.style {
+        let mut chart = builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc(&fig.xlabel)
+            .y_desc(&fig.ylabel)
+            .label_style((FAMILY, 15))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(err)?;
+        for (i, s) in fig.series.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(_, y)| *y > 0.0 && y.is_finite()).collect();
+            chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(err)?
+                .label(s.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        if !fig.series.is_empty() {
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.85))
+                .label_font((FAMILY, 15))
+                .draw()
+                .map_err(err)?;
+        }
+        return Ok(());
+    }
+    let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?;
+    chart.configure_mesh().x_desc(&fig.xlabel).y_desc(&fig.ylabel).label_style((FAMILY, 15)).draw().map_err(err)?;
+    if let Style::Phase(Some(c)) = &fig.style {
+        let (nx, ny) = (120, 96);
+        let xs: Vec<f64> = (0..=nx).map(|i| x0 + (x1 - x0) * i as f64 / nx as f64).collect();
+        let ys: Vec<f64> = (0..=ny).map(|j| y0 + (y1 - y0) * j as f64 / ny as f64).collect();
+        let values: Vec<Vec<f64>> = ys.iter().map(|&y| xs.iter().map(|&x| (c.f)(x, y)).collect()).collect();
+        let finite = values.iter().flatten().copied().filter(|v| v.is_finite());
+        let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        if lo.is_finite() && hi > lo {
+            let grey = RGBColor(150, 150, 170);
+            let levels = 14;
+            for k in 1..levels {
+                let level = lo + (hi - lo) * k as f64 / levels as f64;
+                let segs = contour_segments(&values, &xs, &ys, level);
+                chart
+                    .draw_series(segs.into_iter().map(|(a, b)| PathElement::new(vec![a, b], grey.stroke_width(1))))
+                    .map_err(err)?;
+            }
+            let fps = fixed_points(&*c.f, x0, x1);
+            let mut labelled = false;
+            for fp in fps.iter().filter(|f| !f.elliptic) {
+                let segs = contour_segments(&values, &xs, &ys, fp.level);
+                let red = RGBColor(200, 30, 30);
+                let drawn = chart
+                    .draw_series(segs.into_iter().map(|(a, b)| PathElement::new(vec![a, b], red.stroke_width(2))))
+                    .map_err(err)?;
+                if !labelled {
+                    drawn
+                        .label("separatrix")
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+                    labelled = true;
+                }
+            }
+            for fp in &fps {
+                let name = if fp.elliptic { "O" } else { "X" };
+                let style = ShapeStyle::from(&BLACK).filled();
+                chart
+                    .draw_series(std::iter::once(
+                        EmptyElement::at((fp.q, 0.0))
+                            + Circle::new((0, 0), 4, style)
+                            + Text::new(name.to_string(), (6, -18), (FAMILY, 18)),
+                    ))
+                    .map_err(err)?;
+            }
+        }
+    }
+    let scatter = matches!(fig.style, Style::Scatter);
+    for (i, s) in fig.series.iter().enumerate() {
+        let color = Palette99::pick(i + 1).to_rgba();
+        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+        let drawn = if scatter {
+            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
+        } else {
+            chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?
+        };
+        drawn
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    let has_legend = !fig.series.is_empty() || matches!(&fig.style, Style::Phase(Some(_)));
+    if has_legend {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.85))
+            .label_font((FAMILY, 15))
+            .draw()
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pendulum_fixed_points() {
+        // H = p²/2 + (1 − cos q): O at 0 (level 0), X at ±π (level 2), by hand.
+        let f = |q: f64, p: f64| 0.5 * p * p + 1.0 - q.cos();
+        let fps = fixed_points(&f, -1.25 * std::f64::consts::PI, 1.25 * std::f64::consts::PI);
+        let o: Vec<_> = fps.iter().filter(|p| p.elliptic).collect();
+        let x: Vec<_> = fps.iter().filter(|p| !p.elliptic).collect();
+        assert_eq!(o.len(), 1);
+        assert!(o[0].q.abs() < 1e-9);
+        assert_eq!(x.len(), 2);
+        for p in x {
+            assert!((p.q.abs() - std::f64::consts::PI).abs() < 1e-9, "{p:?}");
+            assert!((p.level - 2.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn contour_of_a_circle() {
+        // f = x² + y² at level 1: every segment end lies near the unit circle.
+        let xs: Vec<f64> = (0..=40).map(|i| -2.0 + 0.1 * i as f64).collect();
+        let vals: Vec<Vec<f64>> = xs.iter().map(|&y| xs.iter().map(|&x| x * x + y * y).collect()).collect();
+        let segs = contour_segments(&vals, &xs, &xs, 1.0);
+        assert!(segs.len() > 40);
+        for (a, b) in segs {
+            for (x, y) in [a, b] {
+                assert!(((x * x + y * y).sqrt() - 1.0).abs() < 0.01);
+            }
+        }
+    }
+}

@@ -1,0 +1,228 @@
+//! The statement tree. Expressions stay as source text with their span until the session
+//! parses them with its current declarations (which functions exist, which symbols are
+//! positive): declarations earlier in a scene change how later text parses.
+
+use crate::print::Format;
+
+pub use super::error::Span;
+
+/// A piece of source: an expression, a name or a path, with its byte span in the scene.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Src {
+    /// The text as written.
+    pub text: String,
+    /// Where it is.
+    pub span: Span,
+}
+
+/// One statement and its span.
+#[derive(Clone, Debug)]
+pub struct Statement {
+    /// What it says.
+    pub kind: StmtKind,
+    /// Where it is (all its lines).
+    pub span: Span,
+}
+
+/// The derivations a statement can ask for by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum DerivKind {
+    /// Euler–Lagrange equations of `L`.
+    El,
+    /// The Legendre transform `L → H`.
+    Legendre,
+    /// Hamilton's equations of `H`.
+    Hamilton,
+    /// Conserved quantities (Noether).
+    Conserved,
+    /// A Poisson bracket `{f, g}`.
+    Pb,
+    /// The energy function `h = Σ q' ∂L/∂q' − L` (or `H`).
+    Energy,
+}
+
+impl DerivKind {
+    /// Its keyword.
+    pub fn keyword(self) -> &'static str {
+        match self {
+            DerivKind::El => "el",
+            DerivKind::Legendre => "legendre",
+            DerivKind::Hamilton => "hamilton",
+            DerivKind::Conserved => "conserved",
+            DerivKind::Pb => "pb",
+            DerivKind::Energy => "energy",
+        }
+    }
+
+    /// From its keyword.
+    pub fn from_keyword(s: &str) -> Option<DerivKind> {
+        Some(match s {
+            "el" => DerivKind::El,
+            "legendre" => DerivKind::Legendre,
+            "hamilton" => DerivKind::Hamilton,
+            "conserved" => DerivKind::Conserved,
+            "pb" => DerivKind::Pb,
+            "energy" => DerivKind::Energy,
+            _ => return None,
+        })
+    }
+}
+
+/// `el`, `legendre(L)`, `pb(Lx, Ly)`: a derivation with its arguments.
+#[derive(Clone, Debug)]
+pub struct DerivCall {
+    /// Which derivation.
+    pub kind: DerivKind,
+    /// Its arguments (none means the session's `L` or `H`).
+    pub args: Vec<Src>,
+    /// The whole call.
+    pub span: Span,
+}
+
+/// Something to print or export.
+#[derive(Clone, Debug)]
+pub enum Item {
+    /// A derivation (`el`, `pb(f, g)`).
+    Derivation(DerivCall),
+    /// An expression (`H`, `m l^2 θ'`).
+    Expr(Src),
+}
+
+/// The right-hand side of a definition.
+#[derive(Clone, Debug)]
+pub enum DefValue {
+    /// `T = 1/2 m x'^2`
+    Expr(Src),
+    /// `H = legendre(L)`
+    Derivation(DerivCall),
+}
+
+/// `record when y = 0 rising` or `stop when r = 0.1`.
+#[derive(Clone, Debug)]
+pub struct EventSpec {
+    /// `stop` (true) or `record` (false).
+    pub terminal: bool,
+    /// The left side; the event is where `lhs − rhs` crosses zero.
+    pub lhs: Src,
+    /// The right side (zero when absent).
+    pub rhs: Option<Src>,
+    /// Only upward (`Some(true)`) or downward (`Some(false)`) crossings.
+    pub rising: Option<bool>,
+    /// The whole clause.
+    pub span: Span,
+}
+
+/// `simulate …`.
+#[derive(Clone, Debug)]
+pub struct SimSpec {
+    /// `θ = 3.0`, `θ' = 0`, `p_x = 1`.
+    pub inits: Vec<(Src, Src)>,
+    /// The name after `for` (must be `t`).
+    pub time_var: Src,
+    /// Start and end of the time span.
+    pub t0: Src,
+    pub t1: Src,
+    /// The whole `a..b`.
+    pub span_span: Span,
+    /// `with NAME`.
+    pub method: Option<Src>,
+    /// `dt = …`.
+    pub dt: Option<Src>,
+    /// `tol = …`.
+    pub tol: Option<Src>,
+    /// `steps = …` (the number of fixed steps, instead of `dt`).
+    pub steps: Option<Src>,
+    /// `record when …`, `stop when …`.
+    pub events: Vec<EventSpec>,
+    /// `as NAME`.
+    pub name: Option<Src>,
+}
+
+/// What a `plot` draws.
+#[derive(Clone, Debug)]
+pub enum PlotKind {
+    /// Phase portrait of one coordinate with contours of `H`.
+    Phase(Option<Src>),
+    /// Relative energy error against time.
+    Energy,
+    /// A configuration-space path `(x, y)`.
+    Path(Src, Src),
+    /// The points recorded by a `record when` event.
+    Poincare(Src, Src),
+    /// Expressions against time.
+    Series(Vec<Src>),
+}
+
+/// `plot …`.
+#[derive(Clone, Debug)]
+pub struct PlotSpec {
+    /// What to draw.
+    pub kind: PlotKind,
+    /// `from RUN, RUN` (default: the latest run).
+    pub runs: Vec<Src>,
+    /// `to FILE` (default: a name derived from the scene and the plot kind).
+    pub path: Option<Src>,
+}
+
+/// Every statement.
+#[derive(Clone, Debug)]
+pub enum StmtKind {
+    /// `coordinates θ, φ`
+    Coordinates(Vec<Src>),
+    /// `parameters m = 1, l positive`
+    Parameters {
+        /// Names and optional values.
+        params: Vec<(Src, Option<Src>)>,
+        /// `positive` at the end.
+        positive: bool,
+    },
+    /// `functions V`
+    Functions(Vec<Src>),
+    /// `name = …`
+    Define {
+        /// The name defined.
+        name: Src,
+        /// Its value.
+        value: DefValue,
+    },
+    /// `el`, `legendre`, `pb f, g`: derive and print.
+    Derive {
+        /// The derivation.
+        call: DerivCall,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `print …`
+    Print {
+        /// What to print.
+        items: Vec<Item>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `simulate …`
+    Simulate(Box<SimSpec>),
+    /// `plot …`
+    Plot(Box<PlotSpec>),
+    /// `export … to FILE`
+    Export {
+        /// Columns or symbolic results (empty: the whole state).
+        items: Vec<Item>,
+        /// `from RUN`.
+        run: Option<Src>,
+        /// The file.
+        path: Src,
+    },
+    /// `load FILE`
+    Load(Src),
+    /// `help`, `help WORD`
+    Help(Option<Src>),
+    /// `history`
+    History,
+    /// `latex` (reprint the last result) or `format unicode` (set the default).
+    Format {
+        /// The format.
+        format: Format,
+        /// `format …` sets the default; a bare format name reprints.
+        set_default: bool,
+    },
+}

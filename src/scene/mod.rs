@@ -1,0 +1,32 @@
+//! Scene files and the REPL: the statement language, its demand-driven evaluation, and
+//! the outputs (printed results, plots, CSV/JSON exports).
+//!
+//! * [`parser`]: text → statements (`grammar/scene.pest`, which reuses `grammar/expr.pest`).
+//! * [`session`]: executes statements. Definitions and simulations are recorded lazily in a
+//!   scene; outputs demand them; derivations are cached by symbolic content; the plan of
+//!   what was built, reused and skipped is what `lagrangian run --explain` prints.
+//! * [`backend`]: the one place that calls the mechanics, canonical, compile and integrate
+//!   stages.
+//! * [`repl`]: the interactive front end.
+//! * Errors ([`SceneError`]) carry a span, a label and a hint, rendered by miette.
+//!
+//! ```
+//! use lagrangian::scene::{Mode, Options, Session};
+//! let mut s = Session::new(Options::new(Mode::Scene));
+//! s.run_scene("demo", "coordinates x\nparameters m, k positive\nT = 1/2 m x'^2\nprint T - 1/2 k x^2").unwrap();
+//! assert_eq!(s.take_output(), ["m x\u{307}²/2 - k x²/2"]);
+//! ```
+
+pub mod ast;
+pub mod backend;
+pub mod error;
+pub mod help;
+pub mod output;
+pub mod parser;
+pub mod repl;
+pub mod session;
+pub mod sim;
+
+pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
+pub use error::{ErrorKind, SceneError};
+pub use session::{read_scene, Cache, Mode, Options, PlanEntry, Session, Status, Step};

@@ -1,0 +1,625 @@
+//! Scene text → statements. The text is first split into logical statements (one per line,
+//! continued while a bracket is open, while a line ends with an operator or a comma, or when
+//! the next line starts with an operator); each statement is then parsed by the pest grammar
+//! in `grammar/scene.pest`, which reuses the expression rules of `grammar/expr.pest`.
+//!
+//! No pest type leaves this module. Every span is a byte range of the whole scene text.
+
+use pest::iterators::Pair;
+use pest::Parser as _;
+
+use super::ast::{
+    DefValue, DerivCall, DerivKind, EventSpec, Item, PlotKind, PlotSpec, SimSpec, Src, Statement, StmtKind,
+};
+use super::error::{did_you_mean, ErrorKind, SceneError, Span};
+use crate::print::Format;
+
+#[derive(pest_derive::Parser)]
+#[grammar = "../grammar/expr.pest"]
+#[grammar = "../grammar/scene.pest"]
+struct SceneGrammar;
+
+/// The statement keywords, for "did you mean" and for completion.
+pub const STATEMENTS: &[&str] = &[
+    "coordinates",
+    "parameters",
+    "functions",
+    "el",
+    "legendre",
+    "hamilton",
+    "conserved",
+    "pb",
+    "energy",
+    "print",
+    "simulate",
+    "plot",
+    "export",
+    "load",
+    "help",
+    "history",
+    "format",
+    "latex",
+    "unicode",
+    "plain",
+];
+
+/// The longest statement accepted, in bytes (one Lagrangian may be long; a scene's
+/// statements are each parsed separately).
+pub const MAX_STATEMENT: usize = 1 << 20;
+
+/// Splits `text` into the byte ranges of its logical statements (blank and comment-only
+/// lines are dropped).
+pub fn split_statements(text: &str) -> Vec<Span> {
+    let mut out = Vec::new();
+    let mut start: Option<usize> = None;
+    let mut depth: i64 = 0;
+    let mut continues = false;
+    let mut offset = 0;
+    for raw in text.split_inclusive('\n') {
+        let line_start = offset;
+        offset += raw.len();
+        let code = strip_comment(raw);
+        let trimmed = code.trim();
+        if trimmed.is_empty() {
+            if start.is_some() && (depth > 0 || continues) {
+                continue;
+            }
+            if let Some(s) = start.take() {
+                out.push((s, line_start));
+            }
+            continue;
+        }
+        let leads_with_operator = trimmed.starts_with(['+', '-', '*', '/', '^', '·', '×']);
+        match start {
+            Some(_) if depth > 0 || continues || leads_with_operator => {}
+            Some(s) => {
+                out.push((s, line_start));
+                start = Some(line_start);
+                depth = 0;
+            }
+            None => {
+                start = Some(line_start);
+                depth = 0;
+            }
+        }
+        for c in code.chars() {
+            match c {
+                '(' | '[' => depth += 1,
+                ')' | ']' => depth -= 1,
+                _ => {}
+            }
+        }
+        continues = trimmed.ends_with(['+', '-', '*', '/', '^', ',', '=', '·', '×', '\\']) && !trimmed.ends_with("..");
+    }
+    if let Some(s) = start {
+        out.push((s, text.len()));
+    }
+    // Trim trailing whitespace from each range so spans end at the last character.
+    out.into_iter()
+        .map(|(s, e)| {
+            let t = text[s..e].trim_end();
+            (s, s + t.len())
+        })
+        .filter(|(s, e)| e > s)
+        .collect()
+}
+
+/// Whether `text` is an unfinished statement (a bracket still open, or a last line ending
+/// with an operator or a comma): the REPL then asks for another line.
+pub fn is_incomplete(text: &str) -> bool {
+    let mut depth: i64 = 0;
+    let mut last = "";
+    for line in text.lines() {
+        let code = strip_comment(line);
+        for c in code.chars() {
+            match c {
+                '(' | '[' => depth += 1,
+                ')' | ']' => depth -= 1,
+                _ => {}
+            }
+        }
+        if !code.trim().is_empty() {
+            last = code.trim();
+        }
+    }
+    depth > 0 || (last.ends_with(['+', '-', '*', '/', '^', ',', '=', '·', '×', '\\']) && !last.ends_with(".."))
+}
+
+/// The line without its `#` comment.
+fn strip_comment(line: &str) -> &str {
+    match line.find('#') {
+        Some(i) => &line[..i],
+        None => line,
+    }
+}
+
+/// Parses a whole scene into statements; stops at the first malformed one.
+pub fn parse_scene(text: &str) -> Result<Vec<Statement>, SceneError> {
+    let mut out = Vec::new();
+    for (s, e) in split_statements(text) {
+        if let Some(stmt) = parse_statement_at(text, s, e)? {
+            out.push(stmt);
+        }
+    }
+    Ok(out)
+}
+
+/// Parses the statement in `text[start..end]` (spans are positions in `text`).
+pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
+    let src = &text[start..end];
+    if src.len() > MAX_STATEMENT {
+        return Err(SceneError::new(
+            ErrorKind::TooLarge,
+            format!("statement too long ({} bytes; the limit is {MAX_STATEMENT})", src.len()),
+        )
+        .at((start, start + 1))
+        .hint("split it into named parts: `T = …`, `V = …`, `L = T - V`"));
+    }
+    let depth_err = super::parser::check_depth(src, start);
+    depth_err?;
+    let pairs = match SceneGrammar::parse(Rule::statement, src) {
+        Ok(p) => p,
+        Err(e) => return Err(syntax_error(src, start, e)),
+    };
+    let b = Builder { base: start };
+    for pair in pairs {
+        if pair.as_rule() == Rule::EOI {
+            continue;
+        }
+        let kind = b.stmt(pair)?;
+        return Ok(Some(Statement { kind, span: (start, end) }));
+    }
+    Ok(None)
+}
+
+/// Guards pest's recursion on deeply nested parentheses (pest recurses per level).
+fn check_depth(src: &str, base: usize) -> Result<(), SceneError> {
+    let mut depth = 0usize;
+    for (i, c) in src.char_indices() {
+        match c {
+            '(' => {
+                depth += 1;
+                if depth > crate::parse::MAX_DEPTH {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!("nesting deeper than {} levels", crate::parse::MAX_DEPTH),
+                    )
+                    .at((base + i, base + i + 1))
+                    .hint("split the expression into named parts"));
+                }
+            }
+            ')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+fn friendly(rule: &Rule) -> Option<&'static str> {
+    Some(match rule {
+        Rule::expr | Rule::sexpr | Rule::paren | Rule::call | Rule::symbol | Rule::number | Rule::call_head => {
+            "an expression"
+        }
+        Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::pow | Rule::implicit | Rule::simplicit => "an operator",
+        Rule::EOI => "end of statement",
+        Rule::name | Rule::name_list => "a name",
+        Rule::primes => "`'`",
+        Rule::param => "a parameter name",
+        Rule::init => "an initial value like `θ = 3.0`",
+        Rule::time_span | Rule::bound | Rule::signed_number => "a time span like `0..20`",
+        Rule::method => "`with METHOD`",
+        Rule::step => "`dt = …`",
+        Rule::tolerance => "`tol = …`",
+        Rule::steps => "`steps = …`",
+        Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
+        Rule::direction => "`rising` or `falling`",
+        Rule::as_format | Rule::format_name => "a format (`plain`, `unicode`, `latex`)",
+        Rule::path | Rule::quoted_path | Rule::bare_path => "a file name",
+        Rule::assumption => "`positive`",
+        Rule::print_item | Rule::derivation | Rule::deriv_kw => "something to print",
+        Rule::plot_phase | Rule::plot_energy | Rule::plot_path | Rule::plot_poincare | Rule::plot_series => {
+            "a plot (`phase`, `energy`, `path x, y`, `poincare q, p`, or expressions)"
+        }
+        _ => return None,
+    })
+}
+
+fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneError {
+    let pos = match e.location {
+        pest::error::InputLocation::Pos(p) => p,
+        pest::error::InputLocation::Span((s, _)) => s,
+    };
+    let first_word: String = src.trim_start().chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+    let word_start = src.len() - src.trim_start().len();
+    let is_known = STATEMENTS.contains(&first_word.as_str());
+    // A first word that is no statement and is not followed by `=` is an unknown statement.
+    let after = src.trim_start()[first_word.len()..].trim_start();
+    let looks_like_definition = after.starts_with('=') && !after.starts_with("==");
+    if !first_word.is_empty() && !is_known && !looks_like_definition {
+        let span = (base + word_start, base + word_start + first_word.len());
+        let mut err = SceneError::new(ErrorKind::UnknownStatement, format!("unknown statement `{first_word}`"))
+            .at(span)
+            .label("not a statement");
+        err = match did_you_mean(&first_word, STATEMENTS.iter().copied()) {
+            Some(s) => err.hint(format!("did you mean `{s}`? (`help` lists every statement)")),
+            None => err.hint("a statement starts with a keyword (`help` lists them) or is a definition `name = …`"),
+        };
+        return err;
+    }
+    let (expected, found) = match &e.variant {
+        pest::error::ErrorVariant::ParsingError { positives, .. } => {
+            let mut exp: Vec<&str> = positives.iter().filter_map(friendly).collect();
+            exp.sort_unstable();
+            exp.dedup();
+            let found = match src[pos.min(src.len())..].chars().next() {
+                Some(c) => format!("`{c}`"),
+                None => "the end of the statement".to_string(),
+            };
+            (exp, found)
+        }
+        pest::error::ErrorVariant::CustomError { message } => (vec![], message.clone()),
+    };
+    let message = if expected.is_empty() {
+        format!("unexpected {found}")
+    } else {
+        format!("expected {}, found {found}", expected.join(" or "))
+    };
+    let label = if expected.is_empty() { "here".to_string() } else { format!("expected {}", expected.join(" or ")) };
+    let mut err = SceneError::new(ErrorKind::Syntax, message).at((base + pos, base + pos + 1)).label(label);
+    let opens = src.matches('(').count();
+    let closes = src.matches(')').count();
+    if opens > closes {
+        err = err.hint("a `(` is never closed");
+    } else if closes > opens {
+        err = err.hint("a `)` has no matching `(`");
+    } else if is_known {
+        err = err.hint(format!("`help {first_word}` shows the statement's form with an example"));
+    }
+    err
+}
+
+/// Keyword pairs carry no information beyond the statement's rule.
+fn is_kw(rule: Rule) -> bool {
+    format!("{rule:?}").starts_with("kw_")
+}
+
+struct Builder {
+    base: usize,
+}
+
+impl Builder {
+    fn src(&self, p: &Pair<Rule>) -> Src {
+        let s = p.as_span();
+        Src { text: p.as_str().to_string(), span: (self.base + s.start(), self.base + s.end()) }
+    }
+
+    fn span(&self, p: &Pair<Rule>) -> Span {
+        let s = p.as_span();
+        (self.base + s.start(), self.base + s.end())
+    }
+
+    fn names(&self, p: Pair<Rule>) -> Vec<Src> {
+        p.into_inner().filter(|q| q.as_rule() == Rule::name).map(|q| self.src(&q)).collect()
+    }
+
+    fn format(&self, p: Pair<Rule>) -> Format {
+        let name = p.into_inner().find(|q| q.as_rule() == Rule::format_name).map(|q| q.as_str().to_string());
+        match name.as_deref() {
+            Some("latex") => Format::Latex,
+            Some("plain") => Format::Plain,
+            _ => Format::Unicode,
+        }
+    }
+
+    fn format_name(p: &Pair<Rule>) -> Format {
+        match p.as_str() {
+            "latex" => Format::Latex,
+            "plain" => Format::Plain,
+            _ => Format::Unicode,
+        }
+    }
+
+    fn path(&self, p: Pair<Rule>) -> Src {
+        let inner = p.into_inner().next();
+        match inner {
+            Some(q) if q.as_rule() == Rule::quoted_path => {
+                let s = self.span(&q);
+                let t = q.as_str();
+                Src { text: t[1..t.len() - 1].to_string(), span: s }
+            }
+            Some(q) => self.src(&q),
+            None => Src { text: String::new(), span: (self.base, self.base) },
+        }
+    }
+
+    fn deriv_call(&self, p: Pair<Rule>) -> Result<DerivCall, SceneError> {
+        let span = self.span(&p);
+        let mut kind = None;
+        let mut args = Vec::new();
+        for q in p.into_inner() {
+            match q.as_rule() {
+                Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
+                Rule::sexpr => args.push(self.src(&q)),
+                _ => {}
+            }
+        }
+        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
+        Ok(DerivCall { kind, args, span })
+    }
+
+    fn item(&self, p: Pair<Rule>) -> Result<Item, SceneError> {
+        let span = self.span(&p);
+        let Some(q) = p.into_inner().next() else {
+            return Err(SceneError::new(ErrorKind::Syntax, "expected something to print").at(span));
+        };
+        Ok(match q.as_rule() {
+            Rule::derivation => Item::Derivation(self.deriv_call(q)?),
+            Rule::deriv_kw => match DerivKind::from_keyword(q.as_str()) {
+                Some(kind) => Item::Derivation(DerivCall { kind, args: vec![], span }),
+                None => Item::Expr(self.src(&q)),
+            },
+            _ => Item::Expr(self.src(&q)),
+        })
+    }
+
+    fn stmt(&self, p: Pair<Rule>) -> Result<StmtKind, SceneError> {
+        let rule = p.as_rule();
+        let span = self.span(&p);
+        let inner: Vec<Pair<Rule>> = p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect();
+        Ok(match rule {
+            Rule::coordinates => StmtKind::Coordinates(inner.into_iter().flat_map(|q| self.names(q)).collect()),
+            Rule::functions => StmtKind::Functions(inner.into_iter().flat_map(|q| self.names(q)).collect()),
+            Rule::parameters => {
+                let mut params = Vec::new();
+                let mut positive = false;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::param => {
+                            let mut it = q.into_inner();
+                            let name = it.next().map(|n| self.src(&n));
+                            let value = it.next().map(|v| self.src(&v));
+                            if let Some(name) = name {
+                                params.push((name, value));
+                            }
+                        }
+                        Rule::assumption => positive = true,
+                        _ => {}
+                    }
+                }
+                StmtKind::Parameters { params, positive }
+            }
+            Rule::definition => {
+                let mut it = inner.into_iter();
+                let name = it.next().map(|n| self.src(&n));
+                let value = it.next();
+                match (name, value) {
+                    (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
+                        StmtKind::Define { name, value: DefValue::Derivation(self.deriv_call(v)?) }
+                    }
+                    (Some(name), Some(v)) => StmtKind::Define { name, value: DefValue::Expr(self.src(&v)) },
+                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed definition").at(span)),
+                }
+            }
+            Rule::derive_stmt => {
+                let mut format = None;
+                let mut kind = None;
+                let mut args = Vec::new();
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
+                        Rule::sexpr => args.push(self.src(&q)),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
+                StmtKind::Derive { call: DerivCall { kind, args, span }, format }
+            }
+            Rule::print => {
+                let mut items = Vec::new();
+                let mut format = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::print_item => items.push(self.item(q)?),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                StmtKind::Print { items, format }
+            }
+            Rule::simulate => StmtKind::Simulate(Box::new(self.simulate(inner, span)?)),
+            Rule::plot => {
+                let mut kind = None;
+                let mut runs = Vec::new();
+                let mut path = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::plot_phase => {
+                            let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
+                            kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
+                        }
+                        Rule::plot_energy => kind = Some(PlotKind::Energy),
+                        Rule::plot_path | Rule::plot_poincare => {
+                            let is_path = q.as_rule() == Rule::plot_path;
+                            let xs: Vec<Src> =
+                                q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect();
+                            if let [x, y] = &xs[..] {
+                                kind = Some(if is_path {
+                                    PlotKind::Path(x.clone(), y.clone())
+                                } else {
+                                    PlotKind::Poincare(x.clone(), y.clone())
+                                });
+                            }
+                        }
+                        Rule::plot_series => {
+                            kind = Some(PlotKind::Series(
+                                q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect(),
+                            ));
+                        }
+                        Rule::name_list => runs = self.names(q),
+                        Rule::path => path = Some(self.path(q)),
+                        _ => {}
+                    }
+                }
+                let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
+                StmtKind::Plot(Box::new(PlotSpec { kind, runs, path }))
+            }
+            Rule::export => {
+                let mut items = Vec::new();
+                let mut run = None;
+                let mut path = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::print_item => items.push(self.item(q)?),
+                        Rule::name => run = Some(self.src(&q)),
+                        Rule::path => path = Some(self.path(q)),
+                        _ => {}
+                    }
+                }
+                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+                StmtKind::Export { items, run, path }
+            }
+            Rule::load => {
+                let path = inner.into_iter().next().map(|q| self.path(q));
+                StmtKind::Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?)
+            }
+            Rule::help => StmtKind::Help(inner.into_iter().next().map(|q| self.src(&q))),
+            Rule::history => StmtKind::History,
+            Rule::format_stmt => {
+                let set_default = p.as_str().trim_start().starts_with("format");
+                let f = inner.iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
+                StmtKind::Format { format: f.unwrap_or(Format::Unicode), set_default }
+            }
+            _ => return Err(SceneError::new(ErrorKind::Syntax, "unrecognised statement").at(span)),
+        })
+    }
+
+    fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
+        let mut inits = Vec::new();
+        let mut time_var = None;
+        let mut t0 = None;
+        let mut t1 = None;
+        let mut span_span = span;
+        let mut method = None;
+        let mut dt = None;
+        let mut tol = None;
+        let mut steps = None;
+        let mut events = Vec::new();
+        let mut name = None;
+        for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
+            match q.as_rule() {
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        inits.push((self.src(&s), self.src(&v)));
+                    }
+                }
+                Rule::name if time_var.is_none() => time_var = Some(self.src(&q)),
+                Rule::name => name = Some(self.src(&q)),
+                Rule::time_span => {
+                    span_span = self.span(&q);
+                    let mut it = q.into_inner();
+                    t0 = it.next().map(|b| self.src(&b));
+                    t1 = it.next().map(|b| self.src(&b));
+                }
+                Rule::method => method = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::step => dt = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::tolerance => tol = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::steps => steps = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::event => {
+                    let espan = self.span(&q);
+                    let mut terminal = false;
+                    let mut exprs = Vec::new();
+                    let mut rising = None;
+                    for r in q.into_inner() {
+                        match r.as_rule() {
+                            Rule::event_kind => terminal = r.as_str() == "stop",
+                            Rule::sexpr => exprs.push(self.src(&r)),
+                            Rule::direction => rising = Some(r.as_str() == "rising"),
+                            _ => {}
+                        }
+                    }
+                    let mut it = exprs.into_iter();
+                    if let Some(lhs) = it.next() {
+                        events.push(EventSpec { terminal, lhs, rhs: it.next(), rising, span: espan });
+                    }
+                }
+                _ => {}
+            }
+        }
+        let missing = || SceneError::new(ErrorKind::Syntax, "malformed `simulate`").at(span);
+        Ok(SimSpec {
+            inits,
+            time_var: time_var.ok_or_else(missing)?,
+            t0: t0.ok_or_else(missing)?,
+            t1: t1.ok_or_else(missing)?,
+            span_span,
+            method,
+            dt,
+            tol,
+            steps,
+            events,
+            name,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one(s: &str) -> StmtKind {
+        match parse_scene(s) {
+            Ok(mut v) if v.len() == 1 => v.remove(0).kind,
+            other => panic!("{s}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn splits_lines_and_continuations() {
+        let text = "coordinates x\n# a comment\nL = 1/2 m x'^2 -\n    1/2 k x^2\nH = (a +\n b)\nprint L\n  + 1\n";
+        let spans = split_statements(text);
+        let parts: Vec<&str> = spans.iter().map(|&(s, e)| &text[s..e]).collect();
+        assert_eq!(parts, ["coordinates x", "L = 1/2 m x'^2 -\n    1/2 k x^2", "H = (a +\n b)", "print L\n  + 1"]);
+    }
+
+    #[test]
+    fn simulate_keywords_end_expressions() {
+        let StmtKind::Simulate(s) = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01") else {
+            panic!()
+        };
+        assert_eq!(s.inits.len(), 2);
+        assert_eq!(s.inits[0].1.text, "3.0");
+        assert_eq!(s.inits[1].0.text, "θ'");
+        assert_eq!((s.t0.text.as_str(), s.t1.text.as_str()), ("0", "20"));
+        assert_eq!(s.method.map(|m| m.text), Some("gauss6".to_string()));
+        assert_eq!(s.dt.map(|m| m.text), Some("0.01".to_string()));
+    }
+
+    #[test]
+    fn parameters_with_assumption() {
+        let StmtKind::Parameters { params, positive } = one("parameters m = 1, l = 2/3, g = 9.81 positive") else {
+            panic!()
+        };
+        assert!(positive);
+        assert_eq!(params.len(), 3);
+        assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
+    }
+
+    #[test]
+    fn definitions_and_derivations() {
+        assert!(matches!(one("H = legendre(L)"), StmtKind::Define { value: DefValue::Derivation(_), .. }));
+        assert!(matches!(one("H2 = legendre(L) + 1"), StmtKind::Define { value: DefValue::Expr(_), .. }));
+        assert!(matches!(one("el as latex"), StmtKind::Derive { format: Some(Format::Latex), .. }));
+        let StmtKind::Derive { call, .. } = one("pb Lx, Ly") else { panic!() };
+        assert_eq!(call.args.len(), 2);
+    }
+
+    #[test]
+    fn unknown_statement_suggests() {
+        let err = parse_scene("coordinates x\nsimulat x = 1 for t in 0..1").unwrap_err();
+        assert_eq!(err.kind, ErrorKind::UnknownStatement);
+        assert_eq!(err.span, Some((14, 21)));
+        assert!(err.hint.as_deref().is_some_and(|h| h.contains("`simulate`")), "{err:?}");
+    }
+}

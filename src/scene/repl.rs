@@ -1,0 +1,268 @@
+//! The interactive front end: rustyline on a terminal (history, tab completion of
+//! statements, symbols and methods, multi-line input while a statement is unfinished), and
+//! a plain line reader when standard input is not a terminal (pipes, tests), with the same
+//! statements, the same history file and the same output.
+//!
+//! Everything the REPL shows — results and diagnostics — goes to standard output, in
+//! order: it is one transcript. The REPL survives every error.
+
+use std::cell::RefCell;
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::PathBuf;
+use std::rc::Rc;
+
+use rustyline::completion::Completer;
+use rustyline::highlight::Highlighter;
+use rustyline::hint::Hinter;
+use rustyline::history::{FileHistory, History};
+use rustyline::validate::{ValidationContext, ValidationResult, Validator};
+use rustyline::{Context, Editor, Helper};
+
+use super::help::TOPICS;
+use super::parser::{is_incomplete, STATEMENTS};
+use super::session::{Mode, Options, Session};
+use super::sim::METHODS;
+
+/// The prompt.
+pub const PROMPT: &str = "lagrangian> ";
+const CONTINUATION: &str = "       ...> ";
+
+/// Where the history lives: `$LAGRANGIAN_HISTORY`, else the user's data directory
+/// (`$XDG_DATA_HOME/lagrangian/history`, `~/.local/share/lagrangian/history`).
+pub fn history_path() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("LAGRANGIAN_HISTORY") {
+        return Some(PathBuf::from(p));
+    }
+    let data = match std::env::var_os("XDG_DATA_HOME") {
+        Some(d) if !d.is_empty() => PathBuf::from(d),
+        _ => PathBuf::from(std::env::var_os("HOME")?).join(".local").join("share"),
+    };
+    Some(data.join("lagrangian").join("history"))
+}
+
+/// Completion and multi-line validation for rustyline.
+struct ReplHelper {
+    names: Rc<RefCell<Vec<String>>>,
+}
+
+/// The word before the cursor and where it starts.
+fn word_at(line: &str, pos: usize) -> (usize, &str) {
+    let before = &line[..pos];
+    let start = before
+        .char_indices()
+        .rev()
+        .take_while(|(_, c)| c.is_alphanumeric() || *c == '_' || *c == '\'')
+        .last()
+        .map_or(pos, |(i, _)| i);
+    (start, &line[start..pos])
+}
+
+/// Completions of the word ending at `pos`: statements at the start of a line, methods
+/// after `with`, help topics after `help`, otherwise known symbols and derivations.
+pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>) {
+    let (start, word) = word_at(line, pos);
+    let before: Vec<&str> = line[..start].split_whitespace().collect();
+    let pool: Vec<String> = match before.last() {
+        None => STATEMENTS.iter().map(|s| s.to_string()).chain(names.iter().cloned()).collect(),
+        Some(&"with") => METHODS.iter().map(|m| m.name.to_string()).collect(),
+        Some(&"help") => TOPICS.iter().map(|t| t.word.to_string()).collect(),
+        Some(&"as") | Some(&"format") => ["plain", "unicode", "latex"].iter().map(|s| s.to_string()).collect(),
+        Some(&"plot") => {
+            ["phase", "energy", "path", "poincare"].iter().map(|s| s.to_string()).chain(names.iter().cloned()).collect()
+        }
+        _ => names
+            .iter()
+            .cloned()
+            .chain(["el", "legendre", "hamilton", "conserved", "pb", "energy"].iter().map(|s| s.to_string()))
+            .collect(),
+    };
+    let mut out: Vec<String> = pool.into_iter().filter(|c| c.starts_with(word) && c != word).collect();
+    out.sort();
+    out.dedup();
+    (start, out)
+}
+
+impl Completer for ReplHelper {
+    type Candidate = String;
+    fn complete(&self, line: &str, pos: usize, _ctx: &Context<'_>) -> rustyline::Result<(usize, Vec<String>)> {
+        Ok(complete(line, pos, &self.names.borrow()))
+    }
+}
+
+impl Hinter for ReplHelper {
+    type Hint = String;
+}
+
+impl Highlighter for ReplHelper {}
+
+impl Validator for ReplHelper {
+    fn validate(&self, ctx: &mut ValidationContext) -> rustyline::Result<ValidationResult> {
+        Ok(if is_incomplete(ctx.input()) { ValidationResult::Incomplete } else { ValidationResult::Valid(None) })
+    }
+}
+
+impl Helper for ReplHelper {}
+
+/// How an entry went, for the caller's bookkeeping.
+enum Entry {
+    Ok,
+    Error,
+    Quit,
+}
+
+struct Repl {
+    session: Session,
+    history: Vec<String>,
+    color: bool,
+}
+
+impl Repl {
+    fn entry(&mut self, text: &str, out: &mut dyn Write) -> Entry {
+        let trimmed = text.trim();
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            return Entry::Ok;
+        }
+        if ["quit", "exit", ":q"].contains(&trimmed) {
+            return Entry::Quit;
+        }
+        if trimmed == "history" {
+            for (i, h) in self.history.iter().enumerate() {
+                let _ = writeln!(out, "{:>4}  {}", i + 1, h.replace('\n', " "));
+            }
+            return Entry::Ok;
+        }
+        let result = self.session.run_line(text);
+        for line in self.session.take_output() {
+            let _ = writeln!(out, "{line}");
+        }
+        match result {
+            Ok(()) => Entry::Ok,
+            Err(e) => {
+                let _ = write!(out, "{}", e.render(self.color));
+                let _ = writeln!(out);
+                Entry::Error
+            }
+        }
+    }
+}
+
+/// Runs the REPL until end of input or `quit`. Returns the number of entries that failed.
+pub fn run(history: Option<PathBuf>) -> usize {
+    let mut opts = Options::new(Mode::Repl);
+    opts.progress = true;
+    opts.stem = "repl".to_string();
+    let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
+    let mut repl = Repl { session: Session::new(opts), history: Vec::new(), color: interactive };
+    let mut file_history = FileHistory::new();
+    if let Some(p) = &history {
+        if let Some(dir) = p.parent() {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        if p.exists() {
+            let _ = file_history.load(p);
+        }
+    }
+    repl.history = file_history.iter().cloned().collect();
+    let mut errors = 0;
+    let stdout = std::io::stdout();
+    if interactive {
+        let names = Rc::new(RefCell::new(Vec::new()));
+        let mut editor: Editor<ReplHelper, FileHistory> = match Editor::new() {
+            Ok(e) => e,
+            Err(e) => {
+                eprintln!("error: cannot start the line editor: {e}");
+                return 1;
+            }
+        };
+        editor.set_helper(Some(ReplHelper { names: names.clone() }));
+        if let Some(p) = &history {
+            let _ = editor.load_history(p);
+        }
+        println!("lagrangian {} — `help` lists the statements, Ctrl-D quits", env!("CARGO_PKG_VERSION"));
+        loop {
+            match editor.readline(PROMPT) {
+                Ok(line) => {
+                    let _ = editor.add_history_entry(line.as_str());
+                    repl.history.push(line.clone());
+                    if let Some(p) = &history {
+                        let _ = editor.save_history(p);
+                    }
+                    let r = repl.entry(&line, &mut stdout.lock());
+                    *names.borrow_mut() = repl.session.known_names();
+                    match r {
+                        Entry::Quit => break,
+                        Entry::Error => errors += 1,
+                        Entry::Ok => {}
+                    }
+                }
+                Err(rustyline::error::ReadlineError::Interrupted) => continue,
+                Err(_) => break,
+            }
+        }
+        return errors;
+    }
+    // Not a terminal: read lines, join unfinished statements, echo each entry after the
+    // prompt so the transcript reads like a session.
+    let stdin = std::io::stdin();
+    let mut pending = String::new();
+    let mut lines = stdin.lock().lines();
+    loop {
+        let line = match lines.next() {
+            Some(Ok(l)) => l,
+            Some(Err(e)) => {
+                let mut out = stdout.lock();
+                let _ = writeln!(out, "error: cannot read input: {e}");
+                errors += 1;
+                continue;
+            }
+            None => break,
+        };
+        if !pending.is_empty() {
+            pending.push('\n');
+        }
+        pending.push_str(&line);
+        if is_incomplete(&pending) {
+            continue;
+        }
+        let text = std::mem::take(&mut pending);
+        let mut out = stdout.lock();
+        for (i, l) in text.lines().enumerate() {
+            let _ = writeln!(out, "{}{l}", if i == 0 { PROMPT } else { CONTINUATION });
+        }
+        if !text.trim().is_empty() {
+            let _ = file_history.add(&text);
+            repl.history.push(text.clone());
+            if let Some(p) = &history {
+                let _ = file_history.save(p);
+            }
+        }
+        match repl.entry(&text, &mut out) {
+            Entry::Quit => break,
+            Entry::Error => errors += 1,
+            Entry::Ok => {}
+        }
+    }
+    if !pending.trim().is_empty() {
+        let mut out = stdout.lock();
+        let _ = writeln!(out, "{PROMPT}{pending}");
+        let _ = repl.entry(&pending, &mut out);
+    }
+    errors
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn completes_statements_methods_and_symbols() {
+        let names = vec!["θ".to_string(), "θ'".to_string(), "theta0".to_string()];
+        assert_eq!(complete("sim", 3, &names), (0, vec!["simulate".to_string()]));
+        let line = "simulate θ = 1 for t in 0..1 with gau";
+        assert_eq!(complete(line, line.len(), &names).1, ["gauss4", "gauss6"]);
+        let line = "print th";
+        assert_eq!(complete(line, line.len(), &names), (6, vec!["theta0".to_string()]));
+        let line = "print θ";
+        assert_eq!(complete(line, line.len(), &names).1, ["θ'"]);
+    }
+}
