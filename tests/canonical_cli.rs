@@ -118,6 +118,20 @@ fn integral_lie_action_average() {
 }
 
 #[test]
+fn numeric_inverse_where_no_closed_form_exists() {
+    let (code, out, err) =
+        run(&["canonical", "--f2", "q P + q^5 + q^3 P^2", "--coords", "q", "--at", "1.7,0.4", "--format", "json"]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    let t: serde_json::Value = serde_json::from_str(lines[0]).expect("valid JSON");
+    assert_eq!(t["inverse"]["closed_form"], false);
+    let v: serde_json::Value = serde_json::from_str(lines[1]).expect("valid JSON");
+    let q = v["numeric_inverse"]["q"].as_f64().expect("q");
+    // Q = ∂F2/∂P = q + 2 q³ P must hold at the numeric point.
+    assert!((q + 0.8 * q.powi(3) - 1.7).abs() < 1e-14, "q = {q}");
+}
+
+#[test]
 fn bad_input_exits_with_code_2_and_says_why() {
     let (code, _, err) = run(&["canonical", "--f1", "q^2 + Q^2", "--coords", "q"]);
     assert_eq!(code, 2);
