@@ -13,6 +13,7 @@
 //! The pipeline, one module per stage (see `ARCHITECTURE.md`):
 //! [`parse`] text → [`expr`] canonical DAG → [`simplify`] (egg) → [`diff`] → [`print`] / [`eval`].
 
+pub mod algebra;
 pub mod canonical;
 pub mod compile;
 pub mod diff;

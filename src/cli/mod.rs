@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
+mod canonical;
 mod core;
 mod product;
 
@@ -27,6 +28,8 @@ enum Command {
     Core(core::CoreCommand),
     #[command(flatten)]
     Product(product::ProductCommand),
+    #[command(flatten)]
+    Canonical(canonical::CanonicalCommand),
 }
 
 /// Options every expression command takes.
@@ -126,6 +129,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
         Some(Command::Product(c)) => product::run(c),
+        Some(Command::Canonical(c)) => canonical::run(c),
         None => product::repl(),
     };
     match result {

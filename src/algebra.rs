@@ -1,0 +1,900 @@
+//! Polynomial and rational-function tools over canonical expressions.
+//!
+//! The canonical form of [`crate::expr`] collects like terms but never multiplies out or
+//! combines fractions, because either can make an expression much larger. The tools here do
+//! those global rewrites on request, and the simplifier offers their results as candidate
+//! forms (the cost function decides which one wins):
+//!
+//! * [`expand`] distributes products and positive integer powers of sums, refusing
+//!   expansions that would exceed a term budget ([`AlgebraError::TooManyTerms`]) before doing
+//!   the work, so `(a+b)^100000` is answered at once;
+//! * [`numer_denom`] and [`together`] put a rational expression over one common denominator;
+//! * [`cancel`] removes common factors between numerator and denominator: rational and
+//!   monomial content, factors that divide exactly (multivariate exact division), and the
+//!   greatest common divisor of univariate numerators and denominators (Euclid over ℚ);
+//! * [`factor_content`] pulls the common rational and monomial content out of every sum:
+//!   `2 a x + 4 a y` → `2 a (x + 2 y)`;
+//! * [`trig_normalize`] applies `sin²u + cos²u = 1` (and `cosh²u − sinh²u = 1`) inside sums
+//!   of any length, choosing per argument `u` whichever of `cos² → 1 − sin²`,
+//!   `sin² → 1 − cos²` or neither gives the fewest operations. Rewriting even powers of one
+//!   of the two functions into the other is complete for trigonometric polynomials, so scaled
+//!   and split forms (`m1 + m2 − m2 cos²u` → `m1 + m2 sin²u`) need no separate rules.
+//!
+//! Everything here preserves the value wherever the input is defined; all of it is tested by
+//! evaluation at random points.
+
+use std::collections::{BTreeMap, HashMap};
+
+use num_bigint::BigInt;
+use num_integer::Integer;
+use num_traits::{One, Signed, ToPrimitive, Zero};
+use thiserror::Error;
+
+use crate::expr::{Expr, Func, Node, Rational};
+
+/// The default largest number of terms [`expand`] produces (or multiplies through).
+pub const MAX_EXPAND_TERMS: usize = 20_000;
+
+/// Why an algebraic rewrite was refused.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+pub enum AlgebraError {
+    /// Expanding would produce (or pass through) more terms than the budget allows.
+    #[error("resource limit: expanding `{what}` would produce about {estimate} terms (the limit is {limit})")]
+    TooManyTerms {
+        /// The plain form of the sub-expression that was refused (shortened).
+        what: String,
+        /// An upper estimate of the number of terms, saturating.
+        estimate: u128,
+        /// The budget in force.
+        limit: usize,
+    },
+}
+
+fn short(e: &Expr) -> String {
+    let s = e.to_string();
+    if s.chars().count() > 60 {
+        let head: String = s.chars().take(57).collect();
+        format!("{head}...")
+    } else {
+        s
+    }
+}
+
+// ----- expand --------------------------------------------------------------------------------
+
+/// Distributes products over sums and multiplies out integer powers of sums, everywhere in
+/// `e` (function arguments included), with the default term budget [`MAX_EXPAND_TERMS`].
+///
+/// Negative integer powers of sums expand their base: `(x+1)^-2` → `1/(x^2 + 2 x + 1)`.
+pub fn expand(e: &Expr) -> Result<Expr, AlgebraError> {
+    expand_with_limit(e, MAX_EXPAND_TERMS)
+}
+
+/// [`expand`] with an explicit term budget.
+pub fn expand_with_limit(e: &Expr, limit: usize) -> Result<Expr, AlgebraError> {
+    let mut memo = HashMap::new();
+    expand_rec(e, limit, &mut memo)
+}
+
+fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<Expr, AlgebraError> {
+    if let Some(done) = memo.get(e) {
+        return Ok(done.clone());
+    }
+    let mut children = Vec::new();
+    e.for_each_child(|c| children.push(c.clone()));
+    let mut new_children = Vec::with_capacity(children.len());
+    for c in &children {
+        new_children.push(expand_rec(c, limit, memo)?);
+    }
+    let rebuilt = if new_children == children { e.clone() } else { e.with_children(new_children) };
+    let out = match rebuilt.node() {
+        Node::Mul(fs) => multiply_out(fs, limit)?,
+        Node::Pow(b, x) => match (b.node(), x.as_num()) {
+            (Node::Add(ts), Some(n)) if n.is_integer() && !n.is_zero() => {
+                let k = n.to_integer().abs();
+                let estimate = multinomial_terms(ts.len(), &k);
+                if estimate > limit as u128 {
+                    return Err(AlgebraError::TooManyTerms { what: short(&rebuilt), estimate, limit });
+                }
+                let k = k.to_u32().unwrap_or(u32::MAX);
+                let p = power_of_sum(b, k, limit)?;
+                if n.is_negative() {
+                    Expr::pow(p, Expr::int(-1))
+                } else {
+                    p
+                }
+            }
+            _ => rebuilt,
+        },
+        _ => rebuilt,
+    };
+    memo.insert(e.clone(), out.clone());
+    Ok(out)
+}
+
+/// The number of monomials of degree `k` in `m` variables, `C(k+m−1, m−1)`, saturating.
+fn multinomial_terms(m: usize, k: &BigInt) -> u128 {
+    let Some(k) = k.to_u128() else { return u128::MAX };
+    let mut acc: u128 = 1;
+    // C(k+m-1, m-1) = Π_{i=1}^{m-1} (k+i)/i, exact at every step.
+    for i in 1..m as u128 {
+        acc = match acc.checked_mul(k.saturating_add(i)) {
+            Some(v) => v / i,
+            None => return u128::MAX,
+        };
+    }
+    acc
+}
+
+/// `base^k` for a sum `base`, by repeated multiplication.
+fn power_of_sum(base: &Expr, k: u32, limit: usize) -> Result<Expr, AlgebraError> {
+    let mut acc = Expr::one();
+    for _ in 0..k {
+        acc = multiply_out(&[acc, base.clone()], limit)?;
+    }
+    Ok(acc)
+}
+
+/// Multiplies a list of (already expanded) factors out into one sum.
+fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraError> {
+    let mut plain = Vec::new();
+    let mut sums = Vec::new();
+    for f in fs {
+        match f.node() {
+            Node::Add(_) => sums.push(f.clone()),
+            _ => plain.push(f.clone()),
+        }
+    }
+    if sums.is_empty() {
+        return Ok(Expr::mul(plain));
+    }
+    let mut terms = vec![Expr::mul(plain)];
+    for s in &sums {
+        let st = s.terms();
+        let estimate = (terms.len() as u128).saturating_mul(st.len() as u128);
+        if estimate > limit as u128 {
+            return Err(AlgebraError::TooManyTerms { what: short(&Expr::mul(fs.iter().cloned())), estimate, limit });
+        }
+        let mut next = Vec::with_capacity(terms.len() * st.len());
+        for t in &terms {
+            for u in &st {
+                next.push(t.times(u));
+            }
+        }
+        terms = Expr::add(next).terms();
+    }
+    Ok(Expr::add(terms))
+}
+
+// ----- numerator and denominator ---------------------------------------------------------------
+
+/// Splits `e` into a numerator and a denominator with `e = n / d`, combining sums of
+/// fractions over a common denominator (the product of the distinct denominator factors, each
+/// to its largest power, and the least common multiple of the numeric denominators). Neither
+/// part is expanded.
+pub fn numer_denom(e: &Expr) -> (Expr, Expr) {
+    let mut memo = HashMap::new();
+    nd(e, &mut memo)
+}
+
+/// `e` as one fraction over a common denominator: `1/x + 1/y` → `(x + y)/(x y)`.
+///
+/// Numeric denominators may be redistributed by the canonical form (`x/2 + y/3` stays as it
+/// is, since a rational coefficient of a single sum is always distributed).
+pub fn together(e: &Expr) -> Expr {
+    let (n, d) = numer_denom(e);
+    if d.is_one() {
+        return n;
+    }
+    n.over(&d)
+}
+
+fn nd(e: &Expr, memo: &mut HashMap<Expr, (Expr, Expr)>) -> (Expr, Expr) {
+    if let Some(done) = memo.get(e) {
+        return done.clone();
+    }
+    let out = match e.node() {
+        Node::Num(r) => {
+            (Expr::num(Rational::from_integer(r.numer().clone())), Expr::num(Rational::from_integer(r.denom().clone())))
+        }
+        Node::Sym(_) | Node::Undefined => (e.clone(), Expr::one()),
+        Node::Mul(fs) => {
+            let mut ns = Vec::with_capacity(fs.len());
+            let mut ds = Vec::new();
+            for f in fs {
+                let (n, d) = nd(f, memo);
+                ns.push(n);
+                ds.push(d);
+            }
+            (Expr::mul(ns), Expr::mul(ds))
+        }
+        Node::Pow(b, x) => match x.as_num() {
+            Some(r) if r.is_integer() => {
+                let (bn, bd) = nd(b, memo);
+                let k = Expr::num(r.abs());
+                let (pn, pd) = (Expr::pow(bn, k.clone()), Expr::pow(bd, k));
+                if r.is_negative() {
+                    (pd, pn)
+                } else {
+                    (pn, pd)
+                }
+            }
+            Some(r) if r.is_negative() => (Expr::one(), Expr::pow(together(b), Expr::num(-r))),
+            _ => (Expr::pow(together(b), together(x)), Expr::one()),
+        },
+        Node::Add(ts) => {
+            let parts: Vec<(Expr, Expr)> = ts.iter().map(|t| nd(t, memo)).collect();
+            if parts.iter().all(|(_, d)| d.is_one()) {
+                (Expr::add(parts.into_iter().map(|(n, _)| n)), Expr::one())
+            } else {
+                let common = common_denominator(parts.iter().map(|(_, d)| d));
+                let num = Expr::add(parts.iter().map(|(n, d)| n.times(&common.over(d))));
+                (num, common)
+            }
+        }
+        Node::Call(..) | Node::Apply { .. } => {
+            let mut args = Vec::new();
+            e.for_each_child(|c| args.push(together(c)));
+            (e.with_children(args), Expr::one())
+        }
+    };
+    memo.insert(e.clone(), out.clone());
+    out
+}
+
+/// The least common multiple of denominators given as products of powers: the lcm of their
+/// numeric parts times every base to its largest exponent.
+fn common_denominator<'a>(ds: impl Iterator<Item = &'a Expr>) -> Expr {
+    let mut numeric = BigInt::one();
+    let mut bases: Vec<(Expr, Rational)> = Vec::new();
+    for d in ds {
+        let (c, rest) = d.coeff_rest();
+        if c.is_integer() {
+            numeric = numeric.lcm(&c.to_integer().abs());
+        }
+        if rest.is_one() {
+            continue;
+        }
+        for f in rest.factors() {
+            let (b, x) = f.base_exp();
+            let (b, k) = match x.as_num() {
+                Some(r) => (b, r.clone()),
+                None => (f.clone(), Rational::one()),
+            };
+            match bases.iter_mut().find(|(b2, _)| *b2 == b) {
+                Some((_, k2)) => {
+                    if k > *k2 {
+                        *k2 = k;
+                    }
+                }
+                None => bases.push((b, k)),
+            }
+        }
+    }
+    let mut fs = vec![Expr::num(Rational::from_integer(numeric))];
+    fs.extend(bases.into_iter().map(|(b, k)| Expr::pow(b, Expr::num(k))));
+    Expr::mul(fs)
+}
+
+// ----- polynomials -----------------------------------------------------------------------------
+
+/// A polynomial in "atoms" (symbols, calls, non-integer powers: anything that is not a sum,
+/// a product or a positive integer power), with monomials as exponent vectors in
+/// lexicographic order (atom 0 most significant).
+#[derive(Clone, Debug, PartialEq)]
+struct Poly {
+    terms: BTreeMap<Vec<u32>, Rational>,
+}
+
+/// The atoms of a family of polynomials.
+#[derive(Default)]
+struct Atoms {
+    list: Vec<Expr>,
+}
+
+impl Atoms {
+    fn index(&mut self, a: &Expr) -> usize {
+        match self.list.iter().position(|x| x == a) {
+            Some(i) => i,
+            None => {
+                self.list.push(a.clone());
+                self.list.len() - 1
+            }
+        }
+    }
+}
+
+/// Reads an expanded expression as a polynomial. Exponent vectors are padded later.
+fn to_poly(e: &Expr, atoms: &mut Atoms) -> Poly {
+    let mut terms: BTreeMap<Vec<u32>, Rational> = BTreeMap::new();
+    for t in e.terms() {
+        let (c, rest) = t.coeff_rest();
+        let mut mono: Vec<u32> = Vec::new();
+        if !rest.is_one() {
+            for f in rest.factors() {
+                let (b, x) = f.base_exp();
+                let (atom, k) =
+                    match x.as_num().and_then(|r| if r.is_integer() { r.to_integer().to_u32() } else { None }) {
+                        Some(k) if k > 0 => (b, k),
+                        _ => (f.clone(), 1),
+                    };
+                let i = atoms.index(&atom);
+                if mono.len() <= i {
+                    mono.resize(i + 1, 0);
+                }
+                mono[i] += k;
+            }
+        }
+        *terms.entry(mono).or_insert_with(Rational::zero) += c;
+    }
+    terms.retain(|_, c| !c.is_zero());
+    Poly { terms }
+}
+
+impl Poly {
+    fn pad(&mut self, n: usize) {
+        let old = std::mem::take(&mut self.terms);
+        for (mut m, c) in old {
+            m.resize(n, 0);
+            *self.terms.entry(m).or_insert_with(Rational::zero) += c;
+        }
+    }
+
+    fn is_zero(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    fn lead(&self) -> Option<(&Vec<u32>, &Rational)> {
+        self.terms.last_key_value()
+    }
+
+    fn to_expr(&self, atoms: &Atoms) -> Expr {
+        Expr::add(self.terms.iter().map(|(m, c)| {
+            let mut fs = vec![Expr::num(c.clone())];
+            for (i, &k) in m.iter().enumerate() {
+                if k > 0 {
+                    fs.push(Expr::pow(atoms.list[i].clone(), Expr::int(i64::from(k))));
+                }
+            }
+            Expr::mul(fs)
+        }))
+    }
+
+    fn sub_scaled(&mut self, shift: &[u32], coeff: &Rational, other: &Poly) {
+        for (m, c) in &other.terms {
+            let mm: Vec<u32> = m.iter().zip(shift).map(|(a, b)| a + b).collect();
+            let entry = self.terms.entry(mm.clone()).or_insert_with(Rational::zero);
+            *entry -= c * coeff;
+            if entry.is_zero() {
+                self.terms.remove(&mm);
+            }
+        }
+    }
+
+    /// `self / d` if `d` divides `self` exactly (in the lexicographic monomial order the
+    /// leading term of a multiple is the product of leading terms, so a failed leading-term
+    /// division proves non-divisibility). Gives up after `steps` reduction steps.
+    fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
+        let (ld, lc) = d.lead()?;
+        let mut r = self.clone();
+        let mut q = Poly { terms: BTreeMap::new() };
+        for _ in 0..steps {
+            let Some((lm, c)) = r.lead() else { return Some(q) };
+            if lm.iter().zip(ld).any(|(a, b)| a < b) {
+                return None;
+            }
+            let shift: Vec<u32> = lm.iter().zip(ld).map(|(a, b)| a - b).collect();
+            let coeff = c / lc;
+            q.terms.insert(shift.clone(), coeff.clone());
+            r.sub_scaled(&shift, &coeff, d);
+        }
+        None
+    }
+
+    /// The variable indices that occur.
+    fn support(&self) -> Vec<usize> {
+        let n = self.terms.keys().next().map_or(0, Vec::len);
+        (0..n).filter(|&i| self.terms.keys().any(|m| m[i] > 0)).collect()
+    }
+
+    /// The common monomial (smallest exponent of each atom) and rational content (gcd of
+    /// numerators over lcm of denominators, with the sign of the leading term).
+    fn content(&self) -> (Vec<u32>, Rational) {
+        let mut mono: Option<Vec<u32>> = None;
+        let mut num = BigInt::zero();
+        let mut den = BigInt::one();
+        for (m, c) in &self.terms {
+            mono = Some(match mono {
+                None => m.clone(),
+                Some(prev) => prev.iter().zip(m).map(|(a, b)| *a.min(b)).collect(),
+            });
+            num = num.gcd(c.numer());
+            den = den.lcm(c.denom());
+        }
+        let mut r = Rational::new(num, den);
+        if self.lead().is_some_and(|(_, c)| c.is_negative()) {
+            r = -r;
+        }
+        (mono.unwrap_or_default(), r)
+    }
+}
+
+/// Univariate GCD over ℚ by Euclid's algorithm, in variable `var` of polynomials whose other
+/// exponents are all zero. Monic result.
+fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
+    let to_dense = |p: &Poly| -> Vec<Rational> {
+        let deg = p.terms.keys().map(|m| m[var] as usize).max().unwrap_or(0);
+        let mut v = vec![Rational::zero(); deg + 1];
+        for (m, c) in &p.terms {
+            v[m[var] as usize] = c.clone();
+        }
+        v
+    };
+    let trim = |v: &mut Vec<Rational>| {
+        while v.len() > 1 && v.last().is_some_and(Zero::is_zero) {
+            v.pop();
+        }
+    };
+    let mut x = to_dense(a);
+    let mut y = to_dense(b);
+    trim(&mut x);
+    trim(&mut y);
+    let is_zero = |v: &Vec<Rational>| v.iter().all(Zero::is_zero);
+    for _ in 0..10_000 {
+        if is_zero(&y) {
+            let lc = x.last()?.clone();
+            if lc.is_zero() {
+                return None;
+            }
+            let n = a.terms.keys().next()?.len();
+            let mut out = Poly { terms: BTreeMap::new() };
+            for (k, c) in x.iter().enumerate() {
+                if !c.is_zero() {
+                    let mut m = vec![0; n];
+                    m[var] = k as u32;
+                    out.terms.insert(m, c / &lc);
+                }
+            }
+            return Some(out);
+        }
+        // x mod y
+        let ly = y.last()?.clone();
+        while x.len() >= y.len() && !is_zero(&x) {
+            let shift = x.len() - y.len();
+            let q = x.last()?.clone() / &ly;
+            for (i, c) in y.iter().enumerate() {
+                x[i + shift] -= c * &q;
+            }
+            x.pop();
+            trim(&mut x);
+            if x.len() < y.len() {
+                break;
+            }
+        }
+        trim(&mut x);
+        std::mem::swap(&mut x, &mut y);
+    }
+    None
+}
+
+/// Cancels common factors of the numerator and denominator of `e` (see the module docs for
+/// what is found). Returns `e` unchanged when it has no denominator or when expanding either
+/// part would exceed the term budget.
+pub fn cancel(e: &Expr) -> Expr {
+    let (n, d) = numer_denom(e);
+    if d.as_num().is_some() {
+        return e.clone();
+    }
+    cancel_parts(&n, &d).unwrap_or_else(|| e.clone())
+}
+
+fn cancel_parts(n: &Expr, d: &Expr) -> Option<Expr> {
+    const LIMIT: usize = 2_000;
+    let ne = expand_with_limit(n, LIMIT).ok()?;
+    let de = expand_with_limit(d, LIMIT).ok()?;
+    let mut atoms = Atoms::default();
+    let mut pn = to_poly(&ne, &mut atoms);
+    let mut pd = to_poly(&de, &mut atoms);
+    // Candidate divisors: the factors of the unexpanded denominator and numerator.
+    let mut factor_polys = Vec::new();
+    for f in d.factors().into_iter().chain(n.factors()) {
+        let (b, x) = f.base_exp();
+        let k = x.as_num().and_then(|r| if r.is_integer() { r.to_integer().to_u32() } else { None }).unwrap_or(1);
+        let base = if x.as_num().is_some_and(|r| r.is_integer() && r.is_positive()) { b } else { f.clone() };
+        if matches!(base.node(), Node::Add(_)) {
+            if let Ok(be) = expand_with_limit(&base, LIMIT) {
+                factor_polys.push((to_poly(&be, &mut atoms), k));
+            }
+        }
+    }
+    let width = atoms.list.len();
+    pn.pad(width);
+    pd.pad(width);
+    if pn.is_zero() {
+        return Some(Expr::zero());
+    }
+    if pd.is_zero() {
+        return None;
+    }
+    // Monomial and rational content.
+    let (mn, _) = pn.content();
+    let (md, _) = pd.content();
+    let mono: Vec<u32> = mn.iter().zip(&md).map(|(a, b)| *a.min(b)).collect();
+    let mut g = Poly { terms: BTreeMap::new() };
+    g.terms.insert(mono, Rational::one());
+    pn = pn.div_exact(&g, usize::MAX)?;
+    pd = pd.div_exact(&g, usize::MAX)?;
+    // Exact division by the sum factors of either side.
+    let steps = 4 * LIMIT;
+    for (mut f, k) in factor_polys {
+        f.pad(width);
+        for _ in 0..k {
+            match (pn.div_exact(&f, steps), pd.div_exact(&f, steps)) {
+                (Some(a), Some(b)) => {
+                    pn = a;
+                    pd = b;
+                }
+                _ => break,
+            }
+        }
+    }
+    // Whole numerator or denominator dividing the other.
+    if let Some(q) = pn.div_exact(&pd, steps) {
+        pn = q;
+        pd = Poly { terms: BTreeMap::from([(vec![0; width], Rational::one())]) };
+    } else if let Some(q) = pd.div_exact(&pn, steps) {
+        pd = q;
+        pn = Poly { terms: BTreeMap::from([(vec![0; width], Rational::one())]) };
+    }
+    // Univariate gcd when both sides live in the same single atom.
+    let (sn, sd) = (pn.support(), pd.support());
+    if sn.len() == 1 && sn == sd {
+        if let Some(g) = univariate_gcd(&pn, &pd, sn[0]) {
+            if g.lead().is_some_and(|(m, _)| m.iter().any(|&k| k > 0)) {
+                pn = pn.div_exact(&g, steps)?;
+                pd = pd.div_exact(&g, steps)?;
+            }
+        }
+    }
+    // One rational coefficient in front of primitive numerator and denominator, so the
+    // canonical form does not spread it over a sum.
+    let (_, cn) = pn.content();
+    let (_, cd) = pd.content();
+    let unit = |c: &Rational, w: usize| Poly { terms: BTreeMap::from([(vec![0; w], c.clone())]) };
+    pn = pn.div_exact(&unit(&cn, width), usize::MAX)?;
+    pd = pd.div_exact(&unit(&cd, width), usize::MAX)?;
+    let num = factor_content(&pn.to_expr(&atoms));
+    let den = factor_content(&pd.to_expr(&atoms));
+    Some(Expr::mul([Expr::num(cn / cd), num, Expr::pow(den, Expr::int(-1))]))
+}
+
+// ----- content ---------------------------------------------------------------------------------
+
+/// Pulls the common rational and monomial content out of every sum in `e`:
+/// `2 a x + 4 a y` → `2 a (x + 2 y)`, `x/y + z/y` → `(x + z)/y`.
+///
+/// A bare rational content of a sum (`2 x + 4 y`) cannot be pulled out: the canonical form
+/// distributes a rational over a single sum, so that sum is left as it is.
+pub fn factor_content(e: &Expr) -> Expr {
+    e.map_bottom_up(&mut |x| match x.node() {
+        Node::Add(ts) => factor_sum(ts),
+        _ => None,
+    })
+}
+
+fn factor_sum(ts: &[Expr]) -> Option<Expr> {
+    // Rational content.
+    let mut num = BigInt::zero();
+    let mut den = BigInt::one();
+    for t in ts {
+        let (c, _) = t.coeff_rest();
+        num = num.gcd(c.numer());
+        den = den.lcm(c.denom());
+    }
+    if num.is_zero() {
+        return None;
+    }
+    let mut content = Rational::new(num, den);
+    let lead = ts.iter().find(|t| t.as_num().is_none()).unwrap_or(&ts[0]);
+    if lead.is_negative_form() {
+        content = -content;
+    }
+    // Monomial content: bases present in every term with numeric exponents, smallest power.
+    let mut common: Vec<(Expr, Rational)> = Vec::new();
+    for (i, t) in ts.iter().enumerate() {
+        let (_, rest) = t.coeff_rest();
+        let fs: Vec<(Expr, Rational)> = if rest.is_one() {
+            Vec::new()
+        } else {
+            rest.factors()
+                .into_iter()
+                .map(|f| {
+                    let (b, x) = f.base_exp();
+                    match x.as_num() {
+                        Some(r) => (b, r.clone()),
+                        None => (f, Rational::one()),
+                    }
+                })
+                .collect()
+        };
+        if i == 0 {
+            common = fs;
+        } else {
+            common.retain_mut(|(b, k)| match fs.iter().find(|(b2, _)| b2 == b) {
+                Some((_, k2)) => {
+                    if k2 < k {
+                        *k = k2.clone();
+                    }
+                    true
+                }
+                None => false,
+            });
+        }
+        if common.is_empty() {
+            break;
+        }
+    }
+    if common.is_empty() && content.is_one() {
+        return None;
+    }
+    let mut outer = vec![Expr::num(content)];
+    outer.extend(common.into_iter().map(|(b, k)| Expr::pow(b, Expr::num(k))));
+    let outer = Expr::mul(outer);
+    let inner = Expr::add(ts.iter().map(|t| t.over(&outer)));
+    let out = Expr::mul([outer, inner]);
+    // The canonical form may redistribute; only report a change.
+    Some(out)
+}
+
+// ----- trigonometric normalisation ------------------------------------------------------------
+
+/// One identity `from² = a + s·to²` used to rewrite even powers.
+#[derive(Clone, Copy)]
+struct Square {
+    from: Func,
+    to: Func,
+    constant: i64,
+    sign: i64,
+}
+
+/// `cos² = 1 − sin²`, `sin² = 1 − cos²`, `cosh² = 1 + sinh²`, `sinh² = −1 + cosh²`.
+const SQUARES: [(Square, Square); 2] = [
+    (
+        Square { from: Func::Cos, to: Func::Sin, constant: 1, sign: -1 },
+        Square { from: Func::Sin, to: Func::Cos, constant: 1, sign: -1 },
+    ),
+    (
+        Square { from: Func::Cosh, to: Func::Sinh, constant: 1, sign: 1 },
+        Square { from: Func::Sinh, to: Func::Cosh, constant: -1, sign: 1 },
+    ),
+];
+
+/// Applies the Pythagorean identities inside every sum of `e` (see the module docs).
+pub fn trig_normalize(e: &Expr) -> Expr {
+    e.map_bottom_up(&mut |x| match x.node() {
+        Node::Add(_) => {
+            let out = normalize_sum(x);
+            (out != *x).then_some(out)
+        }
+        _ => None,
+    })
+}
+
+/// Arguments `u` of `f(u)^k`, `k ≥ 2` an integer, among the factors of the terms of `sum`.
+fn squared_args(sum: &Expr, funcs: [Func; 2]) -> Vec<Expr> {
+    let mut out: Vec<Expr> = Vec::new();
+    for t in sum.terms() {
+        for f in t.factors() {
+            let (b, x) = f.base_exp();
+            if let (Node::Call(func, args), Some(k)) = (b.node(), x.as_num()) {
+                if funcs.contains(func)
+                    && k.is_integer()
+                    && *k >= Rational::from_integer(2.into())
+                    && !out.contains(&args[0])
+                {
+                    out.push(args[0].clone());
+                }
+            }
+        }
+    }
+    out.sort_by(|a, b| a.canonical_cmp(b));
+    out
+}
+
+fn normalize_sum(sum: &Expr) -> Expr {
+    let mut best = sum.clone();
+    for (one, other) in SQUARES {
+        for u in squared_args(&best, [one.from, other.from]) {
+            let mut cands = vec![best.clone()];
+            for sq in [one, other] {
+                cands.push(rewrite_squares(&best, &u, sq));
+            }
+            best = cands
+                .into_iter()
+                .enumerate()
+                .min_by(|(i, a), (j, b)| a.op_count().cmp(&b.op_count()).then(i.cmp(j)))
+                .map(|(_, e)| e)
+                .unwrap_or(best);
+        }
+    }
+    best
+}
+
+/// Rewrites every `from(u)^k` (`k ≥ 2`) in the terms of `sum` as
+/// `(a + s·to(u)²)^⌊k/2⌋ · from(u)^(k mod 2)`, multiplied out by the binomial theorem.
+fn rewrite_squares(sum: &Expr, u: &Expr, sq: Square) -> Expr {
+    let target = Expr::call(sq.from, vec![u.clone()]);
+    let to = Expr::call(sq.to, vec![u.clone()]);
+    let mut out = Vec::new();
+    for t in sum.terms() {
+        let fs = t.factors();
+        let hit = fs.iter().position(|f| {
+            let (b, x) = f.base_exp();
+            b == target && x.as_num().is_some_and(|k| k.is_integer() && *k >= Rational::from_integer(2.into()))
+        });
+        let Some(i) = hit else {
+            out.push(t);
+            continue;
+        };
+        let k = fs[i].base_exp().1.as_num().and_then(|r| r.to_integer().to_u32()).unwrap_or(2);
+        let h = k / 2;
+        let mut rest: Vec<Expr> = fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, f)| f.clone()).collect();
+        if k % 2 == 1 {
+            rest.push(target.clone());
+        }
+        let rest = Expr::mul(rest);
+        // (a + s·to²)^h = Σ_j C(h, j) a^(h−j) s^j to^(2j)
+        let mut binom = BigInt::one();
+        for j in 0..=h {
+            let c = &binom * BigInt::from(sq.constant).pow(h - j) * BigInt::from(sq.sign).pow(j);
+            out.push(Expr::mul([
+                Expr::num(Rational::from_integer(c)),
+                Expr::pow(to.clone(), Expr::int(2 * i64::from(j))),
+                rest.clone(),
+            ]));
+            binom = binom * BigInt::from(h - j) / BigInt::from(j + 1);
+        }
+    }
+    Expr::add(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::eval_with;
+    use crate::parse::{parse, parse_with, Declarations};
+
+    fn p(s: &str) -> Expr {
+        parse(s).unwrap_or_else(|e| panic!("{s}: {e}"))
+    }
+
+    /// A small deterministic generator (xorshift) for sample points.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Checks that `a` and `b` agree at random points in (0.2, 2.2) for every symbol.
+    fn same_value(a: &Expr, b: &Expr) {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        for _ in 0..8 {
+            let mut vals: HashMap<String, f64> = HashMap::new();
+            for s in a.free_symbols().into_iter().chain(b.free_symbols()) {
+                let v = 0.2 + 2.0 * rng.next();
+                vals.entry(s.to_string()).or_insert(v);
+            }
+            let look = |s: &crate::expr::Symbol| vals.get(&s.to_string()).copied();
+            let va = eval_with(a, &look).unwrap();
+            let vb = eval_with(b, &look).unwrap();
+            assert!((va - vb).abs() <= 1e-9 * (1.0 + va.abs()), "{a} = {va} but {b} = {vb}");
+        }
+    }
+
+    #[test]
+    fn expand_multiplies_out_and_keeps_values() {
+        let e = p("(x+1)^2 - x^2 - 2x");
+        assert_eq!(expand(&e).unwrap(), Expr::one());
+        let e = p("(a+b)*(a-b)");
+        assert_eq!(expand(&e).unwrap(), p("a^2 - b^2"));
+        let e = p("(a+b+c+d)^8");
+        let x = expand(&e).unwrap();
+        // C(8+3, 3) = 165 monomials of degree 8 in 4 variables.
+        assert_eq!(x.terms().len(), 165);
+        same_value(&e, &x);
+        let e = p("sin(x*(y+1)) * (x + 2)^3 / (y+1)^2");
+        let x = expand(&e).unwrap();
+        assert_eq!(x, p("x^3 sin(x y + x)/(y^2 + 2y + 1) + 6x^2 sin(x y + x)/(y^2 + 2y + 1) + 12 x sin(x y + x)/(y^2 + 2y + 1) + 8 sin(x y + x)/(y^2 + 2y + 1)"));
+        same_value(&e, &x);
+    }
+
+    #[test]
+    fn expand_refuses_huge_powers_quickly() {
+        let err = expand(&p("(a+b)^100000")).unwrap_err();
+        // (a+b)^100000 has 100001 terms.
+        assert!(matches!(err, AlgebraError::TooManyTerms { estimate: 100_001, .. }), "{err}");
+        assert!(err.to_string().contains("resource limit"));
+        let err = expand(&p("(a+b+c)^(10^10)")).unwrap_err();
+        assert!(matches!(err, AlgebraError::TooManyTerms { .. }));
+        // Products of many sums are refused by the running product of their lengths.
+        let many = (0..20).map(|i| format!("(x{i} + y{i})")).collect::<Vec<_>>().join(" ");
+        assert!(expand(&p(&many)).is_err());
+        // Unexpandable things stay put.
+        assert_eq!(expand(&p("2^(10^10)")).unwrap(), p("2^(10^10)"));
+    }
+
+    #[test]
+    fn together_and_numer_denom() {
+        let e = p("1/x + 1/y");
+        let (n, d) = numer_denom(&e);
+        assert_eq!((n, d), (p("x + y"), p("x y")));
+        let e = p("a/(x+1) + b/(x+1)^2 + 1/3");
+        let t = together(&e);
+        let (n, d) = numer_denom(&e);
+        assert_eq!(d, p("3 (x+1)^2"));
+        same_value(&e, &t);
+        same_value(&e, &n.over(&d));
+    }
+
+    #[test]
+    fn cancel_removes_common_factors() {
+        // Content and monomials.
+        assert_eq!(cancel(&p("(2 a x + 4 a y)/(6 a^2)")), p("(x + 2y)/(3 a)"));
+        // Exact division by a sum factor of the denominator.
+        assert_eq!(cancel(&p("(x^2 - 1)/(x - 1)")), p("x + 1"));
+        // Univariate gcd: x^2 - 1 and x^2 + 2x + 1 share x + 1.
+        let e = p("(x^2 - 1)/(x^2 + 2x + 1)");
+        let c = cancel(&e);
+        assert_eq!(c, p("(x - 1)/(x + 1)"));
+        same_value(&e, &c);
+        // Multivariate factor present in the denominator's factored form.
+        let e = p("(a^2 x - b^2 x)/((a + b) (a + y))");
+        let c = cancel(&e);
+        assert_eq!(c, p("x (a - b)/(a + y)"));
+        same_value(&e, &c);
+        // Nothing to cancel: value kept.
+        let e = p("(x + 1)/(x + 2)");
+        same_value(&e, &cancel(&e));
+    }
+
+    #[test]
+    fn factor_content_pulls_out_monomials_and_rationals() {
+        let e = p("2 a x + 4 a y");
+        let f = factor_content(&e);
+        assert_eq!(f.to_string(), "2 a (x + 2 y)");
+        same_value(&e, &f);
+        let e = p("x/y + z/y");
+        assert_eq!(factor_content(&e), p("(x + z)/y"));
+        let e = p("-3 m^2 l q' - 6 m l^2 q'");
+        let f = factor_content(&e);
+        assert_eq!(f, p("-3 l m q' (m + 2 l)"));
+        same_value(&e, &f);
+    }
+
+    #[test]
+    fn pythagorean_identity_in_long_scaled_and_split_sums() {
+        assert_eq!(trig_normalize(&p("sin(x)^2 + cos(x)^2")), Expr::one());
+        let d = Declarations::new().with_positive(["m1", "m2"]);
+        let e = parse_with("m1 + m2 - m2 cos(u)^2", &d).unwrap();
+        assert_eq!(trig_normalize(&e), parse_with("m1 + m2 sin(u)^2", &d).unwrap());
+        // Scaled, among many unrelated terms, and with two different arguments.
+        let e = p("a + b x + c y^2 + 3 k sin(q1)^2 + d + 3 k cos(q1)^2 + e z + sin(q2)^2 w + w cos(q2)^2 + f");
+        assert_eq!(trig_normalize(&e), p("a + b x + c y^2 + 3 k + d + e z + w + f"));
+        // Higher even powers: cos^4 - sin^4 = cos^2 - sin^2 = 1 - 2 sin^2.
+        let e = p("cos(x)^4 - sin(x)^4");
+        let n = trig_normalize(&e);
+        assert_eq!(n, p("1 - 2 sin(x)^2"));
+        same_value(&e, &n);
+        // Hyperbolic.
+        assert_eq!(trig_normalize(&p("cosh(t)^2 - sinh(t)^2")), Expr::one());
+        // Inside a function argument and a denominator.
+        let e = p("exp(sin(y)^2 + cos(y)^2 + x)/(2 - 2 sin(x)^2)");
+        let n = trig_normalize(&e);
+        assert_eq!(n, p("exp(1 + x)/(2 cos(x)^2)"));
+        same_value(&e, &n);
+    }
+}

@@ -1,0 +1,294 @@
+//! Action and frequency of a one-degree-of-freedom `H(q, p)` by quadrature (PHYSICS.md §4.5).
+//!
+//! `H` must be at most quadratic in `p`: `H = a(q) p² + b(q) p + c(q)` (every natural system).
+//! On the level set `H = E` the two branches are `p± = (−b ± √D)/(2a)` with the discriminant
+//! `D(q) = b² − 4a(c − E)`, and `q' = ∂H/∂p = ±√D`. Hence
+//!
+//! * `J = (1/2π) ∮ p dq = (1/2π) ∫_{q1}^{q2} √D/|a| dq`,
+//! * `T = ∮ dq/q' = 2 ∫_{q1}^{q2} dq/√D`, `ω = 2π/T`,
+//!
+//! with turning points `q1 < q2` the roots of `D` around a point inside the well, found by
+//! bracketing outwards and bisecting to the last bit. The endpoint singularity `1/√D` is
+//! removed by `q = m + h sin φ` (`m`, `h` the midpoint and half-width): `D = h² cos²φ R(q)`
+//! with `R > 0` smooth, and both integrands become smooth, 2π-periodic and even about
+//! `φ = π/2`, so the trapezoidal rule on a full period converges exponentially. Points are
+//! doubled until two successive values agree to 1e-13 (relative); beyond that, rounding in
+//! `D` near the turning points (a difference of nearly equal numbers) is the noise floor.
+
+use crate::eval::{eval_with, Env};
+use crate::expr::{Expr, Symbol};
+
+use super::reduce::expand;
+
+/// The result at one energy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActionFrequency {
+    /// The energy `E`.
+    pub energy: f64,
+    /// `J(E) = (1/2π) ∮ p dq`.
+    pub action: f64,
+    /// The period `T(E)`.
+    pub period: f64,
+    /// `ω(E) = 2π/T(E)`.
+    pub omega: f64,
+    /// The turning points `(q1, q2)`.
+    pub turning_points: (f64, f64),
+    /// Quadrature points used in the last (converged) pass.
+    pub points: usize,
+    /// The relative change between the last two passes: about 1e-13 normally; larger (up to
+    /// 1e-6, beyond which the quadrature is refused) only very close to a separatrix, where
+    /// the period diverges logarithmically.
+    pub error_estimate: f64,
+}
+
+/// Why the quadrature was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ActionAngleError {
+    /// `H` is not a polynomial of degree 1 or 2 in `p`.
+    #[error("H must be a polynomial of degree 2 in `{momentum}` (a(q) p² + b(q) p + c(q)); here {reason}")]
+    NotQuadratic {
+        /// The momentum.
+        momentum: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A symbol has no numeric value.
+    #[error("cannot evaluate H: {0}")]
+    Eval(String),
+    /// The start point is not inside an orbit of energy `E`.
+    #[error("q = {inside} is not inside an orbit of energy {energy}: the momentum there is not real (D = {disc:.3e}); give a point inside the well")]
+    NotInside {
+        /// The start point.
+        inside: f64,
+        /// The energy.
+        energy: f64,
+        /// The discriminant there.
+        disc: f64,
+    },
+    /// No turning point on one side: a rotation or an unbounded orbit.
+    #[error("no turning point on the {side} side of q = {inside} at energy {energy}: the orbit is not a libration (it is a rotation or unbounded), so J and ω by turning points do not apply")]
+    NoTurningPoint {
+        /// `"left"` or `"right"`.
+        side: &'static str,
+        /// The start point.
+        inside: f64,
+        /// The energy.
+        energy: f64,
+    },
+    /// The quadrature did not converge.
+    #[error("the quadrature did not converge (last change {change:.2e} with {points} points); the energy may be too close to a separatrix")]
+    NoConvergence {
+        /// The last relative change.
+        change: f64,
+        /// The points used.
+        points: usize,
+    },
+}
+
+struct Quadratic {
+    a: Expr,
+    b: Expr,
+    c: Expr,
+}
+
+fn split_quadratic(h: &Expr, p: &Symbol) -> Result<Quadratic, ActionAngleError> {
+    let e = expand(h);
+    let mut parts = [Vec::new(), Vec::new(), Vec::new()];
+    for t in e.terms() {
+        let mut power = 0usize;
+        let mut rest = Vec::new();
+        for f in t.factors() {
+            let (b, x) = f.base_exp();
+            if b.as_sym() == Some(p) {
+                match x.as_num().and_then(super::reduce::nonneg_int) {
+                    Some(n) if n <= 2 => power += n as usize,
+                    _ => {
+                        return Err(ActionAngleError::NotQuadratic {
+                            momentum: p.to_string(),
+                            reason: format!("it contains `{f}`"),
+                        })
+                    }
+                }
+            } else if f.contains(p) {
+                return Err(ActionAngleError::NotQuadratic {
+                    momentum: p.to_string(),
+                    reason: format!("it contains `{f}`"),
+                });
+            } else {
+                rest.push(f);
+            }
+        }
+        if power > 2 {
+            return Err(ActionAngleError::NotQuadratic {
+                momentum: p.to_string(),
+                reason: format!("the term `{t}` has degree {power}"),
+            });
+        }
+        parts[power].push(Expr::mul(rest));
+    }
+    let [c, b, a] = parts.map(Expr::add);
+    if a.is_zero() {
+        return Err(ActionAngleError::NotQuadratic { momentum: p.to_string(), reason: "there is no p² term".into() });
+    }
+    Ok(Quadratic { a, b, c })
+}
+
+/// `J(E)`, `T(E)` and `ω(E)` for `h(q, p)` with parameters from `params`, on the orbit through
+/// the point `inside` (any `q` inside the well).
+pub fn action_frequency(
+    h: &Expr,
+    q: &Symbol,
+    p: &Symbol,
+    energy: f64,
+    params: &Env,
+    inside: f64,
+) -> Result<ActionFrequency, ActionAngleError> {
+    let Quadratic { a, b, c } = split_quadratic(h, p)?;
+    let qname = q.to_string();
+    let ev = |e: &Expr, x: f64| -> Result<f64, ActionAngleError> {
+        eval_with(e, &|s: &Symbol| if s.to_string() == qname { Some(x) } else { params.get(&s.to_string()).copied() })
+            .map_err(|e| ActionAngleError::Eval(e.to_string()))
+    };
+    // Validate evaluation once (unbound symbols are an error, not a NaN).
+    ev(&a, inside)?;
+    ev(&b, inside)?;
+    ev(&c, inside)?;
+    let disc = |x: f64| -> f64 {
+        match (ev(&a, x), ev(&b, x), ev(&c, x)) {
+            (Ok(a), Ok(b), Ok(c)) => b * b - 4.0 * a * (c - energy),
+            _ => f64::NAN,
+        }
+    };
+    let d0 = disc(inside);
+    if d0.is_nan() || d0 <= 0.0 {
+        return Err(ActionAngleError::NotInside { inside, energy, disc: d0 });
+    }
+    let q1 =
+        turning_point(&disc, inside, -1.0).ok_or(ActionAngleError::NoTurningPoint { side: "left", inside, energy })?;
+    let q2 =
+        turning_point(&disc, inside, 1.0).ok_or(ActionAngleError::NoTurningPoint { side: "right", inside, energy })?;
+    let mid = 0.5 * (q1 + q2);
+    let half = 0.5 * (q2 - q1);
+    // Trapezoid on a full period at offset nodes (never exactly at cos φ = 0).
+    let pass = |n: usize| -> (f64, f64) {
+        let mut t_sum = 0.0;
+        let mut j_sum = 0.0;
+        for k in 0..n {
+            let phi = std::f64::consts::TAU * (k as f64 + 0.5) / n as f64;
+            let (s, co) = phi.sin_cos();
+            let x = mid + half * s;
+            let w = half * half * co * co;
+            let r = disc(x) / w;
+            let av = ev(&a, x).unwrap_or(f64::NAN).abs();
+            t_sum += 1.0 / r.sqrt();
+            j_sum += w * r.sqrt() / av;
+        }
+        let dphi = std::f64::consts::TAU / n as f64;
+        (t_sum * dphi, j_sum * dphi / (2.0 * std::f64::consts::TAU))
+    };
+    let mut n = 16;
+    let (mut t_prev, mut j_prev) = pass(n);
+    let mut change = f64::INFINITY;
+    while n < 1 << 17 {
+        n *= 2;
+        let (t, j) = pass(n);
+        change = ((t - t_prev) / t).abs().max(((j - j_prev) / j).abs());
+        t_prev = t;
+        j_prev = j;
+        if change < 1e-13 {
+            break;
+        }
+    }
+    if change.is_nan() || change >= 1e-6 {
+        return Err(ActionAngleError::NoConvergence { change, points: n });
+    }
+    Ok(ActionFrequency {
+        energy,
+        action: j_prev,
+        period: t_prev,
+        omega: std::f64::consts::TAU / t_prev,
+        turning_points: (q1, q2),
+        points: n,
+        error_estimate: change,
+    })
+}
+
+/// The root of `disc` on one side of `inside`, where `disc > 0`: march outwards with steps
+/// of at most 1% of the scale, shortened to 1.1× the secant prediction of the zero when `disc`
+/// falls (so a narrow barrier near a separatrix, or a periodic potential's next well, is not
+/// jumped over); after 20 000 steps the steps double, for far-away turning points. Then bisect
+/// until the interval stops shrinking. NaN (outside the domain) counts as outside.
+fn turning_point(disc: &dyn Fn(f64) -> f64, inside: f64, dir: f64) -> Option<f64> {
+    let scale = inside.abs().max(1.0);
+    let (max_step, min_step) = (1e-2 * scale, 1e-9 * scale);
+    let mut good = inside;
+    let mut d_good = disc(inside);
+    let mut bad = None;
+    let mut step = max_step;
+    for i in 0..20_200 {
+        if i >= 20_000 {
+            step *= 2.0;
+        }
+        let x = good + dir * step;
+        let d = disc(x);
+        if d > 0.0 {
+            if i < 20_000 {
+                let slope = (d - d_good) / step;
+                step = if slope < 0.0 { (1.1 * d / -slope).clamp(min_step, max_step) } else { max_step };
+            }
+            good = x;
+            d_good = d;
+        } else {
+            bad = Some(x);
+            break;
+        }
+    }
+    let mut bad = bad?;
+    for _ in 0..200 {
+        let m = 0.5 * (good + bad);
+        if m == good || m == bad {
+            break;
+        }
+        if disc(m) > 0.0 {
+            good = m;
+        } else {
+            bad = m;
+        }
+    }
+    // The midpoint of the last bracket is within an ulp of the root.
+    Some(0.5 * (good + bad))
+}
+
+/// The complete elliptic integral of the first kind `K(k) = π / (2 AGM(1, √(1−k²)))`.
+pub fn elliptic_k(k: f64) -> f64 {
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..64 {
+        if (a - b).abs() <= f64::EPSILON * a {
+            break;
+        }
+        let an = 0.5 * (a + b);
+        b = (a * b).sqrt();
+        a = an;
+    }
+    std::f64::consts::PI / (2.0 * a)
+}
+
+/// The complete elliptic integral of the second kind, by the same AGM:
+/// `E(k) = K(k) (1 − Σ_{n≥0} 2^{n−1} c_n²)`, `c_0 = k`, `c_{n+1} = (a_n − b_n)/2`.
+pub fn elliptic_e(k: f64) -> f64 {
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    let mut sum = 0.5 * k * k;
+    let mut pow2 = 0.5;
+    for _ in 0..64 {
+        let c = 0.5 * (a - b);
+        pow2 *= 2.0;
+        sum += pow2 * c * c;
+        if c.abs() <= f64::EPSILON * a {
+            break;
+        }
+        let an = 0.5 * (a + b);
+        b = (a * b).sqrt();
+        a = an;
+    }
+    std::f64::consts::PI / (2.0 * a) * (1.0 - sum)
+}

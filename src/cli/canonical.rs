@@ -1,0 +1,519 @@
+//! `pb`, `integral`, `canonical`, `is-canonical`, `lie`, `action`, `average`: the commands of
+//! canonical perturbation theory (PHYSICS.md §4 and §2.5). They parse, call
+//! `lagrangian::canonical`, and print.
+
+use clap::{ArgGroup, Subcommand};
+use lagrangian::canonical::{self, ExplicitMap, Generator, GeneratorKind, PhaseSpace, Trial};
+use lagrangian::print::{render, symbol};
+use lagrangian::{Declarations, Expr, Symbol};
+use serde_json::{json, Value};
+
+use super::{bad_input, parse_arg, parse_var, Common, Failure, OutFormat};
+
+#[derive(Subcommand)]
+pub enum CanonicalCommand {
+    /// Poisson bracket {f, g} = Σ (∂f/∂q ∂g/∂p − ∂f/∂p ∂g/∂q); momenta are p_<coord>.
+    Pb {
+        /// First argument f.
+        #[arg(allow_hyphen_values = true)]
+        f: String,
+        /// Second argument g.
+        #[arg(allow_hyphen_values = true)]
+        g: String,
+        /// Coordinates (momenta are `p_<name>` unless `--momenta` is given).
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Momenta, in the order of `--coords`.
+        #[arg(long, value_delimiter = ',')]
+        momenta: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Whether f is an integral of motion of H: df/dt = {f, H} + ∂f/∂t = 0.
+    Integral {
+        /// The candidate f.
+        #[arg(allow_hyphen_values = true)]
+        f: String,
+        /// The Hamiltonian.
+        #[arg(long, allow_hyphen_values = true)]
+        hamiltonian: String,
+        /// Coordinates.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Momenta, in the order of `--coords`.
+        #[arg(long, value_delimiter = ',')]
+        momenta: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Canonical transformation from a generating function F1(q,Q,t), F2(q,P,t), F3(p,Q,t)
+    /// or F4(p,P,t): relations, maps both ways, and K = H + ∂F/∂t.
+    #[command(group(ArgGroup::new("generator").required(true).args(["f1", "f2", "f3", "f4"])))]
+    Canonical {
+        /// F1(q, Q, t): p = ∂F1/∂q, P = −∂F1/∂Q.
+        #[arg(long, allow_hyphen_values = true)]
+        f1: Option<String>,
+        /// F2(q, P, t): p = ∂F2/∂q, Q = ∂F2/∂P.
+        #[arg(long, allow_hyphen_values = true)]
+        f2: Option<String>,
+        /// F3(p, Q, t): q = −∂F3/∂p, P = −∂F3/∂Q.
+        #[arg(long, allow_hyphen_values = true)]
+        f3: Option<String>,
+        /// F4(p, P, t): q = −∂F4/∂p, Q = ∂F4/∂P.
+        #[arg(long, allow_hyphen_values = true)]
+        f4: Option<String>,
+        /// The old Hamiltonian H(q, p, t), to get K.
+        #[arg(long, allow_hyphen_values = true)]
+        hamiltonian: Option<String>,
+        /// Old coordinates.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Old momenta, in the order of `--coords`.
+        #[arg(long, value_delimiter = ',')]
+        momenta: Vec<String>,
+        /// New variables: the new coordinates then the new momenta (`Q,P`; `X,Y,P_X,P_Y`).
+        #[arg(long, value_delimiter = ',')]
+        new: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Whether an explicit map "Q = …, P = …" is canonical (fundamental brackets).
+    IsCanonical {
+        /// The map: new coordinates first, then new momenta, e.g. "Q = log(sin(p_q)/q), P = q cot(p_q)".
+        #[arg(allow_hyphen_values = true)]
+        map: String,
+        /// Old coordinates.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Old momenta, in the order of `--coords`.
+        #[arg(long, value_delimiter = ',')]
+        momenta: Vec<String>,
+        /// The old Hamiltonian, to express it in the new variables.
+        #[arg(long, allow_hyphen_values = true)]
+        hamiltonian: Option<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Lie series exp(ε{·, G}) f to a given order, or (with --flow H) the flow of H as a
+    /// series in t.
+    #[command(group(ArgGroup::new("lie_gen").required(true).args(["generator", "flow"])))]
+    Lie {
+        /// The function f to transform.
+        #[arg(allow_hyphen_values = true)]
+        f: String,
+        /// The generator G.
+        #[arg(long, allow_hyphen_values = true)]
+        generator: Option<String>,
+        /// An autonomous Hamiltonian whose flow to expand in t.
+        #[arg(long, allow_hyphen_values = true)]
+        flow: Option<String>,
+        /// The highest power of ε (or t) kept.
+        #[arg(long, default_value_t = 3)]
+        order: usize,
+        /// The small parameter's name.
+        #[arg(long, default_value = "ε")]
+        epsilon: String,
+        /// Coordinates.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Momenta, in the order of `--coords`.
+        #[arg(long, value_delimiter = ',')]
+        momenta: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Action J(E) = (1/2π)∮p dq, period T(E) and ω(E) = 2π/T of a 1-dof H(q, p), by quadrature.
+    Action {
+        /// The Hamiltonian H(q, p), at most quadratic in p.
+        #[arg(long, allow_hyphen_values = true)]
+        hamiltonian: String,
+        /// The coordinate.
+        #[arg(long)]
+        coord: String,
+        /// Its momentum (default p_<coord>).
+        #[arg(long)]
+        momentum: Option<String>,
+        /// Energies, comma-separated.
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+        energy: Vec<f64>,
+        /// Parameter values, `m=1,g=9.81`.
+        #[arg(long, value_delimiter = ',')]
+        params: Vec<String>,
+        /// A coordinate value inside the well.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        near: f64,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Averaged Lagrangian ⟨L⟩ = (1/2π)∫L dθ of a trial function periodic in θ, with
+    /// ∂⟨L⟩/∂A_k = 0 and J = ∂⟨L⟩/∂ω.
+    Average {
+        /// The Lagrangian L(q, q').
+        #[arg(allow_hyphen_values = true)]
+        lagrangian: String,
+        /// Trial functions `x = …` (repeat for several coordinates).
+        #[arg(long, required = true)]
+        trial: Vec<String>,
+        /// The phase.
+        #[arg(long, default_value = "θ")]
+        phase: String,
+        /// The frequency ω = θ'.
+        #[arg(long, default_value = "ω")]
+        frequency: String,
+        /// The amplitudes A_k (default: symbols of the trials absent from L).
+        #[arg(long, value_delimiter = ',')]
+        amplitudes: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+}
+
+struct Out {
+    format: OutFormat,
+}
+
+impl Out {
+    fn e(&self, e: &Expr) -> String {
+        render(e, self.format.expr_format())
+    }
+    fn s(&self, s: &Symbol) -> String {
+        symbol(s, self.format.expr_format())
+    }
+    fn eq(&self, s: &Symbol, e: &Expr) -> String {
+        format!("{} = {}", self.s(s), self.e(e))
+    }
+}
+
+fn phase_space(coords: &[String], momenta: &[String]) -> Result<PhaseSpace, Failure> {
+    let r = if momenta.is_empty() { PhaseSpace::new(coords) } else { PhaseSpace::with_momenta(coords, momenta) };
+    r.map_err(|e| bad_input(format!("error: {e}")))
+}
+
+fn json_pairs(rel: &[(Symbol, Expr)]) -> Value {
+    Value::Array(rel.iter().map(|(s, e)| json!({"variable": s.to_string(), "value": e.to_string()})).collect())
+}
+
+pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
+    match cmd {
+        CanonicalCommand::Pb { f, g, coords, momenta, common } => {
+            let decls = common.declarations();
+            let ps = phase_space(&coords, &momenta)?;
+            let (_, fe) = parse_arg(&f, &decls)?;
+            let (_, ge) = parse_arg(&g, &decls)?;
+            let r = canonical::poisson(&fe, &ge, &ps);
+            let out = Out { format: common.format };
+            if common.format == OutFormat::Json {
+                println!("{}", json!({"f": fe.to_string(), "g": ge.to_string(), "bracket": r.to_string()}));
+            } else {
+                println!("{}", out.e(&r));
+            }
+        }
+        CanonicalCommand::Integral { f, hamiltonian, coords, momenta, common } => {
+            let decls = common.declarations();
+            let ps = phase_space(&coords, &momenta)?;
+            let (_, fe) = parse_arg(&f, &decls)?;
+            let (_, h) = parse_arg(&hamiltonian, &decls)?;
+            let dfdt = canonical::time_derivative(&fe, &h, &ps);
+            let check = canonical::is_integral(&fe, &h, &ps);
+            let verdict = if check.is_zero() { "an integral of motion" } else { "not an integral of motion" };
+            let out = Out { format: common.format };
+            if common.format == OutFormat::Json {
+                println!(
+                    "{}",
+                    json!({"f": fe.to_string(), "dfdt": dfdt.to_string(), "integral": check.is_zero(), "check": check.describe()})
+                );
+            } else {
+                println!("df/dt = {{f, H}} + ∂f/∂t = {}", out.e(&dfdt));
+                println!("{verdict}: {}", check.describe());
+            }
+        }
+        CanonicalCommand::Canonical { f1, f2, f3, f4, hamiltonian, coords, momenta, new, common } => {
+            let decls = common.declarations();
+            let old = phase_space(&coords, &momenta)?;
+            let new = new_space(&new, old.dof())?;
+            let (kind, text) = match (f1, f2, f3, f4) {
+                (Some(t), _, _, _) => (GeneratorKind::F1, t),
+                (_, Some(t), _, _) => (GeneratorKind::F2, t),
+                (_, _, Some(t), _) => (GeneratorKind::F3, t),
+                (_, _, _, Some(t)) => (GeneratorKind::F4, t),
+                _ => return Err(bad_input("error: give one of --f1, --f2, --f3, --f4")),
+            };
+            let (_, f) = parse_arg(&text, &decls)?;
+            let h = match &hamiltonian {
+                Some(t) => Some(parse_arg(t, &decls)?.1),
+                None => None,
+            };
+            let g = Generator::new(kind, f, old, new).map_err(|e| bad_input(format!("error: {e}")))?;
+            let t = g.transform(h.as_ref()).map_err(|e| bad_input(format!("error: {e}")))?;
+            print_transform(&t, common.format);
+        }
+        CanonicalCommand::IsCanonical { map, coords, momenta, hamiltonian, common } => {
+            let decls = common.declarations();
+            let old = phase_space(&coords, &momenta)?;
+            let entries = parse_map(&map, &decls)?;
+            let n = old.dof();
+            if entries.len() != 2 * n {
+                return Err(bad_input(format!(
+                    "error: the map gives {} entries, but {n} degree(s) of freedom need {} (new coordinates, then new momenta)",
+                    entries.len(),
+                    2 * n
+                )));
+            }
+            let names: Vec<String> = entries.iter().map(|(s, _)| s.to_string()).collect();
+            let new =
+                PhaseSpace::with_momenta(&names[..n], &names[n..]).map_err(|e| bad_input(format!("error: {e}")))?;
+            let q_new = entries[..n].iter().map(|(_, e)| e.clone()).collect();
+            let p_new = entries[n..].iter().map(|(_, e)| e.clone()).collect();
+            let h = match &hamiltonian {
+                Some(t) => Some(parse_arg(t, &decls)?.1),
+                None => None,
+            };
+            let report = canonical::check_map(&ExplicitMap { old, new, q_new, p_new }, h.as_ref());
+            print_map_report(&report, common.format);
+        }
+        CanonicalCommand::Lie { f, generator, flow, order, epsilon, coords, momenta, common } => {
+            let decls = common.declarations();
+            let ps = phase_space(&coords, &momenta)?;
+            let (_, fe) = parse_arg(&f, &decls)?;
+            let r = match (generator, flow) {
+                (Some(g), _) => {
+                    let (_, ge) = parse_arg(&g, &decls)?;
+                    let eps = parse_var(&epsilon, &decls)?;
+                    canonical::lie_series(&fe, &ge, &eps, order, &ps)
+                }
+                (None, Some(h)) => {
+                    let (_, he) = parse_arg(&h, &decls)?;
+                    canonical::lie_flow(&fe, &he, order, &ps).map_err(|e| bad_input(format!("error: {e}")))?
+                }
+                (None, None) => return Err(bad_input("error: give --generator G or --flow H")),
+            };
+            let out = Out { format: common.format };
+            if common.format == OutFormat::Json {
+                println!("{}", json!({"f": fe.to_string(), "order": order, "series": r.to_string()}));
+            } else {
+                println!("{}", out.e(&r));
+            }
+        }
+        CanonicalCommand::Action { hamiltonian, coord, momentum, energy, params, near, common } => {
+            let decls = common.declarations();
+            let (_, h) = parse_arg(&hamiltonian, &decls)?;
+            let q = parse_var(&coord, &decls)?;
+            let p = match momentum {
+                Some(m) => parse_var(&m, &decls)?,
+                None => Symbol::new(&format!("p_{coord}")),
+            };
+            let mut env = lagrangian::eval::Env::new();
+            for kv in &params {
+                let (k, v) = kv
+                    .split_once('=')
+                    .ok_or_else(|| bad_input(format!("error: parameter `{kv}` is not of the form name=value")))?;
+                let v: f64 =
+                    v.trim().parse().map_err(|_| bad_input(format!("error: `{v}` in `{kv}` is not a number")))?;
+                env.insert(k.trim().to_string(), v);
+            }
+            let mut rows = Vec::new();
+            for e in energy {
+                let r = canonical::action_frequency(&h, &q, &p, e, &env, near)
+                    .map_err(|err| bad_input(format!("error: at E = {e}: {err}")))?;
+                rows.push(r);
+            }
+            if common.format == OutFormat::Json {
+                let v: Vec<Value> = rows
+                    .iter()
+                    .map(|r| json!({"energy": r.energy, "action": r.action, "period": r.period, "omega": r.omega,
+                                   "turning_points": [r.turning_points.0, r.turning_points.1], "relative_error_estimate": r.error_estimate}))
+                    .collect();
+                println!("{}", Value::Array(v));
+            } else {
+                println!("{:>14} {:>22} {:>22} {:>22} {:>9}", "E", "J(E)", "T(E)", "ω(E)", "rel.err");
+                for r in rows {
+                    println!(
+                        "{:>14.6e} {:>22.15e} {:>22.15e} {:>22.15e} {:>9.1e}",
+                        r.energy, r.action, r.period, r.omega, r.error_estimate
+                    );
+                }
+            }
+        }
+        CanonicalCommand::Average { lagrangian, trial, phase, frequency, amplitudes, common } => {
+            let decls = common.declarations();
+            let (_, l) = parse_arg(&lagrangian, &decls)?;
+            let mut trials = Vec::new();
+            for t in &trial {
+                let (lhs, rhs) = t
+                    .split_once('=')
+                    .ok_or_else(|| bad_input(format!("error: trial `{t}` is not of the form `x = expression`")))?;
+                let coord = parse_var(lhs.trim(), &decls)?;
+                let (_, expr) = parse_arg(rhs, &decls)?;
+                trials.push(Trial { coord, expr });
+            }
+            let th = parse_var(&phase, &decls)?;
+            let w = parse_var(&frequency, &decls)?;
+            let amps: Vec<Symbol> = if amplitudes.is_empty() {
+                let in_l = l.free_symbols();
+                let mut set = std::collections::BTreeSet::new();
+                for t in &trials {
+                    set.extend(t.expr.free_symbols().into_iter().filter(|s| *s != th && !in_l.contains(s)));
+                }
+                set.into_iter().collect()
+            } else {
+                amplitudes.iter().map(|a| parse_var(a, &decls)).collect::<Result<_, _>>()?
+            };
+            let avg = canonical::average_lagrangian(&l, &trials, &th, &w, &amps)
+                .map_err(|e| bad_input(format!("error: {e}")))?;
+            let out = Out { format: common.format };
+            if common.format == OutFormat::Json {
+                let rel: Vec<Value> = avg
+                    .relations
+                    .iter()
+                    .map(|(a, e)| json!({"amplitude": a.to_string(), "dL_dA": e.to_string()}))
+                    .collect();
+                println!(
+                    "{}",
+                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string()})
+                );
+            } else {
+                println!("⟨L⟩ = {}", out.e(&avg.lagrangian));
+                for (a, e) in &avg.relations {
+                    println!("∂⟨L⟩/∂{} = {} = 0", out.s(a), out.e(e));
+                }
+                println!("J = ∂⟨L⟩/∂{} = {}", out.s(&w), out.e(&avg.action));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The new phase space from `--new` (coordinates then momenta), or `Q,P` / `Q1..Qn,P1..Pn`.
+fn new_space(names: &[String], n: usize) -> Result<PhaseSpace, Failure> {
+    let names: Vec<String> = if names.is_empty() {
+        if n == 1 {
+            vec!["Q".into(), "P".into()]
+        } else {
+            (1..=n).map(|i| format!("Q{i}")).chain((1..=n).map(|i| format!("P{i}"))).collect()
+        }
+    } else {
+        names.to_vec()
+    };
+    if names.len() != 2 * n {
+        return Err(bad_input(format!(
+            "error: --new lists {} names, but {n} degree(s) of freedom need {} (new coordinates, then new momenta)",
+            names.len(),
+            2 * n
+        )));
+    }
+    PhaseSpace::with_momenta(&names[..n], &names[n..]).map_err(|e| bad_input(format!("error: {e}")))
+}
+
+/// Splits "Q = …, P = …" at top-level commas.
+fn parse_map(text: &str, decls: &Declarations) -> Result<Vec<(Symbol, Expr)>, Failure> {
+    let mut parts = Vec::new();
+    let mut depth = 0i32;
+    let mut cur = String::new();
+    for ch in text.chars() {
+        match ch {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            _ => {}
+        }
+        if ch == ',' && depth == 0 {
+            parts.push(std::mem::take(&mut cur));
+        } else {
+            cur.push(ch);
+        }
+    }
+    parts.push(cur);
+    let mut out = Vec::new();
+    for part in parts {
+        let (lhs, rhs) = part
+            .split_once('=')
+            .ok_or_else(|| bad_input(format!("error: `{}` is not of the form `Q = expression`", part.trim())))?;
+        let s = parse_var(lhs.trim(), decls)?;
+        let (_, e) = parse_arg(rhs, decls)?;
+        out.push((s, e));
+    }
+    Ok(out)
+}
+
+fn print_transform(t: &canonical::GeneratedTransform, format: OutFormat) {
+    let out = Out { format };
+    if format == OutFormat::Json {
+        let map = |r: &Result<Vec<(Symbol, Expr)>, canonical::SolveError>| match r {
+            Ok(v) => json!({"closed_form": true, "relations": json_pairs(v)}),
+            Err(e) => json!({"closed_form": false, "reason": e.to_string()}),
+        };
+        let k = match &t.hamiltonian {
+            None => Value::Null,
+            Some(Ok(k)) => json!(k.to_string()),
+            Some(Err(e)) => json!({"error": e.to_string(), "mixed": t.k_mixed.as_ref().map(|k| k.to_string())}),
+        };
+        println!(
+            "{}",
+            json!({"kind": t.kind.to_string(), "relations": json_pairs(&t.relations), "inverse": map(&t.inverse),
+                   "forward": map(&t.forward), "branches": t.branches, "K": k})
+        );
+        return;
+    }
+    println!("relations ({}):", t.kind);
+    for (s, e) in &t.relations {
+        println!("  {}", out.eq(s, e));
+    }
+    let show = |title: &str, r: &Result<Vec<(Symbol, Expr)>, canonical::SolveError>| match r {
+        Ok(v) => {
+            println!("{title}:");
+            for (s, e) in v {
+                println!("  {}", out.eq(s, e));
+            }
+        }
+        Err(e) => println!("{title}: no closed form ({e}); the relations above stay implicit"),
+    };
+    show("old variables (inverse map)", &t.inverse);
+    show("new variables (forward map)", &t.forward);
+    for b in &t.branches {
+        println!("branch: {b}");
+    }
+    match &t.hamiltonian {
+        None => {}
+        Some(Ok(k)) => println!("K = {}", out.e(k)),
+        Some(Err(e)) => {
+            if let Some(m) = &t.k_mixed {
+                println!("K = H + ∂F/∂t = {} (in the generator's variables; {e})", out.e(m));
+            }
+        }
+    }
+}
+
+fn print_map_report(r: &canonical::MapReport, format: OutFormat) {
+    let out = Out { format };
+    if format == OutFormat::Json {
+        let br: Vec<Value> = r
+            .brackets
+            .iter()
+            .map(|b| json!({"bracket": b.name, "value": b.value.to_string(), "expected": b.expected.to_string(), "check": b.check.describe()}))
+            .collect();
+        let k = match &r.hamiltonian {
+            None => Value::Null,
+            Some(Ok(k)) => json!(k.to_string()),
+            Some(Err(e)) => json!({"error": e.to_string()}),
+        };
+        println!(
+            "{}",
+            json!({"canonical": r.canonicity.is_canonical(), "verdict": r.canonicity.describe(), "brackets": br, "K": k})
+        );
+        return;
+    }
+    let word = if r.canonicity.is_canonical() { "yes" } else { "no" };
+    println!("canonical: {word}: {}", r.canonicity.describe());
+    for b in &r.brackets {
+        println!("  {} = {}  ({})", b.name, out.e(&b.value), b.check.describe());
+    }
+    if let Some(Ok(inv)) = &r.inverse {
+        for (s, e) in inv {
+            println!("  {}", out.eq(s, e));
+        }
+    }
+    match &r.hamiltonian {
+        None => {}
+        Some(Ok(k)) => println!("K = {}", out.e(k)),
+        Some(Err(e)) => println!("K: {e}"),
+    }
+}

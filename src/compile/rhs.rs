@@ -1,0 +1,934 @@
+//! Right-hand sides for the integrators, compiled from equations of motion.
+//!
+//! Every type here evaluates on one per-thread scratch buffer laid out as
+//! `tape slots | matrices | vectors`, so a call never allocates, and is `Sync` so ensembles
+//! can share it across threads. Failures along a trajectory (a mass matrix that becomes
+//! singular, a non-finite value, a Legendre map that does not converge) are returned by the
+//! fallible `try_*` methods; the infallible [`Rhs::eval`] writes NaN, which the integrators'
+//! non-finite guard catches, and keeps the reason for [`LagrangianRhs::last_error`].
+
+use std::sync::Mutex;
+
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Node, Symbol};
+use crate::integrate::{Jacobian, Rhs, Separable};
+
+use super::tape::{with_scratch, Tape, LANES};
+use super::{velocity_name, CompileError};
+
+/// Why a right-hand side has no value at a state.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RhsError {
+    /// `W q'' = F` cannot be solved: the mass matrix is singular to working precision.
+    #[error("the mass matrix is singular at t = {t} (no pivot for the velocity `{velocity}`); state {state:?}")]
+    SingularMassMatrix { t: f64, state: Vec<f64>, velocity: String },
+    /// A mass-matrix entry, a force or a derivative is infinite or NaN.
+    #[error("non-finite {what} at t = {t}; state {state:?}")]
+    NonFinite { t: f64, state: Vec<f64>, what: &'static str },
+    /// Newton's method for `p = ∂L/∂q'` did not converge.
+    #[error("the Legendre map did not converge at t = {t} after {iterations} Newton steps (residual {residual:e}); state {state:?}")]
+    LegendreNewton { t: f64, state: Vec<f64>, iterations: usize, residual: f64 },
+}
+
+/// Where a failed evaluation keeps its reason. Locked only on failure and when asked.
+#[derive(Debug, Default)]
+struct ErrorSlot(Mutex<Option<RhsError>>);
+
+impl ErrorSlot {
+    fn set(&self, e: RhsError) {
+        if let Ok(mut g) = self.0.lock() {
+            *g = Some(e);
+        }
+    }
+    fn get(&self) -> Option<RhsError> {
+        self.0.lock().ok().and_then(|g| g.clone())
+    }
+    fn take(&self) -> Option<RhsError> {
+        self.0.lock().ok().and_then(|mut g| g.take())
+    }
+}
+
+/// How a matrix was factorised in place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Factor {
+    /// `A = L Lᵀ`, `L` in the lower triangle.
+    Cholesky,
+    /// `P A = L U` with unit `L` below the diagonal, `U` on and above, `perm` the row order.
+    Lu,
+}
+
+/// Factorises the `n × n` row-major matrix `a` into `m`: Cholesky when `try_cholesky` and the
+/// matrix is positive definite, otherwise LU with partial pivoting. `perm` receives the row
+/// order (as `f64`, exact for any realistic `n`). A pivot no larger than `n·ε·max|a_ij|` means
+/// singular to working precision; the error carries the column of the failing pivot.
+fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bool) -> Result<Factor, usize> {
+    let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
+    let tol = n as f64 * f64::EPSILON * scale;
+    if try_cholesky {
+        m[..n * n].copy_from_slice(&a[..n * n]);
+        let mut ok = true;
+        'outer: for j in 0..n {
+            let mut d = m[j * n + j];
+            for k in 0..j {
+                d -= m[j * n + k] * m[j * n + k];
+            }
+            if d <= tol {
+                ok = false;
+                break 'outer;
+            }
+            let l = d.sqrt();
+            m[j * n + j] = l;
+            for i in j + 1..n {
+                let mut x = m[i * n + j];
+                for k in 0..j {
+                    x -= m[i * n + k] * m[j * n + k];
+                }
+                m[i * n + j] = x / l;
+            }
+        }
+        if ok {
+            return Ok(Factor::Cholesky);
+        }
+    }
+    m[..n * n].copy_from_slice(&a[..n * n]);
+    for (i, p) in perm.iter_mut().enumerate().take(n) {
+        *p = i as f64;
+    }
+    for j in 0..n {
+        let mut piv = j;
+        for i in j + 1..n {
+            if m[i * n + j].abs() > m[piv * n + j].abs() {
+                piv = i;
+            }
+        }
+        if m[piv * n + j].abs() <= tol {
+            return Err(j);
+        }
+        if piv != j {
+            for k in 0..n {
+                m.swap(j * n + k, piv * n + k);
+            }
+            perm.swap(j, piv);
+        }
+        let d = m[j * n + j];
+        for i in j + 1..n {
+            let f = m[i * n + j] / d;
+            m[i * n + j] = f;
+            for k in j + 1..n {
+                m[i * n + k] -= f * m[j * n + k];
+            }
+        }
+    }
+    Ok(Factor::Lu)
+}
+
+/// Solves with a factorisation from [`factor`]: `x` holds the right-hand side on entry and the
+/// solution on exit; `tmp` is `n` values of workspace.
+fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
+    match kind {
+        Factor::Cholesky => {
+            for i in 0..n {
+                let mut v = x[i];
+                for k in 0..i {
+                    v -= m[i * n + k] * x[k];
+                }
+                x[i] = v / m[i * n + i];
+            }
+            for i in (0..n).rev() {
+                let mut v = x[i];
+                for k in i + 1..n {
+                    v -= m[k * n + i] * x[k];
+                }
+                x[i] = v / m[i * n + i];
+            }
+        }
+        Factor::Lu => {
+            for i in 0..n {
+                tmp[i] = x[perm[i] as usize];
+            }
+            for i in 0..n {
+                let mut v = tmp[i];
+                for k in 0..i {
+                    v -= m[i * n + k] * tmp[k];
+                }
+                tmp[i] = v;
+            }
+            for i in (0..n).rev() {
+                let mut v = tmp[i];
+                for k in i + 1..n {
+                    v -= m[i * n + k] * tmp[k];
+                }
+                tmp[i] = v / m[i * n + i];
+            }
+            x[..n].copy_from_slice(&tmp[..n]);
+        }
+    }
+}
+
+/// The inputs of every compiled tape of a system with coordinates `q`: `q…, q'…, t`.
+fn state_inputs(coords: &[String]) -> Vec<String> {
+    let mut v: Vec<String> = coords.to_vec();
+    v.extend(coords.iter().map(|q| velocity_name(q)));
+    v.push("t".to_string());
+    v
+}
+
+fn as_strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// The symbol of a name as the compiler matches it (by plain spelling, so sign assumptions do
+/// not matter): `θ'` is `θ` with one prime.
+fn symbol_of(name: &str) -> Symbol {
+    let primes = name.chars().rev().take_while(|c| *c == '\'').count();
+    Symbol::new(&name[..name.len() - primes]).with_primes(primes as u8)
+}
+
+/// The symbol in `e` spelt `name`, if any (so a positive `m` is found by the name `m`).
+fn find_symbol(exprs: &[&Expr], name: &str) -> Symbol {
+    for e in exprs {
+        if let Some(s) = e.free_symbols().into_iter().find(|s| s.to_string() == name) {
+            return s;
+        }
+    }
+    symbol_of(name)
+}
+
+fn owned_params(params: &[(&str, f64)]) -> Vec<(String, f64)> {
+    params.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+}
+
+fn borrowed(params: &[(String, f64)]) -> Vec<(&str, f64)> {
+    params.iter().map(|(k, v)| (k.as_str(), *v)).collect()
+}
+
+/// `W q'' = F` as a first-order system in `y = (q, q')`.
+///
+/// `W` is the mass matrix `∂²L/∂q'_i∂q'_j` and `F_i = ∂L/∂q_i − Σ_j ∂²L/∂q'_i∂q_j q'_j −
+/// ∂²L/∂q'_i∂t` (PHYSICS.md §2). Both are compiled into one tape, so what they share (the
+/// `cos(θ1 − θ2)` of a double pendulum) is computed once; the solve is an in-place Cholesky
+/// (LU with pivoting when `W` is not positive definite) on the same scratch.
+#[derive(Debug)]
+pub struct LagrangianRhs {
+    n: usize,
+    coords: Vec<String>,
+    tape: Tape,
+    symmetric: bool,
+    w: Vec<Vec<Expr>>,
+    f: Vec<Expr>,
+    params: Vec<(String, f64)>,
+    error: ErrorSlot,
+}
+
+impl LagrangianRhs {
+    /// Compiles `W q'' = F` for the coordinates `coords` (names; velocities are the primed
+    /// names), with `params` bound. The time symbol is `t`.
+    pub fn new(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        coords: &[&str],
+        params: &[(&str, f64)],
+    ) -> Result<LagrangianRhs, CompileError> {
+        let n = coords.len();
+        check_shape("forces F", n, f.len())?;
+        check_shape("rows of the mass matrix W", n, w.len())?;
+        for row in w {
+            check_shape("columns of the mass matrix W", n, row.len())?;
+        }
+        let coords: Vec<String> = coords.iter().map(|s| s.to_string()).collect();
+        let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
+        outputs.extend(f.iter().cloned());
+        let inputs = state_inputs(&coords);
+        let tape = Tape::compile(&outputs, &as_strs(&inputs), params)?;
+        let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
+        Ok(LagrangianRhs {
+            n,
+            coords,
+            tape,
+            symmetric,
+            w: w.to_vec(),
+            f: f.to_vec(),
+            params: owned_params(params),
+            error: ErrorSlot::default(),
+        })
+    }
+
+    /// Degrees of freedom.
+    pub fn dof(&self) -> usize {
+        self.n
+    }
+
+    /// The compiled tape (`W` row-major, then `F`), for inspection and operation counts.
+    pub fn tape(&self) -> &Tape {
+        &self.tape
+    }
+
+    fn scratch_len(&self) -> usize {
+        let n = self.n;
+        self.tape.scratch_len() + 2 * n * n + 3 * n
+    }
+
+    /// Evaluates `y' = (q', q'')`, or says why it cannot.
+    pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.n;
+        dy[..n].copy_from_slice(&y[n..2 * n]);
+        with_scratch(self.scratch_len(), |s| {
+            let (slots, rest) = s.split_at_mut(self.tape.scratch_len());
+            self.accel_on(t, y, slots, rest, &mut dy[n..2 * n]).map(|_| ())
+        })
+    }
+
+    /// Runs the tape at `(t, y)` and solves for the accelerations into `acc`, leaving the
+    /// factorisation in `rest` (`a | m | perm | b | tmp`).
+    fn accel_on(
+        &self,
+        t: f64,
+        y: &[f64],
+        slots: &mut [f64],
+        rest: &mut [f64],
+        acc: &mut [f64],
+    ) -> Result<Factor, RhsError> {
+        let n = self.n;
+        slots[..2 * n].copy_from_slice(&y[..2 * n]);
+        slots[2 * n] = t;
+        self.tape.run_in_place(slots);
+        let (a, rest) = rest.split_at_mut(n * n);
+        let (m, rest) = rest.split_at_mut(n * n);
+        let (perm, rest) = rest.split_at_mut(n);
+        let (b, tmp) = rest.split_at_mut(n);
+        for (k, x) in a.iter_mut().enumerate() {
+            *x = slots[self.tape.output_slot(k)];
+        }
+        for (i, x) in b.iter_mut().enumerate() {
+            *x = slots[self.tape.output_slot(n * n + i)];
+        }
+        self.finish_solve(t, y, a, m, perm, b, tmp, acc)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn finish_solve(
+        &self,
+        t: f64,
+        y: &[f64],
+        a: &[f64],
+        m: &mut [f64],
+        perm: &mut [f64],
+        b: &[f64],
+        tmp: &mut [f64],
+        acc: &mut [f64],
+    ) -> Result<Factor, RhsError> {
+        let n = self.n;
+        if !a.iter().all(|x| x.is_finite()) {
+            return Err(RhsError::NonFinite { t, state: state_of(y, n), what: "mass matrix" });
+        }
+        if !b.iter().all(|x| x.is_finite()) {
+            return Err(RhsError::NonFinite { t, state: state_of(y, n), what: "force" });
+        }
+        let kind = factor(a, m, perm, n, self.symmetric).map_err(|j| RhsError::SingularMassMatrix {
+            t,
+            state: state_of(y, n),
+            velocity: velocity_name(&self.coords[j]),
+        })?;
+        acc[..n].copy_from_slice(&b[..n]);
+        solve(kind, m, perm, n, acc, tmp);
+        if !acc[..n].iter().all(|x| x.is_finite()) {
+            return Err(RhsError::NonFinite { t, state: state_of(y, n), what: "acceleration" });
+        }
+        Ok(kind)
+    }
+
+    /// The reason the most recent failed [`Rhs::eval`] wrote NaN, if any.
+    pub fn last_error(&self) -> Option<RhsError> {
+        self.error.get()
+    }
+
+    /// Returns and clears the last error.
+    pub fn take_error(&self) -> Option<RhsError> {
+        self.error.take()
+    }
+
+    /// Evaluates many states at once, structure-of-arrays: component `i` of state `k` is
+    /// `y[i * points + k]`, and likewise for `dy`. The tape runs [`LANES`] states per
+    /// instruction dispatch; the small solves follow per state.
+    pub fn eval_batch(&self, t: f64, y: &[f64], dy: &mut [f64], points: usize) -> Result<(), RhsError> {
+        let n = self.n;
+        let slots_len = self.tape.scratch_len() * LANES;
+        let mut state = vec![0.0; 0];
+        with_scratch(slots_len + 2 * n * n + 4 * n, |s| {
+            let (slots, rest) = s.split_at_mut(slots_len);
+            let (a, rest) = rest.split_at_mut(n * n);
+            let (m, rest) = rest.split_at_mut(n * n);
+            let (perm, rest) = rest.split_at_mut(n);
+            let (b, rest) = rest.split_at_mut(n);
+            let (tmp, acc) = rest.split_at_mut(n);
+            let mut start = 0;
+            while start < points {
+                let len = LANES.min(points - start);
+                for i in 0..2 * n {
+                    let dst = &mut slots[i * LANES..(i + 1) * LANES];
+                    dst[..len].copy_from_slice(&y[i * points + start..i * points + start + len]);
+                    dst[len..].fill(0.5);
+                }
+                slots[2 * n * LANES..(2 * n + 1) * LANES].fill(t);
+                self.tape.run_lanes_in_place(slots);
+                for l in 0..len {
+                    for (k, x) in a.iter_mut().enumerate() {
+                        *x = slots[self.tape.output_slot(k) * LANES + l];
+                    }
+                    for (i, x) in b.iter_mut().enumerate() {
+                        *x = slots[self.tape.output_slot(n * n + i) * LANES + l];
+                    }
+                    let k = start + l;
+                    let res = self.finish_solve(t, &[], a, m, perm, b, tmp, acc);
+                    if let Err(e) = res {
+                        // Only the failing state is gathered, for the error's report.
+                        state.extend((0..2 * n).map(|i| y[i * points + k]));
+                        return Err(with_state(e, &state));
+                    }
+                    for i in 0..n {
+                        dy[i * points + k] = y[(n + i) * points + k];
+                        dy[(n + i) * points + k] = acc[i];
+                    }
+                }
+                start += len;
+            }
+            Ok(())
+        })
+    }
+
+    /// Compiles the exact Jacobian `∂f/∂y` too (for implicit methods).
+    ///
+    /// With `a = W⁻¹F`, `∂a/∂y_j = W⁻¹ (∂F/∂y_j − (∂W/∂y_j) a)`: the derivatives of `W` and `F`
+    /// are symbolic and compiled into one tape; the solve reuses the factorisation of `W`.
+    pub fn with_jacobian(self) -> Result<LagrangianJacobian, CompileError> {
+        let n = self.n;
+        let inputs = state_inputs(&self.coords);
+        let exprs: Vec<&Expr> = self.w.iter().flatten().chain(self.f.iter()).collect();
+        let vars: Vec<Symbol> = inputs[..2 * n].iter().map(|name| find_symbol(&exprs, name)).collect();
+        let mut d = Differentiator::new();
+        let mut outputs = Vec::with_capacity(2 * n * (n + n * n));
+        for v in &vars {
+            for fi in &self.f {
+                outputs.push(d.diff(fi, v));
+            }
+            for row in &self.w {
+                for wik in row {
+                    outputs.push(d.diff(wik, v));
+                }
+            }
+        }
+        let jac = Tape::compile(&outputs, &as_strs(&inputs), &borrowed(&self.params))?;
+        Ok(LagrangianJacobian { rhs: self, jac })
+    }
+}
+
+fn with_state(e: RhsError, state: &[f64]) -> RhsError {
+    match e {
+        RhsError::SingularMassMatrix { t, velocity, .. } => {
+            RhsError::SingularMassMatrix { t, state: state.to_vec(), velocity }
+        }
+        RhsError::NonFinite { t, what, .. } => RhsError::NonFinite { t, state: state.to_vec(), what },
+        RhsError::LegendreNewton { t, iterations, residual, .. } => {
+            RhsError::LegendreNewton { t, state: state.to_vec(), iterations, residual }
+        }
+    }
+}
+
+/// The state for an error report (empty when the caller reports it itself).
+fn state_of(y: &[f64], n: usize) -> Vec<f64> {
+    y.get(..2 * n).map(<[f64]>::to_vec).unwrap_or_default()
+}
+
+fn check_shape(what: &'static str, expected: usize, got: usize) -> Result<(), CompileError> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(CompileError::Shape { what, expected, got })
+    }
+}
+
+fn fail_nan(dy: &mut [f64]) {
+    dy.iter_mut().for_each(|x| *x = f64::NAN);
+}
+
+impl Rhs for LagrangianRhs {
+    fn dim(&self) -> usize {
+        2 * self.n
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if let Err(e) = self.try_eval(t, y, dy) {
+            fail_nan(&mut dy[..2 * self.n]);
+            self.error.set(e);
+        }
+    }
+}
+
+/// A [`LagrangianRhs`] with its exact Jacobian compiled (see [`LagrangianRhs::with_jacobian`]).
+#[derive(Debug)]
+pub struct LagrangianJacobian {
+    rhs: LagrangianRhs,
+    jac: Tape,
+}
+
+impl LagrangianJacobian {
+    /// The right-hand side.
+    pub fn rhs(&self) -> &LagrangianRhs {
+        &self.rhs
+    }
+
+    /// The Jacobian tape, for inspection and operation counts.
+    pub fn tape(&self) -> &Tape {
+        &self.jac
+    }
+
+    /// Writes `∂f_i/∂y_j` into `jac[i * 2n + j]`, or says why it cannot.
+    pub fn try_jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.rhs.n;
+        let dim = 2 * n;
+        let slots_len = self.rhs.tape.scratch_len().max(self.jac.scratch_len());
+        let njac = dim * (n + n * n);
+        with_scratch(slots_len + 2 * n * n + 4 * n + njac, |s| {
+            let (slots, rest) = s.split_at_mut(slots_len);
+            let (solver, rest) = rest.split_at_mut(2 * n * n + 3 * n);
+            let (acc, jv) = rest.split_at_mut(n);
+            let kind = self.rhs.accel_on(t, y, slots, solver, acc)?;
+            // The input slots are never reused as registers, so they still hold (q, q', t).
+            self.jac.run_in_place(slots);
+            for (k, x) in jv.iter_mut().enumerate() {
+                *x = slots[self.jac.output_slot(k)];
+            }
+            if !jv.iter().all(|x| x.is_finite()) {
+                return Err(RhsError::NonFinite { t, state: y[..dim].to_vec(), what: "Jacobian" });
+            }
+            let (_a, rest) = solver.split_at_mut(n * n);
+            let (m, rest) = rest.split_at_mut(n * n);
+            let (perm, rest) = rest.split_at_mut(n);
+            let (r, tmp) = rest.split_at_mut(n);
+            for i in 0..n {
+                for j in 0..dim {
+                    jac[i * dim + j] = if j == n + i { 1.0 } else { 0.0 };
+                }
+            }
+            for j in 0..dim {
+                let block = &jv[j * (n + n * n)..(j + 1) * (n + n * n)];
+                let (df, dw) = block.split_at(n);
+                for i in 0..n {
+                    let mut v = df[i];
+                    for k in 0..n {
+                        v -= dw[i * n + k] * acc[k];
+                    }
+                    r[i] = v;
+                }
+                solve(kind, m, perm, n, r, tmp);
+                for i in 0..n {
+                    jac[(n + i) * dim + j] = r[i];
+                }
+            }
+            Ok(())
+        })
+    }
+}
+
+impl Rhs for LagrangianJacobian {
+    fn dim(&self) -> usize {
+        self.rhs.dim()
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.rhs.eval(t, y, dy)
+    }
+}
+
+impl Jacobian for LagrangianJacobian {
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
+        if let Err(e) = self.try_jacobian(t, y, jac) {
+            let d = self.rhs.dim();
+            fail_nan(&mut jac[..d * d]);
+            self.rhs.error.set(e);
+        }
+    }
+}
+
+/// Hamilton's equations `q' = ∂H/∂p`, `p' = −∂H/∂q` for any `H(q, p, t)`, with the exact
+/// Jacobian compiled alongside. State `y = (q, p)`.
+#[derive(Debug)]
+pub struct HamiltonianRhs {
+    n: usize,
+    tape: Tape,
+    jac: Tape,
+    error: ErrorSlot,
+}
+
+/// The inputs of a Hamiltonian tape: `q…, p…, t`.
+fn phase_inputs(coords: &[&str], momenta: &[&str]) -> Vec<String> {
+    coords.iter().chain(momenta).map(|s| s.to_string()).chain(["t".to_string()]).collect()
+}
+
+impl HamiltonianRhs {
+    /// Compiles Hamilton's equations of `h` with coordinates `coords` and their conjugate
+    /// momenta `momenta` (names, in the same order), `params` bound.
+    pub fn new(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+    ) -> Result<HamiltonianRhs, CompileError> {
+        let n = coords.len();
+        check_shape("momenta", n, momenta.len())?;
+        let inputs = phase_inputs(coords, momenta);
+        let syms: Vec<Symbol> = inputs[..2 * n].iter().map(|s| find_symbol(&[h], s)).collect();
+        let mut d = Differentiator::new();
+        let mut f: Vec<Expr> = syms[n..].iter().map(|p| d.diff(h, p)).collect();
+        f.extend(syms[..n].iter().map(|q| d.diff(h, q).neg()));
+        let mut jac_exprs = Vec::with_capacity(4 * n * n);
+        for fi in &f {
+            for s in &syms {
+                jac_exprs.push(d.diff(fi, s));
+            }
+        }
+        let tape = Tape::compile(&f, &as_strs(&inputs), params)?;
+        let jac = Tape::compile(&jac_exprs, &as_strs(&inputs), params)?;
+        Ok(HamiltonianRhs { n, tape, jac, error: ErrorSlot::default() })
+    }
+
+    /// The tape of `(∂H/∂p, −∂H/∂q)`.
+    pub fn tape(&self) -> &Tape {
+        &self.tape
+    }
+
+    /// The tape of the Jacobian, row-major.
+    pub fn jacobian_tape(&self) -> &Tape {
+        &self.jac
+    }
+
+    /// Evaluates Hamilton's equations, or reports a non-finite value.
+    pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        eval_phase(&self.tape, self.n, t, y, dy, "derivative of H")
+    }
+
+    /// The Jacobian `∂f_i/∂y_j` into `jac[i * 2n + j]`, or reports a non-finite value.
+    pub fn try_jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Result<(), RhsError> {
+        eval_phase(&self.jac, self.n, t, y, jac, "Jacobian")
+    }
+
+    /// The reason the most recent failed evaluation wrote NaN, if any.
+    pub fn last_error(&self) -> Option<RhsError> {
+        self.error.get()
+    }
+}
+
+fn eval_phase(tape: &Tape, n: usize, t: f64, y: &[f64], out: &mut [f64], what: &'static str) -> Result<(), RhsError> {
+    with_scratch(tape.scratch_len(), |s| {
+        s[..2 * n].copy_from_slice(&y[..2 * n]);
+        s[2 * n] = t;
+        tape.run_in_place(s);
+        for (k, o) in out[..tape.n_outputs()].iter_mut().enumerate() {
+            *o = s[tape.output_slot(k)];
+        }
+    });
+    if out[..tape.n_outputs()].iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(RhsError::NonFinite { t, state: y[..2 * n].to_vec(), what })
+    }
+}
+
+impl Rhs for HamiltonianRhs {
+    fn dim(&self) -> usize {
+        2 * self.n
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if let Err(e) = self.try_eval(t, y, dy) {
+            self.error.set(e);
+        }
+    }
+}
+
+impl Jacobian for HamiltonianRhs {
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) {
+        if let Err(e) = self.try_jacobian(t, y, jac) {
+            self.error.set(e);
+        }
+    }
+}
+
+/// Splits `h` into `(T(p), V(q, t))` when it is separable: every term of the sum depends on
+/// momenta only or on coordinates and time only (terms of parameters alone go to `V`).
+/// Products of parameters with a separable sum distribute (`½ (p² + q²)`). Returns `None`
+/// when some term mixes them (`p² / r²`).
+pub fn split_separable(h: &Expr, coords: &[&str], momenta: &[&str]) -> Option<(Expr, Expr)> {
+    let is_p = |s: &Symbol| momenta.contains(&s.to_string().as_str());
+    let is_q = |s: &Symbol| s.is_time() || coords.contains(&s.to_string().as_str());
+    split_rec(h, &is_p, &is_q)
+}
+
+fn split_rec(e: &Expr, is_p: &dyn Fn(&Symbol) -> bool, is_q: &dyn Fn(&Symbol) -> bool) -> Option<(Expr, Expr)> {
+    let syms = e.free_symbols();
+    let has_p = syms.iter().any(is_p);
+    let has_q = syms.iter().any(is_q);
+    match (has_p, has_q) {
+        (false, _) => return Some((Expr::zero(), e.clone())),
+        (true, false) => return Some((e.clone(), Expr::zero())),
+        _ => {}
+    }
+    match e.node() {
+        Node::Add(ts) => {
+            let mut tt = Vec::new();
+            let mut vv = Vec::new();
+            for term in ts {
+                let (a, b) = split_rec(term, is_p, is_q)?;
+                tt.push(a);
+                vv.push(b);
+            }
+            Some((Expr::add(tt), Expr::add(vv)))
+        }
+        Node::Mul(fs) => {
+            // Exactly one factor may depend on the state; the rest are parameters.
+            let (state, coeff): (Vec<Expr>, Vec<Expr>) =
+                fs.iter().cloned().partition(|f| f.free_symbols().iter().any(|s| is_p(s) || is_q(s)));
+            if state.len() != 1 {
+                return None;
+            }
+            let (a, b) = split_rec(&state[0], is_p, is_q)?;
+            let c = Expr::mul(coeff);
+            Some((c.times(&a), c.times(&b)))
+        }
+        _ => None,
+    }
+}
+
+/// A separable Hamiltonian `H = T(p) + V(q, t)` compiled as the two exactly solvable flows
+/// of splitting methods: the drift `∂T/∂p` and the kick `−∂V/∂q`.
+#[derive(Debug)]
+pub struct SeparableHamiltonian {
+    n: usize,
+    drift: Tape,
+    kick: Tape,
+}
+
+impl SeparableHamiltonian {
+    /// Splits and compiles `h`; [`CompileError::NotSeparable`] if it does not split.
+    pub fn new(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+    ) -> Result<SeparableHamiltonian, CompileError> {
+        let n = coords.len();
+        check_shape("momenta", n, momenta.len())?;
+        let (t, v) = split_separable(h, coords, momenta).ok_or(CompileError::NotSeparable)?;
+        let mut d = Differentiator::new();
+        let dt: Vec<Expr> = momenta.iter().map(|p| d.diff(&t, &find_symbol(&[h], p))).collect();
+        let dv: Vec<Expr> = coords.iter().map(|q| d.diff(&v, &find_symbol(&[h], q)).neg()).collect();
+        let drift = Tape::compile(&dt, momenta, params)?;
+        let mut kick_inputs: Vec<&str> = coords.to_vec();
+        kick_inputs.push("t");
+        let kick = Tape::compile(&dv, &kick_inputs, params)?;
+        Ok(SeparableHamiltonian { n, drift, kick })
+    }
+
+    /// The drift tape `∂T/∂p`.
+    pub fn drift_tape(&self) -> &Tape {
+        &self.drift
+    }
+
+    /// The kick tape `−∂V/∂q`.
+    pub fn kick_tape(&self) -> &Tape {
+        &self.kick
+    }
+}
+
+impl Separable for SeparableHamiltonian {
+    fn dof(&self) -> usize {
+        self.n
+    }
+    fn drift(&self, p: &[f64], dq: &mut [f64]) {
+        self.drift.eval(p, dq);
+    }
+    fn kick(&self, t: f64, q: &[f64], dp: &mut [f64]) {
+        let n = self.n;
+        with_scratch(self.kick.scratch_len(), |s| {
+            s[..n].copy_from_slice(&q[..n]);
+            s[n] = t;
+            self.kick.run_in_place(s);
+            for (k, o) in dp[..n].iter_mut().enumerate() {
+                *o = s[self.kick.output_slot(k)];
+            }
+        });
+    }
+}
+
+impl Rhs for SeparableHamiltonian {
+    fn dim(&self) -> usize {
+        2 * self.n
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = self.n;
+        let (dq, dp) = dy.split_at_mut(n);
+        self.drift(&y[n..2 * n], dq);
+        self.kick(t, &y[..n], dp);
+    }
+}
+
+/// Hamilton's equations of a Lagrangian whose Legendre transform has no closed form: the
+/// state is `(q, p)`; each call solves `p = ∂L/∂q'(q, q', t)` for `q'` by Newton's method
+/// (Jacobian `W = ∂²L/∂q'²`, backtracking when a step leaves the domain or does not reduce
+/// the residual), then returns `q' ` and `p' = ∂L/∂q`.
+#[derive(Debug)]
+pub struct ImplicitLegendreRhs {
+    n: usize,
+    coords: Vec<String>,
+    /// Outputs `∂L/∂q'` (n) then `W` (n², row-major).
+    newton: Tape,
+    /// Outputs `∂L/∂q` (n).
+    force: Tape,
+    symmetric: bool,
+    error: ErrorSlot,
+}
+
+/// Newton iterations allowed for the Legendre map.
+const NEWTON_MAX_ITER: usize = 60;
+
+impl ImplicitLegendreRhs {
+    /// Compiles the implicit Legendre map of `l` with coordinates `coords`, `params` bound.
+    pub fn new(l: &Expr, coords: &[&str], params: &[(&str, f64)]) -> Result<ImplicitLegendreRhs, CompileError> {
+        let n = coords.len();
+        let coords: Vec<String> = coords.iter().map(|s| s.to_string()).collect();
+        let inputs = state_inputs(&coords);
+        let syms: Vec<Symbol> = inputs[..2 * n].iter().map(|s| find_symbol(&[l], s)).collect();
+        let mut d = Differentiator::new();
+        let p: Vec<Expr> = syms[n..].iter().map(|v| d.diff(l, v)).collect();
+        let mut outs = p.clone();
+        let mut w = Vec::new();
+        for pi in &p {
+            let row: Vec<Expr> = syms[n..].iter().map(|v| d.diff(pi, v)).collect();
+            outs.extend(row.iter().cloned());
+            w.push(row);
+        }
+        let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
+        let force: Vec<Expr> = syms[..n].iter().map(|q| d.diff(l, q)).collect();
+        let newton = Tape::compile(&outs, &as_strs(&inputs), params)?;
+        let force = Tape::compile(&force, &as_strs(&inputs), params)?;
+        Ok(ImplicitLegendreRhs { n, coords, newton, force, symmetric, error: ErrorSlot::default() })
+    }
+
+    fn slots_len(&self) -> usize {
+        self.newton.scratch_len().max(self.force.scratch_len())
+    }
+
+    /// Residual `∂L/∂q'(q, v, t) − p` into `r` and `W` into `a`; returns `max |r_i|`, NaN when
+    /// anything is non-finite.
+    fn residual(&self, slots: &mut [f64], v: &[f64], p: &[f64], r: &mut [f64], a: &mut [f64]) -> f64 {
+        let n = self.n;
+        slots[n..2 * n].copy_from_slice(&v[..n]);
+        self.newton.run_in_place(slots);
+        let mut norm = 0.0f64;
+        for i in 0..n {
+            r[i] = slots[self.newton.output_slot(i)] - p[i];
+            norm = if r[i].is_finite() { norm.max(r[i].abs()) } else { f64::NAN };
+        }
+        for (k, x) in a.iter_mut().enumerate() {
+            *x = slots[self.newton.output_slot(n + k)];
+            if !x.is_finite() {
+                norm = f64::NAN;
+            }
+        }
+        norm
+    }
+
+    /// Solves `p = ∂L/∂q'(q, v, t)` for the velocities `v`; returns the Newton steps taken.
+    pub fn legendre(&self, t: f64, q: &[f64], p: &[f64], v: &mut [f64]) -> Result<usize, RhsError> {
+        let n = self.n;
+        let state = || q[..n].iter().chain(&p[..n]).copied().collect::<Vec<f64>>();
+        with_scratch(self.slots_len() + 2 * n * n + 5 * n, |s| {
+            let (slots, rest) = s.split_at_mut(self.slots_len());
+            let (a, rest) = rest.split_at_mut(n * n);
+            let (m, rest) = rest.split_at_mut(n * n);
+            let (perm, rest) = rest.split_at_mut(n);
+            let (r, rest) = rest.split_at_mut(n);
+            let (tmp, rest) = rest.split_at_mut(n);
+            let (trial, rest) = rest.split_at_mut(n);
+            let step = &mut rest[..n];
+            slots[..n].copy_from_slice(&q[..n]);
+            slots[2 * n] = t;
+            v[..n].fill(0.0);
+            let pscale = 1.0 + p[..n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
+            let mut norm = self.residual(slots, v, p, r, a);
+            for iter in 0..NEWTON_MAX_ITER {
+                if !norm.is_finite() {
+                    return Err(RhsError::NonFinite { t, state: state(), what: "momentum ∂L/∂q'" });
+                }
+                if norm <= 4.0 * f64::EPSILON * pscale {
+                    return Ok(iter);
+                }
+                let kind = factor(a, m, perm, n, self.symmetric).map_err(|j| RhsError::SingularMassMatrix {
+                    t,
+                    state: state(),
+                    velocity: velocity_name(&self.coords[j]),
+                })?;
+                step.copy_from_slice(r);
+                solve(kind, m, perm, n, step, tmp);
+                let vscale = 1.0 + v[..n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
+                let small = step.iter().all(|d| d.abs() <= 2.0 * f64::EPSILON * vscale);
+                // Backtracking: halve the step until the residual is finite and smaller.
+                let mut lambda = 1.0;
+                loop {
+                    for i in 0..n {
+                        trial[i] = v[i] - lambda * step[i];
+                    }
+                    let new = self.residual(slots, trial, p, r, a);
+                    if new.is_finite() && (new < norm || lambda < 1e-3 || small) {
+                        norm = new;
+                        break;
+                    }
+                    lambda *= 0.5;
+                    if lambda < 1e-12 {
+                        return Err(RhsError::LegendreNewton { t, state: state(), iterations: iter, residual: norm });
+                    }
+                }
+                v[..n].copy_from_slice(trial);
+                if small {
+                    return Ok(iter + 1);
+                }
+            }
+            Err(RhsError::LegendreNewton { t, state: state(), iterations: NEWTON_MAX_ITER, residual: norm })
+        })
+    }
+
+    /// Evaluates `(q', p')` at `(q, p)`, or says why it cannot.
+    pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.n;
+        let (dq, dp) = dy.split_at_mut(n);
+        self.legendre(t, &y[..n], &y[n..2 * n], dq)?;
+        with_scratch(self.force.scratch_len(), |s| {
+            s[..n].copy_from_slice(&y[..n]);
+            s[n..2 * n].copy_from_slice(&dq[..n]);
+            s[2 * n] = t;
+            self.force.run_in_place(s);
+            for (k, o) in dp[..n].iter_mut().enumerate() {
+                *o = s[self.force.output_slot(k)];
+            }
+        });
+        if dp[..n].iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(RhsError::NonFinite { t, state: y[..2 * n].to_vec(), what: "force ∂L/∂q" })
+        }
+    }
+
+    /// The reason the most recent failed evaluation wrote NaN, if any.
+    pub fn last_error(&self) -> Option<RhsError> {
+        self.error.get()
+    }
+}
+
+impl Rhs for ImplicitLegendreRhs {
+    fn dim(&self) -> usize {
+        2 * self.n
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if let Err(e) = self.try_eval(t, y, dy) {
+            fail_nan(&mut dy[..2 * self.n]);
+            self.error.set(e);
+        }
+    }
+}

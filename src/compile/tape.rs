@@ -1,0 +1,943 @@
+//! The register tape: the demanded outputs of a set of expressions lowered into a flat list of
+//! instructions over numbered slots, evaluated in a tight loop.
+//!
+//! Lowering walks the hash-consed DAG from the demanded outputs only (so dead outputs cost
+//! nothing) and memoises on node identity (so every shared subexpression is one slot). On
+//! top of that it value-numbers the emitted instructions (two different nodes that lower to
+//! the same `a·b` share it) and makes the choices that are cheap in floating point rather than
+//! small as trees: integer powers become multiplication chains, half-integer powers `sqrt`,
+//! negative powers a division (or, when the reciprocal is used more than once, one reciprocal
+//! shared by all its users), `sin` and `cos` of one argument one `sin_cos`, and every
+//! subexpression of bound parameters alone is folded to a constant at compile time.
+//!
+//! Slots are laid out as `inputs | constants | registers`; after lowering, registers are
+//! reassigned by a liveness scan so the scratch a call needs stays small.
+
+use std::cell::RefCell;
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+
+use num_traits::ToPrimitive;
+
+use crate::eval::eval_with;
+use crate::expr::{Expr, Func, Node, Rational, Symbol};
+
+use super::CompileError;
+
+/// The deepest expression the (recursive) lowering accepts before reporting an error instead
+/// of risking the stack.
+const MAX_DEPTH: usize = 2_000;
+
+/// Largest integer exponent turned into a multiplication chain; larger ones use `powf`.
+const MAX_CHAIN_EXP: i64 = 64;
+
+/// One tape instruction. Operands and destinations are slot numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Instr {
+    /// `d = a + b`
+    Add { d: u32, a: u32, b: u32 },
+    /// `d = a − b`
+    Sub { d: u32, a: u32, b: u32 },
+    /// `d = a · b`
+    Mul { d: u32, a: u32, b: u32 },
+    /// `d = a / b`
+    Div { d: u32, a: u32, b: u32 },
+    /// `d = −a`
+    Neg { d: u32, a: u32 },
+    /// `d = √a`
+    Sqrt { d: u32, a: u32 },
+    /// `s = sin a`, `c = cos a` in one instruction.
+    SinCos { s: u32, c: u32, a: u32 },
+    /// `d = f(a)` for a one-argument built-in.
+    Call { d: u32, f: Func, a: u32 },
+    /// `d = atan2(a, b)`
+    Atan2 { d: u32, a: u32, b: u32 },
+    /// `d = a ^ b` for a non-integer, non-half-integer exponent.
+    Powf { d: u32, a: u32, b: u32 },
+}
+
+impl Instr {
+    fn dsts(&self) -> [Option<u32>; 2] {
+        match *self {
+            Instr::SinCos { s, c, .. } => [Some(s), Some(c)],
+            Instr::Add { d, .. }
+            | Instr::Sub { d, .. }
+            | Instr::Mul { d, .. }
+            | Instr::Div { d, .. }
+            | Instr::Neg { d, .. }
+            | Instr::Sqrt { d, .. }
+            | Instr::Call { d, .. }
+            | Instr::Atan2 { d, .. }
+            | Instr::Powf { d, .. } => [Some(d), None],
+        }
+    }
+
+    fn srcs(&self) -> [Option<u32>; 2] {
+        match *self {
+            Instr::Add { a, b, .. }
+            | Instr::Sub { a, b, .. }
+            | Instr::Mul { a, b, .. }
+            | Instr::Div { a, b, .. }
+            | Instr::Atan2 { a, b, .. }
+            | Instr::Powf { a, b, .. } => [Some(a), Some(b)],
+            Instr::Neg { a, .. } | Instr::Sqrt { a, .. } | Instr::SinCos { a, .. } | Instr::Call { a, .. } => {
+                [Some(a), None]
+            }
+        }
+    }
+
+    fn map_slots(&mut self, src: &impl Fn(u32) -> u32, dst: &mut impl FnMut(u32) -> u32) {
+        // Sources are renamed before destinations: a destination may reuse a register freed by
+        // this instruction's own last read.
+        match self {
+            Instr::Add { d, a, b }
+            | Instr::Sub { d, a, b }
+            | Instr::Mul { d, a, b }
+            | Instr::Div { d, a, b }
+            | Instr::Atan2 { d, a, b }
+            | Instr::Powf { d, a, b } => {
+                *a = src(*a);
+                *b = src(*b);
+                *d = dst(*d);
+            }
+            Instr::Neg { d, a } | Instr::Sqrt { d, a } | Instr::Call { d, a, .. } => {
+                *a = src(*a);
+                *d = dst(*d);
+            }
+            Instr::SinCos { s, c, a } => {
+                *a = src(*a);
+                *s = dst(*s);
+                *c = dst(*c);
+            }
+        }
+    }
+}
+
+/// How many instructions of each kind a tape runs per evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OpCounts {
+    /// Additions and subtractions.
+    pub add: usize,
+    /// Multiplications.
+    pub mul: usize,
+    /// Divisions.
+    pub div: usize,
+    /// Negations.
+    pub neg: usize,
+    /// Square roots.
+    pub sqrt: usize,
+    /// `sin_cos` pairs.
+    pub sin_cos: usize,
+    /// Other built-in calls (`sin`, `exp`, `atan2`, …).
+    pub call: usize,
+    /// General powers `powf`.
+    pub powf: usize,
+}
+
+impl OpCounts {
+    /// All instructions.
+    pub fn total(&self) -> usize {
+        self.add + self.mul + self.div + self.neg + self.sqrt + self.sin_cos + self.call + self.powf
+    }
+}
+
+impl fmt::Display for OpCounts {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} ops: {} add/sub, {} mul, {} div, {} neg, {} sqrt, {} sin_cos, {} call, {} powf",
+            self.total(),
+            self.add,
+            self.mul,
+            self.div,
+            self.neg,
+            self.sqrt,
+            self.sin_cos,
+            self.call,
+            self.powf
+        )
+    }
+}
+
+/// A compiled set of expressions: `outputs = f(inputs)` with parameters bound.
+///
+/// Evaluation does not allocate (after a thread's first call, which sizes its scratch) and
+/// the tape is `Sync`: each thread evaluates on its own scratch.
+#[derive(Clone, Debug)]
+pub struct Tape {
+    input_names: Vec<String>,
+    consts: Vec<f64>,
+    instrs: Vec<Instr>,
+    outputs: Vec<u32>,
+    n_slots: usize,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on a per-thread scratch buffer of at least `len` values. The buffer grows on a
+/// thread's first call and is reused after, so steady-state evaluation does not allocate. A
+/// re-entrant call (a closure evaluating a tape inside another evaluation) gets a fresh buffer
+/// instead of panicking.
+pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut buf) => {
+            if buf.len() < len {
+                buf.resize(len, 0.0);
+            }
+            f(&mut buf[..len])
+        }
+        Err(_) => f(&mut vec![0.0; len]),
+    })
+}
+
+/// The number of points evaluated together by [`Tape::eval_batch`]: enough to amortise the
+/// instruction dispatch and let the element-wise loops vectorise.
+pub const LANES: usize = 8;
+
+impl Tape {
+    /// Compiles `outputs` as functions of the symbols named in `inputs` (plain spelling:
+    /// `"x"`, `"θ1'"`, `"t"`), with the symbols in `params` bound to numbers.
+    ///
+    /// Only the outputs asked for are lowered, so anything they do not depend on is never
+    /// computed. Every other symbol is an error.
+    pub fn compile(outputs: &[Expr], inputs: &[&str], params: &[(&str, f64)]) -> Result<Tape, CompileError> {
+        let mut input_slots = HashMap::new();
+        for (i, name) in inputs.iter().enumerate() {
+            if input_slots.insert(name.to_string(), i as u32).is_some() {
+                return Err(CompileError::DuplicateInput { name: name.to_string() });
+            }
+        }
+        let mut param_map = HashMap::new();
+        for (name, value) in params {
+            if input_slots.contains_key(*name) {
+                return Err(CompileError::ParamIsInput { name: name.to_string() });
+            }
+            if !value.is_finite() {
+                return Err(CompileError::NonFiniteParam { name: name.to_string(), value: *value });
+            }
+            param_map.insert(name.to_string(), *value);
+        }
+        let mut lower = Lower::new(input_slots, param_map, outputs);
+        let mut out_slots = Vec::with_capacity(outputs.len());
+        for e in outputs {
+            let (slot, neg) = lower.lower_signed(e, 0)?;
+            out_slots.push(if neg { lower.neg(slot) } else { slot });
+        }
+        let n_slots =
+            finalize_numbering(inputs.len() as u32, lower.consts.len() as u32, &mut lower.instrs, &mut out_slots);
+        let tape = Tape {
+            input_names: inputs.iter().map(|s| s.to_string()).collect(),
+            consts: lower.consts,
+            instrs: lower.instrs,
+            outputs: out_slots,
+            n_slots: n_slots as usize,
+        };
+        Ok(tape.allocate_registers())
+    }
+
+    /// The number of inputs.
+    pub fn n_inputs(&self) -> usize {
+        self.input_names.len()
+    }
+
+    /// The number of outputs.
+    pub fn n_outputs(&self) -> usize {
+        self.outputs.len()
+    }
+
+    /// The input names, in order.
+    pub fn input_names(&self) -> &[String] {
+        &self.input_names
+    }
+
+    /// The instructions, in execution order.
+    pub fn instrs(&self) -> &[Instr] {
+        &self.instrs
+    }
+
+    /// The number of instructions one evaluation runs.
+    pub fn op_count(&self) -> usize {
+        self.instrs.len()
+    }
+
+    /// The instructions by kind.
+    pub fn op_counts(&self) -> OpCounts {
+        let mut c = OpCounts::default();
+        for ins in &self.instrs {
+            match ins {
+                Instr::Add { .. } | Instr::Sub { .. } => c.add += 1,
+                Instr::Mul { .. } => c.mul += 1,
+                Instr::Div { .. } => c.div += 1,
+                Instr::Neg { .. } => c.neg += 1,
+                Instr::Sqrt { .. } => c.sqrt += 1,
+                Instr::SinCos { .. } => c.sin_cos += 1,
+                Instr::Call { .. } | Instr::Atan2 { .. } => c.call += 1,
+                Instr::Powf { .. } => c.powf += 1,
+            }
+        }
+        c
+    }
+
+    /// The number of `f64` slots (inputs, constants and registers) one evaluation uses.
+    pub fn scratch_len(&self) -> usize {
+        self.n_slots
+    }
+
+    /// Evaluates the tape at `inputs`, writing `outputs`, on a caller-provided `scratch` of at
+    /// least [`Tape::scratch_len`] values. Never allocates.
+    ///
+    /// # Panics
+    /// If a slice is shorter than the tape needs (a programming error, not a data one).
+    pub fn eval_with_scratch(&self, inputs: &[f64], outputs: &mut [f64], scratch: &mut [f64]) {
+        let s = &mut scratch[..self.n_slots];
+        let ni = self.input_names.len();
+        s[..ni].copy_from_slice(&inputs[..ni]);
+        s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
+        run(&self.instrs, s);
+        for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
+            *o = s[slot as usize];
+        }
+    }
+
+    /// Evaluates the tape at `inputs` into `outputs`, on this thread's scratch buffer.
+    pub fn eval(&self, inputs: &[f64], outputs: &mut [f64]) {
+        with_scratch(self.n_slots, |s| self.eval_with_scratch(inputs, outputs, s));
+    }
+
+    /// Runs the tape on a scratch whose first [`Tape::n_inputs`] slots the caller has filled,
+    /// leaving the outputs in their slots (see [`Tape::output_slot`]). For callers that keep
+    /// more of their own data after the tape's slots in one buffer.
+    pub(crate) fn run_in_place(&self, s: &mut [f64]) {
+        let ni = self.input_names.len();
+        s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
+        run(&self.instrs, &mut s[..self.n_slots]);
+    }
+
+    /// Like [`Tape::run_in_place`] with [`LANES`] values per slot (slot `i` at
+    /// `s[i * LANES..(i + 1) * LANES]`).
+    pub(crate) fn run_lanes_in_place(&self, s: &mut [f64]) {
+        let ni = self.input_names.len();
+        for (k, c) in self.consts.iter().enumerate() {
+            s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
+        }
+        run_lanes(&self.instrs, &mut s[..self.n_slots * LANES]);
+    }
+
+    /// The slot holding output `i` after [`Tape::run_in_place`].
+    pub(crate) fn output_slot(&self, i: usize) -> usize {
+        self.outputs[i] as usize
+    }
+
+    /// Evaluates many points at once, structure-of-arrays: input `i` of point `k` is
+    /// `inputs[i * n + k]`, output `j` of point `k` is written to `outputs[j * n + k]`, where
+    /// `n = points`. Points go through the tape [`LANES`] at a time, so each instruction is
+    /// dispatched once per block and its arithmetic runs over contiguous lanes.
+    ///
+    /// # Panics
+    /// If `inputs` or `outputs` is shorter than `points` times the inputs or outputs.
+    pub fn eval_batch(&self, inputs: &[f64], outputs: &mut [f64], points: usize) {
+        assert!(inputs.len() >= points * self.n_inputs() && outputs.len() >= points * self.n_outputs());
+        let ni = self.n_inputs();
+        with_scratch(self.n_slots * LANES, |s| {
+            for (k, c) in self.consts.iter().enumerate() {
+                s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
+            }
+            let mut start = 0;
+            while start < points {
+                let len = LANES.min(points - start);
+                for i in 0..ni {
+                    let dst = &mut s[i * LANES..(i + 1) * LANES];
+                    dst[..len].copy_from_slice(&inputs[i * points + start..i * points + start + len]);
+                    // Pad a partial block with a harmless value; its lanes are never read back.
+                    dst[len..].fill(0.5);
+                }
+                run_lanes(&self.instrs, s);
+                for (j, &slot) in self.outputs.iter().enumerate() {
+                    let src = &s[slot as usize * LANES..slot as usize * LANES + len];
+                    outputs[j * points + start..j * points + start + len].copy_from_slice(src);
+                }
+                start += len;
+            }
+        });
+    }
+
+    /// Reassigns registers by liveness so that a slot is reused once its last reader has run.
+    /// Inputs and constants keep their slots; outputs stay live to the end.
+    fn allocate_registers(mut self) -> Tape {
+        let fixed = (self.input_names.len() + self.consts.len()) as u32;
+        let mut last_use: HashMap<u32, usize> = HashMap::new();
+        for (i, ins) in self.instrs.iter().enumerate() {
+            for s in ins.srcs().into_iter().flatten() {
+                last_use.insert(s, i);
+            }
+        }
+        for &o in &self.outputs {
+            last_use.insert(o, usize::MAX);
+        }
+        let mut map: HashMap<u32, u32> = HashMap::new();
+        let mut free: Vec<u32> = Vec::new();
+        let mut next = fixed;
+        for i in 0..self.instrs.len() {
+            let mut ins = self.instrs[i];
+            let src_map = |s: u32| if s < fixed { s } else { map.get(&s).copied().unwrap_or(s) };
+            // Registers whose last reader is this instruction become free for its result.
+            let dying: Vec<u32> =
+                ins.srcs().into_iter().flatten().filter(|&s| s >= fixed && last_use.get(&s) == Some(&i)).collect();
+            let renamed_srcs: Vec<u32> = dying.iter().map(|&s| src_map(s)).collect();
+            let mut dst_assign: Vec<(u32, u32)> = Vec::new();
+            let old_dsts = ins.dsts();
+            for r in renamed_srcs {
+                if !free.contains(&r) {
+                    free.push(r);
+                }
+            }
+            for d in old_dsts.into_iter().flatten() {
+                // A result nobody reads (the unused half of a sin_cos) still needs a register.
+                let r = free.pop().unwrap_or_else(|| {
+                    next += 1;
+                    next - 1
+                });
+                dst_assign.push((d, r));
+            }
+            let mut k = 0;
+            ins.map_slots(&src_map, &mut |_| {
+                k += 1;
+                dst_assign[k - 1].1
+            });
+            for (d, r) in dst_assign {
+                map.insert(d, r);
+                if !last_use.contains_key(&d) {
+                    free.insert(0, r);
+                }
+            }
+            self.instrs[i] = ins;
+        }
+        self.outputs = self.outputs.iter().map(|&o| if o < fixed { o } else { map[&o] }).collect();
+        self.n_slots = next as usize;
+        self
+    }
+}
+
+/// The scalar interpreter loop.
+#[inline]
+fn run(instrs: &[Instr], s: &mut [f64]) {
+    for ins in instrs {
+        match *ins {
+            Instr::Add { d, a, b } => s[d as usize] = s[a as usize] + s[b as usize],
+            Instr::Sub { d, a, b } => s[d as usize] = s[a as usize] - s[b as usize],
+            Instr::Mul { d, a, b } => s[d as usize] = s[a as usize] * s[b as usize],
+            Instr::Div { d, a, b } => s[d as usize] = s[a as usize] / s[b as usize],
+            Instr::Neg { d, a } => s[d as usize] = -s[a as usize],
+            Instr::Sqrt { d, a } => s[d as usize] = s[a as usize].sqrt(),
+            Instr::SinCos { s: si, c, a } => {
+                let (sv, cv) = s[a as usize].sin_cos();
+                s[si as usize] = sv;
+                s[c as usize] = cv;
+            }
+            Instr::Call { d, f, a } => s[d as usize] = f.eval(&[s[a as usize]]),
+            Instr::Atan2 { d, a, b } => s[d as usize] = s[a as usize].atan2(s[b as usize]),
+            Instr::Powf { d, a, b } => s[d as usize] = s[a as usize].powf(s[b as usize]),
+        }
+    }
+}
+
+/// The lane interpreter: every slot holds [`LANES`] values.
+fn run_lanes(instrs: &[Instr], s: &mut [f64]) {
+    #[inline(always)]
+    fn bin(s: &mut [f64], d: u32, a: u32, b: u32, f: impl Fn(f64, f64) -> f64) {
+        let mut tmp = [0.0; LANES];
+        let (a, b) = (a as usize * LANES, b as usize * LANES);
+        for l in 0..LANES {
+            tmp[l] = f(s[a + l], s[b + l]);
+        }
+        s[d as usize * LANES..(d as usize + 1) * LANES].copy_from_slice(&tmp);
+    }
+    #[inline(always)]
+    fn un(s: &mut [f64], d: u32, a: u32, f: impl Fn(f64) -> f64) {
+        let mut tmp = [0.0; LANES];
+        let a = a as usize * LANES;
+        for l in 0..LANES {
+            tmp[l] = f(s[a + l]);
+        }
+        s[d as usize * LANES..(d as usize + 1) * LANES].copy_from_slice(&tmp);
+    }
+    for ins in instrs {
+        match *ins {
+            Instr::Add { d, a, b } => bin(s, d, a, b, |x, y| x + y),
+            Instr::Sub { d, a, b } => bin(s, d, a, b, |x, y| x - y),
+            Instr::Mul { d, a, b } => bin(s, d, a, b, |x, y| x * y),
+            Instr::Div { d, a, b } => bin(s, d, a, b, |x, y| x / y),
+            Instr::Neg { d, a } => un(s, d, a, |x| -x),
+            Instr::Sqrt { d, a } => un(s, d, a, f64::sqrt),
+            Instr::SinCos { s: si, c, a } => {
+                let mut sv = [0.0; LANES];
+                let mut cv = [0.0; LANES];
+                let a = a as usize * LANES;
+                for l in 0..LANES {
+                    (sv[l], cv[l]) = s[a + l].sin_cos();
+                }
+                s[si as usize * LANES..(si as usize + 1) * LANES].copy_from_slice(&sv);
+                s[c as usize * LANES..(c as usize + 1) * LANES].copy_from_slice(&cv);
+            }
+            Instr::Call { d, f, a } => un(s, d, a, |x| f.eval(&[x])),
+            Instr::Atan2 { d, a, b } => bin(s, d, a, b, f64::atan2),
+            Instr::Powf { d, a, b } => bin(s, d, a, b, f64::powf),
+        }
+    }
+}
+
+impl fmt::Display for Tape {
+    /// One line per slot and instruction; constants print in the shortest form that reads
+    /// back to the same `f64`, so the listing is deterministic and snapshot-friendly.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, name) in self.input_names.iter().enumerate() {
+            writeln!(f, "s{i} = input {name}")?;
+        }
+        let ni = self.input_names.len();
+        for (k, c) in self.consts.iter().enumerate() {
+            writeln!(f, "s{} = const {c:?}", ni + k)?;
+        }
+        for ins in &self.instrs {
+            match *ins {
+                Instr::Add { d, a, b } => writeln!(f, "s{d} = s{a} + s{b}")?,
+                Instr::Sub { d, a, b } => writeln!(f, "s{d} = s{a} - s{b}")?,
+                Instr::Mul { d, a, b } => writeln!(f, "s{d} = s{a} * s{b}")?,
+                Instr::Div { d, a, b } => writeln!(f, "s{d} = s{a} / s{b}")?,
+                Instr::Neg { d, a } => writeln!(f, "s{d} = -s{a}")?,
+                Instr::Sqrt { d, a } => writeln!(f, "s{d} = sqrt(s{a})")?,
+                Instr::SinCos { s, c, a } => writeln!(f, "s{s}, s{c} = sin_cos(s{a})")?,
+                Instr::Call { d, f: func, a } => writeln!(f, "s{d} = {}(s{a})", func.name())?,
+                Instr::Atan2 { d, a, b } => writeln!(f, "s{d} = atan2(s{a}, s{b})")?,
+                Instr::Powf { d, a, b } => writeln!(f, "s{d} = s{a} ^ s{b}")?,
+            }
+        }
+        for (j, o) in self.outputs.iter().enumerate() {
+            writeln!(f, "out{j} = s{o}")?;
+        }
+        write!(f, "# {}; {} slots", self.op_counts(), self.n_slots)
+    }
+}
+
+/// A key for value numbering of emitted instructions (operands normalised for commutative
+/// operations).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum Key {
+    Add(u32, u32),
+    Sub(u32, u32),
+    Mul(u32, u32),
+    Div(u32, u32),
+    Neg(u32),
+    Sqrt(u32),
+    Call(Func, u32),
+    Atan2(u32, u32),
+    Powf(u32, u32),
+}
+
+struct Lower {
+    inputs: HashMap<String, u32>,
+    params: HashMap<String, f64>,
+    consts: Vec<f64>,
+    const_slots: HashMap<u64, u32>,
+    instrs: Vec<Instr>,
+    n_regs: u32,
+    /// Lowered nodes: slot and whether the slot holds the negated value.
+    memo: HashMap<Expr, (u32, bool)>,
+    values: HashMap<Key, u32>,
+    is_const: HashMap<Expr, bool>,
+    /// Arguments whose sine and cosine are both demanded.
+    sin_and_cos: HashSet<Expr>,
+    sincos: HashMap<u32, (u32, u32)>,
+    /// How many times each base is divided by (uses of its negative integer powers).
+    divisions: HashMap<Expr, usize>,
+    powers: HashMap<(u32, i64), u32>,
+}
+
+impl Lower {
+    fn new(inputs: HashMap<String, u32>, params: HashMap<String, f64>, outputs: &[Expr]) -> Lower {
+        let mut parents: HashMap<Expr, usize> = HashMap::new();
+        let mut seen: HashSet<Expr> = HashSet::new();
+        let mut sins: HashSet<Expr> = HashSet::new();
+        let mut coss: HashSet<Expr> = HashSet::new();
+        let mut stack: Vec<Expr> = outputs.to_vec();
+        while let Some(e) = stack.pop() {
+            if !seen.insert(e.clone()) {
+                continue;
+            }
+            match e.node() {
+                Node::Call(Func::Sin, a) => {
+                    sins.insert(a[0].clone());
+                }
+                Node::Call(Func::Cos, a) => {
+                    coss.insert(a[0].clone());
+                }
+                _ => {}
+            }
+            e.for_each_child(|c| {
+                *parents.entry(c.clone()).or_insert(0) += 1;
+                stack.push(c.clone());
+            });
+        }
+        let sin_and_cos = sins.intersection(&coss).cloned().collect();
+        // How often each base is divided by: a base used in several negative powers gets one
+        // shared reciprocal; one used once is folded into its product's single division.
+        let mut divisions: HashMap<Expr, usize> = HashMap::new();
+        for e in &seen {
+            if let Node::Pow(b, x) = e.node() {
+                if small_int(x).is_some_and(|k| k < 0) {
+                    let uses = parents.get(e).copied().unwrap_or(0) + outputs.iter().filter(|o| *o == e).count();
+                    *divisions.entry(b.clone()).or_insert(0) += uses;
+                }
+            }
+        }
+        Lower {
+            inputs,
+            params,
+            consts: Vec::new(),
+            const_slots: HashMap::new(),
+            instrs: Vec::new(),
+            n_regs: 0,
+            memo: HashMap::new(),
+            values: HashMap::new(),
+            is_const: HashMap::new(),
+            sin_and_cos,
+            divisions,
+            sincos: HashMap::new(),
+            powers: HashMap::new(),
+        }
+    }
+
+    /// The slot of a constant. Constants are numbered before every instruction's result.
+    fn constant(&mut self, v: f64) -> u32 {
+        let bits = if v == 0.0 { 0 } else { v.to_bits() };
+        if let Some(&s) = self.const_slots.get(&bits) {
+            return s;
+        }
+        let slot = CONST_BASE + self.consts.len() as u32;
+        self.consts.push(v);
+        self.const_slots.insert(bits, slot);
+        slot
+    }
+
+    fn emit(&mut self, key: Key) -> u32 {
+        let key = match key {
+            Key::Add(a, b) if a > b => Key::Add(b, a),
+            Key::Mul(a, b) if a > b => Key::Mul(b, a),
+            k => k,
+        };
+        if let Some(&s) = self.values.get(&key) {
+            return s;
+        }
+        let d = self.fresh();
+        let ins = match key {
+            Key::Add(a, b) => Instr::Add { d, a, b },
+            Key::Sub(a, b) => Instr::Sub { d, a, b },
+            Key::Mul(a, b) => Instr::Mul { d, a, b },
+            Key::Div(a, b) => Instr::Div { d, a, b },
+            Key::Neg(a) => Instr::Neg { d, a },
+            Key::Sqrt(a) => Instr::Sqrt { d, a },
+            Key::Call(f, a) => Instr::Call { d, f, a },
+            Key::Atan2(a, b) => Instr::Atan2 { d, a, b },
+            Key::Powf(a, b) => Instr::Powf { d, a, b },
+        };
+        self.instrs.push(ins);
+        self.values.insert(key, d);
+        d
+    }
+
+    fn fresh(&mut self) -> u32 {
+        self.n_regs += 1;
+        REG_BASE + self.n_regs - 1
+    }
+
+    fn neg(&mut self, a: u32) -> u32 {
+        self.emit(Key::Neg(a))
+    }
+
+    /// Whether `e` depends on bound parameters and numbers only.
+    fn constant_node(&mut self, e: &Expr) -> bool {
+        if let Some(&c) = self.is_const.get(e) {
+            return c;
+        }
+        let c = match e.node() {
+            Node::Num(_) => true,
+            Node::Sym(s) => self.params.contains_key(&s.to_string()),
+            Node::Apply { .. } | Node::Undefined => false,
+            _ => {
+                let mut all = true;
+                let mut kids = Vec::new();
+                e.for_each_child(|c| kids.push(c.clone()));
+                for k in kids {
+                    all &= self.constant_node(&k);
+                }
+                all
+            }
+        };
+        self.is_const.insert(e.clone(), c);
+        c
+    }
+
+    fn fold(&self, e: &Expr) -> Result<f64, CompileError> {
+        let params = &self.params;
+        let v = eval_with(e, &|s: &Symbol| params.get(&s.to_string()).copied()).map_err(|_| CompileError::Undefined)?;
+        if !v.is_finite() {
+            return Err(CompileError::NonFiniteConstant { expr: e.to_string(), value: v });
+        }
+        Ok(v)
+    }
+
+    fn lower(&mut self, e: &Expr, depth: usize) -> Result<u32, CompileError> {
+        let (slot, neg) = self.lower_signed(e, depth)?;
+        Ok(if neg { self.neg(slot) } else { slot })
+    }
+
+    /// Lowers `e` to a slot holding `e` (`false`) or `−e` (`true`): a product with a negative
+    /// coefficient is returned unnegated so a sum can subtract it instead.
+    fn lower_signed(&mut self, e: &Expr, depth: usize) -> Result<(u32, bool), CompileError> {
+        if let Some(&r) = self.memo.get(e) {
+            return Ok(r);
+        }
+        if depth > MAX_DEPTH {
+            return Err(CompileError::TooDeep { limit: MAX_DEPTH });
+        }
+        let r = if self.constant_node(e) {
+            let v = self.fold(e)?;
+            (self.constant(v.abs()), v.is_sign_negative() && v != 0.0)
+        } else {
+            match e.node() {
+                Node::Num(_) => unreachable_const(),
+                Node::Sym(s) => {
+                    let name = s.to_string();
+                    match self.inputs.get(&name) {
+                        Some(&slot) => (slot, false),
+                        None => return Err(CompileError::Unbound { name }),
+                    }
+                }
+                Node::Add(ts) => (self.lower_add(ts, depth)?, false),
+                Node::Mul(fs) => self.lower_mul(fs, depth)?,
+                Node::Pow(b, x) => (self.lower_pow(b, x, depth)?, false),
+                Node::Call(f, args) => (self.lower_call(*f, args, depth)?, false),
+                Node::Apply { name, .. } => return Err(CompileError::UndefinedFunction { name: name.to_string() }),
+                Node::Undefined => return Err(CompileError::Undefined),
+            }
+        };
+        self.memo.insert(e.clone(), r);
+        Ok(r)
+    }
+
+    fn lower_add(&mut self, ts: &[Expr], depth: usize) -> Result<u32, CompileError> {
+        let mut c = 0.0;
+        let mut pos = Vec::new();
+        let mut neg = Vec::new();
+        for t in ts {
+            if self.constant_node(t) {
+                c += self.fold(t)?;
+                continue;
+            }
+            let (slot, n) = self.lower_signed(t, depth + 1)?;
+            if n {
+                neg.push(slot);
+            } else {
+                pos.push(slot);
+            }
+        }
+        let mut acc = match pos.first() {
+            Some(&p) => {
+                let mut acc = p;
+                for &q in &pos[1..] {
+                    acc = self.emit(Key::Add(acc, q));
+                }
+                if c != 0.0 {
+                    let k = self.constant(c);
+                    acc = self.emit(Key::Add(acc, k));
+                }
+                acc
+            }
+            None if c != 0.0 => self.constant(c),
+            None => {
+                // Only negative terms: start from the first one negated.
+                let first = neg.remove(0);
+                self.neg(first)
+            }
+        };
+        for n in neg {
+            acc = self.emit(Key::Sub(acc, n));
+        }
+        Ok(acc)
+    }
+
+    fn lower_mul(&mut self, fs: &[Expr], depth: usize) -> Result<(u32, bool), CompileError> {
+        let mut c = 1.0;
+        let mut num = Vec::new();
+        let mut den = Vec::new();
+        for f in fs {
+            if self.constant_node(f) {
+                c *= self.fold(f)?;
+                continue;
+            }
+            // A negative integer power of a base divided by only here joins the denominator;
+            // a base divided by in several places gets one reciprocal, multiplied in.
+            if let Node::Pow(b, x) = f.node() {
+                if let Some(k) = small_int(x) {
+                    if k < 0 && self.divisions.get(b).copied().unwrap_or(0) <= 1 {
+                        let bs = self.lower(b, depth + 1)?;
+                        den.push(self.pow_chain(bs, -k));
+                        continue;
+                    }
+                }
+            }
+            num.push(self.lower(f, depth + 1)?);
+        }
+        let neg = c < 0.0;
+        let c = c.abs();
+        let mut acc: Option<u32> = None;
+        for s in num {
+            acc = Some(match acc {
+                None => s,
+                Some(a) => self.emit(Key::Mul(a, s)),
+            });
+        }
+        if c != 1.0 || acc.is_none() {
+            let k = self.constant(c);
+            acc = Some(match acc {
+                None => k,
+                Some(a) => self.emit(Key::Mul(k, a)),
+            });
+        }
+        let mut acc = acc.unwrap_or_else(|| self.constant(1.0));
+        if !den.is_empty() {
+            let mut d = den[0];
+            for &s in &den[1..] {
+                d = self.emit(Key::Mul(d, s));
+            }
+            acc = self.emit(Key::Div(acc, d));
+        }
+        Ok((acc, neg))
+    }
+
+    /// `x^n` for `n ≥ 1` by repeated squaring, memoised per (base, n) so `x²`, `x³`, `x⁴` of
+    /// one base share their partial products.
+    fn pow_chain(&mut self, x: u32, n: i64) -> u32 {
+        if n == 1 {
+            return x;
+        }
+        if let Some(&s) = self.powers.get(&(x, n)) {
+            return s;
+        }
+        let r = if n % 2 == 0 {
+            let h = self.pow_chain(x, n / 2);
+            self.emit(Key::Mul(h, h))
+        } else {
+            let h = self.pow_chain(x, n - 1);
+            self.emit(Key::Mul(h, x))
+        };
+        self.powers.insert((x, n), r);
+        r
+    }
+
+    fn recip(&mut self, x: u32) -> u32 {
+        let one = self.constant(1.0);
+        self.emit(Key::Div(one, x))
+    }
+
+    fn lower_pow(&mut self, b: &Expr, x: &Expr, depth: usize) -> Result<u32, CompileError> {
+        if let Some(k) = small_int(x) {
+            let bs = self.lower(b, depth + 1)?;
+            return Ok(if k > 0 {
+                self.pow_chain(bs, k)
+            } else {
+                // x^-k = (1/x)^k, so 1/x is shared by every negative power of x.
+                let r = self.recip(bs);
+                self.pow_chain(r, -k)
+            });
+        }
+        if let Some(r) = x.as_num() {
+            if *r.denom() == 2.into() {
+                if let Some(k) = r.numer().to_i64().filter(|k| k.abs() <= 2 * MAX_CHAIN_EXP) {
+                    // x^(k/2) = x^⌊|k|/2⌋ · √x, inverted for negative k.
+                    let bs = self.lower(b, depth + 1)?;
+                    let root = self.emit(Key::Sqrt(bs));
+                    let m = k.abs() / 2;
+                    let mag = if m == 0 {
+                        root
+                    } else {
+                        let p = self.pow_chain(bs, m);
+                        self.emit(Key::Mul(p, root))
+                    };
+                    return Ok(if k < 0 { self.recip(mag) } else { mag });
+                }
+            }
+        }
+        let bs = self.lower(b, depth + 1)?;
+        let xs = self.lower(x, depth + 1)?;
+        Ok(self.emit(Key::Powf(bs, xs)))
+    }
+
+    fn lower_call(&mut self, f: Func, args: &[Expr], depth: usize) -> Result<u32, CompileError> {
+        if args.len() != f.arity() {
+            return Err(CompileError::Undefined);
+        }
+        let a = self.lower(&args[0], depth + 1)?;
+        match f {
+            Func::Sin | Func::Cos if self.sin_and_cos.contains(&args[0]) => {
+                let (s, c) = match self.sincos.get(&a) {
+                    Some(&p) => p,
+                    None => {
+                        let s = self.fresh();
+                        let c = self.fresh();
+                        self.instrs.push(Instr::SinCos { s, c, a });
+                        self.sincos.insert(a, (s, c));
+                        (s, c)
+                    }
+                };
+                Ok(if f == Func::Sin { s } else { c })
+            }
+            Func::Atan2 => {
+                let b = self.lower(&args[1], depth + 1)?;
+                Ok(self.emit(Key::Atan2(a, b)))
+            }
+            _ => Ok(self.emit(Key::Call(f, a))),
+        }
+    }
+}
+
+// Provisional numbering during lowering: constants from `CONST_BASE`, instruction results from
+// `REG_BASE`; both are mapped to dense slots when the lowering is done (`finalize_numbering`).
+const CONST_BASE: u32 = 1 << 30;
+const REG_BASE: u32 = 1 << 31;
+
+fn unreachable_const() -> (u32, bool) {
+    // `constant_node` is true for every number, so numbers never reach the match.
+    (0, false)
+}
+
+fn small_int(x: &Expr) -> Option<i64> {
+    let r: &Rational = x.as_num()?;
+    if !r.is_integer() {
+        return None;
+    }
+    let k = r.to_integer().to_i64()?;
+    (k != 0 && k.abs() <= MAX_CHAIN_EXP).then_some(k)
+}
+
+/// Maps the provisional constant and register numbers of a lowering to dense slots:
+/// inputs, then constants, then registers in order of definition.
+fn finalize_numbering(n_inputs: u32, n_consts: u32, instrs: &mut [Instr], outputs: &mut [u32]) -> u32 {
+    let map = |s: u32| -> u32 {
+        if s >= REG_BASE {
+            n_inputs + n_consts + (s - REG_BASE)
+        } else if s >= CONST_BASE {
+            n_inputs + (s - CONST_BASE)
+        } else {
+            s
+        }
+    };
+    for ins in instrs.iter_mut() {
+        ins.map_slots(&map, &mut |d| map(d));
+    }
+    for o in outputs.iter_mut() {
+        *o = map(*o);
+    }
+    n_inputs + n_consts + instrs.iter().map(|i| i.dsts().iter().flatten().count() as u32).sum::<u32>()
+}
