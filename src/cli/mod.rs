@@ -134,6 +134,7 @@ pub fn main() -> ExitCode {
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
         Some(Command::Product(c)) => product::run(c),
+        Some(Command::Canonical(c)) => canonical::run(c),
         None => product::repl(),
     };
     match result {
