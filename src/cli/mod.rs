@@ -134,7 +134,6 @@ pub fn main() -> ExitCode {
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
         Some(Command::Product(c)) => product::run(c),
-        Some(Command::Canonical(c)) => canonical::run(c),
         None => product::repl(),
     };
     match result {
