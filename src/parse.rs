@@ -122,8 +122,17 @@ fn floor_char_boundary(s: &str, mut i: usize) -> usize {
 impl fmt::Display for ParseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "error: {} (line {}, column {})", self.message, self.line, self.column)?;
-        writeln!(f, "  | {}", self.source_line)?;
-        write!(f, "  | {}^", " ".repeat(self.column.saturating_sub(1)))?;
+        // Long lines (100,000 parentheses) show a window around the column, not the line.
+        const BEFORE: usize = 60;
+        const AFTER: usize = 20;
+        let col = self.column.saturating_sub(1);
+        let skip = col.saturating_sub(BEFORE);
+        let total = self.source_line.chars().count();
+        let shown: String = self.source_line.chars().skip(skip).take(col - skip + AFTER).collect();
+        let (lead, pad) = if skip > 0 { ("…", 1) } else { ("", 0) };
+        let tail = if skip + shown.chars().count() < total { "…" } else { "" };
+        writeln!(f, "  | {lead}{shown}{tail}")?;
+        write!(f, "  | {}^", " ".repeat(col - skip + pad))?;
         if let Some(h) = &self.hint {
             write!(f, "\n  = hint: {h}")?;
         }
@@ -132,6 +141,15 @@ impl fmt::Display for ParseError {
 }
 
 impl std::error::Error for ParseError {}
+
+/// Applies a pending unary minus (see `Ctx::expr`).
+fn resolve((e, negated): (Expr, bool)) -> Expr {
+    if negated {
+        e.neg()
+    } else {
+        e
+    }
+}
 
 fn pratt() -> &'static PrattParser<Rule> {
     static PRATT: OnceLock<PrattParser<Rule>> = OnceLock::new();
@@ -263,36 +281,43 @@ impl Ctx<'_> {
         ParseError::new(self.input, (s.start(), s.end()), message)
     }
 
+    /// A unary minus in front of a product negates the whole product (`-(a+b) c` is
+    /// `−1·(a+b)·c`, not `(−a−b)·c`). Both have the same value, but only the first is the node
+    /// the printer wrote: the canonical form distributes a coefficient over a lone sum, so
+    /// negating the first factor early would not re-parse printed products identically. The
+    /// sign is therefore carried as a flag through `*`, `/` and juxtaposition, and applied at
+    /// the enclosing sum, power or parenthesis.
     fn expr(&mut self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
         self.check_chains(pair.clone().into_inner())?;
         let input = self.input;
         let ctx = &*self;
         pratt()
-            .map_primary(|p| ctx.primary(p))
+            .map_primary(|p| ctx.primary(p).map(|e| (e, false)))
             .map_prefix(|op, rhs| {
-                let rhs = rhs?;
+                let (e, negated) = rhs?;
                 Ok(match op.as_rule() {
-                    Rule::neg => rhs.neg(),
-                    _ => rhs,
+                    Rule::neg => (e, !negated),
+                    _ => (e, negated),
                 })
             })
             .map_infix(|lhs, op, rhs| {
-                let (lhs, rhs) = (lhs?, rhs?);
+                let ((l, ln), (r, rn)) = (lhs?, rhs?);
                 Ok(match op.as_rule() {
-                    Rule::add => lhs.plus(&rhs),
-                    Rule::sub => lhs.minus(&rhs),
-                    Rule::mul | Rule::implicit => lhs.times(&rhs),
+                    Rule::add => (resolve((l, ln)).plus(&resolve((r, rn))), false),
+                    Rule::sub => (resolve((l, ln)).minus(&resolve((r, rn))), false),
+                    Rule::mul | Rule::implicit => (l.times(&r), ln != rn),
                     Rule::div => {
-                        if rhs.is_zero() {
+                        if r.is_zero() {
                             let s = op.as_span();
                             return Err(ParseError::new(input, (s.start(), s.end()), "division by zero"));
                         }
-                        lhs.over(&rhs)
+                        (l.over(&r), ln != rn)
                     }
-                    _ => Expr::pow(lhs, rhs),
+                    _ => (Expr::pow(resolve((l, ln)), resolve((r, rn))), false),
                 })
             })
             .parse(pair.into_inner())
+            .map(resolve)
     }
 
     /// Guards the Pratt parser's recursion: runs of unary signs and chains of `^`.

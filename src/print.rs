@@ -199,13 +199,19 @@ impl Printer {
         if numer.is_empty() {
             numer.push(Piece { text: "1".into(), prec: ATOM });
         }
-        let single_atom_numer = numer.len() == 1;
-        let numer_prec = if single_atom_numer { numer[0].prec } else { PRODUCT };
+        // `join_factors` parenthesises pieces that bind looser than a power, so a lone piece
+        // that was wrapped is an atom afterwards (wrapping it again printed `1/((x + 1))`).
+        let joined_prec = |pieces: &[Piece]| match pieces {
+            [one] if one.prec < POWER => ATOM,
+            [one] => one.prec,
+            _ => PRODUCT,
+        };
+        let numer_prec = joined_prec(&numer);
         let num_text = self.join_factors(numer);
         if denom.is_empty() {
             return Piece { text: num_text, prec: numer_prec };
         }
-        let den_prec = if denom.len() == 1 { denom[0].prec } else { PRODUCT };
+        let den_prec = joined_prec(&denom);
         let den_text = self.join_factors(denom);
         let text = match self.format {
             Format::Latex => format!("\\frac{{{num_text}}}{{{den_text}}}"),

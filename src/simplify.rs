@@ -1,9 +1,648 @@
-//! Simplification on an e-graph (egg). Placeholder: returns the canonical form unchanged
-//! until the e-graph pass lands.
+//! Simplification on an e-graph (egg), seeded with candidate forms from [`crate::algebra`].
+//!
+//! The canonical form of [`crate::expr`] already handles associativity, commutativity, like
+//! terms and numeric folding, so the e-graph never sees those as rules (they make e-graphs
+//! explode: DESIGN.md, "Known hard parts"). What it adds:
+//!
+//! 1. **Candidate forms.** Identities that range over whole n-ary sums — the Pythagorean
+//!    identity among many terms, multiplying out, one common denominator with cancellation,
+//!    common content — are computed by the algebra tools, both for the whole expression and
+//!    for every sum bottom-up, and each candidate is added to the e-graph in the root's class.
+//! 2. **One table of named, sound rules** ([`rules`]) on fixed-arity nodes: `exp`/`log`
+//!    inverses with their domain conditions, double angles, `tan = sin/cos`, inverse
+//!    trigonometric compositions. Conditions only use what is known for sure (positivity
+//!    declared on symbols or implied by the node, exact constants), never a value that a
+//!    later merge could change.
+//! 3. **Extraction** by a cost that counts printed operations, with ties broken by the
+//!    canonical order, so the output is deterministic (see [`simplify_with`] for the one
+//!    exception, the wall-clock budget).
+//!
+//! Every result is checked by evaluation at a few fixed pseudo-random points against the
+//! input; a disagreement (which would be a bug) falls back to the input.
 
-use crate::expr::Expr;
+use std::collections::HashMap;
+use std::fmt;
+use std::str::FromStr;
+use std::time::Duration;
 
-/// Simplifies `e`.
+use egg::{Analysis, DidMerge, EGraph, Id, Runner, Subst, Var};
+use num_traits::{Signed, Zero};
+
+use crate::algebra;
+use crate::eval::eval_with;
+use crate::expr::{Expr, Func, Node, Rational, Symbol};
+
+/// How much work one simplification may do. Running out is an outcome, not an error: the
+/// best form found so far is returned together with the [`StopReason`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Budget {
+    /// Largest number of e-nodes in the e-graph.
+    pub nodes: usize,
+    /// Largest number of rule-application rounds.
+    pub iterations: usize,
+    /// Wall-clock limit for the e-graph run.
+    pub time: Duration,
+    /// Largest number of terms a candidate expansion may produce.
+    pub expand_terms: usize,
+}
+
+impl Default for Budget {
+    fn default() -> Budget {
+        Budget { nodes: 20_000, iterations: 12, time: Duration::from_secs(2), expand_terms: 2_000 }
+    }
+}
+
+impl Budget {
+    /// Sets the e-node limit.
+    pub fn with_nodes(mut self, nodes: usize) -> Budget {
+        self.nodes = nodes;
+        self
+    }
+
+    /// Sets the iteration limit.
+    pub fn with_iterations(mut self, iterations: usize) -> Budget {
+        self.iterations = iterations;
+        self
+    }
+
+    /// Sets the wall-clock limit.
+    pub fn with_time(mut self, time: Duration) -> Budget {
+        self.time = time;
+        self
+    }
+
+    /// Sets the largest expansion tried as a candidate form.
+    pub fn with_expand_terms(mut self, terms: usize) -> Budget {
+        self.expand_terms = terms;
+        self
+    }
+}
+
+/// Why the e-graph run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StopReason {
+    /// No rule could add anything new: the result is the best form the rules can reach.
+    Saturated,
+    /// The iteration budget ran out.
+    IterationLimit,
+    /// The e-node budget ran out.
+    NodeLimit,
+    /// The wall-clock budget ran out.
+    TimeLimit,
+}
+
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            StopReason::Saturated => "saturated",
+            StopReason::IterationLimit => "iteration limit",
+            StopReason::NodeLimit => "node limit",
+            StopReason::TimeLimit => "time limit",
+        })
+    }
+}
+
+/// A simplified expression and why the search stopped.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Simplified {
+    /// The cheapest equivalent form found.
+    pub expr: Expr,
+    /// Why the search stopped (the last e-graph run's reason).
+    pub stop: StopReason,
+}
+
+/// Simplifies `e` with the default [`Budget`].
 pub fn simplify(e: &Expr) -> Expr {
-    e.clone()
+    simplify_with(e, &Budget::default()).expr
+}
+
+/// Simplifies `e` within `budget`.
+///
+/// Deterministic: the same input gives the same output bytes, unless the wall-clock limit
+/// (`budget.time`, a safety net set well above what the node and iteration limits allow)
+/// is what stops the run.
+pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
+    if matches!(e.node(), Node::Num(_) | Node::Sym(_) | Node::Undefined) {
+        return Simplified { expr: e.clone(), stop: StopReason::Saturated };
+    }
+    // Arguments of declared functions are opaque to the e-graph; simplify them first.
+    let e = e.map_bottom_up(&mut |x| match x.node() {
+        Node::Apply { name, orders, args } => {
+            let args: Vec<Expr> = args.iter().map(|a| simplify_with(a, budget).expr).collect();
+            Some(Expr::apply(name, orders.clone(), args))
+        }
+        _ => None,
+    });
+    let mut best = e.clone();
+    let mut stop = StopReason::Saturated;
+    // Two rounds: rules can expose new sums for the candidate tools and vice versa.
+    for _ in 0..2 {
+        let (found, why) = egraph_round(&best, budget);
+        stop = why;
+        if cost(&found) < cost(&best) {
+            best = found;
+        } else {
+            break;
+        }
+    }
+    if !same_values(&e, &best) {
+        best = e;
+    }
+    Simplified { expr: best, stop }
+}
+
+/// The extraction cost of a canonical expression: printed operations first, then size, so
+/// that ties between forms with as many operations go to the smaller one.
+fn cost(e: &Expr) -> (usize, usize) {
+    (e.op_count(), e.dag_size())
+}
+
+/// Picks the cheapest expression, ties broken by the canonical order.
+fn cheapest(cands: impl IntoIterator<Item = Expr>) -> Option<Expr> {
+    cands.into_iter().min_by(|a, b| cost(a).cmp(&cost(b)).then_with(|| a.canonical_cmp(b)))
+}
+
+/// Candidate forms of `e` from the algebra tools.
+fn candidates(e: &Expr, budget: &Budget) -> Vec<Expr> {
+    let mut out = vec![e.clone(), algebra::trig_normalize(e)];
+    let local = local_best(e, budget);
+    out.push(local.clone());
+    out.push(algebra::factor_content(&local));
+    if let Ok(x) = algebra::expand_with_limit(e, budget.expand_terms) {
+        let t = algebra::trig_normalize(&x);
+        out.push(algebra::factor_content(&t));
+        out.push(t);
+        out.push(x);
+    }
+    if has_denominator(e) {
+        let c = algebra::cancel(e);
+        out.push(algebra::trig_normalize(&c));
+        out.push(c);
+    }
+    let mut unique: Vec<Expr> = Vec::new();
+    for c in out {
+        if !c.is_undefined() && !unique.contains(&c) {
+            unique.push(c);
+        }
+    }
+    unique
+}
+
+/// Whether a power with a negative exponent of something other than a lone symbol occurs,
+/// i.e. whether `cancel` could find anything.
+fn has_denominator(e: &Expr) -> bool {
+    let mut found = false;
+    e.map_bottom_up(&mut |x| {
+        if let Node::Pow(_, k) = x.node() {
+            if k.as_num().is_some_and(Signed::is_negative) {
+                found = true;
+            }
+        }
+        None
+    });
+    found
+}
+
+/// Rewrites every sum bottom-up into the cheapest of itself, its expansion, its
+/// Pythagorean normal form and its factored content.
+fn local_best(e: &Expr, budget: &Budget) -> Expr {
+    e.map_bottom_up(&mut |x| match x.node() {
+        Node::Add(_) | Node::Pow(..) | Node::Mul(_) => {
+            let mut cands = vec![x.clone()];
+            if matches!(x.node(), Node::Add(_)) {
+                cands.push(algebra::trig_normalize(x));
+                cands.push(algebra::factor_content(x));
+            }
+            if let Ok(ex) = algebra::expand_with_limit(x, budget.expand_terms.min(200)) {
+                cands.push(algebra::trig_normalize(&ex));
+                cands.push(ex);
+            }
+            cheapest(cands).filter(|b| b != x)
+        }
+        _ => None,
+    })
+}
+
+/// Checks `b` against the input `a` at fixed pseudo-random points: declared-positive symbols
+/// in (0.3, 1.7), others in (−1.7, 1.7). Points where the input has no finite value are
+/// skipped; expressions that cannot be evaluated (declared functions) pass.
+fn same_values(a: &Expr, b: &Expr) -> bool {
+    if a == b {
+        return true;
+    }
+    let syms: Vec<Symbol> = a.free_symbols().into_iter().chain(b.free_symbols()).collect();
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    for _ in 0..4 {
+        let mut vals: HashMap<Symbol, f64> = HashMap::new();
+        for s in &syms {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let unit = (state >> 11) as f64 / (1u64 << 53) as f64;
+            let v = if s.is_positive() { 0.3 + 1.4 * unit } else { -1.7 + 3.4 * unit };
+            vals.entry(s.clone()).or_insert(v);
+        }
+        let look = |s: &Symbol| vals.get(s).copied();
+        let Ok(va) = eval_with(a, &look) else { return true };
+        if !va.is_finite() {
+            continue;
+        }
+        let Ok(vb) = eval_with(b, &look) else { return false };
+        let close = (va - vb).abs() <= 1e-6 * (1.0 + va.abs());
+        if !close {
+            return false;
+        }
+    }
+    true
+}
+
+// ----- the e-graph ---------------------------------------------------------------------------
+
+/// A leaf the e-graph does not look into: a symbol or a declared function's application,
+/// numbered in a per-run table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct LeafId(u32);
+
+impl fmt::Display for LeafId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "leaf{}", self.0)
+    }
+}
+
+impl FromStr for LeafId {
+    type Err = ();
+    fn from_str(s: &str) -> Result<LeafId, ()> {
+        s.strip_prefix("leaf").and_then(|n| n.parse().ok()).map(LeafId).ok_or(())
+    }
+}
+
+egg::define_language! {
+    /// The e-graph's view of an expression: n-ary sums and products as in [`Node`], built-in
+    /// functions by name, exact rationals, and opaque leaves.
+    pub enum Math {
+        "+" = Add(Box<[Id]>),
+        "*" = Mul(Box<[Id]>),
+        "^" = Pow([Id; 2]),
+        "sin" = Sin(Id),
+        "cos" = Cos(Id),
+        "tan" = Tan(Id),
+        "exp" = Exp(Id),
+        "log" = Log(Id),
+        "sinh" = Sinh(Id),
+        "cosh" = Cosh(Id),
+        "tanh" = Tanh(Id),
+        "asin" = Asin(Id),
+        "acos" = Acos(Id),
+        "atan" = Atan(Id),
+        "atan2" = Atan2([Id; 2]),
+        "abs" = Abs(Id),
+        Num(Rational),
+        Leaf(LeafId),
+    }
+}
+
+/// What the analysis knows about an e-class: its cheapest known canonical form.
+///
+/// Rule right-hand sides create e-nodes that are not canonical (`(1/2)·(2x)`); the
+/// representative is rebuilt through the canonical constructors from the children's
+/// representatives, so such a node is costed as what it really is (`x`). Merging keeps the
+/// cheaper representative (ties: canonical order), which makes the root's representative the
+/// extraction result, independent of the order of merges.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Facts {
+    /// The cheapest canonical expression known for the class.
+    pub repr: Expr,
+    /// Its cost (see [`cost`]).
+    pub cost: (usize, usize),
+    /// Whether the class is known to be strictly positive (from any of its forms).
+    pub positive: bool,
+}
+
+impl Facts {
+    fn of(repr: Expr) -> Facts {
+        Facts { cost: cost(&repr), positive: repr.is_positive(), repr }
+    }
+
+    fn constant(&self) -> Option<&Rational> {
+        self.repr.as_num()
+    }
+}
+
+/// The analysis: canonical representatives, constant folding over exact rationals (a
+/// representative that is a number puts that number in the class) and positivity.
+#[derive(Default)]
+pub struct Knowledge {
+    leaves: Vec<Expr>,
+    leaf_ids: HashMap<Expr, LeafId>,
+}
+
+type Graph = EGraph<Math, Knowledge>;
+
+impl Analysis<Math> for Knowledge {
+    type Data = Facts;
+
+    fn make(egraph: &mut Graph, enode: &Math, _id: Id) -> Facts {
+        let k = |i: &Id| egraph[*i].data.repr.clone();
+        let call = |f: Func, i: &Id| Expr::call(f, vec![k(i)]);
+        let repr = match enode {
+            Math::Num(r) => Expr::num(r.clone()),
+            Math::Leaf(LeafId(i)) => egraph.analysis.leaves.get(*i as usize).cloned().unwrap_or_else(Expr::undefined),
+            Math::Add(xs) => Expr::add(xs.iter().map(k)),
+            Math::Mul(xs) => Expr::mul(xs.iter().map(k)),
+            Math::Pow([b, x]) => Expr::pow(k(b), k(x)),
+            Math::Sin(a) => call(Func::Sin, a),
+            Math::Cos(a) => call(Func::Cos, a),
+            Math::Tan(a) => call(Func::Tan, a),
+            Math::Exp(a) => call(Func::Exp, a),
+            Math::Log(a) => call(Func::Log, a),
+            Math::Sinh(a) => call(Func::Sinh, a),
+            Math::Cosh(a) => call(Func::Cosh, a),
+            Math::Tanh(a) => call(Func::Tanh, a),
+            Math::Asin(a) => call(Func::Asin, a),
+            Math::Acos(a) => call(Func::Acos, a),
+            Math::Atan(a) => call(Func::Atan, a),
+            Math::Abs(a) => call(Func::Abs, a),
+            Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
+        };
+        let mut facts = Facts::of(repr);
+        facts.positive |= match enode {
+            Math::Add(xs) | Math::Mul(xs) => xs.iter().all(|i| egraph[*i].data.positive),
+            Math::Pow([b, _]) => egraph[*b].data.positive,
+            Math::Exp(_) | Math::Cosh(_) => true,
+            _ => false,
+        };
+        facts
+    }
+
+    fn merge(&mut self, to: &mut Facts, from: Facts) -> DidMerge {
+        let mut changed_to = false;
+        let mut changed_from = false;
+        let positive = to.positive || from.positive;
+        changed_from |= positive != from.positive;
+        changed_to |= positive != to.positive;
+        let order = from.cost.cmp(&to.cost).then_with(|| from.repr.canonical_cmp(&to.repr));
+        if order == std::cmp::Ordering::Less {
+            *to = from;
+            changed_to = true;
+        } else if order == std::cmp::Ordering::Greater {
+            changed_from = true;
+        }
+        to.positive = positive;
+        DidMerge(changed_to, changed_from)
+    }
+
+    fn modify(egraph: &mut Graph, id: Id) {
+        if let Some(r) = egraph[id].data.constant().cloned() {
+            let added = egraph.add(Math::Num(r));
+            egraph.union(id, added);
+        }
+    }
+}
+
+/// Adds a canonical expression to the e-graph (shared subexpressions once).
+fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
+    if let Some(id) = memo.get(e) {
+        return *id;
+    }
+    let mut kids = Vec::new();
+    e.for_each_child(|c| kids.push(c.clone()));
+    let node = match e.node() {
+        Node::Num(r) => Math::Num(r.clone()),
+        Node::Sym(_) | Node::Apply { .. } | Node::Undefined => {
+            let known = g.analysis.leaf_ids.get(e).copied();
+            let l = known.unwrap_or_else(|| {
+                let l = LeafId(g.analysis.leaves.len() as u32);
+                g.analysis.leaves.push(e.clone());
+                g.analysis.leaf_ids.insert(e.clone(), l);
+                l
+            });
+            Math::Leaf(l)
+        }
+        Node::Add(_) => Math::Add(kids.iter().map(|c| add_expr(g, c, memo)).collect()),
+        Node::Mul(_) => Math::Mul(kids.iter().map(|c| add_expr(g, c, memo)).collect()),
+        Node::Pow(..) => Math::Pow([add_expr(g, &kids[0], memo), add_expr(g, &kids[1], memo)]),
+        Node::Call(f, _) => {
+            let a = add_expr(g, &kids[0], memo);
+            match f {
+                Func::Sin => Math::Sin(a),
+                Func::Cos => Math::Cos(a),
+                Func::Tan => Math::Tan(a),
+                Func::Exp => Math::Exp(a),
+                Func::Log => Math::Log(a),
+                Func::Sinh => Math::Sinh(a),
+                Func::Cosh => Math::Cosh(a),
+                Func::Tanh => Math::Tanh(a),
+                Func::Asin => Math::Asin(a),
+                Func::Acos => Math::Acos(a),
+                Func::Atan => Math::Atan(a),
+                Func::Abs => Math::Abs(a),
+                Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
+            }
+        }
+    };
+    let id = g.add(node);
+    memo.insert(e.clone(), id);
+    id
+}
+
+/// A condition: the class bound to `var` is known to be positive.
+fn is_positive(var: &str) -> impl Fn(&mut Graph, Id, &Subst) -> bool {
+    let var: Var = var.parse().unwrap_or_else(|_| unreachable!("rule variables are literals"));
+    move |egraph, _, subst| egraph[subst[var]].data.positive
+}
+
+/// A condition: the class bound to `var` is not the constant zero.
+fn is_not_zero(var: &str) -> impl Fn(&mut Graph, Id, &Subst) -> bool {
+    let var: Var = var.parse().unwrap_or_else(|_| unreachable!("rule variables are literals"));
+    move |egraph, _, subst| egraph[subst[var]].data.constant().map_or(true, |r| !r.is_zero())
+}
+
+/// When a rule may fire.
+#[derive(Clone, Copy, Debug)]
+enum Cond {
+    /// Always (the identity holds wherever both sides are defined).
+    Always,
+    /// When the class bound to `x` is known to be strictly positive.
+    Positive,
+    /// When the class bound to `x` is not the constant zero.
+    NotZero,
+}
+
+/// The rule table: `(name, left side, right side, condition)`, both sides written in the
+/// expression grammar with `x`, `y` as pattern variables. The left side is turned into a
+/// pattern through the canonical constructors, so it has exactly the operand order the
+/// canonical sums and products it must match have (sums and products are never reordered in
+/// the e-graph). Every rule holds for all real values where both sides are defined, under its
+/// condition.
+#[rustfmt::skip]
+const RULES: &[(&str, &str, &str, Cond)] = &[
+    // exp and log: exp(log x) = x needs x > 0 (log is undefined otherwise);
+    // log(exp x) = x for every real x.
+    ("exp-log",        "exp(log(x))",         "x",           Cond::Positive),
+    ("log-exp",        "log(exp(x))",         "x",           Cond::Always),
+    ("log-square",     "log(x^2)",            "2 log(x)",    Cond::Positive),
+    ("log-sqrt",       "log(sqrt(x))",        "log(x)/2",    Cond::Positive),
+    ("exp-square",     "exp(x)^2",            "exp(2 x)",    Cond::Always),
+    ("exp-sqrt",       "sqrt(exp(x))",        "exp(x/2)",    Cond::Always),
+    ("exp-inverse",    "1/exp(x)",            "exp(-x)",     Cond::Always),
+    ("exp-product",    "exp(x) exp(y)",       "exp(x + y)",  Cond::Always),
+    // Quotients of sine and cosine.
+    ("tan-quotient",   "sin(x)/cos(x)",       "tan(x)",      Cond::Always),
+    ("tanh-quotient",  "sinh(x)/cosh(x)",     "tanh(x)",     Cond::Always),
+    // Double angles, in the two-term forms canonical sums take.
+    ("double-sin",     "2 sin(x) cos(x)",     "sin(2 x)",    Cond::Always),
+    ("double-cos",     "cos(x)^2 - sin(x)^2", "cos(2 x)",    Cond::Always),
+    ("double-cos-sin", "1 - 2 sin(x)^2",      "cos(2 x)",    Cond::Always),
+    ("double-cos-cos", "2 cos(x)^2 - 1",      "cos(2 x)",    Cond::Always),
+    ("double-sinh",    "2 sinh(x) cosh(x)",   "sinh(2 x)",   Cond::Always),
+    ("double-cosh",    "cosh(x)^2 + sinh(x)^2", "cosh(2 x)", Cond::Always),
+    // Inverse functions: f(f⁻¹(x)) = x wherever the left side is defined.
+    ("sin-asin",       "sin(asin(x))",        "x",           Cond::Always),
+    ("cos-acos",       "cos(acos(x))",        "x",           Cond::Always),
+    ("tan-atan",       "tan(atan(x))",        "x",           Cond::Always),
+    ("cos-asin",       "cos(asin(x))",        "sqrt(1 - x^2)", Cond::Always),
+    ("sin-acos",       "sin(acos(x))",        "sqrt(1 - x^2)", Cond::Always),
+    // Absolute values and square roots: |x| = x for x > 0; |x|^2 = x^2 is canonical already.
+    ("abs-positive",   "abs(x)",              "x",           Cond::Positive),
+    ("sqrt-square",    "sqrt(x^2)",           "x",           Cond::Positive),
+    ("inverse-inverse", "1/(1/x)",            "x",           Cond::NotZero),
+];
+
+/// Converts a canonical expression over the pattern variables `x`, `y` into an egg pattern.
+fn pattern_text(e: &Expr) -> String {
+    let kids = |xs: &[Expr]| xs.iter().map(pattern_text).collect::<Vec<_>>().join(" ");
+    match e.node() {
+        Node::Num(r) => r.to_string(),
+        Node::Sym(s) => format!("?{}", s.name()),
+        Node::Add(xs) => format!("(+ {})", kids(xs)),
+        Node::Mul(xs) => format!("(* {})", kids(xs)),
+        Node::Pow(b, x) => format!("(^ {} {})", pattern_text(b), pattern_text(x)),
+        Node::Call(f, xs) => format!("({} {})", f.name(), kids(xs)),
+        Node::Apply { .. } | Node::Undefined => "?unsupported".to_string(),
+    }
+}
+
+fn pattern(text: &str) -> egg::Pattern<Math> {
+    let e = crate::parse::parse(text).unwrap_or_else(|err| unreachable!("rule `{text}` does not parse: {err}"));
+    pattern_text(&e).parse().unwrap_or_else(|err| unreachable!("rule `{text}` is not a pattern: {err}"))
+}
+
+/// The rules of [`RULES`] as egg rewrites.
+pub fn rules() -> Vec<egg::Rewrite<Math, Knowledge>> {
+    RULES
+        .iter()
+        .map(|(name, lhs, rhs, cond)| {
+            let (l, r) = (pattern(lhs), pattern(rhs));
+            let rewrite = match cond {
+                Cond::Always => egg::Rewrite::new(*name, l, r),
+                Cond::Positive => {
+                    egg::Rewrite::new(*name, l, egg::ConditionalApplier { condition: is_positive("?x"), applier: r })
+                }
+                Cond::NotZero => {
+                    egg::Rewrite::new(*name, l, egg::ConditionalApplier { condition: is_not_zero("?x"), applier: r })
+                }
+            };
+            rewrite.unwrap_or_else(|err| unreachable!("rule `{name}`: {err}"))
+        })
+        .collect()
+}
+
+/// One e-graph run: candidates in the root class, the rule table, the root's representative.
+fn egraph_round(e: &Expr, budget: &Budget) -> (Expr, StopReason) {
+    let cands = candidates(e, budget);
+    let mut g = Graph::new(Knowledge::default());
+    let mut memo = HashMap::new();
+    let root = add_expr(&mut g, e, &mut memo);
+    for c in &cands[1..] {
+        let id = add_expr(&mut g, c, &mut memo);
+        g.union(root, id);
+    }
+    g.rebuild();
+    let runner = Runner::default()
+        .with_egraph(g)
+        .with_node_limit(budget.nodes)
+        .with_iter_limit(budget.iterations)
+        .with_time_limit(budget.time)
+        .run(&rules());
+    let stop = match runner.stop_reason {
+        Some(egg::StopReason::IterationLimit(_)) => StopReason::IterationLimit,
+        Some(egg::StopReason::NodeLimit(_)) => StopReason::NodeLimit,
+        Some(egg::StopReason::TimeLimit(_)) => StopReason::TimeLimit,
+        // `Other` only comes from runner hooks, which are not used.
+        Some(egg::StopReason::Saturated | egg::StopReason::Other(_)) | None => StopReason::Saturated,
+    };
+    let best = runner.egraph[runner.egraph.find(root)].data.repr.clone();
+    (best, stop)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse::{parse, parse_with, Declarations};
+
+    fn s(text: &str) -> String {
+        simplify(&parse(text).unwrap_or_else(|e| panic!("{text}: {e}"))).to_string()
+    }
+
+    #[test]
+    fn the_issue_examples() {
+        assert_eq!(s("sin(x)^2 + cos(x)^2"), "1");
+        assert_eq!(s("(x+1)^2 - x^2 - 2x"), "1");
+    }
+
+    /// Each named rule fires on the form it is written for (`start => goal`, by hand).
+    #[test]
+    fn rules_fire() {
+        let pos = Declarations::new().with_positive(["m"]);
+        let ps = |t: &str| simplify(&parse_with(t, &pos).unwrap_or_else(|e| panic!("{t}: {e}"))).to_string();
+        for (start, goal) in [
+            ("exp(log(m))", "m"),
+            ("log(exp(x))", "x"),
+            ("sqrt(exp(2 x))", "exp(x)"),
+            ("sin(x)/cos(x)", "tan(x)"),
+            ("sinh(x)/cosh(x)", "tanh(x)"),
+            ("2 sin(x) cos(x)", "sin(2 x)"),
+            ("cos(x)^2 - sin(x)^2", "cos(2 x)"),
+            ("1 - 2 sin(x)^2", "cos(2 x)"),
+            ("2 cos(x)^2 - 1", "cos(2 x)"),
+            ("sin(asin(x))", "x"),
+            ("tan(atan(x))", "x"),
+        ] {
+            assert_eq!(ps(start), goal, "{start}");
+        }
+        // exp(log x) stays for x of unknown sign: log x is undefined for x < 0.
+        assert_eq!(s("exp(log(x))"), "exp(log(x))");
+    }
+
+    #[test]
+    fn budgets_report_why_they_stopped() {
+        let e = parse("sin(x)^2 + cos(x)^2 + exp(log(exp(y)))").unwrap_or_else(|e| panic!("{e}"));
+        let out = simplify_with(&e, &Budget::default());
+        assert_eq!(out.expr.to_string(), "exp(y) + 1");
+        assert_eq!(out.stop, StopReason::Saturated);
+        let tight = simplify_with(&e, &Budget::default().with_iterations(1).with_nodes(3));
+        assert_ne!(tight.stop, StopReason::Saturated);
+    }
+
+    /// The Pythagorean identity among many unrelated terms, several arguments and scales.
+    #[test]
+    fn many_term_sums() {
+        let terms: Vec<String> =
+            (1..=12).map(|i| format!("{i} k{i} sin(q{i})^2 + {i} k{i} cos(q{i})^2 + z{i}")).collect();
+        let e = parse(&terms.join(" + ")).unwrap_or_else(|e| panic!("{e}"));
+        // By hand: each pair i·k_i (sin² + cos²) is i·k_i.
+        let goal: Vec<String> = (1..=12).map(|i| format!("{i} k{i} + z{i}")).collect();
+        let goal = parse(&goal.join(" + ")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(simplify(&e), goal);
+    }
+
+    #[test]
+    fn output_is_deterministic() {
+        let text = "(a + b)^3 - a^3 + sin(a)^2 cos(b) + cos(a)^2 cos(b) + exp(log(exp(a)))/(1 + tan(b)^2)";
+        let e = parse(text).unwrap_or_else(|e| panic!("{e}"));
+        let first = simplify(&e).to_string();
+        for _ in 0..3 {
+            assert_eq!(simplify(&e).to_string(), first);
+        }
+    }
 }

@@ -15,10 +15,16 @@
 //! doubled until two successive values agree to 1e-13 (relative); beyond that, rounding in
 //! `D` near the turning points (a difference of nearly equal numbers) is the noise floor.
 
+use crate::diff::Differentiator;
 use crate::eval::{eval_with, Env};
 use crate::expr::{Expr, Symbol};
 
 use super::reduce::expand;
+
+/// Terms of the Taylor series of `D` used near a turning point (within 2% of the orbit's
+/// half-width and 5% of the series' estimated radius of convergence, so the remainder is
+/// about 0.05^13 ≈ 1e-17 of the leading term).
+const TAYLOR_ORDER: usize = 12;
 
 /// The result at one energy.
 #[derive(Clone, Debug, PartialEq)]
@@ -167,21 +173,79 @@ pub fn action_frequency(
         turning_point(&disc, inside, -1.0).ok_or(ActionAngleError::NoTurningPoint { side: "left", inside, energy })?;
     let q2 =
         turning_point(&disc, inside, 1.0).ok_or(ActionAngleError::NoTurningPoint { side: "right", inside, energy })?;
-    let mid = 0.5 * (q1 + q2);
     let half = 0.5 * (q2 - q1);
-    // Trapezoid on a full period at offset nodes (never exactly at cos φ = 0).
+    // Near a turning point D is a difference of nearly equal numbers (E − V with V ≈ E), so
+    // its relative error there grows without bound. Within `tau` of an end, D/(q − q_end) comes
+    // instead from the Taylor series of D at that end, whose coefficients (symbolic
+    // derivatives of D) carry no such cancellation.
+    let e_sym = Symbol::new("__energy");
+    let disc_expr = b.powi(2).minus(&Expr::int(4).times(&a).times(&c.minus(&Expr::sym(e_sym.clone()))));
+    let ev_e = |e: &Expr, x: f64| -> f64 {
+        eval_with(e, &|s: &Symbol| {
+            if s.to_string() == qname {
+                Some(x)
+            } else if *s == e_sym {
+                Some(energy)
+            } else {
+                params.get(&s.to_string()).copied()
+            }
+        })
+        .unwrap_or(f64::NAN)
+    };
+    let mut d = Differentiator::new();
+    let mut derivs = Vec::with_capacity(TAYLOR_ORDER);
+    let mut cur = disc_expr;
+    for _ in 0..TAYLOR_ORDER {
+        cur = d.diff(&cur, q);
+        derivs.push(cur.clone());
+    }
+    // taylor1[j] = D^(j+1)(q1)/(j+1)!, so D(q1 + s)/s = Σ taylor1[j] s^j.
+    let coeffs = |at: f64| -> Vec<f64> {
+        let mut fact = 1.0;
+        derivs
+            .iter()
+            .enumerate()
+            .map(|(j, e)| {
+                fact *= (j + 1) as f64;
+                ev_e(e, at) / fact
+            })
+            .collect()
+    };
+    let (taylor1, taylor2) = (coeffs(q1), coeffs(q2));
+    let horner = |cs: &[f64], s: f64| cs.iter().rev().fold(0.0, |acc, c| acc * s + c);
+    // Stay well inside the Taylor series' disc of convergence, estimated from the ratios of
+    // successive coefficients (Cauchy–Hadamard); a polynomial D has no limit from this side.
+    let radius = |cs: &[f64]| {
+        cs.windows(2)
+            .skip(1)
+            .filter(|w| w[1] != 0.0 && w[0].is_finite() && w[1].is_finite())
+            .map(|w| (w[0] / w[1]).abs())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let tau1 = (0.02 * half).min(0.05 * radius(&taylor1));
+    let tau2 = (0.02 * half).min(0.05 * radius(&taylor2));
+    // Trapezoid on a full period at offset nodes (never exactly at cos φ = 0). With
+    // q = q1 + s1 = q2 − s2: s1 = h (1 + sin φ) = h (sin φ/2 + cos φ/2)², s2 = h (1 − sin φ),
+    // both computed without cancellation, and (q − q1)(q2 − q) = s1 s2.
     let pass = |n: usize| -> (f64, f64) {
         let mut t_sum = 0.0;
         let mut j_sum = 0.0;
         for k in 0..n {
             let phi = std::f64::consts::TAU * (k as f64 + 0.5) / n as f64;
-            let (s, co) = phi.sin_cos();
-            let x = mid + half * s;
-            let w = half * half * co * co;
-            let r = disc(x) / w;
+            let (sh, ch) = (0.5 * phi).sin_cos();
+            let s1 = half * (sh + ch) * (sh + ch);
+            let s2 = half * (ch - sh) * (ch - sh);
+            let x = if s1 < s2 { q1 + s1 } else { q2 - s2 };
+            let r = if s1 < tau1 {
+                horner(&taylor1, s1) / s2
+            } else if s2 < tau2 {
+                -horner(&taylor2, -s2) / s1
+            } else {
+                disc(x) / (s1 * s2)
+            };
             let av = ev(&a, x).unwrap_or(f64::NAN).abs();
             t_sum += 1.0 / r.sqrt();
-            j_sum += w * r.sqrt() / av;
+            j_sum += s1 * s2 * r.sqrt() / av;
         }
         let dphi = std::f64::consts::TAU / n as f64;
         (t_sum * dphi, j_sum * dphi / (2.0 * std::f64::consts::TAU))

@@ -129,5 +129,5 @@ pub fn time() -> Symbol {
 
 /// `e` in the normal form of [`reduce::normalize`]: what results are printed in.
 pub fn simplified(e: &Expr) -> Expr {
-    crate::simplify::simplify(&normalize(e))
+    crate::simplify::simplify(&reduce::reduce_radicals(&normalize(e)))
 }

@@ -160,6 +160,158 @@ pub fn normalize(e: &Expr) -> Expr {
     cur
 }
 
+/// Roots of sums: `Σ x_i² · S^(-3/2) − S^(-1/2)` with `S = Σ x_i²` is zero, but expansion
+/// alone cannot see it. For each power of a sum `S^(n/d)` this introduces `u = S^(1/d)`,
+/// eliminates one variable's leading power by `c v^k = u^d − (S − c v^k)` (a reduction modulo
+/// the defining relation), expands, and substitutes `u` back. Returns the shorter of the input
+/// and the reduced form (by operation count); a zero comes out as `0`.
+pub fn reduce_radicals(e: &Expr) -> Expr {
+    let mut cur = e.clone();
+    for round in 0..4 {
+        let Some((base, d)) = find_radical(&cur) else { break };
+        let Some(reduced) = reduce_one_radical(&cur, &base, d, round) else { break };
+        if reduced.is_zero() {
+            return reduced;
+        }
+        if reduced.op_count() < cur.op_count() {
+            cur = reduced;
+        } else {
+            break;
+        }
+    }
+    cur
+}
+
+/// The first power of a sum with a non-integer exponent, and the lcm of the denominators of
+/// all exponents on that base.
+fn find_radical(e: &Expr) -> Option<(Expr, i64)> {
+    let mut found: Option<Expr> = None;
+    let mut seen = std::collections::HashSet::new();
+    fn walk(e: &Expr, found: &mut Option<Expr>, seen: &mut std::collections::HashSet<Expr>) {
+        if found.is_some() || !seen.insert(e.clone()) {
+            return;
+        }
+        if let Node::Pow(b, x) = e.node() {
+            if matches!(b.node(), Node::Add(_)) && x.as_num().is_some_and(|r| !r.is_integer()) {
+                *found = Some(b.clone());
+                return;
+            }
+        }
+        e.for_each_child(|c| walk(c, found, seen));
+    }
+    walk(e, &mut found, &mut seen);
+    let base = found?;
+    let mut d: i64 = 1;
+    let mut seen = std::collections::HashSet::new();
+    fn denoms(e: &Expr, base: &Expr, d: &mut i64, seen: &mut std::collections::HashSet<Expr>) {
+        if !seen.insert(e.clone()) {
+            return;
+        }
+        if let Node::Pow(b, x) = e.node() {
+            if b == base {
+                if let Some(den) = x.as_num().and_then(|r| r.denom().to_i64()) {
+                    *d = num_integer::lcm(*d, den);
+                }
+            }
+        }
+        e.for_each_child(|c| denoms(c, base, d, seen));
+    }
+    denoms(e, &base, &mut d, &mut seen);
+    (d <= 12).then_some((base, d))
+}
+
+fn reduce_one_radical(e: &Expr, base: &Expr, d: i64, round: usize) -> Option<Expr> {
+    // A variable v with base = c v^k + rest, rest free of v.
+    let mut pick = None;
+    for v in base.free_symbols() {
+        let with: Vec<Expr> = base.terms().into_iter().filter(|t| t.contains(&v)).collect();
+        if with.len() != 1 {
+            continue;
+        }
+        let (c, mono) = with[0].coeff_rest();
+        let (b, k) = mono.base_exp();
+        if b.as_sym() == Some(&v) {
+            if let Some(k) = k.as_num().and_then(nonneg_int).filter(|k| *k >= 1) {
+                pick = Some((v, Expr::num(c), i64::from(k), with[0].clone()));
+                break;
+            }
+        }
+    }
+    let (v, c, k, lead) = pick?;
+    let u = Expr::sym(Symbol::new(&format!("__radical{round}")));
+    let ud = u.powi(d);
+    let rest = base.minus(&lead);
+    let vk = ud.minus(&rest).over(&c);
+    let dd = Rational::from_integer(d.into());
+    // First the powers of the base (their children are untouched by this pass), then v^j.
+    let with_u = map_top_down(e, &mut |n| {
+        if n == base {
+            return Some(ud.clone());
+        }
+        match n.node() {
+            Node::Pow(b, x) if b == base => {
+                let r = x.as_num()? * &dd;
+                r.is_integer().then(|| Expr::pow(u.clone(), Expr::num(r)))
+            }
+            _ => None,
+        }
+    });
+    let replaced = with_u.map_bottom_up(&mut |n| match n.node() {
+        Node::Pow(b, x) if b.as_sym() == Some(&v) => {
+            let j = x.as_num().filter(|r| r.is_integer()).and_then(|r| r.to_integer().to_i64())?;
+            (j >= k).then(|| Expr::sym(v.clone()).powi(j % k).times(&vk.powi(j / k)))
+        }
+        Node::Sym(s) if *s == v && k == 1 => Some(vk.clone()),
+        _ => None,
+    });
+    let reduced = normalize(&replaced);
+    let back = Expr::pow(base.clone(), Expr::frac(1, d));
+    let usym = Symbol::new(&format!("__radical{round}"));
+    Some(normalize(&reduced.subs1(&usym, &back)).pipe_zero_if(reduced.is_zero()))
+}
+
+/// Rewrites top-down: where `f` replaces a node, its children are not visited.
+fn map_top_down(e: &Expr, f: &mut impl FnMut(&Expr) -> Option<Expr>) -> Expr {
+    fn rec(e: &Expr, f: &mut impl FnMut(&Expr) -> Option<Expr>, memo: &mut HashMap<Expr, Expr>) -> Expr {
+        if let Some(done) = memo.get(e) {
+            return done.clone();
+        }
+        let out = match f(e) {
+            Some(r) => r,
+            None => {
+                let mut kids = Vec::new();
+                e.for_each_child(|c| kids.push(c.clone()));
+                if kids.is_empty() {
+                    e.clone()
+                } else {
+                    let new: Vec<Expr> = kids.iter().map(|c| rec(c, f, memo)).collect();
+                    if new == kids {
+                        e.clone()
+                    } else {
+                        e.with_children(new)
+                    }
+                }
+            }
+        };
+        memo.insert(e.clone(), out.clone());
+        out
+    }
+    rec(e, f, &mut HashMap::new())
+}
+
+trait ZeroIf {
+    fn pipe_zero_if(self, zero: bool) -> Expr;
+}
+impl ZeroIf for Expr {
+    fn pipe_zero_if(self, zero: bool) -> Expr {
+        if zero {
+            Expr::zero()
+        } else {
+            self
+        }
+    }
+}
+
 /// Only the inverse-function compositions and `tan = sin/cos`; no expansion. Used to tidy
 /// solutions without destroying their factored shape.
 pub fn tidy(e: &Expr) -> Expr {
@@ -305,7 +457,7 @@ fn concrete_function(name: &str, vars: &[Symbol]) -> Expr {
 /// logarithms of positive combinations stay real).
 pub fn decide_zero(e: &Expr) -> ZeroCheck {
     let n = normalize(e);
-    if n.is_zero() {
+    if n.is_zero() || reduce_radicals(&n).is_zero() {
         return ZeroCheck::Proven;
     }
     numeric_zero(&n, 12, 0x5EED)
@@ -356,5 +508,17 @@ pub fn nonneg_int(r: &Rational) -> Option<u32> {
         r.to_integer().to_u32()
     } else {
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse::parse;
+
+    #[test]
+    fn radical_reduction_sees_sum_of_squares() {
+        let e = parse("x^2/(x^2 + y^2)^(3/2) + y^2/(x^2 + y^2)^(3/2) - 1/sqrt(x^2 + y^2)").expect("parses");
+        assert!(reduce_radicals(&e).is_zero(), "{}", reduce_radicals(&e));
     }
 }

@@ -11,6 +11,7 @@ use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod canonical;
 mod core;
+mod mechanics;
 mod product;
 
 #[derive(Parser)]
@@ -27,9 +28,11 @@ enum Command {
     #[command(flatten)]
     Core(core::CoreCommand),
     #[command(flatten)]
-    Product(product::ProductCommand),
+    Mechanics(mechanics::MechanicsCommand),
     #[command(flatten)]
     Canonical(canonical::CanonicalCommand),
+    #[command(flatten)]
+    Product(product::ProductCommand),
 }
 
 /// Options every expression command takes.
@@ -128,8 +131,9 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
-        Some(Command::Product(c)) => product::run(c),
+        Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
+        Some(Command::Product(c)) => product::run(c),
         None => product::repl(),
     };
     match result {

@@ -1,0 +1,53 @@
+//! Holonomic constraints by Lagrange multipliers (1.25–1.29).
+
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+
+use super::system::System;
+use super::tidy::tidy;
+use super::MechanicsError;
+
+/// The augmented equations of a constrained system: stationary `∫ (L + Σ λ_j f_j) dt` gives
+/// `W q'' − Φᵀ λ = F` with `Φ_ji = ∂f_j/∂q_i`, and `Φ q'' = c` from `d²f_j/dt² = 0`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConstrainedEquations {
+    /// The multipliers `λ1, λ2, …`, one per constraint.
+    pub multipliers: Vec<Symbol>,
+    /// `E_i − Q_i + ∂R/∂q'_i − Σ_j λ_j ∂f_j/∂q_i`, each `= 0`.
+    pub equations: Vec<Expr>,
+    /// The mass matrix `W`.
+    pub w: Vec<Vec<Expr>>,
+    /// The forcing `F`.
+    pub f: Vec<Expr>,
+    /// `Φ_ji = ∂f_j/∂q_i` (one row per constraint).
+    pub phi: Vec<Vec<Expr>>,
+    /// `c_j = −(d²f_j/dt² − Σ_i Φ_ji q_i'')`: the right side of `Φ q'' = c`.
+    pub c: Vec<Expr>,
+}
+
+impl System {
+    /// The names of the constraint multipliers, `λ1, λ2, …`.
+    pub fn multipliers(&self) -> Vec<Symbol> {
+        (1..=self.constraints.len()).map(|j| Symbol::new(&format!("λ{j}"))).collect()
+    }
+
+    /// The augmented equations of motion with one multiplier per holonomic constraint.
+    pub fn constrained_equations(&self) -> Result<ConstrainedEquations, MechanicsError> {
+        let equations = self.equations()?;
+        let (w, f) = self.mass_matrix_split()?;
+        let names = self.coord_names();
+        let mut d = Differentiator::new();
+        let acc: Vec<Symbol> = self.accelerations_symbols();
+        let mut phi = Vec::new();
+        let mut c = Vec::new();
+        for fj in &self.constraints {
+            let row: Vec<Expr> = self.coords.iter().map(|q| tidy(&d.diff(fj, q))).collect();
+            let d1 = d.dt(fj, &names);
+            let d2 = d.dt(&d1, &names);
+            let lhs: Vec<Expr> = row.iter().zip(&acc).map(|(p, a)| p.times(&Expr::sym(a.clone()))).collect();
+            c.push(tidy(&Expr::add(lhs).minus(&d2)));
+            phi.push(row);
+        }
+        Ok(ConstrainedEquations { multipliers: self.multipliers(), equations, w, f, phi, c })
+    }
+}

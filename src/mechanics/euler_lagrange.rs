@@ -1,0 +1,210 @@
+//! Euler–Lagrange expressions and the split `W q'' = F` (PHYSICS.md §1–2, (3.4)–(3.5)).
+
+use nalgebra::DMatrix;
+
+use crate::diff::Differentiator;
+use crate::eval::eval_with;
+use crate::expr::{Expr, Symbol};
+
+use super::linalg::{adjugate, determinant, is_diagonal, MAX_CLOSED_FORM};
+use super::system::{time, System};
+use super::tidy::tidy;
+use super::MechanicsError;
+
+impl System {
+    /// The Euler–Lagrange expressions `E_i = d/dt(∂L/∂q'_i) − ∂L/∂q_i`, one per coordinate
+    /// (the equation of motion is `E_i = 0`; forces are not included, see
+    /// [`System::equations`]). Accelerations appear as `q''`.
+    pub fn euler_lagrange(&self) -> Result<Vec<Expr>, MechanicsError> {
+        let l = self.need_lagrangian("Euler–Lagrange")?;
+        let names = self.coord_names();
+        let mut d = Differentiator::new();
+        Ok(self
+            .coords
+            .iter()
+            .zip(&self.velocities)
+            .map(|(q, v)| {
+                let dv = d.diff(l, v);
+                let e = d.dt(&dv, &names).minus(&d.diff(l, q));
+                tidy(&e)
+            })
+            .collect())
+    }
+
+    /// The full left-hand sides of the equations of motion, each `= 0`:
+    /// `E_i − Q_i + ∂R/∂q'_i − Σ_j λ_j ∂f_j/∂q_i` (forces (2.12), Rayleigh dissipation,
+    /// constraint multipliers `λ1, λ2, …` (1.25–1.29)).
+    pub fn equations(&self) -> Result<Vec<Expr>, MechanicsError> {
+        let el = self.euler_lagrange()?;
+        let mut d = Differentiator::new();
+        let lambdas = self.multipliers();
+        Ok(el
+            .into_iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let mut terms = vec![e, self.forces[i].neg()];
+                if let Some(r) = &self.rayleigh {
+                    terms.push(d.diff(r, &self.velocities[i]));
+                }
+                for (f, lam) in self.constraints.iter().zip(&lambdas) {
+                    terms.push(Expr::sym(lam.clone()).times(&d.diff(f, &self.coords[i])).neg());
+                }
+                tidy(&Expr::add(terms))
+            })
+            .collect())
+    }
+
+    /// The generalized mass matrix `W_ij = ∂²L/∂q'_i∂q'_j` (3.4) and the forcing
+    /// `F = ∂L/∂q − ∂²L/∂q'∂t − (∂²L/∂q'∂q) q' + Q − ∂R/∂q'` (3.5), so that the equations of
+    /// motion read `W q'' = F`. Both tidied; `W` is symmetric. All derivatives of `L` share one
+    /// memo table.
+    pub fn mass_matrix_split(&self) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
+        let l = self.need_lagrangian("the mass matrix")?;
+        let n = self.coords.len();
+        let mut d = Differentiator::new();
+        let t = time();
+        let dl_dv: Vec<Expr> = self.velocities.iter().map(|v| d.diff(l, v)).collect();
+        let mut w = vec![vec![Expr::zero(); n]; n];
+        for i in 0..n {
+            for j in i..n {
+                let x = tidy(&d.diff(&dl_dv[i], &self.velocities[j]));
+                w[i][j] = x.clone();
+                w[j][i] = x;
+            }
+        }
+        let mut f = Vec::with_capacity(n);
+        for i in 0..n {
+            let mut terms = vec![d.diff(l, &self.coords[i]), d.diff(&dl_dv[i], &t).neg()];
+            for j in 0..n {
+                let mixed = d.diff(&dl_dv[i], &self.coords[j]);
+                if !mixed.is_zero() {
+                    terms.push(mixed.times(&Expr::sym(self.velocities[j].clone())).neg());
+                }
+            }
+            terms.push(self.forces[i].clone());
+            if let Some(r) = &self.rayleigh {
+                terms.push(d.diff(r, &self.velocities[i]).neg());
+            }
+            f.push(tidy(&Expr::add(terms)));
+        }
+        Ok((w, f))
+    }
+
+    /// Checks that the mass matrix `W` is regular, so that `W q'' = F` determines the
+    /// accelerations; otherwise the error names the velocity or null direction (Remark 3.1).
+    pub fn check_regular(&self) -> Result<(), MechanicsError> {
+        let (w, _) = self.mass_matrix_split()?;
+        check_hessian(&w, &self.velocities, "L")
+    }
+
+    /// The accelerations `q'' = W⁻¹ F` in closed form: directly when `W` is diagonal, through
+    /// the fraction-free adjugate `adj(W) F / det(W)` for up to four coupled coordinates.
+    /// A singular `W` is an error naming the velocity or the null direction (Remark 3.1).
+    pub fn accelerations(&self) -> Result<Vec<Expr>, MechanicsError> {
+        let (w, f) = self.mass_matrix_split()?;
+        check_hessian(&w, &self.velocities, "L")?;
+        let n = w.len();
+        if is_diagonal(&w) {
+            return Ok((0..n).map(|i| tidy(&f[i].over(&w[i][i]))).collect());
+        }
+        if n > MAX_CLOSED_FORM {
+            return Err(MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM });
+        }
+        let adj = adjugate(&w);
+        let det = determinant(&w);
+        Ok((0..n)
+            .map(|i| {
+                let num = tidy(&Expr::add((0..n).map(|j| adj[i][j].times(&f[j]))));
+                num.over(&det)
+            })
+            .collect())
+    }
+}
+
+/// A deterministic pseudo-random value in `[0.5, 1.5)` for a symbol at sample `k`: numeric
+/// probes of symbolic identities.
+pub(crate) fn probe_value(s: &Symbol, k: u64) -> f64 {
+    let mut h: u64 = 0x9E37_79B9_7F4A_7C15 ^ k.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    for b in s.to_string().bytes() {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01B3);
+    }
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xFF51_AFD7_ED55_8CCD);
+    h ^= h >> 33;
+    0.5 + (h >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Checks that a Hessian is regular: a zero row names its variable; otherwise a numeric rank
+/// test at two probe points (when every entry evaluates) or the symbolic determinant (up to
+/// four coordinates) detects a singular matrix, and the error names a null direction.
+pub(crate) fn check_hessian(m: &[Vec<Expr>], vars: &[Symbol], function: &'static str) -> Result<(), MechanicsError> {
+    let n = m.len();
+    for (i, row) in m.iter().enumerate() {
+        if row.iter().all(Expr::is_zero) {
+            return Err(MechanicsError::SingularHessian { function, var: vars[i].to_string() });
+        }
+    }
+    let mut numeric_null: Option<Vec<f64>> = None;
+    let mut evaluated = true;
+    for k in 0..2u64 {
+        let mut mat = DMatrix::<f64>::zeros(n, n);
+        for i in 0..n {
+            for j in 0..n {
+                match eval_with(&m[i][j], &|s: &Symbol| Some(probe_value(s, k))) {
+                    Ok(v) if v.is_finite() => mat[(i, j)] = v,
+                    _ => evaluated = false,
+                }
+            }
+        }
+        if !evaluated {
+            break;
+        }
+        let svd = mat.svd(false, true);
+        let sv = &svd.singular_values;
+        let max = sv.iter().cloned().fold(0.0, f64::max);
+        let (imin, min) =
+            sv.iter().cloned().enumerate().fold((0, f64::INFINITY), |a, (i, v)| if v < a.1 { (i, v) } else { a });
+        if min > 1e-9 * max.max(1e-300) {
+            return Ok(());
+        }
+        if let Some(vt) = &svd.v_t {
+            numeric_null = Some(vt.row(imin).iter().cloned().collect());
+        }
+    }
+    if evaluated {
+        let dir = numeric_null.unwrap_or_default();
+        return Err(MechanicsError::SingularHessianDirection { function, direction: describe_direction(&dir, vars) });
+    }
+    if n <= MAX_CLOSED_FORM && determinant(m).is_zero() {
+        let adj = adjugate(m);
+        let col = (0..n).find(|&j| (0..n).any(|i| !adj[i][j].is_zero()));
+        let direction = match col {
+            Some(j) => {
+                let parts: Vec<String> = (0..n).map(|i| adj[i][j].to_string()).collect();
+                let names: Vec<String> = vars.iter().map(Symbol::to_string).collect();
+                format!("({}) in ({})", parts.join(", "), names.join(", "))
+            }
+            None => "of more than one velocity".to_string(),
+        };
+        return Err(MechanicsError::SingularHessianDirection { function, direction });
+    }
+    Ok(())
+}
+
+fn describe_direction(v: &[f64], vars: &[Symbol]) -> String {
+    let big = v.iter().cloned().fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
+    let scaled: Vec<String> = v
+        .iter()
+        .map(|x| {
+            let r = x / if big == 0.0 { 1.0 } else { big };
+            let rounded = (r * 1e6).round() / 1e6;
+            if rounded == rounded.trunc() {
+                format!("{}", rounded as i64)
+            } else {
+                format!("{rounded}")
+            }
+        })
+        .collect();
+    let names: Vec<String> = vars.iter().map(Symbol::to_string).collect();
+    format!("({}) in ({})", scaled.join(", "), names.join(", "))
+}

@@ -1,0 +1,58 @@
+//! Hamilton's equations (3.12) and the phase-space Lagrangian (3.31).
+
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+
+use super::system::System;
+use super::tidy::tidy;
+use super::MechanicsError;
+
+/// Hamilton's equations `q'_i = ∂H/∂p_i`, `p'_i = −∂H/∂q_i`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HamiltonEquations {
+    /// The Hamiltonian they come from.
+    pub hamiltonian: Expr,
+    /// `∂H/∂p_i`, one per coordinate.
+    pub qdot: Vec<Expr>,
+    /// `−∂H/∂q_i`, one per coordinate.
+    pub pdot: Vec<Expr>,
+}
+
+impl System {
+    /// Hamilton's equations of the system's Hamiltonian (a Lagrangian is transformed first).
+    pub fn hamilton_equations(&self) -> Result<HamiltonEquations, MechanicsError> {
+        let h = self.hamiltonian()?;
+        let mut d = Differentiator::new();
+        let qdot = self.momenta.iter().map(|p| tidy(&d.diff(&h, p))).collect();
+        let pdot = self.coords.iter().map(|q| tidy(&d.diff(&h, q).neg())).collect();
+        Ok(HamiltonEquations { hamiltonian: h, qdot, pdot })
+    }
+
+    /// The phase-space Lagrangian `L_ph = Σ p_i q'_i − H(q, p, t)` (3.31): its Euler–Lagrange
+    /// equations in the variables `(q, p)` are Hamilton's equations.
+    pub fn phase_space_lagrangian(&self) -> Result<Expr, MechanicsError> {
+        let h = self.hamiltonian()?;
+        let pq: Vec<Expr> = self
+            .momenta
+            .iter()
+            .zip(&self.velocities)
+            .map(|(p, v)| Expr::sym(p.clone()).times(&Expr::sym(v.clone())))
+            .collect();
+        Ok(Expr::add(pq).minus(&h))
+    }
+
+    /// The Poisson bracket `{f, g} = Σ_i (∂f/∂q_i ∂g/∂p_i − ∂f/∂p_i ∂g/∂q_i)` in this system's
+    /// canonical variables.
+    pub fn poisson_bracket(&self, f: &Expr, g: &Expr) -> Expr {
+        let mut d = Differentiator::new();
+        let terms: Vec<Expr> = self
+            .coords
+            .iter()
+            .zip(&self.momenta)
+            .map(|(q, p): (&Symbol, &Symbol)| {
+                d.diff(f, q).times(&d.diff(g, p)).minus(&d.diff(f, p).times(&d.diff(g, q)))
+            })
+            .collect();
+        tidy(&Expr::add(terms))
+    }
+}

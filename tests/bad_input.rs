@@ -1,0 +1,130 @@
+//! The bad-input corpus, through the command-line binary: every malformed input is exit code
+//! 2 with a message that says what is wrong and where; enormous but valid input is answered
+//! at once, unevaluated or unexpanded. Never a panic, a stack overflow, a hang or an abort.
+
+use std::io::Write;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// What a run of the binary produced.
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Runs `lagrangian simplify <arg>` (with `stdin` piped in when given). The 10 s limit is only
+/// a hang guard: the binary is killed and the test fails if it is exceeded.
+fn run(args: &[&str], stdin: Option<&[u8]>) -> Outcome {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary starts");
+    let mut input = child.stdin.take().expect("stdin is piped");
+    let data = stdin.unwrap_or_default().to_vec();
+    let writer = std::thread::spawn(move || {
+        // The child may exit before reading everything; a broken pipe is fine.
+        let _ = input.write_all(&data);
+    });
+    // Read both pipes while waiting, so a long message cannot fill a pipe and stall the child.
+    let read = |mut pipe: Box<dyn std::io::Read + Send>| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            let _ = pipe.read_to_end(&mut buf);
+            buf
+        })
+    };
+    let stdout = read(Box::new(child.stdout.take().expect("stdout is piped")));
+    let stderr = read(Box::new(child.stderr.take().expect("stderr is piped")));
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("the child can be polled").is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(10) {
+            let _ = child.kill();
+            panic!("`lagrangian {args:?}` did not finish within 10 s");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let status = child.wait().expect("the child has exited");
+    let _ = writer.join();
+    let stdout = stdout.join().expect("stdout reader");
+    let stderr = stderr.join().expect("stderr reader");
+    Outcome {
+        code: status.code(),
+        stdout: String::from_utf8_lossy(&stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&stderr).into_owned(),
+    }
+}
+
+/// Asserts exit code 2 and that the message contains each of `needles`.
+fn check_bad(args: &[&str], stdin: Option<&[u8]>, needles: &[&str]) {
+    let out = run(args, stdin);
+    assert_eq!(out.code, Some(2), "{args:?}: exit code {:?}, stderr {}", out.code, out.stderr);
+    assert!(out.stdout.is_empty(), "{args:?} printed a result: {}", out.stdout);
+    assert!(!out.stderr.contains("panicked"), "{args:?} panicked: {}", out.stderr);
+    assert!(out.stderr.len() < 1_000, "{args:?}: the message is {} bytes long", out.stderr.len());
+    for n in needles {
+        assert!(out.stderr.contains(n), "{args:?}: message lacks `{n}`:\n{}", out.stderr);
+    }
+}
+
+#[test]
+fn malformed_expressions_are_exit_code_2_with_a_location() {
+    // (input, what the message must say, where).
+    let corpus: &[(&str, &str, &str)] = &[
+        ("", "empty input", "line 1, column 1"),
+        ("@#!", "found `@`", "line 1, column 1"),
+        ("(x+1", "never closed", "line 1, column 5"),
+        ("x+1)", "found `)`", "line 1, column 4"),
+        ("x^^2", "found `^`", "line 1, column 3"),
+        ("sin()", "`sin` takes 1 argument", "line 1, column 1"),
+        ("foo(x)", "unknown function `foo`", "line 1, column 1"),
+        ("1/0", "division by zero", "line 1, column 2"),
+        ("2 +\n  * y", "found `*`", "line 2, column 3"),
+    ];
+    for (input, what, place) in corpus {
+        check_bad(&["simplify", input], None, &[what, place]);
+    }
+    // The same through `diff` and `dt`.
+    check_bad(&["diff", "x^^2", "x"], None, &["found `^`", "line 1, column 3"]);
+    check_bad(&["dt", "sin()"], None, &["`sin` takes 1 argument"]);
+    check_bad(&["diff", "x^2", "2x"], None, &["`2x` is not a variable"]);
+}
+
+#[test]
+fn deep_nesting_is_refused_without_recursion() {
+    let deep = format!("{}x{}", "(".repeat(100_000), ")".repeat(100_000));
+    // Through standard input (an argument this long is fine too, but stdin is the usual route).
+    check_bad(&["simplify", "-"], Some(deep.as_bytes()), &["nesting deeper than", "line 1, column 201"]);
+    // Chains without parentheses: signs and powers.
+    let signs = format!("{}x", "-".repeat(100_000));
+    check_bad(&["simplify", "-"], Some(signs.as_bytes()), &["chained signs or powers"]);
+    let powers = format!("x{}", "^x".repeat(50_000));
+    check_bad(&["simplify", "-"], Some(powers.as_bytes()), &["chained signs or powers"]);
+}
+
+#[test]
+fn invalid_utf8_on_stdin_is_exit_code_2() {
+    // `x+` then a lone continuation byte at offset 2.
+    check_bad(&["simplify", "-"], Some(b"x+\xff"), &["not valid UTF-8", "offset 2"]);
+}
+
+#[test]
+fn enormous_valid_input_is_answered_unevaluated_at_once() {
+    // (input, the unevaluated answer by hand).
+    for (input, answer) in [
+        ("2^(10^10)", "2^10000000000"),
+        ("(a+b)^100000", "(a + b)^100000"),
+        ("1e99999999", "10^99999999"),
+        ("(a+b+c+d)^100000 - (a+b+c+d)^100000", "0"),
+    ] {
+        let out = run(&["simplify", input], None);
+        assert_eq!(out.code, Some(0), "{input}: {}", out.stderr);
+        assert_eq!(out.stdout.trim(), answer, "{input}");
+    }
+}
