@@ -93,7 +93,11 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
             (Node::Add(ts), Some(n)) if n.is_integer() && !n.is_zero() => {
                 let k = n.to_integer().abs();
                 let estimate = multinomial_terms(ts.len(), &k);
-                if estimate > limit as u128 {
+                // Repeated multiplication does about k · terms · m products: (x+1)^1999 has
+                // few terms for its power but needs thousands of steps with huge coefficients.
+                let steps = k.to_u128().unwrap_or(u128::MAX);
+                let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps);
+                if estimate > limit as u128 || work > 64 * limit as u128 {
                     return Err(AlgebraError::TooManyTerms { what: short(&rebuilt), estimate, limit });
                 }
                 let k = k.to_u32().unwrap_or(u32::MAX);
@@ -286,6 +290,11 @@ struct Poly {
     terms: BTreeMap<Vec<u32>, Rational>,
 }
 
+/// The largest exponent read as a polynomial degree (larger powers are opaque atoms), and the
+/// largest degree the univariate gcd works on (it is quadratic in the degree).
+const MAX_POLY_DEGREE: u32 = 10_000;
+const MAX_GCD_DEGREE: usize = 200;
+
 /// The atoms of a family of polynomials.
 #[derive(Default)]
 struct Atoms {
@@ -313,9 +322,10 @@ fn to_poly(e: &Expr, atoms: &mut Atoms) -> Poly {
         if !rest.is_one() {
             for f in rest.factors() {
                 let (b, x) = f.base_exp();
+                // Exponents stay small so that products of monomials cannot overflow.
                 let (atom, k) =
                     match x.as_num().and_then(|r| if r.is_integer() { r.to_integer().to_u32() } else { None }) {
-                        Some(k) if k > 0 => (b, k),
+                        Some(k) if k > 0 && k <= MAX_POLY_DEGREE => (b, k),
                         _ => (f.clone(), 1),
                     };
                 let i = atoms.index(&atom);
@@ -422,8 +432,12 @@ impl Poly {
 /// Univariate GCD over ℚ by Euclid's algorithm, in variable `var` of polynomials whose other
 /// exponents are all zero. Monic result.
 fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
+    let degree = |p: &Poly| p.terms.keys().map(|m| m[var] as usize).max().unwrap_or(0);
+    if degree(a) > MAX_GCD_DEGREE || degree(b) > MAX_GCD_DEGREE {
+        return None;
+    }
     let to_dense = |p: &Poly| -> Vec<Rational> {
-        let deg = p.terms.keys().map(|m| m[var] as usize).max().unwrap_or(0);
+        let deg = degree(p);
         let mut v = vec![Rational::zero(); deg + 1];
         for (m, c) in &p.terms {
             v[m[var] as usize] = c.clone();
@@ -646,6 +660,76 @@ fn factor_sum(ts: &[Expr]) -> Option<Expr> {
     Some(out)
 }
 
+/// Greedy multivariate Horner form of every sum in `e`: the factor that occurs in the most
+/// terms (ties: the canonical order) is pulled out of those terms, `a x + a y + z` →
+/// `a (x + y) + z`, recursively on both parts. A factor is a base with a positive numeric
+/// exponent, pulled out to its smallest power among the terms that have it. This is how an
+/// expanded Lagrangian or Hamiltonian gets its compact, cheap-to-evaluate shape back.
+pub fn collect_common(e: &Expr) -> Expr {
+    e.map_bottom_up(&mut |x| match x.node() {
+        Node::Add(ts) => {
+            let out = collect_terms(ts.clone(), 0);
+            (out != *x).then_some(out)
+        }
+        _ => None,
+    })
+}
+
+/// Bases with a positive numeric exponent among the factors of a term.
+fn positive_powers(t: &Expr) -> Vec<(Expr, Rational)> {
+    let (_, rest) = t.coeff_rest();
+    if rest.is_one() {
+        return Vec::new();
+    }
+    rest.factors()
+        .into_iter()
+        .filter_map(|f| {
+            let (b, x) = f.base_exp();
+            x.as_num().filter(|r| r.is_positive()).map(|r| (b, r.clone()))
+        })
+        .collect()
+}
+
+fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
+    if terms.len() < 2 || depth > 64 {
+        return Expr::add(terms);
+    }
+    // (base, number of terms, smallest exponent), in order of first appearance.
+    let mut counts: Vec<(Expr, usize, Rational)> = Vec::new();
+    let mut position: HashMap<Expr, usize> = HashMap::new();
+    for t in &terms {
+        for (b, k) in positive_powers(t) {
+            match position.get(&b) {
+                Some(&i) => {
+                    let entry = &mut counts[i];
+                    entry.1 += 1;
+                    if k < entry.2 {
+                        entry.2 = k;
+                    }
+                }
+                None => {
+                    position.insert(b.clone(), counts.len());
+                    counts.push((b, 1, k));
+                }
+            }
+        }
+    }
+    let best = counts
+        .into_iter()
+        .filter(|(_, n, _)| *n >= 2)
+        .max_by(|(b1, n1, _), (b2, n2, _)| n1.cmp(n2).then_with(|| b2.canonical_cmp(b1)));
+    let Some((base, _, k)) = best else { return Expr::add(terms) };
+    let factor = Expr::pow(base.clone(), Expr::num(k));
+    let (with, without): (Vec<Expr>, Vec<Expr>) =
+        terms.into_iter().partition(|t| positive_powers(t).iter().any(|(b, _)| *b == base));
+    let inner: Vec<Expr> = with.iter().map(|t| t.over(&factor)).collect();
+    let inner = collect_terms(inner, depth + 1);
+    let pulled = Expr::mul([factor, inner]);
+    let mut rest = collect_terms(without, depth + 1).terms();
+    rest.push(pulled);
+    Expr::add(rest)
+}
+
 // ----- trigonometric normalisation ------------------------------------------------------------
 
 /// One identity `from² = a + s·to²` used to rewrite even powers.
@@ -669,6 +753,12 @@ const SQUARES: [(Square, Square); 2] = [
     ),
 ];
 
+/// Whether `k` is an integer power the Pythagorean rewrite handles: from 2 up to 32 (`cos(x)^k`
+/// becomes `k/2 + 1` terms, so larger powers are left alone).
+fn rewritable_power(k: &Rational) -> bool {
+    k.is_integer() && *k >= Rational::from_integer(2.into()) && *k <= Rational::from_integer(32.into())
+}
+
 /// Applies the Pythagorean identities inside every sum of `e` (see the module docs).
 pub fn trig_normalize(e: &Expr) -> Expr {
     e.map_bottom_up(&mut |x| match x.node() {
@@ -687,11 +777,7 @@ fn squared_args(sum: &Expr, funcs: [Func; 2]) -> Vec<Expr> {
         for f in t.factors() {
             let (b, x) = f.base_exp();
             if let (Node::Call(func, args), Some(k)) = (b.node(), x.as_num()) {
-                if funcs.contains(func)
-                    && k.is_integer()
-                    && *k >= Rational::from_integer(2.into())
-                    && !out.contains(&args[0])
-                {
+                if funcs.contains(func) && rewritable_power(k) && !out.contains(&args[0]) {
                     out.push(args[0].clone());
                 }
             }
@@ -827,7 +913,7 @@ fn rewrite_squares(sum: &Expr, u: &Expr, sq: Square) -> Expr {
         let fs = t.factors();
         let hit = fs.iter().position(|f| {
             let (b, x) = f.base_exp();
-            b == target && x.as_num().is_some_and(|k| k.is_integer() && *k >= Rational::from_integer(2.into()))
+            b == target && x.as_num().is_some_and(rewritable_power)
         });
         let Some(i) = hit else {
             out.push(t);
@@ -917,6 +1003,9 @@ mod tests {
         assert!(err.to_string().contains("resource limit"));
         let err = expand(&p("(a+b+c)^(10^10)")).unwrap_err();
         assert!(matches!(err, AlgebraError::TooManyTerms { .. }));
+        // Few terms but a long road: 1999 multiplications with 600-digit coefficients.
+        let err = expand(&p("(x+1)^1999")).unwrap_err();
+        assert!(matches!(err, AlgebraError::TooManyTerms { .. }));
         // Products of many sums are refused by the running product of their lengths.
         let many = (0..20).map(|i| format!("(x{i} + y{i})")).collect::<Vec<_>>().join(" ");
         assert!(expand(&p(&many)).is_err());
@@ -993,6 +1082,19 @@ mod tests {
         let n = trig_normalize(&e);
         assert_eq!(n, p("exp(1 + x)/(2 cos(x)^2)"));
         same_value(&e, &n);
+    }
+
+    #[test]
+    fn collect_common_pulls_out_the_most_frequent_factor() {
+        // By hand: a is in three terms; inside, x is in two (x + x z = x (1 + z)).
+        let e = p("a x + a y + a z x + b x + c");
+        let c = collect_common(&e);
+        assert_eq!(c, p("a (y + x (z + 1)) + b x + c"));
+        same_value(&e, &c);
+        let e = expand(&p("(a+b+c+d)^4")).unwrap();
+        let c = collect_common(&e);
+        assert!(c.op_count() * 4 < e.op_count() * 3, "{} vs {}: {c}", c.op_count(), e.op_count());
+        same_value(&e, &c);
     }
 
     #[test]

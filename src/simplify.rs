@@ -6,7 +6,7 @@
 //!
 //! 1. **Candidate forms.** Identities that range over whole n-ary sums — the Pythagorean
 //!    identity among many terms, multiplying out, one common denominator with cancellation,
-//!    common content — are computed by the algebra tools, both for the whole expression and
+//!    common content, greedy Horner collection — are computed by the algebra tools, both for the whole expression and
 //!    for every sum bottom-up, and each candidate is added to the e-graph in the root's class.
 //! 2. **One table of named, sound rules** ([`rules`]) on fixed-arity nodes: `exp`/`log`
 //!    inverses with their domain conditions, double angles, `tan = sin/cos`, inverse
@@ -151,10 +151,21 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     Simplified { expr: best, stop }
 }
 
-/// The extraction cost of a canonical expression: printed operations first, then size, so
-/// that ties between forms with as many operations go to the smaller one.
-fn cost(e: &Expr) -> (usize, usize) {
-    (e.op_count(), e.dag_size())
+/// The extraction cost of a canonical expression: printed operations first; then the number
+/// of negated products of sums (`−a (c − 1)` reads worse than `a (1 − c)`, at the same count);
+/// then size, so that remaining ties go to the smaller form.
+fn cost(e: &Expr) -> (usize, usize, usize) {
+    let mut awkward = 0;
+    e.map_bottom_up(&mut |x| {
+        if let Node::Mul(fs) = x.node() {
+            let negative = fs[0].as_num().is_some_and(Signed::is_negative);
+            if negative && fs.iter().any(|f| matches!(f.node(), Node::Add(_))) {
+                awkward += 1;
+            }
+        }
+        None
+    });
+    (e.op_count(), awkward, e.dag_size())
 }
 
 /// Picks the cheapest expression, ties broken by the canonical order.
@@ -168,9 +179,11 @@ fn candidates(e: &Expr, budget: &Budget) -> Vec<Expr> {
     let local = local_best(e, budget);
     out.push(local.clone());
     out.push(algebra::factor_content(&local));
+    out.push(algebra::collect_common(&local));
     if let Ok(x) = algebra::expand_with_limit(e, budget.expand_terms) {
         let t = algebra::trig_normalize(&x);
         out.push(algebra::factor_content(&t));
+        out.push(algebra::collect_common(&t));
         out.push(t);
         out.push(x);
     }
@@ -212,6 +225,7 @@ fn local_best(e: &Expr, budget: &Budget) -> Expr {
             if matches!(x.node(), Node::Add(_)) {
                 cands.push(algebra::trig_normalize(x));
                 cands.push(algebra::factor_content(x));
+                cands.push(algebra::collect_common(x));
             }
             if let Ok(ex) = algebra::expand_with_limit(x, budget.expand_terms.min(200)) {
                 cands.push(algebra::trig_normalize(&ex));
@@ -313,7 +327,7 @@ pub struct Facts {
     /// The cheapest canonical expression known for the class.
     pub repr: Expr,
     /// Its cost (see [`cost`]).
-    pub cost: (usize, usize),
+    pub cost: (usize, usize, usize),
     /// Whether the class is known to be strictly positive (from any of its forms).
     pub positive: bool,
 }

@@ -4,7 +4,9 @@
 
 use std::collections::HashMap;
 
-use lagrangian::algebra::{cancel, expand_with_limit, factor_content, numer_denom, together, trig_normalize};
+use lagrangian::algebra::{
+    cancel, collect_common, expand_with_limit, factor_content, numer_denom, together, trig_normalize,
+};
 use lagrangian::diff::diff;
 use lagrangian::eval::eval_with;
 use lagrangian::parse::parse;
@@ -101,6 +103,7 @@ proptest! {
     fn factor_content_and_trig_normalize_preserve_values(e in arb_expr(), seed in any::<u64>()) {
         agree(&e, &factor_content(&e), seed)?;
         agree(&e, &trig_normalize(&e), seed)?;
+        agree(&e, &collect_common(&e), seed)?;
     }
 }
 

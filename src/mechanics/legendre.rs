@@ -77,12 +77,13 @@ fn transform(f: &Expr, xs: &[Symbol], ys: &[Symbol], name: &'static str) -> Resu
     if m.iter().flatten().all(|e| !contains_any(e, xs)) {
         check_hessian(&m, xs, name)?;
         let b: Vec<Expr> = grad.iter().map(|g| tidy(&zero_out(g, xs))).collect();
-        let f0 = tidy(&zero_out(f, xs));
+        // V = −f(x = 0), tidied with its sign so it reads `m g l (1 − cos θ)`.
+        let v0 = tidy(&zero_out(f, xs).neg());
         let dvec: Vec<Expr> = ys.iter().zip(&b).map(|(y, b)| Expr::sym(y.clone()).minus(b)).collect();
         // The pieces are tidy already; tidying the whole would expand the quadratic form over
         // its common denominator and lose the textbook shape ½ (p − b)ᵀ W⁻¹ (p − b) + V.
         let quad = quadratic_inverse_form(&m, &dvec)?;
-        return Ok(quad.minus(&f0));
+        return Ok(quad.plus(&v0));
     }
     if let Some(g) = sqrt_transform(f, xs, ys, name)? {
         return Ok(g);
