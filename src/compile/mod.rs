@@ -23,7 +23,7 @@ pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,
     SeparableHamiltonian,
 };
-pub use tape::{Instr, OpCounts, Tape, LANES};
+pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
 
 /// Why a set of expressions could not be compiled.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
