@@ -46,13 +46,19 @@ const MAX_SIMPLIFY_OPS: usize = 120;
 /// Never returns a longer expression than `e` (by [`Expr::op_count`]).
 pub fn tidy(e: &Expr) -> Expr {
     let mut best = e.clone();
+    let mut collected_best: Option<Expr> = None;
     for expand_all in [false, true] {
         let mut ctx = Ctx { expand_all, ..Ctx::default() };
         let poly = ctx.expand(e);
         let poly = ctx.contract(poly);
         let collected = ctx.collect_poly(&poly);
-        // The e-graph pays off on small expressions; on large ones its budget is spent
-        // before it finds anything, so it is skipped.
+        if !collected_best.as_ref().is_some_and(|b| b.op_count() <= collected.op_count()) {
+            collected_best = Some(collected);
+        }
+    }
+    if let Some(collected) = collected_best {
+        // The e-graph runs once, on the better collected form, and only on small expressions:
+        // on large ones its budget is spent before it finds anything.
         let simplified = if collected.op_count() <= MAX_SIMPLIFY_OPS {
             crate::simplify::simplify(&collected)
         } else {

@@ -1,0 +1,88 @@
+//! Derivation benchmarks for the planar n-link pendulum: `W` and `F` (tidied) for
+//! n = 1, 2, 5, 6, 10, 20, 30, `H` for n = 1, 2, 3, and, measured in the same run, the raw
+//! unsimplified Euler–Lagrange expressions (plain memoised differentiation, no tidying) as the
+//! baseline comparable to SymEngine's and heyoka's raw figures.
+//!
+//! The Lagrangian is written the way a user (or SymPy's `LagrangesMethod`) writes it: Cartesian
+//! bob velocities in terms of the angles, `½ Σ_k m_k |r_k'|² − Σ_k m_k g y_k` with
+//! `r_k = Σ_{i≤k} l_i (sin θ_i, −cos θ_i)`. Operation counts (`Expr::op_count`, the printed
+//! tree, W's upper triangle plus F) are printed to stderr.
+//!
+//! Run: `cargo bench --bench mechanics`
+
+use std::collections::BTreeSet;
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use lagrangian::diff::Differentiator;
+use lagrangian::expr::Expr;
+use lagrangian::mechanics::System;
+use lagrangian::Declarations;
+
+/// The n-link pendulum's Lagrangian text, coordinates and positive parameters.
+fn n_link(n: usize) -> (String, Vec<String>, Vec<String>) {
+    let mut terms = Vec::new();
+    for k in 1..=n {
+        let xs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i}) θ{i}'")).collect();
+        let ys: Vec<String> = (1..=k).map(|i| format!("l{i} sin(θ{i}) θ{i}'")).collect();
+        let hs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i})")).collect();
+        terms.push(format!("1/2 m{k} (({})^2 + ({})^2) + m{k} g ({})", xs.join(" + "), ys.join(" + "), hs.join(" + ")));
+    }
+    let coords = (1..=n).map(|i| format!("θ{i}")).collect();
+    let mut positive: Vec<String> = (1..=n).flat_map(|i| [format!("m{i}"), format!("l{i}")]).collect();
+    positive.push("g".into());
+    (terms.join(" + "), coords, positive)
+}
+
+fn build(n: usize) -> System {
+    let (l, coords, positive) = n_link(n);
+    let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
+    let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
+    System::from_lagrangian_with(&l, &coords, &d).expect("valid Lagrangian")
+}
+
+fn ops(w: &[Vec<Expr>], f: &[Expr]) -> usize {
+    let w_ops: usize = w.iter().enumerate().map(|(i, r)| r[i..].iter().map(Expr::op_count).sum::<usize>()).sum();
+    w_ops + f.iter().map(Expr::op_count).sum::<usize>()
+}
+
+/// The raw Euler–Lagrange expressions d/dt ∂L/∂q' − ∂L/∂q, untidied.
+fn raw_el(s: &System) -> Vec<Expr> {
+    let l = s.lagrangian().expect("Lagrangian");
+    let names: BTreeSet<String> = s.coordinates().iter().map(|q| q.name().to_string()).collect();
+    let mut d = Differentiator::new();
+    s.coordinates()
+        .iter()
+        .zip(s.velocities())
+        .map(|(q, v)| {
+            let p = d.diff(l, v);
+            d.dt(&p, &names).minus(&d.diff(l, q))
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("n_link_W_F");
+    g.sample_size(10);
+    for n in [1usize, 2, 5, 6, 10, 20, 30] {
+        let s = build(n);
+        let (w, f) = s.mass_matrix_split().expect("W, F");
+        let raw: usize = raw_el(&s).iter().map(Expr::op_count).sum();
+        eprintln!("n = {n}: tidied W+F {} ops; raw Euler–Lagrange expressions {raw} ops", ops(&w, &f));
+        g.bench_with_input(BenchmarkId::new("tidied", n), &s, |b, s| b.iter(|| black_box(s.mass_matrix_split())));
+        g.bench_with_input(BenchmarkId::new("raw_el", n), &s, |b, s| b.iter(|| black_box(raw_el(s))));
+    }
+    g.finish();
+    let mut g = c.benchmark_group("n_link_H");
+    g.sample_size(10);
+    for n in [1usize, 2, 3] {
+        let s = build(n);
+        let h = s.hamiltonian().expect("H");
+        eprintln!("n = {n}: H {} ops", h.op_count());
+        g.bench_with_input(BenchmarkId::new("legendre", n), &s, |b, s| b.iter(|| black_box(s.hamiltonian())));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
