@@ -49,7 +49,10 @@ fn rhs_calls(c: &mut Criterion) {
             || rhs.eval(0.0, black_box(&y), black_box(&mut d1)),
             || (sys.hand)(0.0, black_box(&y), black_box(&mut d2)),
         );
-        let ops = rhs.solve_tape().map(|t| t.op_counts().to_string()).unwrap_or_default();
+        let ops = match rhs.solve_tape() {
+            Some(t) => format!("W, F and unrolled solve: {}", t.op_counts()),
+            None => format!("W, F (native solve): {}", rhs.tape().op_counts()),
+        };
         eprintln!("PAIRED | {} | {a:.1} | {b:.1} | {:.2} | {ops}", sys.name, a / b);
     }
 
