@@ -159,3 +159,26 @@ plot phase to phase.png
     // Nothing symbolic was derived: H was given and only evaluated.
     assert!(out.contains("0 built, 0 reused"), "{out}");
 }
+
+#[test]
+fn poisson_brackets_of_angular_momentum() {
+    // {L_x, L_y} = L_z (PHYSICS.md §4.4), and {H, L_z} = 0 for a central potential.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "\
+coordinates x, y, z
+parameters m, k positive
+Lx = y p_z - z p_y
+Ly = z p_x - x p_z
+Lz = x p_y - y p_x
+H = (p_x^2 + p_y^2 + p_z^2)/(2 m) + k (x^2 + y^2 + z^2)
+pb Lx, Ly as plain
+pb H, Lz as plain
+";
+    let (code, out, err) = run_in(dir.path(), scene, &[]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    let lz = lagrangian::parse("x p_y - y p_x").unwrap();
+    let first = lines[0].strip_prefix("{Lx, Ly} = ").expect(lines[0]);
+    assert_eq!(lagrangian::parse(first).unwrap(), lz);
+    assert_eq!(lines[1], "{H, Lz} = 0");
+}

@@ -167,12 +167,20 @@ pub trait Backend {
     ) -> Result<Trajectory, BackendError>;
 }
 
+/// What [`NativeBackend::compile`] builds.
+#[derive(Debug)]
+pub enum NativeCompiled {
+    /// Hamilton's equations with their Jacobian (implicit and explicit methods).
+    Hamiltonian(crate::compile::HamiltonianRhs),
+    /// Drift and kick (splitting methods).
+    Separable(crate::compile::SeparableHamiltonian),
+}
+
 /// The real library.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NativeBackend;
 
 const MECHANICS: &str = "mechanics (issue 3)";
-const CANONICAL: &str = "canonical (issue 4)";
 const NUMERICS: &str = "compile and integrate (issue 5)";
 
 fn not_yet(what: &str, stage: &'static str) -> BackendError {
@@ -192,11 +200,30 @@ impl Backend for NativeBackend {
     fn conserved(&self, _sys: &SystemRef, _f: &Expr, _is_h: bool) -> Result<Vec<Line>, BackendError> {
         Err(not_yet("`conserved` (Noether's theorem)", MECHANICS))
     }
-    fn bracket(&self, _sys: &SystemRef, _f: &Expr, _g: &Expr) -> Result<Expr, BackendError> {
-        Err(not_yet("`pb` (Poisson brackets)", CANONICAL))
+    fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError> {
+        let names: Vec<&str> = sys.coords.iter().map(|q| q.name()).collect();
+        let ps = crate::canonical::PhaseSpace::new(names).map_err(|e| BackendError::Failed(e.to_string()))?;
+        Ok(crate::canonical::poisson(f, g, &ps))
     }
-    fn compile(&self, _req: &CompileRequest) -> Result<Compiled, BackendError> {
-        Err(not_yet("`simulate` (compiled equations of motion)", NUMERICS))
+    fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
+        use crate::compile::{HamiltonianRhs, SeparableHamiltonian};
+        let coords: Vec<&str> = req.coords.iter().map(|q| q.name()).collect();
+        let momenta_owned: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
+        let momenta: Vec<&str> = momenta_owned.iter().map(String::as_str).collect();
+        let params: Vec<(&str, f64)> = req.params.iter().map(|(n, v)| (n.as_str(), *v)).collect();
+        let failed = |e: crate::compile::CompileError| BackendError::Failed(e.to_string());
+        let compiled: NativeCompiled = match &req.formulation {
+            Formulation::Separable { t, v } => NativeCompiled::Separable(
+                SeparableHamiltonian::new(&t.plus(v), &coords, &momenta, &params).map_err(failed)?,
+            ),
+            Formulation::Hamiltonian(h) => {
+                NativeCompiled::Hamiltonian(HamiltonianRhs::new(h, &coords, &momenta, &params).map_err(failed)?)
+            }
+            Formulation::Lagrangian(_) => {
+                return Err(not_yet("integrating `L` directly (its mass matrix W and forces F)", MECHANICS))
+            }
+        };
+        Ok(Arc::new(compiled))
     }
     fn integrate(
         &self,

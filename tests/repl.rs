@@ -1,0 +1,112 @@
+//! The REPL driven through standard input: a session of more than fifteen statements with
+//! three errors, the transcript checked line by line, and the history persisted between
+//! sessions in `$LAGRANGIAN_HISTORY`.
+
+use std::io::Write;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+fn session(input: &str, history: &Path, dir: &Path) -> (i32, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .env("LAGRANGIAN_HISTORY", history)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+const SESSION: &str = "\
+coordinates θ
+parameters m = 1, l = 1, g = 9.81 positive
+T = 1/2 m l^2 θ'^2
+V = m g l (1 - cos(θ))
+L = T - V
+print L as plain
+simulat θ = 1
+H = p_θ^2/(2 m l^2) + V
+print H
+latex
+pb θ, H as plain
+print θ + * 2
+print H + q
+energy
+format plain
+print 2 T
+help pb
+plot phase to phase.svg
+export energy to eqs.json
+";
+
+#[test]
+fn a_session_survives_its_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let history = dir.path().join("hist").join("history");
+    let (code, out) = session(SESSION, &history, dir.path());
+    assert_eq!(code, 0, "{out}");
+    // Every entry is echoed after the prompt, so the transcript reads like the session.
+    assert_eq!(out.matches("lagrangian> ").count(), 19, "{out}");
+    let after = |stmt: &str| -> String {
+        let start = out.find(&format!("lagrangian> {stmt}\n")).unwrap_or_else(|| panic!("no `{stmt}` in {out}"));
+        let rest = &out[start + "lagrangian> ".len() + stmt.len() + 1..];
+        rest[..rest.find("lagrangian> ").unwrap_or(rest.len())].trim_end().to_string()
+    };
+    // Definitions are echoed in Unicode (the REPL's default).
+    assert_eq!(after("T = 1/2 m l^2 θ'^2"), "T = l² m θ̇²/2");
+    assert_eq!(after("print L as plain"), "L = l^2 m θ'^2/2 - g l m (1 - cos(θ))");
+    // Error 1: an unknown statement, with a suggestion; the session goes on.
+    let e1 = after("simulat θ = 1");
+    assert!(e1.contains("unknown statement `simulat`") && e1.contains("did you mean `simulate`?"), "{e1}");
+    assert_eq!(after("print H"), "H = g l m (1 - cos(θ)) + p_θ²/(2 l² m)");
+    // `latex` reprints the last result.
+    assert!(after("latex").starts_with("H = g l m \\left(1 - \\cos\\left(\\theta\\right)\\right)"), "{out}");
+    // {θ, H} = ∂H/∂p_θ = p_θ/(m l²), by hand.
+    assert_eq!(after("pb θ, H as plain"), "{θ, H} = p_θ/(l^2 m)");
+    // Error 2: a missing operand; error 3: an undefined symbol.
+    assert!(after("print θ + * 2").contains("expected a name or an expression, found `*`"), "{out}");
+    let e3 = after("print H + q");
+    assert!(e3.contains("undefined symbol `q`") && e3.contains("print H + q") && e3.contains('┬'), "{e3}");
+    // With L defined, `energy` is h = θ' ∂L/∂θ' − L = ½ m l² θ'² + V (by hand).
+    assert_eq!(after("energy"), "E = g l m (1 - cos(θ)) + l² m θ\u{307}²/2");
+    assert_eq!(after("print 2 T"), "l^2 m θ'^2");
+    assert!(after("help pb").contains("example: pb θ, p_θ"));
+    assert_eq!(after("plot phase to phase.svg"), "wrote ./phase.svg");
+    assert!(dir.path().join("phase.svg").exists());
+    assert_eq!(after("export energy to eqs.json"), "wrote ./eqs.json");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("eqs.json")).unwrap()).unwrap();
+    assert_eq!(json[0]["name"], "energy");
+    assert_eq!(json[0]["value"], "g l m (1 - cos(θ)) + l^2 m θ'^2/2");
+}
+
+#[test]
+fn history_persists_between_sessions() {
+    let dir = tempfile::tempdir().unwrap();
+    let history = dir.path().join("data").join("history");
+    let (code, _) = session("coordinates x\nprint (x +\n  1)\n", &history, dir.path());
+    assert_eq!(code, 0);
+    assert!(history.exists(), "no history file written");
+    // A multi-line entry is one history item.
+    let (code, out) = session("history\n", &history, dir.path());
+    assert_eq!(code, 0);
+    assert!(out.contains("   1  coordinates x\n"), "{out}");
+    assert!(out.contains("   2  print (x +   1)\n"), "{out}");
+    assert!(out.contains("   3  history\n"), "{out}");
+}
+
+#[test]
+fn a_loaded_scene_runs_in_the_session() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("osc.scene"), "coordinates x\nparameters k positive\nH = p_x^2/2 + k x^2/2\n")
+        .unwrap();
+    let history = dir.path().join("history");
+    let (code, out) = session("load osc.scene\npb x, H as plain\nload missing.scene\n", &history, dir.path());
+    assert_eq!(code, 0);
+    assert!(out.contains("loaded ./osc.scene"), "{out}");
+    assert!(out.contains("{x, H} = p_x"), "{out}");
+    assert!(out.contains("cannot read `./missing.scene`"), "{out}");
+}

@@ -1,0 +1,101 @@
+//! The scene bad-input corpus: each mistake gives a clear diagnostic (message, where, a
+//! hint), exit code 2, no panic and no output file.
+
+use std::path::Path;
+use std::process::Command;
+
+const BASE: &str = "coordinates θ\nparameters m = 1, l = 1, g = 9.81 positive\nH = p_θ^2/(2 m l^2) + m g l (1 - cos(θ))\nplot phase to early.svg\n";
+
+fn run_bytes(dir: &Path, scene: &[u8]) -> (i32, String) {
+    let path = dir.join("bad.scene");
+    std::fs::write(&path, scene).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian")).arg("run").arg(&path).current_dir(dir).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Runs `scene`; checks exit code 2, the pieces of the diagnostic, and that the only file
+/// left is the scene (the plot drawn before the mistake is not written).
+fn check(scene: &[u8], pieces: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, err) = run_bytes(dir.path(), scene);
+    assert_eq!(code, 2, "{err}");
+    for p in pieces {
+        assert!(err.contains(p), "expected `{p}` in:\n{err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    let left: Vec<String> =
+        std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(left, ["bad.scene"], "output left behind");
+}
+
+fn with(extra: &str) -> Vec<u8> {
+    format!("{BASE}{extra}").into_bytes()
+}
+
+#[test]
+fn unknown_statement() {
+    check(&with("integrate θ = 1\n"), &["unknown statement `integrate`", "5 │ integrate θ = 1", "`help` lists"]);
+}
+
+#[test]
+fn missing_parameter_value() {
+    check(
+        b"coordinates x\nparameters m = 1, k positive\nH = p_x^2/(2 m) + k x^2/2\n\
+          simulate x = 1, p_x = 0 for t in 0..1 with gauss6 dt = 0.1\nplot energy\n",
+        &["parameter `k` has no value", "declare `k` with a value before `simulate`"],
+    );
+}
+
+#[test]
+fn undefined_symbol() {
+    check(&with("print H + m g ll\n"), &["undefined symbol `ll`", "did you mean `l`?", "5 │ print H + m g ll"]);
+}
+
+#[test]
+fn method_name_typo() {
+    check(
+        &with("simulate θ = 1, p_θ = 0 for t in 0..1 with yoshda4 dt = 0.1\n"),
+        &["unknown integration method `yoshda4`", "did you mean `yoshida4`?"],
+    );
+}
+
+#[test]
+fn backwards_time_span() {
+    check(
+        &with("simulate θ = 1, p_θ = 0 for t in 20..0 with leapfrog dt = 0.01\nplot θ vs t\n"),
+        &["the time span runs backwards", "write `for t in 0..20`", "end must be after start"],
+    );
+}
+
+#[test]
+fn unwritable_plot_path() {
+    check(&with("plot phase to no/such/dir/phase.svg\n"), &["cannot write", "must exist and be writable"]);
+    check(&with("plot phase to phase.pdf\n"), &["cannot tell the image format", "`.svg` or `.png`"]);
+}
+
+#[test]
+fn not_utf8() {
+    let mut bytes = b"coordinates x\nprint x".to_vec();
+    bytes.push(0xff);
+    bytes.extend_from_slice(b"\n");
+    check(&bytes, &["is not UTF-8", "invalid byte 0xff at line 2, column 8", "save the scene as UTF-8"]);
+}
+
+#[test]
+fn ten_megabyte_scene() {
+    let line = "print 1 + 2 + 3 + 4 + 5 + 6 + 7 + 8 + 9 + 10 + 11 + 12 + 13 + 14 + 15 + 16 + 17\n";
+    let scene: String = line.repeat(10_000_000 / line.len() + 1);
+    check(scene.as_bytes(), &["10.0 MB", "limited to 4 MB"]);
+}
+
+#[test]
+fn deeply_nested_expression() {
+    let deep = format!("print {}1{}\n", "(".repeat(5000), ")".repeat(5000));
+    check(&with(&deep), &["nesting deeper than 200 levels"]);
+}
+
+#[test]
+fn velocity_of_a_parameter_and_bad_load() {
+    check(&with("print m'\n"), &["`m` is a parameter", "declare it with `coordinates m`"]);
+    check(&with("load nowhere.scene\n"), &["cannot read", "nowhere.scene"]);
+}
