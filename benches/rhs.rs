@@ -19,8 +19,7 @@ use lagrangian::integrate::Rhs;
 /// Minimum time per call over many short alternating rounds of `a` and `b`. The machine is
 /// shared, so a slow round is someone else's load; the minimum of interleaved rounds compares
 /// the two under the same conditions.
-fn paired(mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64) {
-    let calls = 2000;
+fn paired(calls: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64) {
     let (mut best_a, mut best_b) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..200 {
         let t = Instant::now();
@@ -46,10 +45,14 @@ fn rhs_calls(c: &mut Criterion) {
         let y: Vec<f64> = (0..d).map(|_| rng.uniform(0.5, 1.5)).collect();
         let (mut d1, mut d2) = (vec![0.0; d], vec![0.0; d]);
         let (a, b) = paired(
+            2000,
             || rhs.eval(0.0, black_box(&y), black_box(&mut d1)),
             || (sys.hand)(0.0, black_box(&y), black_box(&mut d2)),
         );
-        let ops = rhs.solve_tape().map(|t| t.op_counts().to_string()).unwrap_or_default();
+        let ops = match rhs.solve_tape() {
+            Some(t) => format!("W, F and unrolled solve: {}", t.op_counts()),
+            None => format!("W, F (native solve): {}", rhs.tape().op_counts()),
+        };
         eprintln!("PAIRED | {} | {a:.1} | {b:.1} | {:.2} | {ops}", sys.name, a / b);
     }
 
@@ -95,6 +98,38 @@ fn batch(c: &mut Criterion) {
                 }
             })
         });
+        {
+            let (mut dyb, mut ys2, mut dys2, mut dyh) =
+                (vec![0.0; d * points], vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+            let (b_ns, s_ns) = paired(
+                5,
+                || rhs.eval_batch(0.0, black_box(&y), black_box(&mut dyb), points).unwrap(),
+                || {
+                    for k in 0..points {
+                        (0..d).for_each(|i| ys2[i] = y[i * points + k]);
+                        rhs.eval(0.0, black_box(&ys2), &mut dys2);
+                    }
+                },
+            );
+            let (_, h_ns) = paired(
+                5,
+                || {},
+                || {
+                    for k in 0..points {
+                        (0..d).for_each(|i| ys2[i] = y[i * points + k]);
+                        (sys.hand)(0.0, black_box(&ys2), &mut dyh);
+                    }
+                },
+            );
+            let p = points as f64;
+            eprintln!(
+                "BATCH | {} | batch {:.1} ns/point | compiled scalar {:.1} ns/point | hand-written scalar {:.1} ns/point",
+                sys.name,
+                b_ns / p,
+                s_ns / p,
+                h_ns / p
+            );
+        }
         let tape = rhs.tape();
         let ni = tape.n_inputs();
         let x: Vec<f64> = (0..ni * points).map(|_| rng.uniform(0.5, 1.5)).collect();
@@ -135,8 +170,8 @@ fn ensembles(c: &mut Criterion) {
     let init: Vec<f64> = (0..2 * n).map(|_| rng.uniform(-1.0, 1.0)).collect();
     group.throughput(Throughput::Elements(n as u64));
     for threads in [1, 2] {
-        group.bench_function(BenchmarkId::new("pendulum 1e5 x RK4 100 steps, threads", threads), |b| {
-            b.iter(|| ensemble_with_threads(threads, &init, 2, |y0| rk4(&rhs, y0, 0.01, 100)).unwrap())
+        group.bench_function(BenchmarkId::new("pendulum 1e5 x RK4 20 steps, threads", threads), |b| {
+            b.iter(|| ensemble_with_threads(threads, &init, 2, |y0| rk4(&rhs, y0, 0.05, 20)).unwrap())
         });
     }
     group.finish();

@@ -335,3 +335,13 @@ fn bad_input_gives_typed_errors() {
         CompileError::ParamIsInput { name: "x".into() }
     );
 }
+
+#[test]
+fn a_very_deep_expression_is_an_error_not_a_stack_overflow() {
+    // sin(sin(…sin(x)…)) nested 5000 deep (built bottom-up, no recursion in the builder).
+    let mut e = Expr::var("x");
+    for _ in 0..5000 {
+        e = Expr::call(Func::Sin, vec![e]);
+    }
+    assert!(matches!(Tape::compile(&[e], &["x"], &[]).unwrap_err(), CompileError::TooDeep { .. }));
+}

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Node, Symbol};
-use crate::integrate::{Jacobian, Rhs, Separable};
+use crate::integrate::{Jacobian, Rhs, RhsError as StepError, Separable};
 
 use super::tape::{with_scratch, Tape, LANES};
 use super::{velocity_name, CompileError};
@@ -28,6 +28,13 @@ pub enum RhsError {
     /// Newton's method for `p = ∂L/∂q'` did not converge.
     #[error("the Legendre map did not converge at t = {t} after {iterations} Newton steps (residual {residual:e}); state {state:?}")]
     LegendreNewton { t: f64, state: Vec<f64>, iterations: usize, residual: f64 },
+}
+
+/// The integrators' error carries the reason as text (with `t` and the state in it).
+impl From<RhsError> for StepError {
+    fn from(e: RhsError) -> StepError {
+        StepError::new(e.to_string())
+    }
 }
 
 /// Where a failed evaluation keeps its reason. Locked only on failure and when asked.
@@ -545,6 +552,9 @@ impl Rhs for LagrangianRhs {
     fn dim(&self) -> usize {
         2 * self.n
     }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
+        LagrangianRhs::try_eval(self, t, y, dy).map_err(StepError::from)
+    }
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         if let Err(e) = self.try_eval(t, y, dy) {
             fail_nan(&mut dy[..2 * self.n]);
@@ -625,6 +635,12 @@ impl Rhs for LagrangianJacobian {
     }
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         self.rhs.eval(t, y, dy)
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
+        self.rhs.try_eval(t, y, dy).map_err(StepError::from)
+    }
+    fn as_jacobian(&self) -> Option<&dyn Jacobian> {
+        Some(self)
     }
 }
 
@@ -725,6 +741,12 @@ fn eval_phase(tape: &Tape, n: usize, t: f64, y: &[f64], out: &mut [f64], what: &
 impl Rhs for HamiltonianRhs {
     fn dim(&self) -> usize {
         2 * self.n
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
+        HamiltonianRhs::try_eval(self, t, y, dy).map_err(StepError::from)
+    }
+    fn as_jacobian(&self) -> Option<&dyn Jacobian> {
+        Some(self)
     }
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         if let Err(e) = self.try_eval(t, y, dy) {
@@ -827,9 +849,25 @@ impl SeparableHamiltonian {
     }
 }
 
+fn finite_or(out: &[f64], what: &str) -> Result<(), StepError> {
+    if out.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(StepError::new(format!("non-finite {what}")))
+    }
+}
+
 impl Separable for SeparableHamiltonian {
     fn dof(&self) -> usize {
         self.n
+    }
+    fn try_drift(&self, p: &[f64], dq: &mut [f64]) -> Result<(), StepError> {
+        self.drift(p, dq);
+        finite_or(&dq[..self.n], "drift ∂T/∂p")
+    }
+    fn try_kick(&self, t: f64, q: &[f64], dp: &mut [f64]) -> Result<(), StepError> {
+        self.kick(t, q, dp);
+        finite_or(&dp[..self.n], "kick −∂V/∂q")
     }
     fn drift(&self, p: &[f64], dq: &mut [f64]) {
         self.drift.eval(p, dq);
@@ -850,6 +888,10 @@ impl Separable for SeparableHamiltonian {
 impl Rhs for SeparableHamiltonian {
     fn dim(&self) -> usize {
         2 * self.n
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
+        self.eval(t, y, dy);
+        finite_or(&dy[..2 * self.n], "derivative of H")
     }
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         let n = self.n;
@@ -1014,6 +1056,9 @@ impl ImplicitLegendreRhs {
 impl Rhs for ImplicitLegendreRhs {
     fn dim(&self) -> usize {
         2 * self.n
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
+        ImplicitLegendreRhs::try_eval(self, t, y, dy).map_err(StepError::from)
     }
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         if let Err(e) = self.try_eval(t, y, dy) {

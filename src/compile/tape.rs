@@ -27,7 +27,7 @@ use super::CompileError;
 
 /// The deepest expression the (recursive) lowering accepts before reporting an error instead
 /// of risking the stack.
-const MAX_DEPTH: usize = 2_000;
+const MAX_DEPTH: usize = 1_000;
 
 /// Largest integer exponent turned into a multiplication chain; larger ones use `powf`.
 const MAX_CHAIN_EXP: i64 = 64;
@@ -941,6 +941,15 @@ impl Lower {
 
     /// Whether `e` depends on bound parameters and numbers only.
     fn constant_node(&mut self, e: &Expr) -> bool {
+        self.constant_rec(e, 0)
+    }
+
+    /// Beyond [`MAX_DEPTH`] a node counts as not constant, so the lowering (which checks the
+    /// depth itself) reports [`CompileError::TooDeep`] instead of this walk overflowing the stack.
+    fn constant_rec(&mut self, e: &Expr, depth: usize) -> bool {
+        if depth > MAX_DEPTH {
+            return false;
+        }
         if let Some(&c) = self.is_const.get(e) {
             return c;
         }
@@ -953,7 +962,7 @@ impl Lower {
                 let mut kids = Vec::new();
                 e.for_each_child(|c| kids.push(c.clone()));
                 for k in kids {
-                    all &= self.constant_node(&k);
+                    all &= self.constant_rec(&k, depth + 1);
                 }
                 all
             }
