@@ -365,3 +365,31 @@ fn invalid_input_and_step_budget() {
     assert_eq!(tr.len(), 1);
     let _ = <ExplicitRk as Method<Oscillator>>::fixed_step(&ExplicitRk::rk4(0.5));
 }
+
+#[test]
+fn a_right_hand_side_that_signals_failure_with_nan_is_caught() {
+    // Some right-hand sides report failure only by writing NaN (an `eval` without a
+    // `try_eval`). Every method must turn that into a typed error with a finite state.
+    let sys = FnRhs { dim: 1, f: |_t: f64, y: &[f64], dy: &mut [f64]| dy[0] = if y[0] > 1.0 { f64::NAN } else { 1.0 } };
+    let check = |name: &str, r: Result<Trajectory, IntegrateError>| {
+        let e = failure(r, name);
+        assert!(
+            matches!(
+                e.reason,
+                FailureReason::NonFinite { .. }
+                    | FailureReason::StepSizeCollapse { .. }
+                    | FailureReason::ImplicitSolve { .. }
+            ),
+            "{name}: {e}"
+        );
+        assert_clean_error(&e, 0.0, 2.0);
+        assert!(e.t > 0.5 && e.state[0] <= 1.1 + 1e-9, "{name}: {e}");
+    };
+    for m in explicit_rk(0.1) {
+        check(m.info().name, m.integrate(&sys, 0.0..2.0, &[0.0]));
+    }
+    for m in gauss(0.1) {
+        check(m.info().name, m.integrate(&sys, 0.0..2.0, &[0.0]));
+    }
+    check("DOP853", Dop853::new(1e-8, 1e-8).integrate(&sys, 0.0..2.0, &[0.0]));
+}

@@ -57,7 +57,8 @@ pub use error::{FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, ImplicitSolver};
 pub use rk::ExplicitRk;
 pub use solver::{
-    Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Status, StopReason, Trajectory,
+    Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status, StopReason,
+    Trajectory,
 };
 pub use splitting::Splitting;
 
