@@ -391,15 +391,15 @@ impl ZeroCheck {
 }
 
 /// A small deterministic generator (SplitMix64) so numeric checks repeat exactly.
-pub struct Rng(u64);
+pub(crate) struct Rng(u64);
 
 impl Rng {
     /// A generator with a fixed seed.
-    pub fn new(seed: u64) -> Rng {
+    pub(crate) fn new(seed: u64) -> Rng {
         Rng(seed)
     }
     /// The next value in `[0, 1)`.
-    pub fn next_f64(&mut self) -> f64 {
+    pub(crate) fn next_f64(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -408,7 +408,7 @@ impl Rng {
         (z >> 11) as f64 / (1u64 << 53) as f64
     }
     /// A value in `[lo, hi)`.
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+    pub(crate) fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.next_f64()
     }
 }
@@ -416,7 +416,7 @@ impl Rng {
 /// Replaces every declared function (`V(r)`, `V'(r)`) by the matching derivative of one fixed
 /// smooth concrete function, so expressions with declared functions can be evaluated and the
 /// derivatives stay consistent with each other (`V'` really is the derivative of `V`).
-pub fn concretize_functions(e: &Expr) -> Expr {
+pub(crate) fn concretize_functions(e: &Expr) -> Expr {
     let mut cache: HashMap<(String, usize), Expr> = HashMap::new();
     e.map_bottom_up(&mut |n| match n.node() {
         Node::Apply { name, orders, args } => {
@@ -511,7 +511,7 @@ pub fn numeric_zero(e: &Expr, points: usize, seed: u64) -> ZeroCheck {
 }
 
 /// Whether a rational is a non-negative integer.
-pub fn nonneg_int(r: &Rational) -> Option<u32> {
+pub(crate) fn nonneg_int(r: &Rational) -> Option<u32> {
     if r.is_integer() && !r.is_negative() {
         r.to_integer().to_u32()
     } else {
