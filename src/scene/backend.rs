@@ -156,6 +156,16 @@ pub trait Backend {
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError>;
     /// The Poisson bracket `{f, g}` over the coordinates and their momenta `p_q`.
     fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError>;
+    /// The averaged Lagrangian of trial functions `q = q(θ, A…)`: `⟨L⟩`, the relations
+    /// `∂⟨L⟩/∂A_k = 0` and the action `J = ∂⟨L⟩/∂ω`.
+    fn average(
+        &self,
+        l: &Expr,
+        trials: &[(Symbol, Expr)],
+        phase: &Symbol,
+        frequency: &Symbol,
+        amplitudes: &[Symbol],
+    ) -> Result<Vec<Line>, BackendError>;
     /// Compiles a right-hand side.
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError>;
     /// Integrates a compiled system; `progress` receives the fraction done.
@@ -236,6 +246,30 @@ impl Backend for NativeBackend {
         let names: Vec<&str> = sys.coords.iter().map(|q| q.name()).collect();
         let ps = crate::canonical::PhaseSpace::new(names).map_err(|e| BackendError::Failed(e.to_string()))?;
         Ok(crate::canonical::poisson(f, g, &ps))
+    }
+    fn average(
+        &self,
+        l: &Expr,
+        trials: &[(Symbol, Expr)],
+        phase: &Symbol,
+        frequency: &Symbol,
+        amplitudes: &[Symbol],
+    ) -> Result<Vec<Line>, BackendError> {
+        use crate::canonical::{average_lagrangian, Trial};
+        let trials: Vec<Trial> = trials.iter().map(|(q, e)| Trial { coord: q.clone(), expr: e.clone() }).collect();
+        let avg = average_lagrangian(l, &trials, phase, frequency, amplitudes)
+            .map_err(|e| BackendError::Failed(e.to_string()))?;
+        let mut lines = vec![Line { label: None, lhs: Expr::var("⟨L⟩"), rhs: avg.lagrangian, note: None }];
+        for (a, rel) in avg.relations {
+            lines.push(Line { label: Some(format!("∂⟨L⟩/∂{a}")), lhs: rel, rhs: Expr::zero(), note: None });
+        }
+        lines.push(Line {
+            label: None,
+            lhs: Expr::var("J"),
+            rhs: avg.action,
+            note: Some("the adiabatic invariant ∂⟨L⟩/∂ω".into()),
+        });
+        Ok(lines)
     }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         use crate::compile::{HamiltonianRhs, LagrangianRhs, SeparableHamiltonian};

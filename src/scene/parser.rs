@@ -30,6 +30,7 @@ pub const STATEMENTS: &[&str] = &[
     "conserved",
     "pb",
     "energy",
+    "average",
     "print",
     "simulate",
     "plot",
@@ -483,6 +484,35 @@ impl Builder {
                 }
                 let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
                 StmtKind::Export { items, run, path }
+            }
+            Rule::average => {
+                let mut l = None;
+                let mut trials = Vec::new();
+                let mut names = Vec::new();
+                let mut amplitudes = Vec::new();
+                let mut format = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::sexpr => l = Some(self.src(&q)),
+                        Rule::init => {
+                            let mut it = q.into_inner();
+                            if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                                trials.push((self.src(&s), self.src(&v)));
+                            }
+                        }
+                        Rule::name => names.push(self.src(&q)),
+                        Rule::name_list => amplitudes = self.names(q),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                let mut it = names.into_iter();
+                match (it.next(), it.next()) {
+                    (Some(phase), Some(frequency)) => {
+                        StmtKind::Average { l, trials, phase, frequency, amplitudes, format }
+                    }
+                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
+                }
             }
             Rule::load => {
                 let path = inner.into_iter().next().map(|q| self.path(q));
