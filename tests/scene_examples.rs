@@ -219,6 +219,25 @@ fn oscillator_action_angle() {
     assert_eq!(r.line("{Q, J} = "), "1");
     assert_eq!(r.line("{J, H} = "), "0");
     assert_eq!(r.line("{Q, H} = "), "ω");
+    // F1 = ½ m ω q² cot Q (PHYSICS.md §4): q = sqrt(2P/(mω)) sin Q, p = sqrt(2mωP) cos Q,
+    // K = ω P. Compared at arbitrary values.
+    let d = Declarations::new().with_positive(["m", "ω"]);
+    let at = |e: &str| {
+        let e = parse_with(e, &d).unwrap();
+        lagrangian::eval::eval_with(&e, &|s: &lagrangian::Symbol| {
+            Some(match s.name() {
+                "m" => 2.0,
+                "ω" => 3.0,
+                "P" => 0.7,
+                "Q" => 0.4,
+                _ => return None,
+            })
+        })
+        .unwrap()
+    };
+    assert!((at(&r.line("q = ")) - at("sqrt(2 P/(m ω)) sin(Q)")).abs() < 1e-14);
+    assert!((at(&r.line("p_q = ")) - at("sqrt(2 m ω P) cos(Q)")).abs() < 1e-14);
+    assert_eq!(parse_with(&r.line("K = "), &d).unwrap(), parse_with("ω P", &d).unwrap());
     let c = r.csv("oscillator.csv");
     // J = E/ω = (½ m ω² q0²)/ω = ½·2·3·1 = 3.
     assert!((c["J"][0] - 3.0).abs() < 1e-12);

@@ -63,6 +63,18 @@ impl Backend for Counting {
         self.0.bump("average");
         Ok(vec![])
     }
+    fn transform(
+        &self,
+        _sys: &SystemRef,
+        _h: &Expr,
+        _kind: &str,
+        _f: &Expr,
+        _q: &[lagrangian::Symbol],
+        _p: &[lagrangian::Symbol],
+    ) -> Result<Vec<Line>, BackendError> {
+        self.0.bump("transform");
+        Ok(vec![])
+    }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         self.0.bump(match req.formulation {
             Formulation::Lagrangian(_) => "compile_lagrangian",

@@ -227,6 +227,19 @@ pub enum StmtKind {
         /// `as latex`.
         format: Option<Format>,
     },
+    /// `transform [H] with F1 = … new Q, P`
+    Transform {
+        /// The Hamiltonian (default `H`, or `legendre(L)`).
+        h: Option<Src>,
+        /// `F1` … `F4`.
+        kind: String,
+        /// The generating function.
+        f: Src,
+        /// New coordinates then new momenta.
+        new: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
     /// `load FILE`
     Load(Src),
     /// `help`, `help WORD`

@@ -31,6 +31,7 @@ pub const STATEMENTS: &[&str] = &[
     "pb",
     "energy",
     "average",
+    "transform",
     "print",
     "simulate",
     "plot",
@@ -513,6 +514,24 @@ impl Builder {
                     }
                     _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
                 }
+            }
+            Rule::transform => {
+                let mut exprs = Vec::new();
+                let mut kind = String::new();
+                let mut new = Vec::new();
+                let mut format = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::sexpr => exprs.push(self.src(&q)),
+                        Rule::gen_kind => kind = q.as_str().to_string(),
+                        Rule::name_list => new = self.names(q),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                let f =
+                    exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
+                StmtKind::Transform { h: exprs.pop(), kind, f, new, format }
             }
             Rule::load => {
                 let path = inner.into_iter().next().map(|q| self.path(q));

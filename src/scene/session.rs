@@ -88,6 +88,8 @@ pub enum Step {
     Bracket,
     /// An averaged Lagrangian.
     Average,
+    /// A canonical transformation.
+    Transform,
     /// The energy function.
     Energy,
     /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
@@ -110,6 +112,7 @@ impl Step {
             Step::Conserved => "conserved quantities",
             Step::Bracket => "Poisson bracket",
             Step::Average => "averaged Lagrangian",
+            Step::Transform => "canonical transformation",
             Step::Energy => "energy function",
             Step::Momenta => "canonical momenta",
             Step::Split => "separable split H = T(p) + V(q)",
@@ -460,6 +463,14 @@ impl Session {
                     .map(|n| n.text.clone())
                     .collect();
                 let r = self.average(l.as_ref(), trials, phase, frequency, amplitudes);
+                self.local_names.clear();
+                let lines = r?;
+                self.print_all(vec![Printed::Lines(lines)], *format);
+                Ok(())
+            }
+            StmtKind::Transform { h, kind, f, new, format } => {
+                self.local_names = new.iter().map(|n| n.text.clone()).collect();
+                let r = self.transform(h.as_ref(), kind, f, new);
                 self.local_names.clear();
                 let lines = r?;
                 self.print_all(vec![Printed::Lines(lines)], *format);
@@ -1000,6 +1011,58 @@ impl Session {
             .map(Value::Lines)
             .map_err(|e| backend_error(e, self.span));
         match self.record(Step::Average, what, key, built, self.span)? {
+            Value::Lines(v) => Ok(v),
+            _ => Ok(vec![]),
+        }
+    }
+
+    fn transform(&mut self, h: Option<&Src>, kind: &str, f: &Src, new: &[Src]) -> Result<Vec<Line>, SceneError> {
+        let n = self.coords.len();
+        if n == 0 {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
+                .at(self.span)
+                .hint("declare them first, for example `coordinates q`"));
+        }
+        if new.len() != 2 * n {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!(
+                    "{} new names for {n} coordinate(s): give {n} new coordinates, then {n} new momenta",
+                    new.len()
+                ),
+            )
+            .at(new.first().map_or(self.span, |s| (s.span.0, new[new.len() - 1].span.1)))
+            .hint("for one coordinate: `new Q, P`"));
+        }
+        let h = match h {
+            Some(src) => self.resolved(src)?,
+            None => self.hamiltonian()?,
+        };
+        let f_expr = self.resolved(f)?;
+        let new_q: Vec<Symbol> = new[..n].iter().map(|s| Symbol::new(&s.text)).collect();
+        let new_p: Vec<Symbol> = new[n..].iter().map(|s| Symbol::new(&s.text)).collect();
+        let mut inputs = vec![h.clone(), f_expr.clone()];
+        inputs.extend(new_q.iter().chain(&new_p).cloned().map(Expr::sym));
+        let key = CacheKey {
+            step: Step::Transform,
+            coords: self.coords.clone(),
+            inputs,
+            numbers: vec![],
+            extra: kind.to_string(),
+        };
+        let what = format!("by {kind} = {}", short(&f_expr));
+        if let Some(Value::Lines(v)) = self.lookup(&key, Step::Transform, &what) {
+            return Ok(v);
+        }
+        let decls = self.declarations();
+        let coords = self.coords.clone();
+        let sys = SystemRef { coords: &coords, decls: &decls };
+        let built = self
+            .backend
+            .transform(&sys, &h, kind, &f_expr, &new_q, &new_p)
+            .map(Value::Lines)
+            .map_err(|e| backend_error(e, self.span));
+        match self.record(Step::Transform, what, key, built, self.span)? {
             Value::Lines(v) => Ok(v),
             _ => Ok(vec![]),
         }
