@@ -123,10 +123,16 @@ y6 = report("Yoshida 6 solution A", lambda x: yoshida_conditions(x, 6),
             ["-1.17767998417887", "0.235573213359357", "0.784513610477560"])
 print("  w0 =", nstr(1 - 2 * sum(y6), 40))
 
-# Yoshida 1990, Table 2, solution A (8th order, 15 stages).
-y8 = report("Yoshida 8 solution A", lambda x: yoshida_conditions(x, 8),
-            ["-1.61582374150097", "-2.44699182370524", "-0.716989419708120e-2",
-             "2.44002732616735", "0.157739928123617", "1.82020630970714", "1.04242620869991"])
+# Yoshida 1990, Table 2, solution A (8th order, 15 stages): checked, not used.
+y8a = report("Yoshida 8 solution A", lambda x: yoshida_conditions(x, 8),
+             ["-1.61582374150097", "-2.44699182370524", "-0.716989419708120e-2",
+              "2.44002732616735", "0.157739928123617", "1.82020630970714", "1.04242620869991"])
+print("  w0 =", nstr(1 - 2 * sum(y8a), 40))
+
+# Yoshida 1990, Table 2, solution D (8th order, 15 stages): the one used.
+y8 = report("Yoshida 8 solution D", lambda x: yoshida_conditions(x, 8),
+            ["0.102799849391985", "-1.96061023297549", "1.93813913762276", "-0.158240635368243",
+             "-1.44485223686048", "0.253693336566229", "0.914844246229740"])
 print("  w0 =", nstr(1 - 2 * sum(y8), 40))
 
 # ---- Blanes & Moan 2002, SRKN_6^b (order 4, kick first): B A B A B A B A B A B A B ----

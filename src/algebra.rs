@@ -702,6 +702,103 @@ fn squared_args(sum: &Expr, funcs: [Func; 2]) -> Vec<Expr> {
 }
 
 fn normalize_sum(sum: &Expr) -> Expr {
+    let pythagorean = normalize_squares(sum);
+    let combined = combine_angles(&pythagorean);
+    if combined.op_count() < pythagorean.op_count() {
+        // Combining may leave a sum the Pythagorean step can shorten again.
+        match combined.node() {
+            Node::Add(_) => normalize_squares(&combined),
+            _ => combined,
+        }
+    } else {
+        pythagorean
+    }
+}
+
+/// The angle-addition formulas read backwards, on pairs of terms of a sum with the same
+/// coefficient up to sign and the same remaining factors:
+/// `cos a cos b ± sin a sin b = cos(a ∓ b)`, `sin a cos b ± cos a sin b = sin(a ± b)`.
+/// Pairs are taken greedily in term order, so the result is deterministic.
+fn combine_angles(sum: &Expr) -> Expr {
+    let terms = sum.terms();
+    if terms.len() < 2 {
+        return sum.clone();
+    }
+    let split: Vec<(Rational, Expr)> = terms.iter().map(Expr::coeff_rest).collect();
+    let mut index: HashMap<Expr, Vec<usize>> = HashMap::new();
+    for (i, (_, rest)) in split.iter().enumerate() {
+        index.entry(rest.clone()).or_default().push(i);
+    }
+    let mut used = vec![false; terms.len()];
+    let mut out: Vec<Expr> = Vec::new();
+    let trig = |f: &Expr| -> Option<(Func, Expr)> {
+        match f.node() {
+            Node::Call(func @ (Func::Sin | Func::Cos), args) => Some((*func, args[0].clone())),
+            _ => None,
+        }
+    };
+    for i in 0..terms.len() {
+        if used[i] {
+            continue;
+        }
+        let (c, rest) = &split[i];
+        let fs = rest.factors();
+        let mut done = false;
+        'pairs: for p in 0..fs.len() {
+            for q in p + 1..fs.len() {
+                let (Some((f1, a)), Some((f2, b))) = (trig(&fs[p]), trig(&fs[q])) else { continue };
+                if a == b {
+                    continue;
+                }
+                let others: Vec<Expr> =
+                    fs.iter().enumerate().filter(|(k, _)| *k != p && *k != q).map(|(_, f)| f.clone()).collect();
+                let other = Expr::mul(others);
+                let swap = |f: Func| if f == Func::Sin { Func::Cos } else { Func::Sin };
+                let partner = Expr::mul([
+                    other.clone(),
+                    Expr::call(swap(f1), vec![a.clone()]),
+                    Expr::call(swap(f2), vec![b.clone()]),
+                ]);
+                let Some(js) = index.get(&partner) else { continue };
+                let Some(&j) = js.iter().find(|&&j| j != i && !used[j]) else { continue };
+                let cj = &split[j].0;
+                let same = cj == c;
+                if !same && *cj != -c.clone() {
+                    continue;
+                }
+                let combined = match (f1, f2) {
+                    // c (cos a cos b ± sin a sin b) = c cos(a ∓ b)
+                    (Func::Cos, Func::Cos) | (Func::Sin, Func::Sin) => {
+                        // The term with the cosines decides the sign of the pair.
+                        let cos_first = f1 == Func::Cos;
+                        let lead = if cos_first { c.clone() } else { cj.clone() };
+                        let arg = if same { a.minus(&b) } else { a.plus(&b) };
+                        Expr::mul([Expr::num(lead), other, Expr::call(Func::Cos, vec![arg])])
+                    }
+                    // c (sin a cos b ± cos a sin b) = c sin(a ± b)
+                    _ => {
+                        let (s_arg, c_arg) =
+                            if f1 == Func::Sin { (a.clone(), b.clone()) } else { (b.clone(), a.clone()) };
+                        let arg = if same { s_arg.plus(&c_arg) } else { s_arg.minus(&c_arg) };
+                        Expr::mul([Expr::num(c.clone()), other, Expr::call(Func::Sin, vec![arg])])
+                    }
+                };
+                used[i] = true;
+                used[j] = true;
+                out.push(combined);
+                done = true;
+                break 'pairs;
+            }
+        }
+        if !done {
+            used[i] = true;
+            out.push(terms[i].clone());
+        }
+    }
+    Expr::add(out)
+}
+
+fn normalize_squares(sum: &Expr) -> Expr {
     let mut best = sum.clone();
     for (one, other) in SQUARES {
         for u in squared_args(&best, [one.from, other.from]) {
@@ -896,5 +993,36 @@ mod tests {
         let n = trig_normalize(&e);
         assert_eq!(n, p("exp(1 + x)/(2 cos(x)^2)"));
         same_value(&e, &n);
+    }
+
+    #[test]
+    fn angle_addition_read_backwards() {
+        // By hand: cos a cos b + sin a sin b = cos(a − b), cos a cos b − sin a sin b = cos(a + b),
+        // sin a cos b + cos a sin b = sin(a + b), sin a cos b − cos a sin b = sin(a − b).
+        for (start, goal) in [
+            ("k cos(a) cos(b) + k sin(a) sin(b)", "k cos(a - b)"),
+            ("cos(a) cos(b) - sin(a) sin(b) + z", "cos(a + b) + z"),
+            ("3 sin(a) cos(b) + 3 cos(a) sin(b)", "3 sin(a + b)"),
+            ("sin(a) cos(b) - cos(a) sin(b)", "sin(a - b)"),
+            ("-sin(a) sin(b) + cos(a) cos(b)", "cos(a + b)"),
+        ] {
+            let e = p(start);
+            let n = trig_normalize(&e);
+            assert_eq!(n, p(goal), "{start}");
+            same_value(&e, &n);
+        }
+        // The double pendulum's kinetic energy from Cartesian velocities, by hand:
+        // ½(m1+m2) l1² θ1'² + ½ m2 l2² θ2'² + m2 l1 l2 θ1' θ2' cos(θ1 − θ2), multiplied out.
+        let d = Declarations::new().with_positive(["m1", "m2", "l1", "l2"]);
+        let t = parse_with(
+            "1/2 m1 ((l1 a' cos(a))^2 + (l1 a' sin(a))^2) + 1/2 m2 ((l1 a' cos(a) + l2 b' cos(b))^2 + (l1 a' sin(a) + l2 b' sin(b))^2)",
+            &d,
+        )
+        .unwrap();
+        let n = trig_normalize(&expand(&t).unwrap());
+        let goal = parse_with("1/2 m1 l1^2 a'^2 + 1/2 m2 l1^2 a'^2 + 1/2 m2 l2^2 b'^2 + m2 l1 l2 a' b' cos(a - b)", &d)
+            .unwrap();
+        assert_eq!(n, goal);
+        same_value(&t, &n);
     }
 }

@@ -8,7 +8,9 @@
 //! `ω² = ω0² (1 + (3/2) σ A²)`, i.e. `ω = ω0 (1 + (3/4) σ A²)` (the Lindstedt result for
 //! `y'' + ω0² (y + 2σ y³) = 0`).
 
-use lagrangian::canonical::{average_lagrangian, decide_zero, phase_average, AverageError, Trial, ZeroCheck};
+use lagrangian::canonical::{
+    average_lagrangian, decide_zero, leading_order, phase_average, AverageError, LeadingOrderError, Trial, ZeroCheck,
+};
 use lagrangian::eval::eval_with;
 use lagrangian::{parse, Expr, Symbol};
 
@@ -79,6 +81,24 @@ fn anharmonic_oscillator_averaged_relations() {
     lines.extend(avg.relations.iter().map(|(a, e)| format!("d<L>/d{a} = {e}")));
     lines.push(format!("J = {}", avg.action));
     snap("canonical_anharmonic_average", lines.join("\n"));
+}
+
+#[test]
+fn anharmonic_oscillator_solved_to_leading_order() {
+    let avg = anharmonic();
+    let lo = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A")).expect("solvable");
+    // The hand result of the module comment: ω = ω0 (1 + 3σA²/4), B = σA³/16, C = 0.
+    assert_eq!(decide_zero(&lo.frequency.minus(&p("w0 (1 + 3 σ A^2/4)"))), ZeroCheck::Proven, "ω = {}", lo.frequency);
+    assert_eq!(lo.amplitudes[0].0, sym("B"));
+    assert_eq!(decide_zero(&lo.amplitudes[0].1.minus(&p("σ A^3/16"))), ZeroCheck::Proven, "B = {}", lo.amplitudes[0].1);
+    assert!(lo.amplitudes[1].1.is_zero(), "C = {}", lo.amplitudes[1].1);
+    snap(
+        "canonical_anharmonic_leading_order",
+        format!("w = {}\nB = {}\nC = {}", lo.frequency, lo.amplitudes[0].1, lo.amplitudes[1].1),
+    );
+    // A wrong unperturbed frequency is refused at zeroth order.
+    let err = leading_order(&avg, &sym("w"), &p("2 w0"), &sym("σ"), &sym("A")).expect_err("wrong ω0");
+    assert!(matches!(err, LeadingOrderError::ZerothOrder { .. }), "{err}");
 }
 
 #[test]

@@ -75,6 +75,18 @@ fn oscillator_action_angle_variables() {
     let fwd = t.forward.as_ref().expect("forward");
     assert_eq!(decide_zero(&value(fwd, "P").minus(&p("(p_q^2/(2 m) + 1/2 m w^2 q^2)/w"))), ZeroCheck::Proven);
     assert_forward_canonical(&t, &old, "Q", "P");
+    // Second route: Newton on the implicit relation agrees with the closed-form inverse.
+    let params: lagrangian::eval::Env = [("m".to_string(), 1.3), ("w".to_string(), 0.7)].into_iter().collect();
+    let (qv, pv) = (0.6, 2.1);
+    let mut env = params.clone();
+    env.extend([("Q".to_string(), qv), ("P".to_string(), pv)]);
+    let closed_q = lagrangian::eval::eval(&value(inv, "q"), &env).expect("evaluates");
+    let closed_p = lagrangian::eval::eval(&value(inv, "p_q"), &env).expect("evaluates");
+    let num = g.numeric_inverse(&[qv, pv], &params, &[1.0]).expect("converges");
+    assert!(
+        (num[0] - closed_q).abs() < 1e-13 && (num[1] - closed_p).abs() < 1e-13,
+        "{num:?} vs {closed_q}, {closed_p}"
+    );
     snap("canonical_oscillator_action_angle", render(&t));
 }
 
@@ -202,6 +214,17 @@ fn no_closed_form_leaves_the_relations_implicit() {
     // K stays available in the generator's own variables.
     assert!(t.k_mixed.is_some());
     assert!(matches!(t.hamiltonian, Some(Err(_))));
+    // The numeric map instead: at (Q, P) = (1.7, 0.4), Newton solves Q = q + 2 q³ P for q, and
+    // p = P + 5 q⁴ + 3 q² P² follows; both relations hold at the result.
+    let (big_q, big_p) = (1.7, 0.4);
+    let qp = g.numeric_inverse(&[big_q, big_p], &Default::default(), &[1.0]).expect("converges");
+    let (q, pm) = (qp[0], qp[1]);
+    assert!((q + 2.0 * q.powi(3) * big_p - big_q).abs() < 1e-14, "q = {q}");
+    assert!((pm - (big_p + 5.0 * q.powi(4) + 3.0 * q * q * big_p * big_p)).abs() < 1e-13, "p = {pm}");
+    assert!(matches!(
+        g.numeric_inverse(&[big_q], &Default::default(), &[1.0]),
+        Err(lagrangian::canonical::NumericMapError::Length { .. })
+    ));
 }
 
 fn map(q: &str, pm: &str) -> ExplicitMap {
@@ -223,11 +246,16 @@ fn explicit_map_canonicity() {
     assert!(matches!(r.canonicity, Canonicity::NotCanonical { .. }));
     assert!(r.canonicity.describe().starts_with("not canonical"), "{}", r.canonicity.describe());
     assert!(r.hamiltonian.expect("asked").is_err());
-    // Canonical, but only a numeric check can tell: {Q, P} is a rational identity.
-    let r = check_map(&map("q", "p_q (1/(1 + q) + 1/(1 - q)) (1 - q^2)/2"), None);
+    // Canonical (for q > 0), but only a numeric check can tell: {Q, P} = 1 + log(q²) − 2 log q.
+    let r = check_map(&map("q", "p_q (1 + log(q^2) - 2 log(q))"), None);
     assert!(matches!(r.canonicity, Canonicity::NumericOnly { .. }), "{:?}", r.canonicity);
     assert!(r.canonicity.describe().contains("not a proof"));
-    let lines: Vec<String> =
-        r.brackets.iter().map(|b| format!("{} = {}: {}", b.name, b.value, b.check.describe())).collect();
+    let lines: Vec<String> = r
+        .brackets
+        .iter()
+        .map(|b| {
+            format!("{} = {} (expected {}; the difference is {})", b.name, b.value, b.expected, b.check.describe())
+        })
+        .collect();
     snap("canonical_explicit_numeric_only", format!("{}\n{}", r.canonicity.describe(), lines.join("\n")));
 }

@@ -78,9 +78,9 @@ fn with_steps(hs: [f64; 6]) -> Vec<(&'static str, Make, f64)> {
 fn oscillator_orders() {
     let sys = Oscillator { omega: 1.0 };
     let y0 = [1.0, 0.5];
-    let t = 5.0;
+    let t = 50.0; // long enough that Yoshida 8's tiny error stays well above round-off
     let exact = sys.exact(&y0, t);
-    separable_cases("oscillator", &sys, &y0, t, &exact, &with_steps([1e-3, 0.05, 0.1, 0.2, 0.2, 0.25]));
+    separable_cases("oscillator", &sys, &y0, t, &exact, &with_steps([1e-3, 0.05, 0.1, 0.2, 0.2, 0.125]));
     rhs_cases("oscillator", &sys, &y0, t, &exact, [1e-3, 0.05, 0.05, 0.2, 0.4]);
 }
 

@@ -105,13 +105,24 @@ fn steps_beyond_the_stability_limit_end_in_a_non_finite_error() {
         let de = (sys.energy(tr.last_state()) - 0.5).abs();
         assert!(de < 1e-12, "{}: energy error {de:e}", m.info().name);
     }
-    // ...while fixed-point iteration cannot converge for ω h > 1 and says so.
+    // ...while fixed-point iteration converges only when h ρ(A) ω < 1 (ρ(A) = 1/2 for the
+    // midpoint rule, smaller for more stages): it either converges to the same
+    // energy-conserving result or says that it did not converge.
     for m in gauss(3.0) {
+        let name = m.info().name;
         let m = m.solver(ImplicitSolver::FixedPoint);
-        let e = failure(m.integrate(&sys, 0.0..10.0, &y0), "fixed point diverges");
-        assert!(matches!(e.reason, FailureReason::ImplicitSolve { newton: false, .. }), "{e}");
-        assert_clean_error(&e, 0.0, 10.0);
-        assert_eq!(e.t, 0.0);
+        match m.integrate_with(&sys, 0.0..300.0, &y0, Options::new().final_only()) {
+            Ok(tr) => {
+                assert_ne!(name, "implicit midpoint", "h ω / 2 = 1.5 > 1 cannot converge");
+                let de = (sys.energy(tr.last_state()) - 0.5).abs();
+                assert!(de < 1e-12, "{name}: energy error {de:e}");
+            }
+            Err(e) => {
+                assert!(matches!(e.reason, FailureReason::ImplicitSolve { newton: false, .. }), "{e}");
+                assert_clean_error(&e, 0.0, 300.0);
+                assert_eq!(e.t, 0.0);
+            }
+        }
     }
     // DOP853 adapts its step: correct result.
     let tr = Dop853::new(1e-10, 1e-12).integrate(&sys, 0.0..100.0, &y0).unwrap();
@@ -204,7 +215,7 @@ fn close_kepler_encounters_at_e099() {
         // Only the optimised and high-order compositions resolve the encounter at this step
         // (leapfrog would need h ~ 1e-6): their energy error is small, their phase error
         // is amplified by the pericentre passage like DOP853's.
-        if ["Blanes-Moan 4", "Yoshida 6"].contains(&m.info().name) {
+        if ["Blanes-Moan 4", "Yoshida 6", "Yoshida 8"].contains(&m.info().name) {
             assert!(err < 0.05 && de < 1e-10, "{}: error {err:e}", m.info().name);
         } else {
             assert!(de < 0.05, "{}: energy error {de:e}", m.info().name);

@@ -47,6 +47,11 @@ const SIMPLIFICATIONS: &[Row] = &[
     (Op::S, "k1 sin(q1)^2 + k1 cos(q1)^2 + k2 sin(q2)^2 + k2 cos(q2)^2 + k3 sin(q3)^2 + k3 cos(q3)^2 + z", NONE, NONE, "k1 + k2 + k3 + z"),
     // The pendulum's kinetic energy from Cartesian velocities: (l θ' cos θ)² + (l θ' sin θ)² = l² θ'².
     (Op::S, "1/2 m (l θ' cos(θ))^2 + 1/2 m (l θ' sin(θ))^2", &["m", "l"], NONE, "1/2 l^2 m θ'^2"),
+    // The double pendulum's kinetic energy from Cartesian velocities (absolute angles a, b):
+    // the angle-addition formula read backwards gives the cos(a − b) coupling term.
+    (Op::S, "1/2 m1 ((l1 a' cos(a))^2 + (l1 a' sin(a))^2) + 1/2 m2 ((l1 a' cos(a) + l2 b' cos(b))^2 + (l1 a' sin(a) + l2 b' sin(b))^2)", &["m1", "m2", "l1", "l2"], NONE, ""),
+    (Op::S, "cos(a) cos(b) + sin(a) sin(b)", NONE, NONE, "cos(a - b)"),
+    (Op::S, "sin(a) cos(b) - cos(a) sin(b)", NONE, NONE, "sin(a - b)"),
     // Double angles.
     (Op::S, "2 sin(x) cos(x)", NONE, NONE, "sin(2 x)"),
     (Op::S, "cos(x)^2 - sin(x)^2", NONE, NONE, "cos(2 x)"),

@@ -46,10 +46,21 @@ pub enum AverageError {
         /// The offending subexpression.
         part: String,
     },
+    /// A power too large to multiply out.
+    #[error("`{part}`: powers above {limit} of a phase-dependent factor are not multiplied out")]
+    TooLarge {
+        /// The offending power.
+        part: String,
+        /// The limit.
+        limit: u32,
+    },
     /// A velocity of a coordinate without a trial function remains.
     #[error("`{0}` remains after substituting the trial functions: give a trial function for every coordinate")]
     UnreplacedVelocity(String),
 }
+
+/// The largest power of a phase-dependent factor multiplied out.
+pub const MAX_POWER: u32 = 64;
 
 /// A finite Fourier sum: `(k, is_sin) → coefficient`, with `k ≥ 0` and no `sin 0`.
 type Fourier = BTreeMap<(u64, bool), Expr>;
@@ -130,6 +141,7 @@ fn fourier(e: &Expr, th: &Symbol) -> Result<Fourier, AverageError> {
             Ok(acc)
         }
         Node::Pow(b, x) => match x.as_num().and_then(nonneg_int) {
+            Some(n) if n > MAX_POWER => Err(AverageError::TooLarge { part: e.to_string(), limit: MAX_POWER }),
             Some(n) => {
                 let fb = fourier(b, th)?;
                 let mut acc = constant(Expr::one());
@@ -219,4 +231,88 @@ pub fn average_lagrangian(
     let relations = amplitudes.iter().map(|a| (a.clone(), normalize(&diff(&avg, a)))).collect();
     let action = normalize(&diff(&avg, frequency));
     Ok(Averaged { lagrangian: avg, relations, action })
+}
+
+/// The leading-order solution of the averaged relations in a small parameter `σ`:
+/// `ω = ω0 + σ ω1`, each secondary amplitude `B_k = σ b_k`, the principal amplitude `A` free.
+#[derive(Clone, Debug)]
+pub struct LeadingOrder {
+    /// `ω` to first order in `σ`.
+    pub frequency: Expr,
+    /// Each secondary amplitude to first order in `σ`.
+    pub amplitudes: Vec<(Symbol, Expr)>,
+}
+
+/// Why the leading-order solution failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LeadingOrderError {
+    /// The zeroth-order relations do not hold at `ω = ω0` with the secondary amplitudes zero.
+    #[error("at σ = 0 the relation ∂⟨L⟩/∂{amplitude} = {value} does not vanish for ω = {omega0} and the other amplitudes 0: `{omega0}` is not the unperturbed frequency of this trial")]
+    ZerothOrder {
+        /// The amplitude whose relation fails.
+        amplitude: String,
+        /// Its value.
+        value: String,
+        /// The proposed unperturbed frequency.
+        omega0: String,
+    },
+    /// The first-order equations could not be solved.
+    #[error("the first-order equations have no unique solution: {0}")]
+    FirstOrder(#[from] super::solve::SolveError),
+    /// The principal amplitude is not among the relations.
+    #[error("`{0}` is not one of the amplitudes")]
+    UnknownAmplitude(String),
+}
+
+/// Solves the relations of `avg` to first order in `small` (Poincaré–Lindstedt on the averaged
+/// Lagrangian): substitutes `ω = omega0 + σ ω1`, `B_k = σ b_k` for every amplitude except
+/// `principal`, checks that the relations vanish at `σ = 0`, and solves the coefficients of `σ¹`
+/// (linear in `ω1`, `b_k`) for `ω1` and the `b_k`.
+pub fn leading_order(
+    avg: &Averaged,
+    frequency: &Symbol,
+    omega0: &Expr,
+    small: &Symbol,
+    principal: &Symbol,
+) -> Result<LeadingOrder, LeadingOrderError> {
+    if !avg.relations.iter().any(|(a, _)| a == principal) {
+        return Err(LeadingOrderError::UnknownAmplitude(principal.to_string()));
+    }
+    let s = Expr::sym(small.clone());
+    let w1 = Symbol::new("__omega1");
+    let mut map = std::collections::HashMap::new();
+    map.insert(frequency.clone(), omega0.plus(&s.times(&Expr::sym(w1.clone()))));
+    let mut unknowns = vec![w1.clone()];
+    let mut coeff_syms = Vec::new();
+    for (a, _) in &avg.relations {
+        if a != principal {
+            let b = Symbol::new(&format!("__b_{}", a.name()));
+            map.insert(a.clone(), s.times(&Expr::sym(b.clone())));
+            unknowns.push(b.clone());
+            coeff_syms.push((a.clone(), b));
+        }
+    }
+    let mut first = Vec::new();
+    for (a, r) in &avg.relations {
+        let sub = r.subs(&map);
+        let zeroth = normalize(&sub.subs1(small, &Expr::zero()));
+        if !super::reduce::decide_zero(&zeroth).is_zero() {
+            return Err(LeadingOrderError::ZerothOrder {
+                amplitude: a.to_string(),
+                value: zeroth.to_string(),
+                omega0: omega0.to_string(),
+            });
+        }
+        let mut d1 = normalize(&diff(&sub, small).subs1(small, &Expr::zero()));
+        // The principal relation carries a common factor A (the trivial solution A = 0).
+        if a == principal {
+            d1 = normalize(&d1.over(&Expr::sym(principal.clone())));
+        }
+        first.push(d1);
+    }
+    let (sol, _) = super::solve::solve_system(&first, &unknowns)?;
+    let get = |u: &Symbol| sol.iter().find(|(v, _)| v == u).map(|(_, e)| e.clone()).unwrap_or_else(Expr::zero);
+    let frequency = normalize(&omega0.plus(&s.times(&get(&w1))));
+    let amplitudes = coeff_syms.iter().map(|(a, b)| (a.clone(), normalize(&s.times(&get(b))))).collect();
+    Ok(LeadingOrder { frequency, amplitudes })
 }

@@ -287,6 +287,105 @@ impl Generator {
     }
 }
 
+/// Why a numeric evaluation of the map failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NumericMapError {
+    /// A symbol has no value.
+    #[error("cannot evaluate the relations: {0}")]
+    Eval(String),
+    /// Newton's method did not converge from the guess.
+    #[error("Newton's method did not converge from the initial guess (residual {residual:.3e} after {iterations} iterations); try another guess")]
+    NoConvergence {
+        /// The last residual norm.
+        residual: f64,
+        /// Iterations done.
+        iterations: usize,
+    },
+    /// The Jacobian of the relations is singular at an iterate.
+    #[error("the Jacobian of the relations is singular at the current iterate")]
+    Singular,
+    /// The value or guess has the wrong length.
+    #[error("expected {expected} values, got {got}")]
+    Length {
+        /// Expected count.
+        expected: usize,
+        /// Given count.
+        got: usize,
+    },
+}
+
+impl Generator {
+    /// The inverse map at one point, numerically, for when no closed form exists: given the new
+    /// variables (`new_values`: `Q_1…Q_n, P_1…P_n`) and values for `t` and the parameters in
+    /// `params`, solves the new-complement relations for the generator's old variables by
+    /// Newton's method from `guess`, then evaluates the old complement. Returns
+    /// `q_1…q_n, p_1…p_n`.
+    pub fn numeric_inverse(
+        &self,
+        new_values: &[f64],
+        params: &crate::eval::Env,
+        guess: &[f64],
+    ) -> Result<Vec<f64>, NumericMapError> {
+        let n = self.old.dof();
+        if new_values.len() != 2 * n || guess.len() != n {
+            let (expected, got) = if new_values.len() != 2 * n { (2 * n, new_values.len()) } else { (n, guess.len()) };
+            return Err(NumericMapError::Length { expected, got });
+        }
+        let (sx, sy) = self.kind.signs();
+        let mut d = Differentiator::new();
+        let (x, y, yc) = (self.x(), self.y(), self.y_complement());
+        let eqs: Vec<Expr> = y
+            .iter()
+            .zip(&yc)
+            .map(|(yi, ci)| Expr::sym(ci.clone()).minus(&Expr::int(sy).times(&d.diff(&self.f, yi))))
+            .collect();
+        let jac: Vec<Vec<Expr>> = eqs.iter().map(|e| x.iter().map(|xi| d.diff(e, xi)).collect()).collect();
+        let mut env = params.clone();
+        for (s, v) in self.new.variables().iter().zip(new_values) {
+            env.insert(s.to_string(), *v);
+        }
+        let mut xs = guess.to_vec();
+        let ev = |e: &Expr, env: &crate::eval::Env| {
+            crate::eval::eval(e, env).map_err(|e| NumericMapError::Eval(e.to_string()))
+        };
+        let mut residual = f64::INFINITY;
+        for it in 0..100 {
+            for (s, v) in x.iter().zip(&xs) {
+                env.insert(s.to_string(), *v);
+            }
+            let f: Vec<f64> = eqs.iter().map(|e| ev(e, &env)).collect::<Result<_, _>>()?;
+            residual = f.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let scale = 1.0 + xs.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            if residual <= 1e-14 * scale {
+                let mut out = vec![0.0; 2 * n];
+                let (x_is_p, _) = self.kind.uses_momenta();
+                for i in 0..n {
+                    let c = ev(&Expr::int(sx).times(&d.diff(&self.f, &x[i])), &env)?;
+                    if x_is_p {
+                        out[i] = c;
+                        out[n + i] = xs[i];
+                    } else {
+                        out[i] = xs[i];
+                        out[n + i] = c;
+                    }
+                }
+                return Ok(out);
+            }
+            let jm: Vec<f64> = jac.iter().flatten().map(|e| ev(e, &env)).collect::<Result<_, _>>()?;
+            let m = nalgebra::DMatrix::from_row_slice(n, n, &jm);
+            let rhs = nalgebra::DVector::from_vec(f);
+            let step = m.lu().solve(&rhs).ok_or(NumericMapError::Singular)?;
+            for (xi, si) in xs.iter_mut().zip(step.iter()) {
+                *xi -= si;
+            }
+            if it == 99 {
+                break;
+            }
+        }
+        Err(NumericMapError::NoConvergence { residual, iterations: 100 })
+    }
+}
+
 fn as_equations(rel: &[Relation]) -> Vec<Expr> {
     rel.iter().map(|(s, e)| Expr::sym(s.clone()).minus(e)).collect()
 }

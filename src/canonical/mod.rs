@@ -11,8 +11,8 @@
 //! never a claim of proof.
 //!
 //! Submodules, one operation each:
-//! * [`poisson`]: brackets, `df/dt`, integrals of motion, Poisson's theorem;
-//! * [`solve`]: the small equation solver behind generating-function inversion;
+//! * [`mod@poisson`]: brackets, `df/dt`, integrals of motion, Poisson's theorem;
+//! * [`mod@solve`]: the small equation solver behind generating-function inversion;
 //! * [`generating`]: F1–F4, their relations, inverse and forward maps, `K = H + ∂F/∂t`;
 //! * [`explicit`]: canonicity of explicit maps `Q(q,p,t)`, `P(q,p,t)`;
 //! * [`lie`]: Lie series `exp(ε{·,G}) f` and the flow of `H` as a series in `t`;
@@ -33,9 +33,11 @@ pub mod reduce;
 pub mod solve;
 
 pub use action_angle::{action_frequency, elliptic_e, elliptic_k, ActionAngleError, ActionFrequency};
-pub use average::{average_lagrangian, phase_average, AverageError, Averaged, Trial};
+pub use average::{
+    average_lagrangian, leading_order, phase_average, AverageError, Averaged, LeadingOrder, LeadingOrderError, Trial,
+};
 pub use explicit::{check_map, invert_map, BracketCheck, Canonicity, ExplicitMap, MapHamiltonianError, MapReport};
-pub use generating::{GeneratedTransform, Generator, GeneratorKind, Relation, TransformError};
+pub use generating::{GeneratedTransform, Generator, GeneratorKind, NumericMapError, Relation, TransformError};
 pub use lie::{lie_flow, lie_series, lie_terms, LieError};
 pub use poisson::{is_integral, poisson, time_derivative};
 pub use reduce::{decide_zero, normalize, ZeroCheck};

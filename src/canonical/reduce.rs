@@ -7,7 +7,9 @@
 //! powers of sums) and a trigonometric normal form (`cos²x → 1 − sin²x`, multiple angles
 //! `sin(n x)` written through `sin x`, `cos x`, compositions like `sin(asin x) = x` removed).
 //! That normal form is complete for trigonometric polynomials, so a trigonometric-polynomial
-//! identity reduces to `0` exactly. When the normal form is not `0`, [`decide_zero`] falls
+//! identity reduces to `0` exactly. [`decide_zero`] also tries roots of sums
+//! ([`reduce_radicals`]) and a common denominator (`crate::algebra::numer_denom`). When all of
+//! that leaves a non-zero form, it falls
 //! back to evaluation at seeded pseudo-random points and says so: a numeric check is reported
 //! as evidence, never as a proof.
 
@@ -458,6 +460,12 @@ fn concrete_function(name: &str, vars: &[Symbol]) -> Expr {
 pub fn decide_zero(e: &Expr) -> ZeroCheck {
     let n = normalize(e);
     if n.is_zero() || reduce_radicals(&n).is_zero() {
+        return ZeroCheck::Proven;
+    }
+    // Sums of fractions: over a common denominator the numerator alone must vanish.
+    let (num, _) = crate::algebra::numer_denom(&n);
+    let num = normalize(&num);
+    if num.is_zero() || reduce_radicals(&num).is_zero() {
         return ZeroCheck::Proven;
     }
     numeric_zero(&n, 12, 0x5EED)

@@ -7,7 +7,7 @@
 //! roots), recursively. An equation in both `sin a` and `cos a` is tried as an equation in
 //! `tan a` (substituting `sin a = T cos a`), which is how `p = m ω q cot Q` inverts.
 //!
-//! Every multi-valued inverse names the branch it took in [`Solution::branch`], e.g.
+//! Every multi-valued inverse names the branch it took in [`Solution::branches`], e.g.
 //! `q = ±√…; the + root taken`, `Q = atan(…) + nπ; n = 0 taken`. Where no closed form exists
 //! the error says why, and callers keep the relations implicit.
 
@@ -232,6 +232,7 @@ fn solve_polynomial(e: &Expr, k: &Expr, u: &Symbol, eq: &Expr) -> Result<(Expr, 
     let mut branches = Vec::new();
     let value = match deg {
         0 => return Err(no_closed_form(u, eq, format!("the equation does not depend on `{k}` after simplification"))),
+        1 if c(1).is_negative_form() => c(0).over(&c(1).neg()),
         1 => c(0).neg().over(&c(1)),
         2 if c(1).is_zero() => {
             branches.push(format!("{k} = ±√(…): the + root taken"));
@@ -240,8 +241,17 @@ fn solve_polynomial(e: &Expr, k: &Expr, u: &Symbol, eq: &Expr) -> Result<(Expr, 
         2 => {
             let (a, b, c0) = (c(2), c(1), c(0));
             let disc = normalize(&b.powi(2).minus(&Expr::int(4).times(&a).times(&c0)));
-            branches.push(format!("{k} from a quadratic: the root with +√(discriminant) taken"));
-            b.neg().plus(&disc.sqrt()).over(&Expr::int(2).times(&a))
+            // Of the two roots, take the one that tends to the linear solution −c/b as c → 0:
+            // (−b + √D)/(2a) when b is positive, 2c/(−b + √D) (the same root written without
+            // cancellation) when b is negative.
+            branches.push(format!(
+                "{k} from a quadratic: of the two roots (−b ± √(b² − 4ac))/(2a), the one tending to −c/b as c → 0 taken"
+            ));
+            if b.is_negative_form() {
+                Expr::int(2).times(&c0).over(&b.neg().plus(&disc.sqrt()))
+            } else {
+                b.neg().plus(&disc.sqrt()).over(&Expr::int(2).times(&a))
+            }
         }
         n if (1..n).all(|j| c(j).is_zero()) => {
             if n % 2 == 0 {
@@ -441,7 +451,9 @@ fn solve_linear(eqs: &[Expr], unknowns: &[Symbol]) -> Result<Option<Vec<(Symbol,
             aj[i][j] = b[i].clone();
         }
         let num = normalize(&determinant(&aj));
-        out.push((u.clone(), normalize(&num.over(&det))));
+        // Keep the printed denominator's sign positive: Q/(4P + 1), not −Q/(−4P − 1).
+        let (num, den) = if det.is_negative_form() { (num.neg(), det.neg()) } else { (num, det.clone()) };
+        out.push((u.clone(), normalize(&num.over(&den))));
     }
     Ok(Some(out))
 }

@@ -2,7 +2,7 @@
 //! canonical perturbation theory (PHYSICS.md §4 and §2.5). They parse, call
 //! `lagrangian::canonical`, and print.
 
-use clap::{ArgGroup, Subcommand};
+use clap::{ArgGroup, Args, Subcommand};
 use lagrangian::canonical::{self, ExplicitMap, Generator, GeneratorKind, PhaseSpace, Trial};
 use lagrangian::print::{render, symbol};
 use lagrangian::{Declarations, Expr, Symbol};
@@ -48,35 +48,7 @@ pub enum CanonicalCommand {
     },
     /// Canonical transformation from a generating function F1(q,Q,t), F2(q,P,t), F3(p,Q,t)
     /// or F4(p,P,t): relations, maps both ways, and K = H + ∂F/∂t.
-    #[command(group(ArgGroup::new("generator").required(true).args(["f1", "f2", "f3", "f4"])))]
-    Canonical {
-        /// F1(q, Q, t): p = ∂F1/∂q, P = −∂F1/∂Q.
-        #[arg(long, allow_hyphen_values = true)]
-        f1: Option<String>,
-        /// F2(q, P, t): p = ∂F2/∂q, Q = ∂F2/∂P.
-        #[arg(long, allow_hyphen_values = true)]
-        f2: Option<String>,
-        /// F3(p, Q, t): q = −∂F3/∂p, P = −∂F3/∂Q.
-        #[arg(long, allow_hyphen_values = true)]
-        f3: Option<String>,
-        /// F4(p, P, t): q = −∂F4/∂p, Q = ∂F4/∂P.
-        #[arg(long, allow_hyphen_values = true)]
-        f4: Option<String>,
-        /// The old Hamiltonian H(q, p, t), to get K.
-        #[arg(long, allow_hyphen_values = true)]
-        hamiltonian: Option<String>,
-        /// Old coordinates.
-        #[arg(long, value_delimiter = ',', required = true)]
-        coords: Vec<String>,
-        /// Old momenta, in the order of `--coords`.
-        #[arg(long, value_delimiter = ',')]
-        momenta: Vec<String>,
-        /// New variables: the new coordinates then the new momenta (`Q,P`; `X,Y,P_X,P_Y`).
-        #[arg(long, value_delimiter = ',')]
-        new: Vec<String>,
-        #[command(flatten)]
-        common: Common,
-    },
+    Canonical(Box<CanonicalArgs>),
     /// Whether an explicit map "Q = …, P = …" is canonical (fundamental brackets).
     IsCanonical {
         /// The map: new coordinates first, then new momenta, e.g. "Q = log(sin(p_q)/q), P = q cot(p_q)".
@@ -147,26 +119,84 @@ pub enum CanonicalCommand {
     },
     /// Averaged Lagrangian ⟨L⟩ = (1/2π)∫L dθ of a trial function periodic in θ, with
     /// ∂⟨L⟩/∂A_k = 0 and J = ∂⟨L⟩/∂ω.
-    Average {
-        /// The Lagrangian L(q, q').
-        #[arg(allow_hyphen_values = true)]
-        lagrangian: String,
-        /// Trial functions `x = …` (repeat for several coordinates).
-        #[arg(long, required = true)]
-        trial: Vec<String>,
-        /// The phase.
-        #[arg(long, default_value = "θ")]
-        phase: String,
-        /// The frequency ω = θ'.
-        #[arg(long, default_value = "ω")]
-        frequency: String,
-        /// The amplitudes A_k (default: symbols of the trials absent from L).
-        #[arg(long, value_delimiter = ',')]
-        amplitudes: Vec<String>,
-        #[command(flatten)]
-        common: Common,
-    },
+    Average(Box<AverageArgs>),
 }
+
+/// Arguments of `canonical` (boxed: the largest subcommand).
+#[derive(Args)]
+#[command(group(ArgGroup::new("generator").required(true).args(["f1", "f2", "f3", "f4"])))]
+pub struct CanonicalArgs {
+    /// F1(q, Q, t): p = ∂F1/∂q, P = −∂F1/∂Q.
+    #[arg(long, allow_hyphen_values = true)]
+    pub f1: Option<String>,
+    /// F2(q, P, t): p = ∂F2/∂q, Q = ∂F2/∂P.
+    #[arg(long, allow_hyphen_values = true)]
+    pub f2: Option<String>,
+    /// F3(p, Q, t): q = −∂F3/∂p, P = −∂F3/∂Q.
+    #[arg(long, allow_hyphen_values = true)]
+    pub f3: Option<String>,
+    /// F4(p, P, t): q = −∂F4/∂p, Q = ∂F4/∂P.
+    #[arg(long, allow_hyphen_values = true)]
+    pub f4: Option<String>,
+    /// The old Hamiltonian H(q, p, t), to get K.
+    #[arg(long, allow_hyphen_values = true)]
+    pub hamiltonian: Option<String>,
+    /// Old coordinates.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub coords: Vec<String>,
+    /// Old momenta, in the order of `--coords`.
+    #[arg(long, value_delimiter = ',')]
+    pub momenta: Vec<String>,
+    /// New variables: the new coordinates then the new momenta (`Q,P`; `X,Y,P_X,P_Y`).
+    #[arg(long, value_delimiter = ',')]
+    pub new: Vec<String>,
+    /// Evaluate the inverse map numerically at these new-variable values (Q…, P…), by
+    /// Newton's method on the implicit relations: works where no closed form exists.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub at: Vec<f64>,
+    /// Initial guess for Newton's method (the generator's old variables), default 1.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub guess: Vec<f64>,
+    /// Parameter values for --at, `m=1,w=2`.
+    #[arg(long, value_delimiter = ',')]
+    pub params: Vec<String>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Arguments of `average` (boxed: a large subcommand).
+#[derive(Args)]
+pub struct AverageArgs {
+    /// The Lagrangian L(q, q').
+    #[arg(allow_hyphen_values = true)]
+    pub lagrangian: String,
+    /// Trial functions `x = …` (repeat for several coordinates).
+    #[arg(long, required = true)]
+    pub trial: Vec<String>,
+    /// The phase.
+    #[arg(long, default_value = "θ")]
+    pub phase: String,
+    /// The frequency ω = θ'.
+    #[arg(long, default_value = "ω")]
+    pub frequency: String,
+    /// The amplitudes A_k (default: symbols of the trials absent from L).
+    #[arg(long, value_delimiter = ',')]
+    pub amplitudes: Vec<String>,
+    /// Solve the relations to first order in this small parameter (needs --unperturbed).
+    #[arg(long, requires = "unperturbed")]
+    pub small: Option<String>,
+    /// The frequency at zeroth order in --small, e.g. `ω0`.
+    #[arg(long, requires = "small", allow_hyphen_values = true)]
+    pub unperturbed: Option<String>,
+    /// The amplitude left free in the leading-order solution (default: the first).
+    #[arg(long)]
+    pub principal: Option<String>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// The highest Lie-series order the CLI accepts (each order nests one more bracket).
+const MAX_LIE_ORDER: usize = 40;
 
 struct Out {
     format: OutFormat,
@@ -227,7 +257,8 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 println!("{verdict}: {}", check.describe());
             }
         }
-        CanonicalCommand::Canonical { f1, f2, f3, f4, hamiltonian, coords, momenta, new, common } => {
+        CanonicalCommand::Canonical(args) => {
+            let CanonicalArgs { f1, f2, f3, f4, hamiltonian, coords, momenta, new, at, guess, params, common } = *args;
             let decls = common.declarations();
             let old = phase_space(&coords, &momenta)?;
             let new = new_space(&new, old.dof())?;
@@ -246,6 +277,20 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             let g = Generator::new(kind, f, old, new).map_err(|e| bad_input(format!("error: {e}")))?;
             let t = g.transform(h.as_ref()).map_err(|e| bad_input(format!("error: {e}")))?;
             print_transform(&t, common.format);
+            if !at.is_empty() {
+                let env = parse_params(&params)?;
+                let guess = if guess.is_empty() { vec![1.0; g.old.dof()] } else { guess };
+                let vals = g.numeric_inverse(&at, &env, &guess).map_err(|e| bad_input(format!("error: {e}")))?;
+                let names = g.old.variables();
+                if common.format == OutFormat::Json {
+                    let m: serde_json::Map<String, Value> =
+                        names.iter().zip(&vals).map(|(s, v)| (s.to_string(), json!(v))).collect();
+                    println!("{}", json!({ "numeric_inverse": m }));
+                } else {
+                    let parts: Vec<String> = names.iter().zip(&vals).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
+                    println!("numeric inverse at {:?}: {}", at, parts.join(", "));
+                }
+            }
         }
         CanonicalCommand::IsCanonical { map, coords, momenta, hamiltonian, common } => {
             let decls = common.declarations();
@@ -275,6 +320,11 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             let decls = common.declarations();
             let ps = phase_space(&coords, &momenta)?;
             let (_, fe) = parse_arg(&f, &decls)?;
+            if order > MAX_LIE_ORDER {
+                return Err(bad_input(format!(
+                    "error: --order {order} is above the limit {MAX_LIE_ORDER}: nested brackets grow quickly"
+                )));
+            }
             let r = match (generator, flow) {
                 (Some(g), _) => {
                     let (_, ge) = parse_arg(&g, &decls)?;
@@ -302,15 +352,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 Some(m) => parse_var(&m, &decls)?,
                 None => Symbol::new(&format!("p_{coord}")),
             };
-            let mut env = lagrangian::eval::Env::new();
-            for kv in &params {
-                let (k, v) = kv
-                    .split_once('=')
-                    .ok_or_else(|| bad_input(format!("error: parameter `{kv}` is not of the form name=value")))?;
-                let v: f64 =
-                    v.trim().parse().map_err(|_| bad_input(format!("error: `{v}` in `{kv}` is not a number")))?;
-                env.insert(k.trim().to_string(), v);
-            }
+            let env = parse_params(&params)?;
             let mut rows = Vec::new();
             for e in energy {
                 let r = canonical::action_frequency(&h, &q, &p, e, &env, near)
@@ -334,7 +376,9 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 }
             }
         }
-        CanonicalCommand::Average { lagrangian, trial, phase, frequency, amplitudes, common } => {
+        CanonicalCommand::Average(args) => {
+            let AverageArgs { lagrangian, trial, phase, frequency, amplitudes, small, unperturbed, principal, common } =
+                *args;
             let decls = common.declarations();
             let (_, l) = parse_arg(&lagrangian, &decls)?;
             let mut trials = Vec::new();
@@ -360,8 +404,26 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             };
             let avg = canonical::average_lagrangian(&l, &trials, &th, &w, &amps)
                 .map_err(|e| bad_input(format!("error: {e}")))?;
+            let lead = match (&small, &unperturbed) {
+                (Some(sm), Some(w0)) => {
+                    let sm = parse_var(sm, &decls)?;
+                    let (_, w0) = parse_arg(w0, &decls)?;
+                    let pr = match &principal {
+                        Some(a) => parse_var(a, &decls)?,
+                        None => amps.first().cloned().ok_or_else(|| bad_input("error: no amplitudes to solve for"))?,
+                    };
+                    Some(
+                        canonical::leading_order(&avg, &w, &w0, &sm, &pr)
+                            .map_err(|e| bad_input(format!("error: {e}")))?,
+                    )
+                }
+                _ => None,
+            };
             let out = Out { format: common.format };
             if common.format == OutFormat::Json {
+                let lo = lead
+                    .as_ref()
+                    .map(|lo| json!({"frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
                 let rel: Vec<Value> = avg
                     .relations
                     .iter()
@@ -369,7 +431,8 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                     .collect();
                 println!(
                     "{}",
-                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string()})
+                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string(),
+                           "leading_order": lo})
                 );
             } else {
                 println!("⟨L⟩ = {}", out.e(&avg.lagrangian));
@@ -377,10 +440,30 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                     println!("∂⟨L⟩/∂{} = {} = 0", out.s(a), out.e(e));
                 }
                 println!("J = ∂⟨L⟩/∂{} = {}", out.s(&w), out.e(&avg.action));
+                if let Some(lo) = &lead {
+                    println!("to first order in {}:", small.as_deref().unwrap_or("σ"));
+                    println!("  {}", out.eq(&w, &lo.frequency));
+                    for (a, e) in &lo.amplitudes {
+                        println!("  {}", out.eq(a, e));
+                    }
+                }
             }
         }
     }
     Ok(())
+}
+
+/// `name=value` pairs.
+fn parse_params(params: &[String]) -> Result<lagrangian::eval::Env, Failure> {
+    let mut env = lagrangian::eval::Env::new();
+    for kv in params {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| bad_input(format!("error: parameter `{kv}` is not of the form name=value")))?;
+        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: `{v}` in `{kv}` is not a number")))?;
+        env.insert(k.trim().to_string(), v);
+    }
+    Ok(env)
 }
 
 /// The new phase space from `--new` (coordinates then momenta), or `Q,P` / `Q1..Qn,P1..Pn`.
@@ -504,7 +587,13 @@ fn print_map_report(r: &canonical::MapReport, format: OutFormat) {
     let word = if r.canonicity.is_canonical() { "yes" } else { "no" };
     println!("canonical: {word}: {}", r.canonicity.describe());
     for b in &r.brackets {
-        println!("  {} = {}  ({})", b.name, out.e(&b.value), b.check.describe());
+        println!(
+            "  {} = {} (expected {}; the difference is {})",
+            b.name,
+            out.e(&b.value),
+            out.e(&b.expected),
+            b.check.describe()
+        );
     }
     if let Some(Ok(inv)) = &r.inverse {
         for (s, e) in inv {

@@ -202,6 +202,11 @@ fn borrowed(params: &[(String, f64)]) -> Vec<(&str, f64)> {
     params.iter().map(|(k, v)| (k.as_str(), *v)).collect()
 }
 
+/// Up to this many degrees of freedom the Cholesky solve is unrolled into the tape (where
+/// constant and zero entries of `W` fold away); beyond, its `n³/6` operations run faster as
+/// the native loops of [`factor`] than through the interpreter.
+const UNROLL_MAX_DOF: usize = 4;
+
 /// `W q'' = F` as a first-order system in `y = (q, q')`.
 ///
 /// `W` is the mass matrix `∂²L/∂q'_i∂q'_j` and `F_i = ∂L/∂q_i − Σ_j ∂²L/∂q'_i∂q_j q'_j −
@@ -213,6 +218,8 @@ pub struct LagrangianRhs {
     n: usize,
     coords: Vec<String>,
     tape: Tape,
+    /// `W`, `F` and an unrolled Cholesky solve in one tape (symmetric `W` only): the fast path.
+    fast: Option<Tape>,
     symmetric: bool,
     w: Vec<Vec<Expr>>,
     f: Vec<Expr>,
@@ -241,10 +248,16 @@ impl LagrangianRhs {
         let inputs = state_inputs(&coords);
         let tape = Tape::compile(&outputs, &as_strs(&inputs), params)?;
         let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
+        let fast = if symmetric && n <= UNROLL_MAX_DOF {
+            Some(Tape::compile_cholesky_solve(w, f, &as_strs(&inputs), params)?)
+        } else {
+            None
+        };
         Ok(LagrangianRhs {
             n,
             coords,
             tape,
+            fast,
             symmetric,
             w: w.to_vec(),
             f: f.to_vec(),
@@ -263,17 +276,50 @@ impl LagrangianRhs {
         &self.tape
     }
 
-    fn scratch_len(&self) -> usize {
+    /// The tape of the fast path, `W`, `F` and the unrolled Cholesky solve (outputs: the
+    /// accelerations, the pivots, the diagonal of `W`); `None` when `W` is not symmetric.
+    pub fn solve_tape(&self) -> Option<&Tape> {
+        self.fast.as_ref()
+    }
+
+    /// Whether the unrolled Cholesky on `slot(k)` succeeded with safely positive pivots and
+    /// finite accelerations (same threshold as [`factor`]: `n·ε·max W_jj`, which bounds every
+    /// `|W_ij|` of a positive definite matrix).
+    fn fast_ok(&self, slot: impl Fn(usize) -> f64) -> bool {
         let n = self.n;
-        self.tape.scratch_len() + 2 * n * n + 3 * n
+        let mut scale = 0.0f64;
+        for j in 0..n {
+            scale = scale.max(slot(2 * n + j));
+        }
+        let tol = n as f64 * f64::EPSILON * scale;
+        (0..n).all(|j| slot(n + j) > tol && slot(j).is_finite())
     }
 
     /// Evaluates `y' = (q', q'')`, or says why it cannot.
     pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
         let n = self.n;
         dy[..n].copy_from_slice(&y[n..2 * n]);
-        with_scratch(self.scratch_len(), |s| {
-            let (slots, rest) = s.split_at_mut(self.tape.scratch_len());
+        if let Some(fast) = &self.fast {
+            let ok = fast.with_slots(0, |s, _| {
+                s[..2 * n].copy_from_slice(&y[..2 * n]);
+                s[2 * n] = t;
+                fast.run_slots(s);
+                if self.fast_ok(|k| s[fast.output_slot(k)]) {
+                    for (i, a) in dy[n..2 * n].iter_mut().enumerate() {
+                        *a = s[fast.output_slot(i)];
+                    }
+                    true
+                } else {
+                    false
+                }
+            });
+            if ok {
+                return Ok(());
+            }
+            // Not safely positive definite (or not finite): the pivoting path solves it or
+            // says why not.
+        }
+        self.tape.with_slots(2 * n * n + 3 * n, |slots, rest| {
             self.accel_on(t, y, slots, rest, &mut dy[n..2 * n]).map(|_| ())
         })
     }
@@ -352,15 +398,65 @@ impl LagrangianRhs {
     /// instruction dispatch; the small solves follow per state.
     pub fn eval_batch(&self, t: f64, y: &[f64], dy: &mut [f64], points: usize) -> Result<(), RhsError> {
         let n = self.n;
+        let Some(fast) = &self.fast else {
+            return self.eval_batch_native(t, y, dy, points);
+        };
+        let slots_len = fast.scratch_len() * LANES;
+        let mut failed: Option<usize> = None;
+        with_scratch(slots_len, |slots| {
+            let mut start = 0;
+            while start < points {
+                let len = LANES.min(points - start);
+                for i in 0..2 * n {
+                    let dst = &mut slots[i * LANES..(i + 1) * LANES];
+                    dst[..len].copy_from_slice(&y[i * points + start..i * points + start + len]);
+                    dst[len..].fill(0.5);
+                }
+                slots[2 * n * LANES..(2 * n + 1) * LANES].fill(t);
+                fast.run_lanes_in_place(slots);
+                for l in 0..len {
+                    let k = start + l;
+                    if !self.fast_ok(|o| slots[fast.output_slot(o) * LANES + l]) {
+                        failed = Some(k);
+                        return;
+                    }
+                    for i in 0..n {
+                        dy[i * points + k] = y[(n + i) * points + k];
+                        dy[(n + i) * points + k] = slots[fast.output_slot(i) * LANES + l];
+                    }
+                }
+                start += len;
+            }
+        });
+        match failed {
+            None => Ok(()),
+            Some(k0) => {
+                // A state the fast path rejects: finish this one and the rest state by state.
+                let (mut ys, mut ds) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
+                for k in k0..points {
+                    (0..2 * n).for_each(|i| ys[i] = y[i * points + k]);
+                    self.try_eval(t, &ys, &mut ds)?;
+                    (0..2 * n).for_each(|i| dy[i * points + k] = ds[i]);
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The batch path without an unrolled solve: `W` and `F` through the lane interpreter,
+    /// then the native solve state by state.
+    fn eval_batch_native(&self, t: f64, y: &[f64], dy: &mut [f64], points: usize) -> Result<(), RhsError> {
+        let n = self.n;
         let slots_len = self.tape.scratch_len() * LANES;
-        let mut state = vec![0.0; 0];
-        with_scratch(slots_len + 2 * n * n + 4 * n, |s| {
+        let mut failure: Option<(usize, RhsError)> = None;
+        with_scratch(slots_len + 2 * n * n + 5 * n, |s| {
             let (slots, rest) = s.split_at_mut(slots_len);
             let (a, rest) = rest.split_at_mut(n * n);
             let (m, rest) = rest.split_at_mut(n * n);
             let (perm, rest) = rest.split_at_mut(n);
             let (b, rest) = rest.split_at_mut(n);
-            let (tmp, acc) = rest.split_at_mut(n);
+            let (tmp, rest) = rest.split_at_mut(n);
+            let acc = &mut rest[..n];
             let mut start = 0;
             while start < points {
                 let len = LANES.min(points - start);
@@ -372,18 +468,16 @@ impl LagrangianRhs {
                 slots[2 * n * LANES..(2 * n + 1) * LANES].fill(t);
                 self.tape.run_lanes_in_place(slots);
                 for l in 0..len {
-                    for (k, x) in a.iter_mut().enumerate() {
-                        *x = slots[self.tape.output_slot(k) * LANES + l];
+                    let k = start + l;
+                    for (o, x) in a.iter_mut().enumerate() {
+                        *x = slots[self.tape.output_slot(o) * LANES + l];
                     }
                     for (i, x) in b.iter_mut().enumerate() {
                         *x = slots[self.tape.output_slot(n * n + i) * LANES + l];
                     }
-                    let k = start + l;
-                    let res = self.finish_solve(t, &[], a, m, perm, b, tmp, acc);
-                    if let Err(e) = res {
-                        // Only the failing state is gathered, for the error's report.
-                        state.extend((0..2 * n).map(|i| y[i * points + k]));
-                        return Err(with_state(e, &state));
+                    if let Err(e) = self.finish_solve(t, &[], a, m, perm, b, tmp, acc) {
+                        failure = Some((k, e));
+                        return;
                     }
                     for i in 0..n {
                         dy[i * points + k] = y[(n + i) * points + k];
@@ -392,8 +486,16 @@ impl LagrangianRhs {
                 }
                 start += len;
             }
-            Ok(())
-        })
+        });
+        match failure {
+            None => Ok(()),
+            Some((k, _)) => {
+                // Redo the failing state alone for an error that carries its state.
+                let ys: Vec<f64> = (0..2 * n).map(|i| y[i * points + k]).collect();
+                let mut ds = vec![0.0; 2 * n];
+                self.try_eval(t, &ys, &mut ds)
+            }
+        }
     }
 
     /// Compiles the exact Jacobian `∂f/∂y` too (for implicit methods).
@@ -419,18 +521,6 @@ impl LagrangianRhs {
         }
         let jac = Tape::compile(&outputs, &as_strs(&inputs), &borrowed(&self.params))?;
         Ok(LagrangianJacobian { rhs: self, jac })
-    }
-}
-
-fn with_state(e: RhsError, state: &[f64]) -> RhsError {
-    match e {
-        RhsError::SingularMassMatrix { t, velocity, .. } => {
-            RhsError::SingularMassMatrix { t, state: state.to_vec(), velocity }
-        }
-        RhsError::NonFinite { t, what, .. } => RhsError::NonFinite { t, state: state.to_vec(), what },
-        RhsError::LegendreNewton { t, iterations, residual, .. } => {
-            RhsError::LegendreNewton { t, state: state.to_vec(), iterations, residual }
-        }
     }
 }
 
@@ -617,10 +707,10 @@ impl HamiltonianRhs {
 }
 
 fn eval_phase(tape: &Tape, n: usize, t: f64, y: &[f64], out: &mut [f64], what: &'static str) -> Result<(), RhsError> {
-    with_scratch(tape.scratch_len(), |s| {
+    tape.with_slots(0, |s, _| {
         s[..2 * n].copy_from_slice(&y[..2 * n]);
         s[2 * n] = t;
-        tape.run_in_place(s);
+        tape.run_slots(s);
         for (k, o) in out[..tape.n_outputs()].iter_mut().enumerate() {
             *o = s[tape.output_slot(k)];
         }
@@ -746,10 +836,10 @@ impl Separable for SeparableHamiltonian {
     }
     fn kick(&self, t: f64, q: &[f64], dp: &mut [f64]) {
         let n = self.n;
-        with_scratch(self.kick.scratch_len(), |s| {
+        self.kick.with_slots(0, |s, _| {
             s[..n].copy_from_slice(&q[..n]);
             s[n] = t;
-            self.kick.run_in_place(s);
+            self.kick.run_slots(s);
             for (k, o) in dp[..n].iter_mut().enumerate() {
                 *o = s[self.kick.output_slot(k)];
             }

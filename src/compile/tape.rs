@@ -16,6 +16,7 @@
 use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
 use std::fmt;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use num_traits::ToPrimitive;
 
@@ -159,6 +160,31 @@ impl fmt::Display for OpCounts {
     }
 }
 
+/// Choices of the code generator.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CompileOptions {
+    /// Compute `sin` and `cos` of differences of inputs `a − b` from `sin_cos(a)` and
+    /// `sin_cos(b)` when that saves calls (more differences than angles). Faster for chains of
+    /// pendulums; the result then has an absolute error of a few ulps of 1 instead of a
+    /// relative one, so `sin(a − b)` for nearly equal `a`, `b` loses relative accuracy (as the
+    /// same formula written by hand does). On by default.
+    pub angle_differences: bool,
+}
+
+impl Default for CompileOptions {
+    fn default() -> Self {
+        CompileOptions { angle_differences: true }
+    }
+}
+
+impl CompileOptions {
+    /// Sets [`CompileOptions::angle_differences`].
+    pub fn with_angle_differences(mut self, on: bool) -> Self {
+        self.angle_differences = on;
+        self
+    }
+}
+
 /// A compiled set of expressions: `outputs = f(inputs)` with parameters bound.
 ///
 /// Evaluation does not allocate (after a thread's first call, which sizes its scratch) and
@@ -170,11 +196,23 @@ pub struct Tape {
     instrs: Vec<Instr>,
     outputs: Vec<u32>,
     n_slots: usize,
+    /// Unique per compiled tape (clones share it, and their constants).
+    id: u64,
+}
+
+/// A thread's scratch buffer, and which tape's constants it holds in place.
+struct Scratch {
+    /// The [`Tape::id`] whose constants sit in their slots, or 0 after any other use.
+    owner: u64,
+    buf: Vec<f64>,
 }
 
 thread_local! {
-    static SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+    static SCRATCH: RefCell<Scratch> = const { RefCell::new(Scratch { owner: 0, buf: Vec::new() }) };
 }
+
+/// Tape identities, so a thread's scratch knows whose constants it holds.
+static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
 
 /// Runs `f` on a per-thread scratch buffer of at least `len` values. The buffer grows on a
 /// thread's first call and is reused after, so steady-state evaluation does not allocate. A
@@ -182,11 +220,12 @@ thread_local! {
 /// instead of panicking.
 pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
     SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut buf) => {
-            if buf.len() < len {
-                buf.resize(len, 0.0);
+        Ok(mut sc) => {
+            sc.owner = 0;
+            if sc.buf.len() < len {
+                sc.buf.resize(len, 0.0);
             }
-            f(&mut buf[..len])
+            f(&mut sc.buf[..len])
         }
         Err(_) => f(&mut vec![0.0; len]),
     })
@@ -203,38 +242,99 @@ impl Tape {
     /// Only the outputs asked for are lowered, so anything they do not depend on is never
     /// computed. Every other symbol is an error.
     pub fn compile(outputs: &[Expr], inputs: &[&str], params: &[(&str, f64)]) -> Result<Tape, CompileError> {
-        let mut input_slots = HashMap::new();
-        for (i, name) in inputs.iter().enumerate() {
-            if input_slots.insert(name.to_string(), i as u32).is_some() {
-                return Err(CompileError::DuplicateInput { name: name.to_string() });
-            }
-        }
-        let mut param_map = HashMap::new();
-        for (name, value) in params {
-            if input_slots.contains_key(*name) {
-                return Err(CompileError::ParamIsInput { name: name.to_string() });
-            }
-            if !value.is_finite() {
-                return Err(CompileError::NonFiniteParam { name: name.to_string(), value: *value });
-            }
-            param_map.insert(name.to_string(), *value);
-        }
-        let mut lower = Lower::new(input_slots, param_map, outputs);
+        Tape::compile_with_options(outputs, inputs, params, &CompileOptions::default())
+    }
+
+    /// [`Tape::compile`] with explicit code generator choices.
+    pub fn compile_with_options(
+        outputs: &[Expr],
+        inputs: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<Tape, CompileError> {
+        let mut lower = Lower::start(inputs, params, outputs, options)?;
         let mut out_slots = Vec::with_capacity(outputs.len());
         for e in outputs {
-            let (slot, neg) = lower.lower_signed(e, 0)?;
-            out_slots.push(if neg { lower.neg(slot) } else { slot });
+            out_slots.push(lower.lower(e, 0)?);
         }
-        let n_slots =
-            finalize_numbering(inputs.len() as u32, lower.consts.len() as u32, &mut lower.instrs, &mut out_slots);
-        let tape = Tape {
-            input_names: inputs.iter().map(|s| s.to_string()).collect(),
-            consts: lower.consts,
-            instrs: lower.instrs,
-            outputs: out_slots,
-            n_slots: n_slots as usize,
-        };
-        Ok(tape.allocate_registers())
+        Ok(lower.finish(inputs, out_slots))
+    }
+
+    /// Compiles the solution `x` of `W x = F` for a symmetric `W`, with the Cholesky
+    /// factorisation and both triangular solves unrolled into the tape, so one run evaluates
+    /// `W`, `F` and the solve with no interpretation of loops, and every structurally zero or
+    /// constant entry of `W` is folded away (a constant diagonal `W` costs `n` multiplications).
+    ///
+    /// Outputs: `x` (`n`), the Cholesky pivots `d_j` (`n`, before their square roots) and the
+    /// diagonal `W_jj` (`n`), so the caller can reject a factorisation whose pivots are not
+    /// safely positive and fall back to a pivoting solve.
+    // The unrolled factorisation indexes like the textbook loops it transcribes.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn compile_cholesky_solve(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        inputs: &[&str],
+        params: &[(&str, f64)],
+    ) -> Result<Tape, CompileError> {
+        let n = f.len();
+        let mut exprs: Vec<Expr> = f.to_vec();
+        exprs.extend(w.iter().flatten().cloned());
+        let mut lower = Lower::start(inputs, params, &exprs, &CompileOptions::default())?;
+        let mut wl = vec![vec![0u32; n]; n];
+        for i in 0..n {
+            for j in 0..=i {
+                wl[i][j] = lower.lower(&w[i][j], 0)?;
+            }
+        }
+        let mut rhs = Vec::with_capacity(n);
+        for fi in f {
+            rhs.push(lower.lower(fi, 0)?);
+        }
+        // W = L Lᵀ, column by column; `r[j] = 1/L_jj` turns every division into a product.
+        let mut l = vec![vec![0u32; n]; n];
+        let mut r = vec![0u32; n];
+        let mut pivots = Vec::with_capacity(n);
+        for j in 0..n {
+            let mut d = wl[j][j];
+            for k in 0..j {
+                let sq = lower.emit(Key::Mul(l[j][k], l[j][k]));
+                d = lower.emit(Key::Sub(d, sq));
+            }
+            pivots.push(d);
+            let root = lower.emit(Key::Sqrt(d));
+            l[j][j] = root;
+            r[j] = lower.recip(root);
+            for i in j + 1..n {
+                let mut x = wl[i][j];
+                for k in 0..j {
+                    let p = lower.emit(Key::Mul(l[i][k], l[j][k]));
+                    x = lower.emit(Key::Sub(x, p));
+                }
+                l[i][j] = lower.emit(Key::Mul(x, r[j]));
+            }
+        }
+        let mut z = vec![0u32; n];
+        for i in 0..n {
+            let mut v = rhs[i];
+            for k in 0..i {
+                let p = lower.emit(Key::Mul(l[i][k], z[k]));
+                v = lower.emit(Key::Sub(v, p));
+            }
+            z[i] = lower.emit(Key::Mul(v, r[i]));
+        }
+        let mut x = vec![0u32; n];
+        for i in (0..n).rev() {
+            let mut v = z[i];
+            for k in i + 1..n {
+                let p = lower.emit(Key::Mul(l[k][i], x[k]));
+                v = lower.emit(Key::Sub(v, p));
+            }
+            x[i] = lower.emit(Key::Mul(v, r[i]));
+        }
+        let mut outputs = x;
+        outputs.extend(pivots);
+        outputs.extend((0..n).map(|j| wl[j][j]));
+        Ok(lower.finish(inputs, outputs))
     }
 
     /// The number of inputs.
@@ -295,7 +395,7 @@ impl Tape {
         let ni = self.input_names.len();
         s[..ni].copy_from_slice(&inputs[..ni]);
         s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-        run(&self.instrs, s);
+        run(&self.instrs, s, self.n_slots);
         for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
             *o = s[slot as usize];
         }
@@ -303,7 +403,14 @@ impl Tape {
 
     /// Evaluates the tape at `inputs` into `outputs`, on this thread's scratch buffer.
     pub fn eval(&self, inputs: &[f64], outputs: &mut [f64]) {
-        with_scratch(self.n_slots, |s| self.eval_with_scratch(inputs, outputs, s));
+        let ni = self.input_names.len();
+        self.with_slots(0, |s, _| {
+            s[..ni].copy_from_slice(&inputs[..ni]);
+            self.run_slots(s);
+            for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
+                *o = s[slot as usize];
+            }
+        });
     }
 
     /// Runs the tape on a scratch whose first [`Tape::n_inputs`] slots the caller has filled,
@@ -312,7 +419,7 @@ impl Tape {
     pub(crate) fn run_in_place(&self, s: &mut [f64]) {
         let ni = self.input_names.len();
         s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-        run(&self.instrs, &mut s[..self.n_slots]);
+        run(&self.instrs, s, self.n_slots);
     }
 
     /// Like [`Tape::run_in_place`] with [`LANES`] values per slot (slot `i` at
@@ -323,6 +430,40 @@ impl Tape {
             s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
         }
         run_lanes(&self.instrs, &mut s[..self.n_slots * LANES]);
+    }
+
+    /// Runs `f(slots, extra)` on this thread's scratch: `slots` is the tape's own region with
+    /// its constants in place (copied only when another tape or use had the scratch last, so
+    /// repeated calls of one right-hand side skip the copy), `extra` is `extra` more values for
+    /// the caller. The caller fills the inputs and calls [`Tape::run_slots`].
+    pub(crate) fn with_slots<R>(&self, extra: usize, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+        let len = self.n_slots + extra;
+        let ni = self.input_names.len();
+        SCRATCH.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut sc) => {
+                if sc.buf.len() < len {
+                    sc.buf.resize(len, 0.0);
+                }
+                if sc.owner != self.id {
+                    sc.buf[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
+                    sc.owner = self.id;
+                }
+                let (slots, rest) = sc.buf[..len].split_at_mut(self.n_slots);
+                f(slots, rest)
+            }
+            Err(_) => {
+                let mut buf = vec![0.0; len];
+                buf[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
+                let (slots, rest) = buf.split_at_mut(self.n_slots);
+                f(slots, rest)
+            }
+        })
+    }
+
+    /// Runs the instructions on slots prepared by [`Tape::with_slots`].
+    #[inline]
+    pub(crate) fn run_slots(&self, s: &mut [f64]) {
+        run(&self.instrs, s, self.n_slots);
     }
 
     /// The slot holding output `i` after [`Tape::run_in_place`].
@@ -416,29 +557,54 @@ impl Tape {
         }
         self.outputs = self.outputs.iter().map(|&o| if o < fixed { o } else { map[&o] }).collect();
         self.n_slots = next as usize;
+        self.check_slots();
         self
+    }
+
+    /// The invariant the unchecked interpreter relies on: every slot an instruction or output
+    /// names is below `n_slots`. A violation is a compiler bug, so it panics at build time
+    /// instead of reading out of bounds at run time.
+    fn check_slots(&self) {
+        let n = self.n_slots as u32;
+        let ok = self.instrs.iter().all(|i| i.srcs().into_iter().chain(i.dsts()).flatten().all(|s| s < n))
+            && self.outputs.iter().all(|&o| o < n)
+            && (self.input_names.len() + self.consts.len()) as u32 <= n;
+        assert!(ok, "compiler bug: a tape names a slot beyond its scratch");
     }
 }
 
 /// The scalar interpreter loop.
+///
+/// This is the innermost loop of every compiled right-hand side, so it reads and writes slots
+/// without bounds checks. Soundness rests on an invariant of [`Tape`], checked once when a tape
+/// is built ([`Tape::check_slots`]) and unchanged after (the fields are private and never
+/// mutated): every slot an instruction names is below `scratch_len`. Here `s` is sliced to
+/// exactly `scratch_len` values first, which panics rather than reading out of bounds if a
+/// caller passed a shorter buffer.
 #[inline]
-fn run(instrs: &[Instr], s: &mut [f64]) {
+fn run(instrs: &[Instr], s: &mut [f64], n_slots: usize) {
+    let s = &mut s[..n_slots];
+    let p = s.as_mut_ptr();
+    // SAFETY: every index below is < n_slots == s.len() (see above), and `p` is derived from
+    // the exclusive borrow `s`, which is not otherwise used inside the loop.
+    let get = |i: u32| unsafe { *p.add(i as usize) };
+    let set = |i: u32, v: f64| unsafe { *p.add(i as usize) = v };
     for ins in instrs {
         match *ins {
-            Instr::Add { d, a, b } => s[d as usize] = s[a as usize] + s[b as usize],
-            Instr::Sub { d, a, b } => s[d as usize] = s[a as usize] - s[b as usize],
-            Instr::Mul { d, a, b } => s[d as usize] = s[a as usize] * s[b as usize],
-            Instr::Div { d, a, b } => s[d as usize] = s[a as usize] / s[b as usize],
-            Instr::Neg { d, a } => s[d as usize] = -s[a as usize],
-            Instr::Sqrt { d, a } => s[d as usize] = s[a as usize].sqrt(),
+            Instr::Add { d, a, b } => set(d, get(a) + get(b)),
+            Instr::Sub { d, a, b } => set(d, get(a) - get(b)),
+            Instr::Mul { d, a, b } => set(d, get(a) * get(b)),
+            Instr::Div { d, a, b } => set(d, get(a) / get(b)),
+            Instr::Neg { d, a } => set(d, -get(a)),
+            Instr::Sqrt { d, a } => set(d, get(a).sqrt()),
             Instr::SinCos { s: si, c, a } => {
-                let (sv, cv) = s[a as usize].sin_cos();
-                s[si as usize] = sv;
-                s[c as usize] = cv;
+                let (sv, cv) = get(a).sin_cos();
+                set(si, sv);
+                set(c, cv);
             }
-            Instr::Call { d, f, a } => s[d as usize] = f.eval(&[s[a as usize]]),
-            Instr::Atan2 { d, a, b } => s[d as usize] = s[a as usize].atan2(s[b as usize]),
-            Instr::Powf { d, a, b } => s[d as usize] = s[a as usize].powf(s[b as usize]),
+            Instr::Call { d, f, a } => set(d, f.eval(&[get(a)])),
+            Instr::Atan2 { d, a, b } => set(d, get(a).atan2(get(b))),
+            Instr::Powf { d, a, b } => set(d, get(a).powf(get(b))),
         }
     }
 }
@@ -548,6 +714,8 @@ struct Lower {
     is_const: HashMap<Expr, bool>,
     /// Arguments whose sine and cosine are both demanded.
     sin_and_cos: HashSet<Expr>,
+    /// Sine/cosine arguments `a − b` computed by the angle-difference formulas.
+    differences: HashMap<Expr, (Expr, Expr)>,
     sincos: HashMap<u32, (u32, u32)>,
     /// How many times each base is divided by (uses of its negative integer powers).
     divisions: HashMap<Expr, usize>,
@@ -555,7 +723,52 @@ struct Lower {
 }
 
 impl Lower {
-    fn new(inputs: HashMap<String, u32>, params: HashMap<String, f64>, outputs: &[Expr]) -> Lower {
+    /// Checks the names and starts a lowering of `outputs`.
+    fn start(
+        inputs: &[&str],
+        params: &[(&str, f64)],
+        outputs: &[Expr],
+        options: &CompileOptions,
+    ) -> Result<Lower, CompileError> {
+        let mut input_slots = HashMap::new();
+        for (i, name) in inputs.iter().enumerate() {
+            if input_slots.insert(name.to_string(), i as u32).is_some() {
+                return Err(CompileError::DuplicateInput { name: name.to_string() });
+            }
+        }
+        let mut param_map = HashMap::new();
+        for (name, value) in params {
+            if input_slots.contains_key(*name) {
+                return Err(CompileError::ParamIsInput { name: name.to_string() });
+            }
+            if !value.is_finite() {
+                return Err(CompileError::NonFiniteParam { name: name.to_string(), value: *value });
+            }
+            param_map.insert(name.to_string(), *value);
+        }
+        Ok(Lower::new(input_slots, param_map, outputs, options))
+    }
+
+    /// Numbers the slots densely and allocates registers.
+    fn finish(mut self, inputs: &[&str], mut outputs: Vec<u32>) -> Tape {
+        let n_slots = finalize_numbering(inputs.len() as u32, self.consts.len() as u32, &mut self.instrs, &mut outputs);
+        let tape = Tape {
+            input_names: inputs.iter().map(|s| s.to_string()).collect(),
+            consts: self.consts,
+            instrs: self.instrs,
+            outputs,
+            n_slots: n_slots as usize,
+            id: NEXT_TAPE_ID.fetch_add(1, Ordering::Relaxed),
+        };
+        tape.allocate_registers()
+    }
+
+    fn new(
+        inputs: HashMap<String, u32>,
+        params: HashMap<String, f64>,
+        outputs: &[Expr],
+        options: &CompileOptions,
+    ) -> Lower {
         let mut parents: HashMap<Expr, usize> = HashMap::new();
         let mut seen: HashSet<Expr> = HashSet::new();
         let mut sins: HashSet<Expr> = HashSet::new();
@@ -579,7 +792,24 @@ impl Lower {
                 stack.push(c.clone());
             });
         }
-        let sin_and_cos = sins.intersection(&coss).cloned().collect();
+        let mut sin_and_cos: HashSet<Expr> = sins.intersection(&coss).cloned().collect();
+        // Angle differences: when the sines and cosines of many differences `a − b` of fewer
+        // inputs are needed (an n-link chain has n(n−1)/2 of them over n angles), one sin_cos
+        // per input and the angle-difference formulas replace a sin_cos per difference.
+        let mut differences: HashMap<Expr, (Expr, Expr)> = HashMap::new();
+        if options.angle_differences {
+            for arg in sins.union(&coss) {
+                if let Some((a, b)) = input_difference(arg, &inputs) {
+                    differences.insert(arg.clone(), (a, b));
+                }
+            }
+            let angles: HashSet<Expr> = differences.values().flat_map(|(a, b)| [a.clone(), b.clone()]).collect();
+            if differences.len() > angles.len() {
+                sin_and_cos.extend(angles);
+            } else {
+                differences.clear();
+            }
+        }
         // How often each base is divided by: a base used in several negative powers gets one
         // shared reciprocal; one used once is folded into its product's single division.
         let mut divisions: HashMap<Expr, usize> = HashMap::new();
@@ -602,6 +832,7 @@ impl Lower {
             values: HashMap::new(),
             is_const: HashMap::new(),
             sin_and_cos,
+            differences,
             divisions,
             sincos: HashMap::new(),
             powers: HashMap::new(),
@@ -629,6 +860,9 @@ impl Lower {
         if let Some(&s) = self.values.get(&key) {
             return s;
         }
+        if let Some(s) = self.simplify(key) {
+            return s;
+        }
         let d = self.fresh();
         let ins = match key {
             Key::Add(a, b) => Instr::Add { d, a, b },
@@ -644,6 +878,56 @@ impl Lower {
         self.instrs.push(ins);
         self.values.insert(key, d);
         d
+    }
+
+    /// The value of a constant slot.
+    fn const_value(&self, slot: u32) -> Option<f64> {
+        (CONST_BASE..REG_BASE).contains(&slot).then(|| self.consts[(slot - CONST_BASE) as usize])
+    }
+
+    /// Folds an instruction whose operands are constants (with the same floating-point
+    /// operation the interpreter would run) and applies the identities `x·1 = x`, `x·0 = 0`,
+    /// `x + 0 = x`, `x/1 = x`, so code generated over structurally sparse data (an unrolled
+    /// solve with a diagonal or constant mass matrix) costs only what is not zero or one.
+    // Guards rather than float literal patterns: the comparisons are meant as `==` on values.
+    #[allow(clippy::redundant_guards)]
+    fn simplify(&mut self, key: Key) -> Option<u32> {
+        let c = |s: u32| self.const_value(s);
+        let folded = match key {
+            Key::Add(a, b) => match (c(a), c(b)) {
+                (Some(x), Some(y)) => Some(x + y),
+                (Some(x), None) if x == 0.0 => return Some(b),
+                (None, Some(y)) if y == 0.0 => return Some(a),
+                _ => None,
+            },
+            Key::Sub(a, b) => match (c(a), c(b)) {
+                (Some(x), Some(y)) => Some(x - y),
+                (Some(x), None) if x == 0.0 => return Some(self.emit(Key::Neg(b))),
+                (None, Some(y)) if y == 0.0 => return Some(a),
+                _ => None,
+            },
+            Key::Mul(a, b) => match (c(a), c(b)) {
+                (Some(x), Some(y)) => Some(x * y),
+                (Some(z), _) | (_, Some(z)) if z == 0.0 => Some(0.0),
+                (Some(x), None) if x == 1.0 => return Some(b),
+                (None, Some(y)) if y == 1.0 => return Some(a),
+                (Some(x), None) if x == -1.0 => return Some(self.emit(Key::Neg(b))),
+                (None, Some(y)) if y == -1.0 => return Some(self.emit(Key::Neg(a))),
+                _ => None,
+            },
+            Key::Div(a, b) => match (c(a), c(b)) {
+                (Some(x), Some(y)) => Some(x / y),
+                (None, Some(y)) if y == 1.0 => return Some(a),
+                (Some(x), None) if x == 0.0 => Some(0.0),
+                _ => None,
+            },
+            Key::Neg(a) => c(a).map(|x| -x),
+            Key::Sqrt(a) => c(a).map(f64::sqrt),
+            Key::Call(f, a) => c(a).map(|x| f.eval(&[x])),
+            Key::Atan2(a, b) => c(a).zip(c(b)).map(|(x, y)| x.atan2(y)),
+            Key::Powf(a, b) => c(a).zip(c(b)).map(|(x, y)| x.powf(y)),
+        }?;
+        Some(self.constant(folded))
     }
 
     fn fresh(&mut self) -> u32 {
@@ -730,13 +1014,50 @@ impl Lower {
         let mut c = 0.0;
         let mut pos = Vec::new();
         let mut neg = Vec::new();
+        // Terms that differ only in their parameter coefficients are like terms once the
+        // parameters are bound (`m1 g sin θ + m2 g sin θ` is `19.62 sin θ`): collect them.
+        let mut like: Vec<(Expr, f64)> = Vec::new();
+        let mut index: HashMap<Expr, usize> = HashMap::new();
         for t in ts {
             if self.constant_node(t) {
                 c += self.fold(t)?;
                 continue;
             }
-            let (slot, n) = self.lower_signed(t, depth + 1)?;
-            if n {
+            let (coeff, rest) = match t.node() {
+                Node::Mul(fs) => {
+                    let mut k = 1.0;
+                    let mut rest = Vec::new();
+                    for f in fs {
+                        if self.constant_node(f) {
+                            k *= self.fold(f)?;
+                        } else {
+                            rest.push(f.clone());
+                        }
+                    }
+                    (k, Expr::mul(rest))
+                }
+                _ => (1.0, t.clone()),
+            };
+            match index.get(&rest) {
+                Some(&i) => like[i].1 += coeff,
+                None => {
+                    index.insert(rest.clone(), like.len());
+                    like.push((rest, coeff));
+                }
+            }
+        }
+        for (rest, k) in like {
+            if k == 0.0 {
+                continue;
+            }
+            let slot = self.lower(&rest, depth + 1)?;
+            let slot = if k.abs() == 1.0 {
+                slot
+            } else {
+                let ks = self.constant(k.abs());
+                self.emit(Key::Mul(ks, slot))
+            };
+            if k < 0.0 {
                 neg.push(slot);
             } else {
                 pos.push(slot);
@@ -874,23 +1195,44 @@ impl Lower {
         Ok(self.emit(Key::Powf(bs, xs)))
     }
 
+    /// One `sin_cos` per argument slot.
+    fn sin_cos(&mut self, a: u32) -> (u32, u32) {
+        if let Some(&p) = self.sincos.get(&a) {
+            return p;
+        }
+        let s = self.fresh();
+        let c = self.fresh();
+        self.instrs.push(Instr::SinCos { s, c, a });
+        self.sincos.insert(a, (s, c));
+        (s, c)
+    }
+
     fn lower_call(&mut self, f: Func, args: &[Expr], depth: usize) -> Result<u32, CompileError> {
         if args.len() != f.arity() {
             return Err(CompileError::Undefined);
         }
+        if matches!(f, Func::Sin | Func::Cos) {
+            if let Some((x, y)) = self.differences.get(&args[0]).cloned() {
+                // sin(x − y) = sx·cy − cx·sy, cos(x − y) = cx·cy + sx·sy.
+                let xs = self.lower(&x, depth + 1)?;
+                let ys = self.lower(&y, depth + 1)?;
+                let (sx, cx) = self.sin_cos(xs);
+                let (sy, cy) = self.sin_cos(ys);
+                return Ok(if f == Func::Sin {
+                    let p = self.emit(Key::Mul(sx, cy));
+                    let q = self.emit(Key::Mul(cx, sy));
+                    self.emit(Key::Sub(p, q))
+                } else {
+                    let p = self.emit(Key::Mul(cx, cy));
+                    let q = self.emit(Key::Mul(sx, sy));
+                    self.emit(Key::Add(p, q))
+                });
+            }
+        }
         let a = self.lower(&args[0], depth + 1)?;
         match f {
             Func::Sin | Func::Cos if self.sin_and_cos.contains(&args[0]) => {
-                let (s, c) = match self.sincos.get(&a) {
-                    Some(&p) => p,
-                    None => {
-                        let s = self.fresh();
-                        let c = self.fresh();
-                        self.instrs.push(Instr::SinCos { s, c, a });
-                        self.sincos.insert(a, (s, c));
-                        (s, c)
-                    }
-                };
+                let (s, c) = self.sin_cos(a);
                 Ok(if f == Func::Sin { s } else { c })
             }
             Func::Atan2 => {
@@ -910,6 +1252,24 @@ const REG_BASE: u32 = 1 << 31;
 fn unreachable_const() -> (u32, bool) {
     // `constant_node` is true for every number, so numbers never reach the match.
     (0, false)
+}
+
+/// `(a, b)` when `e` is `a − b` for two input symbols.
+fn input_difference(e: &Expr, inputs: &HashMap<String, u32>) -> Option<(Expr, Expr)> {
+    let Node::Add(ts) = e.node() else { return None };
+    if ts.len() != 2 {
+        return None;
+    }
+    let is_input = |x: &Expr| x.as_sym().is_some_and(|s| inputs.contains_key(&s.to_string()));
+    let (first, second) = (&ts[0], &ts[1]);
+    for (a, nb) in [(first, second), (second, first)] {
+        if let Node::Mul(fs) = nb.node() {
+            if fs.len() == 2 && fs[0].is_num(-1) && is_input(a) && is_input(&fs[1]) {
+                return Some((a.clone(), fs[1].clone()));
+            }
+        }
+    }
+    None
 }
 
 fn small_int(x: &Expr) -> Option<i64> {

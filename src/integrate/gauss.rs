@@ -59,7 +59,7 @@ impl Gauss {
         self.solver = solver;
         self
     }
-    /// Iteration budget per step (default: 12 for Newton, 60 for fixed point).
+    /// Iteration budget per step (default: 20 for Newton, 100 for fixed point).
     pub fn max_iterations(mut self, n: usize) -> Self {
         self.max_iterations = n;
         self
@@ -186,8 +186,8 @@ impl<S: Rhs + ?Sized> Method<S> for Gauss {
             ImplicitSolver::Newton => true,
         };
         let max_iter = match (self.max_iterations, newton) {
-            (0, true) => 12,
-            (0, false) => 60,
+            (0, true) => 20,
+            (0, false) => 100,
             (m, _) => m,
         };
         sys.try_eval(t, y, &mut w.f0)?;
@@ -252,7 +252,15 @@ impl<S: Rhs + ?Sized> Method<S> for Gauss {
             if !d.is_finite() || d > 1e6 * first.max(1e-300) + 1.0 {
                 break; // diverging
             }
-            if d <= 4.0 * f64::EPSILON || (d >= prev && d < 1e-11) {
+            // Converged when the correction is at rounding level, or when the linear rate
+            // θ = d/prev predicts the remaining error θ/(1 − θ)·d to be (Hairer & Wanner,
+            // Solving ODEs II, IV.8; only trusted for θ < 1/2), or when round-off stops the
+            // decrease below 1e-13.
+            let theta = if prev.is_finite() { d / prev } else { f64::NAN };
+            if d <= 4.0 * f64::EPSILON
+                || (theta < 0.5 && theta / (1.0 - theta) * d <= f64::EPSILON)
+                || (d >= prev && d < 1e-13)
+            {
                 converged = true;
                 break;
             }

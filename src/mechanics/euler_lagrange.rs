@@ -8,8 +8,9 @@ use crate::expr::{Expr, Symbol};
 
 use super::linalg::{adjugate, determinant, is_diagonal, MAX_CLOSED_FORM};
 use super::system::{time, System};
-use super::tidy::tidy;
+use super::tidy::{tidy, Ctx, Poly};
 use super::MechanicsError;
+use crate::expr::Rational;
 
 impl System {
     /// The Euler–Lagrange expressions `E_i = d/dt(∂L/∂q'_i) − ∂L/∂q_i`, one per coordinate
@@ -61,31 +62,36 @@ impl System {
     pub fn mass_matrix_split(&self) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
         let l = self.need_lagrangian("the mass matrix")?;
         let n = self.coords.len();
-        let mut d = Differentiator::new();
+        // Everything happens on one contracted polynomial form of L: its derivatives are
+        // formed monomial by monomial, and each atom (cos(θ1 − θ2), 1/r, …) is differentiated
+        // once per variable.
+        let mut ctx = Ctx::new();
         let t = time();
-        let dl_dv: Vec<Expr> = self.velocities.iter().map(|v| d.diff(l, v)).collect();
+        let lp = ctx.poly(l);
+        let pv: Vec<Poly> = self.velocities.iter().map(|v| ctx.diff(&lp, v)).collect();
         let mut w = vec![vec![Expr::zero(); n]; n];
         for i in 0..n {
             for j in i..n {
-                let x = tidy(&d.diff(&dl_dv[i], &self.velocities[j]));
+                let x = ctx.diff(&pv[i], &self.velocities[j]);
+                let x = ctx.finish(x);
                 w[i][j] = x.clone();
                 w[j][i] = x;
             }
         }
+        let minus_one = Rational::from_integer((-1).into());
         let mut f = Vec::with_capacity(n);
         for i in 0..n {
-            let mut terms = vec![d.diff(l, &self.coords[i]), d.diff(&dl_dv[i], &t).neg()];
-            for j in 0..n {
-                let mixed = d.diff(&dl_dv[i], &self.coords[j]);
-                if !mixed.is_zero() {
-                    terms.push(mixed.times(&Expr::sym(self.velocities[j].clone())).neg());
-                }
+            let mut acc = ctx.diff(&lp, &self.coords[i]);
+            acc.add(&ctx.diff(&pv[i], &t).scale(&minus_one));
+            acc.add(&ctx.dt_coords(&pv[i], &self.coords, &self.velocities).scale(&minus_one));
+            if !self.forces[i].is_zero() {
+                acc.add(&ctx.poly(&self.forces[i]));
             }
-            terms.push(self.forces[i].clone());
             if let Some(r) = &self.rayleigh {
-                terms.push(d.diff(r, &self.velocities[i]).neg());
+                let rp = ctx.poly(r);
+                acc.add(&ctx.diff(&rp, &self.velocities[i]).scale(&minus_one));
             }
-            f.push(tidy(&Expr::add(terms)));
+            f.push(ctx.finish(acc));
         }
         Ok((w, f))
     }

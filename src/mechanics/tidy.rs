@@ -3,8 +3,10 @@
 //! Derivatives of a Lagrangian come out as sums of products with repeated factors and terms
 //! that cancel only after distribution. [`tidy`] brings them to a compact, deterministic form:
 //!
-//! 1. **expand** products of sums and small integer powers of sums into monomials (so every
-//!    cancellation happens in the canonical sum constructor);
+//! 1. **expand** products of sums and small positive integer powers of sums into monomials
+//!    (so every cancellation happens), leaving denominators, roots and function arguments
+//!    as they are (unlike [`crate::algebra::expand`], which also expands the bases of negative
+//!    powers: here `1/(a − u t)²` must stay a power of one base so it can be collected);
 //! 2. **contract** pairs of monomials by the angle-addition and Pythagorean identities:
 //!    `k R cos a cos b ± k R sin a sin b = k R cos(a ∓ b)`,
 //!    `k R sin a cos b ∓ k R cos a sin b = k R sin(a ∓ b)`, `k R cos² a + k R sin² a = k R`,
@@ -13,166 +15,723 @@
 //!    greedily factor the most frequent factor (a multivariate Horner scheme), merging terms
 //!    that end up with the same sum as a cofactor (`c·S + s·S = (c + s)·S`).
 //!
-//! The result goes through [`crate::simplify::simplify`], and the smaller of it and the
-//! input (by [`Expr::op_count`]) is returned: tidying never lengthens an expression.
+//! Steps 1–3 work on a private sparse-polynomial form (atoms numbered in a local table,
+//! monomials as sorted `(atom, exponent)` lists, exact coefficients), not on interned
+//! expressions: expanding the 30-link pendulum's forcing produces tens of thousands of
+//! monomials, and building each as a canonical, interned [`Expr`] would dominate the run.
+//!
+//! The result goes through [`crate::simplify::simplify`], and the smallest of it, the
+//! collected form and the input (by [`Expr::op_count`]) is returned: tidying never lengthens
+//! an expression.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::rc::Rc;
 
 use num_integer::Integer;
+use num_rational::Rational64;
 use num_traits::{One, Signed, ToPrimitive, Zero};
 
-use crate::expr::{Expr, Func, Node, Rational};
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
 /// The largest number of monomials a single product is expanded into; beyond it the product
-/// stays factored.
-const MAX_EXPANDED_TERMS: usize = 50_000;
+/// stays a single atom.
+const MAX_EXPANDED_TERMS: usize = 200_000;
+
+/// The largest expression (in operations) handed to the e-graph simplifier.
+const MAX_SIMPLIFY_OPS: usize = 120;
 
 /// Tidies `e`: expand, contract trigonometric products, collect common factors, simplify.
 /// Never returns a longer expression than `e` (by [`Expr::op_count`]).
 pub fn tidy(e: &Expr) -> Expr {
-    let expanded = expand(e);
-    let contracted = contract_trig(&expanded);
-    let collected = collect_sum(&contracted);
-    let simplified = crate::simplify::simplify(&collected);
-    let best = if simplified.op_count() <= collected.op_count() { simplified } else { collected };
-    if best.op_count() <= e.op_count() {
-        best
-    } else {
-        e.clone()
-    }
-}
-
-// ----- expansion ----------------------------------------------------------------------------
-
-/// Distributes products over sums and expands positive integer powers of sums, bottom-up
-/// with sharing. Function arguments and denominators are left as they are.
-pub(crate) fn expand(e: &Expr) -> Expr {
-    let mut memo = HashMap::new();
-    expand_rec(e, &mut memo)
-}
-
-fn expand_rec(e: &Expr, memo: &mut HashMap<Expr, Expr>) -> Expr {
-    if let Some(d) = memo.get(e) {
-        return d.clone();
-    }
-    let out = match e.node() {
-        Node::Add(ts) => Expr::add(ts.iter().map(|t| expand_rec(t, memo))),
-        Node::Mul(fs) => {
-            let parts: Vec<Expr> = fs.iter().map(|f| expand_rec(f, memo)).collect();
-            multiply_out(&parts)
+    let mut best = e.clone();
+    for expand_all in [false, true] {
+        let mut ctx = Ctx { expand_all, ..Ctx::default() };
+        let poly = ctx.expand(e);
+        let poly = ctx.contract(poly);
+        let collected = ctx.collect_poly(&poly);
+        // The e-graph pays off on small expressions; on large ones its budget is spent
+        // before it finds anything, so it is skipped.
+        let simplified = if collected.op_count() <= MAX_SIMPLIFY_OPS {
+            crate::simplify::simplify(&collected)
+        } else {
+            collected.clone()
+        };
+        for candidate in [collected, simplified] {
+            if candidate.op_count() < best.op_count() {
+                best = candidate;
+            }
         }
-        // Only small positive integer powers are expanded; the bases of other powers
-        // (denominators, square roots) stay as written, so equal bases stay equal.
-        Node::Pow(b, x) => match x.as_num().and_then(|r| if r.is_integer() { r.to_integer().to_i64() } else { None }) {
-            Some(n) if (2..=8).contains(&n) => {
-                let b2 = expand_rec(b, memo);
-                if matches!(b2.node(), Node::Add(_)) {
-                    multiply_out(&vec![b2; n as usize])
+    }
+    best
+}
+
+// ----- the polynomial form ----------------------------------------------------------------
+
+/// A fast, deterministic hasher for small integer keys (FxHash's multiply-rotate).
+#[derive(Default, Clone, Copy)]
+struct Fx(u64);
+impl Hasher for Fx {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
+
+/// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
+type Key = Vec<(u32, Rational64)>;
+
+/// Monomials with their coefficients.
+type Terms = Vec<(Key, Rational)>;
+
+/// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
+#[derive(Clone, Default)]
+pub(crate) struct Poly {
+    terms: FxMap<Key, Rational>,
+}
+
+impl Poly {
+    fn constant(c: Rational) -> Poly {
+        let mut terms = FxMap::default();
+        if !c.is_zero() {
+            terms.insert(Vec::new(), c);
+        }
+        Poly { terms }
+    }
+
+    fn atom(id: u32, exp: Rational64) -> Poly {
+        let mut terms = FxMap::default();
+        terms.insert(vec![(id, exp)], Rational::one());
+        Poly { terms }
+    }
+
+    fn add_term(&mut self, key: Key, c: Rational) {
+        match self.terms.entry(key) {
+            std::collections::hash_map::Entry::Occupied(mut o) => {
+                let v = o.get() + &c;
+                if v.is_zero() {
+                    o.remove();
                 } else {
-                    Expr::pow(b2, x.clone())
+                    *o.get_mut() = v;
                 }
             }
-            _ => e.clone(),
-        },
-        _ => e.clone(),
-    };
-    memo.insert(e.clone(), out.clone());
+            std::collections::hash_map::Entry::Vacant(v) => {
+                if !c.is_zero() {
+                    v.insert(c);
+                }
+            }
+        }
+    }
+
+    pub(crate) fn is_zero(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// `self · c` for a rational `c`.
+    pub(crate) fn scale(&self, c: &Rational) -> Poly {
+        let mut out = Poly::default();
+        for (k, v) in &self.terms {
+            out.add_term(k.clone(), v * c);
+        }
+        out
+    }
+
+    pub(crate) fn add(&mut self, other: &Poly) {
+        for (k, c) in &other.terms {
+            self.add_term(k.clone(), c.clone());
+        }
+    }
+
+    pub(crate) fn mul(&self, other: &Poly) -> Poly {
+        let mut out = Poly::default();
+        for (k1, c1) in &self.terms {
+            for (k2, c2) in &other.terms {
+                out.add_term(merge_keys(k1, k2), c1 * c2);
+            }
+        }
+        out
+    }
+
+    /// Terms sorted by key, for deterministic processing.
+    fn sorted(&self) -> Vec<(Key, Rational)> {
+        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.clone())).collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
+    }
+}
+
+fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].0.cmp(&b[j].0) {
+            std::cmp::Ordering::Less => {
+                out.push(a[i]);
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                out.push(b[j]);
+                j += 1;
+            }
+            std::cmp::Ordering::Equal => {
+                let e = a[i].1 + b[j].1;
+                if !e.is_zero() {
+                    out.push((a[i].0, e));
+                }
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
     out
 }
 
-fn multiply_out(parts: &[Expr]) -> Expr {
-    let estimate: usize = parts.iter().map(|p| p.terms().len()).fold(1usize, |a, b| a.saturating_mul(b));
-    if estimate > MAX_EXPANDED_TERMS {
-        return Expr::mul(parts.iter().cloned());
-    }
-    let mut acc: Vec<Expr> = vec![Expr::one()];
-    for p in parts {
-        let ts = p.terms();
-        if ts.len() == 1 {
-            for a in acc.iter_mut() {
-                *a = a.times(&ts[0]);
-            }
-            continue;
-        }
-        let mut next = Vec::with_capacity(acc.len() * ts.len());
-        for a in &acc {
-            for t in &ts {
-                next.push(a.times(t));
-            }
-        }
-        acc = next;
-    }
-    Expr::add(acc)
-}
-
-// ----- trigonometric contraction ------------------------------------------------------------
-
-/// The shape of a monomial's trigonometric part.
+/// The trigonometric shape of a monomial (atom ids of the sin/cos factors stripped off).
 #[derive(Clone, PartialEq, Eq, Hash)]
 enum Trig {
-    /// No sin/cos factor.
     Plain,
-    /// `cos a cos b`, `sin a sin b`, `sin a cos b`, `cos a sin b` with `a < b`.
     CC(Expr, Expr),
     SS(Expr, Expr),
     SC(Expr, Expr),
     CS(Expr, Expr),
-    /// `cos² a`, `sin² a`.
     C2(Expr),
     S2(Expr),
-    /// Anything else.
-    Other,
 }
 
-fn trig_factor(f: &Expr) -> Option<(Func, Expr, i64)> {
-    let (b, x) = f.base_exp();
-    let n = x.as_num().and_then(|r| if r.is_integer() { r.to_integer().to_i64() } else { None })?;
-    match b.node() {
-        Node::Call(func @ (Func::Sin | Func::Cos), args) => Some((*func, args[0].clone(), n)),
-        _ => None,
-    }
+/// Atom table and memo for one tidy run.
+#[derive(Default)]
+pub(crate) struct Ctx {
+    /// Expand every small positive power of a sum; otherwise only powers of sums that contain
+    /// a velocity or a sin/cos (where cancellations and contractions happen), so that
+    /// `(a − u t)²` and `(p − m ω x)²` keep their shape.
+    expand_all: bool,
+    atoms: Vec<Expr>,
+    index: FxMap<Expr, u32>,
+    /// `Some((sin or cos, argument))` for atoms that are `sin(a)` / `cos(a)`.
+    trig: Vec<Option<(Func, Expr)>>,
+    /// `∂atom/∂x` as polynomials.
+    dmemo: FxMap<(u32, u32), Rc<Poly>>,
+    /// Variables of differentiation, numbered (so memo keys hash as integers).
+    vars: FxMap<Symbol, u32>,
+    /// `Σ_j ∂atom/∂q_j q'_j` as polynomials.
+    dtmemo: FxMap<u32, Rc<Poly>>,
+    diff: Differentiator,
+    memo: FxMap<Expr, Rc<Poly>>,
+    /// Tidied function arguments.
+    args: FxMap<Expr, Expr>,
 }
 
-/// Splits a monomial into coefficient, trig shape and the remaining factors.
-fn classify(term: &Expr) -> (Rational, Trig, Expr) {
-    let (c, rest) = term.coeff_rest();
-    let mut trig = Vec::new();
-    let mut others = Vec::new();
-    for f in rest.factors() {
-        match trig_factor(&f) {
-            Some(t) => trig.push(t),
-            None => others.push(f),
-        }
+fn small_exp(r: &Rational) -> Option<Rational64> {
+    Some(Rational64::new(r.numer().to_i64()?, r.denom().to_i64()?))
+}
+
+fn big(r: Rational64) -> Rational {
+    Rational::new((*r.numer()).into(), (*r.denom()).into())
+}
+
+impl Ctx {
+    /// A context for the mechanics pipeline (powers of velocity-free sums stay whole).
+    pub(crate) fn new() -> Ctx {
+        Ctx::default()
     }
-    let r = Expr::mul(others);
-    let shape = match trig.as_slice() {
-        [] => Trig::Plain,
-        [(f, a, 2)] => {
-            if *f == Func::Cos {
-                Trig::C2(a.clone())
-            } else {
-                Trig::S2(a.clone())
+
+    /// `e` as a contracted polynomial in its atoms.
+    pub(crate) fn poly(&mut self, e: &Expr) -> Poly {
+        let p = self.expand(e);
+        self.contract(p)
+    }
+
+    /// `∂p/∂x`: each atom is differentiated once per variable (memoised) by the chain rule.
+    pub(crate) fn diff(&mut self, p: &Poly, x: &Symbol) -> Poly {
+        let next = self.vars.len() as u32;
+        let xid = *self.vars.entry(x.clone()).or_insert(next);
+        self.chain(p, &mut |ctx, a| ctx.atom_diff_id(a, xid, x))
+    }
+
+    /// `Σ_j (∂p/∂q_j) q'_j`: the part of `d/dt p` carried by the coordinates, in one pass
+    /// (each atom's own `Σ_j ∂a/∂q_j q'_j` is memoised; one `Ctx` serves one coordinate set).
+    pub(crate) fn dt_coords(&mut self, p: &Poly, coords: &[Symbol], velocities: &[Symbol]) -> Poly {
+        self.chain(p, &mut |ctx, a| {
+            if let Some(d) = ctx.dtmemo.get(&a) {
+                return d.clone();
+            }
+            let mut acc = Poly::default();
+            for (q, v) in coords.iter().zip(velocities) {
+                let da = ctx.atom_diff(a, q);
+                if !da.is_zero() {
+                    let vp = Poly::atom(ctx.atom_id(&Expr::sym(v.clone())), Rational64::one());
+                    acc.add(&da.mul(&vp));
+                }
+            }
+            let rc = Rc::new(acc);
+            ctx.dtmemo.insert(a, rc.clone());
+            rc
+        })
+    }
+
+    /// The chain rule over every atom of every monomial, with `datom` giving the derivative of
+    /// one atom.
+    fn chain(&mut self, p: &Poly, datom: &mut dyn FnMut(&mut Ctx, u32) -> Rc<Poly>) -> Poly {
+        let mut out = Poly::default();
+        for (key, c) in &p.terms {
+            for (i, (a, e)) in key.iter().enumerate() {
+                let da = datom(self, *a);
+                if da.terms.is_empty() {
+                    continue;
+                }
+                let mut rest: Key = key.clone();
+                let e1 = *e - Rational64::one();
+                if e1.is_zero() {
+                    rest.remove(i);
+                } else {
+                    rest[i].1 = e1;
+                }
+                let coeff = if e.is_one() { c.clone() } else { c * big(*e) };
+                for (k2, c2) in &da.terms {
+                    out.add_term(merge_keys(&rest, k2), &coeff * c2);
+                }
             }
         }
-        [(f1, a1, 1), (f2, a2, 1)] if a1 != a2 => {
-            let ((f1, a1), (f2, a2)) = if a1.canonical_cmp(a2).is_le() {
-                ((*f1, a1.clone()), (*f2, a2.clone()))
-            } else {
-                ((*f2, a2.clone()), (*f1, a1.clone()))
+        out
+    }
+
+    fn atom_diff(&mut self, a: u32, x: &Symbol) -> Rc<Poly> {
+        let next = self.vars.len() as u32;
+        let xid = *self.vars.entry(x.clone()).or_insert(next);
+        self.atom_diff_id(a, xid, x)
+    }
+
+    fn atom_diff_id(&mut self, a: u32, xid: u32, x: &Symbol) -> Rc<Poly> {
+        if let Some(p) = self.dmemo.get(&(a, xid)) {
+            return p.clone();
+        }
+        let atom = self.atoms[a as usize].clone();
+        let d = self.diff.diff(&atom, x);
+        let p = Rc::new(if d.is_zero() { Poly::default() } else { self.expand(&d) });
+        self.dmemo.insert((a, xid), p.clone());
+        p
+    }
+
+    /// Contracts and collects `p` into an expression.
+    pub(crate) fn finish(&mut self, p: Poly) -> Expr {
+        let p = self.contract(p);
+        self.collect_poly(&p)
+    }
+
+    fn atom_id(&mut self, e: &Expr) -> u32 {
+        if let Some(&id) = self.index.get(e) {
+            return id;
+        }
+        let id = self.atoms.len() as u32;
+        let trig = match e.node() {
+            Node::Call(f @ (Func::Sin | Func::Cos), args) => Some((*f, args[0].clone())),
+            _ => None,
+        };
+        self.atoms.push(e.clone());
+        self.trig.push(trig);
+        self.index.insert(e.clone(), id);
+        id
+    }
+
+    /// An atom, with the arguments of function calls tidied first (`V(x² + y²)` after a
+    /// polar substitution becomes `V(r²)`).
+    fn leaf(&mut self, e: &Expr, exp: Rational64) -> Poly {
+        let e = match e.node() {
+            Node::Call(..) | Node::Apply { .. } => {
+                let mut kids = Vec::new();
+                e.for_each_child(|c| kids.push(c.clone()));
+                if kids.iter().all(|k| matches!(k.node(), Node::Sym(_) | Node::Num(_))) {
+                    e.clone()
+                } else {
+                    let tidied: Vec<Expr> = kids.iter().map(|k| self.tidy_arg(k)).collect();
+                    e.with_children(tidied)
+                }
+            }
+            _ => e.clone(),
+        };
+        match e.node() {
+            Node::Num(r) => {
+                // A call that folded to a number.
+                if exp.is_one() {
+                    return Poly::constant(r.clone());
+                }
+                let v = Expr::pow(e.clone(), Expr::num(big(exp)));
+                match v.as_num() {
+                    Some(r) => Poly::constant(r.clone()),
+                    None => {
+                        let id = self.atom_id(&v);
+                        Poly::atom(id, Rational64::one())
+                    }
+                }
+            }
+            _ => {
+                let id = self.atom_id(&e);
+                Poly::atom(id, exp)
+            }
+        }
+    }
+
+    fn tidy_arg(&mut self, e: &Expr) -> Expr {
+        if let Some(t) = self.args.get(e) {
+            return t.clone();
+        }
+        let t = tidy(e);
+        self.args.insert(e.clone(), t.clone());
+        t
+    }
+
+    fn expand(&mut self, e: &Expr) -> Poly {
+        (*self.expand_rc(e)).clone()
+    }
+
+    fn expand_rc(&mut self, e: &Expr) -> Rc<Poly> {
+        if let Some(p) = self.memo.get(e) {
+            return p.clone();
+        }
+        let p = match e.node() {
+            Node::Num(r) => Poly::constant(r.clone()),
+            Node::Add(ts) => {
+                let mut acc = Poly::default();
+                for t in ts {
+                    let p = self.expand_rc(t);
+                    acc.add(&p);
+                }
+                acc
+            }
+            Node::Mul(fs) => {
+                let parts: Vec<Rc<Poly>> = fs.iter().map(|f| self.expand_rc(f)).collect();
+                let estimate = parts.iter().fold(1usize, |a, p| a.saturating_mul(p.terms.len().max(1)));
+                if estimate > MAX_EXPANDED_TERMS {
+                    self.leaf(e, Rational64::one())
+                } else {
+                    let mut acc = Poly::constant(Rational::one());
+                    for p in parts {
+                        acc = acc.mul(&p);
+                    }
+                    acc
+                }
+            }
+            Node::Pow(b, x) => {
+                let r = x.as_num().and_then(small_exp);
+                match r {
+                    Some(r)
+                        if r.is_integer()
+                            && (2..=8).contains(r.numer())
+                            && matches!(b.node(), Node::Add(_))
+                            && (self.expand_all || worth_expanding(b)) =>
+                    {
+                        let base = self.expand_rc(b);
+                        let n = *r.numer() as usize;
+                        if base.terms.len().saturating_pow(n as u32) > MAX_EXPANDED_TERMS {
+                            self.leaf(e, Rational64::one())
+                        } else {
+                            let mut acc = (*base).clone();
+                            for _ in 1..n {
+                                acc = acc.mul(&base);
+                            }
+                            acc
+                        }
+                    }
+                    Some(r) => self.leaf(b, r),
+                    None => self.leaf(e, Rational64::one()),
+                }
+            }
+            _ => self.leaf(e, Rational64::one()),
+        };
+        let rc = Rc::new(p);
+        self.memo.insert(e.clone(), rc.clone());
+        rc
+    }
+
+    fn to_expr_key(&self, key: &[(u32, Rational64)]) -> Vec<Expr> {
+        key.iter().map(|(a, r)| Expr::pow(self.atoms[*a as usize].clone(), Expr::num(big(*r)))).collect()
+    }
+
+    // ----- contraction ----------------------------------------------------------------------
+
+    /// Splits a key into its trigonometric shape and the remaining key.
+    fn classify(&self, key: &[(u32, Rational64)]) -> Option<(Trig, Key)> {
+        let trig: Vec<usize> = (0..key.len()).filter(|&i| self.trig[key[i].0 as usize].is_some()).collect();
+        let rest = |skip: &[usize]| -> Key {
+            key.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, x)| *x).collect()
+        };
+        match trig.as_slice() {
+            [] => Some((Trig::Plain, key.to_vec())),
+            [i] => {
+                let (f, a) = self.trig[key[*i].0 as usize].clone()?;
+                if key[*i].1 != Rational64::from_integer(2) {
+                    return None;
+                }
+                let shape = if f == Func::Cos { Trig::C2(a) } else { Trig::S2(a) };
+                Some((shape, rest(&[*i])))
+            }
+            [i, j] => {
+                if !key[*i].1.is_one() || !key[*j].1.is_one() {
+                    return None;
+                }
+                let (f1, a1) = self.trig[key[*i].0 as usize].clone()?;
+                let (f2, a2) = self.trig[key[*j].0 as usize].clone()?;
+                if a1 == a2 {
+                    return None;
+                }
+                let ((f1, a1), (f2, a2)) =
+                    if a1.canonical_cmp(&a2).is_le() { ((f1, a1), (f2, a2)) } else { ((f2, a2), (f1, a1)) };
+                let shape = match (f1, f2) {
+                    (Func::Cos, Func::Cos) => Trig::CC(a1, a2),
+                    (Func::Sin, Func::Sin) => Trig::SS(a1, a2),
+                    (Func::Sin, Func::Cos) => Trig::SC(a1, a2),
+                    _ => Trig::CS(a1, a2),
+                };
+                Some((shape, rest(&[*i, *j])))
+            }
+            _ => None,
+        }
+    }
+
+    /// Applies the angle-addition and Pythagorean identities to pairs of monomials until
+    /// nothing changes (at most a few rounds).
+    fn contract(&mut self, mut poly: Poly) -> Poly {
+        for _ in 0..4 {
+            let (next, changed) = self.contract_once(&poly);
+            poly = next;
+            if !changed {
+                break;
+            }
+        }
+        poly
+    }
+
+    fn contract_once(&mut self, poly: &Poly) -> (Poly, bool) {
+        let terms = poly.sorted();
+        let classified: Vec<Option<(Trig, Key)>> = terms.iter().map(|(k, _)| self.classify(k)).collect();
+        let mut index: FxMap<(Trig, Key), usize> = FxMap::default();
+        for (i, c) in classified.iter().enumerate() {
+            if let Some(sk) = c {
+                index.entry(sk.clone()).or_insert(i);
+            }
+        }
+        if index.keys().all(|(s, _)| *s == Trig::Plain) {
+            return (poly.clone(), false);
+        }
+        let mut used = vec![false; terms.len()];
+        let mut out = Poly::default();
+        let mut changed = false;
+        let mut order: Vec<usize> = (0..terms.len()).collect();
+        order.sort_by_key(|&i| matches!(classified[i], Some((Trig::Plain, _))));
+        for i in order {
+            if used[i] {
+                continue;
+            }
+            used[i] = true;
+            let k = &terms[i].1;
+            let Some((shape, rest)) = &classified[i] else {
+                out.add_term(terms[i].0.clone(), k.clone());
+                continue;
             };
-            match (f1, f2) {
-                (Func::Cos, Func::Cos) => Trig::CC(a1, a2),
-                (Func::Sin, Func::Sin) => Trig::SS(a1, a2),
-                (Func::Sin, Func::Cos) => Trig::SC(a1, a2),
-                _ => Trig::CS(a1, a2),
+            let find = |s: Trig| index.get(&(s, rest.clone())).copied();
+            let neg = -k.clone();
+            // (partner index, factor replacing the trig pair, coefficient)
+            let mut pair: Option<(usize, Expr, Rational)> = None;
+            let coeff_of = |j: usize| &terms[j].1;
+            match shape {
+                Trig::CC(a, b) | Trig::SS(a, b) => {
+                    let other = if matches!(shape, Trig::CC(..)) {
+                        Trig::SS(a.clone(), b.clone())
+                    } else {
+                        Trig::CC(a.clone(), b.clone())
+                    };
+                    if let Some(j) = find(other) {
+                        if coeff_of(j) == k {
+                            pair = Some((j, cos(a.minus(b)), k.clone()));
+                        } else if *coeff_of(j) == neg {
+                            // cc − ss = cos(a + b)
+                            let c = if matches!(shape, Trig::CC(..)) { k.clone() } else { neg.clone() };
+                            pair = Some((j, cos(a.plus(b)), c));
+                        }
+                    }
+                }
+                Trig::SC(a, b) | Trig::CS(a, b) => {
+                    let other = if matches!(shape, Trig::SC(..)) {
+                        Trig::CS(a.clone(), b.clone())
+                    } else {
+                        Trig::SC(a.clone(), b.clone())
+                    };
+                    if let Some(j) = find(other) {
+                        if *coeff_of(j) == neg {
+                            // k (sin a cos b − cos a sin b) = k sin(a − b)
+                            let c = if matches!(shape, Trig::SC(..)) { k.clone() } else { neg.clone() };
+                            pair = Some((j, sin(a.minus(b)), c));
+                        } else if coeff_of(j) == k {
+                            pair = Some((j, sin(a.plus(b)), k.clone()));
+                        }
+                    }
+                }
+                Trig::C2(a) | Trig::S2(a) => {
+                    let other = if matches!(shape, Trig::C2(..)) { Trig::S2(a.clone()) } else { Trig::C2(a.clone()) };
+                    if let Some(j) = find(other).filter(|&j| coeff_of(j) == k) {
+                        pair = Some((j, Expr::one(), k.clone()));
+                    } else if let Some(j) = find(Trig::Plain).filter(|&j| *coeff_of(j) == neg) {
+                        // −k R + k R cos² a = −k R sin² a
+                        let f = if matches!(shape, Trig::C2(..)) { sin(a.clone()) } else { cos(a.clone()) };
+                        pair = Some((j, f.powi(2), neg.clone()));
+                    }
+                }
+                Trig::Plain => {}
+            }
+            match pair {
+                Some((j, factor, c)) if j != i && !used[j] => {
+                    used[j] = true;
+                    changed = true;
+                    let p = self.expand(&factor);
+                    let mut r = Poly::default();
+                    r.add_term(rest.clone(), c);
+                    out.add(&r.mul(&p));
+                }
+                _ => out.add_term(terms[i].0.clone(), k.clone()),
             }
         }
-        _ => Trig::Other,
-    };
-    if shape == Trig::Other {
-        return (c, Trig::Other, rest);
+        (out, changed)
     }
-    (c, shape, r)
+
+    // ----- collection -----------------------------------------------------------------------
+
+    fn collect_poly(&self, poly: &Poly) -> Expr {
+        let terms = poly.sorted();
+        if terms.is_empty() {
+            return Expr::zero();
+        }
+        Expr::mul(self.collect_factors(terms))
+    }
+
+    fn mono(&self, key: &Key, c: &Rational) -> Expr {
+        let mut fs = vec![Expr::num(c.clone())];
+        fs.extend(self.to_expr_key(key));
+        Expr::mul(fs)
+    }
+
+    /// Content, then Horner, as a list of factors (rational content first) so that a caller
+    /// multiplying in more factors keeps `g·2·(1 − cos θ)` from distributing the `2`.
+    fn collect_factors(&self, mut terms: Vec<(Key, Rational)>) -> Vec<Expr> {
+        if terms.len() <= 1 {
+            return vec![terms.first().map_or_else(Expr::zero, |(k, c)| self.mono(k, c))];
+        }
+        let mut g = terms[0].1.abs();
+        for (_, c) in &terms[1..] {
+            g = rational_gcd(&g, c);
+        }
+        for t in terms.iter_mut() {
+            t.1 = &t.1 / &g;
+        }
+        let mut content: Vec<Expr> = Vec::new();
+        let first: Vec<(u32, Rational64)> = terms[0].0.clone();
+        for (a, _) in first {
+            let exps: Option<Vec<Rational64>> =
+                terms.iter().map(|(k, _)| k.iter().find(|(b, _)| *b == a).map(|(_, r)| *r)).collect();
+            let Some(exps) = exps else { continue };
+            let common = if exps.iter().all(|r| r.is_positive()) {
+                exps.iter().min().copied()
+            } else if exps.iter().all(|r| r.is_negative()) {
+                exps.iter().max().copied()
+            } else {
+                None
+            };
+            if let Some(c) = common {
+                for t in terms.iter_mut() {
+                    t.0 = merge_keys(&t.0, &[(a, -c)]);
+                }
+                content.push(Expr::pow(self.atoms[a as usize].clone(), Expr::num(big(c))));
+            }
+        }
+        // Sign: more positive than negative terms inside, and on a tie a positive constant
+        // (`1 − cos θ` rather than `cos θ − 1`).
+        let negatives = terms.iter().filter(|t| t.1.is_negative()).count();
+        let positives = terms.len() - negatives;
+        let constant_negative = terms.iter().any(|t| t.0.is_empty() && t.1.is_negative());
+        if negatives > positives || (negatives == positives && constant_negative) {
+            g = -g;
+            for t in terms.iter_mut() {
+                t.1 = -t.1.clone();
+            }
+        }
+        content.insert(0, Expr::num(g));
+        content.push(self.horner(terms));
+        content
+    }
+
+    /// Greedy factoring of a content-free list of monomials.
+    fn horner(&self, terms: Vec<(Key, Rational)>) -> Expr {
+        if terms.len() <= 1 {
+            return terms.first().map_or_else(Expr::zero, |(k, c)| self.mono(k, c));
+        }
+        let mut counts: FxMap<(u32, bool), usize> = FxMap::default();
+        for (k, _) in &terms {
+            for (a, r) in k {
+                *counts.entry((*a, r.is_positive())).or_default() += 1;
+            }
+        }
+        let best = counts.into_iter().filter(|(_, n)| *n >= 2).max_by(|(ka, na), (kb, nb)| {
+            na.cmp(nb)
+                .then_with(|| self.atoms[kb.0 as usize].canonical_cmp(&self.atoms[ka.0 as usize]))
+                .then(kb.1.cmp(&ka.1))
+        });
+        let Some(((a, positive), _)) = best else {
+            return merge_cofactors(terms.iter().map(|(k, c)| self.mono(k, c)).collect());
+        };
+        let exp_of = |k: &Key| k.iter().find(|(b, _)| *b == a).map(|(_, r)| *r);
+        let (mut with, without): (Terms, Terms) =
+            terms.into_iter().partition(|(k, _)| exp_of(k).is_some_and(|r| r.is_positive() == positive));
+        let exps = with.iter().filter_map(|(k, _)| exp_of(k));
+        let e = if positive { exps.min() } else { exps.max() }.unwrap_or_else(Rational64::one);
+        for t in with.iter_mut() {
+            t.0 = merge_keys(&t.0, &[(a, -e)]);
+        }
+        let mut inner = self.collect_factors(with);
+        inner.push(Expr::pow(self.atoms[a as usize].clone(), Expr::num(big(e))));
+        let mut parts = Expr::mul(inner).terms();
+        if !without.is_empty() {
+            parts.extend(self.horner(without).terms());
+        }
+        merge_cofactors(parts)
+    }
+}
+
+/// Whether a sum contains a time derivative or a sin/cos, so its powers should be expanded.
+fn worth_expanding(b: &Expr) -> bool {
+    fn walk(e: &Expr, seen: &mut std::collections::HashSet<Expr>) -> bool {
+        if !seen.insert(e.clone()) {
+            return false;
+        }
+        match e.node() {
+            Node::Sym(s) => s.primes() > 0,
+            Node::Call(Func::Sin | Func::Cos, _) => true,
+            _ => {
+                let mut found = false;
+                e.for_each_child(|c| found = found || walk(c, seen));
+                found
+            }
+        }
+    }
+    walk(b, &mut std::collections::HashSet::new())
 }
 
 fn cos(a: Expr) -> Expr {
@@ -182,280 +741,8 @@ fn sin(a: Expr) -> Expr {
     Expr::call(Func::Sin, vec![a])
 }
 
-/// Applies the angle-addition and Pythagorean identities to pairs of terms of a sum (and of
-/// sums nested in products), until nothing changes.
-pub(crate) fn contract_trig(e: &Expr) -> Expr {
-    let mut cur = e.clone();
-    for _ in 0..4 {
-        let next = cur.map_bottom_up(&mut |x| match x.node() {
-            Node::Add(_) => contract_sum(x),
-            _ => None,
-        });
-        if next == cur {
-            break;
-        }
-        cur = next;
-    }
-    cur
-}
-
-fn contract_sum(sum: &Expr) -> Option<Expr> {
-    let terms = sum.terms();
-    let classified: Vec<(Rational, Trig, Expr)> = terms.iter().map(classify).collect();
-    // Index terms by (shape, rest).
-    let mut index: HashMap<(Trig, Expr), usize> = HashMap::new();
-    for (i, (_, shape, r)) in classified.iter().enumerate() {
-        if *shape != Trig::Other {
-            index.entry((shape.clone(), r.clone())).or_insert(i);
-        }
-    }
-    let mut used = vec![false; terms.len()];
-    let mut out: Vec<Expr> = Vec::new();
-    let mut changed = false;
-    // Plain terms last: they are partners of `cos²`/`sin²` terms, never the ones that look.
-    let mut order: Vec<usize> = (0..terms.len()).collect();
-    order.sort_by_key(|&i| classified[i].1 == Trig::Plain);
-    for i in order {
-        if used[i] {
-            continue;
-        }
-        let (k, shape, r) = &classified[i];
-        let partner = |s: Trig| index.get(&(s, r.clone())).copied();
-        let mut pair: Option<(usize, Expr)> = None;
-        let kk = Expr::num(k.clone());
-        match shape {
-            Trig::CC(a, b) => {
-                if let Some(j) = partner(Trig::SS(a.clone(), b.clone())) {
-                    let k2 = &classified[j].0;
-                    if k2 == k {
-                        pair = Some((j, kk.times(&cos(a.minus(b)))));
-                    } else if *k2 == -k.clone() {
-                        pair = Some((j, kk.times(&cos(a.plus(b)))));
-                    }
-                }
-            }
-            Trig::SS(a, b) => {
-                if let Some(j) = partner(Trig::CC(a.clone(), b.clone())) {
-                    let k2 = &classified[j].0;
-                    if k2 == k {
-                        pair = Some((j, kk.times(&cos(a.minus(b)))));
-                    } else if *k2 == -k.clone() {
-                        pair = Some((j, kk.neg().times(&cos(a.plus(b)))));
-                    }
-                }
-            }
-            Trig::SC(a, b) => {
-                // k sin a cos b + k2 cos a sin b
-                if let Some(j) = partner(Trig::CS(a.clone(), b.clone())) {
-                    let k2 = &classified[j].0;
-                    if *k2 == -k.clone() {
-                        pair = Some((j, kk.times(&sin(a.minus(b)))));
-                    } else if k2 == k {
-                        pair = Some((j, kk.times(&sin(a.plus(b)))));
-                    }
-                }
-            }
-            Trig::CS(a, b) => {
-                // k cos a sin b + k2 sin a cos b
-                if let Some(j) = partner(Trig::SC(a.clone(), b.clone())) {
-                    let k2 = &classified[j].0;
-                    if *k2 == -k.clone() {
-                        pair = Some((j, kk.times(&sin(b.minus(a)))));
-                    } else if k2 == k {
-                        pair = Some((j, kk.times(&sin(a.plus(b)))));
-                    }
-                }
-            }
-            Trig::C2(a) => {
-                if let Some(j) = partner(Trig::S2(a.clone())).filter(|&j| classified[j].0 == *k) {
-                    pair = Some((j, kk.clone()));
-                } else if let Some(j) = partner(Trig::Plain).filter(|&j| classified[j].0 == -k.clone()) {
-                    // −k R + k R cos² a = −k R sin² a
-                    pair = Some((j, kk.neg().times(&sin(a.clone()).powi(2))));
-                }
-            }
-            Trig::S2(a) => {
-                if let Some(j) = partner(Trig::C2(a.clone())).filter(|&j| classified[j].0 == *k) {
-                    pair = Some((j, kk.clone()));
-                } else if let Some(j) = partner(Trig::Plain).filter(|&j| classified[j].0 == -k.clone()) {
-                    pair = Some((j, kk.neg().times(&cos(a.clone()).powi(2))));
-                }
-            }
-            Trig::Plain | Trig::Other => {}
-        }
-        match pair {
-            Some((j, combined)) if j != i && !used[j] => {
-                used[i] = true;
-                used[j] = true;
-                changed = true;
-                out.push(combined.times(r));
-            }
-            _ => {
-                used[i] = true;
-                out.push(terms[i].clone());
-            }
-        }
-    }
-    if changed {
-        Some(Expr::add(out))
-    } else {
-        None
-    }
-}
-
-// ----- collection ---------------------------------------------------------------------------
-
-/// A monomial: rational coefficient and (base, exponent) factors with distinct bases.
-#[derive(Clone)]
-struct Mono {
-    c: Rational,
-    f: Vec<(Expr, Rational)>,
-}
-
-impl Mono {
-    fn from_expr(e: &Expr) -> Mono {
-        let (c, rest) = e.coeff_rest();
-        let mut f: Vec<(Expr, Rational)> = Vec::new();
-        if !rest.is_one() {
-            for x in rest.factors() {
-                let (b, p) = x.base_exp();
-                match p.as_num() {
-                    Some(r) => f.push((b, r.clone())),
-                    None => f.push((x.clone(), Rational::one())),
-                }
-            }
-        }
-        Mono { c, f }
-    }
-
-    fn exp_of(&self, b: &Expr) -> Option<&Rational> {
-        self.f.iter().find(|(x, _)| x == b).map(|(_, r)| r)
-    }
-
-    fn divide(&mut self, b: &Expr, e: &Rational) {
-        if let Some(pos) = self.f.iter().position(|(x, _)| x == b) {
-            let r = &self.f[pos].1 - e;
-            if r.is_zero() {
-                self.f.remove(pos);
-            } else {
-                self.f[pos].1 = r;
-            }
-        }
-    }
-
-    fn to_expr(&self) -> Expr {
-        let mut fs = vec![Expr::num(self.c.clone())];
-        fs.extend(self.f.iter().map(|(b, r)| Expr::pow(b.clone(), Expr::num(r.clone()))));
-        Expr::mul(fs)
-    }
-}
-
 fn rational_gcd(a: &Rational, b: &Rational) -> Rational {
     Rational::new(a.numer().gcd(b.numer()), a.denom().lcm(b.denom()))
-}
-
-/// Collects common factors of a sum (and of sums nested in it, bottom-up).
-pub(crate) fn collect_sum(e: &Expr) -> Expr {
-    e.map_bottom_up(&mut |x| match x.node() {
-        Node::Add(ts) => Some(collect(ts.iter().map(Mono::from_expr).collect())),
-        _ => None,
-    })
-}
-
-fn power(b: &Expr, e: &Rational) -> Expr {
-    Expr::pow(b.clone(), Expr::num(e.clone()))
-}
-
-fn collect(terms: Vec<Mono>) -> Expr {
-    Expr::mul(collect_factors(terms))
-}
-
-/// [`collect`] as a list of factors (rational content first), so a caller multiplying in
-/// more factors keeps `g·2·(1 − cos θ)` from distributing the `2` over the sum.
-fn collect_factors(mut terms: Vec<Mono>) -> Vec<Expr> {
-    if terms.len() <= 1 {
-        return vec![terms.first().map_or_else(Expr::zero, Mono::to_expr)];
-    }
-    // Content: rational gcd and common powers.
-    let mut g = terms[0].c.abs();
-    for t in &terms[1..] {
-        g = rational_gcd(&g, &t.c);
-    }
-    if !g.is_zero() {
-        for t in terms.iter_mut() {
-            t.c = &t.c / &g;
-        }
-    }
-    let mut content: Vec<Expr> = Vec::new();
-    let bases: Vec<Expr> = terms[0].f.iter().map(|(b, _)| b.clone()).collect();
-    for b in bases {
-        let exps: Option<Vec<Rational>> = terms.iter().map(|t| t.exp_of(&b).cloned()).collect();
-        let Some(exps) = exps else { continue };
-        let common = if exps.iter().all(Rational::is_positive) {
-            exps.iter().min().cloned()
-        } else if exps.iter().all(Rational::is_negative) {
-            exps.iter().max().cloned()
-        } else {
-            None
-        };
-        if let Some(c) = common {
-            for t in terms.iter_mut() {
-                t.divide(&b, &c);
-            }
-            content.push(power(&b, &c));
-        }
-    }
-    // Sign: more positive than negative terms inside, and on a tie a positive constant
-    // (`1 − cos θ` rather than `cos θ − 1`).
-    let negatives = terms.iter().filter(|t| t.c.is_negative()).count();
-    let positives = terms.len() - negatives;
-    let constant_negative = terms.iter().any(|t| t.f.is_empty() && t.c.is_negative());
-    if negatives > positives || (negatives == positives && constant_negative) {
-        g = -g;
-        for t in terms.iter_mut() {
-            t.c = -t.c.clone();
-        }
-    }
-    content.insert(0, Expr::num(g));
-    content.push(horner(terms));
-    content
-}
-
-/// Greedy factoring of a content-free list of monomials.
-fn horner(terms: Vec<Mono>) -> Expr {
-    if terms.len() <= 1 {
-        return terms.first().map_or_else(Expr::zero, Mono::to_expr);
-    }
-    // The most frequent (base, sign of exponent).
-    let mut counts: HashMap<(Expr, bool), usize> = HashMap::new();
-    for t in &terms {
-        for (b, r) in &t.f {
-            *counts.entry((b.clone(), r.is_positive())).or_default() += 1;
-        }
-    }
-    let best = counts
-        .into_iter()
-        .filter(|(_, n)| *n >= 2)
-        .max_by(|(ka, na), (kb, nb)| na.cmp(nb).then_with(|| kb.0.canonical_cmp(&ka.0)).then(kb.1.cmp(&ka.1)));
-    let Some(((b, positive), _)) = best else {
-        return merge_cofactors(terms.iter().map(Mono::to_expr).collect());
-    };
-    let (mut with, without): (Vec<Mono>, Vec<Mono>) =
-        terms.into_iter().partition(|t| t.exp_of(&b).is_some_and(|r| r.is_positive() == positive));
-    let exps = with.iter().filter_map(|t| t.exp_of(&b).cloned());
-    let e = if positive { exps.min() } else { exps.max() }.unwrap_or_else(Rational::one);
-    for t in with.iter_mut() {
-        t.divide(&b, &e);
-    }
-    let mut inner = collect_factors(with);
-    inner.push(power(&b, &e));
-    let factored = Expr::mul(inner);
-    let mut parts = vec![factored];
-    if !without.is_empty() {
-        parts.push(horner(without));
-    }
-    let flat: Vec<Expr> = parts.iter().flat_map(Expr::terms).collect();
-    merge_cofactors(flat)
 }
 
 /// Merges terms that share a sum factor: `c·S + s·S → (c + s)·S`.
@@ -477,9 +764,12 @@ fn merge_cofactors(terms: Vec<Expr>) -> Expr {
         if members.len() == 1 {
             out.push(members[0].times(&s));
         } else {
-            let mut cof = collect_factors(Expr::add(members).terms().iter().map(Mono::from_expr).collect());
-            cof.push(s);
-            out.push(Expr::mul(cof));
+            let cof = Expr::add(members);
+            let mut ctx = Ctx::default();
+            let p = ctx.expand(&cof);
+            let mut fs = ctx.collect_factors(p.sorted());
+            fs.push(s);
+            out.push(Expr::mul(fs));
         }
     }
     Expr::add(out)

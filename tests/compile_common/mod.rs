@@ -6,7 +6,33 @@
 #![allow(clippy::needless_range_loop)]
 
 use lagrangian::diff::Differentiator;
-use lagrangian::{Expr, Symbol};
+use lagrangian::{Expr, Rational, Symbol};
+
+/// Multiplies products of sums out (and small positive integer powers of sums), so like terms
+/// meet and cancel in the canonical sum: the form the mechanics stage hands to the compiler
+/// (its `mass_matrix_split` contracts `F` as a polynomial the same way).
+pub fn expand(e: &Expr) -> Expr {
+    e.map_bottom_up(&mut |x| match x.node() {
+        lagrangian::Node::Mul(fs) if fs.iter().any(|f| matches!(f.node(), lagrangian::Node::Add(_))) => {
+            let mut acc = vec![Expr::one()];
+            for f in fs {
+                let terms = f.terms();
+                acc = acc.iter().flat_map(|a| terms.iter().map(move |t| a.times(t))).collect();
+            }
+            Some(Expr::add(acc))
+        }
+        lagrangian::Node::Pow(b, k) if matches!(b.node(), lagrangian::Node::Add(_)) => {
+            let k = k.as_num().filter(|r| r.is_integer() && *r > &Rational::from_integer(1.into()))?;
+            let k: i64 = k.to_integer().try_into().ok().filter(|k| *k <= 4)?;
+            let mut acc = vec![Expr::one()];
+            for _ in 0..k {
+                acc = acc.iter().flat_map(|a| b.terms().into_iter().map(move |t| a.times(&t))).collect();
+            }
+            Some(Expr::add(acc))
+        }
+        _ => None,
+    })
+}
 
 /// `W_ij = ∂²L/∂q'_i∂q'_j` and `F_i = ∂L/∂q_i − Σ_j ∂²L/∂q'_i∂q_j q'_j − ∂²L/∂q'_i∂t`.
 pub fn mass_matrix_split(l: &Expr, coords: &[&str]) -> (Vec<Vec<Expr>>, Vec<Expr>) {
@@ -22,7 +48,7 @@ pub fn mass_matrix_split(l: &Expr, coords: &[&str]) -> (Vec<Vec<Expr>>, Vec<Expr
             for j in 0..q.len() {
                 terms.push(d.diff(&p[i], &q[j]).times(&Expr::sym(v[j].clone())).neg());
             }
-            Expr::add(terms)
+            expand(&Expr::add(terms))
         })
         .collect();
     (w, f)
