@@ -219,6 +219,25 @@ fn oscillator_action_angle() {
     assert_eq!(r.line("{Q, J} = "), "1");
     assert_eq!(r.line("{J, H} = "), "0");
     assert_eq!(r.line("{Q, H} = "), "ω");
+    // F1 = ½ m ω q² cot Q (PHYSICS.md §4): q = sqrt(2P/(mω)) sin Q, p = sqrt(2mωP) cos Q,
+    // K = ω P. Compared at arbitrary values.
+    let d = Declarations::new().with_positive(["m", "ω"]);
+    let at = |e: &str| {
+        let e = parse_with(e, &d).unwrap();
+        lagrangian::eval::eval_with(&e, &|s: &lagrangian::Symbol| {
+            Some(match s.name() {
+                "m" => 2.0,
+                "ω" => 3.0,
+                "P" => 0.7,
+                "Q" => 0.4,
+                _ => return None,
+            })
+        })
+        .unwrap()
+    };
+    assert!((at(&r.line("q = ")) - at("sqrt(2 P/(m ω)) sin(Q)")).abs() < 1e-14);
+    assert!((at(&r.line("p_q = ")) - at("sqrt(2 m ω P) cos(Q)")).abs() < 1e-14);
+    assert_eq!(parse_with(&r.line("K = "), &d).unwrap(), parse_with("ω P", &d).unwrap());
     let c = r.csv("oscillator.csv");
     // J = E/ω = (½ m ω² q0²)/ω = ½·2·3·1 = 3.
     assert!((c["J"][0] - 3.0).abs() < 1e-12);
@@ -241,6 +260,32 @@ fn adiabatic_oscillator() {
 #[test]
 fn anharmonic_oscillator() {
     let r = run("anharmonic_oscillator");
+    // The averaged relations (PHYSICS.md §2.8.2): C = 0 solves ∂⟨L⟩/∂C = 0, and with
+    // B = C = 0, ∂⟨L⟩/∂A = 0 holds at ω² = ω0² (1 + 3/2 σ A²) (by hand from ⟨L⟩ =
+    // m l0² A² (ω² − ω0²)/4 − 3 m l0² ω0² σ A⁴/16). Checked at arbitrary values.
+    let d = Declarations::new().with_positive(["m", "ω0", "σ", "l0"]);
+    let rel = |a: &str| parse_with(r.line(&format!("∂⟨L⟩/∂{a}: ")).trim_end_matches(" = 0"), &d).unwrap();
+    let (ra, rc) = (rel("A"), rel("C"));
+    let values = |amp: f64, b: f64, c: f64, w: f64| {
+        move |s: &lagrangian::Symbol| -> Option<f64> {
+            Some(match s.name() {
+                "A" => amp,
+                "B" => b,
+                "C" => c,
+                "ω" => w,
+                "ω0" => 1.3,
+                "σ" => 0.2,
+                "l0" => 0.7,
+                "m" => 1.9,
+                _ => return None,
+            })
+        }
+    };
+    let eval = |e: &Expr, f: &dyn Fn(&lagrangian::Symbol) -> Option<f64>| lagrangian::eval::eval_with(e, f).unwrap();
+    assert!(eval(&rc, &values(0.8, 0.3, 0.0, 1.1)).abs() < 1e-14);
+    let w = (1.3f64 * 1.3 * (1.0 + 1.5 * 0.2 * 0.8 * 0.8)).sqrt();
+    assert!(eval(&ra, &values(0.8, 0.0, 0.0, w)).abs() < 1e-13);
+    assert!(eval(&ra, &values(0.8, 0.0, 0.0, 1.3)).abs() > 1e-3, "the linear frequency must not solve it");
     let c = r.csv("anharmonic.csv");
     assert!(max_rel_drift(&c["H"]) < 1e-9);
     // The period from downward zero crossings of x, against the quadrature

@@ -212,6 +212,34 @@ pub enum StmtKind {
         /// The file.
         path: Src,
     },
+    /// `average [L] with x = … phase θ frequency ω amplitudes A, B`
+    Average {
+        /// The Lagrangian (default `L`).
+        l: Option<Src>,
+        /// Trial functions: coordinate and its value as a function of the phase.
+        trials: Vec<(Src, Src)>,
+        /// The phase.
+        phase: Src,
+        /// The frequency `ω = θ'`.
+        frequency: Src,
+        /// The amplitudes.
+        amplitudes: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `transform [H] with F1 = … new Q, P`
+    Transform {
+        /// The Hamiltonian (default `H`, or `legendre(L)`).
+        h: Option<Src>,
+        /// `F1` … `F4`.
+        kind: String,
+        /// The generating function.
+        f: Src,
+        /// New coordinates then new momenta.
+        new: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
     /// `load FILE`
     Load(Src),
     /// `help`, `help WORD`

@@ -30,6 +30,8 @@ pub const STATEMENTS: &[&str] = &[
     "conserved",
     "pb",
     "energy",
+    "average",
+    "transform",
     "print",
     "simulate",
     "plot",
@@ -483,6 +485,53 @@ impl Builder {
                 }
                 let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
                 StmtKind::Export { items, run, path }
+            }
+            Rule::average => {
+                let mut l = None;
+                let mut trials = Vec::new();
+                let mut names = Vec::new();
+                let mut amplitudes = Vec::new();
+                let mut format = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::sexpr => l = Some(self.src(&q)),
+                        Rule::init => {
+                            let mut it = q.into_inner();
+                            if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                                trials.push((self.src(&s), self.src(&v)));
+                            }
+                        }
+                        Rule::name => names.push(self.src(&q)),
+                        Rule::name_list => amplitudes = self.names(q),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                let mut it = names.into_iter();
+                match (it.next(), it.next()) {
+                    (Some(phase), Some(frequency)) => {
+                        StmtKind::Average { l, trials, phase, frequency, amplitudes, format }
+                    }
+                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
+                }
+            }
+            Rule::transform => {
+                let mut exprs = Vec::new();
+                let mut kind = String::new();
+                let mut new = Vec::new();
+                let mut format = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::sexpr => exprs.push(self.src(&q)),
+                        Rule::gen_kind => kind = q.as_str().to_string(),
+                        Rule::name_list => new = self.names(q),
+                        Rule::as_format => format = Some(self.format(q)),
+                        _ => {}
+                    }
+                }
+                let f =
+                    exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
+                StmtKind::Transform { h: exprs.pop(), kind, f, new, format }
             }
             Rule::load => {
                 let path = inner.into_iter().next().map(|q| self.path(q));

@@ -86,6 +86,10 @@ pub enum Step {
     Conserved,
     /// A Poisson bracket.
     Bracket,
+    /// An averaged Lagrangian.
+    Average,
+    /// A canonical transformation.
+    Transform,
     /// The energy function.
     Energy,
     /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
@@ -107,6 +111,8 @@ impl Step {
             Step::Hamilton => "Hamilton's equations",
             Step::Conserved => "conserved quantities",
             Step::Bracket => "Poisson bracket",
+            Step::Average => "averaged Lagrangian",
+            Step::Transform => "canonical transformation",
             Step::Energy => "energy function",
             Step::Momenta => "canonical momenta",
             Step::Split => "separable split H = T(p) + V(q)",
@@ -262,6 +268,9 @@ pub struct Session {
     span: Span,
     load_depth: usize,
     diff: Differentiator,
+    /// Names a statement introduces for itself (the phase, frequency and amplitudes of
+    /// `average`), accepted in its expressions.
+    local_names: Vec<String>,
 }
 
 /// The deepest chain of `load` statements.
@@ -318,6 +327,7 @@ impl Session {
             span: (0, 0),
             load_depth: 0,
             diff: Differentiator::new(),
+            local_names: Vec::new(),
         }
     }
 
@@ -446,6 +456,26 @@ impl Session {
             StmtKind::Simulate(spec) => self.simulate(spec),
             StmtKind::Plot(spec) => self.plot(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
+            StmtKind::Average { l, trials, phase, frequency, amplitudes, format } => {
+                self.local_names = std::iter::once(phase)
+                    .chain(std::iter::once(frequency))
+                    .chain(amplitudes)
+                    .map(|n| n.text.clone())
+                    .collect();
+                let r = self.average(l.as_ref(), trials, phase, frequency, amplitudes);
+                self.local_names.clear();
+                let lines = r?;
+                self.print_all(vec![Printed::Lines(lines)], *format);
+                Ok(())
+            }
+            StmtKind::Transform { h, kind, f, new, format } => {
+                self.local_names = new.iter().map(|n| n.text.clone()).collect();
+                let r = self.transform(h.as_ref(), kind, f, new);
+                self.local_names.clear();
+                let lines = r?;
+                self.print_all(vec![Printed::Lines(lines)], *format);
+                Ok(())
+            }
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
                 let text = super::help::help(word.as_ref().map(|w| w.text.as_str()));
@@ -591,7 +621,7 @@ impl Session {
     /// `Some(def)` if `s` names a definition; an error if `s` is unknown.
     fn check_symbol(&self, s: &Symbol, src: &Src) -> Result<Option<usize>, SceneError> {
         let name = s.name();
-        if s.is_time() {
+        if s.is_time() || (s.primes() == 0 && self.local_names.iter().any(|n| n == name)) {
             return Ok(None);
         }
         if self.coords.iter().any(|c| c.name() == name) {
@@ -930,6 +960,110 @@ impl Session {
         let ps: Vec<Expr> = self.coords.clone().iter().map(|q| self.diff.diff(l, &q.prime())).collect();
         match self.record(Step::Momenta, format!("of {}", short(l)), key, Ok(Value::Exprs(ps)), self.span)? {
             Value::Exprs(v) => Ok(v),
+            _ => Ok(vec![]),
+        }
+    }
+
+    fn average(
+        &mut self,
+        l: Option<&Src>,
+        trials: &[(Src, Src)],
+        phase: &Src,
+        frequency: &Src,
+        amplitudes: &[Src],
+    ) -> Result<Vec<Line>, SceneError> {
+        let l = match l {
+            Some(src) => self.resolved(src)?,
+            None => self.lagrangian()?,
+        };
+        let mut pairs = Vec::new();
+        for (q, e) in trials {
+            if !self.coords.iter().any(|c| c.name() == q.text) {
+                return Err(SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", q.text))
+                    .at(q.span)
+                    .hint("a trial function replaces a coordinate: `x = A cos(θ)`"));
+            }
+            pairs.push((Symbol::new(&q.text), self.resolved(e)?));
+        }
+        let phase = Symbol::new(&phase.text);
+        let frequency = Symbol::new(&frequency.text);
+        let amps: Vec<Symbol> = amplitudes.iter().map(|a| Symbol::new(&a.text)).collect();
+        let mut inputs = vec![l.clone(), Expr::sym(phase.clone()), Expr::sym(frequency.clone())];
+        for (q, e) in &pairs {
+            inputs.push(Expr::sym(q.clone()));
+            inputs.push(e.clone());
+        }
+        inputs.extend(amps.iter().cloned().map(Expr::sym));
+        let key = CacheKey {
+            step: Step::Average,
+            coords: self.coords.clone(),
+            inputs,
+            numbers: vec![],
+            extra: String::new(),
+        };
+        let what = format!("of {}", short(&l));
+        if let Some(Value::Lines(v)) = self.lookup(&key, Step::Average, &what) {
+            return Ok(v);
+        }
+        let built = self
+            .backend
+            .average(&l, &pairs, &phase, &frequency, &amps)
+            .map(Value::Lines)
+            .map_err(|e| backend_error(e, self.span));
+        match self.record(Step::Average, what, key, built, self.span)? {
+            Value::Lines(v) => Ok(v),
+            _ => Ok(vec![]),
+        }
+    }
+
+    fn transform(&mut self, h: Option<&Src>, kind: &str, f: &Src, new: &[Src]) -> Result<Vec<Line>, SceneError> {
+        let n = self.coords.len();
+        if n == 0 {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
+                .at(self.span)
+                .hint("declare them first, for example `coordinates q`"));
+        }
+        if new.len() != 2 * n {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!(
+                    "{} new names for {n} coordinate(s): give {n} new coordinates, then {n} new momenta",
+                    new.len()
+                ),
+            )
+            .at(new.first().map_or(self.span, |s| (s.span.0, new[new.len() - 1].span.1)))
+            .hint("for one coordinate: `new Q, P`"));
+        }
+        let h = match h {
+            Some(src) => self.resolved(src)?,
+            None => self.hamiltonian()?,
+        };
+        let f_expr = self.resolved(f)?;
+        let new_q: Vec<Symbol> = new[..n].iter().map(|s| Symbol::new(&s.text)).collect();
+        let new_p: Vec<Symbol> = new[n..].iter().map(|s| Symbol::new(&s.text)).collect();
+        let mut inputs = vec![h.clone(), f_expr.clone()];
+        inputs.extend(new_q.iter().chain(&new_p).cloned().map(Expr::sym));
+        let key = CacheKey {
+            step: Step::Transform,
+            coords: self.coords.clone(),
+            inputs,
+            numbers: vec![],
+            extra: kind.to_string(),
+        };
+        let what = format!("by {kind} = {}", short(&f_expr));
+        if let Some(Value::Lines(v)) = self.lookup(&key, Step::Transform, &what) {
+            return Ok(v);
+        }
+        let decls = self.declarations();
+        let coords = self.coords.clone();
+        let sys = SystemRef { coords: &coords, decls: &decls };
+        let built = self
+            .backend
+            .transform(&sys, &h, kind, &f_expr, &new_q, &new_p)
+            .map(Value::Lines)
+            .map_err(|e| backend_error(e, self.span));
+        match self.record(Step::Transform, what, key, built, self.span)? {
+            Value::Lines(v) => Ok(v),
             _ => Ok(vec![]),
         }
     }
