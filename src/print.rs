@@ -182,23 +182,55 @@ impl Printer {
         }
         let mut numer: Vec<Piece> = Vec::new();
         let mut denom: Vec<Piece> = Vec::new();
-        if !coeff.numer().is_one() || rest.is_one() {
-            numer.push(Piece { text: coeff.numer().to_string(), prec: ATOM });
-        }
-        if !coeff.denom().is_one() {
-            denom.push(Piece { text: coeff.denom().to_string(), prec: ATOM });
-        }
+        // Sums among the factors: a rational times a lone sum distributes when it is built
+        // (`2 (x + 1)` is `2 x + 2`), so plain output must never spell such a product.
+        let (mut numer_sums, mut denom_sums) = (Vec::new(), Vec::new());
+        let (mut numer_other, mut denom_other) = (0usize, 0usize);
         for f in rest.factors() {
             let (b, x) = f.base_exp();
+            let is_sum = matches!(b.node(), Node::Add(_));
             if x.is_negative_form() {
-                denom.push(self.power(&b, &x.neg()));
+                let x = x.neg();
+                if is_sum && x.is_one() {
+                    denom_sums.push(self.power(&b, &x));
+                } else {
+                    denom_other += 1;
+                    denom.push(self.power(&b, &x));
+                }
+            } else if is_sum && x.is_one() {
+                numer_sums.push(self.power(&b, &x));
             } else {
+                numer_other += 1;
                 numer.push(self.power(&b, &x));
             }
         }
-        if numer.is_empty() {
-            numer.push(Piece { text: "1".into(), prec: ATOM });
+        let n_text = coeff.numer().to_string();
+        let d_text = coeff.denom().to_string();
+        let plain = self.format == Format::Plain;
+        // `n (a + b) (c + d)` would distribute `n` over the first sum on re-parsing:
+        // group the sums, `n ((a + b) (c + d))`; a lone sum goes last, after the division.
+        let coeff_on_sums = plain && !coeff.numer().is_one() && numer_other == 0 && !numer_sums.is_empty();
+        let lone_sum_last = coeff_on_sums && numer_sums.len() == 1;
+        // `1/(2 (x + 1))` likewise: divide by the coefficient separately, `1/(x + 1)/2`.
+        let coeff_under_sums = plain && !coeff.denom().is_one() && denom_other == 0 && !denom_sums.is_empty();
+        let mut trailing = Vec::new();
+        if coeff_on_sums {
+            if lone_sum_last {
+                trailing = numer_sums.split_off(0);
+            } else {
+                let grouped = self.join_factors(numer_sums.split_off(0));
+                numer.push(Piece { text: format!("({grouped})"), prec: ATOM });
+            }
         }
+        if !coeff.numer().is_one() || rest.is_one() || (numer.is_empty() && numer_sums.is_empty()) {
+            let text = if coeff.numer().is_one() && !rest.is_one() { "1".to_string() } else { n_text };
+            numer.insert(0, Piece { text, prec: ATOM });
+        }
+        numer.extend(numer_sums);
+        if !coeff.denom().is_one() && !coeff_under_sums {
+            denom.insert(0, Piece { text: d_text.clone(), prec: ATOM });
+        }
+        denom.extend(denom_sums);
         // `join_factors` parenthesises pieces that bind looser than a power, so a lone piece
         // that was wrapped is an atom afterwards (wrapping it again printed `1/((x + 1))`).
         let joined_prec = |pieces: &[Piece]| match pieces {
@@ -207,20 +239,28 @@ impl Printer {
             _ => PRODUCT,
         };
         let numer_prec = joined_prec(&numer);
-        let num_text = self.join_factors(numer);
-        if denom.is_empty() {
-            return Piece { text: num_text, prec: numer_prec };
+        let mut text = self.join_factors(numer);
+        let mut prec = numer_prec;
+        if !denom.is_empty() {
+            let den_prec = joined_prec(&denom);
+            let den_text = self.join_factors(denom);
+            text = match self.format {
+                Format::Latex => format!("\\frac{{{text}}}{{{den_text}}}"),
+                _ => {
+                    let den = self.wrap(Piece { text: den_text, prec: den_prec }, POWER);
+                    format!("{text}/{den}")
+                }
+            };
+            prec = if self.format == Format::Latex { ATOM } else { PRODUCT };
         }
-        let den_prec = joined_prec(&denom);
-        let den_text = self.join_factors(denom);
-        let text = match self.format {
-            Format::Latex => format!("\\frac{{{num_text}}}{{{den_text}}}"),
-            _ => {
-                let den = self.wrap(Piece { text: den_text, prec: den_prec }, POWER);
-                format!("{num_text}/{den}")
-            }
-        };
-        let prec = if self.format == Format::Latex { ATOM } else { PRODUCT };
+        if coeff_under_sums {
+            text = format!("{text}/{d_text}");
+            prec = PRODUCT;
+        }
+        if !trailing.is_empty() {
+            text = format!("{text} {}", self.join_factors(trailing));
+            prec = PRODUCT;
+        }
         Piece { text, prec }
     }
 
