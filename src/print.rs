@@ -211,7 +211,7 @@ impl Printer {
         // group the sums, `n ((a + b) (c + d))`; a lone sum goes last, after the division.
         let coeff_on_sums = plain && !coeff.numer().is_one() && numer_other == 0 && !numer_sums.is_empty();
         let lone_sum_last = coeff_on_sums && numer_sums.len() == 1;
-        // `1/(2 (x + 1))` likewise: divide by the coefficient separately, `1/(x + 1)/2`.
+        // `1/(2 (x + 1))` likewise: the coefficient stays in front, `1/2/(x + 1)`.
         let coeff_under_sums = plain && !coeff.denom().is_one() && denom_other == 0 && !denom_sums.is_empty();
         let mut trailing = Vec::new();
         if coeff_on_sums {
@@ -222,7 +222,10 @@ impl Printer {
                 numer.push(Piece { text: format!("({grouped})"), prec: ATOM });
             }
         }
-        if !coeff.numer().is_one() || rest.is_one() || (numer.is_empty() && numer_sums.is_empty()) {
+        if coeff_under_sums {
+            // The whole coefficient leads, as physicists write it: `1/2 p^2/(m1 + m2)`.
+            numer.insert(0, Piece { text: format!("{n_text}/{d_text}"), prec: ATOM });
+        } else if !coeff.numer().is_one() || rest.is_one() || (numer.is_empty() && numer_sums.is_empty()) {
             let text = if coeff.numer().is_one() && !rest.is_one() { "1".to_string() } else { n_text };
             numer.insert(0, Piece { text, prec: ATOM });
         }
@@ -252,10 +255,6 @@ impl Printer {
                 }
             };
             prec = if self.format == Format::Latex { ATOM } else { PRODUCT };
-        }
-        if coeff_under_sums {
-            text = format!("{text}/{d_text}");
-            prec = PRODUCT;
         }
         if !trailing.is_empty() {
             text = format!("{text} {}", self.join_factors(trailing));
