@@ -4,6 +4,7 @@
 //! ```text
 //! cargo bench --bench work_precision              # everything (~2 minutes on 2 cores)
 //! cargo bench --bench work_precision -- quick     # work-precision only, fewer repeats
+//! cargo bench --bench work_precision -- double-pendulum   # only the double-pendulum diagram
 //! ```
 //!
 //! Every right-hand side here is hand-written (`lagrangian::integrate::problems`); a compiled
@@ -275,28 +276,30 @@ fn hand_rk4<S: Rhs>(sys: &S, t1: f64, y0: &[f64], n: usize) -> Vec<f64> {
     y
 }
 
-fn work_precision(budget: Duration, report: &mut String) {
-    // Pendulum, released from rest at 2 rad, to t = 20 (about 2.4 periods); exact solution by
-    // Jacobi elliptic functions.
-    let pend = Pendulum { omega: 1.0 };
-    let (t1, y0) = (20.0, [2.0, 0.0]);
-    let exact = pend.exact_from_rest(2.0, t1);
-    let n_lo = geometric(20.0, 2e6, 2);
-    let n_hi = geometric(10.0, 2e5, 3);
-    let series = separable_and_rk(&pend, t1, &y0, &n_lo, &n_hi);
-    let p = sweep("Pendulum θ0 = 2, t = 20 (exact: Jacobi elliptic functions)", &exact, &series, budget);
-    plot("benches/plots/work_precision_pendulum.svg", "Pendulum (θ0 = 2, t = 20)", &p, &[]).expect("plot");
-    summary(report, "Pendulum θ0 = 2, t = 20", &p, &[1e-6, 1e-10]);
+fn work_precision(budget: Duration, dp_only: bool, report: &mut String) {
+    if !dp_only {
+        // Pendulum, released from rest at 2 rad, to t = 20 (about 2.4 periods); exact solution by
+        // Jacobi elliptic functions.
+        let pend = Pendulum { omega: 1.0 };
+        let (t1, y0) = (20.0, [2.0, 0.0]);
+        let exact = pend.exact_from_rest(2.0, t1);
+        let n_lo = geometric(20.0, 2e6, 2);
+        let n_hi = geometric(10.0, 2e5, 3);
+        let series = separable_and_rk(&pend, t1, &y0, &n_lo, &n_hi);
+        let p = sweep("Pendulum θ0 = 2, t = 20 (exact: Jacobi elliptic functions)", &exact, &series, budget);
+        plot("benches/plots/work_precision_pendulum.svg", "Pendulum (θ0 = 2, t = 20)", &p, &[]).expect("plot");
+        summary(report, "Pendulum θ0 = 2, t = 20", &p, &[1e-6, 1e-10]);
 
-    // Kepler e = 0.9 to t = 20 (3.2 orbits); exact by Kepler's equation.
-    let y0k = Kepler::pericentre(0.9);
-    let exact = Kepler::exact(0.9, t1);
-    let n_lo = geometric(200.0, 4e6, 2);
-    let n_hi = geometric(100.0, 4e5, 3);
-    let series = separable_and_rk(&Kepler, t1, &y0k, &n_lo, &n_hi);
-    let p = sweep("Kepler e = 0.9, t = 20 (exact: Kepler's equation)", &exact, &series, budget);
-    plot("benches/plots/work_precision_kepler.svg", "Kepler e = 0.9 (t = 20)", &p, &[]).expect("plot");
-    summary(report, "Kepler e = 0.9, t = 20", &p, &[1e-4, 1e-8]);
+        // Kepler e = 0.9 to t = 20 (3.2 orbits); exact by Kepler's equation.
+        let y0k = Kepler::pericentre(0.9);
+        let exact = Kepler::exact(0.9, t1);
+        let n_lo = geometric(200.0, 4e6, 2);
+        let n_hi = geometric(100.0, 4e5, 3);
+        let series = separable_and_rk(&Kepler, t1, &y0k, &n_lo, &n_hi);
+        let p = sweep("Kepler e = 0.9, t = 20 (exact: Kepler's equation)", &exact, &series, budget);
+        plot("benches/plots/work_precision_kepler.svg", "Kepler e = 0.9 (t = 20)", &p, &[]).expect("plot");
+        summary(report, "Kepler e = 0.9, t = 20", &p, &[1e-4, 1e-8]);
+    }
 
     // Double pendulum to t = 10 against the 50-digit reference. Not separable: Runge–Kutta,
     // collocation and DOP853 only.
@@ -313,6 +316,17 @@ fn work_precision(budget: Duration, report: &mut String) {
         fixed("Gauss 4", Gauss::gauss4, &dp, t1, &y0d, &n_hi),
         fixed("Gauss 6", Gauss::gauss6, &dp, t1, &y0d, &n_hi),
         dop(&dp, t1, &y0d, &[1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15]),
+        Series {
+            name: "DOP853 compensated",
+            params: vec![1e-11, 1e-12, 1e-13, 1e-14, 1e-15],
+            run: Box::new(move |tol| {
+                Dop853::new(tol, tol)
+                    .compensated()
+                    .integrate_with(&dp, 0.0..t1, &y0d, Options::new().final_only())
+                    .map(|tr| tr.last_state().to_vec())
+            }),
+        },
+        fixed("RK4 compensated", |h| ExplicitRk::rk4(h).compensated(), &dp, t1, &y0d, &geometric(1e4, 1e6, 2)),
     ];
     let p =
         sweep("Double pendulum θ = (2.0, 2.5) at rest, t = 10 (reference: 50-digit Taylor)", &exact, &series, budget);
@@ -373,7 +387,8 @@ fn summary(report: &mut String, problem: &str, points: &[Point], targets: &[f64]
             match fastest_at(points, t).into_iter().find(|x| x.0 == n) {
                 Some((_, s, e)) => {
                     let param = points.iter().find(|p| p.method == n && p.secs == s).map_or(0.0, |p| p.param);
-                    let what = if n == "DOP853" { format!("tol {param:.0e}") } else { format!("{param:.0} steps") };
+                    let what =
+                        if n.starts_with("DOP853") { format!("tol {param:.0e}") } else { format!("{param:.0} steps") };
                     let _ = write!(report, " {} ({what}, {e:.1e}) |", fmt_time(s));
                 }
                 None => {
@@ -553,11 +568,12 @@ fn structure_long(report: &mut String) {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "quick");
+    let dp_only = args.iter().any(|a| a == "double-pendulum");
     std::fs::create_dir_all("benches/plots").expect("plot directory");
     let mut report = String::new();
     let budget = Duration::from_millis(if quick { 5 } else { 60 });
-    work_precision(budget, &mut report);
-    if !quick {
+    work_precision(budget, dp_only, &mut report);
+    if !quick && !dp_only {
         structure_long(&mut report);
         long_run(&mut report);
     }

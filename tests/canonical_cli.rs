@@ -148,4 +148,11 @@ fn bad_input_exits_with_code_2_and_says_why() {
     let (code, _, err) = run(&["lie", "q", "--flow", "p_q^2/2 + t q", "--coords", "q"]);
     assert_eq!(code, 2);
     assert!(err.contains("autonomous"), "{err}");
+    // Resource limits are errors, not hangs.
+    let (code, _, err) = run(&["lie", "q", "--flow", "p_q^2/2 - cos(q)", "--coords", "q", "--order", "1000"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("above the limit"), "{err}");
+    let (code, _, err) = run(&["average", "x^2", "--trial", "x = A cos(θ)^1000"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("not multiplied out"), "{err}");
 }

@@ -32,6 +32,7 @@ H = p_θ^2/(2 m l^2) + V
 print H
 latex
 pb θ, H as plain
+simulate θ = 1, p_θ = 0 for t in 0..1 with leapfrog dt = 0.01
 print θ + * 2
 print H + q
 energy
@@ -49,7 +50,7 @@ fn a_session_survives_its_errors() {
     let (code, out) = session(SESSION, &history, dir.path());
     assert_eq!(code, 0, "{out}");
     // Every entry is echoed after the prompt, so the transcript reads like the session.
-    assert_eq!(out.matches("lagrangian> ").count(), 19, "{out}");
+    assert_eq!(out.matches("lagrangian> ").count(), 20, "{out}");
     let after = |stmt: &str| -> String {
         let start = out.find(&format!("lagrangian> {stmt}\n")).unwrap_or_else(|| panic!("no `{stmt}` in {out}"));
         let rest = &out[start + "lagrangian> ".len() + stmt.len() + 1..];
@@ -66,6 +67,9 @@ fn a_session_survives_its_errors() {
     assert!(after("latex").starts_with("H = g l m \\left(1 - \\cos\\left(\\theta\\right)\\right)"), "{out}");
     // {θ, H} = ∂H/∂p_θ = p_θ/(m l²), by hand.
     assert_eq!(after("pb θ, H as plain"), "{θ, H} = p_θ/(l^2 m)");
+    // The REPL runs a simulation at once and summarises it.
+    let sim = after("simulate θ = 1, p_θ = 0 for t in 0..1 with leapfrog dt = 0.01");
+    assert!(sim.starts_with("run1: leapfrog from t = 0 to t = 1 in 100 steps; final θ = "), "{sim}");
     // Error 2: a missing operand; error 3: an undefined symbol.
     assert!(after("print θ + * 2").contains("expected a name or an expression, found `*`"), "{out}");
     let e3 = after("print H + q");

@@ -182,3 +182,41 @@ pb H, Lz as plain
     assert_eq!(lagrangian::parse(first).unwrap(), lz);
     assert_eq!(lines[1], "{H, Lz} = 0");
 }
+
+#[test]
+fn explain_shows_what_a_splitting_run_skips() {
+    // The real stages: only the Legendre transform, its split, the momenta (to turn θ' into
+    // p_θ), the compiled drift/kick and the integration are built.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "\
+coordinates θ
+parameters m = 1, l = 1, g = 9.81 positive
+L = 1/2 m l^2 θ'^2 - m g l (1 - cos(θ))
+E = el(L)
+simulate θ = 1, θ' = 0 for t in 0..1 with yoshida4 dt = 0.01
+plot θ vs t to theta.svg
+";
+    let (code, out, err) = run_in(dir.path(), scene, &["--explain"]);
+    assert_eq!(code, 0, "{err}");
+    let built: Vec<&str> = out.lines().filter(|l| l.trim_start().starts_with("built")).collect();
+    assert_eq!(built.len(), 5, "{out}");
+    for (line, what) in built.iter().zip([
+        "Legendre transform",
+        "separable split",
+        "canonical momenta",
+        "compiled right-hand side drift",
+        "integration run1 with yoshida4 (100 steps)",
+    ]) {
+        assert!(line.contains(what), "{line} / {what}");
+    }
+    for skipped in [
+        "Euler–Lagrange equations `E` (el) — no output uses `E`",
+        "Hamilton's equations — no output needs it",
+        "conserved quantities — no output needs it",
+        "energy function — no output needs it",
+        "Poisson bracket — no output needs it",
+    ] {
+        assert!(out.contains(skipped), "{skipped} not in\n{out}");
+    }
+    assert!(out.contains("5 built, 0 reused, 5 skipped"), "{out}");
+}

@@ -46,10 +46,21 @@ pub enum AverageError {
         /// The offending subexpression.
         part: String,
     },
+    /// A power too large to multiply out.
+    #[error("`{part}`: powers above {limit} of a phase-dependent factor are not multiplied out")]
+    TooLarge {
+        /// The offending power.
+        part: String,
+        /// The limit.
+        limit: u32,
+    },
     /// A velocity of a coordinate without a trial function remains.
     #[error("`{0}` remains after substituting the trial functions: give a trial function for every coordinate")]
     UnreplacedVelocity(String),
 }
+
+/// The largest power of a phase-dependent factor multiplied out.
+pub const MAX_POWER: u32 = 64;
 
 /// A finite Fourier sum: `(k, is_sin) → coefficient`, with `k ≥ 0` and no `sin 0`.
 type Fourier = BTreeMap<(u64, bool), Expr>;
@@ -130,6 +141,7 @@ fn fourier(e: &Expr, th: &Symbol) -> Result<Fourier, AverageError> {
             Ok(acc)
         }
         Node::Pow(b, x) => match x.as_num().and_then(nonneg_int) {
+            Some(n) if n > MAX_POWER => Err(AverageError::TooLarge { part: e.to_string(), limit: MAX_POWER }),
             Some(n) => {
                 let fb = fourier(b, th)?;
                 let mut acc = constant(Expr::one());

@@ -118,7 +118,8 @@ pub struct MapReport {
 #[allow(clippy::needless_range_loop)] // i, j index Q, P and the map's expressions alike
 pub fn check_map(map: &ExplicitMap, h: Option<&Expr>) -> MapReport {
     let mut d = Differentiator::new();
-    let n = map.q_new.len().min(map.p_new.len());
+    // Guard against inconsistent lengths (a library caller's map): compare what exists.
+    let n = map.q_new.len().min(map.p_new.len()).min(map.new.coords.len()).min(map.new.momenta.len());
     let mut brackets = Vec::new();
     let mut push = |name: String, f: &Expr, g: &Expr, expected: Expr, d: &mut Differentiator| {
         let raw = poisson_raw(f, g, &map.old, d);

@@ -11,8 +11,8 @@
 //! never a claim of proof.
 //!
 //! Submodules, one operation each:
-//! * [`poisson`]: brackets, `df/dt`, integrals of motion, Poisson's theorem;
-//! * [`solve`]: the small equation solver behind generating-function inversion;
+//! * [`mod@poisson`]: brackets, `df/dt`, integrals of motion, Poisson's theorem;
+//! * [`mod@solve`]: the small equation solver behind generating-function inversion;
 //! * [`generating`]: F1–F4, their relations, inverse and forward maps, `K = H + ∂F/∂t`;
 //! * [`explicit`]: canonicity of explicit maps `Q(q,p,t)`, `P(q,p,t)`;
 //! * [`lie`]: Lie series `exp(ε{·,G}) f` and the flow of `H` as a series in `t`;

@@ -7,7 +7,7 @@
 //! roots), recursively. An equation in both `sin a` and `cos a` is tried as an equation in
 //! `tan a` (substituting `sin a = T cos a`), which is how `p = m ω q cot Q` inverts.
 //!
-//! Every multi-valued inverse names the branch it took in [`Solution::branch`], e.g.
+//! Every multi-valued inverse names the branch it took in [`Solution::branches`], e.g.
 //! `q = ±√…; the + root taken`, `Q = atan(…) + nπ; n = 0 taken`. Where no closed form exists
 //! the error says why, and callers keep the relations implicit.
 

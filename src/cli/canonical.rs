@@ -195,6 +195,9 @@ pub struct AverageArgs {
     pub common: Common,
 }
 
+/// The highest Lie-series order the CLI accepts (each order nests one more bracket).
+const MAX_LIE_ORDER: usize = 40;
+
 struct Out {
     format: OutFormat,
 }
@@ -317,6 +320,11 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             let decls = common.declarations();
             let ps = phase_space(&coords, &momenta)?;
             let (_, fe) = parse_arg(&f, &decls)?;
+            if order > MAX_LIE_ORDER {
+                return Err(bad_input(format!(
+                    "error: --order {order} is above the limit {MAX_LIE_ORDER}: nested brackets grow quickly"
+                )));
+            }
             let r = match (generator, flow) {
                 (Some(g), _) => {
                     let (_, ge) = parse_arg(&g, &decls)?;

@@ -16,6 +16,7 @@
 
 mod ensemble;
 mod rhs;
+mod system;
 mod tape;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
@@ -57,6 +58,12 @@ pub enum CompileError {
     /// Inputs of inconsistent sizes (a mass matrix that is not `n × n`, …).
     #[error("{what}: expected {expected}, got {got}")]
     Shape { what: &'static str, expected: usize, got: usize },
+    /// The mechanics stage could not provide the equations (its message).
+    #[error("{0}")]
+    Mechanics(String),
+    /// The system has a feature the compiled right-hand sides do not handle yet.
+    #[error("compiling {what} is not supported")]
+    Unsupported { what: &'static str },
     /// The Hamiltonian is not of the form `T(p) + V(q, t)`.
     #[error("the Hamiltonian is not separable into T(p) + V(q, t)")]
     NotSeparable,

@@ -4,7 +4,7 @@
 
 use super::coefficients::dop853::{A, BHH, C, D, ER};
 use super::error::{check_finite, FailureReason, StepFailure};
-use super::{Method, MethodInfo, Rhs};
+use super::{add_scaled, Method, MethodInfo, Rhs};
 
 /// DOP853 with relative and absolute tolerances (per component:
 /// `|err_i| ≲ atol + rtol · max(|y_i|, |y_new,i|)`).
@@ -18,12 +18,20 @@ pub struct Dop853 {
     pub h_max: Option<f64>,
     /// Initial step size (default: Hairer's estimate).
     pub h0: Option<f64>,
+    /// Kahan-compensated summation of the state update (the stages still see `y_{n+1}`
+    /// rounded once; only the accumulated state keeps the lost low-order bits).
+    pub compensated: bool,
 }
 
 impl Dop853 {
     /// DOP853 with the given tolerances.
     pub fn new(rtol: f64, atol: f64) -> Self {
-        Dop853 { rtol, atol, h_max: None, h0: None }
+        Dop853 { rtol, atol, h_max: None, h0: None, compensated: false }
+    }
+    /// Uses compensated summation for the state update.
+    pub fn compensated(mut self) -> Self {
+        self.compensated = true;
+        self
     }
     /// Name, order and properties.
     pub fn info(&self) -> MethodInfo {
@@ -49,6 +57,8 @@ pub struct Dop853Work {
     y_old: Vec<f64>,
     err5: Vec<f64>,
     err3: Vec<f64>,
+    inc: Vec<f64>,
+    comp: Vec<f64>,
     rcont: Vec<Vec<f64>>,
     /// `k[0]` holds `f(t, y)` of the current state (after an accepted step it is still in
     /// `k[12]` until the next step starts).
@@ -134,6 +144,8 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
             y_old: vec![0.0; n],
             err5: vec![0.0; n],
             err3: vec![0.0; n],
+            inc: vec![0.0; n],
+            comp: vec![0.0; n],
             rcont: vec![vec![0.0; n]; 8],
             fsal: Fsal::None,
             h: 0.0,
@@ -196,16 +208,17 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
                     continue 'trial;
                 }
             }
-            w.y_new.copy_from_slice(y);
-            w.err3.fill(0.0);
+            // inc = Σ b_j k_j, y_new = y + h inc.
+            w.inc.fill(0.0);
             for &(j, b) in A[12] {
-                for (yn, kj) in w.y_new.iter_mut().zip(&w.k[j]) {
-                    *yn += h * b * kj;
-                }
-                for (e, kj) in w.err3.iter_mut().zip(&w.k[j]) {
+                for (e, kj) in w.inc.iter_mut().zip(&w.k[j]) {
                     *e += b * kj;
                 }
             }
+            for i in 0..n {
+                w.y_new[i] = y[i] + h * w.inc[i];
+            }
+            w.err3.copy_from_slice(&w.inc);
             for &(j, b) in &BHH {
                 for (e, kj) in w.err3.iter_mut().zip(&w.k[j]) {
                     *e -= b * kj;
@@ -254,7 +267,12 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
                 }
                 w.reject = false;
                 w.y_old.copy_from_slice(y);
-                y.copy_from_slice(&w.y_new);
+                if self.compensated {
+                    add_scaled(y, Some(&mut w.comp), h, &w.inc);
+                    w.y_new.copy_from_slice(y);
+                } else {
+                    y.copy_from_slice(&w.y_new);
+                }
                 w.t_old = t;
                 w.h_last = h;
                 w.fsal = Fsal::InK12;
@@ -322,6 +340,7 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
     }
 
     fn reset(&self, w: &mut Dop853Work) {
+        w.comp.fill(0.0);
         w.fsal = Fsal::None;
         w.dense_ready = false;
     }

@@ -39,6 +39,9 @@ use crate::expr::{Expr, Func, Node, Rational, Symbol};
 /// stays a single atom.
 const MAX_EXPANDED_TERMS: usize = 200_000;
 
+/// The largest expression (in operations) handed to the e-graph simplifier.
+const MAX_SIMPLIFY_OPS: usize = 120;
+
 /// Tidies `e`: expand, contract trigonometric products, collect common factors, simplify.
 /// Never returns a longer expression than `e` (by [`Expr::op_count`]).
 pub fn tidy(e: &Expr) -> Expr {
@@ -48,7 +51,13 @@ pub fn tidy(e: &Expr) -> Expr {
         let poly = ctx.expand(e);
         let poly = ctx.contract(poly);
         let collected = ctx.collect_poly(&poly);
-        let simplified = crate::simplify::simplify(&collected);
+        // The e-graph pays off on small expressions; on large ones its budget is spent
+        // before it finds anything, so it is skipped.
+        let simplified = if collected.op_count() <= MAX_SIMPLIFY_OPS {
+            crate::simplify::simplify(&collected)
+        } else {
+            collected.clone()
+        };
         for candidate in [collected, simplified] {
             if candidate.op_count() < best.op_count() {
                 best = candidate;

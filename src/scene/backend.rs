@@ -12,7 +12,7 @@ use std::sync::Arc;
 use crate::expr::{Expr, Symbol};
 use crate::parse::Declarations;
 
-use super::sim::Method;
+use super::sim::{Family, Method};
 
 /// One printed line of a derivation: `lhs = rhs`, with an optional label (`E_θ`, a reason).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -174,31 +174,63 @@ pub enum NativeCompiled {
     Hamiltonian(crate::compile::HamiltonianRhs),
     /// Drift and kick (splitting methods).
     Separable(crate::compile::SeparableHamiltonian),
+    /// `W q'' = F` (explicit and adaptive methods).
+    Lagrangian(crate::compile::LagrangianRhs),
+    /// `W q'' = F` with its Jacobian (implicit methods).
+    LagrangianJacobian(crate::compile::LagrangianJacobian),
 }
 
 /// The real library.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NativeBackend;
 
-const MECHANICS: &str = "mechanics (issue 3)";
-const NUMERICS: &str = "compile and integrate (issue 5)";
+fn mechanics_error(e: crate::mechanics::MechanicsError) -> BackendError {
+    BackendError::Failed(e.to_string())
+}
 
-fn not_yet(what: &str, stage: &'static str) -> BackendError {
-    BackendError::NotYetAvailable { what: what.to_string(), stage }
+fn lagrangian_system(sys: &SystemRef, l: &Expr) -> Result<crate::mechanics::System, BackendError> {
+    crate::mechanics::System::from_lagrangian_expr(l.clone(), sys.coords).map_err(mechanics_error)
+}
+
+fn hamiltonian_system(sys: &SystemRef, h: &Expr) -> Result<crate::mechanics::System, BackendError> {
+    crate::mechanics::System::from_hamiltonian_expr(h.clone(), sys.coords).map_err(mechanics_error)
+}
+
+fn momentum(q: &Symbol) -> Symbol {
+    Symbol::new(&format!("p_{}", q.name()))
 }
 
 impl Backend for NativeBackend {
-    fn euler_lagrange(&self, _sys: &SystemRef, _l: &Expr) -> Result<Vec<Line>, BackendError> {
-        Err(not_yet("`el` (Euler–Lagrange equations)", MECHANICS))
+    fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
+        let eqs = lagrangian_system(sys, l)?.euler_lagrange().map_err(mechanics_error)?;
+        Ok(sys
+            .coords
+            .iter()
+            .zip(eqs)
+            .map(|(q, e)| Line { label: Some(format!("E_{}", q.name())), lhs: e, rhs: Expr::zero(), note: None })
+            .collect())
     }
-    fn legendre(&self, _sys: &SystemRef, _l: &Expr) -> Result<Expr, BackendError> {
-        Err(not_yet("`legendre` (the Legendre transform)", MECHANICS))
+    fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
+        lagrangian_system(sys, l)?.hamiltonian().map_err(mechanics_error)
     }
-    fn hamilton(&self, _sys: &SystemRef, _h: &Expr) -> Result<Vec<Line>, BackendError> {
-        Err(not_yet("`hamilton` (Hamilton's equations)", MECHANICS))
+    fn hamilton(&self, sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError> {
+        let eqs = hamiltonian_system(sys, h)?.hamilton_equations().map_err(mechanics_error)?;
+        let mut lines = Vec::new();
+        for (q, e) in sys.coords.iter().zip(&eqs.qdot) {
+            lines.push(Line { label: None, lhs: Expr::sym(q.prime()), rhs: e.clone(), note: None });
+        }
+        for (q, e) in sys.coords.iter().zip(&eqs.pdot) {
+            lines.push(Line { label: None, lhs: Expr::sym(momentum(q).prime()), rhs: e.clone(), note: None });
+        }
+        Ok(lines)
     }
-    fn conserved(&self, _sys: &SystemRef, _f: &Expr, _is_h: bool) -> Result<Vec<Line>, BackendError> {
-        Err(not_yet("`conserved` (Noether's theorem)", MECHANICS))
+    fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError> {
+        let system = if is_hamiltonian { hamiltonian_system(sys, f)? } else { lagrangian_system(sys, f)? };
+        Ok(system
+            .conserved()
+            .into_iter()
+            .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
+            .collect())
     }
     fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError> {
         let names: Vec<&str> = sys.coords.iter().map(|q| q.name()).collect();
@@ -206,7 +238,7 @@ impl Backend for NativeBackend {
         Ok(crate::canonical::poisson(f, g, &ps))
     }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
-        use crate::compile::{HamiltonianRhs, SeparableHamiltonian};
+        use crate::compile::{HamiltonianRhs, LagrangianRhs, SeparableHamiltonian};
         let coords: Vec<&str> = req.coords.iter().map(|q| q.name()).collect();
         let momenta_owned: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
         let momenta: Vec<&str> = momenta_owned.iter().map(String::as_str).collect();
@@ -219,18 +251,182 @@ impl Backend for NativeBackend {
             Formulation::Hamiltonian(h) => {
                 NativeCompiled::Hamiltonian(HamiltonianRhs::new(h, &coords, &momenta, &params).map_err(failed)?)
             }
-            Formulation::Lagrangian(_) => {
-                return Err(not_yet("integrating `L` directly (its mass matrix W and forces F)", MECHANICS))
+            Formulation::Lagrangian(l) => {
+                let system =
+                    crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
+                let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
+                let rhs = LagrangianRhs::new(&w, &f, &coords, &params).map_err(failed)?;
+                if req.method.family == Family::Implicit {
+                    NativeCompiled::LagrangianJacobian(rhs.with_jacobian().map_err(failed)?)
+                } else {
+                    NativeCompiled::Lagrangian(rhs)
+                }
             }
         };
-        Ok(Arc::new(compiled))
+        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_));
+        let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
+        state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
+        Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
     }
     fn integrate(
         &self,
-        _compiled: &Compiled,
-        _run: &RunRequest,
-        _progress: &mut dyn FnMut(f64),
+        compiled: &Compiled,
+        run: &RunRequest,
+        progress: &mut dyn FnMut(f64),
     ) -> Result<Trajectory, BackendError> {
-        Err(not_yet("`simulate` (integrators)", NUMERICS))
+        use crate::integrate::Splitting;
+        let Some(native) = compiled.downcast_ref::<Native>() else {
+            return Err(BackendError::Failed("internal: not a natively compiled system".into()));
+        };
+        let c = &native.rhs;
+        let events = native.event_fns(&run.events);
+        let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
+        let tol = run.tol.unwrap_or(1e-10);
+        match c {
+            NativeCompiled::Separable(s) => {
+                let m = match run.method.name {
+                    "leapfrog" | "verlet" => Splitting::leapfrog(dt),
+                    "yoshida4" => Splitting::yoshida4(dt),
+                    "yoshida6" => Splitting::yoshida6(dt),
+                    "yoshida8" => Splitting::yoshida8(dt),
+                    "blanes_moan" => Splitting::blanes_moan4(dt),
+                    "symplectic_euler" => Splitting::symplectic_euler(dt),
+                    other => return Err(BackendError::Failed(format!("`{other}` is not a splitting method"))),
+                };
+                drive(&m, s, run, &events, progress)
+            }
+            NativeCompiled::Hamiltonian(r) => by_method(r, run, dt, tol, &events, progress),
+            NativeCompiled::Lagrangian(r) => by_method(r, run, dt, tol, &events, progress),
+            NativeCompiled::LagrangianJacobian(r) => by_method(r, run, dt, tol, &events, progress),
+        }
+        .map(|mut t| {
+            if t.stop.is_empty() {
+                t.stop = "end of the time span".into();
+            }
+            t
+        })
     }
+}
+
+/// Event functions with their parameters bound, evaluated on the state.
+type EventFns = Vec<(Box<dyn Fn(f64, &[f64]) -> f64 + Sync>, EventRequest)>;
+
+/// A compiled right-hand side with the event functions of its run.
+struct Native {
+    rhs: NativeCompiled,
+    events: Vec<Expr>,
+    /// Plain names of the state's entries (`x`, `x'` or `p_x`).
+    state: Vec<String>,
+    params: Vec<(String, f64)>,
+}
+
+impl Native {
+    /// Event functions evaluated by the reference evaluator (called once per step, so
+    /// their cost is small next to the right-hand side's).
+    fn event_fns(&self, requests: &[EventRequest]) -> EventFns {
+        requests
+            .iter()
+            .filter_map(|r| {
+                let e = self.events.get(r.index)?.clone();
+                let state = self.state.clone();
+                let params = self.params.clone();
+                let g = move |t: f64, y: &[f64]| -> f64 {
+                    crate::eval::eval_with(&e, &|s: &Symbol| {
+                        if s.is_time() {
+                            return Some(t);
+                        }
+                        let name = s.to_string();
+                        if let Some(i) = state.iter().position(|n| *n == name) {
+                            return y.get(i).copied();
+                        }
+                        params.iter().find(|(n, _)| n == s.name()).map(|(_, v)| *v)
+                    })
+                    .unwrap_or(f64::NAN)
+                };
+                Some((Box::new(g) as Box<dyn Fn(f64, &[f64]) -> f64 + Sync>, r.clone()))
+            })
+            .collect()
+    }
+}
+
+fn by_method<S: crate::integrate::Rhs>(
+    sys: &S,
+    run: &RunRequest,
+    dt: f64,
+    tol: f64,
+    events: &EventFns,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Trajectory, BackendError> {
+    use crate::integrate::{Dop853, ExplicitRk, Gauss};
+    match run.method.name {
+        "midpoint" => drive(&Gauss::midpoint(dt), sys, run, events, progress),
+        "gauss4" => drive(&Gauss::gauss4(dt), sys, run, events, progress),
+        "gauss6" => drive(&Gauss::gauss6(dt), sys, run, events, progress),
+        "euler" => drive(&ExplicitRk::euler(dt), sys, run, events, progress),
+        "rk4" => drive(&ExplicitRk::rk4(dt), sys, run, events, progress),
+        "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, progress),
+        other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
+    }
+}
+
+/// The most states a trajectory keeps (longer runs keep every k-th step).
+const MAX_POINTS: usize = 20_000;
+
+fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
+    method: &M,
+    sys: &S,
+    run: &RunRequest,
+    events: &EventFns,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Trajectory, BackendError> {
+    use crate::integrate::{Crossing, Event, Integrate, Options, Status};
+    let numeric = |e: crate::integrate::IntegrateError| BackendError::Numeric(e.to_string());
+    let expected_steps = run.dt.map_or(MAX_POINTS, |h| ((run.t1 - run.t0) / h).ceil() as usize);
+    let every = expected_steps.div_ceil(MAX_POINTS).max(1);
+    if !events.is_empty() {
+        let mut opts = Options::new().every(every);
+        for (g, req) in events {
+            let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
+                Some(true) => Crossing::Rising,
+                Some(false) => Crossing::Falling,
+                None => Crossing::Either,
+            });
+            if req.terminal {
+                e = e.stop();
+            }
+            opts = opts.event(e);
+        }
+        let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(numeric)?;
+        progress(1.0);
+        let dim = tr.dim;
+        return Ok(Trajectory {
+            t: tr.times.clone(),
+            y: tr.states.chunks(dim).map(<[f64]>::to_vec).collect(),
+            events: tr.events.iter().map(|e| (e.index, e.t, e.state.clone())).collect(),
+            steps: tr.stats.steps,
+            stop: format!("{:?}", tr.stop),
+        });
+    }
+    let mut solver = method.solver(sys, run.t0, &run.y0, run.t1).map_err(numeric)?;
+    let mut out = Trajectory { t: vec![run.t0], y: vec![run.y0.clone()], ..Trajectory::default() };
+    let span = run.t1 - run.t0;
+    let mut k = 0usize;
+    loop {
+        let status = solver.step().map_err(numeric)?;
+        k += 1;
+        let done = status == Status::Finished;
+        if done || k % every == 0 {
+            out.t.push(solver.t());
+            out.y.push(solver.y().to_vec());
+        }
+        if k % 256 == 0 {
+            progress((solver.t() - run.t0) / span);
+        }
+        if done {
+            break;
+        }
+    }
+    progress(1.0);
+    out.steps = solver.steps();
+    Ok(out)
 }

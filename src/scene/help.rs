@@ -46,7 +46,7 @@ pub fn help(word: Option<&str>) -> String {
             for t in TOPICS {
                 s.push_str(&format!("  {:<12} {}\n", t.word, t.form));
             }
-            s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open or a line ends with an operator.");
+            s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open, after a trailing operator, or on an indented line.");
             s
         }
         Some(w) => {

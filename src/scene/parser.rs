@@ -1,6 +1,6 @@
 //! Scene text → statements. The text is first split into logical statements (one per line,
 //! continued while a bracket is open, while a line ends with an operator or a comma, or when
-//! the next line starts with an operator); each statement is then parsed by the pest grammar
+//! the next line is indented or starts with an operator); each statement is then parsed by the pest grammar
 //! in `grammar/scene.pest`, which reuses the expression rules of `grammar/expr.pest`.
 //!
 //! No pest type leaves this module. Every span is a byte range of the whole scene text.
@@ -70,8 +70,9 @@ pub fn split_statements(text: &str) -> Vec<Span> {
             continue;
         }
         let leads_with_operator = trimmed.starts_with(['+', '-', '*', '/', '^', '·', '×']);
+        let indented = raw.starts_with([' ', '\t']);
         match start {
-            Some(_) if depth > 0 || continues || leads_with_operator => {}
+            Some(_) if depth > 0 || continues || leads_with_operator || indented => {}
             Some(s) => {
                 out.push((s, line_start));
                 start = Some(line_start);
@@ -288,9 +289,13 @@ struct Builder {
 }
 
 impl Builder {
+    /// The text of a pair without the blanks and comments pest's implicit rules may have
+    /// consumed at its end (expressions never contain `#`).
     fn src(&self, p: &Pair<Rule>) -> Src {
         let s = p.as_span();
-        Src { text: p.as_str().to_string(), span: (self.base + s.start(), self.base + s.end()) }
+        let raw = p.as_str();
+        let text = raw.split('#').next().unwrap_or(raw).trim_end();
+        Src { text: text.to_string(), span: (self.base + s.start(), self.base + s.start() + text.len()) }
     }
 
     fn span(&self, p: &Pair<Rule>) -> Span {

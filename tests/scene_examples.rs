@@ -1,0 +1,265 @@
+//! Every scene in `examples/` runs, and its outputs are checked: the printed derivations are
+//! snapshotted and compared with the hand forms of PHYSICS.md; numbers are checked against
+//! closed forms or conserved quantities computed here independently; plot files are valid
+//! SVG.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use lagrangian::algebra::expand;
+use lagrangian::{parse_with, Declarations, Expr};
+
+struct Run {
+    out: PathBuf,
+    _dir: tempfile::TempDir,
+    stdout: String,
+}
+
+fn run(example: &str) -> Run {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{example}.scene"));
+    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .arg("run")
+        .arg(&scene)
+        .arg("--out-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{example}: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
+    insta::with_settings!({snapshot_path => "../snapshots", prepend_module_to_snapshot => false}, {
+        insta::assert_snapshot!(format!("scene_example_{example}"), stdout);
+    });
+    Run { out: dir.path().to_path_buf(), _dir: dir, stdout }
+}
+
+impl Run {
+    /// The columns of a CSV output, by header name.
+    fn csv(&self, file: &str) -> HashMap<String, Vec<f64>> {
+        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+        let mut cols: HashMap<String, Vec<f64>> = header.iter().map(|h| (h.clone(), Vec::new())).collect();
+        for line in lines {
+            for (h, v) in header.iter().zip(line.split(',')) {
+                cols.get_mut(h).unwrap().push(v.parse().unwrap());
+            }
+        }
+        cols
+    }
+
+    fn svg(&self, file: &str) -> String {
+        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
+        assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"), "{file} is not SVG");
+        assert!(self.stdout.contains(&format!("wrote OUT/{file}")));
+        text
+    }
+
+    /// The printed line starting with `prefix`, without it.
+    fn line(&self, prefix: &str) -> String {
+        self.stdout.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}`")).to_string()
+    }
+}
+
+/// `a − b` expands to zero: the printed form equals the hand form.
+fn same(printed: &Expr, hand: &str, decls: &Declarations) {
+    let hand = parse_with(hand, decls).unwrap();
+    let diff = expand(&printed.minus(&hand)).unwrap();
+    assert!(diff.is_zero(), "{printed} differs from {hand} by {diff}");
+}
+
+fn max_rel_drift(v: &[f64]) -> f64 {
+    v.iter().map(|x| ((x - v[0]) / v[0]).abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn pendulum() {
+    let r = run("pendulum");
+    let d = Declarations::new().with_positive(["m", "l", "g"]);
+    // (3.20), through the plain form of the JSON-free printout: reprint in plain below.
+    let h = r.line("H = ");
+    assert_eq!(h, "g l m (1 - cos(θ)) + p_θ²/(2 l² m)");
+    same(&parse_with("g l m (1 - cos(θ)) + p_θ^2/(2 l^2 m)", &d).unwrap(), "p_θ^2/(2 m l^2) + m g l (1 - cos(θ))", &d);
+    // (2.28): E_θ = m l² θ'' + m g l sin θ.
+    assert_eq!(r.line("E_θ: "), "l m (g sin(θ) + l θ̈) = 0");
+    let c = r.csv("pendulum.csv");
+    // Gauss–Legendre conserves H to rounding-level drift; started from rest at θ = 3, the
+    // energy is m g l (1 − cos 3) = 9.81 (1 − cos 3) (by hand).
+    let e0 = 9.81 * (1.0 - 3f64.cos());
+    assert!((c["H"][0] - e0).abs() < 1e-12);
+    assert!(max_rel_drift(&c["H"]) < 1e-8, "{}", max_rel_drift(&c["H"]));
+    // A libration: |θ| never exceeds its start.
+    assert!(c["θ"].iter().all(|x| x.abs() <= 3.0 + 1e-9));
+    let svg = r.svg("pendulum_phase.svg");
+    assert!(svg.contains(">\nseparatrix\n</text>") && svg.contains(">\nO\n</text>"));
+    r.svg("pendulum_energy.svg");
+}
+
+#[test]
+fn central_potential() {
+    let r = run("central_potential");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(r.out.join("central_potential.json")).unwrap()).unwrap();
+    let d = Declarations::new().with_positive(["m"]).with_functions(["V"]);
+    let get = |i: usize, j: usize| parse_with(json[i]["value"][j]["lhs"].as_str().unwrap(), &d).unwrap();
+    // (2.37) and the φ equation d/dt(m r² φ') = 0.
+    same(&get(0, 0), "m r'' - m r φ'^2 + V'(r)", &d);
+    same(&get(0, 1), "m r^2 φ'' + 2 m r r' φ'", &d);
+    // (3.29).
+    same(&parse_with(json[1]["value"].as_str().unwrap(), &d).unwrap(), "p_r^2/(2 m) + p_φ^2/(2 m r^2) + V(r)", &d);
+    // (2.35): p_φ = m r² φ' is conserved.
+    assert_eq!(json[2]["value"][0]["lhs"], "p_φ");
+    same(&parse_with(json[2]["value"][0]["rhs"].as_str().unwrap(), &d).unwrap(), "m r^2 φ'", &d);
+}
+
+#[test]
+fn atwood() {
+    let r = run("atwood");
+    assert_eq!(r.line("E_x: "), "g (m1 - m2) + x\u{308} (m1 + m2) = 0");
+    // (2.41): constant acceleration a = −(m1 − m2) g/(m1 + m2) = −2·9.81/4; RK4 is exact
+    // for a quadratic x(t) = a t²/2.
+    let c = r.csv("atwood.csv");
+    let a = -2.0 * 9.81 / 4.0;
+    for (t, x) in c["t"].iter().zip(&c["x"]) {
+        assert!((x - 0.5 * a * t * t).abs() < 1e-10, "t = {t}: {x}");
+    }
+}
+
+#[test]
+fn charged_particle() {
+    let r = run("charged_particle");
+    // (3.22): |p − e A|²/(2m) + e φ with A = B/2 (−y, x, 0), φ = E z.
+    let d = Declarations::new();
+    let h = r.line("H = ");
+    assert_eq!(h, "E e z + p_z²/(2 m) + (p_x + B e y/2)²/(2 m) + (p_y - B e x/2)²/(2 m)");
+    same(
+        &parse_with("E e z + p_z^2/(2 m) + (p_x + B e y/2)^2/(2 m) + (p_y - B e x/2)^2/(2 m)", &d).unwrap(),
+        "((p_x + e B y/2)^2 + (p_y - e B x/2)^2 + p_z^2)/(2 m) + e E z",
+        &d,
+    );
+    // Gyration about the z axis with radius v/ω = 2/2 = 1 (ω = eB/m = 2); z accelerates
+    // uniformly: z = −(eE/m) t²/2 (by hand).
+    let c = r.csv("charged_particle.csv");
+    for (i, &t) in c["t"].iter().enumerate() {
+        let (x, y, z) = (c["x"][i], c["y"][i], c["z"][i]);
+        assert!((x * x + y * y - 1.0).abs() < 1e-8, "radius at t = {t}");
+        assert!((z + 0.05 * t * t).abs() < 1e-8, "z at t = {t}");
+    }
+    r.svg("charged_particle_path.svg");
+    r.svg("charged_particle_series.svg");
+}
+
+#[test]
+fn double_pendulum() {
+    let r = run("double_pendulum");
+    let c = r.csv("double_pendulum.csv");
+    // Energy T + V, written out by hand for m1 = m2 = l1 = l2 = 1, g = 9.81.
+    let g = 9.81;
+    let energy: Vec<f64> = (0..c["t"].len())
+        .map(|i| {
+            let (a, b, u, v) = (c["θ1"][i], c["θ2"][i], c["θ1'"][i], c["θ2'"][i]);
+            u * u + 0.5 * v * v + u * v * (a - b).cos() - 2.0 * g * a.cos() - g * b.cos()
+        })
+        .collect();
+    assert!(max_rel_drift(&energy) < 1e-9, "{}", max_rel_drift(&energy));
+    // The reference state at t = 10 (shared/reference/double_pendulum.md). The motion
+    // amplifies errors by ~1e8, so DOP853 at tol 1e-12 is only expected to be near it.
+    let last = c["t"].len() - 1;
+    assert_eq!(c["t"][last], 10.0);
+    let reference = [-0.7531288742949114, 1.627933082053704, -4.087368851344197, -8.869702578387533];
+    for (k, want) in ["θ1", "θ2", "θ1'", "θ2'"].iter().zip(reference) {
+        assert!((c[*k][last] - want).abs() < 1e-2, "{k}: {} vs {want}", c[*k][last]);
+    }
+    r.svg("double_pendulum_chaos.svg");
+    r.svg("double_pendulum_path.svg");
+    r.svg("double_pendulum_energy.svg");
+}
+
+#[test]
+fn kepler() {
+    let r = run("kepler");
+    let sym = r.csv("kepler_symplectic.csv");
+    let rk4 = r.csv("kepler_rk4.csv");
+    // E = −k/(2a) = −1/2 for a = 1 (by hand, from the initial state).
+    assert!((sym["H"][0] + 0.5).abs() < 1e-12);
+    let err = |c: &HashMap<String, Vec<f64>>, t0: f64, t1: f64| {
+        c["t"]
+            .iter()
+            .zip(&c["H"])
+            .filter(|(t, _)| **t >= t0 && **t <= t1)
+            .map(|(_, h)| (h + 0.5).abs())
+            .fold(0.0, f64::max)
+    };
+    // Symplectic: bounded (no larger late than early). RK4: drifts (grows with time).
+    assert!(err(&sym, 500.0, 1000.0) < 1.5 * err(&sym, 0.0, 500.0));
+    assert!(err(&rk4, 900.0, 1000.0) > 5.0 * err(&rk4, 0.0, 100.0));
+    r.svg("kepler_energy.svg");
+    r.svg("kepler_orbit.svg");
+}
+
+#[test]
+fn henon_heiles() {
+    let r = run("henon_heiles");
+    let c = r.csv("henon_heiles.csv");
+    // E = 1/8 by construction of p_x.
+    assert!((c["H"][0] - 0.125).abs() < 1e-14);
+    assert!(max_rel_drift(&c["H"]) < 1e-8);
+    let svg = r.svg("henon_heiles_section.svg");
+    // One point per upward crossing of x = 0: about one per period 2π over t = 1000.
+    let points = svg.matches("<circle").count();
+    assert!((120..200).contains(&points), "{points} section points");
+}
+
+#[test]
+fn oscillator_action_angle() {
+    let r = run("oscillator_action_angle");
+    // {Q, J} = 1 (canonical), {J, H} = 0, {Q, H} = ω: by hand from Q = atan(mωq/p), J = H/ω.
+    assert_eq!(r.line("{Q, J} = "), "1");
+    assert_eq!(r.line("{J, H} = "), "0");
+    assert_eq!(r.line("{Q, H} = "), "ω");
+    let c = r.csv("oscillator.csv");
+    // J = E/ω = (½ m ω² q0²)/ω = ½·2·3·1 = 3.
+    assert!((c["J"][0] - 3.0).abs() < 1e-12);
+    assert!(max_rel_drift(&c["J"]) < 1e-5);
+    r.svg("oscillator_phase.svg");
+}
+
+#[test]
+fn adiabatic_oscillator() {
+    let r = run("adiabatic_oscillator");
+    let c = r.csv("adiabatic_oscillator.csv");
+    let n = c["t"].len() - 1;
+    // ω doubles over t = 100; the energy follows ω (E ∝ ω while J = E/ω is invariant).
+    let (h0, h1, j0, j1) = (c["H"][0], c["H"][n], c["J"][0], c["J"][n]);
+    assert!((j1 / j0 - 1.0).abs() < 0.01, "J changed by {}", j1 / j0);
+    assert!((h1 / h0 - 2.0).abs() < 0.05, "H ratio {}", h1 / h0);
+    r.svg("adiabatic_oscillator.svg");
+}
+
+#[test]
+fn anharmonic_oscillator() {
+    let r = run("anharmonic_oscillator");
+    let c = r.csv("anharmonic.csv");
+    assert!(max_rel_drift(&c["H"]) < 1e-9);
+    // The period from downward zero crossings of x, against the quadrature
+    // T = 4 ∫₀^{π/2} A cos u du / sqrt(2 (V(A) − V(A sin u))), V = (x² + σ x⁴)/2, A = 1, σ = 0.1.
+    let v = |x: f64| 0.5 * (x * x + 0.1 * x.powi(4));
+    let n = 20_000;
+    let h = std::f64::consts::FRAC_PI_2 / n as f64;
+    let f = |u: f64| u.cos() / (2.0 * (v(1.0) - v(u.sin()))).sqrt();
+    // Midpoint rule: the integrand is finite at u = π/2 (limit 1/sqrt(V'(A)·A)).
+    let period = 4.0 * (0..n).map(|i| f((i as f64 + 0.5) * h) * h).sum::<f64>();
+    let (t, x) = (&c["t"], &c["x"]);
+    let crossings: Vec<f64> = (1..t.len())
+        .filter(|&i| x[i - 1] > 0.0 && x[i] <= 0.0)
+        .map(|i| t[i - 1] + (t[i] - t[i - 1]) * x[i - 1] / (x[i - 1] - x[i]))
+        .collect();
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    assert!((measured / period - 1.0).abs() < 1e-4, "{measured} vs {period}");
+    // The averaged-Lagrangian estimate ω ≈ ω0 (1 + 3σA²/4) (the force is x + 2σx³) is within
+    // its O(σ²) error.
+    assert!((2.0 * std::f64::consts::PI / period / 1.075 - 1.0).abs() < 5e-3);
+    r.svg("anharmonic_phase.svg");
+}
