@@ -211,6 +211,14 @@ impl Printer {
         if denom.is_empty() {
             return Piece { text: num_text, prec: numer_prec };
         }
+        // A numeric denominator next to a lone sum prints as `n/(a + b)/2`: `n/(2 (a + b))`
+        // would re-parse as `n/(2 a + 2 b)`, since the canonical form distributes a rational
+        // over a lone sum.
+        if self.format != Format::Latex && denom.len() == 2 && !coeff.denom().is_one() && denom[1].prec == SUM {
+            let sum = self.wrap(denom.remove(1), POWER);
+            let text = format!("{num_text}/{sum}/{}", denom[0].text);
+            return Piece { text, prec: PRODUCT };
+        }
         let den_prec = joined_prec(&denom);
         let den_text = self.join_factors(denom);
         let text = match self.format {
