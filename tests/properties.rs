@@ -178,6 +178,7 @@ fn printed_products_reparse_identically() {
         Expr::mul([Expr::int(-1), sum.clone(), c.powi(-1)]),
         Expr::mul([Expr::frac(-3, 2), sum.clone(), c.clone()]),
         a.minus(&Expr::one()).over(&a.plus(&Expr::one())),
+        Expr::mul([Expr::frac(-1, 2), a.powi(2).plus(&Expr::one()).powi(-1)]),
     ] {
         let text = e.to_string();
         assert!(!text.contains("(("), "{text}");
