@@ -179,11 +179,20 @@ fn printed_products_reparse_identically() {
         Expr::mul([Expr::frac(-3, 2), sum.clone(), c.clone()]),
         a.minus(&Expr::one()).over(&a.plus(&Expr::one())),
         Expr::mul([Expr::frac(-1, 2), a.powi(2).plus(&Expr::one()).powi(-1)]),
+        // A rational times sums and nothing else distributes when re-built from `3 (a + b)`:
+        Expr::mul([Expr::int(3), sum.clone(), c.powi(-1)]),
+        Expr::mul([Expr::frac(3, 2), sum.clone(), c.plus(&Expr::one()).powi(-1)]),
+        Expr::mul([Expr::int(-3), a.minus(&Expr::one()), Expr::call(lagrangian::Func::Sin, vec![Expr::one()])]),
     ] {
         let text = e.to_string();
         assert!(!text.contains("(("), "{text}");
         assert!(parse(&text).is_ok_and(|back| back == e), "{text}");
     }
+    // Two sums under one rational coefficient are grouped so the coefficient cannot
+    // distribute over the first: `3 ((a + b) (c + 1))`.
+    let two_sums = Expr::mul([Expr::int(3), sum.clone(), c.plus(&Expr::one())]);
+    let text = two_sums.to_string();
+    assert!(parse(&text).is_ok_and(|back| back == two_sums), "{text}");
     let by_hand = Expr::var("y").over(&Expr::var("x").powi(2));
     assert!(parse("x^-2 y").is_ok_and(|e| e == by_hand));
     assert!(parse("-x^2").is_ok_and(|e| e == Expr::var("x").powi(2).neg()));
