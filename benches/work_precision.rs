@@ -1,5 +1,5 @@
 //! Work-precision diagrams and long runs of the integrators (`harness = false`: prints the
-//! tables behind BENCHMARKS.numerics.md and writes SVG plots to `benches/plots/`).
+//! tables behind BENCHMARKS.md and writes SVG plots to `benches/plots/`).
 //!
 //! ```text
 //! cargo bench --bench work_precision              # everything (~2 minutes on 2 cores)

@@ -265,7 +265,7 @@ fn abs_terms(e: &Expr) -> Option<Expr> {
 
 #[test]
 fn benchmark_systems_agree_with_exact_evaluation() {
-    // Printed with --nocapture for BENCHMARKS.compile.md; the bound is generous against
+    // Printed with --nocapture for BENCHMARKS.md; the bound is generous against
     // conditioning (sums of a dozen terms), far below what a wrong instruction would give.
     for sys in benchmark_systems() {
         let worst = worst_ulps(&sys, if sys.coords.len() > 5 { 20 } else { 100 });

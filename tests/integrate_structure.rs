@@ -4,7 +4,7 @@
 //!
 //! The long runs here are 10⁶ steps for the explicit methods; the implicit Gauss methods run
 //! 10⁵ steps in `cargo test` (10⁶ steps of Gauss 6 take ~10 s in the dev profile) and the full
-//! 10⁶ in `cargo bench --bench work_precision` (see BENCHMARKS.numerics.md).
+//! 10⁶ in `cargo bench --bench work_precision` (see BENCHMARKS.md).
 
 use lagrangian::integrate::problems::{HenonHeiles, Kepler, Pendulum};
 use lagrangian::integrate::{ExplicitRk, FnJacobian, Gauss, Integrate, Method, Options, Splitting, Status};

@@ -101,7 +101,7 @@ const Y8_W0: f64 = 1.708453070787281584668379362228977878047;
 
 /// Yoshida's 8th-order composition, 15 Verlet stages, solution D of Table 2 (of Yoshida's
 /// five 15-stage solutions the one with the smallest error: on Kepler e = 0.9 it is ~10⁴
-/// times more accurate than solution A at equal step, see BENCHMARKS.numerics.md). The
+/// times more accurate than solution A at equal step, see BENCHMARKS.md). The
 /// published 15-digit values violate the order conditions by 3e-12; these are the exact
 /// solution next to them.
 pub const YOSHIDA8: SplittingScheme = SplittingScheme {
