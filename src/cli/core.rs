@@ -2,6 +2,7 @@
 
 use clap::Subcommand;
 use lagrangian::diff::Differentiator;
+use lagrangian::simplify::{simplify_with, Budget, StopReason};
 
 use super::{emit, parse_arg, parse_var, Common, Failure};
 
@@ -43,8 +44,12 @@ pub fn run(cmd: CoreCommand) -> Result<(), Failure> {
     match cmd {
         CoreCommand::Simplify { expr, common } => {
             let (text, e) = parse_arg(&expr, &common.declarations())?;
-            let out = lagrangian::simplify::simplify(&e);
-            emit(&text, &out, common.format);
+            let out = simplify_with(&e, &Budget::default());
+            if out.stop != StopReason::Saturated {
+                // The result is still the best equivalent form found; say why the search ended.
+                eprintln!("note: simplification stopped early ({}); this is the best form found", out.stop);
+            }
+            emit(&text, &out.expr, common.format);
         }
         CoreCommand::Diff { expr, vars, common } => {
             let decls = common.declarations();
