@@ -167,6 +167,17 @@ pub struct Tableau {
 }
 
 impl Tableau {
+    /// Name, order and properties of the fixed-step method this tableau defines.
+    pub fn info(&self) -> super::MethodInfo {
+        super::MethodInfo {
+            name: self.name,
+            order: self.order,
+            symplectic: self.symplectic,
+            symmetric: self.symmetric,
+            adaptive: false,
+        }
+    }
+
     /// Forward Euler.
     pub fn euler() -> Tableau {
         Tableau {

@@ -32,13 +32,7 @@ impl ExplicitRk {
     }
     /// Name, order and properties.
     pub fn info(&self) -> MethodInfo {
-        MethodInfo {
-            name: self.tableau.name,
-            order: self.tableau.order,
-            symplectic: self.tableau.symplectic,
-            symmetric: self.tableau.symmetric,
-            adaptive: false,
-        }
+        self.tableau.info()
     }
     /// The tableau.
     pub fn tableau(&self) -> &Tableau {
