@@ -1,7 +1,7 @@
 //! Hamilton's equations (3.12) and the phase-space Lagrangian (3.31).
 
 use crate::diff::Differentiator;
-use crate::expr::{Expr, Symbol};
+use crate::expr::Expr;
 
 use super::system::System;
 use super::tidy::tidy;
@@ -39,20 +39,5 @@ impl System {
             .map(|(p, v)| Expr::sym(p.clone()).times(&Expr::sym(v.clone())))
             .collect();
         Ok(Expr::add(pq).minus(&h))
-    }
-
-    /// The Poisson bracket `{f, g} = Σ_i (∂f/∂q_i ∂g/∂p_i − ∂f/∂p_i ∂g/∂q_i)` in this system's
-    /// canonical variables.
-    pub fn poisson_bracket(&self, f: &Expr, g: &Expr) -> Expr {
-        let mut d = Differentiator::new();
-        let terms: Vec<Expr> = self
-            .coords
-            .iter()
-            .zip(&self.momenta)
-            .map(|(q, p): (&Symbol, &Symbol)| {
-                d.diff(f, q).times(&d.diff(g, p)).minus(&d.diff(f, p).times(&d.diff(g, q)))
-            })
-            .collect();
-        tidy(&Expr::add(terms))
     }
 }
