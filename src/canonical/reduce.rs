@@ -102,27 +102,11 @@ fn trig_pass(e: &Expr) -> Expr {
                     _ => {}
                 }
             }
-            let inner = match a.node() {
-                Node::Call(g, b) if b.len() == 1 => Some((*g, b[0].clone())),
-                _ => None,
-            };
-            let one = Expr::one();
-            match (f, inner) {
-                (Func::Sin, Some((Func::Asin, x)))
-                | (Func::Cos, Some((Func::Acos, x)))
-                | (Func::Exp, Some((Func::Log, x)))
-                | (Func::Log, Some((Func::Exp, x)))
-                | (Func::Tan, Some((Func::Atan, x))) => Some(x),
-                (Func::Sin, Some((Func::Acos, x))) | (Func::Cos, Some((Func::Asin, x))) => {
-                    Some(one.minus(&x.powi(2)).sqrt())
-                }
-                (Func::Sin, Some((Func::Atan, x))) => {
-                    Some(x.times(&Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))))
-                }
-                (Func::Cos, Some((Func::Atan, x))) => Some(Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))),
-                (Func::Tan, _) => {
-                    Some(Expr::call(Func::Sin, vec![a.clone()]).over(&Expr::call(Func::Cos, vec![a.clone()])))
-                }
+            if let Some(x) = compose_inverse(*f, a) {
+                return Some(x);
+            }
+            match f {
+                Func::Tan => Some(Expr::call(Func::Sin, vec![a.clone()]).over(&Expr::call(Func::Cos, vec![a.clone()]))),
                 _ => None,
             }
         }
@@ -318,28 +302,7 @@ impl ZeroIf for Expr {
 /// solutions without destroying their factored shape.
 pub fn tidy(e: &Expr) -> Expr {
     e.map_bottom_up(&mut |n| match n.node() {
-        Node::Call(f, args) => {
-            let inner = match args[0].node() {
-                Node::Call(g, b) if b.len() == 1 => Some((*g, b[0].clone())),
-                _ => None,
-            };
-            let one = Expr::one();
-            match (f, inner) {
-                (Func::Sin, Some((Func::Asin, x)))
-                | (Func::Cos, Some((Func::Acos, x)))
-                | (Func::Exp, Some((Func::Log, x)))
-                | (Func::Log, Some((Func::Exp, x)))
-                | (Func::Tan, Some((Func::Atan, x))) => Some(x),
-                (Func::Sin, Some((Func::Acos, x))) | (Func::Cos, Some((Func::Asin, x))) => {
-                    Some(one.minus(&x.powi(2)).sqrt())
-                }
-                (Func::Sin, Some((Func::Atan, x))) => {
-                    Some(x.times(&Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))))
-                }
-                (Func::Cos, Some((Func::Atan, x))) => Some(Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))),
-                _ => None,
-            }
-        }
+        Node::Call(f, args) => compose_inverse(*f, &args[0]),
         _ => None,
     })
 }
@@ -516,6 +479,28 @@ pub(crate) fn nonneg_int(r: &Rational) -> Option<u32> {
         r.to_integer().to_u32()
     } else {
         None
+    }
+}
+
+/// A function of an inverse function, resolved on the principal branch: `sin(asin x) = x`,
+/// `cos(asin x) = sqrt(1 − x²)`, `sin(atan x) = x/sqrt(1 + x²)`, … `None` when `f(arg)` is not
+/// such a composition.
+fn compose_inverse(f: Func, arg: &Expr) -> Option<Expr> {
+    let Node::Call(g, b) = arg.node() else { return None };
+    if b.len() != 1 {
+        return None;
+    }
+    let (x, one) = (b[0].clone(), Expr::one());
+    match (f, *g) {
+        (Func::Sin, Func::Asin)
+        | (Func::Cos, Func::Acos)
+        | (Func::Exp, Func::Log)
+        | (Func::Log, Func::Exp)
+        | (Func::Tan, Func::Atan) => Some(x),
+        (Func::Sin, Func::Acos) | (Func::Cos, Func::Asin) => Some(one.minus(&x.powi(2)).sqrt()),
+        (Func::Sin, Func::Atan) => Some(x.times(&Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2)))),
+        (Func::Cos, Func::Atan) => Some(Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))),
+        _ => None,
     }
 }
 
