@@ -42,6 +42,21 @@ pub struct Conserved {
 }
 
 impl System {
+    /// The energy function `h = Σ q' ∂L/∂q' − L` (2.7) of a Lagrangian system, tidied, or `H`
+    /// itself for a Hamiltonian one. `conserved` reports it when `∂L/∂t = 0`, and front ends
+    /// take it as the energy of a trajectory in velocities; one definition serves both.
+    pub fn energy_function(&self) -> Expr {
+        match &self.kind {
+            Kind::Lagrangian(l) => {
+                let mut d = Differentiator::new();
+                let terms: Vec<Expr> =
+                    self.velocities.iter().map(|v| Expr::sym(v.clone()).times(&d.diff(l, v))).collect();
+                tidy(&Expr::add(terms).minus(l))
+            }
+            Kind::Hamiltonian(h) => h.clone(),
+        }
+    }
+
     /// The conserved quantities Noether's theorem gives directly: the momentum of each
     /// ignorable coordinate, the energy function `h` when `∂L/∂t = 0`, or `H` when `∂H/∂t = 0`.
     /// Generalized forces, dissipation and constraints that involve a coordinate (or time)
@@ -70,10 +85,11 @@ impl System {
                     }
                 }
                 if !l.contains(&t) && !dissipative {
-                    let terms: Vec<Expr> =
-                        self.velocities.iter().map(|v| Expr::sym(v.clone()).times(&d.diff(l, v))).collect();
-                    let h = tidy(&Expr::add(terms).minus(l));
-                    out.push(Conserved { name: "h".to_string(), expr: h, reason: Reason::LagrangianTimeIndependent });
+                    out.push(Conserved {
+                        name: "h".to_string(),
+                        expr: self.energy_function(),
+                        reason: Reason::LagrangianTimeIndependent,
+                    });
                 }
             }
             Kind::Hamiltonian(h) => {
