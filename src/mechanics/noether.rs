@@ -42,16 +42,17 @@ pub struct Conserved {
 }
 
 impl System {
-    /// The energy function `h = Σ q' ∂L/∂q' − L` (2.7) of a Lagrangian system, tidied, or `H`
-    /// itself for a Hamiltonian one. `conserved` reports it when `∂L/∂t = 0`, and front ends
-    /// take it as the energy of a trajectory in velocities; one definition serves both.
+    /// The energy function `h = Σ q' ∂L/∂q' − L` (2.7) of a Lagrangian system, in canonical
+    /// form (not tidied: callers that print it choose), or `H` itself for a Hamiltonian one.
+    /// `conserved` reports it (tidied) when `∂L/∂t = 0`, and front ends take it as the energy
+    /// of a trajectory in velocities; one definition serves both.
     pub fn energy_function(&self) -> Expr {
         match &self.kind {
             Kind::Lagrangian(l) => {
                 let mut d = Differentiator::new();
                 let terms: Vec<Expr> =
                     self.velocities.iter().map(|v| Expr::sym(v.clone()).times(&d.diff(l, v))).collect();
-                tidy(&Expr::add(terms).minus(l))
+                Expr::add(terms).minus(l)
             }
             Kind::Hamiltonian(h) => h.clone(),
         }
@@ -87,7 +88,7 @@ impl System {
                 if !l.contains(&t) && !dissipative {
                     out.push(Conserved {
                         name: "h".to_string(),
-                        expr: self.energy_function(),
+                        expr: tidy(&self.energy_function()),
                         reason: Reason::LagrangianTimeIndependent,
                     });
                 }
