@@ -1,7 +1,7 @@
 //! Plots with plotters, as SVG or PNG (chosen by the file extension): time series, phase
 //! portraits with contours of `H` (fixed points marked O — elliptic — and X — hyperbolic —,
 //! and the separatrix through X), configuration-space paths, energy error on a log scale,
-//! and Poincaré sections.
+//! Poincaré sections, and work-precision diagrams (log–log, one marked line per method).
 //!
 //! Text needs a font for both back ends (plotters measures text with it). The DejaVu Sans
 //! font is embedded (`assets/fonts/`, Bitstream Vera licence, which allows redistribution
@@ -52,6 +52,7 @@ enum Style {
     Lines,
     Scatter,
     LogY,
+    LogLog,
     Phase(Option<Contours>),
 }
 
@@ -92,6 +93,12 @@ impl Figure {
         Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogY }
     }
 
+    /// Marked lines on logarithmic x and y axes, the work-precision diagram (points with a
+    /// non-positive coordinate are left out).
+    pub fn log_log(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogLog }
+    }
+
     /// A phase portrait: orbits and, optionally, contours of an energy function.
     pub fn phase(title: &str, q: &str, p: &str, orbits: Vec<Series>, contours: Option<Contours>) -> Figure {
         Figure {
@@ -108,7 +115,10 @@ impl Figure {
         let pts = self.series.iter().flat_map(|s| s.points.iter()).filter(|(x, y)| x.is_finite() && y.is_finite());
         let mut r = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         for &(x, y) in pts {
-            if matches!(self.style, Style::LogY) && y <= 0.0 {
+            if matches!(self.style, Style::LogY | Style::LogLog) && y <= 0.0 {
+                continue;
+            }
+            if matches!(self.style, Style::LogLog) && x <= 0.0 {
                 continue;
             }
             r = (r.0.min(x), r.1.max(x), r.2.min(y), r.3.max(y));
@@ -135,6 +145,12 @@ impl Figure {
             let w = if b > a { b - a } else { a.abs().max(1.0) };
             (a - 0.05 * w, b + 0.05 * w)
         };
+        if matches!(self.style, Style::LogLog) {
+            let (y0, y1) = (r.2.max(1e-300), r.3.max(1e-300));
+            let x1 = if r.1 > r.0 { r.1 } else { r.0 * 10.0 };
+            let y1 = if y1 > y0 { y1 } else { y0 * 10.0 };
+            return (r.0 / 1.5, x1 * 1.5, y0 / 3.0, y1 * 3.0);
+        }
         if matches!(self.style, Style::LogY) {
             let (x0, x1) = pad(r.0, r.1);
             let y0 = r.2.max(1e-18);
@@ -282,6 +298,43 @@ where
         for (i, s) in fig.series.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(_, y)| *y > 0.0 && y.is_finite()).collect();
+            chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(err)?
+                .label(s.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        if !fig.series.is_empty() {
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.85))
+                .label_font((FAMILY, 15))
+                .draw()
+                .map_err(err)?;
+        }
+        return Ok(());
+    }
+    if let Style::LogLog = fig.style {
+        let mut chart = builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()).map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc(&fig.xlabel)
+            .y_desc(&fig.ylabel)
+            .label_style((FAMILY, 15))
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(err)?;
+        for (i, s) in fig.series.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let pts: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .copied()
+                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+                .collect();
+            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))).map_err(err)?;
             chart
                 .draw_series(LineSeries::new(pts, color.stroke_width(2)))
                 .map_err(err)?

@@ -9,6 +9,7 @@ use std::process::{Command, Stdio};
 fn session(input: &str, history: &Path, dir: &Path) -> (i32, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
         .env("LAGRANGIAN_HISTORY", history)
+        .env("LAGRANGIAN_CACHE_DIR", "off")
         .current_dir(dir)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())

@@ -9,7 +9,13 @@ const BASE: &str = "coordinates θ\nparameters m = 1, l = 1, g = 9.81 positive\n
 fn run_bytes(dir: &Path, scene: &[u8]) -> (i32, String) {
     let path = dir.join("bad.scene");
     std::fs::write(&path, scene).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian")).arg("run").arg(&path).current_dir(dir).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .arg("run")
+        .arg(&path)
+        .env("LAGRANGIAN_CACHE_DIR", "off")
+        .current_dir(dir)
+        .output()
+        .unwrap();
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 

@@ -24,6 +24,7 @@ fn run(example: &str) -> Run {
         .arg(&scene)
         .arg("--out-dir")
         .arg(dir.path())
+        .env("LAGRANGIAN_CACHE_DIR", "off")
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -197,6 +198,12 @@ fn kepler() {
     assert!(err(&rk4, 900.0, 1000.0) > 5.0 * err(&rk4, 0.0, 100.0));
     r.svg("kepler_energy.svg");
     r.svg("kepler_orbit.svg");
+    // The work-precision diagram: one marked line per method, three runs each.
+    let wp = r.svg("kepler_work_precision.svg");
+    for method in ["leapfrog", "yoshida4", "rk4"] {
+        assert!(wp.lines().any(|l| l.trim() == method), "no `{method}` series");
+    }
+    assert_eq!(wp.matches("<circle").count(), 9);
 }
 
 #[test]

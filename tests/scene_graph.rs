@@ -48,6 +48,10 @@ impl Backend for Counting {
         self.0.bump("conserved");
         Ok(vec![Line { label: None, lhs: f.clone(), rhs: Expr::zero(), note: None }])
     }
+    fn energy(&self, _sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
+        self.0.bump("energy");
+        Ok(l.clone())
+    }
     fn bracket(&self, _sys: &SystemRef, _f: &Expr, _g: &Expr) -> Result<Expr, BackendError> {
         self.0.bump("bracket");
         Ok(Expr::zero())
@@ -94,7 +98,7 @@ impl Backend for Counting {
         // A constant trajectory: enough for plots and exports to have data.
         let t: Vec<f64> = (0..=10).map(|i| run.t0 + (run.t1 - run.t0) * i as f64 / 10.0).collect();
         let y = vec![run.y0.clone(); t.len()];
-        Ok(Trajectory { t, y, events: vec![], steps: 10, stop: "end".into() })
+        Ok(Trajectory { t, y, events: vec![], steps: 10, evaluations: 10, stop: "end".into() })
     }
 }
 
@@ -197,6 +201,43 @@ fn rerunning_with_other_numbers_reuses_the_derivations() {
     let mut fourth = session(&counts, dir.path()).with_cache(cache);
     fourth.run_scene("osc", &changed.replace("1/2 k x^2", "1/4 k x^4")).unwrap();
     assert_eq!(counts.get("legendre"), 2);
+}
+
+#[test]
+fn a_new_process_loads_the_derivations_from_the_disk_cache() {
+    // Two sessions sharing only a cache directory stand for two `lagrangian run` processes.
+    let dir = tempfile::tempdir().unwrap();
+    let cache_dir = tempfile::tempdir().unwrap();
+    let counts = Counts::default();
+    let mut first = session(&counts, dir.path()).with_cache(Cache::with_dir(cache_dir.path()));
+    first.run_scene("osc", OSCILLATOR).unwrap();
+    assert_eq!(counts.get("legendre"), 1);
+    let first_out = std::fs::read_to_string(dir.path().join("run.csv")).unwrap();
+
+    let changed = OSCILLATOR.replace("x = 1,", "x = 0.5,");
+    let mut second = session(&counts, dir.path()).with_cache(Cache::with_dir(cache_dir.path()));
+    second.run_scene("osc", &changed).unwrap();
+    assert_eq!(counts.get("legendre"), 1, "the Legendre transform was redone");
+    let loaded: Vec<Step> = second.plan().iter().filter(|e| e.status == Status::Loaded).map(|e| e.step).collect();
+    assert_eq!(loaded, [Step::Legendre, Step::Split, Step::Momenta]);
+    assert!(second.explain().contains("3 loaded from the disk cache"), "{}", second.explain());
+    assert_ne!(std::fs::read_to_string(dir.path().join("run.csv")).unwrap(), first_out, "the new numbers were used");
+
+    // Every entry damaged in a different way: each is a miss, rebuilt and rewritten.
+    let mut files: Vec<_> = std::fs::read_dir(cache_dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    assert_eq!(files.len(), 3, "{files:?}");
+    let text = std::fs::read_to_string(&files[0]).unwrap();
+    std::fs::write(&files[0], &text[..text.len() / 3]).unwrap();
+    std::fs::write(&files[1], text.replace("\"format\":1", "\"format\":99")).unwrap();
+    std::fs::write(&files[2], [0xff, 0xfe, 0x00]).unwrap();
+    let mut third = session(&counts, dir.path()).with_cache(Cache::with_dir(cache_dir.path()));
+    third.run_scene("osc", &changed).unwrap();
+    assert_eq!(counts.get("legendre"), 2);
+    assert!(third.plan().iter().all(|e| e.status != Status::Loaded));
+    let mut fourth = session(&counts, dir.path()).with_cache(Cache::with_dir(cache_dir.path()));
+    fourth.run_scene("osc", &changed).unwrap();
+    assert_eq!(counts.get("legendre"), 2, "the rewritten entries were not used");
 }
 
 #[test]

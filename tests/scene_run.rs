@@ -11,6 +11,7 @@ fn run_in(dir: &Path, scene: &str, args: &[&str]) -> (i32, String, String) {
         .arg("run")
         .arg(&path)
         .args(args)
+        .env("LAGRANGIAN_CACHE_DIR", "off")
         .current_dir(dir)
         .output()
         .unwrap();
@@ -219,4 +220,76 @@ plot θ vs t to theta.svg
         assert!(out.contains(skipped), "{skipped} not in\n{out}");
     }
     assert!(out.contains("5 built, 0 reused, 5 skipped"), "{out}");
+}
+
+/// The oscillator `H = (p² + x²)/2` from `x = 1`: the exact solution is `x = cos t`.
+const WP: &str = "\
+coordinates x
+H = 1/2 p_x^2 + 1/2 x^2
+simulate x = 1, p_x = 0 for t in 0..10 with dop853 tol = 1e-13 as exact
+simulate x = 1, p_x = 0 for t in 0..10 with leapfrog dt = 0.02 as l1
+simulate x = 1, p_x = 0 for t in 0..10 with leapfrog dt = 0.01 as l2
+simulate x = 1, p_x = 0 for t in 0..10 with rk4 dt = 0.1 as r1
+simulate x = 1, p_x = 0 for t in 0..10 with rk4 dt = 0.05 as r2
+simulate x = 1, p_x = 0 for t in 0..10 with rk4 dt = 0.025 as r3
+";
+
+/// The `(x, y)` centres of the markers of an SVG plot, in drawing order.
+fn markers(svg: &str) -> Vec<(f64, f64)> {
+    svg.split("<circle")
+        .skip(1)
+        .map(|c| {
+            let attr = |name: &str| -> f64 {
+                let at = c.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
+                c[at..].split('"').next().unwrap().parse().unwrap()
+            };
+            (attr("cx"), attr("cy"))
+        })
+        .collect()
+}
+
+#[test]
+fn work_precision_diagram_has_one_line_per_method_with_its_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = format!("{WP}plot work_precision against exact to wp.svg\n");
+    let (code, out, err) = run_in(dir.path(), &scene, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("wp.svg"), "{out}");
+    let svg = std::fs::read_to_string(dir.path().join("wp.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    // Legend entries are text elements whose content is on a line of its own.
+    let text = |s: &str| svg.lines().any(|l| l.trim() == s);
+    assert!(text("leapfrog") && text("rk4"), "legend");
+    assert!(!text("dop853"), "the reference is not a series");
+    // Five runs, one marker each; without `from`, every run but the reference.
+    let m = markers(&svg);
+    assert_eq!(m.len(), 5, "{m:?}");
+    // On log–log axes, halving the step doubles the work and divides the error by 2^order:
+    // the slope in pixels is order × (the height of a decade / the width of a decade), so
+    // the ratio of the two methods' slopes is 4/2 (rk4 against leapfrog).
+    let slope = |a: (f64, f64), b: (f64, f64)| (b.1 - a.1) / (b.0 - a.0);
+    let (leap, rk) = (slope(m[0], m[1]), slope(m[2], m[4]));
+    assert!((rk / leap - 2.0).abs() < 0.25, "slopes {leap} {rk}");
+}
+
+#[test]
+fn work_precision_without_a_reference_uses_the_energy_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = format!("{WP}plot work_precision from l1, l2, r1 to wp.svg\n");
+    let (code, _, err) = run_in(dir.path(), &scene, &[]);
+    assert_eq!(code, 0, "{err}");
+    let svg = std::fs::read_to_string(dir.path().join("wp.svg")).unwrap();
+    assert!(svg.contains("|ΔE/E₀|"), "energy error axis");
+    assert_eq!(markers(&svg).len(), 3);
+}
+
+#[test]
+fn work_precision_against_a_run_of_another_span_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene =
+        format!("{WP}simulate x = 1, p_x = 0 for t in 0..5 with rk4 dt = 0.1 as short\nplot work_precision against short from l1 to wp.svg\n");
+    let (code, _, err) = run_in(dir.path(), &scene, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("ends at t = 10 but the reference `short` at t = 5"), "{err}");
+    assert!(!dir.path().join("wp.svg").exists());
 }

@@ -134,7 +134,7 @@ pub fn main() -> ExitCode {
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
         Some(Command::Product(c)) => product::run(c),
-        None => product::repl(),
+        None => product::repl(&product::CacheArgs::default()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,8 +3,9 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
+use clap::Args;
 use clap::Subcommand;
-use lagrangian::scene::{read_scene, ErrorKind, Mode, Options, SceneError, Session};
+use lagrangian::scene::{read_scene, Cache, ErrorKind, Mode, Options, SceneError, Session};
 
 use super::Failure;
 
@@ -20,9 +21,43 @@ pub enum ProductCommand {
         /// Directory for output files with relative names (default: the current directory).
         #[arg(long)]
         out_dir: Option<PathBuf>,
+        #[command(flatten)]
+        cache: CacheArgs,
     },
     /// The interactive REPL (also what the binary starts with no subcommand).
-    Repl,
+    Repl {
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+}
+
+/// Where derivations are kept between runs.
+#[derive(Args, Clone, Default)]
+pub struct CacheArgs {
+    /// Directory of the derivation cache (default: `$LAGRANGIAN_CACHE_DIR`, else
+    /// `$XDG_CACHE_HOME/lagrangian`, else `~/.cache/lagrangian`).
+    #[arg(long, value_name = "DIR")]
+    cache_dir: Option<PathBuf>,
+    /// Neither read nor write the on-disk derivation cache (also `LAGRANGIAN_CACHE_DIR=off`).
+    #[arg(long, conflicts_with = "cache_dir")]
+    no_cache: bool,
+}
+
+impl CacheArgs {
+    /// The derivation cache these options ask for: on disk unless disabled or no directory
+    /// can be found, else in memory only.
+    pub fn cache(&self) -> Cache {
+        if self.no_cache {
+            return Cache::new();
+        }
+        let env = std::env::var_os("LAGRANGIAN_CACHE_DIR").filter(|v| !v.is_empty());
+        if self.cache_dir.is_none() && env.as_deref() == Some(std::ffi::OsStr::new("off")) {
+            return Cache::new();
+        }
+        let dir =
+            self.cache_dir.clone().or_else(|| env.map(PathBuf::from)).or_else(lagrangian::scene::cache::default_dir);
+        dir.map_or_else(Cache::new, Cache::with_dir)
+    }
 }
 
 fn report(e: &SceneError) -> Failure {
@@ -32,7 +67,7 @@ fn report(e: &SceneError) -> Failure {
 
 pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
     match cmd {
-        ProductCommand::Run { scene, explain, out_dir } => {
+        ProductCommand::Run { scene, explain, out_dir, cache } => {
             let text = read_scene(&scene).map_err(|e| report(&e))?;
             let mut opts = Options::new(Mode::Scene);
             opts.stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
@@ -40,8 +75,8 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             if let Some(d) = out_dir {
                 opts.out_dir = d;
             }
-            opts.progress = true;
-            let mut session = Session::new(opts);
+            opts.progress = lagrangian::scene::progress::Draw::from_env();
+            let mut session = Session::new(opts).with_cache(cache.cache());
             let result = session.run_scene(&scene.display().to_string(), &text);
             for line in session.take_output() {
                 println!("{line}");
@@ -51,12 +86,12 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             }
             result.map_err(|e| report(&e))
         }
-        ProductCommand::Repl => repl(),
+        ProductCommand::Repl { cache } => repl(&cache),
     }
 }
 
 /// The REPL; exits 0 at the end of input whatever happened in between (it survives errors).
-pub fn repl() -> Result<(), Failure> {
-    lagrangian::scene::repl::run(lagrangian::scene::repl::history_path());
+pub fn repl(cache: &CacheArgs) -> Result<(), Failure> {
+    lagrangian::scene::repl::run(lagrangian::scene::repl::history_path(), cache.cache());
     Ok(())
 }

@@ -151,6 +151,9 @@ pub enum PlotKind {
     Poincare(Src, Src),
     /// Expressions against time.
     Series(Vec<Src>),
+    /// Error against work over several runs of the system, one line per method; the error
+    /// is against the named reference run, else the largest relative energy error.
+    WorkPrecision(Option<Src>),
 }
 
 /// `plot …`.

@@ -7,12 +7,14 @@
 
 use std::any::Any;
 use std::fmt;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use crate::expr::{Expr, Symbol};
 use crate::parse::Declarations;
 
 use super::sim::{Family, Method};
+use crate::integrate::{Jacobian, Rhs, RhsError, Separable};
 
 /// One printed line of a derivation: `lhs = rhs`, with an optional label (`E_θ`, a reason).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -137,6 +139,10 @@ pub struct Trajectory {
     pub events: Vec<(usize, f64, Vec<f64>)>,
     /// Steps taken.
     pub steps: usize,
+    /// Right-hand-side evaluations (for splitting methods, kicks: the force evaluations),
+    /// counted during the run: the work axis of a work-precision diagram, deterministic
+    /// where wall time is not. Jacobian evaluations of implicit methods are not included.
+    pub evaluations: usize,
     /// Why the integration ended.
     pub stop: String,
 }
@@ -154,6 +160,8 @@ pub trait Backend {
     fn hamilton(&self, sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError>;
     /// Conserved quantities of `L` (`is_hamiltonian` false) or `H`, each with its reason.
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError>;
+    /// The energy function `h = Σ q' ∂L/∂q' − L` of a Lagrangian.
+    fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError>;
     /// The Poisson bracket `{f, g}` over the coordinates and their momenta `p_q`.
     fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError>;
     /// The averaged Lagrangian of trial functions `q = q(θ, A…)`: `⟨L⟩`, the relations
@@ -253,6 +261,9 @@ impl Backend for NativeBackend {
             .into_iter()
             .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
             .collect())
+    }
+    fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
+        Ok(lagrangian_system(sys, l)?.energy_function())
     }
     fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError> {
         let names: Vec<&str> = sys.coords.iter().map(|q| q.name()).collect();
@@ -369,6 +380,7 @@ impl Backend for NativeBackend {
         };
         let c = &native.rhs;
         let events = native.event_fns(&run.events);
+        let count = AtomicUsize::new(0);
         let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
         let tol = run.tol.unwrap_or(1e-10);
         match c {
@@ -382,18 +394,74 @@ impl Backend for NativeBackend {
                     "symplectic_euler" => Splitting::symplectic_euler(dt),
                     other => return Err(BackendError::Failed(format!("`{other}` is not a splitting method"))),
                 };
-                drive(&m, s, run, &events, progress)
+                drive(&m, &Counted::new(s, &count), run, &events, progress)
             }
-            NativeCompiled::Hamiltonian(r) => by_method(r, run, dt, tol, &events, progress),
-            NativeCompiled::Lagrangian(r) => by_method(r, run, dt, tol, &events, progress),
-            NativeCompiled::LagrangianJacobian(r) => by_method(r, run, dt, tol, &events, progress),
+            NativeCompiled::Hamiltonian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
+            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
+            NativeCompiled::LagrangianJacobian(r) => {
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress)
+            }
         }
         .map(|mut t| {
+            t.evaluations = count.load(Ordering::Relaxed);
             if t.stop.is_empty() {
                 t.stop = "end of the time span".into();
             }
             t
         })
+    }
+}
+
+/// A compiled system that counts its evaluations (see [`Trajectory::evaluations`]). The
+/// count is one relaxed atomic increment per evaluation, small next to an evaluation.
+struct Counted<'a, S: ?Sized> {
+    inner: &'a S,
+    count: &'a AtomicUsize,
+}
+
+impl<'a, S: ?Sized> Counted<'a, S> {
+    fn new(inner: &'a S, count: &'a AtomicUsize) -> Self {
+        Counted { inner, count }
+    }
+    fn bump(&self) {
+        self.count.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+impl<S: Rhs + ?Sized> Rhs for Counted<'_, S> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.bump();
+        self.inner.eval(t, y, dy);
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        self.bump();
+        self.inner.try_eval(t, y, dy)
+    }
+    fn as_jacobian(&self) -> Option<&dyn Jacobian> {
+        self.inner.as_jacobian()
+    }
+}
+
+impl<S: Separable + ?Sized> Separable for Counted<'_, S> {
+    fn dof(&self) -> usize {
+        self.inner.dof()
+    }
+    fn drift(&self, p: &[f64], dq: &mut [f64]) {
+        self.inner.drift(p, dq);
+    }
+    fn kick(&self, t: f64, q: &[f64], dp: &mut [f64]) {
+        self.bump();
+        self.inner.kick(t, q, dp);
+    }
+    fn try_drift(&self, p: &[f64], dq: &mut [f64]) -> Result<(), RhsError> {
+        self.inner.try_drift(p, dq)
+    }
+    fn try_kick(&self, t: f64, q: &[f64], dp: &mut [f64]) -> Result<(), RhsError> {
+        self.bump();
+        self.inner.try_kick(t, q, dp)
     }
 }
 
@@ -468,12 +536,27 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
     events: &EventFns,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Trajectory, BackendError> {
-    use crate::integrate::{Crossing, Event, Integrate, Options, Status};
+    use crate::integrate::{Crossing, Event, Integrate, Options, Status, StopReason};
     let numeric = |e: crate::integrate::IntegrateError| BackendError::Numeric(e.to_string());
     let expected_steps = run.dt.map_or(MAX_POINTS, |h| ((run.t1 - run.t0) / h).ceil() as usize);
     let every = expected_steps.div_ceil(MAX_POINTS).max(1);
     if !events.is_empty() {
-        let mut opts = Options::new().every(every);
+        // The driver that locates events takes no progress callback, but it evaluates every
+        // event function once per step at the step's end: one more "event" that never changes
+        // sign reports the time reached, throttled like the loop below.
+        let span = run.t1 - run.t0;
+        let calls = std::cell::Cell::new(0usize);
+        let progress = std::cell::RefCell::new(progress);
+        let watch = Event::new(|t, _y: &[f64]| {
+            calls.set(calls.get() + 1);
+            if calls.get() % 256 == 0 {
+                if let Ok(mut p) = progress.try_borrow_mut() {
+                    p((t - run.t0) / span);
+                }
+            }
+            1.0
+        });
+        let mut opts = Options::new().every(every).event(watch);
         for (g, req) in events {
             let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
                 Some(true) => Crossing::Rising,
@@ -486,14 +569,19 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
             opts = opts.event(e);
         }
         let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(numeric)?;
-        progress(1.0);
+        (progress.into_inner())(1.0);
         let dim = tr.dim;
         return Ok(Trajectory {
             t: tr.times.clone(),
             y: tr.states.chunks(dim).map(<[f64]>::to_vec).collect(),
-            events: tr.events.iter().map(|e| (e.index, e.t, e.state.clone())).collect(),
+            // The watch is event 0 and never fires; the scene's events are numbered from 1.
+            events: tr.events.iter().filter(|e| e.index > 0).map(|e| (e.index - 1, e.t, e.state.clone())).collect(),
             steps: tr.stats.steps,
-            stop: format!("{:?}", tr.stop),
+            evaluations: 0,
+            stop: match tr.stop {
+                StopReason::ReachedEnd => "end of the time span".to_string(),
+                StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
+            },
         });
     }
     let mut solver = method.solver(sys, run.t0, &run.y0, run.t1).map_err(numeric)?;

@@ -19,13 +19,18 @@
 
 pub mod ast;
 pub mod backend;
+pub mod cache;
 pub mod error;
+mod figures;
 pub mod help;
 pub mod output;
 pub mod parser;
+mod plan;
+pub mod progress;
 pub mod repl;
 pub mod session;
 pub mod sim;
+mod simulate;
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};

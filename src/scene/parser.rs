@@ -220,8 +220,13 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::path | Rule::quoted_path | Rule::bare_path => "a file name",
         Rule::assumption => "`positive`",
         Rule::print_item | Rule::derivation | Rule::deriv_kw => "something to print",
-        Rule::plot_phase | Rule::plot_energy | Rule::plot_path | Rule::plot_poincare | Rule::plot_series => {
-            "a plot (`phase`, `energy`, `path x, y`, `poincare q, p`, or expressions)"
+        Rule::plot_phase
+        | Rule::plot_energy
+        | Rule::plot_path
+        | Rule::plot_poincare
+        | Rule::plot_series
+        | Rule::plot_work_precision => {
+            "a plot (`phase`, `energy`, `path x, y`, `poincare q, p`, `work_precision`, or expressions)"
         }
         _ => return None,
     })
@@ -446,6 +451,10 @@ impl Builder {
                             kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
                         }
                         Rule::plot_energy => kind = Some(PlotKind::Energy),
+                        Rule::plot_work_precision => {
+                            let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
+                            kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
+                        }
                         Rule::plot_path | Rule::plot_poincare => {
                             let is_path = q.as_rule() == Rule::plot_path;
                             let xs: Vec<Src> =

@@ -18,6 +18,7 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
+use super::cache::Cache;
 use super::help::TOPICS;
 use super::parser::{is_incomplete, STATEMENTS};
 use super::session::{Mode, Options, Session};
@@ -146,13 +147,14 @@ impl Repl {
     }
 }
 
-/// Runs the REPL until end of input or `quit`. Returns the number of entries that failed.
-pub fn run(history: Option<PathBuf>) -> usize {
+/// Runs the REPL until end of input or `quit`, starting from the derivations in `cache` (an
+/// on-disk cache makes them outlive the session). Returns the number of entries that failed.
+pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     let mut opts = Options::new(Mode::Repl);
-    opts.progress = true;
+    opts.progress = super::progress::Draw::from_env();
     opts.stem = "repl".to_string();
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
-    let mut repl = Repl { session: Session::new(opts), history: Vec::new(), color: interactive };
+    let mut repl = Repl { session: Session::new(opts).with_cache(cache), history: Vec::new(), color: interactive };
     let mut file_history = FileHistory::new();
     if let Some(p) = &history {
         if let Some(dir) = p.parent() {

@@ -12,21 +12,16 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 use miette::NamedSource;
 
-use super::ast::{
-    DefValue, DerivCall, DerivKind, EventSpec, Item, PlotKind, PlotSpec, SimSpec, Src, Statement, StmtKind,
-};
-use super::backend::{
-    Backend, BackendError, CompileRequest, Compiled, EventRequest, Formulation, Line, NativeBackend, RunRequest,
-    SystemRef, Trajectory,
-};
+use super::ast::{DefValue, DerivCall, DerivKind, Item, SimSpec, Src, Statement, StmtKind};
+use super::backend::{Backend, BackendError, Line, NativeBackend, SystemRef, Trajectory};
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::output::Staging;
 use super::parser;
-use super::sim::{self, Family, Method};
+use super::progress::Draw;
+use super::sim::Method;
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
@@ -53,8 +48,8 @@ pub struct Options {
     pub base_dir: PathBuf,
     /// The stem of default output names (`pendulum` → `pendulum_phase.svg`).
     pub stem: String,
-    /// Show a progress bar for long simulations (only ever on a terminal).
-    pub progress: bool,
+    /// Where progress bars of long simulations go ([`Draw::from_env`] on a terminal).
+    pub progress: Draw,
     /// Default output format.
     pub format: Format,
 }
@@ -67,180 +62,69 @@ impl Options {
             out_dir: PathBuf::from("."),
             base_dir: PathBuf::from("."),
             stem: "scene".to_string(),
-            progress: false,
+            progress: Draw::Hidden,
             format: Format::Unicode,
         }
     }
 }
 
-/// One kind of work the plan reports.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Step {
-    /// Euler–Lagrange equations.
-    EulerLagrange,
-    /// Legendre transform.
-    Legendre,
-    /// Hamilton's equations.
-    Hamilton,
-    /// Conserved quantities.
-    Conserved,
-    /// A Poisson bracket.
-    Bracket,
-    /// An averaged Lagrangian.
-    Average,
-    /// A canonical transformation.
-    Transform,
-    /// The energy function.
-    Energy,
-    /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
-    Momenta,
-    /// The split `H = T(p) + V(q)`.
-    Split,
-    /// A compiled right-hand side.
-    Compile,
-    /// An integration.
-    Integrate,
-}
-
-impl Step {
-    /// A short name for the plan.
-    pub fn name(self) -> &'static str {
-        match self {
-            Step::EulerLagrange => "Euler–Lagrange equations",
-            Step::Legendre => "Legendre transform",
-            Step::Hamilton => "Hamilton's equations",
-            Step::Conserved => "conserved quantities",
-            Step::Bracket => "Poisson bracket",
-            Step::Average => "averaged Lagrangian",
-            Step::Transform => "canonical transformation",
-            Step::Energy => "energy function",
-            Step::Momenta => "canonical momenta",
-            Step::Split => "separable split H = T(p) + V(q)",
-            Step::Compile => "compiled right-hand side",
-            Step::Integrate => "integration",
-        }
-    }
-}
-
-/// What happened to one piece of work.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Status {
-    /// Computed in this run.
-    Built,
-    /// Found in the derivation cache (same symbolic content as an earlier run).
-    Reused,
-    /// Not computed, with the reason.
-    Skipped(String),
-}
-
-/// One line of the plan.
-#[derive(Clone, Debug)]
-pub struct PlanEntry {
-    /// The kind of work.
-    pub step: Step,
-    /// What exactly (`of L`, `run 1 with gauss6`).
-    pub what: String,
-    /// The statement's line that caused it (1-based), if any.
-    pub line: Option<usize>,
-    /// Built, reused or skipped.
-    pub status: Status,
-}
-
-/// The derivation cache: symbolic results keyed by their symbolic inputs. Keep one alive
-/// across runs (the REPL does, and [`Session::with_cache`] lets callers do it) to reuse work.
-#[derive(Default)]
-pub struct Cache {
-    map: HashMap<CacheKey, Value>,
-}
-
-impl Cache {
-    /// An empty cache.
-    pub fn new() -> Cache {
-        Cache::default()
-    }
-
-    /// How many results it holds.
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-
-    /// Whether it is empty.
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
-    }
-}
-
-#[derive(Clone, PartialEq, Eq, Hash)]
-struct CacheKey {
-    step: Step,
-    coords: Vec<Symbol>,
-    inputs: Vec<Expr>,
-    /// Numbers that are part of the content (compiled code binds parameter values).
-    numbers: Vec<u64>,
-    extra: String,
-}
-
-#[derive(Clone)]
-enum Value {
-    Expr(Expr),
-    Lines(Vec<Line>),
-    Exprs(Vec<Expr>),
-    Compiled(Compiled),
-}
+pub use super::cache::Cache;
+use super::cache::{CacheKey, Value};
+pub use super::plan::{PlanEntry, Status, Step};
 
 /// A parameter: a symbol with an optional value.
 #[derive(Clone, Debug)]
-struct Param {
-    value: Option<f64>,
-    positive: bool,
+pub(super) struct Param {
+    pub(super) value: Option<f64>,
+    pub(super) positive: bool,
 }
 
 /// A reference from an expression to a definition it uses.
-type Refs = Vec<(Symbol, usize)>;
+pub(super) type Refs = Vec<(Symbol, usize)>;
 
 #[derive(Clone)]
-enum DefBody {
+pub(super) enum DefBody {
     Expr { raw: Expr, refs: Refs },
     Deriv { kind: DerivKind, args: Vec<(Expr, Refs)>, span: Span },
 }
 
-struct DefEntry {
-    name: String,
-    body: DefBody,
-    line: usize,
-    value: Option<Value>,
-    demanded: bool,
+pub(super) struct DefEntry {
+    pub(super) name: String,
+    pub(super) body: DefBody,
+    pub(super) line: usize,
+    pub(super) value: Option<Value>,
+    pub(super) demanded: bool,
 }
 
 /// Which variables a trajectory's state holds after the coordinates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Layout {
+pub(super) enum Layout {
     Velocities,
     Momenta,
 }
 
-struct RunEntry {
-    name: String,
-    spec: SimSpec,
-    line: usize,
-    result: Option<RunResult>,
+pub(super) struct RunEntry {
+    pub(super) name: String,
+    pub(super) spec: SimSpec,
+    pub(super) line: usize,
+    pub(super) result: Option<RunResult>,
 }
 
 #[derive(Clone)]
-struct RunResult {
-    method: Method,
-    layout: Layout,
-    coords: Vec<Symbol>,
-    params: HashMap<String, f64>,
-    traj: Arc<Trajectory>,
+pub(super) struct RunResult {
+    pub(super) method: Method,
+    pub(super) layout: Layout,
+    pub(super) coords: Vec<Symbol>,
+    pub(super) params: HashMap<String, f64>,
+    pub(super) traj: Arc<Trajectory>,
     /// The energy-like function in the state's variables (`H` or `h`), when known.
-    lagrangian: Option<Expr>,
-    hamiltonian: Option<Expr>,
+    pub(super) lagrangian: Option<Expr>,
+    pub(super) hamiltonian: Option<Expr>,
 }
 
 /// A statement's printed result, kept for `latex` (reprint in another format).
 #[derive(Clone)]
-enum Printed {
+pub(super) enum Printed {
     Named(String, Expr),
     Value(Expr),
     Lines(Vec<Line>),
@@ -248,43 +132,43 @@ enum Printed {
 
 /// A scene or REPL session.
 pub struct Session {
-    opts: Options,
-    backend: Box<dyn Backend>,
-    cache: Cache,
-    built_here: HashSet<CacheKey>,
-    coords: Vec<Symbol>,
-    params: BTreeMap<String, Param>,
-    functions: BTreeSet<String>,
-    defs: Vec<DefEntry>,
-    def_names: HashMap<String, usize>,
-    runs: Vec<RunEntry>,
-    run_names: HashMap<String, usize>,
-    plan: Vec<PlanEntry>,
-    staging: Staging,
-    output: Vec<String>,
-    last_printed: Vec<Printed>,
-    source: Arc<NamedSource<String>>,
-    line: usize,
-    span: Span,
-    load_depth: usize,
-    diff: Differentiator,
+    pub(super) opts: Options,
+    pub(super) backend: Box<dyn Backend>,
+    pub(super) cache: Cache,
+    pub(super) built_here: HashSet<CacheKey>,
+    pub(super) coords: Vec<Symbol>,
+    pub(super) params: BTreeMap<String, Param>,
+    pub(super) functions: BTreeSet<String>,
+    pub(super) defs: Vec<DefEntry>,
+    pub(super) def_names: HashMap<String, usize>,
+    pub(super) runs: Vec<RunEntry>,
+    pub(super) run_names: HashMap<String, usize>,
+    pub(super) plan: Vec<PlanEntry>,
+    pub(super) staging: Staging,
+    pub(super) output: Vec<String>,
+    pub(super) last_printed: Vec<Printed>,
+    pub(super) source: Arc<NamedSource<String>>,
+    pub(super) line: usize,
+    pub(super) span: Span,
+    pub(super) load_depth: usize,
+    pub(super) diff: Differentiator,
     /// Names a statement introduces for itself (the phase, frequency and amplitudes of
     /// `average`), accepted in its expressions.
-    local_names: Vec<String>,
+    pub(super) local_names: Vec<String>,
 }
 
 /// The deepest chain of `load` statements.
-const MAX_LOAD_DEPTH: usize = 8;
+pub(super) const MAX_LOAD_DEPTH: usize = 8;
 
 /// The largest scene file read, in bytes.
 pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 
-fn line_of(text: &str, pos: usize) -> usize {
+pub(super) fn line_of(text: &str, pos: usize) -> usize {
     let pos = pos.min(text.len());
     text.as_bytes()[..pos].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
-fn backend_error(e: BackendError, span: Span) -> SceneError {
+pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
     let kind = match &e {
         BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
         BackendError::Failed(_) => ErrorKind::Derivation,
@@ -403,7 +287,7 @@ impl Session {
         }
     }
 
-    fn run_text(&mut self, name: &str, text: &str) -> Result<(), SceneError> {
+    pub(super) fn run_text(&mut self, name: &str, text: &str) -> Result<(), SceneError> {
         let saved = self.source.clone();
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
@@ -417,7 +301,7 @@ impl Session {
         result.map_err(|e| e.with_source(&src))
     }
 
-    fn exec(&mut self, st: &Statement, text: &str) -> Result<(), SceneError> {
+    pub(super) fn exec(&mut self, st: &Statement, text: &str) -> Result<(), SceneError> {
         self.line = line_of(text, st.span.0);
         self.span = st.span;
         match &st.kind {
@@ -503,12 +387,12 @@ impl Session {
 
     // ----- declarations -------------------------------------------------------------------
 
-    fn declarations(&self) -> Declarations {
+    pub(super) fn declarations(&self) -> Declarations {
         let positive = self.params.iter().filter(|(_, p)| p.positive).map(|(n, _)| n.clone());
         Declarations::new().with_functions(self.functions.iter()).with_positive(positive)
     }
 
-    fn name_in_use(&self, name: &str) -> Option<&'static str> {
+    pub(super) fn name_in_use(&self, name: &str) -> Option<&'static str> {
         if self.coords.iter().any(|c| c.name() == name) {
             Some("a coordinate")
         } else if self.params.contains_key(name) {
@@ -522,7 +406,7 @@ impl Session {
         }
     }
 
-    fn declare_coordinates(&mut self, names: &[Src]) -> Result<(), SceneError> {
+    pub(super) fn declare_coordinates(&mut self, names: &[Src]) -> Result<(), SceneError> {
         let mut seen = BTreeSet::new();
         for n in names {
             let name = n.text.as_str();
@@ -546,7 +430,11 @@ impl Session {
         Ok(())
     }
 
-    fn declare_parameters(&mut self, params: &[(Src, Option<Src>)], positive: bool) -> Result<(), SceneError> {
+    pub(super) fn declare_parameters(
+        &mut self,
+        params: &[(Src, Option<Src>)],
+        positive: bool,
+    ) -> Result<(), SceneError> {
         for (n, v) in params {
             let name = n.text.as_str();
             if let Some(what) = self.name_in_use(name).filter(|w| *w != "a parameter") {
@@ -582,7 +470,7 @@ impl Session {
         Ok(())
     }
 
-    fn declare_functions(&mut self, names: &[Src]) -> Result<(), SceneError> {
+    pub(super) fn declare_functions(&mut self, names: &[Src]) -> Result<(), SceneError> {
         for n in names {
             if let Some(what) = self.name_in_use(&n.text).filter(|w| *w != "a function") {
                 return Err(SceneError::new(ErrorKind::Redeclared, format!("`{}` is already {what}", n.text))
@@ -598,7 +486,7 @@ impl Session {
 
     /// Parses an expression in the session's context, checks that every symbol is known and
     /// returns the definitions it refers to.
-    fn expr(&mut self, src: &Src) -> Result<(Expr, Refs), SceneError> {
+    pub(super) fn expr(&mut self, src: &Src) -> Result<(Expr, Refs), SceneError> {
         let decls = self.declarations();
         let e = parse_with(&src.text, &decls).map_err(|pe| {
             let start = src.span.0 + pe.span.0.min(src.text.len());
@@ -619,7 +507,7 @@ impl Session {
     }
 
     /// `Some(def)` if `s` names a definition; an error if `s` is unknown.
-    fn check_symbol(&self, s: &Symbol, src: &Src) -> Result<Option<usize>, SceneError> {
+    pub(super) fn check_symbol(&self, s: &Symbol, src: &Src) -> Result<Option<usize>, SceneError> {
         let name = s.name();
         if s.is_time() || (s.primes() == 0 && self.local_names.iter().any(|n| n == name)) {
             return Ok(None);
@@ -681,7 +569,7 @@ impl Session {
     }
 
     /// The numeric value of an expression of numbers and parameters with values.
-    fn number(&self, e: &Expr, span: Span) -> Result<f64, SceneError> {
+    pub(super) fn number(&self, e: &Expr, span: Span) -> Result<f64, SceneError> {
         let v = crate::eval::eval_with(e, &|s: &Symbol| self.params.get(s.name()).and_then(|p| p.value));
         match v {
             Ok(x) if x.is_finite() => Ok(x),
@@ -696,7 +584,7 @@ impl Session {
         }
     }
 
-    fn resolve(&mut self, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
+    pub(super) fn resolve(&mut self, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
         if refs.is_empty() {
             return Ok(raw.clone());
         }
@@ -720,14 +608,14 @@ impl Session {
         Ok(raw.subs(&map))
     }
 
-    fn resolved(&mut self, src: &Src) -> Result<Expr, SceneError> {
+    pub(super) fn resolved(&mut self, src: &Src) -> Result<Expr, SceneError> {
         let (raw, refs) = self.expr(src)?;
         self.resolve(&raw, &refs)
     }
 
     // ----- definitions ---------------------------------------------------------------------
 
-    fn define(&mut self, name: &Src, value: &DefValue) -> Result<(), SceneError> {
+    pub(super) fn define(&mut self, name: &Src, value: &DefValue) -> Result<(), SceneError> {
         let n = name.text.as_str();
         if let Some(what) = self.name_in_use(n).filter(|w| *w != "a definition") {
             return Err(SceneError::new(ErrorKind::Redeclared, format!("`{n}` is already {what}"))
@@ -766,7 +654,7 @@ impl Session {
         Ok(())
     }
 
-    fn demand_def(&mut self, id: usize) -> Result<Value, SceneError> {
+    pub(super) fn demand_def(&mut self, id: usize) -> Result<Value, SceneError> {
         if let Some(v) = &self.defs[id].value {
             return Ok(v.clone());
         }
@@ -790,7 +678,7 @@ impl Session {
         Ok(v)
     }
 
-    fn def_value(&mut self, name: &str) -> Result<Option<Expr>, SceneError> {
+    pub(super) fn def_value(&mut self, name: &str) -> Result<Option<Expr>, SceneError> {
         let Some(&id) = self.def_names.get(name) else { return Ok(None) };
         match self.demand_def(id)? {
             Value::Expr(e) => Ok(Some(e)),
@@ -798,7 +686,7 @@ impl Session {
         }
     }
 
-    fn lagrangian(&mut self) -> Result<Expr, SceneError> {
+    pub(super) fn lagrangian(&mut self) -> Result<Expr, SceneError> {
         match self.def_value("L")? {
             Some(l) => Ok(l),
             None => Err(SceneError::new(ErrorKind::Undeclared, "no Lagrangian defined")
@@ -808,7 +696,7 @@ impl Session {
         }
     }
 
-    fn hamiltonian(&mut self) -> Result<Expr, SceneError> {
+    pub(super) fn hamiltonian(&mut self) -> Result<Expr, SceneError> {
         if let Some(h) = self.def_value("H")? {
             return Ok(h);
         }
@@ -825,7 +713,7 @@ impl Session {
             .hint("define `H = …` or `L = …` first"))
     }
 
-    fn derive_call(&mut self, call: &DerivCall) -> Result<Value, SceneError> {
+    pub(super) fn derive_call(&mut self, call: &DerivCall) -> Result<Value, SceneError> {
         let mut args = Vec::new();
         for a in &call.args {
             args.push(self.resolved(a)?);
@@ -833,7 +721,7 @@ impl Session {
         self.derive(call.kind, args, call.span)
     }
 
-    fn derive(&mut self, kind: DerivKind, mut args: Vec<Expr>, span: Span) -> Result<Value, SceneError> {
+    pub(super) fn derive(&mut self, kind: DerivKind, mut args: Vec<Expr>, span: Span) -> Result<Value, SceneError> {
         let want = if kind == DerivKind::Pb { 2 } else { 1 };
         if !args.is_empty() && args.len() != want {
             return Err(SceneError::new(
@@ -875,31 +763,13 @@ impl Session {
         let coords = self.coords.clone();
         let sys = SystemRef { coords: &coords, decls: &decls };
         let what = format!("of {}", short(&args[0]));
-        let step = match kind {
-            DerivKind::El => Step::EulerLagrange,
-            DerivKind::Legendre => Step::Legendre,
-            DerivKind::Hamilton => Step::Hamilton,
-            DerivKind::Conserved => Step::Conserved,
-            DerivKind::Pb => Step::Bracket,
-            DerivKind::Energy => Step::Energy,
-        };
+        let step = deriv_step(kind);
         let key =
             CacheKey { step, coords: coords.clone(), inputs: args.clone(), numbers: vec![], extra: String::new() };
-        let a = args.clone();
         let hamiltonian_input = is_h(&args[0]);
-        let energy = |d: &mut Differentiator| energy_function(d, &coords, &a[0]);
-        let result = match kind {
-            DerivKind::Energy if hamiltonian_input => Ok(Value::Expr(args[0].clone())),
-            DerivKind::Energy => {
-                let mut d = std::mem::take(&mut self.diff);
-                let e = energy(&mut d);
-                self.diff = d;
-                return self.record(step, what, key, Ok(Value::Expr(e)), span);
-            }
-            _ => Err(()),
-        };
-        if let Ok(v) = result {
-            return Ok(v);
+        if kind == DerivKind::Energy && hamiltonian_input {
+            // The energy of a Hamiltonian system is `H` itself: nothing to derive.
+            return Ok(Value::Expr(args[0].clone()));
         }
         if let Some(v) = self.lookup(&key, step, &what) {
             return Ok(v);
@@ -911,34 +781,38 @@ impl Session {
             DerivKind::Hamilton => backend.hamilton(&sys, &args[0]).map(Value::Lines),
             DerivKind::Conserved => backend.conserved(&sys, &args[0], hamiltonian_input).map(Value::Lines),
             DerivKind::Pb => backend.bracket(&sys, &args[0], &args[1]).map(Value::Expr),
-            DerivKind::Energy => unreachable_energy(),
+            DerivKind::Energy => backend.energy(&sys, &args[0]).map(Value::Expr),
         };
-        self.record(step, what, key, built.map_err(|e| backend_error(e, span)), span)
+        self.record(step, what, key, built.map_err(|e| backend_error(e, span)))
     }
 
-    /// A cached value, recording its reuse in the plan.
-    fn lookup(&mut self, key: &CacheKey, step: Step, what: &str) -> Option<Value> {
-        let v = self.cache.map.get(key)?.clone();
+    /// A cached value, from memory or else from the disk cache, recording in the plan where
+    /// it came from (once per session).
+    pub(super) fn lookup(&mut self, key: &CacheKey, step: Step, what: &str) -> Option<Value> {
+        let (v, status) = match self.cache.get(key) {
+            Some(v) => (v, Status::Reused),
+            None => {
+                let decls = self.declarations();
+                (self.cache.load(key, &decls)?, Status::Loaded)
+            }
+        };
         if !self.built_here.contains(key) {
             self.built_here.insert(key.clone());
-            self.plan.push(PlanEntry { step, what: what.to_string(), line: Some(self.line), status: Status::Reused });
+            self.plan.push(PlanEntry { step, what: what.to_string(), line: Some(self.line), status });
         }
         Some(v)
     }
 
-    fn record(
+    /// Caches a value just built (a miss in [`Session::lookup`]) and records it in the plan.
+    pub(super) fn record(
         &mut self,
         step: Step,
         what: String,
         key: CacheKey,
         built: Result<Value, SceneError>,
-        _span: Span,
     ) -> Result<Value, SceneError> {
-        if let Some(v) = self.lookup(&key, step, &what) {
-            return Ok(v);
-        }
         let v = built?;
-        self.cache.map.insert(key.clone(), v.clone());
+        self.cache.insert(key.clone(), v.clone());
         self.built_here.insert(key);
         self.plan.push(PlanEntry { step, what, line: Some(self.line), status: Status::Built });
         Ok(v)
@@ -946,7 +820,7 @@ impl Session {
 
     /// Canonical momenta `p_i = ∂L/∂q'_i` (plain derivatives; used to turn initial
     /// velocities into momenta and for plots).
-    fn momenta(&mut self, l: &Expr) -> Result<Vec<Expr>, SceneError> {
+    pub(super) fn momenta(&mut self, l: &Expr) -> Result<Vec<Expr>, SceneError> {
         let key = CacheKey {
             step: Step::Momenta,
             coords: self.coords.clone(),
@@ -958,13 +832,13 @@ impl Session {
             return Ok(v);
         }
         let ps: Vec<Expr> = self.coords.clone().iter().map(|q| self.diff.diff(l, &q.prime())).collect();
-        match self.record(Step::Momenta, format!("of {}", short(l)), key, Ok(Value::Exprs(ps)), self.span)? {
+        match self.record(Step::Momenta, format!("of {}", short(l)), key, Ok(Value::Exprs(ps)))? {
             Value::Exprs(v) => Ok(v),
             _ => Ok(vec![]),
         }
     }
 
-    fn average(
+    pub(super) fn average(
         &mut self,
         l: Option<&Src>,
         trials: &[(Src, Src)],
@@ -1010,13 +884,19 @@ impl Session {
             .average(&l, &pairs, &phase, &frequency, &amps)
             .map(Value::Lines)
             .map_err(|e| backend_error(e, self.span));
-        match self.record(Step::Average, what, key, built, self.span)? {
+        match self.record(Step::Average, what, key, built)? {
             Value::Lines(v) => Ok(v),
             _ => Ok(vec![]),
         }
     }
 
-    fn transform(&mut self, h: Option<&Src>, kind: &str, f: &Src, new: &[Src]) -> Result<Vec<Line>, SceneError> {
+    pub(super) fn transform(
+        &mut self,
+        h: Option<&Src>,
+        kind: &str,
+        f: &Src,
+        new: &[Src],
+    ) -> Result<Vec<Line>, SceneError> {
         let n = self.coords.len();
         if n == 0 {
             return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
@@ -1062,7 +942,7 @@ impl Session {
             .transform(&sys, &h, kind, &f_expr, &new_q, &new_p)
             .map(Value::Lines)
             .map_err(|e| backend_error(e, self.span));
-        match self.record(Step::Transform, what, key, built, self.span)? {
+        match self.record(Step::Transform, what, key, built)? {
             Value::Lines(v) => Ok(v),
             _ => Ok(vec![]),
         }
@@ -1070,7 +950,7 @@ impl Session {
 
     // ----- printing ------------------------------------------------------------------------
 
-    fn printed_item(&mut self, item: &Item) -> Result<Printed, SceneError> {
+    pub(super) fn printed_item(&mut self, item: &Item) -> Result<Printed, SceneError> {
         match item {
             Item::Derivation(call) => Ok(match self.derive_call(call)? {
                 Value::Expr(e) => Printed::Named(call.kind.keyword().to_string(), e),
@@ -1092,7 +972,7 @@ impl Session {
         }
     }
 
-    fn print_all(&mut self, printed: Vec<Printed>, format: Option<Format>) {
+    pub(super) fn print_all(&mut self, printed: Vec<Printed>, format: Option<Format>) {
         let f = format.unwrap_or(self.opts.format);
         for p in &printed {
             match p {
@@ -1114,917 +994,7 @@ impl Session {
         self.last_printed = printed;
     }
 
-    // ----- simulation ----------------------------------------------------------------------
-
-    fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
-        // Validate the parts that need no derivation now, so a typo is reported at once.
-        self.check_method(spec)?;
-        let name = match &spec.name {
-            Some(n) => n.text.clone(),
-            None => format!("run{}", self.runs.len() + 1),
-        };
-        let id = self.runs.len();
-        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None });
-        self.run_names.insert(name, id);
-        if self.opts.mode == Mode::Repl {
-            self.demand_run(id)?;
-            let summary = self.run_summary(id);
-            self.output.push(summary);
-        }
-        Ok(())
-    }
-
-    fn check_method(&self, spec: &SimSpec) -> Result<Method, SceneError> {
-        if spec.time_var.text != "t" {
-            return Err(SceneError::new(
-                ErrorKind::Syntax,
-                format!("the time variable is `t`, not `{}`", spec.time_var.text),
-            )
-            .at(spec.time_var.span)
-            .hint("write `for t in 0..10`"));
-        }
-        match &spec.method {
-            None => Ok(sim::method(sim::DEFAULT_METHOD).unwrap_or(sim::METHODS[0])),
-            Some(m) => sim::method(&m.text).ok_or_else(|| {
-                let names = sim::METHODS.iter().map(|m| m.name);
-                let err = SceneError::new(ErrorKind::UnknownMethod, format!("unknown integration method `{}`", m.text))
-                    .at(m.span)
-                    .label("not a method");
-                match did_you_mean(&m.text, names) {
-                    Some(s) => err.hint(format!("did you mean `{s}`? (`help simulate` lists the methods)")),
-                    None => err.hint(format!(
-                        "the methods are {}",
-                        sim::METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
-                    )),
-                }
-            }),
-        }
-    }
-
-    fn run_summary(&self, id: usize) -> String {
-        let run = &self.runs[id];
-        let Some(r) = &run.result else { return String::new() };
-        let tr = &r.traj;
-        let mut s = format!(
-            "{}: {} from t = {} to t = {} in {} steps",
-            run.name,
-            r.method.name,
-            fmt_num(tr.t.first().copied().unwrap_or(0.0)),
-            fmt_num(tr.t.last().copied().unwrap_or(0.0)),
-            tr.steps
-        );
-        if let Some(y) = tr.y.last() {
-            let names = state_names(&r.coords, r.layout);
-            let parts: Vec<String> = names.iter().zip(y).map(|(n, v)| format!("{n} = {}", fmt_num(*v))).collect();
-            s.push_str(&format!("; final {}", parts.join(", ")));
-        }
-        if !tr.events.is_empty() {
-            s.push_str(&format!("; {} events", tr.events.len()));
-        }
-        s
-    }
-
-    fn demand_run(&mut self, id: usize) -> Result<RunResult, SceneError> {
-        if let Some(r) = &self.runs[id].result {
-            return Ok(r.clone());
-        }
-        let spec = self.runs[id].spec.clone();
-        let saved = (self.line, self.span);
-        self.line = self.runs[id].line;
-        let r = self.run_simulation(&spec, &self.runs[id].name.clone());
-        (self.line, self.span) = saved;
-        let r = r?;
-        self.runs[id].result = Some(r.clone());
-        Ok(r)
-    }
-
-    fn run_simulation(&mut self, spec: &SimSpec, name: &str) -> Result<RunResult, SceneError> {
-        let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
-        self.span = stmt_span;
-        let method = self.check_method(spec)?;
-        if self.coords.is_empty() {
-            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
-                .at(stmt_span)
-                .hint("declare them first, for example `coordinates θ`"));
-        }
-        let t0 = self.bound(&spec.t0)?;
-        let t1 = self.bound(&spec.t1)?;
-        if t1 <= t0 {
-            return Err(SceneError::new(
-                ErrorKind::BadNumber,
-                format!("the time span runs backwards: it ends at {} before it starts at {}", fmt_num(t1), fmt_num(t0)),
-            )
-            .at(spec.span_span)
-            .label("end must be after start")
-            .hint(format!("write `for t in {}..{}`", fmt_num(t1.min(t0)), fmt_num(t1.max(t0)))));
-        }
-        let positive = |s: &Option<Src>, this: &mut Session, what: &str| -> Result<Option<f64>, SceneError> {
-            let Some(src) = s else { return Ok(None) };
-            let e = this.resolved(src)?;
-            let x = this.number(&e, src.span)?;
-            if x <= 0.0 {
-                return Err(
-                    SceneError::new(ErrorKind::BadNumber, format!("{what} must be positive, found {x}")).at(src.span)
-                );
-            }
-            Ok(Some(x))
-        };
-        let mut dt = positive(&spec.dt, self, "the step `dt`")?;
-        let mut tol = positive(&spec.tol, self, "the tolerance `tol`")?;
-        let steps = positive(&spec.steps, self, "`steps`")?;
-        if let Some(n) = steps {
-            dt = Some((t1 - t0) / n.round().max(1.0));
-        }
-        match method.family {
-            Family::Adaptive => {
-                if spec.dt.is_some() {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`{}` chooses its own steps; give a tolerance instead of `dt`", method.name),
-                    )
-                    .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
-                    .hint("write `tol = 1e-10`, or pick a fixed-step method such as `gauss6` or `rk4`"));
-                }
-                tol = Some(tol.unwrap_or(1e-10));
-            }
-            _ => {
-                if dt.is_none() {
-                    return Err(SceneError::new(
-                        ErrorKind::MissingValue,
-                        format!("`{}` is a fixed-step method and needs a step", method.name),
-                    )
-                    .at(stmt_span)
-                    .hint("add `dt = 0.01` (or `steps = 1000`)"));
-                }
-            }
-        }
-        if let Some(d) = dt {
-            if (t1 - t0) / d > 1e9 {
-                return Err(SceneError::new(
-                    ErrorKind::BadNumber,
-                    format!("{} steps is more than the limit of 10⁹", fmt_num((t1 - t0) / d)),
-                )
-                .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
-                .hint("use a larger `dt` or a shorter time span"));
-            }
-        }
-
-        // The formulation this method needs: this decides what is derived.
-        let has_l = self.def_names.contains_key("L");
-        let has_h = self.def_names.contains_key("H");
-        let (formulation, layout, l_expr, h_expr) = match method.family {
-            Family::Splitting => {
-                let h = self.hamiltonian()?;
-                let (t, v) = self.split(&h, method)?;
-                (Formulation::Separable { t, v }, Layout::Momenta, None, Some(h))
-            }
-            _ if has_l => {
-                let l = self.lagrangian()?;
-                (Formulation::Lagrangian(l.clone()), Layout::Velocities, Some(l), None)
-            }
-            _ if has_h => {
-                let h = self.hamiltonian()?;
-                (Formulation::Hamiltonian(h.clone()), Layout::Momenta, None, Some(h))
-            }
-            _ => {
-                return Err(SceneError::new(ErrorKind::Undeclared, "nothing to simulate: no `L` or `H` defined")
-                    .at(stmt_span)
-                    .hint("define `L = …` or `H = …` first"))
-            }
-        };
-
-        // Initial state.
-        let coords = self.coords.clone();
-        let n = coords.len();
-        let mut given: HashMap<String, (f64, Span)> = HashMap::new();
-        for (sym, val) in &spec.inits {
-            let (e, _) = self.expr(sym)?;
-            let Some(s) = e.as_sym().cloned() else {
-                return Err(
-                    SceneError::new(ErrorKind::Syntax, "expected a coordinate, velocity or momentum").at(sym.span)
-                );
-            };
-            let is_state = coords.iter().any(|c| c.name() == s.name() && s.primes() <= 1)
-                || (s.primes() == 0
-                    && s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c)));
-            if !is_state {
-                return Err(SceneError::new(
-                    ErrorKind::UndefinedSymbol,
-                    format!("`{}` is not part of the state", sym.text),
-                )
-                .at(sym.span)
-                .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
-            }
-            let v = self.resolved(val)?;
-            let x = self.number(&v, val.span)?;
-            given.insert(s.to_string(), (x, sym.span));
-        }
-        let mut y0 = vec![0.0; 2 * n];
-        for (i, q) in coords.iter().enumerate() {
-            y0[i] = match given.get(q.name()) {
-                Some((x, _)) => *x,
-                None => {
-                    return Err(SceneError::new(
-                        ErrorKind::MissingValue,
-                        format!("no initial value for `{}`", q.name()),
-                    )
-                    .at(stmt_span)
-                    .hint(format!("add `{} = …` to the `simulate` statement", q.name())))
-                }
-            };
-        }
-        let vel = |q: &Symbol| format!("{}'", q.name());
-        let mom = |q: &Symbol| format!("p_{}", q.name());
-        match layout {
-            Layout::Velocities => {
-                for (i, q) in coords.iter().enumerate() {
-                    if let Some((_, span)) = given.get(&mom(q)) {
-                        return Err(SceneError::new(
-                            ErrorKind::Syntax,
-                            format!("this simulation integrates `L`, so give the velocity `{}`", vel(q)),
-                        )
-                        .at(*span)
-                        .hint(format!("write `{} = …`, or choose a splitting method to integrate `H`", vel(q))));
-                    }
-                    y0[n + i] = given.get(&vel(q)).map(|v| v.0).ok_or_else(|| {
-                        SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", vel(q)))
-                            .at(stmt_span)
-                            .hint(format!("add `{} = 0` (or another value) to the `simulate` statement", vel(q)))
-                    })?;
-                }
-            }
-            Layout::Momenta => {
-                let any_velocity = coords.iter().any(|q| given.contains_key(&vel(q)));
-                let any_momentum = coords.iter().any(|q| given.contains_key(&mom(q)));
-                if any_velocity && any_momentum {
-                    return Err(
-                        SceneError::new(ErrorKind::Syntax, "give either velocities or momenta, not both").at(stmt_span)
-                    );
-                }
-                if any_velocity {
-                    // Velocities → momenta through p = ∂L/∂q' at the initial state.
-                    let l = self.lagrangian().map_err(|e| {
-                        e.hint(
-                            "this method integrates `H`: give the momenta `p_q`, or define `L` to convert velocities",
-                        )
-                    })?;
-                    let ps = self.momenta(&l)?;
-                    let mut env: HashMap<String, f64> = self.param_values();
-                    for (i, q) in coords.iter().enumerate() {
-                        env.insert(q.name().to_string(), y0[i]);
-                        let v = given.get(&vel(q)).map(|v| v.0).ok_or_else(|| {
-                            SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", vel(q)))
-                                .at(stmt_span)
-                                .hint(format!("add `{} = 0` to the `simulate` statement", vel(q)))
-                        })?;
-                        env.insert(vel(q), v);
-                    }
-                    env.insert("t".into(), t0);
-                    for (i, p) in ps.iter().enumerate() {
-                        y0[n + i] = crate::eval::eval(p, &env).map_err(|e| self.value_error(e, stmt_span))?;
-                    }
-                } else {
-                    for (i, q) in coords.iter().enumerate() {
-                        y0[n + i] = given.get(&mom(q)).map(|v| v.0).ok_or_else(|| {
-                            SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", mom(q)))
-                                .at(stmt_span)
-                                .hint(format!(
-                                    "add `{} = 0` (or the velocity `{}`) to the `simulate` statement",
-                                    mom(q),
-                                    vel(q)
-                                ))
-                        })?;
-                    }
-                }
-            }
-        }
-
-        // Events, in the state's variables.
-        let mut event_exprs = Vec::new();
-        let mut events = Vec::new();
-        for (index, ev) in spec.events.iter().enumerate() {
-            let e = self.event_expr(ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
-            event_exprs.push(e);
-            events.push(EventRequest { index, terminal: ev.terminal, rising: ev.rising });
-        }
-
-        // Every parameter the equations use needs a value.
-        let mut needed: BTreeSet<String> = BTreeSet::new();
-        let exprs: Vec<&Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e],
-            Formulation::Separable { t, v } => vec![t, v],
-        };
-        for e in exprs.iter().copied().chain(event_exprs.iter()) {
-            if let Some(f) = e.applied_functions().into_iter().next() {
-                return Err(SceneError::new(
-                    ErrorKind::MissingValue,
-                    format!(
-                        "the declared function `{f}` has no numeric definition, so the equations cannot be integrated"
-                    ),
-                )
-                .at(stmt_span)
-                .hint(format!("replace `{f}(…)` in `L` or `H` by an explicit expression before `simulate`")));
-            }
-            for s in e.free_symbols() {
-                if self.params.contains_key(s.name()) && s.primes() == 0 {
-                    needed.insert(s.name().to_string());
-                }
-            }
-        }
-        let mut params = Vec::new();
-        for p in &needed {
-            match self.params.get(p).and_then(|x| x.value) {
-                Some(v) => params.push((p.clone(), v)),
-                None => {
-                    return Err(SceneError::new(ErrorKind::MissingValue, format!("parameter `{p}` has no value"))
-                        .at(stmt_span)
-                        .label(format!("needs a value for `{p}`"))
-                        .hint(format!("declare `{p}` with a value before `simulate`: `parameters {p} = …`")))
-                }
-            }
-        }
-
-        // Compile (cached by symbolic content and parameter values), then integrate.
-        let req = CompileRequest {
-            coords: coords.clone(),
-            formulation: formulation.clone(),
-            params: params.clone(),
-            method,
-            events: event_exprs.clone(),
-            decls: self.declarations(),
-        };
-        let mut inputs: Vec<Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e.clone()],
-            Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
-        };
-        inputs.extend(event_exprs.iter().cloned());
-        let key = CacheKey {
-            step: Step::Compile,
-            coords: coords.clone(),
-            inputs,
-            numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
-            extra: format!(
-                "{:?}{}",
-                method.family,
-                params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
-            ),
-        };
-        let what = format!("{} for {}", formulation_name(&formulation), method.name);
-        let compiled = match self.lookup(&key, Step::Compile, &what) {
-            Some(Value::Compiled(c)) => c,
-            _ => {
-                let built = self.backend.compile(&req).map(Value::Compiled).map_err(|e| backend_error(e, stmt_span));
-                match self.record(Step::Compile, what, key, built, stmt_span)? {
-                    Value::Compiled(c) => c,
-                    _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(stmt_span)),
-                }
-            }
-        };
-        let run = RunRequest { method, y0, t0, t1, dt, tol, events };
-        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
-        Ok(RunResult {
-            method,
-            layout,
-            coords,
-            params: params.into_iter().collect(),
-            traj: Arc::new(traj),
-            lagrangian: l_expr,
-            hamiltonian: h_expr,
-        })
-    }
-
-    fn integrate(
-        &mut self,
-        compiled: &Compiled,
-        run: &RunRequest,
-        name: &str,
-        span: Span,
-    ) -> Result<Trajectory, SceneError> {
-        let started = Instant::now();
-        let mut bar: Option<indicatif::ProgressBar> = None;
-        let show = self.opts.progress && std::io::IsTerminal::is_terminal(&std::io::stderr());
-        let mut progress = |frac: f64| {
-            if !show {
-                return;
-            }
-            // Only simulations that take longer than about a second get a bar.
-            if bar.is_none() && started.elapsed().as_secs_f64() > 1.0 && frac < 0.9 {
-                let b = indicatif::ProgressBar::new(1000);
-                if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ETA {eta}") {
-                    b.set_style(style);
-                }
-                b.set_message(name.to_string());
-                bar = Some(b);
-            }
-            if let Some(b) = &bar {
-                b.set_position((frac.clamp(0.0, 1.0) * 1000.0) as u64);
-            }
-        };
-        let result = self.backend.integrate(compiled, run, &mut progress);
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
-        let traj = result.map_err(|e| backend_error(e, span))?;
-        self.plan.push(PlanEntry {
-            step: Step::Integrate,
-            what: format!("{name} with {} ({} steps)", run.method.name, traj.steps),
-            line: Some(self.line),
-            status: Status::Built,
-        });
-        Ok(traj)
-    }
-
-    fn value_error(&self, e: crate::eval::EvalError, span: Span) -> SceneError {
-        match e {
-            crate::eval::EvalError::Unbound(name) => {
-                SceneError::new(ErrorKind::MissingValue, format!("`{name}` has no value"))
-                    .at(span)
-                    .hint(format!("declare `{name}` with a value before `simulate`: `parameters {name} = …`"))
-            }
-            other => SceneError::new(ErrorKind::BadNumber, other.to_string()).at(span),
-        }
-    }
-
-    fn param_values(&self) -> HashMap<String, f64> {
-        self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect()
-    }
-
-    fn bound(&mut self, src: &Src) -> Result<f64, SceneError> {
-        let e = self.resolved(src)?;
-        self.number(&e, src.span)
-    }
-
-    /// Splits `H` into `T(p) + V(q, t)` term by term; a term mixing both makes `H`
-    /// non-separable, which a splitting method cannot integrate.
-    fn split(&mut self, h: &Expr, method: Method) -> Result<(Expr, Expr), SceneError> {
-        let key = CacheKey {
-            step: Step::Split,
-            coords: self.coords.clone(),
-            inputs: vec![h.clone()],
-            numbers: vec![],
-            extra: String::new(),
-        };
-        if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &format!("of {}", short(h))) {
-            return Ok((v[0].clone(), v[1].clone()));
-        }
-        let coords = self.coords.clone();
-        let is_p = |s: &Symbol| s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c));
-        let is_q = |s: &Symbol| s.is_time() || coords.iter().any(|q| q.name() == s.name());
-        let mut t = Vec::new();
-        let mut v = Vec::new();
-        for term in h.terms() {
-            let syms = term.free_symbols();
-            let has_p = syms.iter().any(is_p);
-            let has_q = syms.iter().any(is_q);
-            if has_p && has_q {
-                return Err(SceneError::new(
-                    ErrorKind::Derivation,
-                    format!(
-                        "`{}` needs a separable H = T(p) + V(q), but the term `{}` mixes coordinates and momenta",
-                        method.name,
-                        render(&term, Format::Plain)
-                    ),
-                )
-                .at(self.span)
-                .hint("use `gauss6` (symplectic for any H) or `dop853`"));
-            }
-            if has_p {
-                t.push(term);
-            } else {
-                v.push(term);
-            }
-        }
-        let (t, v) = (Expr::add(t), Expr::add(v));
-        self.record(
-            Step::Split,
-            format!("of {}", short(h)),
-            key,
-            Ok(Value::Exprs(vec![t.clone(), v.clone()])),
-            self.span,
-        )?;
-        Ok((t, v))
-    }
-
-    fn event_expr(
-        &mut self,
-        ev: &EventSpec,
-        layout: Layout,
-        l: Option<&Expr>,
-        h: Option<&Expr>,
-    ) -> Result<Expr, SceneError> {
-        let lhs = self.resolved(&ev.lhs)?;
-        let e = match &ev.rhs {
-            Some(r) => lhs.minus(&self.resolved(r)?),
-            None => lhs,
-        };
-        self.in_layout(&e, layout, l, h, ev.span)
-    }
-
-    /// Rewrites an expression into the state variables of a layout: momenta become
-    /// `∂L/∂q'` in a velocity layout, velocities become `∂H/∂p` in a momentum layout.
-    fn in_layout(
-        &mut self,
-        e: &Expr,
-        layout: Layout,
-        l: Option<&Expr>,
-        h: Option<&Expr>,
-        span: Span,
-    ) -> Result<Expr, SceneError> {
-        let coords = self.coords.clone();
-        let syms = e.free_symbols();
-        let mut map = HashMap::new();
-        for s in &syms {
-            let Some(q) = coords.iter().find(|q| {
-                (layout == Layout::Velocities && s.name() == format!("p_{}", q.name()) && s.primes() == 0)
-                    || (layout == Layout::Momenta && s.name() == q.name() && s.primes() == 1)
-            }) else {
-                if coords.iter().any(|q| q.name() == s.name() && s.primes() >= 2) {
-                    return Err(SceneError::new(
-                        ErrorKind::Syntax,
-                        format!("`{s}` is an acceleration, which is not part of the state"),
-                    )
-                    .at(span)
-                    .hint("use coordinates, velocities or momenta"));
-                }
-                continue;
-            };
-            let value = match layout {
-                Layout::Velocities => {
-                    let l = l.cloned().map_or_else(|| self.lagrangian(), Ok)?;
-                    self.diff.diff(&l, &q.prime())
-                }
-                Layout::Momenta => {
-                    let h = h.cloned().map_or_else(|| self.hamiltonian(), Ok)?;
-                    self.diff.diff(&h, &Symbol::new(&format!("p_{}", q.name())))
-                }
-            };
-            map.insert(s.clone(), value);
-        }
-        Ok(if map.is_empty() { e.clone() } else { e.subs(&map) })
-    }
-
-    fn run_ids(&mut self, names: &[Src]) -> Result<Vec<usize>, SceneError> {
-        if names.is_empty() {
-            return match self.runs.len() {
-                0 => Err(SceneError::new(ErrorKind::Undeclared, "no simulation to use")
-                    .at(self.span)
-                    .hint("add a `simulate …` statement before it")),
-                n => Ok(vec![n - 1]),
-            };
-        }
-        let mut out = Vec::new();
-        for n in names {
-            match self.run_names.get(&n.text) {
-                Some(&id) => out.push(id),
-                None => {
-                    let known: Vec<&str> = self.run_names.keys().map(String::as_str).collect();
-                    let err = SceneError::new(ErrorKind::UndefinedSymbol, format!("no simulation named `{}`", n.text))
-                        .at(n.span);
-                    return Err(match did_you_mean(&n.text, known) {
-                        Some(k) => err.hint(format!("did you mean `{k}`?")),
-                        None => err.hint("name a run with `simulate … as NAME`"),
-                    });
-                }
-            }
-        }
-        Ok(out)
-    }
-
-    /// Values of `e` along a run.
-    fn along(&mut self, r: &RunResult, e: &Expr, span: Span) -> Result<Vec<f64>, SceneError> {
-        let e = self.in_layout(e, r.layout, r.lagrangian.as_ref(), r.hamiltonian.as_ref(), span)?;
-        let names = state_names(&r.coords, r.layout);
-        let mut out = Vec::with_capacity(r.traj.t.len());
-        let params = self.param_values();
-        for (t, y) in r.traj.t.iter().zip(&r.traj.y) {
-            let lookup = |s: &Symbol| -> Option<f64> {
-                if s.is_time() {
-                    return Some(*t);
-                }
-                let spelled = s.to_string();
-                if let Some(i) = names.iter().position(|n| *n == spelled) {
-                    return y.get(i).copied();
-                }
-                r.params.get(s.name()).or_else(|| params.get(s.name())).copied()
-            };
-            let v = crate::eval::eval_with(&e, &lookup).map_err(|err| self.value_error(err, span))?;
-            out.push(v);
-        }
-        Ok(out)
-    }
-
-    fn energy_of_run(&mut self, r: &RunResult) -> Result<Expr, SceneError> {
-        match r.layout {
-            Layout::Momenta => match &r.hamiltonian {
-                Some(h) => Ok(h.clone()),
-                None => self.hamiltonian(),
-            },
-            Layout::Velocities => {
-                let l = match &r.lagrangian {
-                    Some(l) => l.clone(),
-                    None => self.lagrangian()?,
-                };
-                match self.derive(DerivKind::Energy, vec![l], self.span)? {
-                    Value::Expr(e) => Ok(e),
-                    _ => Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
-                }
-            }
-        }
-    }
-
-    // ----- outputs -------------------------------------------------------------------------
-
-    fn out_path(&self, path: Option<&Src>, default: &str) -> (PathBuf, Span) {
-        match path {
-            Some(p) => {
-                let pb = PathBuf::from(&p.text);
-                (if pb.is_absolute() { pb } else { self.opts.out_dir.join(pb) }, p.span)
-            }
-            None => (self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span),
-        }
-    }
-
-    fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
-        let default = match &spec.kind {
-            PlotKind::Phase(_) => "phase",
-            PlotKind::Energy => "energy",
-            PlotKind::Path(..) => "path",
-            PlotKind::Poincare(..) => "poincare",
-            PlotKind::Series(_) => "series",
-        };
-        let (path, pspan) = self.out_path(spec.path.as_ref(), default);
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        if ext != "svg" && ext != "png" {
-            return Err(SceneError::new(
-                ErrorKind::Io,
-                format!("cannot tell the image format of `{}`", path.display()),
-            )
-            .at(pspan)
-            .hint("plots are written as `.svg` or `.png`"));
-        }
-        let figure = self.figure(spec)?;
-        let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
-        crate::plot::draw(&figure, &tmp).map_err(|e| {
-            SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
-        })?;
-        self.output.push(format!("wrote {}", path.display()));
-        Ok(())
-    }
-
-    fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
-        use crate::plot::{Figure, Series};
-        match &spec.kind {
-            PlotKind::Series(exprs) => {
-                let ids = self.run_ids(&spec.runs)?;
-                let mut series = Vec::new();
-                for id in ids {
-                    let r = self.demand_run(id)?;
-                    for src in exprs {
-                        let e = self.resolved(src)?;
-                        let ys = self.along(&r, &e, src.span)?;
-                        let label = if spec.runs.len() > 1 {
-                            format!("{} ({})", src.text, self.runs[id].name)
-                        } else {
-                            src.text.clone()
-                        };
-                        series.push(Series { label, points: r.traj.t.iter().copied().zip(ys).collect() });
-                    }
-                }
-                Ok(Figure::lines("time series", "t", "value", series))
-            }
-            PlotKind::Path(x, y) | PlotKind::Poincare(x, y) => {
-                let poincare = matches!(spec.kind, PlotKind::Poincare(..));
-                let ids = self.run_ids(&spec.runs)?;
-                let mut series = Vec::new();
-                for id in ids {
-                    let r = self.demand_run(id)?;
-                    let ex = self.resolved(x)?;
-                    let ey = self.resolved(y)?;
-                    let pts = if poincare {
-                        if r.traj.events.is_empty() {
-                            return Err(SceneError::new(
-                                ErrorKind::Undeclared,
-                                "the run recorded no events for a Poincaré section",
-                            )
-                            .at(self.span)
-                            .hint("add `record when … = 0` to the `simulate` statement"));
-                        }
-                        let sub = RunResult {
-                            traj: Arc::new(Trajectory {
-                                t: r.traj.events.iter().map(|e| e.1).collect(),
-                                y: r.traj.events.iter().map(|e| e.2.clone()).collect(),
-                                ..Trajectory::default()
-                            }),
-                            ..r.clone()
-                        };
-                        let xs = self.along(&sub, &ex, x.span)?;
-                        let ys = self.along(&sub, &ey, y.span)?;
-                        xs.into_iter().zip(ys).collect()
-                    } else {
-                        let xs = self.along(&r, &ex, x.span)?;
-                        let ys = self.along(&r, &ey, y.span)?;
-                        xs.into_iter().zip(ys).collect()
-                    };
-                    series.push(Series { label: self.runs[id].name.clone(), points: pts });
-                }
-                Ok(if poincare {
-                    Figure::scatter("Poincaré section", &x.text, &y.text, series)
-                } else {
-                    Figure::lines("configuration-space path", &x.text, &y.text, series)
-                })
-            }
-            PlotKind::Energy => {
-                let ids = self.run_ids(&spec.runs)?;
-                let mut series = Vec::new();
-                for id in ids {
-                    let r = self.demand_run(id)?;
-                    let e = self.energy_of_run(&r)?;
-                    let es = self.along(&r, &e, self.span)?;
-                    let e0 = es.first().copied().unwrap_or(0.0);
-                    let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
-                    let pts = r.traj.t.iter().zip(&es).map(|(t, e)| (*t, ((e - e0) / scale).abs())).collect();
-                    series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
-                }
-                Ok(Figure::log_y("relative energy error", "t", "|ΔE/E₀|", series))
-            }
-            PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
-        }
-    }
-
-    fn phase_figure(&mut self, coord: Option<&Src>, runs: &[Src]) -> Result<crate::plot::Figure, SceneError> {
-        use crate::plot::{Contours, Figure, Series};
-        let index = match coord {
-            None => 0,
-            Some(c) => self.coords.iter().position(|q| q.name() == c.text).ok_or_else(|| {
-                SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", c.text)).at(c.span)
-            })?,
-        };
-        let Some(q) = self.coords.get(index).cloned() else {
-            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared").at(self.span));
-        };
-        let one_dof = self.coords.len() == 1;
-        let mut orbits = Vec::new();
-        let mut layout = Layout::Momenta;
-        let has_runs = !self.runs.is_empty();
-        if has_runs {
-            for id in self.run_ids(runs)? {
-                let r = self.demand_run(id)?;
-                layout = r.layout;
-                let n = r.coords.len();
-                let pts = r.traj.y.iter().map(|y| (y[index], y[n + index])).collect();
-                orbits.push(Series { label: self.runs[id].name.clone(), points: pts });
-            }
-        }
-        let vname = match layout {
-            Layout::Momenta => format!("p_{}", q.name()),
-            Layout::Velocities => format!("{}'", q.name()),
-        };
-        // Contours of the energy-like function, for one degree of freedom.
-        let mut contours = None;
-        if one_dof {
-            let f = match layout {
-                Layout::Momenta => self.hamiltonian()?,
-                Layout::Velocities => {
-                    let l = self.lagrangian()?;
-                    match self.derive(DerivKind::Energy, vec![l], self.span)? {
-                        Value::Expr(e) => e,
-                        _ => return Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
-                    }
-                }
-            };
-            let params = self.param_values();
-            let qs = q.name().to_string();
-            let f_num = move |x: f64, v: f64| -> f64 {
-                crate::eval::eval_with(&f, &|s: &Symbol| {
-                    if s.name() == qs && s.primes() == 0 {
-                        Some(x)
-                    } else if s.to_string() == vname {
-                        Some(v)
-                    } else if s.is_time() {
-                        Some(0.0)
-                    } else {
-                        params.get(s.name()).copied()
-                    }
-                })
-                .unwrap_or(f64::NAN)
-            };
-            if f_num(0.0, 0.0).is_nan() && f_num(0.5, 0.5).is_nan() {
-                let missing = self.params.iter().find(|(_, p)| p.value.is_none()).map(|(n, _)| n.clone());
-                return Err(SceneError::new(
-                    ErrorKind::MissingValue,
-                    "the phase portrait needs numbers for every parameter",
-                )
-                .at(self.span)
-                .hint(match missing {
-                    Some(m) => format!("declare `{m}` with a value before `plot`: `parameters {m} = …`"),
-                    None => "give every parameter a value".to_string(),
-                }));
-            }
-            contours = Some(Contours::new(Box::new(f_num)));
-        } else if orbits.is_empty() {
-            return Err(SceneError::new(
-                ErrorKind::Undeclared,
-                "a phase portrait of a system with several coordinates needs a simulation",
-            )
-            .at(self.span)
-            .hint("add a `simulate …` statement before `plot phase`"));
-        }
-        let vlabel = match layout {
-            Layout::Momenta => format!("p_{}", q.name()),
-            Layout::Velocities => format!("{}'", q.name()),
-        };
-        Ok(Figure::phase("phase portrait", q.name(), &vlabel, orbits, contours))
-    }
-
-    fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
-        let (file, pspan) = self.out_path(Some(path), "export");
-        let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        if ext != "csv" && ext != "json" {
-            return Err(SceneError::new(
-                ErrorKind::Io,
-                format!("cannot tell the export format of `{}`", file.display()),
-            )
-            .at(pspan)
-            .hint("export to `.csv` (numbers along a run) or `.json`"));
-        }
-        let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
-        let text = if symbolic {
-            if ext == "csv" {
-                return Err(SceneError::new(ErrorKind::Io, "derived equations export to `.json`, not `.csv`").at(pspan));
-            }
-            let mut entries = Vec::new();
-            for item in items {
-                let label = match item {
-                    Item::Derivation(c) => c.kind.keyword().to_string(),
-                    Item::Expr(s) => s.text.clone(),
-                };
-                let value = match self.printed_item(item)? {
-                    Printed::Named(_, e) | Printed::Value(e) => serde_json::json!(crate::print::plain(&e)),
-                    Printed::Lines(lines) => serde_json::Value::Array(
-                        lines
-                            .iter()
-                            .map(|l| {
-                                serde_json::json!({
-                                    "label": l.label,
-                                    "lhs": crate::print::plain(&l.lhs),
-                                    "rhs": crate::print::plain(&l.rhs),
-                                    "note": l.note,
-                                })
-                            })
-                            .collect(),
-                    ),
-                };
-                entries.push(serde_json::json!({ "name": label, "value": value }));
-            }
-            let mut s = serde_json::to_string_pretty(&serde_json::Value::Array(entries)).unwrap_or_default();
-            s.push('\n');
-            s
-        } else {
-            let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
-            let r = self.demand_run(ids[0])?;
-            let mut columns: Vec<(String, Vec<f64>)> = vec![("t".to_string(), r.traj.t.clone())];
-            if items.is_empty() {
-                let names = state_names(&r.coords, r.layout);
-                for (i, n) in names.iter().enumerate() {
-                    columns.push((n.clone(), r.traj.y.iter().map(|y| y[i]).collect()));
-                }
-            } else {
-                for item in items {
-                    if let Item::Expr(src) = item {
-                        if src.text.trim() == "t" {
-                            continue;
-                        }
-                        let e = self.resolved(src)?;
-                        columns.push((src.text.trim().to_string(), self.along(&r, &e, src.span)?));
-                    }
-                }
-            }
-            if ext == "csv" {
-                let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
-                s.push('\n');
-                for i in 0..r.traj.t.len() {
-                    let row: Vec<String> = columns.iter().map(|c| format!("{:e}", c.1[i])).collect();
-                    s.push_str(&row.join(","));
-                    s.push('\n');
-                }
-                s
-            } else {
-                let cols: Vec<serde_json::Value> =
-                    columns.iter().map(|(n, v)| serde_json::json!({ "name": n, "values": v })).collect();
-                let v = serde_json::json!({ "run": self.runs[ids[0]].name, "method": r.method.name, "columns": cols });
-                let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
-                s.push('\n');
-                s
-            }
-        };
-        let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
-        std::fs::write(&tmp, text)
-            .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
-        self.output.push(format!("wrote {}", file.display()));
-        Ok(())
-    }
-
-    fn load(&mut self, path: &Src) -> Result<(), SceneError> {
+    pub(super) fn load(&mut self, path: &Src) -> Result<(), SceneError> {
         if self.load_depth >= MAX_LOAD_DEPTH {
             return Err(SceneError::new(ErrorKind::Io, format!("`load` nested deeper than {MAX_LOAD_DEPTH} files"))
                 .at(path.span)
@@ -2051,99 +1021,9 @@ impl Session {
         self.output.push(format!("loaded {name}"));
         Ok(())
     }
-
-    // ----- the plan ------------------------------------------------------------------------
-
-    fn finish_plan(&mut self) {
-        // Lazy definitions and simulations nothing asked for.
-        for d in &self.defs {
-            if let (DefBody::Deriv { kind, .. }, false) = (&d.body, d.demanded) {
-                self.plan.push(PlanEntry {
-                    step: deriv_step(*kind),
-                    what: format!("`{}` ({})", d.name, kind.keyword()),
-                    line: Some(d.line),
-                    status: Status::Skipped(format!("no output uses `{}`", d.name)),
-                });
-            }
-        }
-        for r in &self.runs {
-            if r.result.is_none() {
-                self.plan.push(PlanEntry {
-                    step: Step::Integrate,
-                    what: format!(
-                        "{} ({})",
-                        r.name,
-                        r.spec.method.as_ref().map_or(sim::DEFAULT_METHOD, |m| m.text.as_str())
-                    ),
-                    line: Some(r.line),
-                    status: Status::Skipped(format!("no plot or export uses `{}`", r.name)),
-                });
-            }
-        }
-        // The standard derivations of the system that nothing needed.
-        let has_l = self.def_names.contains_key("L");
-        let has_h = self.def_names.contains_key("H") || has_l;
-        let mut standard = Vec::new();
-        if has_l {
-            standard.push(Step::EulerLagrange);
-            standard.push(Step::Legendre);
-        }
-        if has_h {
-            standard.push(Step::Hamilton);
-            standard.push(Step::Conserved);
-            standard.push(Step::Energy);
-            standard.push(Step::Bracket);
-        }
-        for step in standard {
-            if !self.plan.iter().any(|e| e.step == step) {
-                self.plan.push(PlanEntry {
-                    step,
-                    what: String::new(),
-                    line: None,
-                    status: Status::Skipped("no output needs it".to_string()),
-                });
-            }
-        }
-    }
-
-    /// The plan as text, for `--explain`.
-    pub fn explain(&self) -> String {
-        let mut s = String::from("plan:\n");
-        for e in &self.plan {
-            let status = match &e.status {
-                Status::Built => "built  ".to_string(),
-                Status::Reused => "reused ".to_string(),
-                Status::Skipped(_) => "skipped".to_string(),
-            };
-            let line = e.line.map_or("        ".to_string(), |l| format!("line {l:<3}"));
-            let mut what = e.step.name().to_string();
-            if !e.what.is_empty() {
-                what.push(' ');
-                what.push_str(&e.what);
-            }
-            let why = match &e.status {
-                Status::Skipped(r) => format!(" — {r}"),
-                Status::Reused => " — same symbolic input as an earlier run".to_string(),
-                Status::Built => String::new(),
-            };
-            s.push_str(&format!("  {status} {line} {what}{why}\n"));
-        }
-        let count = |f: &dyn Fn(&Status) -> bool| self.plan.iter().filter(|e| f(&e.status)).count();
-        s.push_str(&format!(
-            "{} built, {} reused, {} skipped\n",
-            count(&|s| *s == Status::Built),
-            count(&|s| *s == Status::Reused),
-            count(&|s| matches!(s, Status::Skipped(_)))
-        ));
-        s
-    }
 }
 
-fn unreachable_energy() -> Result<Value, BackendError> {
-    Err(BackendError::Failed("internal: energy is computed by the session".to_string()))
-}
-
-fn deriv_step(kind: DerivKind) -> Step {
+pub(super) fn deriv_step(kind: DerivKind) -> Step {
     match kind {
         DerivKind::El => Step::EulerLagrange,
         DerivKind::Legendre => Step::Legendre,
@@ -2154,34 +1034,8 @@ fn deriv_step(kind: DerivKind) -> Step {
     }
 }
 
-/// The energy function `h = Σ q'_i ∂L/∂q'_i − L` (PHYSICS.md §2, Noether).
-fn energy_function(d: &mut Differentiator, coords: &[Symbol], l: &Expr) -> Expr {
-    let mut terms: Vec<Expr> = coords.iter().map(|q| Expr::sym(q.prime()).times(&d.diff(l, &q.prime()))).collect();
-    terms.push(l.neg());
-    Expr::add(terms)
-}
-
-fn formulation_name(f: &Formulation) -> &'static str {
-    match f {
-        Formulation::Lagrangian(_) => "W q'' = F from L",
-        Formulation::Hamiltonian(_) => "Hamilton's equations of H",
-        Formulation::Separable { .. } => "drift ∂T/∂p and kick −∂V/∂q",
-    }
-}
-
-fn state_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
-    let mut names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
-    for q in coords {
-        names.push(match layout {
-            Layout::Velocities => format!("{}'", q.name()),
-            Layout::Momenta => format!("p_{}", q.name()),
-        });
-    }
-    names
-}
-
 /// The first characters of an expression's plain form, for the plan.
-fn short(e: &Expr) -> String {
+pub(super) fn short(e: &Expr) -> String {
     let s = crate::print::plain(e);
     if s.chars().count() > 48 {
         let cut: String = s.chars().take(45).collect();
@@ -2191,7 +1045,7 @@ fn short(e: &Expr) -> String {
     }
 }
 
-fn format_name(f: Format) -> &'static str {
+pub(super) fn format_name(f: Format) -> &'static str {
     match f {
         Format::Plain => "plain",
         Format::Unicode => "unicode",
@@ -2199,7 +1053,7 @@ fn format_name(f: Format) -> &'static str {
     }
 }
 
-fn render_line(l: &Line, f: Format) -> String {
+pub(super) fn render_line(l: &Line, f: Format) -> String {
     let mut s = String::new();
     if let Some(label) = &l.label {
         s.push_str(label);
@@ -2216,14 +1070,6 @@ fn render_line(l: &Line, f: Format) -> String {
     s
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 /// A number for messages: short, deterministic.
 pub fn fmt_num(x: f64) -> String {
     if x == x.trunc() && x.abs() < 1e15 {
@@ -2235,7 +1081,7 @@ pub fn fmt_num(x: f64) -> String {
 }
 
 /// The span of the first whole-word occurrence of `spelled` in `src`, else all of `src`.
-fn symbol_span(src: &Src, spelled: &str) -> Span {
+pub(super) fn symbol_span(src: &Src, spelled: &str) -> Span {
     let text = &src.text;
     let is_ident = |c: char| c.is_alphanumeric() || c == '_' || c == '\'';
     let mut from = 0;

@@ -1,0 +1,287 @@
+//! The derivation cache, keyed by symbolic content: in memory for one session (a REPL keeps it
+//! across `load`), and optionally on disk, so that a second `lagrangian run` of a scene whose
+//! numbers changed reuses the first run's derivations.
+//!
+//! An on-disk entry is one JSON file named by a stable 128-bit hash of the key's text. The key
+//! text is the plain printed form of everything the result depends on (the kind of derivation,
+//! the coordinates, the declared functions and positive symbols, the input expressions and a
+//! format version) and is stored in the entry too: a load compares it in full, so a hash
+//! collision is a miss, never a wrong answer. Results are stored as plain text, which the
+//! printer guarantees re-parses to the identical expression; a load re-parses each expression
+//! and re-prints it, and any difference (a corrupt, truncated, hand-edited or foreign-version
+//! file) makes the entry a miss that is rebuilt and rewritten. Nothing here is ever an error:
+//! a cache that cannot be read or written only costs the time of building again.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde_json::{json, Value as Json};
+
+use super::backend::{Compiled, Line};
+use super::plan::Step;
+use crate::expr::{Expr, Symbol};
+use crate::parse::{parse_with, Declarations};
+use crate::print::plain;
+
+/// The on-disk format; entries of another version are ignored.
+pub const CACHE_FORMAT: u32 = 1;
+
+/// The derivation cache: symbolic results keyed by their symbolic inputs. Keep one alive
+/// across runs (the REPL does, and [`Session::with_cache`](super::Session::with_cache) lets
+/// callers do it) to reuse work; give it a directory ([`Cache::with_dir`]) to reuse work
+/// across processes.
+#[derive(Default)]
+pub struct Cache {
+    map: HashMap<CacheKey, Value>,
+    dir: Option<PathBuf>,
+}
+
+/// Everything a derivation depends on. Symbols carry their positivity, so equal keys mean
+/// equal assumptions too.
+#[derive(Clone, PartialEq, Eq, Hash)]
+pub(super) struct CacheKey {
+    pub(super) step: Step,
+    pub(super) coords: Vec<Symbol>,
+    pub(super) inputs: Vec<Expr>,
+    /// Numbers that are part of the content (compiled code binds parameter values).
+    pub(super) numbers: Vec<u64>,
+    pub(super) extra: String,
+}
+
+/// A cached result.
+#[derive(Clone)]
+pub(super) enum Value {
+    Expr(Expr),
+    Lines(Vec<Line>),
+    Exprs(Vec<Expr>),
+    /// Compiled code lives in memory only (it binds parameter values and holds tapes).
+    Compiled(Compiled),
+}
+
+impl Cache {
+    /// An empty in-memory cache.
+    pub fn new() -> Cache {
+        Cache::default()
+    }
+
+    /// An empty in-memory cache backed by the directory `dir` (created when first written).
+    pub fn with_dir(dir: impl Into<PathBuf>) -> Cache {
+        Cache { map: HashMap::new(), dir: Some(dir.into()) }
+    }
+
+    /// The directory of the on-disk cache, if any.
+    pub fn dir(&self) -> Option<&Path> {
+        self.dir.as_deref()
+    }
+
+    /// How many results it holds in memory.
+    pub fn len(&self) -> usize {
+        self.map.len()
+    }
+
+    /// Whether it holds nothing in memory.
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+
+    /// A result held in memory.
+    pub(super) fn get(&self, key: &CacheKey) -> Option<Value> {
+        self.map.get(key).cloned()
+    }
+
+    /// A result from the disk, re-parsed with `decls`; it is then held in memory too.
+    pub(super) fn load(&mut self, key: &CacheKey, decls: &Declarations) -> Option<Value> {
+        let text = disk_key(key)?;
+        let path = self.dir.as_ref()?.join(file_name(&text));
+        let bytes = std::fs::read(path).ok()?;
+        let value = decode(&bytes, &text, decls)?;
+        self.map.insert(key.clone(), value.clone());
+        Some(value)
+    }
+
+    /// Keeps a result in memory, and on disk when it is symbolic and a directory is set.
+    pub(super) fn insert(&mut self, key: CacheKey, value: Value) {
+        if let (Some(dir), Some(text)) = (&self.dir, disk_key(&key)) {
+            if let Some(entry) = encode(&value, &text) {
+                // A failed write only means the next run builds again.
+                let _ = write_atomically(dir, &file_name(&text), entry.as_bytes());
+            }
+        }
+        self.map.insert(key, value);
+    }
+}
+
+/// The default cache directory: `$XDG_CACHE_HOME/lagrangian`, else `~/.cache/lagrangian`.
+pub fn default_dir() -> Option<PathBuf> {
+    let nonempty = |v: std::ffi::OsString| (!v.is_empty()).then(|| PathBuf::from(v));
+    if let Some(x) = std::env::var_os("XDG_CACHE_HOME").and_then(nonempty) {
+        return Some(x.join("lagrangian"));
+    }
+    std::env::var_os("HOME").and_then(nonempty).map(|h| h.join(".cache").join("lagrangian"))
+}
+
+/// The key as stable text: plain printed forms, one per line, with the format version.
+/// `None` for results that are not kept on disk (compiled code).
+fn disk_key(key: &CacheKey) -> Option<String> {
+    if key.step == Step::Compile || !key.numbers.is_empty() {
+        return None;
+    }
+    let mut symbols: Vec<String> = Vec::new();
+    let mut s = format!("lagrangian derivation cache, format {CACHE_FORMAT}\nstep: {:?}\ncoordinates:", key.step);
+    for q in &key.coords {
+        s.push(' ');
+        s.push_str(&q.to_string());
+    }
+    s.push_str("\ninputs:\n");
+    for e in &key.inputs {
+        s.push_str(&plain(e));
+        s.push('\n');
+        symbols.extend(e.free_symbols().iter().filter(|x| x.is_positive()).map(|x| x.name().to_string()));
+        symbols.extend(e.applied_functions().into_iter().map(|f| format!("{f}()")));
+    }
+    // Assumptions do not show in the plain form; they are part of the content.
+    symbols.sort();
+    symbols.dedup();
+    s.push_str("assumed positive, and functions: ");
+    s.push_str(&symbols.join(" "));
+    s.push_str("\nextra: ");
+    s.push_str(&key.extra);
+    s.push('\n');
+    Some(s)
+}
+
+/// A 128-bit FNV-1a hash of the key text, as 32 hex digits (stable across builds and
+/// platforms, unlike `std`'s hasher).
+fn file_name(text: &str) -> String {
+    const PRIME: u128 = 0x0000_0000_0100_0000_0000_0000_0000_013B;
+    let mut h: u128 = 0x6c62_272e_07bb_0142_62b8_2175_6295_c58d;
+    for b in text.bytes() {
+        h ^= u128::from(b);
+        h = h.wrapping_mul(PRIME);
+    }
+    format!("{h:032x}.json")
+}
+
+fn encode(value: &Value, key: &str) -> Option<String> {
+    let line = |l: &Line| {
+        json!({
+            "label": l.label,
+            "lhs": lhs_json(&l.lhs),
+            "rhs": plain(&l.rhs),
+            "note": l.note,
+        })
+    };
+    let v = match value {
+        Value::Expr(e) => json!({ "expr": plain(e) }),
+        Value::Exprs(es) => json!({ "exprs": es.iter().map(plain).collect::<Vec<_>>() }),
+        Value::Lines(ls) => json!({ "lines": ls.iter().map(line).collect::<Vec<_>>() }),
+        Value::Compiled(_) => return None,
+    };
+    let doc = json!({ "format": CACHE_FORMAT, "key": key, "value": v });
+    serde_json::to_string(&doc).ok()
+}
+
+/// A line's left side: a bare symbol is stored by name (labels such as `⟨L⟩` are symbols
+/// that the expression grammar would not read back), anything else as an expression.
+fn lhs_json(e: &Expr) -> Json {
+    match e.as_sym() {
+        Some(s) => json!({ "symbol": s.name(), "primes": s.primes(), "positive": s.is_positive() }),
+        None => json!(plain(e)),
+    }
+}
+
+fn decode(bytes: &[u8], key: &str, decls: &Declarations) -> Option<Value> {
+    let doc: Json = serde_json::from_slice(bytes).ok()?;
+    if doc.get("format")?.as_u64()? != u64::from(CACHE_FORMAT) || doc.get("key")?.as_str()? != key {
+        return None;
+    }
+    let v = doc.get("value")?;
+    let expr = |j: &Json| -> Option<Expr> {
+        let text = j.as_str()?;
+        let e = parse_with(text, decls).ok()?;
+        // The printer promises print → parse is the identity; check it rather than trust it.
+        (plain(&e) == text).then_some(e)
+    };
+    if let Some(e) = v.get("expr") {
+        return expr(e).map(Value::Expr);
+    }
+    if let Some(es) = v.get("exprs") {
+        return es.as_array()?.iter().map(expr).collect::<Option<Vec<_>>>().map(Value::Exprs);
+    }
+    let lines = v.get("lines")?.as_array()?;
+    let mut out = Vec::with_capacity(lines.len());
+    for l in lines {
+        let text = |k: &str| -> Option<Option<String>> {
+            match l.get(k)? {
+                Json::Null => Some(None),
+                Json::String(s) => Some(Some(s.clone())),
+                _ => None,
+            }
+        };
+        let lhs = match l.get("lhs")? {
+            Json::Object(o) => {
+                let name = o.get("symbol")?.as_str()?;
+                let primes = u8::try_from(o.get("primes")?.as_u64()?).ok()?;
+                let s = if o.get("positive")?.as_bool()? { Symbol::positive(name) } else { Symbol::new(name) };
+                Expr::sym(s.with_primes(primes))
+            }
+            j => expr(j)?,
+        };
+        out.push(Line { label: text("label")?, lhs, rhs: expr(l.get("rhs")?)?, note: text("note")? });
+    }
+    Some(Value::Lines(out))
+}
+
+/// Writes `dir/name` whole or not at all: a temporary file in the same directory, renamed.
+fn write_atomically(dir: &Path, name: &str, bytes: &[u8]) -> std::io::Result<()> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    std::fs::create_dir_all(dir)?;
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()));
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, dir.join(name)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(inputs: Vec<Expr>) -> CacheKey {
+        CacheKey { step: Step::Legendre, coords: vec![Symbol::new("x")], inputs, numbers: vec![], extra: String::new() }
+    }
+
+    #[test]
+    fn a_stored_result_loads_identically_and_a_damaged_one_is_a_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let decls = Declarations::new().with_positive(["m"]);
+        let l = parse_with("1/2 m x'^2 - x^4/4", &decls).unwrap();
+        let h = parse_with("p_x^2/(2 m) + x^4/4", &decls).unwrap();
+        let lines = vec![Line { label: Some("E_x".into()), lhs: Expr::var("⟨L⟩"), rhs: h.clone(), note: None }];
+        let mut c = Cache::with_dir(dir.path());
+        c.insert(key(vec![l.clone()]), Value::Expr(h.clone()));
+        c.insert(key(vec![h.clone()]), Value::Lines(lines.clone()));
+        let mut fresh = Cache::with_dir(dir.path());
+        assert!(matches!(fresh.load(&key(vec![l.clone()]), &decls), Some(Value::Expr(e)) if e == h));
+        assert!(matches!(fresh.load(&key(vec![h.clone()]), &decls), Some(Value::Lines(v)) if v == lines));
+        // Truncate every entry: each is now a miss, not an error.
+        for f in std::fs::read_dir(dir.path()).unwrap() {
+            let p = f.unwrap().path();
+            let b = std::fs::read(&p).unwrap();
+            std::fs::write(&p, &b[..b.len() / 2]).unwrap();
+        }
+        assert!(Cache::with_dir(dir.path()).load(&key(vec![l]), &decls).is_none());
+    }
+
+    #[test]
+    fn the_file_name_is_stable_and_assumptions_are_part_of_the_key() {
+        // FNV-1a 128 of the empty string is its offset basis (the published constant).
+        assert_eq!(file_name(""), "6c62272e07bb014262b821756295c58d.json");
+        let m = Expr::sym(Symbol::new("m"));
+        let m_pos = Expr::sym(Symbol::positive("m"));
+        assert_ne!(disk_key(&key(vec![m])), disk_key(&key(vec![m_pos])));
+    }
+}

@@ -1,0 +1,401 @@
+//! Outputs that read runs: `plot` (the figures) and `export` (CSV and JSON).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src};
+use super::backend::Trajectory;
+use super::cache::Value;
+use super::error::{ErrorKind, SceneError, Span};
+use super::session::{Layout, Printed, RunResult, Session};
+use super::simulate::state_names;
+use crate::expr::Symbol;
+
+impl Session {
+    // ----- outputs -------------------------------------------------------------------------
+
+    pub(super) fn out_path(&self, path: Option<&Src>, default: &str) -> (PathBuf, Span) {
+        match path {
+            Some(p) => {
+                let pb = PathBuf::from(&p.text);
+                (if pb.is_absolute() { pb } else { self.opts.out_dir.join(pb) }, p.span)
+            }
+            None => (self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span),
+        }
+    }
+
+    pub(super) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
+        let default = match &spec.kind {
+            PlotKind::Phase(_) => "phase",
+            PlotKind::Energy => "energy",
+            PlotKind::Path(..) => "path",
+            PlotKind::Poincare(..) => "poincare",
+            PlotKind::Series(_) => "series",
+            PlotKind::WorkPrecision(_) => "work_precision",
+        };
+        let (path, pspan) = self.out_path(spec.path.as_ref(), default);
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if ext != "svg" && ext != "png" {
+            return Err(SceneError::new(
+                ErrorKind::Io,
+                format!("cannot tell the image format of `{}`", path.display()),
+            )
+            .at(pspan)
+            .hint("plots are written as `.svg` or `.png`"));
+        }
+        let figure = self.figure(spec)?;
+        let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
+        crate::plot::draw(&figure, &tmp).map_err(|e| {
+            SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
+        })?;
+        self.output.push(format!("wrote {}", path.display()));
+        Ok(())
+    }
+
+    pub(super) fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
+        use crate::plot::{Figure, Series};
+        match &spec.kind {
+            PlotKind::Series(exprs) => {
+                let ids = self.run_ids(&spec.runs)?;
+                let mut series = Vec::new();
+                for id in ids {
+                    let r = self.demand_run(id)?;
+                    for src in exprs {
+                        let e = self.resolved(src)?;
+                        let ys = self.along(&r, &e, src.span)?;
+                        let label = if spec.runs.len() > 1 {
+                            format!("{} ({})", src.text, self.runs[id].name)
+                        } else {
+                            src.text.clone()
+                        };
+                        series.push(Series { label, points: r.traj.t.iter().copied().zip(ys).collect() });
+                    }
+                }
+                Ok(Figure::lines("time series", "t", "value", series))
+            }
+            PlotKind::Path(x, y) | PlotKind::Poincare(x, y) => {
+                let poincare = matches!(spec.kind, PlotKind::Poincare(..));
+                let ids = self.run_ids(&spec.runs)?;
+                let mut series = Vec::new();
+                for id in ids {
+                    let r = self.demand_run(id)?;
+                    let ex = self.resolved(x)?;
+                    let ey = self.resolved(y)?;
+                    let pts = if poincare {
+                        if r.traj.events.is_empty() {
+                            return Err(SceneError::new(
+                                ErrorKind::Undeclared,
+                                "the run recorded no events for a Poincaré section",
+                            )
+                            .at(self.span)
+                            .hint("add `record when … = 0` to the `simulate` statement"));
+                        }
+                        let sub = RunResult {
+                            traj: Arc::new(Trajectory {
+                                t: r.traj.events.iter().map(|e| e.1).collect(),
+                                y: r.traj.events.iter().map(|e| e.2.clone()).collect(),
+                                ..Trajectory::default()
+                            }),
+                            ..r.clone()
+                        };
+                        let xs = self.along(&sub, &ex, x.span)?;
+                        let ys = self.along(&sub, &ey, y.span)?;
+                        xs.into_iter().zip(ys).collect()
+                    } else {
+                        let xs = self.along(&r, &ex, x.span)?;
+                        let ys = self.along(&r, &ey, y.span)?;
+                        xs.into_iter().zip(ys).collect()
+                    };
+                    series.push(Series { label: self.runs[id].name.clone(), points: pts });
+                }
+                Ok(if poincare {
+                    Figure::scatter("Poincaré section", &x.text, &y.text, series)
+                } else {
+                    Figure::lines("configuration-space path", &x.text, &y.text, series)
+                })
+            }
+            PlotKind::Energy => {
+                let ids = self.run_ids(&spec.runs)?;
+                let mut series = Vec::new();
+                for id in ids {
+                    let r = self.demand_run(id)?;
+                    let e = self.energy_of_run(&r)?;
+                    let es = self.along(&r, &e, self.span)?;
+                    let e0 = es.first().copied().unwrap_or(0.0);
+                    let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
+                    let pts = r.traj.t.iter().zip(&es).map(|(t, e)| (*t, ((e - e0) / scale).abs())).collect();
+                    series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
+                }
+                Ok(Figure::log_y("relative energy error", "t", "|ΔE/E₀|", series))
+            }
+            PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
+            PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
+        }
+    }
+
+    /// The work-precision diagram: for each run, its right-hand-side evaluations (counted,
+    /// so the figure is deterministic) against its error, one line per method through its
+    /// runs in order of work. The error is the largest distance of the final coordinates from
+    /// those of the reference run, or without one the largest relative energy error along
+    /// the run. Without `from`, every run but the reference is drawn.
+    pub(super) fn work_precision(
+        &mut self,
+        reference: Option<&Src>,
+        runs: &[Src],
+    ) -> Result<crate::plot::Figure, SceneError> {
+        use crate::plot::{Figure, Series};
+        let reference = match reference {
+            Some(r) => Some(self.run_ids(std::slice::from_ref(r))?[0]),
+            None => None,
+        };
+        let ids: Vec<usize> = if runs.is_empty() {
+            (0..self.runs.len()).filter(|id| Some(*id) != reference).collect()
+        } else {
+            self.run_ids(runs)?
+        };
+        if ids.is_empty() {
+            return Err(SceneError::new(ErrorKind::Undeclared, "a work-precision diagram needs simulations")
+                .at(self.span)
+                .hint("simulate the system with several methods and steps, then `plot work_precision from a, b, c`"));
+        }
+        let exact = match reference {
+            Some(id) => Some((self.runs[id].name.clone(), self.demand_run(id)?)),
+            None => None,
+        };
+        let mut by_method: Vec<(&'static str, Vec<(f64, f64)>)> = Vec::new();
+        for id in ids {
+            let r = self.demand_run(id)?;
+            let name = self.runs[id].name.clone();
+            let error = match &exact {
+                Some((ref_name, x)) => final_distance(&r, x, &name, ref_name).map_err(|m| {
+                    SceneError::new(ErrorKind::BadNumber, m)
+                        .at(self.span)
+                        .hint("compare runs over the same time span that reach its end")
+                })?,
+                None => {
+                    let e = self.energy_of_run(&r)?;
+                    let es = self.along(&r, &e, self.span)?;
+                    let e0 = es.first().copied().unwrap_or(0.0);
+                    let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
+                    es.iter().map(|e| ((e - e0) / scale).abs()).fold(0.0, f64::max)
+                }
+            };
+            let point = (r.traj.evaluations as f64, error);
+            match by_method.iter_mut().find(|(m, _)| *m == r.method.name) {
+                Some((_, pts)) => pts.push(point),
+                None => by_method.push((r.method.name, vec![point])),
+            }
+        }
+        let series = by_method
+            .into_iter()
+            .map(|(method, mut points)| {
+                points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                Series { label: method.to_string(), points }
+            })
+            .collect();
+        let ylabel = match &exact {
+            Some((name, _)) => format!("max |q(T) − q_{name}(T)|"),
+            None => "max |ΔE/E₀|".to_string(),
+        };
+        Ok(Figure::log_log("work-precision diagram", "right-hand-side evaluations", &ylabel, series))
+    }
+
+    pub(super) fn phase_figure(
+        &mut self,
+        coord: Option<&Src>,
+        runs: &[Src],
+    ) -> Result<crate::plot::Figure, SceneError> {
+        use crate::plot::{Contours, Figure, Series};
+        let index = match coord {
+            None => 0,
+            Some(c) => self.coords.iter().position(|q| q.name() == c.text).ok_or_else(|| {
+                SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", c.text)).at(c.span)
+            })?,
+        };
+        let Some(q) = self.coords.get(index).cloned() else {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared").at(self.span));
+        };
+        let one_dof = self.coords.len() == 1;
+        let mut orbits = Vec::new();
+        let mut layout = Layout::Momenta;
+        let has_runs = !self.runs.is_empty();
+        if has_runs {
+            for id in self.run_ids(runs)? {
+                let r = self.demand_run(id)?;
+                layout = r.layout;
+                let n = r.coords.len();
+                let pts = r.traj.y.iter().map(|y| (y[index], y[n + index])).collect();
+                orbits.push(Series { label: self.runs[id].name.clone(), points: pts });
+            }
+        }
+        let vname = match layout {
+            Layout::Momenta => format!("p_{}", q.name()),
+            Layout::Velocities => format!("{}'", q.name()),
+        };
+        // Contours of the energy-like function, for one degree of freedom.
+        let mut contours = None;
+        if one_dof {
+            let f = match layout {
+                Layout::Momenta => self.hamiltonian()?,
+                Layout::Velocities => {
+                    let l = self.lagrangian()?;
+                    match self.derive(DerivKind::Energy, vec![l], self.span)? {
+                        Value::Expr(e) => e,
+                        _ => return Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
+                    }
+                }
+            };
+            let params = self.param_values();
+            let qs = q.name().to_string();
+            let f_num = move |x: f64, v: f64| -> f64 {
+                crate::eval::eval_with(&f, &|s: &Symbol| {
+                    if s.name() == qs && s.primes() == 0 {
+                        Some(x)
+                    } else if s.to_string() == vname {
+                        Some(v)
+                    } else if s.is_time() {
+                        Some(0.0)
+                    } else {
+                        params.get(s.name()).copied()
+                    }
+                })
+                .unwrap_or(f64::NAN)
+            };
+            if f_num(0.0, 0.0).is_nan() && f_num(0.5, 0.5).is_nan() {
+                let missing = self.params.iter().find(|(_, p)| p.value.is_none()).map(|(n, _)| n.clone());
+                return Err(SceneError::new(
+                    ErrorKind::MissingValue,
+                    "the phase portrait needs numbers for every parameter",
+                )
+                .at(self.span)
+                .hint(match missing {
+                    Some(m) => format!("declare `{m}` with a value before `plot`: `parameters {m} = …`"),
+                    None => "give every parameter a value".to_string(),
+                }));
+            }
+            contours = Some(Contours::new(Box::new(f_num)));
+        } else if orbits.is_empty() {
+            return Err(SceneError::new(
+                ErrorKind::Undeclared,
+                "a phase portrait of a system with several coordinates needs a simulation",
+            )
+            .at(self.span)
+            .hint("add a `simulate …` statement before `plot phase`"));
+        }
+        let vlabel = match layout {
+            Layout::Momenta => format!("p_{}", q.name()),
+            Layout::Velocities => format!("{}'", q.name()),
+        };
+        Ok(Figure::phase("phase portrait", q.name(), &vlabel, orbits, contours))
+    }
+
+    pub(super) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
+        let (file, pspan) = self.out_path(Some(path), "export");
+        let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if ext != "csv" && ext != "json" {
+            return Err(SceneError::new(
+                ErrorKind::Io,
+                format!("cannot tell the export format of `{}`", file.display()),
+            )
+            .at(pspan)
+            .hint("export to `.csv` (numbers along a run) or `.json`"));
+        }
+        let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
+        let text = if symbolic {
+            if ext == "csv" {
+                return Err(SceneError::new(ErrorKind::Io, "derived equations export to `.json`, not `.csv`").at(pspan));
+            }
+            let mut entries = Vec::new();
+            for item in items {
+                let label = match item {
+                    Item::Derivation(c) => c.kind.keyword().to_string(),
+                    Item::Expr(s) => s.text.clone(),
+                };
+                let value = match self.printed_item(item)? {
+                    Printed::Named(_, e) | Printed::Value(e) => serde_json::json!(crate::print::plain(&e)),
+                    Printed::Lines(lines) => serde_json::Value::Array(
+                        lines
+                            .iter()
+                            .map(|l| {
+                                serde_json::json!({
+                                    "label": l.label,
+                                    "lhs": crate::print::plain(&l.lhs),
+                                    "rhs": crate::print::plain(&l.rhs),
+                                    "note": l.note,
+                                })
+                            })
+                            .collect(),
+                    ),
+                };
+                entries.push(serde_json::json!({ "name": label, "value": value }));
+            }
+            let mut s = serde_json::to_string_pretty(&serde_json::Value::Array(entries)).unwrap_or_default();
+            s.push('\n');
+            s
+        } else {
+            let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
+            let r = self.demand_run(ids[0])?;
+            let mut columns: Vec<(String, Vec<f64>)> = vec![("t".to_string(), r.traj.t.clone())];
+            if items.is_empty() {
+                let names = state_names(&r.coords, r.layout);
+                for (i, n) in names.iter().enumerate() {
+                    columns.push((n.clone(), r.traj.y.iter().map(|y| y[i]).collect()));
+                }
+            } else {
+                for item in items {
+                    if let Item::Expr(src) = item {
+                        if src.text.trim() == "t" {
+                            continue;
+                        }
+                        let e = self.resolved(src)?;
+                        columns.push((src.text.trim().to_string(), self.along(&r, &e, src.span)?));
+                    }
+                }
+            }
+            if ext == "csv" {
+                let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
+                s.push('\n');
+                for i in 0..r.traj.t.len() {
+                    let row: Vec<String> = columns.iter().map(|c| format!("{:e}", c.1[i])).collect();
+                    s.push_str(&row.join(","));
+                    s.push('\n');
+                }
+                s
+            } else {
+                let cols: Vec<serde_json::Value> =
+                    columns.iter().map(|(n, v)| serde_json::json!({ "name": n, "values": v })).collect();
+                let v = serde_json::json!({ "run": self.runs[ids[0]].name, "method": r.method.name, "columns": cols });
+                let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
+                s.push('\n');
+                s
+            }
+        };
+        let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
+        std::fs::write(&tmp, text)
+            .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
+        self.output.push(format!("wrote {}", file.display()));
+        Ok(())
+    }
+}
+
+pub(super) fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The largest difference of the final coordinates of two runs (the coordinates are the
+/// first entries of every state layout), or why they cannot be compared.
+fn final_distance(r: &RunResult, reference: &RunResult, name: &str, ref_name: &str) -> Result<f64, String> {
+    let (Some(&t), Some(&t_ref)) = (r.traj.t.last(), reference.traj.t.last()) else {
+        return Err(format!("`{name}` or `{ref_name}` has no states"));
+    };
+    if (t - t_ref).abs() > 1e-9 * t_ref.abs().max(1.0) {
+        return Err(format!("`{name}` ends at t = {t} but the reference `{ref_name}` at t = {t_ref}"));
+    }
+    let n = r.coords.len();
+    let (y, y_ref) = (&r.traj.y[r.traj.y.len() - 1], &reference.traj.y[reference.traj.y.len() - 1]);
+    Ok(y[..n].iter().zip(&y_ref[..n]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+}

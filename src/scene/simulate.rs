@@ -1,0 +1,622 @@
+//! `simulate`: the formulation a method needs, the initial state, events, compilation and
+//! integration of one run, and the values of expressions along a run.
+
+use std::collections::{BTreeSet, HashMap};
+use std::sync::Arc;
+
+use super::ast::{DerivKind, EventSpec, SimSpec, Src};
+use super::backend::{CompileRequest, Compiled, EventRequest, Formulation, RunRequest, Trajectory};
+use super::cache::{CacheKey, Value};
+use super::error::{did_you_mean, ErrorKind, SceneError, Span};
+use super::plan::{PlanEntry, Status, Step};
+use super::progress::Progress;
+use super::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
+use super::sim::{self, Family, Method};
+use crate::expr::{Expr, Symbol};
+use crate::print::{render, Format};
+
+impl Session {
+    // ----- simulation ----------------------------------------------------------------------
+
+    pub(super) fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+        // Validate the parts that need no derivation now, so a typo is reported at once.
+        self.check_method(spec)?;
+        let name = match &spec.name {
+            Some(n) => n.text.clone(),
+            None => format!("run{}", self.runs.len() + 1),
+        };
+        let id = self.runs.len();
+        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None });
+        self.run_names.insert(name, id);
+        if self.opts.mode == Mode::Repl {
+            self.demand_run(id)?;
+            let summary = self.run_summary(id);
+            self.output.push(summary);
+        }
+        Ok(())
+    }
+
+    pub(super) fn check_method(&self, spec: &SimSpec) -> Result<Method, SceneError> {
+        if spec.time_var.text != "t" {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("the time variable is `t`, not `{}`", spec.time_var.text),
+            )
+            .at(spec.time_var.span)
+            .hint("write `for t in 0..10`"));
+        }
+        match &spec.method {
+            None => Ok(sim::method(sim::DEFAULT_METHOD).unwrap_or(sim::METHODS[0])),
+            Some(m) => sim::method(&m.text).ok_or_else(|| {
+                let names = sim::METHODS.iter().map(|m| m.name);
+                let err = SceneError::new(ErrorKind::UnknownMethod, format!("unknown integration method `{}`", m.text))
+                    .at(m.span)
+                    .label("not a method");
+                match did_you_mean(&m.text, names) {
+                    Some(s) => err.hint(format!("did you mean `{s}`? (`help simulate` lists the methods)")),
+                    None => err.hint(format!(
+                        "the methods are {}",
+                        sim::METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
+                    )),
+                }
+            }),
+        }
+    }
+
+    pub(super) fn run_summary(&self, id: usize) -> String {
+        let run = &self.runs[id];
+        let Some(r) = &run.result else { return String::new() };
+        let tr = &r.traj;
+        let mut s = format!(
+            "{}: {} from t = {} to t = {} in {} steps",
+            run.name,
+            r.method.name,
+            fmt_num(tr.t.first().copied().unwrap_or(0.0)),
+            fmt_num(tr.t.last().copied().unwrap_or(0.0)),
+            tr.steps
+        );
+        if let Some(y) = tr.y.last() {
+            let names = state_names(&r.coords, r.layout);
+            let parts: Vec<String> = names.iter().zip(y).map(|(n, v)| format!("{n} = {}", fmt_num(*v))).collect();
+            s.push_str(&format!("; final {}", parts.join(", ")));
+        }
+        if !tr.events.is_empty() {
+            s.push_str(&format!("; {} events", tr.events.len()));
+        }
+        s
+    }
+
+    pub(super) fn demand_run(&mut self, id: usize) -> Result<RunResult, SceneError> {
+        if let Some(r) = &self.runs[id].result {
+            return Ok(r.clone());
+        }
+        let spec = self.runs[id].spec.clone();
+        let saved = (self.line, self.span);
+        self.line = self.runs[id].line;
+        let r = self.run_simulation(&spec, &self.runs[id].name.clone());
+        (self.line, self.span) = saved;
+        let r = r?;
+        self.runs[id].result = Some(r.clone());
+        Ok(r)
+    }
+
+    pub(super) fn run_simulation(&mut self, spec: &SimSpec, name: &str) -> Result<RunResult, SceneError> {
+        let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
+        self.span = stmt_span;
+        let method = self.check_method(spec)?;
+        if self.coords.is_empty() {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
+                .at(stmt_span)
+                .hint("declare them first, for example `coordinates θ`"));
+        }
+        let t0 = self.bound(&spec.t0)?;
+        let t1 = self.bound(&spec.t1)?;
+        if t1 <= t0 {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("the time span runs backwards: it ends at {} before it starts at {}", fmt_num(t1), fmt_num(t0)),
+            )
+            .at(spec.span_span)
+            .label("end must be after start")
+            .hint(format!("write `for t in {}..{}`", fmt_num(t1.min(t0)), fmt_num(t1.max(t0)))));
+        }
+        let positive = |s: &Option<Src>, this: &mut Session, what: &str| -> Result<Option<f64>, SceneError> {
+            let Some(src) = s else { return Ok(None) };
+            let e = this.resolved(src)?;
+            let x = this.number(&e, src.span)?;
+            if x <= 0.0 {
+                return Err(
+                    SceneError::new(ErrorKind::BadNumber, format!("{what} must be positive, found {x}")).at(src.span)
+                );
+            }
+            Ok(Some(x))
+        };
+        let mut dt = positive(&spec.dt, self, "the step `dt`")?;
+        let mut tol = positive(&spec.tol, self, "the tolerance `tol`")?;
+        let steps = positive(&spec.steps, self, "`steps`")?;
+        if let Some(n) = steps {
+            dt = Some((t1 - t0) / n.round().max(1.0));
+        }
+        match method.family {
+            Family::Adaptive => {
+                if spec.dt.is_some() {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`{}` chooses its own steps; give a tolerance instead of `dt`", method.name),
+                    )
+                    .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
+                    .hint("write `tol = 1e-10`, or pick a fixed-step method such as `gauss6` or `rk4`"));
+                }
+                tol = Some(tol.unwrap_or(1e-10));
+            }
+            _ => {
+                if dt.is_none() {
+                    return Err(SceneError::new(
+                        ErrorKind::MissingValue,
+                        format!("`{}` is a fixed-step method and needs a step", method.name),
+                    )
+                    .at(stmt_span)
+                    .hint("add `dt = 0.01` (or `steps = 1000`)"));
+                }
+            }
+        }
+        if let Some(d) = dt {
+            if (t1 - t0) / d > 1e9 {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("{} steps is more than the limit of 10⁹", fmt_num((t1 - t0) / d)),
+                )
+                .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
+                .hint("use a larger `dt` or a shorter time span"));
+            }
+        }
+
+        // The formulation this method needs: this decides what is derived.
+        let has_l = self.def_names.contains_key("L");
+        let has_h = self.def_names.contains_key("H");
+        let (formulation, layout, l_expr, h_expr) = match method.family {
+            Family::Splitting => {
+                let h = self.hamiltonian()?;
+                let (t, v) = self.split(&h, method)?;
+                (Formulation::Separable { t, v }, Layout::Momenta, None, Some(h))
+            }
+            _ if has_l => {
+                let l = self.lagrangian()?;
+                (Formulation::Lagrangian(l.clone()), Layout::Velocities, Some(l), None)
+            }
+            _ if has_h => {
+                let h = self.hamiltonian()?;
+                (Formulation::Hamiltonian(h.clone()), Layout::Momenta, None, Some(h))
+            }
+            _ => {
+                return Err(SceneError::new(ErrorKind::Undeclared, "nothing to simulate: no `L` or `H` defined")
+                    .at(stmt_span)
+                    .hint("define `L = …` or `H = …` first"))
+            }
+        };
+
+        // Initial state.
+        let coords = self.coords.clone();
+        let n = coords.len();
+        let mut given: HashMap<String, (f64, Span)> = HashMap::new();
+        for (sym, val) in &spec.inits {
+            let (e, _) = self.expr(sym)?;
+            let Some(s) = e.as_sym().cloned() else {
+                return Err(
+                    SceneError::new(ErrorKind::Syntax, "expected a coordinate, velocity or momentum").at(sym.span)
+                );
+            };
+            let is_state = coords.iter().any(|c| c.name() == s.name() && s.primes() <= 1)
+                || (s.primes() == 0
+                    && s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c)));
+            if !is_state {
+                return Err(SceneError::new(
+                    ErrorKind::UndefinedSymbol,
+                    format!("`{}` is not part of the state", sym.text),
+                )
+                .at(sym.span)
+                .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
+            }
+            let v = self.resolved(val)?;
+            let x = self.number(&v, val.span)?;
+            given.insert(s.to_string(), (x, sym.span));
+        }
+        let mut y0 = vec![0.0; 2 * n];
+        for (i, q) in coords.iter().enumerate() {
+            y0[i] = match given.get(q.name()) {
+                Some((x, _)) => *x,
+                None => {
+                    return Err(SceneError::new(
+                        ErrorKind::MissingValue,
+                        format!("no initial value for `{}`", q.name()),
+                    )
+                    .at(stmt_span)
+                    .hint(format!("add `{} = …` to the `simulate` statement", q.name())))
+                }
+            };
+        }
+        let vel = |q: &Symbol| format!("{}'", q.name());
+        let mom = |q: &Symbol| format!("p_{}", q.name());
+        match layout {
+            Layout::Velocities => {
+                for (i, q) in coords.iter().enumerate() {
+                    if let Some((_, span)) = given.get(&mom(q)) {
+                        return Err(SceneError::new(
+                            ErrorKind::Syntax,
+                            format!("this simulation integrates `L`, so give the velocity `{}`", vel(q)),
+                        )
+                        .at(*span)
+                        .hint(format!("write `{} = …`, or choose a splitting method to integrate `H`", vel(q))));
+                    }
+                    y0[n + i] = given.get(&vel(q)).map(|v| v.0).ok_or_else(|| {
+                        SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", vel(q)))
+                            .at(stmt_span)
+                            .hint(format!("add `{} = 0` (or another value) to the `simulate` statement", vel(q)))
+                    })?;
+                }
+            }
+            Layout::Momenta => {
+                let any_velocity = coords.iter().any(|q| given.contains_key(&vel(q)));
+                let any_momentum = coords.iter().any(|q| given.contains_key(&mom(q)));
+                if any_velocity && any_momentum {
+                    return Err(
+                        SceneError::new(ErrorKind::Syntax, "give either velocities or momenta, not both").at(stmt_span)
+                    );
+                }
+                if any_velocity {
+                    // Velocities → momenta through p = ∂L/∂q' at the initial state.
+                    let l = self.lagrangian().map_err(|e| {
+                        e.hint(
+                            "this method integrates `H`: give the momenta `p_q`, or define `L` to convert velocities",
+                        )
+                    })?;
+                    let ps = self.momenta(&l)?;
+                    let mut env: HashMap<String, f64> = self.param_values();
+                    for (i, q) in coords.iter().enumerate() {
+                        env.insert(q.name().to_string(), y0[i]);
+                        let v = given.get(&vel(q)).map(|v| v.0).ok_or_else(|| {
+                            SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", vel(q)))
+                                .at(stmt_span)
+                                .hint(format!("add `{} = 0` to the `simulate` statement", vel(q)))
+                        })?;
+                        env.insert(vel(q), v);
+                    }
+                    env.insert("t".into(), t0);
+                    for (i, p) in ps.iter().enumerate() {
+                        y0[n + i] = crate::eval::eval(p, &env).map_err(|e| self.value_error(e, stmt_span))?;
+                    }
+                } else {
+                    for (i, q) in coords.iter().enumerate() {
+                        y0[n + i] = given.get(&mom(q)).map(|v| v.0).ok_or_else(|| {
+                            SceneError::new(ErrorKind::MissingValue, format!("no initial value for `{}`", mom(q)))
+                                .at(stmt_span)
+                                .hint(format!(
+                                    "add `{} = 0` (or the velocity `{}`) to the `simulate` statement",
+                                    mom(q),
+                                    vel(q)
+                                ))
+                        })?;
+                    }
+                }
+            }
+        }
+
+        // Events, in the state's variables.
+        let mut event_exprs = Vec::new();
+        let mut events = Vec::new();
+        for (index, ev) in spec.events.iter().enumerate() {
+            let e = self.event_expr(ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
+            event_exprs.push(e);
+            events.push(EventRequest { index, terminal: ev.terminal, rising: ev.rising });
+        }
+
+        // Every parameter the equations use needs a value.
+        let mut needed: BTreeSet<String> = BTreeSet::new();
+        let exprs: Vec<&Expr> = match &formulation {
+            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e],
+            Formulation::Separable { t, v } => vec![t, v],
+        };
+        for e in exprs.iter().copied().chain(event_exprs.iter()) {
+            if let Some(f) = e.applied_functions().into_iter().next() {
+                return Err(SceneError::new(
+                    ErrorKind::MissingValue,
+                    format!(
+                        "the declared function `{f}` has no numeric definition, so the equations cannot be integrated"
+                    ),
+                )
+                .at(stmt_span)
+                .hint(format!("replace `{f}(…)` in `L` or `H` by an explicit expression before `simulate`")));
+            }
+            for s in e.free_symbols() {
+                if self.params.contains_key(s.name()) && s.primes() == 0 {
+                    needed.insert(s.name().to_string());
+                }
+            }
+        }
+        let mut params = Vec::new();
+        for p in &needed {
+            match self.params.get(p).and_then(|x| x.value) {
+                Some(v) => params.push((p.clone(), v)),
+                None => {
+                    return Err(SceneError::new(ErrorKind::MissingValue, format!("parameter `{p}` has no value"))
+                        .at(stmt_span)
+                        .label(format!("needs a value for `{p}`"))
+                        .hint(format!("declare `{p}` with a value before `simulate`: `parameters {p} = …`")))
+                }
+            }
+        }
+
+        // Compile (cached by symbolic content and parameter values), then integrate.
+        let req = CompileRequest {
+            coords: coords.clone(),
+            formulation: formulation.clone(),
+            params: params.clone(),
+            method,
+            events: event_exprs.clone(),
+            decls: self.declarations(),
+        };
+        let mut inputs: Vec<Expr> = match &formulation {
+            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e.clone()],
+            Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
+        };
+        inputs.extend(event_exprs.iter().cloned());
+        let key = CacheKey {
+            step: Step::Compile,
+            coords: coords.clone(),
+            inputs,
+            numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
+            extra: format!(
+                "{:?}{}",
+                method.family,
+                params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
+            ),
+        };
+        let what = format!("{} for {}", formulation_name(&formulation), method.name);
+        let compiled = match self.lookup(&key, Step::Compile, &what) {
+            Some(Value::Compiled(c)) => c,
+            _ => {
+                let built = self.backend.compile(&req).map(Value::Compiled).map_err(|e| backend_error(e, stmt_span));
+                match self.record(Step::Compile, what, key, built)? {
+                    Value::Compiled(c) => c,
+                    _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(stmt_span)),
+                }
+            }
+        };
+        let run = RunRequest { method, y0, t0, t1, dt, tol, events };
+        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        Ok(RunResult {
+            method,
+            layout,
+            coords,
+            params: params.into_iter().collect(),
+            traj: Arc::new(traj),
+            lagrangian: l_expr,
+            hamiltonian: h_expr,
+        })
+    }
+
+    pub(super) fn integrate(
+        &mut self,
+        compiled: &Compiled,
+        run: &RunRequest,
+        name: &str,
+        span: Span,
+    ) -> Result<Trajectory, SceneError> {
+        let mut bar = Progress::new(name, self.opts.progress);
+        let mut progress = |frac: f64| bar.update(frac);
+        let result = self.backend.integrate(compiled, run, &mut progress);
+        bar.finish();
+        let traj = result.map_err(|e| backend_error(e, span))?;
+        self.plan.push(PlanEntry {
+            step: Step::Integrate,
+            what: format!("{name} with {} ({} steps)", run.method.name, traj.steps),
+            line: Some(self.line),
+            status: Status::Built,
+        });
+        Ok(traj)
+    }
+
+    pub(super) fn value_error(&self, e: crate::eval::EvalError, span: Span) -> SceneError {
+        match e {
+            crate::eval::EvalError::Unbound(name) => {
+                SceneError::new(ErrorKind::MissingValue, format!("`{name}` has no value"))
+                    .at(span)
+                    .hint(format!("declare `{name}` with a value before `simulate`: `parameters {name} = …`"))
+            }
+            other => SceneError::new(ErrorKind::BadNumber, other.to_string()).at(span),
+        }
+    }
+
+    pub(super) fn param_values(&self) -> HashMap<String, f64> {
+        self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect()
+    }
+
+    pub(super) fn bound(&mut self, src: &Src) -> Result<f64, SceneError> {
+        let e = self.resolved(src)?;
+        self.number(&e, src.span)
+    }
+
+    /// Splits `H` into `T(p) + V(q, t)` with the compiler's own test of separability, so
+    /// that what the session accepts is what [`crate::compile::SeparableHamiltonian`]
+    /// compiles. When `H` is not separable, the first term that mixes coordinates and
+    /// momenta is named in the error.
+    pub(super) fn split(&mut self, h: &Expr, method: Method) -> Result<(Expr, Expr), SceneError> {
+        let key = CacheKey {
+            step: Step::Split,
+            coords: self.coords.clone(),
+            inputs: vec![h.clone()],
+            numbers: vec![],
+            extra: String::new(),
+        };
+        let what = format!("of {}", short(h));
+        if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &what) {
+            if let [t, v] = &v[..] {
+                return Ok((t.clone(), v.clone()));
+            }
+        }
+        let coords: Vec<&str> = self.coords.iter().map(|q| q.name()).collect();
+        let momenta_owned: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
+        let momenta: Vec<&str> = momenta_owned.iter().map(String::as_str).collect();
+        let Some((t, v)) = crate::compile::split_separable(h, &coords, &momenta) else {
+            let term = h.terms().into_iter().find(|x| crate::compile::split_separable(x, &coords, &momenta).is_none());
+            return Err(SceneError::new(
+                ErrorKind::Derivation,
+                format!(
+                    "`{}` needs a separable H = T(p) + V(q), but the term `{}` mixes coordinates and momenta",
+                    method.name,
+                    render(term.as_ref().unwrap_or(h), Format::Plain)
+                ),
+            )
+            .at(self.span)
+            .hint("use `gauss6` (symplectic for any H) or `dop853`"));
+        };
+        self.record(Step::Split, what, key, Ok(Value::Exprs(vec![t.clone(), v.clone()])))?;
+        Ok((t, v))
+    }
+
+    pub(super) fn event_expr(
+        &mut self,
+        ev: &EventSpec,
+        layout: Layout,
+        l: Option<&Expr>,
+        h: Option<&Expr>,
+    ) -> Result<Expr, SceneError> {
+        let lhs = self.resolved(&ev.lhs)?;
+        let e = match &ev.rhs {
+            Some(r) => lhs.minus(&self.resolved(r)?),
+            None => lhs,
+        };
+        self.in_layout(&e, layout, l, h, ev.span)
+    }
+
+    /// Rewrites an expression into the state variables of a layout: momenta become
+    /// `∂L/∂q'` in a velocity layout, velocities become `∂H/∂p` in a momentum layout.
+    pub(super) fn in_layout(
+        &mut self,
+        e: &Expr,
+        layout: Layout,
+        l: Option<&Expr>,
+        h: Option<&Expr>,
+        span: Span,
+    ) -> Result<Expr, SceneError> {
+        let coords = self.coords.clone();
+        let syms = e.free_symbols();
+        let mut map = HashMap::new();
+        for s in &syms {
+            let Some(q) = coords.iter().find(|q| {
+                (layout == Layout::Velocities && s.name() == format!("p_{}", q.name()) && s.primes() == 0)
+                    || (layout == Layout::Momenta && s.name() == q.name() && s.primes() == 1)
+            }) else {
+                if coords.iter().any(|q| q.name() == s.name() && s.primes() >= 2) {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!("`{s}` is an acceleration, which is not part of the state"),
+                    )
+                    .at(span)
+                    .hint("use coordinates, velocities or momenta"));
+                }
+                continue;
+            };
+            let value = match layout {
+                Layout::Velocities => {
+                    let l = l.cloned().map_or_else(|| self.lagrangian(), Ok)?;
+                    self.diff.diff(&l, &q.prime())
+                }
+                Layout::Momenta => {
+                    let h = h.cloned().map_or_else(|| self.hamiltonian(), Ok)?;
+                    self.diff.diff(&h, &Symbol::new(&format!("p_{}", q.name())))
+                }
+            };
+            map.insert(s.clone(), value);
+        }
+        Ok(if map.is_empty() { e.clone() } else { e.subs(&map) })
+    }
+
+    pub(super) fn run_ids(&mut self, names: &[Src]) -> Result<Vec<usize>, SceneError> {
+        if names.is_empty() {
+            return match self.runs.len() {
+                0 => Err(SceneError::new(ErrorKind::Undeclared, "no simulation to use")
+                    .at(self.span)
+                    .hint("add a `simulate …` statement before it")),
+                n => Ok(vec![n - 1]),
+            };
+        }
+        let mut out = Vec::new();
+        for n in names {
+            match self.run_names.get(&n.text) {
+                Some(&id) => out.push(id),
+                None => {
+                    let known: Vec<&str> = self.run_names.keys().map(String::as_str).collect();
+                    let err = SceneError::new(ErrorKind::UndefinedSymbol, format!("no simulation named `{}`", n.text))
+                        .at(n.span);
+                    return Err(match did_you_mean(&n.text, known) {
+                        Some(k) => err.hint(format!("did you mean `{k}`?")),
+                        None => err.hint("name a run with `simulate … as NAME`"),
+                    });
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Values of `e` along a run.
+    pub(super) fn along(&mut self, r: &RunResult, e: &Expr, span: Span) -> Result<Vec<f64>, SceneError> {
+        let e = self.in_layout(e, r.layout, r.lagrangian.as_ref(), r.hamiltonian.as_ref(), span)?;
+        let names = state_names(&r.coords, r.layout);
+        let mut out = Vec::with_capacity(r.traj.t.len());
+        let params = self.param_values();
+        for (t, y) in r.traj.t.iter().zip(&r.traj.y) {
+            let lookup = |s: &Symbol| -> Option<f64> {
+                if s.is_time() {
+                    return Some(*t);
+                }
+                let spelled = s.to_string();
+                if let Some(i) = names.iter().position(|n| *n == spelled) {
+                    return y.get(i).copied();
+                }
+                r.params.get(s.name()).or_else(|| params.get(s.name())).copied()
+            };
+            let v = crate::eval::eval_with(&e, &lookup).map_err(|err| self.value_error(err, span))?;
+            out.push(v);
+        }
+        Ok(out)
+    }
+
+    pub(super) fn energy_of_run(&mut self, r: &RunResult) -> Result<Expr, SceneError> {
+        match r.layout {
+            Layout::Momenta => match &r.hamiltonian {
+                Some(h) => Ok(h.clone()),
+                None => self.hamiltonian(),
+            },
+            Layout::Velocities => {
+                let l = match &r.lagrangian {
+                    Some(l) => l.clone(),
+                    None => self.lagrangian()?,
+                };
+                match self.derive(DerivKind::Energy, vec![l], self.span)? {
+                    Value::Expr(e) => Ok(e),
+                    _ => Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
+                }
+            }
+        }
+    }
+}
+
+pub(super) fn formulation_name(f: &Formulation) -> &'static str {
+    match f {
+        Formulation::Lagrangian(_) => "W q'' = F from L",
+        Formulation::Hamiltonian(_) => "Hamilton's equations of H",
+        Formulation::Separable { .. } => "drift ∂T/∂p and kick −∂V/∂q",
+    }
+}
+
+pub(super) fn state_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
+    let mut names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
+    for q in coords {
+        names.push(match layout {
+            Layout::Velocities => format!("{}'", q.name()),
+            Layout::Momenta => format!("p_{}", q.name()),
+        });
+    }
+    names
+}

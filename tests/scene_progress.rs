@@ -1,0 +1,99 @@
+//! Progress of long simulations: the library reports the fraction done up to the end of the
+//! time span, with and without events; a piped run stays quiet; a forced bar
+//! (`LAGRANGIAN_PROGRESS=always`) is driven to 100 %.
+
+use std::process::Command;
+use std::time::Instant;
+
+use lagrangian::scene::backend::{CompileRequest, EventRequest, Formulation, RunRequest};
+use lagrangian::scene::sim::method;
+use lagrangian::scene::{Backend, NativeBackend};
+use lagrangian::{parse_with, Declarations, Symbol};
+
+/// Integrates the pendulum `H = p²/2 − cos θ` over `0..t1` with `name`, recording every
+/// progress report.
+fn reports(name: &str, t1: f64, with_event: bool) -> (Vec<f64>, usize) {
+    let decls = Declarations::new();
+    let h = parse_with("p_θ^2/2 - cos(θ)", &decls).unwrap();
+    let m = method(name).unwrap();
+    let formulation = match m.family {
+        lagrangian::scene::sim::Family::Splitting => Formulation::Separable {
+            t: parse_with("p_θ^2/2", &decls).unwrap(),
+            v: parse_with("-cos(θ)", &decls).unwrap(),
+        },
+        _ => Formulation::Hamiltonian(h),
+    };
+    let events = if with_event { vec![parse_with("θ", &decls).unwrap()] } else { vec![] };
+    let req = CompileRequest { coords: vec![Symbol::new("θ")], formulation, params: vec![], method: m, events, decls };
+    let compiled = NativeBackend.compile(&req).unwrap();
+    let run = RunRequest {
+        method: m,
+        y0: vec![1.0, 0.0],
+        t0: 0.0,
+        t1,
+        dt: Some(0.001),
+        tol: None,
+        events: if with_event { vec![EventRequest { index: 0, terminal: false, rising: Some(true) }] } else { vec![] },
+    };
+    let mut seen = Vec::new();
+    let tr = NativeBackend.integrate(&compiled, &run, &mut |f| seen.push(f)).unwrap();
+    (seen, tr.events.len())
+}
+
+#[test]
+fn a_long_simulation_reports_progress_up_to_its_end() {
+    // 10⁵ steps: reports every 256 steps, then the end.
+    for (name, with_event) in [("leapfrog", false), ("rk4", false), ("leapfrog", true), ("gauss4", true)] {
+        let (seen, events) = reports(name, 100.0, with_event);
+        assert!(seen.len() > 100, "{name}: only {} reports", seen.len());
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{name}: progress went back");
+        assert_eq!(*seen.last().unwrap(), 1.0, "{name}");
+        // Halfway through the run the reports had passed the middle of the span.
+        let mid = seen[seen.len() / 2];
+        assert!((0.3..0.7).contains(&mid), "{name}: {mid}");
+        if with_event {
+            // θ rises through 0 once per period 2π/ω₀·(1 + …) ≈ 6.7 (amplitude 1): about 15 times.
+            assert!((10..20).contains(&events), "{name}: {events} events");
+        }
+    }
+}
+
+const LONG: &str = "coordinates θ\nparameters g = 9.81 positive\nH = p_θ^2/2 - g cos(θ)\n\
+                    simulate θ = 1, p_θ = 0 for t in 0..T with yoshida8 dt = 0.001 record when θ = 0 as long\n\
+                    export from long to long.csv\n";
+
+fn run(t1: &str, progress: Option<&str>) -> (f64, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.scene");
+    std::fs::write(&path, LONG.replace("..T", &format!("..{t1}"))).unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_lagrangian"));
+    cmd.arg("run").arg(&path).arg("--no-cache").current_dir(dir.path()).env_remove("LAGRANGIAN_PROGRESS");
+    if let Some(p) = progress {
+        cmd.env("LAGRANGIAN_PROGRESS", p);
+    }
+    let started = Instant::now();
+    let out = cmd.output().unwrap();
+    let secs = started.elapsed().as_secs_f64();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    (secs, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[test]
+fn a_piped_run_shows_no_bar_however_long() {
+    // Long enough (over a second, checked) that a terminal would show a bar.
+    let (secs, stderr) = run("2000", None);
+    assert!(secs > 1.0, "the run took only {secs} s; the test needs a longer one");
+    assert_eq!(stderr, "");
+}
+
+#[test]
+fn a_forced_bar_is_driven_to_completion() {
+    let (_, stderr) = run("100", Some("always"));
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert!(!lines.is_empty(), "{stderr}");
+    assert!(lines.iter().all(|l| l.starts_with("long [")), "{stderr}");
+    assert!(lines.last().unwrap().contains("100%"), "{stderr}");
+    // `never` wins over everything.
+    let (_, stderr) = run("100", Some("never"));
+    assert_eq!(stderr, "");
+}
