@@ -412,8 +412,9 @@ impl Backend for NativeBackend {
     }
 }
 
-/// A compiled system that counts its evaluations (see [`Trajectory::evaluations`]). The
-/// count is one relaxed atomic increment per evaluation, small next to an evaluation.
+/// A compiled system that counts its evaluations (see [`Trajectory::evaluations`]). One run
+/// is integrated on one thread, so the count is a relaxed load and store, not a locked
+/// read-modify-write: plain moves on common targets, small next to an evaluation.
 struct Counted<'a, S: ?Sized> {
     inner: &'a S,
     count: &'a AtomicUsize,
@@ -424,7 +425,7 @@ impl<'a, S: ?Sized> Counted<'a, S> {
         Counted { inner, count }
     }
     fn bump(&self) {
-        self.count.fetch_add(1, Ordering::Relaxed);
+        self.count.store(self.count.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
     }
 }
 

@@ -3,8 +3,11 @@
 //!
 //! * [`parser`]: text → statements (`grammar/scene.pest`, which reuses `grammar/expr.pest`).
 //! * [`session`]: executes statements. Definitions and simulations are recorded lazily in a
-//!   scene; outputs demand them; derivations are cached by symbolic content; the plan of
-//!   what was built, reused and skipped is what `lagrangian run --explain` prints.
+//!   scene; outputs demand them. Its work is split by job: `simulate` (one run), `figures`
+//!   (`plot`, `export`), `plan` (what was built, reused, loaded or skipped: what
+//!   `lagrangian run --explain` prints).
+//! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
+//! * [`progress`]: progress bars of long simulations, only on a terminal.
 //! * [`backend`]: the one place that calls the mechanics, canonical, compile and integrate
 //!   stages.
 //! * [`repl`]: the interactive front end.

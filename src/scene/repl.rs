@@ -68,9 +68,11 @@ pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>
         Some(&"with") => METHODS.iter().map(|m| m.name.to_string()).collect(),
         Some(&"help") => TOPICS.iter().map(|t| t.word.to_string()).collect(),
         Some(&"as") | Some(&"format") => ["plain", "unicode", "latex"].iter().map(|s| s.to_string()).collect(),
-        Some(&"plot") => {
-            ["phase", "energy", "path", "poincare"].iter().map(|s| s.to_string()).chain(names.iter().cloned()).collect()
-        }
+        Some(&"plot") => ["phase", "energy", "path", "poincare", "work_precision"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain(names.iter().cloned())
+            .collect(),
         _ => names
             .iter()
             .cloned()

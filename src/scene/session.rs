@@ -1,5 +1,6 @@
-//! Executing statements: the session's declarations, its lazy definitions, the derivation
-//! cache and the plan that `--explain` prints.
+//! Executing statements: the session's declarations, expressions, lazy definitions and
+//! derivations, printing and `load`. Simulations (`simulate.rs`), figures and exports
+//! (`figures.rs`) and the plan (`plan.rs`) are the session's other jobs, in their own files.
 //!
 //! Demand-driven evaluation: a definition (`H = legendre(L)`, `E = el(L)`) and a `simulate`
 //! only record what they would build. Outputs — `print`, a bare derivation (`el`), `plot`,
@@ -7,7 +8,8 @@
 //! derivations it needs, each once. Derivations are cached by their symbolic content
 //! (the kind, the coordinates and the input expressions, which are hash-consed, so the key
 //! compares in O(1)); numbers (parameter values, initial states, time spans) are not part of
-//! a derivation's key, so re-running a scene with other numbers reuses the derivations.
+//! a derivation's key, so re-running a scene with other numbers reuses the derivations —
+//! from memory in the same process, from the disk cache ([`super::cache`]) in another.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};
