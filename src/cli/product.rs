@@ -15,7 +15,7 @@ pub enum ProductCommand {
     Run {
         /// The scene file.
         scene: PathBuf,
-        /// Print the plan: what was built, reused and skipped, and why.
+        /// Print the plan: what was built, reused, loaded from the disk cache or skipped, and why.
         #[arg(long)]
         explain: bool,
         /// Directory for output files with relative names (default: the current directory).
