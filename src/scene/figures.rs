@@ -119,11 +119,8 @@ impl Session {
                 let mut series = Vec::new();
                 for id in ids {
                     let r = self.demand_run(id)?;
-                    let e = self.energy_of_run(&r)?;
-                    let es = self.along(&r, &e, self.span)?;
-                    let e0 = es.first().copied().unwrap_or(0.0);
-                    let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
-                    let pts = r.traj.t.iter().zip(&es).map(|(t, e)| (*t, ((e - e0) / scale).abs())).collect();
+                    let errors = self.energy_errors(&r)?;
+                    let pts = r.traj.t.iter().copied().zip(errors).collect();
                     series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
                 }
                 Ok(Figure::log_y("relative energy error", "t", "|ΔE/E₀|", series))
@@ -131,6 +128,16 @@ impl Session {
             PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
             PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
         }
+    }
+
+    /// The relative energy error `|E(t) − E(0)|/|E(0)|` along a run (absolute when
+    /// `E(0) = 0`).
+    fn energy_errors(&mut self, r: &RunResult) -> Result<Vec<f64>, SceneError> {
+        let e = self.energy_of_run(r)?;
+        let es = self.along(r, &e, self.span)?;
+        let e0 = es.first().copied().unwrap_or(0.0);
+        let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
+        Ok(es.iter().map(|e| ((e - e0) / scale).abs()).collect())
     }
 
     /// The work-precision diagram: for each run, its right-hand-side evaluations (counted,
@@ -172,13 +179,7 @@ impl Session {
                         .at(self.span)
                         .hint("compare runs over the same time span that reach its end")
                 })?,
-                None => {
-                    let e = self.energy_of_run(&r)?;
-                    let es = self.along(&r, &e, self.span)?;
-                    let e0 = es.first().copied().unwrap_or(0.0);
-                    let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
-                    es.iter().map(|e| ((e - e0) / scale).abs()).fold(0.0, f64::max)
-                }
+                None => self.energy_errors(&r)?.into_iter().fold(0.0, f64::max),
             };
             let point = (r.traj.evaluations as f64, error);
             match by_method.iter_mut().find(|(m, _)| *m == r.method.name) {
