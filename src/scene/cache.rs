@@ -4,8 +4,8 @@
 //!
 //! An on-disk entry is one JSON file named by a stable 128-bit hash of the key's text. The key
 //! text is the plain printed form of everything the result depends on (the kind of derivation,
-//! the coordinates, the declared functions and positive symbols, the input expressions and a
-//! format version) and is stored in the entry too: a load compares it in full, so a hash
+//! the coordinates, the declared functions and positive symbols, the input expressions, a
+//! format version and the engine build) and is stored in the entry too: a load compares it in full, so a hash
 //! collision is a miss, never a wrong answer. Results are stored as plain text, which the
 //! printer guarantees re-parses to the identical expression; a load re-parses each expression
 //! and re-prints it, and any difference (a corrupt, truncated, hand-edited or foreign-version
@@ -128,7 +128,11 @@ fn disk_key(key: &CacheKey) -> Option<String> {
         return None;
     }
     let mut symbols: Vec<String> = Vec::new();
-    let mut s = format!("lagrangian derivation cache, format {CACHE_FORMAT}\nstep: {:?}\ncoordinates:", key.step);
+    let mut s = format!(
+        "lagrangian derivation cache, format {CACHE_FORMAT}\nengine: {}\nstep: {:?}\ncoordinates:",
+        engine_identity(),
+        key.step
+    );
     for q in &key.coords {
         s.push(' ');
         s.push_str(&q.to_string());
@@ -149,6 +153,28 @@ fn disk_key(key: &CacheKey) -> Option<String> {
     s.push_str(&key.extra);
     s.push('\n');
     Some(s)
+}
+
+/// Which build of the engine derived an entry: the crate version and the size and modification
+/// time of the running executable. A rebuilt engine may print a derivation differently (a new
+/// simplification, a new canonical order), and an entry it did not write must not make its
+/// output differ from a `--no-cache` run; so every rebuild starts a fresh set of entries.
+fn engine_identity() -> &'static str {
+    static IDENTITY: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    IDENTITY.get_or_init(|| {
+        let build = std::env::current_exe()
+            .and_then(std::fs::metadata)
+            .map(|m| {
+                let modified = m
+                    .modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos());
+                format!("{} bytes, modified {modified}", m.len())
+            })
+            .unwrap_or_else(|_| "unknown build".to_string());
+        format!("{} ({build})", env!("CARGO_PKG_VERSION"))
+    })
 }
 
 /// A 128-bit FNV-1a hash of the key text, as 32 hex digits (stable across builds and
