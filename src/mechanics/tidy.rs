@@ -212,6 +212,17 @@ fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
     out
 }
 
+/// A Lagrangian at most quadratic in the velocities, by degree:
+/// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`.
+pub(crate) struct QuadraticParts {
+    /// `W_ij` for `i ≤ j` (entries below the diagonal are empty).
+    pub(crate) w: Vec<Vec<Poly>>,
+    /// `b_i`.
+    pub(crate) b: Vec<Poly>,
+    /// `L0`.
+    pub(crate) l0: Poly,
+}
+
 /// The trigonometric shape of a monomial (atom ids of the sin/cos factors stripped off).
 #[derive(Clone, PartialEq, Eq, Hash)]
 enum Trig {
@@ -338,6 +349,81 @@ impl Ctx {
         p
     }
 
+    /// Splits a polynomial `L` that is at most quadratic in `velocities`,
+    /// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`, into its coefficient polynomials, or `None`
+    /// when `L` is not of that form (a velocity inside another atom, as in `sqrt(1 − v²)`, a
+    /// negative or fractional velocity power, a cubic term, an acceleration).
+    pub(crate) fn quadratic_split(&mut self, p: &Poly, velocities: &[Symbol]) -> Option<QuadraticParts> {
+        let n = velocities.len();
+        let vid: Vec<u32> = velocities.iter().map(|v| self.atom_id(&Expr::sym(v.clone()))).collect();
+        let mut parts =
+            QuadraticParts { w: vec![vec![Poly::default(); n]; n], b: vec![Poly::default(); n], l0: Poly::default() };
+        let mut has_rate: FxMap<u32, bool> = FxMap::default();
+        for (key, c) in &p.terms {
+            let mut rest: Key = Vec::with_capacity(key.len());
+            let mut vel: Vec<usize> = Vec::new();
+            for &(a, e) in key {
+                if let Some(i) = vid.iter().position(|&v| v == a) {
+                    if !e.is_integer() || !e.is_positive() || vel.len() + e.to_integer() as usize > 2 {
+                        return None;
+                    }
+                    vel.extend(std::iter::repeat(i).take(e.to_integer() as usize));
+                    continue;
+                }
+                // Any other atom must be free of time derivatives (velocities, accelerations).
+                let atom = &self.atoms[a as usize];
+                if *has_rate.entry(a).or_insert_with(|| atom.free_symbols().iter().any(|s| s.primes() > 0)) {
+                    return None;
+                }
+                rest.push((a, e));
+            }
+            match vel.as_slice() {
+                [] => parts.l0.add_term(rest, c.clone()),
+                [i] => parts.b[*i].add_term(rest, c.clone()),
+                [i, j] if i == j => parts.w[*i][*i].add_term(rest, c * Rational::from_integer(2.into())),
+                [i, j] => parts.w[(*i).min(*j)][(*i).max(*j)].add_term(rest, c.clone()),
+                _ => return None,
+            }
+        }
+        Some(parts)
+    }
+
+    /// `e` as a polynomial without expanding its sums: a sum inside a product, or raised to a
+    /// power, stays one atom. Used on already collected expressions (entries of `W`) so that
+    /// their derivatives keep factors like `(m2 + … + m_n)` whole, and terms with the same
+    /// such factor meet as one monomial. The value is unchanged.
+    pub(crate) fn shallow(&mut self, e: &Expr) -> Poly {
+        match e.node() {
+            Node::Add(ts) => {
+                let mut acc = Poly::default();
+                for t in ts {
+                    acc.add(&self.shallow(t));
+                }
+                acc
+            }
+            Node::Mul(fs) => {
+                let mut acc = Poly::constant(Rational::one());
+                for f in fs {
+                    let p = self.shallow_factor(f);
+                    acc = acc.mul(&p);
+                }
+                acc
+            }
+            _ => self.shallow_factor(e),
+        }
+    }
+
+    fn shallow_factor(&mut self, f: &Expr) -> Poly {
+        match f.node() {
+            Node::Add(_) => self.leaf(f, Rational64::one()),
+            Node::Pow(b, x) if matches!(b.node(), Node::Add(_)) => match x.as_num().and_then(small_exp) {
+                Some(r) => self.leaf(b, r),
+                None => self.leaf(f, Rational64::one()),
+            },
+            _ => self.expand(f),
+        }
+    }
+
     /// Contracts and collects `p` into an expression.
     pub(crate) fn finish(&mut self, p: Poly) -> Expr {
         let p = self.contract(p);
@@ -400,6 +486,9 @@ impl Ctx {
     fn tidy_arg(&mut self, e: &Expr) -> Expr {
         if let Some(t) = self.args.get(e) {
             return t.clone();
+        }
+        if is_signed_symbol_sum(e) {
+            return e.clone();
         }
         let t = tidy(e);
         self.args.insert(e.clone(), t.clone());
@@ -740,6 +829,26 @@ fn worth_expanding(b: &Expr) -> bool {
     walk(b, &mut std::collections::HashSet::new())
 }
 
+/// Whether `e` is a sum of distinct symbols with coefficients `+1`, at most one of them `−1`
+/// (`θ1 − θ2`, `θ1 + θ2`): the angle arguments that contraction creates. [`tidy`] returns
+/// such a sum unchanged (nothing to expand, contract or factor, and no equal expression has
+/// fewer operations: with one negation, `k` symbols need `k − 1` additions and one negation),
+/// so the e-graph run inside it is skipped.
+fn is_signed_symbol_sum(e: &Expr) -> bool {
+    let Node::Add(ts) = e.node() else { return false };
+    let mut negatives = 0;
+    for t in ts {
+        match t.node() {
+            Node::Sym(_) => {}
+            Node::Mul(fs) if fs.len() == 2 && fs[0].is_num(-1) && matches!(fs[1].node(), Node::Sym(_)) => {
+                negatives += 1;
+            }
+            _ => return false,
+        }
+    }
+    negatives <= 1
+}
+
 fn cos(a: Expr) -> Expr {
     Expr::call(Func::Cos, vec![a])
 }
@@ -802,6 +911,40 @@ mod tests {
     fn pulls_content_and_merges_equal_cofactors() {
         let e = p("m1 l^2 c + m2 l^2 c + m1 l^2 s + m2 l^2 s");
         assert_eq!(tidy(&e), p("l^2 (c + s) (m1 + m2)"));
+    }
+
+    #[test]
+    fn signed_symbol_sums_are_already_tidy() {
+        for s in ["a - b", "a + b", "b - a + c", "θ1 + θ2 - θ3"] {
+            let e = p(s);
+            assert!(is_signed_symbol_sum(&e), "{s}");
+            assert_eq!(tidy(&e), e, "{s}");
+        }
+        for s in ["-a - b", "2 a - b", "a b + c", "a"] {
+            assert!(!is_signed_symbol_sum(&p(s)), "{s}");
+        }
+    }
+
+    /// Which Lagrangians take the quadratic (Christoffel) route of `mass_matrix_split`.
+    #[test]
+    fn quadratic_split_accepts_exactly_the_quadratic_lagrangians() {
+        let v = |names: &[&str]| names.iter().map(|n| Symbol::new(n).with_primes(1)).collect::<Vec<_>>();
+        let split = |l: &str, vs: &[&str]| {
+            let mut ctx = Ctx::new();
+            let lp = ctx.poly(&p(l));
+            ctx.quadratic_split(&lp, &v(vs)).map(|q| {
+                let w = q.w.iter().flatten().filter(|x| !x.is_zero()).count();
+                let b = q.b.iter().filter(|x| !x.is_zero()).count();
+                (w, b, !q.l0.is_zero())
+            })
+        };
+        // ½ m (x'² + y'²) + e B x y' − V: W diagonal (2 entries), one linear term, L0.
+        assert_eq!(split("1/2 m (x'^2 + y'^2) + e B x y' - k x^2", &["x", "y"]), Some((2, 1, true)));
+        // A cross term x' y' fills the upper triangle only.
+        assert_eq!(split("x'^2 + x' y' cos(x - y)", &["x", "y"]), Some((2, 0, false)));
+        for l in ["-m sqrt(1 - x'^2)", "x'^3", "1/x'", "exp(x') + y'", "x'' x", "x'^2 y'"] {
+            assert_eq!(split(l, &["x", "y"]), None, "{l}");
+        }
     }
 
     #[test]
