@@ -30,7 +30,7 @@ use std::rc::Rc;
 
 use num_integer::Integer;
 use num_rational::Rational64;
-use num_traits::{One, Signed, ToPrimitive, Zero};
+use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
 
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
@@ -103,36 +103,124 @@ impl Hasher for Fx {
 type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
 
 /// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
-type Key = Vec<(u32, Rational64)>;
+///
+/// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
+/// continued fraction with a division per step, which was a tenth of the mechanics run.
+#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
+struct Key(Vec<(u32, Rational64)>);
+
+impl std::hash::Hash for Key {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        h.write_usize(self.0.len());
+        for (a, r) in &self.0 {
+            // `Rational64` is always stored reduced with a positive denominator.
+            h.write_u32(*a);
+            h.write_i64(*r.numer());
+            h.write_i64(*r.denom());
+        }
+    }
+}
+
+impl std::ops::Deref for Key {
+    type Target = Vec<(u32, Rational64)>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Key {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl FromIterator<(u32, Rational64)> for Key {
+    fn from_iter<I: IntoIterator<Item = (u32, Rational64)>>(it: I) -> Key {
+        Key(it.into_iter().collect())
+    }
+}
 
 /// Monomials with their coefficients.
 type Terms = Vec<(Key, Rational)>;
 
+/// An exact coefficient: a machine-word rational while it fits, a big rational after.
+///
+/// Almost every coefficient in a derivation is small (`1/2`, `-2`); `BigRational` arithmetic
+/// allocates and takes a gcd of big integers for each product, which was a quarter of the
+/// mechanics run. The representation is unique (`Big` only when the value does not fit), so
+/// the derived equality is equality of values.
+#[derive(Clone, PartialEq, Eq)]
+enum Coef {
+    Small(Rational64),
+    Big(Rational),
+}
+
+impl Coef {
+    fn from_big(r: Rational) -> Coef {
+        match small_exp(&r) {
+            Some(x) => Coef::Small(x),
+            None => Coef::Big(r),
+        }
+    }
+
+    fn to_big(&self) -> Rational {
+        match self {
+            Coef::Small(x) => big(*x),
+            Coef::Big(r) => r.clone(),
+        }
+    }
+
+    fn is_zero(&self) -> bool {
+        match self {
+            Coef::Small(x) => x.is_zero(),
+            Coef::Big(r) => r.is_zero(),
+        }
+    }
+
+    fn add(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_add(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() + other.to_big())
+    }
+
+    fn mul(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_mul(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() * other.to_big())
+    }
+}
+
 /// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
 #[derive(Clone, Default)]
 pub(crate) struct Poly {
-    terms: FxMap<Key, Rational>,
+    terms: FxMap<Key, Coef>,
 }
 
 impl Poly {
     fn constant(c: Rational) -> Poly {
         let mut terms = FxMap::default();
         if !c.is_zero() {
-            terms.insert(Vec::new(), c);
+            terms.insert(Key::default(), Coef::from_big(c));
         }
         Poly { terms }
     }
 
     fn atom(id: u32, exp: Rational64) -> Poly {
         let mut terms = FxMap::default();
-        terms.insert(vec![(id, exp)], Rational::one());
+        terms.insert(Key(vec![(id, exp)]), Coef::Small(Rational64::one()));
         Poly { terms }
     }
 
-    fn add_term(&mut self, key: Key, c: Rational) {
+    fn add_term(&mut self, key: Key, c: Coef) {
         match self.terms.entry(key) {
             std::collections::hash_map::Entry::Occupied(mut o) => {
-                let v = o.get() + &c;
+                let v = o.get().add(&c);
                 if v.is_zero() {
                     o.remove();
                 } else {
@@ -153,9 +241,10 @@ impl Poly {
 
     /// `self · c` for a rational `c`.
     pub(crate) fn scale(&self, c: &Rational) -> Poly {
+        let c = Coef::from_big(c.clone());
         let mut out = Poly::default();
         for (k, v) in &self.terms {
-            out.add_term(k.clone(), v * c);
+            out.add_term(k.clone(), v.mul(&c));
         }
         out
     }
@@ -170,7 +259,7 @@ impl Poly {
         let mut out = Poly::default();
         for (k1, c1) in &self.terms {
             for (k2, c2) in &other.terms {
-                out.add_term(merge_keys(k1, k2), c1 * c2);
+                out.add_term(merge_keys(k1, k2), c1.mul(c2));
             }
         }
         out
@@ -178,14 +267,14 @@ impl Poly {
 
     /// Terms sorted by key, for deterministic processing.
     fn sorted(&self) -> Vec<(Key, Rational)> {
-        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.clone())).collect();
+        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
         v.sort_by(|a, b| a.0.cmp(&b.0));
         v
     }
 }
 
 fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
-    let mut out = Vec::with_capacity(a.len() + b.len());
+    let mut out = Key(Vec::with_capacity(a.len() + b.len()));
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         match a[i].0.cmp(&b[j].0) {
@@ -323,9 +412,9 @@ impl Ctx {
                 } else {
                     rest[i].1 = e1;
                 }
-                let coeff = if e.is_one() { c.clone() } else { c * big(*e) };
+                let coeff = if e.is_one() { c.clone() } else { c.mul(&Coef::Small(*e)) };
                 for (k2, c2) in &da.terms {
-                    out.add_term(merge_keys(&rest, k2), &coeff * c2);
+                    out.add_term(merge_keys(&rest, k2), coeff.mul(c2));
                 }
             }
         }
@@ -360,9 +449,9 @@ impl Ctx {
             QuadraticParts { w: vec![vec![Poly::default(); n]; n], b: vec![Poly::default(); n], l0: Poly::default() };
         let mut has_rate: FxMap<u32, bool> = FxMap::default();
         for (key, c) in &p.terms {
-            let mut rest: Key = Vec::with_capacity(key.len());
+            let mut rest = Key(Vec::with_capacity(key.len()));
             let mut vel: Vec<usize> = Vec::new();
-            for &(a, e) in key {
+            for &(a, e) in key.iter() {
                 if let Some(i) = vid.iter().position(|&v| v == a) {
                     if !e.is_integer() || !e.is_positive() || vel.len() + e.to_integer() as usize > 2 {
                         return None;
@@ -380,7 +469,7 @@ impl Ctx {
             match vel.as_slice() {
                 [] => parts.l0.add_term(rest, c.clone()),
                 [i] => parts.b[*i].add_term(rest, c.clone()),
-                [i, j] if i == j => parts.w[*i][*i].add_term(rest, c * Rational::from_integer(2.into())),
+                [i, j] if i == j => parts.w[*i][*i].add_term(rest, c.mul(&Coef::Small(Rational64::from_integer(2)))),
                 [i, j] => parts.w[(*i).min(*j)][(*i).max(*j)].add_term(rest, c.clone()),
                 _ => return None,
             }
@@ -571,7 +660,7 @@ impl Ctx {
             key.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, x)| *x).collect()
         };
         match trig.as_slice() {
-            [] => Some((Trig::Plain, key.to_vec())),
+            [] => Some((Trig::Plain, Key(key.to_vec()))),
             [i] => {
                 let (f, a) = self.trig[key[*i].0 as usize].clone()?;
                 if key[*i].1 != Rational64::from_integer(2) {
@@ -640,7 +729,7 @@ impl Ctx {
             used[i] = true;
             let k = &terms[i].1;
             let Some((shape, rest)) = &classified[i] else {
-                out.add_term(terms[i].0.clone(), k.clone());
+                out.add_term(terms[i].0.clone(), Coef::from_big(k.clone()));
                 continue;
             };
             let find = |s: Trig| index.get(&(s, rest.clone())).copied();
@@ -699,10 +788,10 @@ impl Ctx {
                     changed = true;
                     let p = self.expand(&factor);
                     let mut r = Poly::default();
-                    r.add_term(rest.clone(), c);
+                    r.add_term(rest.clone(), Coef::from_big(c));
                     out.add(&r.mul(&p));
                 }
-                _ => out.add_term(terms[i].0.clone(), k.clone()),
+                _ => out.add_term(terms[i].0.clone(), Coef::from_big(k.clone())),
             }
         }
         (out, changed)
@@ -738,7 +827,7 @@ impl Ctx {
             t.1 = &t.1 / &g;
         }
         let mut content: Vec<Expr> = Vec::new();
-        let first: Vec<(u32, Rational64)> = terms[0].0.clone();
+        let first: Vec<(u32, Rational64)> = terms[0].0.to_vec();
         for (a, _) in first {
             let exps: Option<Vec<Rational64>> =
                 terms.iter().map(|(k, _)| k.iter().find(|(b, _)| *b == a).map(|(_, r)| *r)).collect();
@@ -780,7 +869,7 @@ impl Ctx {
         }
         let mut counts: FxMap<(u32, bool), usize> = FxMap::default();
         for (k, _) in &terms {
-            for (a, r) in k {
+            for (a, r) in k.iter() {
                 *counts.entry((*a, r.is_positive())).or_default() += 1;
             }
         }
