@@ -96,9 +96,10 @@ fn n_link_pendulums_match_plain_differentiation() {
 
 #[test]
 fn non_natural_lagrangians_match_plain_differentiation() {
-    // (L, coordinates, positive, functions, overrides, slow velocities)
+    // ((L, coordinates, positive, functions), overrides, slow velocities)
     type Case = (&'static str, &'static [&'static str], &'static [&'static str], &'static [&'static str]);
-    let cases: &[(Case, &[(&str, f64)], bool)] = &[
+    type Overrides = &'static [(&'static str, f64)];
+    let cases: &[(Case, Overrides, bool)] = &[
         // Relativistic: not quadratic in the velocities, the general route.
         (("-m c^2 sqrt(1 - (x'^2 + y'^2)/c^2) - k (x^2 + y^2)", &["x", "y"], &["m", "c"], &[]), &[("c", 3.0)], true),
         // Magnetic b·q' with a position-dependent vector potential and a scalar potential.

@@ -63,7 +63,7 @@ impl System {
     /// monomial by monomial, and each atom (cos(θ1 − θ2), 1/r, …) is differentiated once per
     /// variable. When L is at most quadratic in the velocities (every natural system, magnetic
     /// and rotating frames), `W` is read off the velocity monomials and `F` is built from the
-    /// collected entries of `W` ([`System::quadratic_forcing`]); otherwise (the relativistic
+    /// collected entries of `W` by the Christoffel symbols; otherwise (the relativistic
     /// particle, …) from the derivatives of L directly.
     pub fn mass_matrix_split(&self) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
         let l = self.need_lagrangian("the mass matrix")?;
