@@ -148,7 +148,8 @@ impl System {
             self.add_forces(ctx, i, &mut low);
             let low = ctx.finish(low);
             let mut acc = ctx.shallow(&low);
-            // The quadratic terms: q'_j² and 2 q'_j q'_k (j < k) collect the symmetric pairs.
+            // The quadratic terms, one coefficient per unordered pair j ≤ k (for j < k it gathers
+            // the (j, k) and (k, j) terms of the double sum).
             for j in 0..n {
                 for k in j..n {
                     let mut c = Poly::default();
