@@ -20,7 +20,7 @@
 use std::cmp::Ordering;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::fmt;
-use std::hash::{BuildHasher, Hash, Hasher};
+use std::hash::{BuildHasher, BuildHasherDefault, Hash, Hasher};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use num_bigint::BigInt;
@@ -255,12 +255,30 @@ impl Hash for Expr {
 /// Interning key: a node whose children are already interned, so comparing two keys is
 /// shallow (children compare by pointer).
 struct Interner {
-    table: HashMap<u64, Vec<Expr>>,
+    table: HashMap<u64, Vec<Expr>, BuildHasherDefault<PassThrough>>,
+}
+
+/// The interner's table is keyed by node hashes that are already well mixed; hashing them
+/// again (SipHash) only costs time.
+#[derive(Default)]
+struct PassThrough(u64);
+impl Hasher for PassThrough {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 = (self.0 << 8) ^ u64::from(*b);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = x;
+    }
 }
 
 fn interner() -> &'static Mutex<Interner> {
     static INTERNER: OnceLock<Mutex<Interner>> = OnceLock::new();
-    INTERNER.get_or_init(|| Mutex::new(Interner { table: HashMap::new() }))
+    INTERNER.get_or_init(|| Mutex::new(Interner { table: HashMap::default() }))
 }
 
 /// A fixed hasher, so node hashes (and anything ordered by them) never vary between runs.
@@ -288,6 +306,22 @@ fn intern(node: Node) -> Expr {
     expr
 }
 
+/// The range of the interned small numbers `n/d`: `|n| ≤ SMALL_NUM`, `1 ≤ d ≤ SMALL_DEN`.
+const SMALL_NUM: i64 = 64;
+const SMALL_DEN: i64 = 8;
+
+/// The interned numbers `n/d` in that range, indexed by `(n + SMALL_NUM) · SMALL_DEN + d − 1`
+/// (entries for unreduced pairs hold the reduced value and are never looked up: a `Rational`
+/// is always reduced).
+fn small_nums() -> &'static [Expr] {
+    static SMALL: OnceLock<Vec<Expr>> = OnceLock::new();
+    SMALL.get_or_init(|| {
+        (-SMALL_NUM..=SMALL_NUM)
+            .flat_map(|n| (1..=SMALL_DEN).map(move |d| intern(Node::Num(Rational::new(n.into(), d.into())))))
+            .collect()
+    })
+}
+
 /// Integer part and sign helpers on rationals.
 fn is_integer(r: &Rational) -> bool {
     r.is_integer()
@@ -302,6 +336,14 @@ impl Expr {
 
     /// An exact rational constant.
     pub fn num(r: Rational) -> Expr {
+        // Small numbers come from a table interned once: hashing a `BigRational` (its `Hash`
+        // expands a continued fraction by big-integer division) was half the cost of
+        // interning in the mechanics pipeline, where most nodes made are coefficients.
+        if let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_i64()) {
+            if (-SMALL_NUM..=SMALL_NUM).contains(&n) && (1..=SMALL_DEN).contains(&d) {
+                return small_nums()[((n + SMALL_NUM) * SMALL_DEN + d - 1) as usize].clone();
+            }
+        }
         intern(Node::Num(r))
     }
 

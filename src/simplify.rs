@@ -541,6 +541,15 @@ fn pattern(text: &str) -> egg::Pattern<Math> {
     pattern_text(&e).parse().unwrap_or_else(|err| unreachable!("rule `{text}` is not a pattern: {err}"))
 }
 
+/// The rule table, built once per process: building it parses every pattern (through the
+/// expression parser and egg's s-expression reader), which costs far more than a typical small
+/// simplification (tidying the 10-link pendulum's `W`, `F` simplifies dozens of short angle
+/// arguments).
+fn rule_set() -> &'static [egg::Rewrite<Math, Knowledge>] {
+    static RULE_SET: std::sync::OnceLock<Vec<egg::Rewrite<Math, Knowledge>>> = std::sync::OnceLock::new();
+    RULE_SET.get_or_init(rules)
+}
+
 /// The rules of [`RULES`] as egg rewrites.
 pub fn rules() -> Vec<egg::Rewrite<Math, Knowledge>> {
     RULES
@@ -577,7 +586,7 @@ fn egraph_round(e: &Expr, budget: &Budget) -> (Expr, StopReason) {
         .with_node_limit(budget.nodes)
         .with_iter_limit(budget.iterations)
         .with_time_limit(budget.time)
-        .run(&rules());
+        .run(rule_set());
     let stop = match runner.stop_reason {
         Some(egg::StopReason::IterationLimit(_)) => StopReason::IterationLimit,
         Some(egg::StopReason::NodeLimit(_)) => StopReason::NodeLimit,

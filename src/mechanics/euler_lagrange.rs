@@ -8,7 +8,7 @@ use crate::expr::{Expr, Symbol};
 
 use super::linalg::{adjugate, determinant, is_diagonal, MAX_CLOSED_FORM};
 use super::system::{time, System};
-use super::tidy::{tidy, Ctx, Poly};
+use super::tidy::{tidy, Ctx, Poly, QuadraticParts};
 use super::MechanicsError;
 use crate::expr::Rational;
 
@@ -57,18 +57,29 @@ impl System {
 
     /// The generalized mass matrix `W_ij = ∂²L/∂q'_i∂q'_j` (3.4) and the forcing
     /// `F = ∂L/∂q − ∂²L/∂q'∂t − (∂²L/∂q'∂q) q' + Q − ∂R/∂q'` (3.5), so that the equations of
-    /// motion read `W q'' = F`. Both tidied; `W` is symmetric. All derivatives of `L` share one
-    /// memo table.
+    /// motion read `W q'' = F`. Both tidied; `W` is symmetric.
+    ///
+    /// Everything happens on one contracted polynomial form of L: its derivatives are formed
+    /// monomial by monomial, and each atom (cos(θ1 − θ2), 1/r, …) is differentiated once per
+    /// variable. When L is at most quadratic in the velocities (every natural system, magnetic
+    /// and rotating frames), `W` is read off the velocity monomials and `F` is built from the
+    /// collected entries of `W` by the Christoffel symbols; otherwise (the relativistic
+    /// particle, …) from the derivatives of L directly.
     pub fn mass_matrix_split(&self) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
         let l = self.need_lagrangian("the mass matrix")?;
-        let n = self.coords.len();
-        // Everything happens on one contracted polynomial form of L: its derivatives are
-        // formed monomial by monomial, and each atom (cos(θ1 − θ2), 1/r, …) is differentiated
-        // once per variable.
         let mut ctx = Ctx::new();
-        let t = time();
         let lp = ctx.poly(l);
-        let pv: Vec<Poly> = self.velocities.iter().map(|v| ctx.diff(&lp, v)).collect();
+        if let Some(parts) = ctx.quadratic_split(&lp, &self.velocities) {
+            return Ok(self.quadratic_forcing(&mut ctx, parts));
+        }
+        Ok(self.general_forcing(&mut ctx, &lp))
+    }
+
+    /// `W` and `F` by differentiating the polynomial form `lp` of any Lagrangian.
+    fn general_forcing(&self, ctx: &mut Ctx, lp: &Poly) -> (Vec<Vec<Expr>>, Vec<Expr>) {
+        let n = self.coords.len();
+        let t = time();
+        let pv: Vec<Poly> = self.velocities.iter().map(|v| ctx.diff(lp, v)).collect();
         let mut w = vec![vec![Expr::zero(); n]; n];
         for i in 0..n {
             for j in i..n {
@@ -78,22 +89,97 @@ impl System {
                 w[j][i] = x;
             }
         }
-        let minus_one = Rational::from_integer((-1).into());
         let mut f = Vec::with_capacity(n);
         for i in 0..n {
-            let mut acc = ctx.diff(&lp, &self.coords[i]);
-            acc.add(&ctx.diff(&pv[i], &t).scale(&minus_one));
-            acc.add(&ctx.dt_coords(&pv[i], &self.coords, &self.velocities).scale(&minus_one));
-            if !self.forces[i].is_zero() {
-                acc.add(&ctx.poly(&self.forces[i]));
+            let mut acc = ctx.diff(lp, &self.coords[i]);
+            acc.add(&ctx.diff(&pv[i], &t).scale(&minus_one()));
+            acc.add(&ctx.dt_coords(&pv[i], &self.coords, &self.velocities).scale(&minus_one()));
+            self.add_forces(ctx, i, &mut acc);
+            f.push(ctx.finish(acc));
+        }
+        (w, f)
+    }
+
+    /// `W` and `F` for `L = ½ q'ᵀ W q' + bᵀ q' + L0` (W, b, L0 functions of q and t).
+    /// Substituting this L into (3.5) gives
+    /// `F_i = Σ_jk (½ ∂_i W_jk − ∂_k W_ij) q'_j q'_k + Σ_j (∂_i b_j − ∂_j b_i − ∂_t W_ij) q'_j
+    /// − ∂_t b_i + ∂_i L0 + Q_i − ∂R/∂q'_i`
+    /// (the first sum is minus the Christoffel symbols of the first kind). The entries of `W`
+    /// are collected first and differentiated in that form ([`Ctx::shallow`]), so `F` comes
+    /// out grouped by velocity monomial with factors such as `(m2 + … + m_n)` kept whole, and
+    /// the work grows with the size of the collected `W`, not of the expanded `L`.
+    fn quadratic_forcing(&self, ctx: &mut Ctx, parts: QuadraticParts) -> (Vec<Vec<Expr>>, Vec<Expr>) {
+        let n = self.coords.len();
+        let t = time();
+        let half = Rational::new(1.into(), 2.into());
+        let mut w = vec![vec![Expr::zero(); n]; n];
+        let mut ws: Vec<Vec<Poly>> = vec![vec![Poly::default(); n]; n];
+        for (i, row) in parts.w.into_iter().enumerate() {
+            for (j, p) in row.into_iter().enumerate().skip(i) {
+                let x = ctx.finish(p);
+                ws[i][j] = ctx.shallow(&x);
+                w[i][j] = x.clone();
+                w[j][i] = x;
             }
-            if let Some(r) = &self.rayleigh {
-                let rp = ctx.poly(r);
-                acc.add(&ctx.diff(&rp, &self.velocities[i]).scale(&minus_one));
+        }
+        let wp = |i: usize, j: usize| if i <= j { &ws[i][j] } else { &ws[j][i] };
+        // ∂_k W_ij for i ≤ j, every k (most are zero).
+        let mut dw: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
+        for i in 0..n {
+            for j in i..n {
+                dw[i][j] = self.coords.iter().map(|q| ctx.diff(wp(i, j), q)).collect();
+            }
+        }
+        let dwk = |i: usize, j: usize, k: usize| if i <= j { &dw[i][j][k] } else { &dw[j][i][k] };
+        let v: Vec<Poly> = self.velocities.iter().map(|v| ctx.shallow(&Expr::sym(v.clone()))).collect();
+        let mut f = Vec::with_capacity(n);
+        for i in 0..n {
+            // The terms of degree 0 and 1 in the velocities, collected on their own.
+            let mut low = ctx.diff(&parts.l0, &self.coords[i]);
+            low.add(&ctx.diff(&parts.b[i], &t).scale(&minus_one()));
+            for j in 0..n {
+                let mut c = ctx.diff(&parts.b[j], &self.coords[i]);
+                c.add(&ctx.diff(&parts.b[i], &self.coords[j]).scale(&minus_one()));
+                c.add(&ctx.diff(wp(i, j), &t).scale(&minus_one()));
+                if !c.is_zero() {
+                    low.add(&c.mul(&v[j]));
+                }
+            }
+            self.add_forces(ctx, i, &mut low);
+            let low = ctx.finish(low);
+            let mut acc = ctx.shallow(&low);
+            // The quadratic terms, one coefficient per unordered pair j ≤ k (for j < k it gathers
+            // the (j, k) and (k, j) terms of the double sum).
+            for j in 0..n {
+                for k in j..n {
+                    let mut c = Poly::default();
+                    if j == k {
+                        c.add(&dwk(j, j, i).scale(&half));
+                        c.add(&dwk(i, j, j).scale(&minus_one()));
+                    } else {
+                        c.add(dwk(j, k, i));
+                        c.add(&dwk(i, j, k).scale(&minus_one()));
+                        c.add(&dwk(i, k, j).scale(&minus_one()));
+                    }
+                    if !c.is_zero() {
+                        acc.add(&c.mul(&v[j].mul(&v[k])));
+                    }
+                }
             }
             f.push(ctx.finish(acc));
         }
-        Ok((w, f))
+        (w, f)
+    }
+
+    /// Adds the generalized force `Q_i` and the dissipation `−∂R/∂q'_i` to `acc`.
+    fn add_forces(&self, ctx: &mut Ctx, i: usize, acc: &mut Poly) {
+        if !self.forces[i].is_zero() {
+            acc.add(&ctx.poly(&self.forces[i]));
+        }
+        if let Some(r) = &self.rayleigh {
+            let rp = ctx.poly(r);
+            acc.add(&ctx.diff(&rp, &self.velocities[i]).scale(&minus_one()));
+        }
     }
 
     /// Checks that the mass matrix `W` is regular, so that `W q'' = F` determines the
@@ -125,6 +211,10 @@ impl System {
             })
             .collect())
     }
+}
+
+fn minus_one() -> Rational {
+    Rational::from_integer((-1).into())
 }
 
 /// A deterministic pseudo-random value in `[0.5, 1.5)` for a symbol at sample `k`: numeric

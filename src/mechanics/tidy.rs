@@ -30,7 +30,7 @@ use std::rc::Rc;
 
 use num_integer::Integer;
 use num_rational::Rational64;
-use num_traits::{One, Signed, ToPrimitive, Zero};
+use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
 
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
@@ -103,36 +103,124 @@ impl Hasher for Fx {
 type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
 
 /// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
-type Key = Vec<(u32, Rational64)>;
+///
+/// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
+/// continued fraction with a division per step, which was a tenth of the mechanics run.
+#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
+struct Key(Vec<(u32, Rational64)>);
+
+impl std::hash::Hash for Key {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        h.write_usize(self.0.len());
+        for (a, r) in &self.0 {
+            // `Rational64` is always stored reduced with a positive denominator.
+            h.write_u32(*a);
+            h.write_i64(*r.numer());
+            h.write_i64(*r.denom());
+        }
+    }
+}
+
+impl std::ops::Deref for Key {
+    type Target = Vec<(u32, Rational64)>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Key {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl FromIterator<(u32, Rational64)> for Key {
+    fn from_iter<I: IntoIterator<Item = (u32, Rational64)>>(it: I) -> Key {
+        Key(it.into_iter().collect())
+    }
+}
 
 /// Monomials with their coefficients.
 type Terms = Vec<(Key, Rational)>;
 
+/// An exact coefficient: a machine-word rational while it fits, a big rational after.
+///
+/// Almost every coefficient in a derivation is small (`1/2`, `-2`); `BigRational` arithmetic
+/// allocates and takes a gcd of big integers for each product, which was a quarter of the
+/// mechanics run. The representation is unique (`Big` only when the value does not fit), so
+/// the derived equality is equality of values.
+#[derive(Clone, PartialEq, Eq)]
+enum Coef {
+    Small(Rational64),
+    Big(Rational),
+}
+
+impl Coef {
+    fn from_big(r: Rational) -> Coef {
+        match small_exp(&r) {
+            Some(x) => Coef::Small(x),
+            None => Coef::Big(r),
+        }
+    }
+
+    fn to_big(&self) -> Rational {
+        match self {
+            Coef::Small(x) => big(*x),
+            Coef::Big(r) => r.clone(),
+        }
+    }
+
+    fn is_zero(&self) -> bool {
+        match self {
+            Coef::Small(x) => x.is_zero(),
+            Coef::Big(r) => r.is_zero(),
+        }
+    }
+
+    fn add(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_add(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() + other.to_big())
+    }
+
+    fn mul(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_mul(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() * other.to_big())
+    }
+}
+
 /// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
 #[derive(Clone, Default)]
 pub(crate) struct Poly {
-    terms: FxMap<Key, Rational>,
+    terms: FxMap<Key, Coef>,
 }
 
 impl Poly {
     fn constant(c: Rational) -> Poly {
         let mut terms = FxMap::default();
         if !c.is_zero() {
-            terms.insert(Vec::new(), c);
+            terms.insert(Key::default(), Coef::from_big(c));
         }
         Poly { terms }
     }
 
     fn atom(id: u32, exp: Rational64) -> Poly {
         let mut terms = FxMap::default();
-        terms.insert(vec![(id, exp)], Rational::one());
+        terms.insert(Key(vec![(id, exp)]), Coef::Small(Rational64::one()));
         Poly { terms }
     }
 
-    fn add_term(&mut self, key: Key, c: Rational) {
+    fn add_term(&mut self, key: Key, c: Coef) {
         match self.terms.entry(key) {
             std::collections::hash_map::Entry::Occupied(mut o) => {
-                let v = o.get() + &c;
+                let v = o.get().add(&c);
                 if v.is_zero() {
                     o.remove();
                 } else {
@@ -153,9 +241,10 @@ impl Poly {
 
     /// `self · c` for a rational `c`.
     pub(crate) fn scale(&self, c: &Rational) -> Poly {
+        let c = Coef::from_big(c.clone());
         let mut out = Poly::default();
         for (k, v) in &self.terms {
-            out.add_term(k.clone(), v * c);
+            out.add_term(k.clone(), v.mul(&c));
         }
         out
     }
@@ -170,7 +259,7 @@ impl Poly {
         let mut out = Poly::default();
         for (k1, c1) in &self.terms {
             for (k2, c2) in &other.terms {
-                out.add_term(merge_keys(k1, k2), c1 * c2);
+                out.add_term(merge_keys(k1, k2), c1.mul(c2));
             }
         }
         out
@@ -178,14 +267,14 @@ impl Poly {
 
     /// Terms sorted by key, for deterministic processing.
     fn sorted(&self) -> Vec<(Key, Rational)> {
-        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.clone())).collect();
+        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
         v.sort_by(|a, b| a.0.cmp(&b.0));
         v
     }
 }
 
 fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
-    let mut out = Vec::with_capacity(a.len() + b.len());
+    let mut out = Key(Vec::with_capacity(a.len() + b.len()));
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         match a[i].0.cmp(&b[j].0) {
@@ -210,6 +299,17 @@ fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
     out.extend_from_slice(&a[i..]);
     out.extend_from_slice(&b[j..]);
     out
+}
+
+/// A Lagrangian at most quadratic in the velocities, by degree:
+/// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`.
+pub(crate) struct QuadraticParts {
+    /// `W_ij` for `i ≤ j` (entries below the diagonal are empty).
+    pub(crate) w: Vec<Vec<Poly>>,
+    /// `b_i`.
+    pub(crate) b: Vec<Poly>,
+    /// `L0`.
+    pub(crate) l0: Poly,
 }
 
 /// The trigonometric shape of a monomial (atom ids of the sin/cos factors stripped off).
@@ -312,9 +412,9 @@ impl Ctx {
                 } else {
                     rest[i].1 = e1;
                 }
-                let coeff = if e.is_one() { c.clone() } else { c * big(*e) };
+                let coeff = if e.is_one() { c.clone() } else { c.mul(&Coef::Small(*e)) };
                 for (k2, c2) in &da.terms {
-                    out.add_term(merge_keys(&rest, k2), &coeff * c2);
+                    out.add_term(merge_keys(&rest, k2), coeff.mul(c2));
                 }
             }
         }
@@ -336,6 +436,81 @@ impl Ctx {
         let p = Rc::new(if d.is_zero() { Poly::default() } else { self.expand(&d) });
         self.dmemo.insert((a, xid), p.clone());
         p
+    }
+
+    /// Splits a polynomial `L` that is at most quadratic in `velocities`,
+    /// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`, into its coefficient polynomials, or `None`
+    /// when `L` is not of that form (a velocity inside another atom, as in `sqrt(1 − v²)`, a
+    /// negative or fractional velocity power, a cubic term, an acceleration).
+    pub(crate) fn quadratic_split(&mut self, p: &Poly, velocities: &[Symbol]) -> Option<QuadraticParts> {
+        let n = velocities.len();
+        let vid: Vec<u32> = velocities.iter().map(|v| self.atom_id(&Expr::sym(v.clone()))).collect();
+        let mut parts =
+            QuadraticParts { w: vec![vec![Poly::default(); n]; n], b: vec![Poly::default(); n], l0: Poly::default() };
+        let mut has_rate: FxMap<u32, bool> = FxMap::default();
+        for (key, c) in &p.terms {
+            let mut rest = Key(Vec::with_capacity(key.len()));
+            let mut vel: Vec<usize> = Vec::new();
+            for &(a, e) in key.iter() {
+                if let Some(i) = vid.iter().position(|&v| v == a) {
+                    if !e.is_integer() || !e.is_positive() || vel.len() + e.to_integer() as usize > 2 {
+                        return None;
+                    }
+                    vel.extend(std::iter::repeat(i).take(e.to_integer() as usize));
+                    continue;
+                }
+                // Any other atom must be free of time derivatives (velocities, accelerations).
+                let atom = &self.atoms[a as usize];
+                if *has_rate.entry(a).or_insert_with(|| atom.free_symbols().iter().any(|s| s.primes() > 0)) {
+                    return None;
+                }
+                rest.push((a, e));
+            }
+            match vel.as_slice() {
+                [] => parts.l0.add_term(rest, c.clone()),
+                [i] => parts.b[*i].add_term(rest, c.clone()),
+                [i, j] if i == j => parts.w[*i][*i].add_term(rest, c.mul(&Coef::Small(Rational64::from_integer(2)))),
+                [i, j] => parts.w[(*i).min(*j)][(*i).max(*j)].add_term(rest, c.clone()),
+                _ => return None,
+            }
+        }
+        Some(parts)
+    }
+
+    /// `e` as a polynomial without expanding its sums: a sum inside a product, or raised to a
+    /// power, stays one atom. Used on already collected expressions (entries of `W`) so that
+    /// their derivatives keep factors like `(m2 + … + m_n)` whole, and terms with the same
+    /// such factor meet as one monomial. The value is unchanged.
+    pub(crate) fn shallow(&mut self, e: &Expr) -> Poly {
+        match e.node() {
+            Node::Add(ts) => {
+                let mut acc = Poly::default();
+                for t in ts {
+                    acc.add(&self.shallow(t));
+                }
+                acc
+            }
+            Node::Mul(fs) => {
+                let mut acc = Poly::constant(Rational::one());
+                for f in fs {
+                    let p = self.shallow_factor(f);
+                    acc = acc.mul(&p);
+                }
+                acc
+            }
+            _ => self.shallow_factor(e),
+        }
+    }
+
+    fn shallow_factor(&mut self, f: &Expr) -> Poly {
+        match f.node() {
+            Node::Add(_) => self.leaf(f, Rational64::one()),
+            Node::Pow(b, x) if matches!(b.node(), Node::Add(_)) => match x.as_num().and_then(small_exp) {
+                Some(r) => self.leaf(b, r),
+                None => self.leaf(f, Rational64::one()),
+            },
+            _ => self.expand(f),
+        }
     }
 
     /// Contracts and collects `p` into an expression.
@@ -400,6 +575,9 @@ impl Ctx {
     fn tidy_arg(&mut self, e: &Expr) -> Expr {
         if let Some(t) = self.args.get(e) {
             return t.clone();
+        }
+        if is_signed_symbol_sum(e) {
+            return e.clone();
         }
         let t = tidy(e);
         self.args.insert(e.clone(), t.clone());
@@ -482,7 +660,7 @@ impl Ctx {
             key.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, x)| *x).collect()
         };
         match trig.as_slice() {
-            [] => Some((Trig::Plain, key.to_vec())),
+            [] => Some((Trig::Plain, Key(key.to_vec()))),
             [i] => {
                 let (f, a) = self.trig[key[*i].0 as usize].clone()?;
                 if key[*i].1 != Rational64::from_integer(2) {
@@ -551,7 +729,7 @@ impl Ctx {
             used[i] = true;
             let k = &terms[i].1;
             let Some((shape, rest)) = &classified[i] else {
-                out.add_term(terms[i].0.clone(), k.clone());
+                out.add_term(terms[i].0.clone(), Coef::from_big(k.clone()));
                 continue;
             };
             let find = |s: Trig| index.get(&(s, rest.clone())).copied();
@@ -610,10 +788,10 @@ impl Ctx {
                     changed = true;
                     let p = self.expand(&factor);
                     let mut r = Poly::default();
-                    r.add_term(rest.clone(), c);
+                    r.add_term(rest.clone(), Coef::from_big(c));
                     out.add(&r.mul(&p));
                 }
-                _ => out.add_term(terms[i].0.clone(), k.clone()),
+                _ => out.add_term(terms[i].0.clone(), Coef::from_big(k.clone())),
             }
         }
         (out, changed)
@@ -649,7 +827,7 @@ impl Ctx {
             t.1 = &t.1 / &g;
         }
         let mut content: Vec<Expr> = Vec::new();
-        let first: Vec<(u32, Rational64)> = terms[0].0.clone();
+        let first: Vec<(u32, Rational64)> = terms[0].0.to_vec();
         for (a, _) in first {
             let exps: Option<Vec<Rational64>> =
                 terms.iter().map(|(k, _)| k.iter().find(|(b, _)| *b == a).map(|(_, r)| *r)).collect();
@@ -691,7 +869,7 @@ impl Ctx {
         }
         let mut counts: FxMap<(u32, bool), usize> = FxMap::default();
         for (k, _) in &terms {
-            for (a, r) in k {
+            for (a, r) in k.iter() {
                 *counts.entry((*a, r.is_positive())).or_default() += 1;
             }
         }
@@ -738,6 +916,26 @@ fn worth_expanding(b: &Expr) -> bool {
         }
     }
     walk(b, &mut std::collections::HashSet::new())
+}
+
+/// Whether `e` is a sum of distinct symbols with coefficients `+1`, at most one of them `−1`
+/// (`θ1 − θ2`, `θ1 + θ2`): the angle arguments that contraction creates. [`tidy`] returns
+/// such a sum unchanged (nothing to expand, contract or factor, and no equal expression has
+/// fewer operations: with one negation, `k` symbols need `k − 1` additions and one negation),
+/// so the e-graph run inside it is skipped.
+fn is_signed_symbol_sum(e: &Expr) -> bool {
+    let Node::Add(ts) = e.node() else { return false };
+    let mut negatives = 0;
+    for t in ts {
+        match t.node() {
+            Node::Sym(_) => {}
+            Node::Mul(fs) if fs.len() == 2 && fs[0].is_num(-1) && matches!(fs[1].node(), Node::Sym(_)) => {
+                negatives += 1;
+            }
+            _ => return false,
+        }
+    }
+    negatives <= 1
 }
 
 fn cos(a: Expr) -> Expr {
@@ -802,6 +1000,40 @@ mod tests {
     fn pulls_content_and_merges_equal_cofactors() {
         let e = p("m1 l^2 c + m2 l^2 c + m1 l^2 s + m2 l^2 s");
         assert_eq!(tidy(&e), p("l^2 (c + s) (m1 + m2)"));
+    }
+
+    #[test]
+    fn signed_symbol_sums_are_already_tidy() {
+        for s in ["a - b", "a + b", "b - a + c", "θ1 + θ2 - θ3"] {
+            let e = p(s);
+            assert!(is_signed_symbol_sum(&e), "{s}");
+            assert_eq!(tidy(&e), e, "{s}");
+        }
+        for s in ["-a - b", "2 a - b", "a b + c", "a"] {
+            assert!(!is_signed_symbol_sum(&p(s)), "{s}");
+        }
+    }
+
+    /// Which Lagrangians take the quadratic (Christoffel) route of `mass_matrix_split`.
+    #[test]
+    fn quadratic_split_accepts_exactly_the_quadratic_lagrangians() {
+        let v = |names: &[&str]| names.iter().map(|n| Symbol::new(n).with_primes(1)).collect::<Vec<_>>();
+        let split = |l: &str, vs: &[&str]| {
+            let mut ctx = Ctx::new();
+            let lp = ctx.poly(&p(l));
+            ctx.quadratic_split(&lp, &v(vs)).map(|q| {
+                let w = q.w.iter().flatten().filter(|x| !x.is_zero()).count();
+                let b = q.b.iter().filter(|x| !x.is_zero()).count();
+                (w, b, !q.l0.is_zero())
+            })
+        };
+        // ½ m (x'² + y'²) + e B x y' − V: W diagonal (2 entries), one linear term, L0.
+        assert_eq!(split("1/2 m (x'^2 + y'^2) + e B x y' - k x^2", &["x", "y"]), Some((2, 1, true)));
+        // A cross term x' y' fills the upper triangle only.
+        assert_eq!(split("x'^2 + x' y' cos(x - y)", &["x", "y"]), Some((2, 0, false)));
+        for l in ["-m sqrt(1 - x'^2)", "x'^3", "1/x'", "exp(x') + y'", "x'' x", "x'^2 y'"] {
+            assert_eq!(split(l, &["x", "y"]), None, "{l}");
+        }
     }
 
     #[test]
