@@ -15,11 +15,13 @@
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
 mod ensemble;
+mod native;
 mod rhs;
 mod system;
 mod tape;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
+pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,
     SeparableHamiltonian,
