@@ -722,6 +722,17 @@ impl HamiltonianRhs {
         momenta: &[&str],
         params: &[(&str, f64)],
     ) -> Result<HamiltonianRhs, CompileError> {
+        HamiltonianRhs::with_options(h, coords, momenta, params, &CompileOptions::default())
+    }
+
+    /// [`HamiltonianRhs::new`] with explicit code generator choices.
+    pub fn with_options(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<HamiltonianRhs, CompileError> {
         let n = coords.len();
         check_shape("momenta", n, momenta.len())?;
         let inputs = phase_inputs(coords, momenta);
@@ -735,8 +746,8 @@ impl HamiltonianRhs {
                 jac_exprs.push(d.diff(fi, s));
             }
         }
-        let tape = Tape::compile(&f, &as_strs(&inputs), params)?;
-        let jac = Tape::compile(&jac_exprs, &as_strs(&inputs), params)?;
+        let tape = Tape::compile_with_options(&f, &as_strs(&inputs), params, options)?;
+        let jac = Tape::compile_with_options(&jac_exprs, &as_strs(&inputs), params, options)?;
         Ok(HamiltonianRhs { n, tape, jac, error: ErrorSlot::default() })
     }
 
@@ -862,16 +873,27 @@ impl SeparableHamiltonian {
         momenta: &[&str],
         params: &[(&str, f64)],
     ) -> Result<SeparableHamiltonian, CompileError> {
+        SeparableHamiltonian::with_options(h, coords, momenta, params, &CompileOptions::default())
+    }
+
+    /// [`SeparableHamiltonian::new`] with explicit code generator choices.
+    pub fn with_options(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<SeparableHamiltonian, CompileError> {
         let n = coords.len();
         check_shape("momenta", n, momenta.len())?;
         let (t, v) = split_separable(h, coords, momenta).ok_or(CompileError::NotSeparable)?;
         let mut d = Differentiator::new();
         let dt: Vec<Expr> = momenta.iter().map(|p| d.diff(&t, &find_symbol(&[h], p))).collect();
         let dv: Vec<Expr> = coords.iter().map(|q| d.diff(&v, &find_symbol(&[h], q)).neg()).collect();
-        let drift = Tape::compile(&dt, momenta, params)?;
+        let drift = Tape::compile_with_options(&dt, momenta, params, options)?;
         let mut kick_inputs: Vec<&str> = coords.to_vec();
         kick_inputs.push("t");
-        let kick = Tape::compile(&dv, &kick_inputs, params)?;
+        let kick = Tape::compile_with_options(&dv, &kick_inputs, params, options)?;
         Ok(SeparableHamiltonian { n, drift, kick })
     }
 
@@ -952,6 +974,16 @@ const NEWTON_MAX_ITER: usize = 60;
 impl ImplicitLegendreRhs {
     /// Compiles the implicit Legendre map of `l` with coordinates `coords`, `params` bound.
     pub fn new(l: &Expr, coords: &[&str], params: &[(&str, f64)]) -> Result<ImplicitLegendreRhs, CompileError> {
+        ImplicitLegendreRhs::with_options(l, coords, params, &CompileOptions::default())
+    }
+
+    /// [`ImplicitLegendreRhs::new`] with explicit code generator choices.
+    pub fn with_options(
+        l: &Expr,
+        coords: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<ImplicitLegendreRhs, CompileError> {
         let n = coords.len();
         let coords: Vec<String> = coords.iter().map(|s| s.to_string()).collect();
         let inputs = state_inputs(&coords);
@@ -967,8 +999,8 @@ impl ImplicitLegendreRhs {
         }
         let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
         let force: Vec<Expr> = syms[..n].iter().map(|q| d.diff(l, q)).collect();
-        let newton = Tape::compile(&outs, &as_strs(&inputs), params)?;
-        let force = Tape::compile(&force, &as_strs(&inputs), params)?;
+        let newton = Tape::compile_with_options(&outs, &as_strs(&inputs), params, options)?;
+        let force = Tape::compile_with_options(&force, &as_strs(&inputs), params, options)?;
         Ok(ImplicitLegendreRhs { n, coords, newton, force, symmetric, error: ErrorSlot::default() })
     }
 
