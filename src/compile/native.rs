@@ -33,6 +33,7 @@
 use std::mem::ManuallyDrop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Signature, StackSlotData, StackSlotKind, Value};
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -43,8 +44,26 @@ use crate::expr::Func;
 
 use super::tape::{Instr, Tape};
 
-/// The signature of every generated function (see the module documentation).
-pub(crate) type NativeFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize);
+/// The signature of a plain generated function (see the module documentation).
+type NativeFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize);
+
+/// The signature of a [`Epilogue::LagrangianSolve`] function: returns 1 when the fast path's
+/// result is valid.
+type NativeSolveFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize) -> i32;
+
+/// What the generated function does with the tape's outputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Epilogue {
+    /// Output `j` to `out[j · out_stride]`.
+    Plain,
+    /// For the unrolled `W q'' = F` solve tape of `n` degrees of freedom (outputs: `q''`, the
+    /// Cholesky pivots, the diagonal of `W`; inputs `q, q', t`): write the whole derivative
+    /// `(q', q'')` to `out` and return whether the pivots are safely positive (above
+    /// `n·ε·max W_jj`, the threshold of the pivoting solve) and `q''` is finite. The caller
+    /// falls back to the pivoting solve otherwise, so a right-hand side call is one call of
+    /// this function and nothing else.
+    LagrangianSolve { n: usize },
+}
 
 /// Tapes longer than this stay interpreted: Cranelift's compile time grows faster than
 /// linearly with one huge basic block, and such tapes (Jacobians of long chains) are not
@@ -67,7 +86,9 @@ pub(crate) fn jit_disabled_by_env() -> bool {
 /// the module is freed only in `Drop`, so no call can outlive the code. Tapes hold this in an
 /// `Arc`, so clones of a tape share one copy of the code.
 pub(crate) struct NativeCode {
-    func: NativeFn,
+    /// Entry point, of type [`NativeFn`] or [`NativeSolveFn`] according to `epilogue`.
+    func: *const u8,
+    epilogue: Epilogue,
     /// Taken out and freed in `Drop`; never touched otherwise after construction.
     module: ManuallyDrop<JITModule>,
     n_inputs: usize,
@@ -101,27 +122,56 @@ impl std::fmt::Debug for NativeCode {
 
 impl NativeCode {
     /// Compiles `tape` for the host, or `None` if that is not possible here.
-    pub(crate) fn compile(tape: &Tape) -> Option<NativeCode> {
+    pub(crate) fn compile(tape: &Tape, epilogue: Epilogue) -> Option<NativeCode> {
         if tape.instrs().len() > MAX_NATIVE_INSTRS {
             return None;
         }
+        if let Epilogue::LagrangianSolve { n } = epilogue {
+            if tape.n_inputs() != 2 * n + 1 || tape.n_outputs() != 3 * n {
+                return None;
+            }
+        }
         // Cranelift reports errors as values, but an internal panic must not take the caller
         // down either: the interpreter is always there to fall back on.
-        catch_unwind(AssertUnwindSafe(|| compile_inner(tape))).ok().flatten()
+        catch_unwind(AssertUnwindSafe(|| compile_inner(tape, epilogue))).ok().flatten()
     }
 
-    /// Calls the generated function.
+    /// Calls a [`Epilogue::Plain`] function.
     ///
     /// # Safety
     /// `x` must be valid for reads of `x[i · x_stride]` for every `i < n_inputs − 1`, and
     /// `out` valid for writes of `out[j · out_stride]` for every `j < n_outputs`.
     #[inline(always)]
     pub(crate) unsafe fn call(&self, x: *const f64, x_stride: usize, last: f64, out: *mut f64, out_stride: usize) {
-        (self.func)(x, x_stride, last, out, out_stride)
+        debug_assert_eq!(self.epilogue, Epilogue::Plain);
+        // SAFETY: a `Plain` function has the type `NativeFn` (see `compile_inner`).
+        let f = std::mem::transmute::<*const u8, NativeFn>(self.func);
+        f(x, x_stride, last, out, out_stride)
+    }
+
+    /// Calls a [`Epilogue::LagrangianSolve`] function: `true` when `out` holds a valid
+    /// derivative.
+    ///
+    /// # Safety
+    /// `x` must be valid for reads of `x[i · x_stride]` for every `i < 2n`, and `out` valid for
+    /// writes of `out[j · out_stride]` for every `j < 2n`.
+    #[inline(always)]
+    pub(crate) unsafe fn call_solve(
+        &self,
+        x: *const f64,
+        x_stride: usize,
+        t: f64,
+        out: *mut f64,
+        out_stride: usize,
+    ) -> bool {
+        debug_assert!(matches!(self.epilogue, Epilogue::LagrangianSolve { .. }));
+        // SAFETY: a `LagrangianSolve` function has the type `NativeSolveFn`.
+        let f = std::mem::transmute::<*const u8, NativeSolveFn>(self.func);
+        f(x, x_stride, t, out, out_stride) != 0
     }
 }
 
-fn compile_inner(tape: &Tape) -> Option<NativeCode> {
+fn compile_inner(tape: &Tape, epilogue: Epilogue) -> Option<NativeCode> {
     let mut flags = settings::builder();
     flags.set("opt_level", "speed").ok()?;
     // Plain absolute addresses: the wrappers are called through pointers baked into the code,
@@ -140,11 +190,14 @@ fn compile_inner(tape: &Tape) -> Option<NativeCode> {
     for ty in [ptr, ptr, types::F64, ptr, ptr] {
         sig.params.push(AbiParam::new(ty));
     }
+    if epilogue != Epilogue::Plain {
+        sig.returns.push(AbiParam::new(types::I32));
+    }
     let mut fbc = FunctionBuilderContext::new();
     let id = {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fbc);
         let mut em = Emitter::new(&mut b, tape, call_conv, ptr);
-        let emitted = em.body(tape);
+        let emitted = em.body(tape, epilogue);
         if emitted.is_some() {
             b.finalize();
         }
@@ -159,11 +212,17 @@ fn compile_inner(tape: &Tape) -> Option<NativeCode> {
         unsafe { module.free_memory() };
         return None;
     };
-    let code = module.get_finalized_function(id);
-    // SAFETY: the function was generated with exactly the parameter list of `NativeFn` in the
-    // host's C calling convention (`default_call_conv`), and returns nothing.
-    let func = unsafe { std::mem::transmute::<*const u8, NativeFn>(code) };
-    Some(NativeCode { func, module: ManuallyDrop::new(module), n_inputs: tape.n_inputs(), n_outputs: tape.n_outputs() })
+    // The function has exactly the parameter list of `NativeFn` in the host's C calling
+    // convention (`default_call_conv`), returning nothing (`Plain`) or an `i32`
+    // (`NativeSolveFn`); `call` and `call_solve` transmute it accordingly.
+    let func = module.get_finalized_function(id);
+    Some(NativeCode {
+        func,
+        epilogue,
+        module: ManuallyDrop::new(module),
+        n_inputs: tape.n_inputs(),
+        n_outputs: tape.n_outputs(),
+    })
 }
 
 /// Lowers one tape into the function under construction.
@@ -196,7 +255,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
         self.slots[s as usize] = Some(v);
     }
 
-    fn body(&mut self, tape: &Tape) -> Option<()> {
+    fn body(&mut self, tape: &Tape, epilogue: Epilogue) -> Option<()> {
         let block = self.b.create_block();
         self.b.append_block_params_for_function_params(block);
         self.b.switch_to_block(block);
@@ -292,15 +351,54 @@ impl<'a, 'b> Emitter<'a, 'b> {
             }
         }
         let os8 = self.b.ins().ishl_imm(os, 3);
+        let n = match epilogue {
+            Epilogue::Plain => {
+                let mut p = out;
+                for j in 0..tape.n_outputs() {
+                    if j > 0 {
+                        p = self.b.ins().iadd(p, os8);
+                    }
+                    let v = self.get(tape.output_slot(j) as u32)?;
+                    self.b.ins().store(flags, v, p, 0);
+                }
+                self.b.ins().return_(&[]);
+                return Some(());
+            }
+            Epilogue::LagrangianSolve { n } => n,
+        };
+        // out = (q', q''): the velocities are input slots n..2n.
         let mut p = out;
-        for j in 0..tape.n_outputs() {
-            if j > 0 {
+        for i in 0..2 * n {
+            if i > 0 {
                 p = self.b.ins().iadd(p, os8);
             }
-            let v = self.get(tape.output_slot(j) as u32)?;
+            let v = if i < n { self.get((n + i) as u32)? } else { self.get(tape.output_slot(i - n) as u32)? };
             self.b.ins().store(flags, v, p, 0);
         }
-        self.b.ins().return_(&[]);
+        // The check of `LagrangianRhs::fast_ok`, in the same order of operations:
+        // tol = (n·ε)·max_j W_jj; ok = ∧_j (d_j > tol) ∧ (q''_j − q''_j == 0, i.e. finite).
+        // `fmax` propagates a NaN where `f64::max` skips it; a NaN diagonal makes the pivots
+        // NaN as well, so both reject the state and the caller takes the pivoting path.
+        let mut scale = self.b.ins().f64const(0.0);
+        for j in 0..n {
+            let wjj = self.get(tape.output_slot(2 * n + j) as u32)?;
+            scale = self.b.ins().fmax(scale, wjj);
+        }
+        let k = self.b.ins().f64const(n as f64 * f64::EPSILON);
+        let tol = self.b.ins().fmul(k, scale);
+        let zero = self.b.ins().f64const(0.0);
+        let mut ok = self.b.ins().iconst(types::I8, 1);
+        for j in 0..n {
+            let d = self.get(tape.output_slot(n + j) as u32)?;
+            let pos = self.b.ins().fcmp(FloatCC::GreaterThan, d, tol);
+            let a = self.get(tape.output_slot(j) as u32)?;
+            let diff = self.b.ins().fsub(a, a);
+            let finite = self.b.ins().fcmp(FloatCC::Equal, diff, zero);
+            let both = self.b.ins().band(pos, finite);
+            ok = self.b.ins().band(ok, both);
+        }
+        let ok = self.b.ins().uextend(types::I32, ok);
+        self.b.ins().return_(&[ok]);
         Some(())
     }
 

@@ -13,6 +13,7 @@ use crate::diff::Differentiator;
 use crate::expr::{Expr, Node, Symbol};
 use crate::integrate::{Jacobian, Rhs, RhsError as StepError, Separable};
 
+use super::native::{Epilogue, NativeCode};
 use super::tape::{with_scratch, CompileOptions, Tape, LANES};
 use super::{velocity_name, CompileError};
 
@@ -234,6 +235,8 @@ pub struct LagrangianRhs {
     tape: Tape,
     /// `W`, `F` and an unrolled Cholesky solve in one tape (symmetric `W` only): the fast path.
     fast: Option<Tape>,
+    /// The fast path as one native function writing `(q', q'')` and checking the pivots.
+    fast_native: Option<NativeCode>,
     symmetric: bool,
     w: Vec<Vec<Expr>>,
     f: Vec<Expr>,
@@ -283,11 +286,16 @@ impl LagrangianRhs {
         } else {
             None
         };
+        let fast_native = fast
+            .as_ref()
+            .filter(|t| t.is_native())
+            .and_then(|t| NativeCode::compile(t, Epilogue::LagrangianSolve { n }));
         Ok(LagrangianRhs {
             n,
             coords,
             tape,
             fast,
+            fast_native,
             symmetric,
             w: w.to_vec(),
             f: f.to_vec(),
@@ -329,8 +337,15 @@ impl LagrangianRhs {
     /// Evaluates `y' = (q', q'')`, or says why it cannot.
     pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
         let n = self.n;
+        assert!(y.len() >= 2 * n && dy.len() >= 2 * n, "state or derivative shorter than 2n");
+        if let Some(code) = &self.fast_native {
+            // SAFETY: `y` has the 2n inputs read and `dy` the 2n outputs written, stride 1.
+            if unsafe { code.call_solve(y.as_ptr(), 1, t, dy.as_mut_ptr(), 1) } {
+                return Ok(());
+            }
+        }
         dy[..n].copy_from_slice(&y[n..2 * n]);
-        if let Some(fast) = &self.fast {
+        if let (Some(fast), None) = (&self.fast, &self.fast_native) {
             // Accelerations, pivots, diagonal of W: on the stack, no scratch.
             let mut out = [0.0; 3 * UNROLL_MAX_DOF_NATIVE];
             fast.eval_split(&y[..2 * n], t, &mut out);
@@ -418,6 +433,18 @@ impl LagrangianRhs {
             return self.eval_batch_native(t, y, dy, points);
         };
         let mut failed: Option<usize> = None;
+        if let Some(code) = &self.fast_native {
+            assert!(y.len() >= 2 * n * points && dy.len() >= 2 * n * points, "batch buffers too short");
+            for k in 0..points {
+                // SAFETY: point k reads y[i·points + k] and writes dy[i·points + k] for i < 2n,
+                // all below 2n·points (asserted above).
+                let ok = unsafe { code.call_solve(y.as_ptr().add(k), points, t, dy.as_mut_ptr().add(k), points) };
+                if !ok {
+                    return self.batch_rest(t, y, dy, points, k);
+                }
+            }
+            return Ok(());
+        }
         if fast.is_native() {
             // One call of the machine code per point, reading the point in place.
             let mut out = [0.0; 3 * UNROLL_MAX_DOF_NATIVE];

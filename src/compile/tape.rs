@@ -24,7 +24,7 @@ use num_traits::ToPrimitive;
 use crate::eval::eval_with;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
-use super::native::{jit_disabled_by_env, NativeCode};
+use super::native::{jit_disabled_by_env, Epilogue, NativeCode};
 use super::CompileError;
 
 /// The deepest expression the (recursive) lowering accepts before reporting an error instead
@@ -882,7 +882,7 @@ impl Lower {
         };
         let mut tape = tape.allocate_registers();
         if native {
-            tape.native = NativeCode::compile(&tape).map(Arc::new);
+            tape.native = NativeCode::compile(&tape, Epilogue::Plain).map(Arc::new);
         }
         tape
     }
