@@ -81,12 +81,7 @@ fn rhs_calls(c: &mut Criterion) {
             None => format!("W, F (loop solve): {}", rhs.tape().op_counts()),
         };
         let native = if rhs.tape().is_native() { "native" } else { "NO JIT: interpreted" };
-        eprintln!(
-            "PAIRED | {} | {a:.1} | {i:.1} | {b:.1} | {:.2} | {:.2} | {native}; {ops}",
-            sys.name,
-            a / b,
-            i / b
-        );
+        eprintln!("PAIRED | {} | {a:.1} | {i:.1} | {b:.1} | {:.2} | {:.2} | {native}; {ops}", sys.name, a / b, i / b);
     }
 
     let mut group = c.benchmark_group("rhs");

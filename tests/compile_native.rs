@@ -23,7 +23,8 @@ fn interpreted() -> CompileOptions {
 /// interpreted is a failure of the back end, not a fallback to accept silently (unless the
 /// environment variable forces the interpreter for the whole run).
 fn jit_expected() -> bool {
-    cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) && std::env::var_os(lagrangian::compile::NO_JIT_ENV).is_none()
+    cfg!(any(target_arch = "x86_64", target_arch = "aarch64"))
+        && std::env::var_os(lagrangian::compile::NO_JIT_ENV).is_none()
 }
 
 /// Equal as bits, or both NaN (a NaN's payload is not part of the contract).
@@ -34,7 +35,12 @@ fn same(a: f64, b: f64) -> bool {
 fn assert_same(what: &str, a: &[f64], b: &[f64]) {
     assert_eq!(a.len(), b.len());
     for (i, (x, y)) in a.iter().zip(b).enumerate() {
-        assert!(same(*x, *y), "{what}: output {i}: native {x:e} ({:#x}) vs interpreted {y:e} ({:#x})", x.to_bits(), y.to_bits());
+        assert!(
+            same(*x, *y),
+            "{what}: output {i}: native {x:e} ({:#x}) vs interpreted {y:e} ({:#x})",
+            x.to_bits(),
+            y.to_bits()
+        );
     }
 }
 
@@ -56,8 +62,8 @@ fn every_instruction_kind_and_builtin_matches_the_interpreter_bit_for_bit() {
         "atan(x y)",
         "atan2(y, x)",
         "abs(y - x)",
-        "x^(13/10)",  // powf
-        "x^y",        // powf
+        "x^(13/10)",   // powf
+        "x^y",         // powf
         "sqrt(x + y)", // sqrt
         "x^(5/2)",
         "-x / y",     // neg, div

@@ -280,8 +280,9 @@ impl<'a, 'b> Emitter<'a, 'b> {
             let v = self.b.ins().f64const(c);
             self.set((ni + k) as u32, v);
         }
-        // sin_cos and friends return through this 16-byte frame slot.
-        let pair = self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3));
+        // sin_cos returns through a 16-byte frame slot, made only when needed (a tape without
+        // calls then needs no stack frame at all).
+        let mut pair = None;
         for ins in tape.instrs() {
             match *ins {
                 Instr::Add { d, a, b } => {
@@ -336,6 +337,9 @@ impl<'a, 'b> Emitter<'a, 'b> {
                 }
                 Instr::SinCos { s, c, a } => {
                     let x = self.get(a)?;
+                    let pair = *pair.get_or_insert_with(|| {
+                        self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3))
+                    });
                     let addr = self.b.ins().stack_addr(self.ptr, pair, 0);
                     let mut sig = Signature::new(self.call_conv);
                     sig.params.push(AbiParam::new(types::F64));

@@ -475,7 +475,14 @@ impl Tape {
     /// # Panics
     /// If `x` or `out` is too short for its stride.
     #[inline]
-    pub(crate) fn eval_strided(&self, x: &[f64], x_stride: usize, last: f64, out: &mut [f64], out_stride: usize) -> bool {
+    pub(crate) fn eval_strided(
+        &self,
+        x: &[f64],
+        x_stride: usize,
+        last: f64,
+        out: &mut [f64],
+        out_stride: usize,
+    ) -> bool {
         let Some(code) = &self.native else { return false };
         let nh = self.input_names.len().saturating_sub(1);
         let no = self.outputs.len();
