@@ -1,8 +1,10 @@
 //! Right-hand sides for the integrators, compiled from equations of motion.
 //!
-//! Every type here evaluates on one per-thread scratch buffer laid out as
-//! `tape slots | matrices | vectors`, so a call never allocates, and is `Sync` so ensembles
-//! can share it across threads. Failures along a trajectory (a mass matrix that becomes
+//! Every type here evaluates its tapes as native code when they have it (no scratch at all
+//! on the hot paths: a small Lagrangian system is one call of the generated function) and
+//! otherwise, or for the matrices of a pivoting solve, on one per-thread scratch buffer laid
+//! out as `tape slots | matrices | vectors`; either way a call never allocates. Every type is
+//! `Sync` so ensembles can share it across threads. Failures along a trajectory (a mass matrix that becomes
 //! singular, a non-finite value, a Legendre map that does not converge) are returned by the
 //! fallible `try_*` methods; the infallible [`Rhs::eval`] writes NaN, which the integrators'
 //! non-finite guard catches, and keeps the reason for [`LagrangianRhs::last_error`].
