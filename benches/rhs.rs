@@ -11,9 +11,9 @@ mod compile_common;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use compile_common::{benchmark_systems, Rng};
+use compile_common::{benchmark_systems, mass_matrix_split, Rng};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use lagrangian::compile::{ensemble_with_threads, LagrangianRhs, RhsError};
+use lagrangian::compile::{ensemble_with_threads, CompileOptions, LagrangianRhs, RhsError};
 use lagrangian::integrate::Rhs;
 
 /// Minimum time per call over many short alternating rounds of `a` and `b`. The machine is
@@ -36,24 +36,52 @@ fn paired(calls: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64) 
     (best_a, best_b)
 }
 
+/// [`paired`] for three contestants, interleaved the same way.
+fn paired3(calls: usize, mut a: impl FnMut(), mut b: impl FnMut(), mut c: impl FnMut()) -> (f64, f64, f64) {
+    let mut best = [f64::INFINITY; 3];
+    let time = |f: &mut dyn FnMut()| {
+        let t = Instant::now();
+        f();
+        t.elapsed().as_nanos() as f64 / calls as f64
+    };
+    for _ in 0..200 {
+        best[0] = best[0].min(time(&mut || (0..calls).for_each(|_| a())));
+        best[1] = best[1].min(time(&mut || (0..calls).for_each(|_| b())));
+        best[2] = best[2].min(time(&mut || (0..calls).for_each(|_| c())));
+    }
+    (best[0], best[1], best[2])
+}
+
+/// A benchmark system compiled for the interpreter (the reference back end).
+fn interpreted(sys: &compile_common::System) -> LagrangianRhs {
+    let (w, f) = mass_matrix_split(&sys.lagrangian, &sys.coords());
+    let options = CompileOptions::default().with_native(false);
+    LagrangianRhs::with_options(&w, &f, &sys.coords(), &sys.params, &options).expect("benchmark systems compile")
+}
+
 fn rhs_calls(c: &mut Criterion) {
-    eprintln!("paired minimum ns/call (compiled, hand-written, ratio; ops of the solve tape):");
+    eprintln!(
+        "paired minimum ns/call (native, interpreted, hand-written; native/hand, interpreted/hand; ops of the native path):"
+    );
     for sys in benchmark_systems() {
         let rhs = sys.compile();
+        let int = interpreted(&sys);
         let d = sys.dim();
         let mut rng = Rng(1);
         let y: Vec<f64> = (0..d).map(|_| rng.uniform(0.5, 1.5)).collect();
-        let (mut d1, mut d2) = (vec![0.0; d], vec![0.0; d]);
-        let (a, b) = paired(
+        let (mut d1, mut d2, mut d3) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+        let (a, i, b) = paired3(
             2000,
             || rhs.eval(0.0, black_box(&y), black_box(&mut d1)),
-            || (sys.hand)(0.0, black_box(&y), black_box(&mut d2)),
+            || int.eval(0.0, black_box(&y), black_box(&mut d2)),
+            || (sys.hand)(0.0, black_box(&y), black_box(&mut d3)),
         );
         let ops = match rhs.solve_tape() {
             Some(t) => format!("W, F and unrolled solve: {}", t.op_counts()),
-            None => format!("W, F (native solve): {}", rhs.tape().op_counts()),
+            None => format!("W, F (loop solve): {}", rhs.tape().op_counts()),
         };
-        eprintln!("PAIRED | {} | {a:.1} | {b:.1} | {:.2} | {ops}", sys.name, a / b);
+        let native = if rhs.tape().is_native() { "native" } else { "NO JIT: interpreted" };
+        eprintln!("PAIRED | {} | {a:.1} | {i:.1} | {b:.1} | {:.2} | {:.2} | {native}; {ops}", sys.name, a / b, i / b);
     }
 
     let mut group = c.benchmark_group("rhs");
@@ -66,6 +94,10 @@ fn rhs_calls(c: &mut Criterion) {
         let mut dy = vec![0.0; d];
         group.bench_function(BenchmarkId::new("compiled", sys.name), |b| {
             b.iter(|| rhs.eval(0.0, black_box(&y), black_box(&mut dy)))
+        });
+        let int = interpreted(&sys);
+        group.bench_function(BenchmarkId::new("interpreted", sys.name), |b| {
+            b.iter(|| int.eval(0.0, black_box(&y), black_box(&mut dy)))
         });
         group.bench_function(BenchmarkId::new("hand-written", sys.name), |b| {
             b.iter(|| (sys.hand)(0.0, black_box(&y), black_box(&mut dy)))
@@ -99,11 +131,13 @@ fn batch(c: &mut Criterion) {
             })
         });
         {
-            let (mut dyb, mut ys2, mut dys2, mut dyh) =
-                (vec![0.0; d * points], vec![0.0; d], vec![0.0; d], vec![0.0; d]);
-            let (b_ns, s_ns) = paired(
+            let int = interpreted(&sys);
+            let (mut dyb, mut dyi, mut ys2, mut dys2, mut dyh) =
+                (vec![0.0; d * points], vec![0.0; d * points], vec![0.0; d], vec![0.0; d], vec![0.0; d]);
+            let (b_ns, i_ns, s_ns) = paired3(
                 5,
                 || rhs.eval_batch(0.0, black_box(&y), black_box(&mut dyb), points).unwrap(),
+                || int.eval_batch(0.0, black_box(&y), black_box(&mut dyi), points).unwrap(),
                 || {
                     for k in 0..points {
                         (0..d).for_each(|i| ys2[i] = y[i * points + k]);
@@ -123,9 +157,10 @@ fn batch(c: &mut Criterion) {
             );
             let p = points as f64;
             eprintln!(
-                "BATCH | {} | batch {:.1} ns/point | compiled scalar {:.1} ns/point | hand-written scalar {:.1} ns/point",
+                "BATCH | {} | native batch {:.1} ns/point | interpreted batch {:.1} ns/point | native scalar {:.1} ns/point | hand-written scalar {:.1} ns/point",
                 sys.name,
                 b_ns / p,
+                i_ns / p,
                 s_ns / p,
                 h_ns / p
             );

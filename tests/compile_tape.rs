@@ -5,7 +5,7 @@ mod compile_common;
 use std::collections::HashMap;
 
 use compile_common::{benchmark_systems, mass_matrix_split, ulps, Rng};
-use lagrangian::compile::{CompileError, Instr, Tape};
+use lagrangian::compile::{CompileError, CompileOptions, Instr, Tape};
 use lagrangian::eval::rational_to_f64;
 use lagrangian::{parse, Expr, Func, Node, Rational, Symbol};
 
@@ -224,7 +224,7 @@ fn rational_expressions_agree_with_exact_evaluation_to_a_few_ulps() {
 /// The worst ulp error of a system's `W` and `F` outputs over random states against the exact
 /// evaluation above, skipping outputs whose exact value is tiny against the terms that
 /// cancel in it (there the relative error measures the conditioning, not the tape).
-fn worst_ulps(sys: &compile_common::System, samples: usize) -> u64 {
+fn worst_ulps(sys: &compile_common::System, samples: usize, options: &CompileOptions) -> u64 {
     let (w, f) = mass_matrix_split(&sys.lagrangian, &sys.coords());
     let outputs: Vec<Expr> = w.iter().flatten().chain(f.iter()).cloned().collect();
     let n = sys.coords.len();
@@ -232,7 +232,7 @@ fn worst_ulps(sys: &compile_common::System, samples: usize) -> u64 {
     names.extend(sys.coords.iter().map(|q| format!("{q}'")));
     names.push("t".into());
     let inputs: Vec<&str> = names.iter().map(String::as_str).collect();
-    let tape = Tape::compile(&outputs, &inputs, &sys.params).unwrap();
+    let tape = Tape::compile_with_options(&outputs, &inputs, &sys.params, options).unwrap();
     let mut rng = Rng(7);
     let mut worst = 0;
     for _ in 0..samples {
@@ -267,10 +267,18 @@ fn abs_terms(e: &Expr) -> Option<Expr> {
 fn benchmark_systems_agree_with_exact_evaluation() {
     // Printed with --nocapture for BENCHMARKS.md; the bound is generous against
     // conditioning (sums of a dozen terms), far below what a wrong instruction would give.
+    // Both back ends: the interpreter and the native code (the same bits, so the same worst
+    // error; each is checked against the exact value on its own).
     for sys in benchmark_systems() {
-        let worst = worst_ulps(&sys, if sys.coords.len() > 5 { 20 } else { 100 });
-        println!("{}: worst {} ulps", sys.name, worst);
-        assert!(worst <= 64, "{}: {worst} ulps", sys.name);
+        let samples = if sys.coords.len() > 5 { 20 } else { 100 };
+        for (label, options) in [
+            ("interpreted", CompileOptions::default().with_native(false)),
+            ("native", CompileOptions::default().with_native(true)),
+        ] {
+            let worst = worst_ulps(&sys, samples, &options);
+            println!("{} ({label}): worst {} ulps", sys.name, worst);
+            assert!(worst <= 64, "{} ({label}): {worst} ulps", sys.name);
+        }
     }
 }
 

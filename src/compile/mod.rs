@@ -11,15 +11,20 @@
 //!   Jacobian; [`SeparableHamiltonian`] is the drift/kick split of `H = T(p) + V(q, t)`;
 //!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists.
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
+//! * The native back end (`native.rs`): every tape is also compiled to machine code with
+//!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
+//!   reference and the fallback ([`CompileOptions::native`], [`NO_JIT_ENV`]).
 //!
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
 mod ensemble;
+mod native;
 mod rhs;
 mod system;
 mod tape;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
+pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,
     SeparableHamiltonian,

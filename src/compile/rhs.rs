@@ -1,8 +1,10 @@
 //! Right-hand sides for the integrators, compiled from equations of motion.
 //!
-//! Every type here evaluates on one per-thread scratch buffer laid out as
-//! `tape slots | matrices | vectors`, so a call never allocates, and is `Sync` so ensembles
-//! can share it across threads. Failures along a trajectory (a mass matrix that becomes
+//! Every type here evaluates its tapes as native code when they have it (no scratch at all
+//! on the hot paths: a small Lagrangian system is one call of the generated function) and
+//! otherwise, or for the matrices of a pivoting solve, on one per-thread scratch buffer laid
+//! out as `tape slots | matrices | vectors`; either way a call never allocates. Every type is
+//! `Sync` so ensembles can share it across threads. Failures along a trajectory (a mass matrix that becomes
 //! singular, a non-finite value, a Legendre map that does not converge) are returned by the
 //! fallible `try_*` methods; the infallible [`Rhs::eval`] writes NaN, which the integrators'
 //! non-finite guard catches, and keeps the reason for [`LagrangianRhs::last_error`].
@@ -13,7 +15,8 @@ use crate::diff::Differentiator;
 use crate::expr::{Expr, Node, Symbol};
 use crate::integrate::{Jacobian, Rhs, RhsError as StepError, Separable};
 
-use super::tape::{with_scratch, Tape, LANES};
+use super::native::{Epilogue, NativeCode};
+use super::tape::{with_scratch, CompileOptions, Tape, LANES};
 use super::{velocity_name, CompileError};
 
 /// Why a right-hand side has no value at a state.
@@ -210,9 +213,16 @@ fn borrowed(params: &[(String, f64)]) -> Vec<(&str, f64)> {
 }
 
 /// Up to this many degrees of freedom the Cholesky solve is unrolled into the tape (where
-/// constant and zero entries of `W` fold away); beyond, its `n³/6` operations run faster as
-/// the native loops of [`factor`] than through the interpreter.
+/// constant and zero entries of `W` fold away) when the tape is interpreted; beyond, its
+/// `n³/6` operations run faster as the compiled loops of [`factor`] than through the
+/// interpreter.
 const UNROLL_MAX_DOF: usize = 4;
+
+/// The same limit when the tape runs as native code, where the unrolled solve is straight-line
+/// machine code with the zeros of `W` folded away, faster than the loops of [`factor`]. At
+/// `n = 16` the unrolled factorisation is about 1,400 instructions; much beyond, the code
+/// outgrows the instruction cache for little gain.
+const UNROLL_MAX_DOF_NATIVE: usize = 16;
 
 /// `W q'' = F` as a first-order system in `y = (q, q')`.
 ///
@@ -227,10 +237,13 @@ pub struct LagrangianRhs {
     tape: Tape,
     /// `W`, `F` and an unrolled Cholesky solve in one tape (symmetric `W` only): the fast path.
     fast: Option<Tape>,
+    /// The fast path as one native function writing `(q', q'')` and checking the pivots.
+    fast_native: Option<NativeCode>,
     symmetric: bool,
     w: Vec<Vec<Expr>>,
     f: Vec<Expr>,
     params: Vec<(String, f64)>,
+    options: CompileOptions,
     error: ErrorSlot,
 }
 
@@ -243,6 +256,18 @@ impl LagrangianRhs {
         coords: &[&str],
         params: &[(&str, f64)],
     ) -> Result<LagrangianRhs, CompileError> {
+        LagrangianRhs::with_options(w, f, coords, params, &CompileOptions::default())
+    }
+
+    /// [`LagrangianRhs::new`] with explicit code generator choices (such as forcing the
+    /// interpreter with [`CompileOptions::with_native`]).
+    pub fn with_options(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        coords: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<LagrangianRhs, CompileError> {
         let n = coords.len();
         check_shape("forces F", n, f.len())?;
         check_shape("rows of the mass matrix W", n, w.len())?;
@@ -253,22 +278,31 @@ impl LagrangianRhs {
         let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
         outputs.extend(f.iter().cloned());
         let inputs = state_inputs(&coords);
-        let tape = Tape::compile(&outputs, &as_strs(&inputs), params)?;
+        let tape = Tape::compile_with_options(&outputs, &as_strs(&inputs), params, options)?;
         let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
-        let fast = if symmetric && n <= UNROLL_MAX_DOF {
-            Some(Tape::compile_cholesky_solve(w, f, &as_strs(&inputs), params)?)
+        let unroll = if options.native { UNROLL_MAX_DOF_NATIVE } else { UNROLL_MAX_DOF };
+        let fast = if symmetric && n <= unroll {
+            Some(Tape::compile_cholesky_solve(w, f, &as_strs(&inputs), params, options)?)
+                // Interpreted, a large unrolled solve loses to the loops of `factor`.
+                .filter(|t| n <= UNROLL_MAX_DOF || t.is_native())
         } else {
             None
         };
+        let fast_native = fast
+            .as_ref()
+            .filter(|t| t.is_native())
+            .and_then(|t| NativeCode::compile(t, Epilogue::LagrangianSolve { n }));
         Ok(LagrangianRhs {
             n,
             coords,
             tape,
             fast,
+            fast_native,
             symmetric,
             w: w.to_vec(),
             f: f.to_vec(),
             params: owned_params(params),
+            options: options.clone(),
             error: ErrorSlot::default(),
         })
     }
@@ -305,22 +339,20 @@ impl LagrangianRhs {
     /// Evaluates `y' = (q', q'')`, or says why it cannot.
     pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
         let n = self.n;
+        assert!(y.len() >= 2 * n && dy.len() >= 2 * n, "state or derivative shorter than 2n");
+        if let Some(code) = &self.fast_native {
+            // SAFETY: `y` has the 2n inputs read and `dy` the 2n outputs written, stride 1.
+            if unsafe { code.call_solve(y.as_ptr(), 1, t, dy.as_mut_ptr(), 1) } {
+                return Ok(());
+            }
+        }
         dy[..n].copy_from_slice(&y[n..2 * n]);
-        if let Some(fast) = &self.fast {
-            let ok = fast.with_slots(0, |s, _| {
-                s[..2 * n].copy_from_slice(&y[..2 * n]);
-                s[2 * n] = t;
-                fast.run_slots(s);
-                if self.fast_ok(|k| s[fast.output_slot(k)]) {
-                    for (i, a) in dy[n..2 * n].iter_mut().enumerate() {
-                        *a = s[fast.output_slot(i)];
-                    }
-                    true
-                } else {
-                    false
-                }
-            });
-            if ok {
+        if let (Some(fast), None) = (&self.fast, &self.fast_native) {
+            // Accelerations, pivots, diagonal of W: on the stack, no scratch.
+            let mut out = [0.0; 3 * UNROLL_MAX_DOF_NATIVE];
+            fast.eval_split(&y[..2 * n], t, &mut out);
+            if self.fast_ok(|k| out[k]) {
+                dy[n..2 * n].copy_from_slice(&out[..n]);
                 return Ok(());
             }
             // Not safely positive definite (or not finite): the pivoting path solves it or
@@ -332,7 +364,7 @@ impl LagrangianRhs {
     }
 
     /// Runs the tape at `(t, y)` and solves for the accelerations into `acc`, leaving the
-    /// factorisation in `rest` (`a | m | perm | b | tmp`).
+    /// factorisation in `rest` (`a | b | m | perm | tmp`) and `(q, q', t)` in the input slots.
     fn accel_on(
         &self,
         t: f64,
@@ -344,17 +376,11 @@ impl LagrangianRhs {
         let n = self.n;
         slots[..2 * n].copy_from_slice(&y[..2 * n]);
         slots[2 * n] = t;
-        self.tape.run_in_place(slots);
-        let (a, rest) = rest.split_at_mut(n * n);
+        let (ab, rest) = rest.split_at_mut(n * n + n);
+        self.tape.eval_staged(slots, ab);
+        let (a, b) = ab.split_at(n * n);
         let (m, rest) = rest.split_at_mut(n * n);
-        let (perm, rest) = rest.split_at_mut(n);
-        let (b, tmp) = rest.split_at_mut(n);
-        for (k, x) in a.iter_mut().enumerate() {
-            *x = slots[self.tape.output_slot(k)];
-        }
-        for (i, x) in b.iter_mut().enumerate() {
-            *x = slots[self.tape.output_slot(n * n + i)];
-        }
+        let (perm, tmp) = rest.split_at_mut(n);
         self.finish_solve(t, y, a, m, perm, b, tmp, acc)
     }
 
@@ -408,8 +434,39 @@ impl LagrangianRhs {
         let Some(fast) = &self.fast else {
             return self.eval_batch_native(t, y, dy, points);
         };
-        let slots_len = fast.scratch_len() * LANES;
         let mut failed: Option<usize> = None;
+        if let Some(code) = &self.fast_native {
+            assert!(y.len() >= 2 * n * points && dy.len() >= 2 * n * points, "batch buffers too short");
+            for k in 0..points {
+                // SAFETY: point k reads y[i·points + k] and writes dy[i·points + k] for i < 2n,
+                // all below 2n·points (asserted above).
+                let ok = unsafe { code.call_solve(y.as_ptr().add(k), points, t, dy.as_mut_ptr().add(k), points) };
+                if !ok {
+                    return self.batch_rest(t, y, dy, points, k);
+                }
+            }
+            return Ok(());
+        }
+        if fast.is_native() {
+            // One call of the machine code per point, reading the point in place.
+            let mut out = [0.0; 3 * UNROLL_MAX_DOF_NATIVE];
+            for k in 0..points {
+                fast.eval_strided(&y[k..], points, t, &mut out, 1);
+                if !self.fast_ok(|o| out[o]) {
+                    failed = Some(k);
+                    break;
+                }
+                for i in 0..n {
+                    dy[i * points + k] = y[(n + i) * points + k];
+                    dy[(n + i) * points + k] = out[i];
+                }
+            }
+            return match failed {
+                None => Ok(()),
+                Some(k0) => self.batch_rest(t, y, dy, points, k0),
+            };
+        }
+        let slots_len = fast.scratch_len() * LANES;
         with_scratch(slots_len, |slots| {
             let mut start = 0;
             while start < points {
@@ -437,33 +494,51 @@ impl LagrangianRhs {
         });
         match failed {
             None => Ok(()),
-            Some(k0) => {
-                // A state the fast path rejects: finish this one and the rest state by state.
-                let (mut ys, mut ds) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
-                for k in k0..points {
-                    (0..2 * n).for_each(|i| ys[i] = y[i * points + k]);
-                    self.try_eval(t, &ys, &mut ds)?;
-                    (0..2 * n).for_each(|i| dy[i * points + k] = ds[i]);
-                }
-                Ok(())
-            }
+            Some(k0) => self.batch_rest(t, y, dy, points, k0),
         }
     }
 
-    /// The batch path without an unrolled solve: `W` and `F` through the lane interpreter,
-    /// then the native solve state by state.
+    /// Finishes a batch state by state from point `k0`, which the fast path rejected.
+    fn batch_rest(&self, t: f64, y: &[f64], dy: &mut [f64], points: usize, k0: usize) -> Result<(), RhsError> {
+        let n = self.n;
+        let (mut ys, mut ds) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
+        for k in k0..points {
+            (0..2 * n).for_each(|i| ys[i] = y[i * points + k]);
+            self.try_eval(t, &ys, &mut ds)?;
+            (0..2 * n).for_each(|i| dy[i * points + k] = ds[i]);
+        }
+        Ok(())
+    }
+
+    /// The batch path without an unrolled solve: `W` and `F` through the machine code point
+    /// by point, or the lane interpreter, then the solve of [`factor`] state by state.
     fn eval_batch_native(&self, t: f64, y: &[f64], dy: &mut [f64], points: usize) -> Result<(), RhsError> {
         let n = self.n;
-        let slots_len = self.tape.scratch_len() * LANES;
+        let slots_len = if self.tape.is_native() { 0 } else { self.tape.scratch_len() * LANES };
         let mut failure: Option<(usize, RhsError)> = None;
         with_scratch(slots_len + 2 * n * n + 5 * n, |s| {
             let (slots, rest) = s.split_at_mut(slots_len);
-            let (a, rest) = rest.split_at_mut(n * n);
+            let (ab, rest) = rest.split_at_mut(n * n + n);
             let (m, rest) = rest.split_at_mut(n * n);
             let (perm, rest) = rest.split_at_mut(n);
-            let (b, rest) = rest.split_at_mut(n);
             let (tmp, rest) = rest.split_at_mut(n);
             let acc = &mut rest[..n];
+            if self.tape.is_native() {
+                for k in 0..points {
+                    self.tape.eval_strided(&y[k..], points, t, ab, 1);
+                    let (a, b) = ab.split_at(n * n);
+                    if let Err(e) = self.finish_solve(t, &[], a, m, perm, b, tmp, acc) {
+                        failure = Some((k, e));
+                        return;
+                    }
+                    for i in 0..n {
+                        dy[i * points + k] = y[(n + i) * points + k];
+                        dy[(n + i) * points + k] = acc[i];
+                    }
+                }
+                return;
+            }
+            let (a, b) = ab.split_at_mut(n * n);
             let mut start = 0;
             while start < points {
                 let len = LANES.min(points - start);
@@ -526,7 +601,7 @@ impl LagrangianRhs {
                 }
             }
         }
-        let jac = Tape::compile(&outputs, &as_strs(&inputs), &borrowed(&self.params))?;
+        let jac = Tape::compile_with_options(&outputs, &as_strs(&inputs), &borrowed(&self.params), &self.options)?;
         Ok(LagrangianJacobian { rhs: self, jac })
     }
 }
@@ -593,17 +668,15 @@ impl LagrangianJacobian {
             let (acc, jv) = rest.split_at_mut(n);
             let kind = self.rhs.accel_on(t, y, slots, solver, acc)?;
             // The input slots are never reused as registers, so they still hold (q, q', t).
-            self.jac.run_in_place(slots);
-            for (k, x) in jv.iter_mut().enumerate() {
-                *x = slots[self.jac.output_slot(k)];
-            }
+            self.jac.eval_staged(slots, jv);
             if !jv.iter().all(|x| x.is_finite()) {
                 return Err(RhsError::NonFinite { t, state: y[..dim].to_vec(), what: "Jacobian" });
             }
-            let (_a, rest) = solver.split_at_mut(n * n);
+            // `F` (after `W` in `ab`) was consumed by the solve: its room holds the columns.
+            let (ab, rest) = solver.split_at_mut(n * n + n);
+            let r = &mut ab[n * n..];
             let (m, rest) = rest.split_at_mut(n * n);
-            let (perm, rest) = rest.split_at_mut(n);
-            let (r, tmp) = rest.split_at_mut(n);
+            let (perm, tmp) = rest.split_at_mut(n);
             for i in 0..n {
                 for j in 0..dim {
                     jac[i * dim + j] = if j == n + i { 1.0 } else { 0.0 };
@@ -678,6 +751,17 @@ impl HamiltonianRhs {
         momenta: &[&str],
         params: &[(&str, f64)],
     ) -> Result<HamiltonianRhs, CompileError> {
+        HamiltonianRhs::with_options(h, coords, momenta, params, &CompileOptions::default())
+    }
+
+    /// [`HamiltonianRhs::new`] with explicit code generator choices.
+    pub fn with_options(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<HamiltonianRhs, CompileError> {
         let n = coords.len();
         check_shape("momenta", n, momenta.len())?;
         let inputs = phase_inputs(coords, momenta);
@@ -691,8 +775,8 @@ impl HamiltonianRhs {
                 jac_exprs.push(d.diff(fi, s));
             }
         }
-        let tape = Tape::compile(&f, &as_strs(&inputs), params)?;
-        let jac = Tape::compile(&jac_exprs, &as_strs(&inputs), params)?;
+        let tape = Tape::compile_with_options(&f, &as_strs(&inputs), params, options)?;
+        let jac = Tape::compile_with_options(&jac_exprs, &as_strs(&inputs), params, options)?;
         Ok(HamiltonianRhs { n, tape, jac, error: ErrorSlot::default() })
     }
 
@@ -723,14 +807,7 @@ impl HamiltonianRhs {
 }
 
 fn eval_phase(tape: &Tape, n: usize, t: f64, y: &[f64], out: &mut [f64], what: &'static str) -> Result<(), RhsError> {
-    tape.with_slots(0, |s, _| {
-        s[..2 * n].copy_from_slice(&y[..2 * n]);
-        s[2 * n] = t;
-        tape.run_slots(s);
-        for (k, o) in out[..tape.n_outputs()].iter_mut().enumerate() {
-            *o = s[tape.output_slot(k)];
-        }
-    });
+    tape.eval_split(&y[..2 * n], t, out);
     if out[..tape.n_outputs()].iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
@@ -825,16 +902,27 @@ impl SeparableHamiltonian {
         momenta: &[&str],
         params: &[(&str, f64)],
     ) -> Result<SeparableHamiltonian, CompileError> {
+        SeparableHamiltonian::with_options(h, coords, momenta, params, &CompileOptions::default())
+    }
+
+    /// [`SeparableHamiltonian::new`] with explicit code generator choices.
+    pub fn with_options(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<SeparableHamiltonian, CompileError> {
         let n = coords.len();
         check_shape("momenta", n, momenta.len())?;
         let (t, v) = split_separable(h, coords, momenta).ok_or(CompileError::NotSeparable)?;
         let mut d = Differentiator::new();
         let dt: Vec<Expr> = momenta.iter().map(|p| d.diff(&t, &find_symbol(&[h], p))).collect();
         let dv: Vec<Expr> = coords.iter().map(|q| d.diff(&v, &find_symbol(&[h], q)).neg()).collect();
-        let drift = Tape::compile(&dt, momenta, params)?;
+        let drift = Tape::compile_with_options(&dt, momenta, params, options)?;
         let mut kick_inputs: Vec<&str> = coords.to_vec();
         kick_inputs.push("t");
-        let kick = Tape::compile(&dv, &kick_inputs, params)?;
+        let kick = Tape::compile_with_options(&dv, &kick_inputs, params, options)?;
         Ok(SeparableHamiltonian { n, drift, kick })
     }
 
@@ -873,15 +961,7 @@ impl Separable for SeparableHamiltonian {
         self.drift.eval(p, dq);
     }
     fn kick(&self, t: f64, q: &[f64], dp: &mut [f64]) {
-        let n = self.n;
-        self.kick.with_slots(0, |s, _| {
-            s[..n].copy_from_slice(&q[..n]);
-            s[n] = t;
-            self.kick.run_slots(s);
-            for (k, o) in dp[..n].iter_mut().enumerate() {
-                *o = s[self.kick.output_slot(k)];
-            }
-        });
+        self.kick.eval_split(&q[..self.n], t, dp);
     }
 }
 
@@ -923,6 +1003,16 @@ const NEWTON_MAX_ITER: usize = 60;
 impl ImplicitLegendreRhs {
     /// Compiles the implicit Legendre map of `l` with coordinates `coords`, `params` bound.
     pub fn new(l: &Expr, coords: &[&str], params: &[(&str, f64)]) -> Result<ImplicitLegendreRhs, CompileError> {
+        ImplicitLegendreRhs::with_options(l, coords, params, &CompileOptions::default())
+    }
+
+    /// [`ImplicitLegendreRhs::new`] with explicit code generator choices.
+    pub fn with_options(
+        l: &Expr,
+        coords: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<ImplicitLegendreRhs, CompileError> {
         let n = coords.len();
         let coords: Vec<String> = coords.iter().map(|s| s.to_string()).collect();
         let inputs = state_inputs(&coords);
@@ -938,8 +1028,8 @@ impl ImplicitLegendreRhs {
         }
         let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
         let force: Vec<Expr> = syms[..n].iter().map(|q| d.diff(l, q)).collect();
-        let newton = Tape::compile(&outs, &as_strs(&inputs), params)?;
-        let force = Tape::compile(&force, &as_strs(&inputs), params)?;
+        let newton = Tape::compile_with_options(&outs, &as_strs(&inputs), params, options)?;
+        let force = Tape::compile_with_options(&force, &as_strs(&inputs), params, options)?;
         Ok(ImplicitLegendreRhs { n, coords, newton, force, symmetric, error: ErrorSlot::default() })
     }
 
@@ -947,22 +1037,19 @@ impl ImplicitLegendreRhs {
         self.newton.scratch_len().max(self.force.scratch_len())
     }
 
-    /// Residual `∂L/∂q'(q, v, t) − p` into `r` and `W` into `a`; returns `max |r_i|`, NaN when
-    /// anything is non-finite.
-    fn residual(&self, slots: &mut [f64], v: &[f64], p: &[f64], r: &mut [f64], a: &mut [f64]) -> f64 {
+    /// Residual `∂L/∂q'(q, v, t) − p` into `r` and `W` into `a` (`r | a` contiguous in `ra`);
+    /// returns `max |r_i|`, NaN when anything is non-finite.
+    fn residual(&self, slots: &mut [f64], v: &[f64], p: &[f64], ra: &mut [f64]) -> f64 {
         let n = self.n;
         slots[n..2 * n].copy_from_slice(&v[..n]);
-        self.newton.run_in_place(slots);
+        self.newton.eval_staged(slots, ra);
         let mut norm = 0.0f64;
         for i in 0..n {
-            r[i] = slots[self.newton.output_slot(i)] - p[i];
-            norm = if r[i].is_finite() { norm.max(r[i].abs()) } else { f64::NAN };
+            ra[i] -= p[i];
+            norm = if ra[i].is_finite() { norm.max(ra[i].abs()) } else { f64::NAN };
         }
-        for (k, x) in a.iter_mut().enumerate() {
-            *x = slots[self.newton.output_slot(n + k)];
-            if !x.is_finite() {
-                norm = f64::NAN;
-            }
+        if !ra[n..].iter().all(|x| x.is_finite()) {
+            norm = f64::NAN;
         }
         norm
     }
@@ -973,10 +1060,9 @@ impl ImplicitLegendreRhs {
         let state = || q[..n].iter().chain(&p[..n]).copied().collect::<Vec<f64>>();
         with_scratch(self.slots_len() + 2 * n * n + 5 * n, |s| {
             let (slots, rest) = s.split_at_mut(self.slots_len());
-            let (a, rest) = rest.split_at_mut(n * n);
+            let (ra, rest) = rest.split_at_mut(n + n * n);
             let (m, rest) = rest.split_at_mut(n * n);
             let (perm, rest) = rest.split_at_mut(n);
-            let (r, rest) = rest.split_at_mut(n);
             let (tmp, rest) = rest.split_at_mut(n);
             let (trial, rest) = rest.split_at_mut(n);
             let step = &mut rest[..n];
@@ -984,7 +1070,7 @@ impl ImplicitLegendreRhs {
             slots[2 * n] = t;
             v[..n].fill(0.0);
             let pscale = 1.0 + p[..n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
-            let mut norm = self.residual(slots, v, p, r, a);
+            let mut norm = self.residual(slots, v, p, ra);
             for iter in 0..NEWTON_MAX_ITER {
                 if !norm.is_finite() {
                     return Err(RhsError::NonFinite { t, state: state(), what: "momentum ∂L/∂q'" });
@@ -992,12 +1078,12 @@ impl ImplicitLegendreRhs {
                 if norm <= 4.0 * f64::EPSILON * pscale {
                     return Ok(iter);
                 }
-                let kind = factor(a, m, perm, n, self.symmetric).map_err(|j| RhsError::SingularMassMatrix {
+                let kind = factor(&ra[n..], m, perm, n, self.symmetric).map_err(|j| RhsError::SingularMassMatrix {
                     t,
                     state: state(),
                     velocity: velocity_name(&self.coords[j]),
                 })?;
-                step.copy_from_slice(r);
+                step.copy_from_slice(&ra[..n]);
                 solve(kind, m, perm, n, step, tmp);
                 let vscale = 1.0 + v[..n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
                 let small = step.iter().all(|d| d.abs() <= 2.0 * f64::EPSILON * vscale);
@@ -1007,7 +1093,7 @@ impl ImplicitLegendreRhs {
                     for i in 0..n {
                         trial[i] = v[i] - lambda * step[i];
                     }
-                    let new = self.residual(slots, trial, p, r, a);
+                    let new = self.residual(slots, trial, p, ra);
                     if new.is_finite() && (new < norm || lambda < 1e-3 || small) {
                         norm = new;
                         break;
@@ -1035,10 +1121,7 @@ impl ImplicitLegendreRhs {
             s[..n].copy_from_slice(&y[..n]);
             s[n..2 * n].copy_from_slice(&dq[..n]);
             s[2 * n] = t;
-            self.force.run_in_place(s);
-            for (k, o) in dp[..n].iter_mut().enumerate() {
-                *o = s[self.force.output_slot(k)];
-            }
+            self.force.eval_staged(s, dp);
         });
         if dp[..n].iter().all(|x| x.is_finite()) {
             Ok(())

@@ -17,12 +17,14 @@ use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use num_traits::ToPrimitive;
 
 use crate::eval::eval_with;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
+use super::native::{jit_disabled_by_env, Epilogue, NativeCode};
 use super::CompileError;
 
 /// The deepest expression the (recursive) lowering accepts before reporting an error instead
@@ -169,11 +171,16 @@ pub struct CompileOptions {
     /// relative one, so `sin(a − b)` for nearly equal `a`, `b` loses relative accuracy (as the
     /// same formula written by hand does). On by default.
     pub angle_differences: bool,
+    /// Compile the tape to machine code (Cranelift) when the host allows it, and evaluate it
+    /// there; the interpreter remains the fallback when it does not. The native code computes
+    /// the same bits as the interpreter. On by default unless the environment variable
+    /// [`NO_JIT_ENV`](super::NO_JIT_ENV) is set (to anything but `0`).
+    pub native: bool,
 }
 
 impl Default for CompileOptions {
     fn default() -> Self {
-        CompileOptions { angle_differences: true }
+        CompileOptions { angle_differences: true, native: !jit_disabled_by_env() }
     }
 }
 
@@ -183,12 +190,19 @@ impl CompileOptions {
         self.angle_differences = on;
         self
     }
+
+    /// Sets [`CompileOptions::native`]; `false` forces the interpreter.
+    pub fn with_native(mut self, on: bool) -> Self {
+        self.native = on;
+        self
+    }
 }
 
 /// A compiled set of expressions: `outputs = f(inputs)` with parameters bound.
 ///
 /// Evaluation does not allocate (after a thread's first call, which sizes its scratch) and
-/// the tape is `Sync`: each thread evaluates on its own scratch.
+/// the tape is `Sync`: each thread evaluates on its own scratch. When the tape was compiled to
+/// machine code ([`Tape::is_native`]) evaluation calls that instead and needs no scratch.
 #[derive(Clone, Debug)]
 pub struct Tape {
     input_names: Vec<String>,
@@ -198,6 +212,8 @@ pub struct Tape {
     n_slots: usize,
     /// Unique per compiled tape (clones share it, and their constants).
     id: u64,
+    /// The same instructions as machine code, when compiled and available (shared by clones).
+    native: Option<Arc<NativeCode>>,
 }
 
 /// A thread's scratch buffer, and which tape's constants it holds in place.
@@ -257,7 +273,7 @@ impl Tape {
         for e in outputs {
             out_slots.push(lower.lower(e, 0)?);
         }
-        Ok(lower.finish(inputs, out_slots))
+        Ok(lower.finish(inputs, out_slots, options.native))
     }
 
     /// Compiles the solution `x` of `W x = F` for a symmetric `W`, with the Cholesky
@@ -275,11 +291,12 @@ impl Tape {
         f: &[Expr],
         inputs: &[&str],
         params: &[(&str, f64)],
+        options: &CompileOptions,
     ) -> Result<Tape, CompileError> {
         let n = f.len();
         let mut exprs: Vec<Expr> = f.to_vec();
         exprs.extend(w.iter().flatten().cloned());
-        let mut lower = Lower::start(inputs, params, &exprs, &CompileOptions::default())?;
+        let mut lower = Lower::start(inputs, params, &exprs, options)?;
         let mut wl = vec![vec![0u32; n]; n];
         for i in 0..n {
             for j in 0..=i {
@@ -334,7 +351,7 @@ impl Tape {
         let mut outputs = x;
         outputs.extend(pivots);
         outputs.extend((0..n).map(|j| wl[j][j]));
-        Ok(lower.finish(inputs, outputs))
+        Ok(lower.finish(inputs, outputs, options.native))
     }
 
     /// The number of inputs.
@@ -385,12 +402,109 @@ impl Tape {
         self.n_slots
     }
 
+    /// The constants, in slot order after the inputs.
+    pub(crate) fn consts(&self) -> &[f64] {
+        &self.consts
+    }
+
+    /// Whether evaluation runs native machine code (see [`CompileOptions::native`]) rather
+    /// than the interpreter.
+    pub fn is_native(&self) -> bool {
+        self.native.is_some()
+    }
+
+    /// The same tape without its machine code: evaluation goes through the interpreter, the
+    /// reference the native back end is tested against.
+    pub fn interpreted(&self) -> Tape {
+        Tape { native: None, ..self.clone() }
+    }
+
+    /// Evaluates with the first `n_inputs − 1` inputs from `head` and the last one (the time,
+    /// in every right-hand side) from `last`, so a state slice is passed without copying.
+    ///
+    /// # Panics
+    /// If `head` or `out` is too short.
+    #[inline]
+    pub(crate) fn eval_split(&self, head: &[f64], last: f64, out: &mut [f64]) {
+        let ni = self.input_names.len();
+        let nh = ni.saturating_sub(1);
+        let no = self.outputs.len();
+        assert!(head.len() >= nh && out.len() >= no, "tape called with too few inputs or outputs");
+        match &self.native {
+            // SAFETY: `head` holds the `nh` inputs read and `out` the `no` outputs written at
+            // stride 1 (asserted above).
+            Some(code) => unsafe { code.call(head.as_ptr(), 1, last, out.as_mut_ptr(), 1) },
+            None => self.with_slots(0, |s, _| {
+                s[..nh].copy_from_slice(&head[..nh]);
+                if ni > 0 {
+                    s[nh] = last;
+                }
+                self.run_slots(s);
+                for (o, &slot) in out.iter_mut().zip(&self.outputs) {
+                    *o = s[slot as usize];
+                }
+            }),
+        }
+    }
+
+    /// Evaluates with the inputs already in `slots[..n_inputs]`, writing the outputs to `out`:
+    /// natively when possible, otherwise by the interpreter on `slots` (at least
+    /// [`Tape::scratch_len`] values; its input slots are left as they were). For callers that
+    /// stage inputs in a buffer they already hold.
+    pub(crate) fn eval_staged(&self, slots: &mut [f64], out: &mut [f64]) {
+        let ni = self.input_names.len();
+        match &self.native {
+            Some(_) => {
+                let last = if ni > 0 { slots[ni - 1] } else { 0.0 };
+                self.eval_split(&slots[..ni.saturating_sub(1)], last, out);
+            }
+            None => {
+                self.run_in_place(slots);
+                for (o, &slot) in out.iter_mut().zip(&self.outputs) {
+                    *o = slots[slot as usize];
+                }
+            }
+        }
+    }
+
+    /// Evaluates natively with input `i < n_inputs − 1` at `x[i · x_stride]`, the last input
+    /// `last`, output `j` to `out[j · out_stride]`: with `x = &y[k..]` and a stride of
+    /// `points`, point `k` of a structure-of-arrays batch in place. Returns `false` (doing
+    /// nothing) when the tape has no native code.
+    ///
+    /// # Panics
+    /// If `x` or `out` is too short for its stride.
+    #[inline]
+    pub(crate) fn eval_strided(
+        &self,
+        x: &[f64],
+        x_stride: usize,
+        last: f64,
+        out: &mut [f64],
+        out_stride: usize,
+    ) -> bool {
+        let Some(code) = &self.native else { return false };
+        let nh = self.input_names.len().saturating_sub(1);
+        let no = self.outputs.len();
+        assert!(
+            (nh == 0 || x.len() > (nh - 1) * x_stride) && (no == 0 || out.len() > (no - 1) * out_stride),
+            "strided tape buffers too short"
+        );
+        // SAFETY: the largest index read is `(nh − 1)·x_stride < x.len()` and the largest
+        // written `(no − 1)·out_stride < out.len()` (asserted above).
+        unsafe { code.call(x.as_ptr(), x_stride, last, out.as_mut_ptr(), out_stride) };
+        true
+    }
+
     /// Evaluates the tape at `inputs`, writing `outputs`, on a caller-provided `scratch` of at
     /// least [`Tape::scratch_len`] values. Never allocates.
     ///
     /// # Panics
     /// If a slice is shorter than the tape needs (a programming error, not a data one).
     pub fn eval_with_scratch(&self, inputs: &[f64], outputs: &mut [f64], scratch: &mut [f64]) {
+        if self.native.is_some() {
+            return self.eval(inputs, outputs);
+        }
         let s = &mut scratch[..self.n_slots];
         let ni = self.input_names.len();
         s[..ni].copy_from_slice(&inputs[..ni]);
@@ -401,9 +515,14 @@ impl Tape {
         }
     }
 
-    /// Evaluates the tape at `inputs` into `outputs`, on this thread's scratch buffer.
+    /// Evaluates the tape at `inputs` into `outputs` (natively, or on this thread's scratch
+    /// buffer).
     pub fn eval(&self, inputs: &[f64], outputs: &mut [f64]) {
         let ni = self.input_names.len();
+        if self.native.is_some() {
+            let last = if ni > 0 { inputs[ni - 1] } else { 0.0 };
+            return self.eval_split(&inputs[..ni.saturating_sub(1)], last, outputs);
+        }
         self.with_slots(0, |s, _| {
             s[..ni].copy_from_slice(&inputs[..ni]);
             self.run_slots(s);
@@ -481,6 +600,13 @@ impl Tape {
     pub fn eval_batch(&self, inputs: &[f64], outputs: &mut [f64], points: usize) {
         assert!(inputs.len() >= points * self.n_inputs() && outputs.len() >= points * self.n_outputs());
         let ni = self.n_inputs();
+        if self.native.is_some() {
+            for k in 0..points {
+                let last = if ni > 0 { inputs[(ni - 1) * points + k] } else { 0.0 };
+                self.eval_strided(&inputs[k..], points, last, &mut outputs[k..], points);
+            }
+            return;
+        }
         with_scratch(self.n_slots * LANES, |s| {
             for (k, c) in self.consts.iter().enumerate() {
                 s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
@@ -750,7 +876,7 @@ impl Lower {
     }
 
     /// Numbers the slots densely and allocates registers.
-    fn finish(mut self, inputs: &[&str], mut outputs: Vec<u32>) -> Tape {
+    fn finish(mut self, inputs: &[&str], mut outputs: Vec<u32>, native: bool) -> Tape {
         let n_slots = finalize_numbering(inputs.len() as u32, self.consts.len() as u32, &mut self.instrs, &mut outputs);
         let tape = Tape {
             input_names: inputs.iter().map(|s| s.to_string()).collect(),
@@ -759,8 +885,13 @@ impl Lower {
             outputs,
             n_slots: n_slots as usize,
             id: NEXT_TAPE_ID.fetch_add(1, Ordering::Relaxed),
+            native: None,
         };
-        tape.allocate_registers()
+        let mut tape = tape.allocate_registers();
+        if native {
+            tape.native = NativeCode::compile(&tape, Epilogue::Plain).map(Arc::new);
+        }
+        tape
     }
 
     fn new(

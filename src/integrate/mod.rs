@@ -30,7 +30,7 @@
 //! | Störmer–Verlet | [`Separable`] | 2 | symplectic, symmetric | [`Splitting::leapfrog`] |
 //! | Yoshida 4/6/8 | [`Separable`] | 4/6/8 | symplectic, symmetric | [`Splitting::yoshida4`] … |
 //! | Blanes–Moan | [`Separable`] | 4 | symplectic, symmetric, optimised | [`Splitting::blanes_moan4`] |
-//! | implicit midpoint, Gauss 4/6 | [`Rhs`] (+[`Jacobian`]) | 2/4/6 | symplectic, symmetric | [`Gauss::midpoint`] … |
+//! | implicit midpoint, Gauss 4/6 | [`Rhs`] (+[`Jacobian`]) | 2/4/6 | symplectic, symmetric | [`Gauss::midpoint`], [`Gauss4`], [`Gauss6`] … |
 //! | RK4 | [`Rhs`] | 4 | | [`ExplicitRk::rk4`] |
 //! | DOP853 | [`Rhs`] | 8 | adaptive, dense output | [`Dop853::new`] |
 //!
@@ -54,7 +54,7 @@ mod splitting;
 
 pub use dop853::Dop853;
 pub use error::{FailureReason, IntegrateError, RhsError, StepFailure};
-pub use gauss::{Gauss, ImplicitSolver};
+pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;
 pub use solver::{
     Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status, StopReason,
