@@ -251,3 +251,43 @@ fn ensembles_match_serial_runs_in_order() {
     }
     assert!(ensemble(&init[..3], 2, integrate).is_err());
 }
+
+#[test]
+fn a_diagonal_mass_matrix_is_divided_out_symbolically() {
+    // W = m, F = −m ω² x: the quotient cancels m before any code exists, so the solve tape is
+    // the one product −ω² x (the unrolled factorisation would spend a root and two products).
+    let l = parse("1/2 m x'^2 - 1/2 m ω^2 x^2").unwrap();
+    let (w, f) = mass_matrix_split(&l, &["x"]);
+    let rhs = LagrangianRhs::new(&w, &f, &["x"], &[("m", 1.3), ("ω", 2.0)]).unwrap();
+    assert_eq!(rhs.solve_tape().unwrap().op_count(), 1);
+    let mut dy = [0.0; 2];
+    rhs.try_eval(0.0, &[0.7, 0.2], &mut dy).unwrap();
+    assert_eq!(dy, [0.2, -4.0 * 0.7]);
+}
+
+#[test]
+fn a_negative_constant_mass_is_divided_out() {
+    // W = −m < 0 is diagonal, not positive definite: the quotient F/W is still the answer.
+    // By hand: −m x'' + k x = 0, x'' = k x / m.
+    let l = parse("-1/2 m x'^2 - 1/2 k x^2").unwrap();
+    let (w, f) = mass_matrix_split(&l, &["x"]);
+    let (m, k) = (1.3, 2.5);
+    let rhs = LagrangianRhs::new(&w, &f, &["x"], &[("m", m), ("k", k)]).unwrap();
+    let mut dy = [0.0; 2];
+    rhs.try_eval(0.0, &[0.7, 0.2], &mut dy).unwrap();
+    assert_eq!(dy[0], 0.2);
+    assert!((dy[1] - k * 0.7 / m).abs() <= 1e-15 * (k * 0.7 / m), "{}", dy[1]);
+}
+
+#[test]
+fn a_nearly_singular_constant_mass_matrix_keeps_its_pivot_test() {
+    // W = [[1, 1], [1, 1 + e]] with e = f64::EPSILON: the second Cholesky pivot is e, below
+    // the threshold 2·ε·max W_jj, so the compile-time test fails and the run-time test stays:
+    // the state is refused as singular rather than solved into values of size 1/e.
+    let l = parse("1/2 x'^2 + x' y' + 1/2 (1 + e) y'^2 - 1/2 (x^2 + y^2)").unwrap();
+    let (w, f) = mass_matrix_split(&l, &["x", "y"]);
+    let rhs = LagrangianRhs::new(&w, &f, &["x", "y"], &[("e", f64::EPSILON)]).unwrap();
+    let mut dy = [0.0; 4];
+    let err = rhs.try_eval(0.0, &[0.3, 0.4, 0.0, 0.0], &mut dy).unwrap_err();
+    assert!(matches!(err, RhsError::SingularMassMatrix { .. }), "{err:?}");
+}

@@ -61,8 +61,9 @@ pub(crate) enum Epilogue {
     /// `(q', q'')` to `out` and return whether the pivots are safely positive (above
     /// `n·ε·max W_jj`, the threshold of the pivoting solve) and `q''` is finite. The caller
     /// falls back to the pivoting solve otherwise, so a right-hand side call is one call of
-    /// this function and nothing else.
-    LagrangianSolve { n: usize },
+    /// this function and nothing else. `check_pivots: false` leaves the pivot test out (only
+    /// finiteness is checked): the caller has proven it once at compile time, for a constant `W`.
+    LagrangianSolve { n: usize, check_pivots: bool },
 }
 
 /// Tapes longer than this stay interpreted: Cranelift's compile time grows faster than
@@ -126,7 +127,7 @@ impl NativeCode {
         if tape.instrs().len() > MAX_NATIVE_INSTRS {
             return None;
         }
-        if let Epilogue::LagrangianSolve { n } = epilogue {
+        if let Epilogue::LagrangianSolve { n, .. } = epilogue {
             if tape.n_inputs() != 2 * n + 1 || tape.n_outputs() != 3 * n {
                 return None;
             }
@@ -355,7 +356,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
             }
         }
         let os8 = self.b.ins().ishl_imm(os, 3);
-        let n = match epilogue {
+        let (n, check_pivots) = match epilogue {
             Epilogue::Plain => {
                 let mut p = out;
                 for j in 0..tape.n_outputs() {
@@ -368,7 +369,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
                 self.b.ins().return_(&[]);
                 return Some(());
             }
-            Epilogue::LagrangianSolve { n } => n,
+            Epilogue::LagrangianSolve { n, check_pivots } => (n, check_pivots),
         };
         // out = (q', q''): the velocities are input slots n..2n.
         let mut p = out;
@@ -383,23 +384,27 @@ impl<'a, 'b> Emitter<'a, 'b> {
         // tol = (n·ε)·max_j W_jj; ok = ∧_j (d_j > tol) ∧ (q''_j − q''_j == 0, i.e. finite).
         // `fmax` propagates a NaN where `f64::max` skips it; a NaN diagonal makes the pivots
         // NaN as well, so both reject the state and the caller takes the pivoting path.
-        let mut scale = self.b.ins().f64const(0.0);
-        for j in 0..n {
-            let wjj = self.get(tape.output_slot(2 * n + j) as u32)?;
-            scale = self.b.ins().fmax(scale, wjj);
-        }
-        let k = self.b.ins().f64const(n as f64 * f64::EPSILON);
-        let tol = self.b.ins().fmul(k, scale);
         let zero = self.b.ins().f64const(0.0);
         let mut ok = self.b.ins().iconst(types::I8, 1);
+        if check_pivots {
+            let mut scale = self.b.ins().f64const(0.0);
+            for j in 0..n {
+                let wjj = self.get(tape.output_slot(2 * n + j) as u32)?;
+                scale = self.b.ins().fmax(scale, wjj);
+            }
+            let k = self.b.ins().f64const(n as f64 * f64::EPSILON);
+            let tol = self.b.ins().fmul(k, scale);
+            for j in 0..n {
+                let d = self.get(tape.output_slot(n + j) as u32)?;
+                let pos = self.b.ins().fcmp(FloatCC::GreaterThan, d, tol);
+                ok = self.b.ins().band(ok, pos);
+            }
+        }
         for j in 0..n {
-            let d = self.get(tape.output_slot(n + j) as u32)?;
-            let pos = self.b.ins().fcmp(FloatCC::GreaterThan, d, tol);
             let a = self.get(tape.output_slot(j) as u32)?;
             let diff = self.b.ins().fsub(a, a);
             let finite = self.b.ins().fcmp(FloatCC::Equal, diff, zero);
-            let both = self.b.ins().band(pos, finite);
-            ok = self.b.ins().band(ok, both);
+            ok = self.b.ins().band(ok, finite);
         }
         let ok = self.b.ins().uextend(types::I32, ok);
         self.b.ins().return_(&[ok]);

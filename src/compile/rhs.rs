@@ -224,6 +224,28 @@ const UNROLL_MAX_DOF: usize = 4;
 /// outgrows the instruction cache for little gain.
 const UNROLL_MAX_DOF_NATIVE: usize = 16;
 
+/// Whether `W` is constant once the parameters are bound (no coordinate, velocity or time in
+/// it) and the fast path's pivots pass [`LagrangianRhs::fast_ok`]'s threshold: then they pass
+/// it at every state, and the native solve checks only that the accelerations are finite.
+/// The pivots are read from one evaluation of the solve tape `fast` (at the zero state: a
+/// constant `W` does not depend on it, whatever `F` does there).
+fn constant_positive_definite(w: &[Vec<Expr>], params: &[(&str, f64)], fast: &Tape, n: usize) -> bool {
+    let constant = w.iter().flatten().all(|e| {
+        e.free_symbols().iter().all(|s| {
+            let name = s.to_string();
+            params.iter().any(|(p, _)| *p == name)
+        })
+    });
+    if !constant {
+        return false;
+    }
+    let mut out = vec![0.0; 3 * n];
+    fast.eval_split(&vec![0.0; 2 * n], 0.0, &mut out);
+    let scale = out[2 * n..].iter().fold(0.0f64, |a, &b| a.max(b));
+    let tol = n as f64 * f64::EPSILON * scale;
+    out[n..2 * n].iter().all(|&d| d > tol)
+}
+
 /// `W q'' = F` as a first-order system in `y = (q, q')`.
 ///
 /// `W` is the mass matrix `∂²L/∂q'_i∂q'_j` and `F_i = ∂L/∂q_i − Σ_j ∂²L/∂q'_i∂q_j q'_j −
@@ -288,10 +310,11 @@ impl LagrangianRhs {
         } else {
             None
         };
+        let check_pivots = !fast.as_ref().is_some_and(|t| constant_positive_definite(w, params, t, n));
         let fast_native = fast
             .as_ref()
             .filter(|t| t.is_native())
-            .and_then(|t| NativeCode::compile(t, Epilogue::LagrangianSolve { n }));
+            .and_then(|t| NativeCode::compile(t, Epilogue::LagrangianSolve { n, check_pivots }));
         Ok(LagrangianRhs {
             n,
             coords,
@@ -337,6 +360,10 @@ impl LagrangianRhs {
     }
 
     /// Evaluates `y' = (q', q'')`, or says why it cannot.
+    ///
+    /// The native fast path is kept apart from the rest, so that a call which it answers is
+    /// the length check and one indirect call, with none of the stack frame of the fallbacks.
+    #[inline]
     pub fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
         let n = self.n;
         assert!(y.len() >= 2 * n && dy.len() >= 2 * n, "state or derivative shorter than 2n");
@@ -346,6 +373,14 @@ impl LagrangianRhs {
                 return Ok(());
             }
         }
+        self.try_eval_fallback(t, y, dy)
+    }
+
+    /// [`LagrangianRhs::try_eval`] when the native fast path is absent or declined the state:
+    /// the interpreted unrolled solve, else the pivoting solve.
+    #[inline(never)]
+    fn try_eval_fallback(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.n;
         dy[..n].copy_from_slice(&y[n..2 * n]);
         if let (Some(fast), None) = (&self.fast, &self.fast_native) {
             // Accelerations, pivots, diagonal of W: on the stack, no scratch.
@@ -630,6 +665,7 @@ impl Rhs for LagrangianRhs {
     fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepError> {
         LagrangianRhs::try_eval(self, t, y, dy).map_err(StepError::from)
     }
+    #[inline]
     fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         if let Err(e) = self.try_eval(t, y, dy) {
             fail_nan(&mut dy[..2 * self.n]);

@@ -279,7 +279,8 @@ impl Tape {
     /// Compiles the solution `x` of `W x = F` for a symmetric `W`, with the Cholesky
     /// factorisation and both triangular solves unrolled into the tape, so one run evaluates
     /// `W`, `F` and the solve with no interpretation of loops, and every structurally zero or
-    /// constant entry of `W` is folded away (a constant diagonal `W` costs `n` multiplications).
+    /// constant entry of `W` is folded away (a diagonal `W` is divided out symbolically instead, by
+    /// [`Tape::compile_diagonal_solve`]).
     ///
     /// Outputs: `x` (`n`), the Cholesky pivots `d_j` (`n`, before their square roots) and the
     /// diagonal `W_jj` (`n`), so the caller can reject a factorisation whose pivots are not
@@ -294,6 +295,12 @@ impl Tape {
         options: &CompileOptions,
     ) -> Result<Tape, CompileError> {
         let n = f.len();
+        // A structurally zero diagonal entry is left to the factorisation, whose pivot test
+        // reports the singular matrix at run time.
+        let diagonal = (0..n).all(|i| (0..n).all(|j| (i == j) != w[i][j].is_zero()));
+        if diagonal {
+            return Tape::compile_diagonal_solve(w, f, inputs, params, options);
+        }
         let mut exprs: Vec<Expr> = f.to_vec();
         exprs.extend(w.iter().flatten().cloned());
         let mut lower = Lower::start(inputs, params, &exprs, options)?;
@@ -351,6 +358,30 @@ impl Tape {
         let mut outputs = x;
         outputs.extend(pivots);
         outputs.extend((0..n).map(|j| wl[j][j]));
+        Ok(lower.finish(inputs, outputs, options.native))
+    }
+
+    /// The solve tape of [`Tape::compile_cholesky_solve`] for a diagonal `W`: each
+    /// acceleration is the exact quotient `F_i / W_ii`, formed symbolically so that common
+    /// factors cancel before any code exists (`−m ω² x / m` compiles to one product, where the
+    /// unrolled factorisation would spend a square root and two products on the same `m`); the
+    /// pivots of a diagonal matrix are its diagonal entries.
+    fn compile_diagonal_solve(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        inputs: &[&str],
+        params: &[(&str, f64)],
+        options: &CompileOptions,
+    ) -> Result<Tape, CompileError> {
+        let n = f.len();
+        let mut exprs: Vec<Expr> = (0..n).map(|i| f[i].over(&w[i][i])).collect();
+        exprs.extend((0..n).map(|i| w[i][i].clone()));
+        let mut lower = Lower::start(inputs, params, &exprs, options)?;
+        let mut outputs = Vec::with_capacity(3 * n);
+        for e in &exprs {
+            outputs.push(lower.lower(e, 0)?);
+        }
+        outputs.extend_from_within(n..2 * n);
         Ok(lower.finish(inputs, outputs, options.native))
     }
 
@@ -1250,8 +1281,11 @@ impl Lower {
             }
             num.push(self.lower(f, depth + 1)?);
         }
-        let neg = c < 0.0;
-        let c = c.abs();
+        // A constant factor other than ±1 is multiplied in anyway, so it carries the sign too
+        // (`−4 x` is one product, not a product and a negation; IEEE negation is exact, so the
+        // value is the same); a lone sign is left to the caller, whose subtraction absorbs it.
+        let neg = c == -1.0 && !num.is_empty();
+        let c = if neg { 1.0 } else { c };
         let mut acc: Option<u32> = None;
         for s in num {
             acc = Some(match acc {
