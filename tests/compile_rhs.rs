@@ -291,3 +291,24 @@ fn a_nearly_singular_constant_mass_matrix_keeps_its_pivot_test() {
     let err = rhs.try_eval(0.0, &[0.3, 0.4, 0.0, 0.0], &mut dy).unwrap_err();
     assert!(matches!(err, RhsError::SingularMassMatrix { .. }), "{err:?}");
 }
+
+#[test]
+fn keplers_accelerations_share_one_signed_reciprocal() {
+    // q'' = −μ q / r³ (μ = 1): the sign goes into the reciprocal −1/r³, shared by both
+    // accelerations, so the solve tape has one division, one root and no negation; its values
+    // are the hand-written ones to rounding.
+    let sys = compile_common::kepler();
+    let rhs = sys.compile();
+    let counts = rhs.solve_tape().unwrap().op_counts();
+    assert_eq!((counts.div, counts.sqrt, counts.neg), (1, 1, 0), "{counts:?}");
+    let mut rng = Rng(7);
+    for _ in 0..100 {
+        let y: Vec<f64> = (0..4).map(|_| rng.uniform(-2.0, 2.0)).collect();
+        let (mut a, mut b) = ([0.0; 4], [0.0; 4]);
+        rhs.eval(0.0, &y, &mut a);
+        (sys.hand)(0.0, &y, &mut b);
+        for i in 0..4 {
+            assert!((a[i] - b[i]).abs() <= 4.0 * f64::EPSILON * b[i].abs(), "{a:?} vs {b:?}");
+        }
+    }
+}

@@ -1261,12 +1261,32 @@ impl Lower {
 
     fn lower_mul(&mut self, fs: &[Expr], depth: usize) -> Result<(u32, bool), CompileError> {
         let mut c = 1.0;
-        let mut num = Vec::new();
-        let mut den = Vec::new();
         for f in fs {
             if self.constant_node(f) {
                 c *= self.fold(f)?;
+            }
+        }
+        // A lone sign in front of a negative half-integer power goes into its reciprocal:
+        // `−x r^(−3/2)` is `x · (−1/r^(3/2))`, and the signed reciprocal is shared like the
+        // plain one (Kepler's two accelerations need one division and no negation). IEEE
+        // negation is exact, so the value is the same.
+        let signed = if c == -1.0 { fs.iter().position(|f| negative_half_power(f).is_some()) } else { None };
+        if signed.is_some() {
+            c = 1.0;
+        }
+        let mut num = Vec::new();
+        let mut den = Vec::new();
+        for (i, f) in fs.iter().enumerate() {
+            if self.constant_node(f) {
                 continue;
+            }
+            if signed == Some(i) {
+                if let Some((b, k)) = negative_half_power(f) {
+                    let mag = self.half_power(b, -k, depth)?;
+                    let minus_one = self.constant(-1.0);
+                    num.push(self.emit(Key::Div(minus_one, mag)));
+                    continue;
+                }
             }
             // A negative integer power of a base divided by only here joins the denominator;
             // a base divided by in several places gets one reciprocal, multiplied in.
@@ -1336,6 +1356,18 @@ impl Lower {
         self.emit(Key::Div(one, x))
     }
 
+    /// `b^(k/2)` for odd `k > 0`: `b^⌊k/2⌋ · √b`.
+    fn half_power(&mut self, b: &Expr, k: i64, depth: usize) -> Result<u32, CompileError> {
+        let bs = self.lower(b, depth + 1)?;
+        let root = self.emit(Key::Sqrt(bs));
+        Ok(if k / 2 == 0 {
+            root
+        } else {
+            let p = self.pow_chain(bs, k / 2);
+            self.emit(Key::Mul(p, root))
+        })
+    }
+
     fn lower_pow(&mut self, b: &Expr, x: &Expr, depth: usize) -> Result<u32, CompileError> {
         if let Some(k) = small_int(x) {
             let bs = self.lower(b, depth + 1)?;
@@ -1347,22 +1379,10 @@ impl Lower {
                 self.pow_chain(r, -k)
             });
         }
-        if let Some(r) = x.as_num() {
-            if *r.denom() == 2.into() {
-                if let Some(k) = r.numer().to_i64().filter(|k| k.abs() <= 2 * MAX_CHAIN_EXP) {
-                    // x^(k/2) = x^⌊|k|/2⌋ · √x, inverted for negative k.
-                    let bs = self.lower(b, depth + 1)?;
-                    let root = self.emit(Key::Sqrt(bs));
-                    let m = k.abs() / 2;
-                    let mag = if m == 0 {
-                        root
-                    } else {
-                        let p = self.pow_chain(bs, m);
-                        self.emit(Key::Mul(p, root))
-                    };
-                    return Ok(if k < 0 { self.recip(mag) } else { mag });
-                }
-            }
+        if let Some(k) = half_integer(x) {
+            // x^(k/2) = x^⌊|k|/2⌋ · √x, inverted for negative k.
+            let mag = self.half_power(b, k.abs(), depth)?;
+            return Ok(if k < 0 { self.recip(mag) } else { mag });
         }
         let bs = self.lower(b, depth + 1)?;
         let xs = self.lower(x, depth + 1)?;
@@ -1444,6 +1464,23 @@ fn input_difference(e: &Expr, inputs: &HashMap<String, u32>) -> Option<(Expr, Ex
         }
     }
     None
+}
+
+/// `k` when `x` is `k/2` for an odd `k` within the chain limit.
+fn half_integer(x: &Expr) -> Option<i64> {
+    let r = x.as_num()?;
+    if *r.denom() != 2.into() {
+        return None;
+    }
+    r.numer().to_i64().filter(|k| k.abs() <= 2 * MAX_CHAIN_EXP)
+}
+
+/// `(b, k)` when `f` is `b^(k/2)` with `k < 0` odd.
+fn negative_half_power(f: &Expr) -> Option<(&Expr, i64)> {
+    match f.node() {
+        Node::Pow(b, x) => half_integer(x).filter(|k| *k < 0).map(|k| (b, k)),
+        _ => None,
+    }
 }
 
 fn small_int(x: &Expr) -> Option<i64> {
