@@ -19,20 +19,9 @@ use lagrangian::expr::Expr;
 use lagrangian::mechanics::System;
 use lagrangian::Declarations;
 
-/// The n-link pendulum's Lagrangian text, coordinates and positive parameters.
-fn n_link(n: usize) -> (String, Vec<String>, Vec<String>) {
-    let mut terms = Vec::new();
-    for k in 1..=n {
-        let xs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i}) θ{i}'")).collect();
-        let ys: Vec<String> = (1..=k).map(|i| format!("l{i} sin(θ{i}) θ{i}'")).collect();
-        let hs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i})")).collect();
-        terms.push(format!("1/2 m{k} (({})^2 + ({})^2) + m{k} g ({})", xs.join(" + "), ys.join(" + "), hs.join(" + ")));
-    }
-    let coords = (1..=n).map(|i| format!("θ{i}")).collect();
-    let mut positive: Vec<String> = (1..=n).flat_map(|i| [format!("m{i}"), format!("l{i}")]).collect();
-    positive.push("g".into());
-    (terms.join(" + "), coords, positive)
-}
+#[path = "../tests/mechanics_support/n_link.rs"]
+mod n_link;
+use n_link::n_link;
 
 fn build(n: usize) -> System {
     let (l, coords, positive) = n_link(n);

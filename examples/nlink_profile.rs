@@ -3,22 +3,17 @@
 use lagrangian::mechanics::System;
 use lagrangian::Declarations;
 
+#[path = "../tests/mechanics_support/n_link.rs"]
+mod n_link;
+use n_link::n_link;
+
 fn main() {
     let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("number")).collect();
     let (n, reps) = (args.first().copied().unwrap_or(10), args.get(1).copied().unwrap_or(20));
-    let mut terms = Vec::new();
-    for k in 1..=n {
-        let xs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i}) θ{i}'")).collect();
-        let ys: Vec<String> = (1..=k).map(|i| format!("l{i} sin(θ{i}) θ{i}'")).collect();
-        let hs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i})")).collect();
-        terms.push(format!("1/2 m{k} (({})^2 + ({})^2) + m{k} g ({})", xs.join(" + "), ys.join(" + "), hs.join(" + ")));
-    }
-    let coords: Vec<String> = (1..=n).map(|i| format!("θ{i}")).collect();
+    let (l, coords, positive) = n_link(n);
     let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
-    let mut positive: Vec<String> = (1..=n).flat_map(|i| [format!("m{i}"), format!("l{i}")]).collect();
-    positive.push("g".into());
     let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
-    let s = System::from_lagrangian_with(&terms.join(" + "), &coords, &d).expect("valid");
+    let s = System::from_lagrangian_with(&l, &coords, &d).expect("valid");
     let t0 = std::time::Instant::now();
     let mut ops = 0;
     for _ in 0..reps {

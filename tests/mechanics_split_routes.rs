@@ -13,20 +13,12 @@ use lagrangian::expr::Expr;
 use lagrangian::mechanics::System;
 use mechanics_support::{random_env, system, value, Rng};
 
-/// The n-link pendulum as a user writes it: Cartesian bob velocities in the angles.
+/// The n-link pendulum as a user writes it (`mechanics_support::n_link`).
 fn n_link(n: usize) -> System {
-    let mut terms = Vec::new();
-    for k in 1..=n {
-        let xs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i}) θ{i}'")).collect();
-        let ys: Vec<String> = (1..=k).map(|i| format!("l{i} sin(θ{i}) θ{i}'")).collect();
-        let hs: Vec<String> = (1..=k).map(|i| format!("l{i} cos(θ{i})")).collect();
-        terms.push(format!("1/2 m{k} (({})^2 + ({})^2) + m{k} g ({})", xs.join(" + "), ys.join(" + "), hs.join(" + ")));
-    }
-    let coords: Vec<String> = (1..=n).map(|i| format!("θ{i}")).collect();
+    let (l, coords, positive) = mechanics_support::n_link::n_link(n);
     let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
-    let positive: Vec<String> = (1..=n).flat_map(|i| [format!("m{i}"), format!("l{i}")]).chain(["g".into()]).collect();
     let positive: Vec<&str> = positive.iter().map(String::as_str).collect();
-    system(&terms.join(" + "), &coords, &positive, &[])
+    system(&l, &coords, &positive, &[])
 }
 
 /// The raw left-hand sides `d/dt ∂L/∂q'_i − ∂L/∂q_i − Q_i + ∂R/∂q'_i`, untidied.

@@ -11,6 +11,8 @@ use lagrangian::expr::{Expr, Node, Symbol};
 use lagrangian::mechanics::System;
 use lagrangian::{parse_with, Declarations};
 
+pub mod n_link;
+
 /// A small deterministic generator (xorshift64*), so failures reproduce.
 pub struct Rng(u64);
 
