@@ -548,8 +548,16 @@ impl Tape {
 
     /// Evaluates the tape at `inputs` into `outputs` (natively, or on this thread's scratch
     /// buffer).
+    ///
+    /// # Panics
+    /// If `inputs` is shorter than [`Tape::n_inputs`] or `outputs` shorter than
+    /// [`Tape::n_outputs`] (a programming error, not a data one), on either back end.
     pub fn eval(&self, inputs: &[f64], outputs: &mut [f64]) {
         let ni = self.input_names.len();
+        assert!(
+            inputs.len() >= ni && outputs.len() >= self.outputs.len(),
+            "tape called with too few inputs or outputs"
+        );
         if self.native.is_some() {
             let last = if ni > 0 { inputs[ni - 1] } else { 0.0 };
             return self.eval_split(&inputs[..ni.saturating_sub(1)], last, outputs);
