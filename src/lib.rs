@@ -13,14 +13,14 @@
 //! From a Lagrangian to a trajectory (the README's five lines):
 //!
 //! ```
-//! use lagrangian::integrate::{Gauss, Integrate};
+//! use lagrangian::integrate::{Gauss6, Integrate};
 //! use lagrangian::mechanics::System;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let sys = System::from_lagrangian("1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", &["θ"])?
 //!     .with_params(&[("m", 1.0), ("l", 1.0), ("g", 9.81)])?;
 //! let equations = sys.euler_lagrange()?; // exact: l m (g sin(θ) + l θ'') = 0
 //! let rhs = sys.compile_rhs()?; // an allocation-free `integrate::Rhs`
-//! let trajectory = Gauss::gauss6(0.01).integrate(&rhs, 0.0..20.0, &[3.0, 0.0])?;
+//! let trajectory = Gauss6::new(0.01).integrate(&rhs, 0.0..20.0, &[3.0, 0.0])?;
 //! # assert_eq!(equations[0].to_string(), "l m (g sin(θ) + l θ'')");
 //! # assert!(trajectory.last_state().iter().all(|v| v.is_finite()));
 //! # Ok(())
