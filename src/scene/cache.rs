@@ -49,6 +49,14 @@ pub(super) struct CacheKey {
     pub(super) extra: String,
 }
 
+impl CacheKey {
+    /// The key of a symbolic derivation: it depends on its inputs and coordinates only (no
+    /// bound numbers, nothing extra).
+    pub(super) fn symbolic(step: Step, coords: &[Symbol], inputs: Vec<Expr>) -> CacheKey {
+        CacheKey { step, coords: coords.to_vec(), inputs, numbers: vec![], extra: String::new() }
+    }
+}
+
 /// A cached result.
 #[derive(Clone)]
 pub(super) enum Value {
@@ -277,7 +285,7 @@ mod tests {
     use super::*;
 
     fn key(inputs: Vec<Expr>) -> CacheKey {
-        CacheKey { step: Step::Legendre, coords: vec![Symbol::new("x")], inputs, numbers: vec![], extra: String::new() }
+        CacheKey::symbolic(Step::Legendre, &[Symbol::new("x")], inputs)
     }
 
     #[test]

@@ -14,7 +14,7 @@ use crate::expr::Symbol;
 impl Session {
     // ----- outputs -------------------------------------------------------------------------
 
-    pub(super) fn out_path(&self, path: Option<&Src>, default: &str) -> (PathBuf, Span) {
+    fn out_path(&self, path: Option<&Src>, default: &str) -> (PathBuf, Span) {
         match path {
             Some(p) => {
                 let pb = PathBuf::from(&p.text);
@@ -22,6 +22,29 @@ impl Session {
             }
             None => (self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span),
         }
+    }
+
+    /// The output file of a plot or an export, its span and its lower-case extension, which
+    /// must be one of `formats` (otherwise an error naming the file, with `hint`).
+    fn out_file(
+        &self,
+        path: Option<&Src>,
+        default: &str,
+        what: &str,
+        formats: &[&str],
+        hint: &str,
+    ) -> Result<(PathBuf, Span, String), SceneError> {
+        let (file, span) = self.out_path(path, default);
+        let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if !formats.contains(&ext.as_str()) {
+            return Err(SceneError::new(
+                ErrorKind::Io,
+                format!("cannot tell the {what} format of `{}`", file.display()),
+            )
+            .at(span)
+            .hint(hint));
+        }
+        Ok((file, span, ext))
     }
 
     pub(super) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
@@ -33,16 +56,13 @@ impl Session {
             PlotKind::Series(_) => "series",
             PlotKind::WorkPrecision(_) => "work_precision",
         };
-        let (path, pspan) = self.out_path(spec.path.as_ref(), default);
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        if ext != "svg" && ext != "png" {
-            return Err(SceneError::new(
-                ErrorKind::Io,
-                format!("cannot tell the image format of `{}`", path.display()),
-            )
-            .at(pspan)
-            .hint("plots are written as `.svg` or `.png`"));
-        }
+        let (path, pspan, _) = self.out_file(
+            spec.path.as_ref(),
+            default,
+            "image",
+            &["svg", "png"],
+            "plots are written as `.svg` or `.png`",
+        )?;
         let figure = self.figure(spec)?;
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         crate::plot::draw(&figure, &tmp).map_err(|e| {
@@ -291,16 +311,13 @@ impl Session {
     }
 
     pub(super) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
-        let (file, pspan) = self.out_path(Some(path), "export");
-        let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        if ext != "csv" && ext != "json" {
-            return Err(SceneError::new(
-                ErrorKind::Io,
-                format!("cannot tell the export format of `{}`", file.display()),
-            )
-            .at(pspan)
-            .hint("export to `.csv` (numbers along a run) or `.json`"));
-        }
+        let (file, pspan, ext) = self.out_file(
+            Some(path),
+            "export",
+            "export",
+            &["csv", "json"],
+            "export to `.csv` (numbers along a run) or `.json`",
+        )?;
         let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
         let text = if symbolic {
             if ext == "csv" {

@@ -766,8 +766,7 @@ impl Session {
         let sys = SystemRef { coords: &coords, decls: &decls };
         let what = format!("of {}", short(&args[0]));
         let step = deriv_step(kind);
-        let key =
-            CacheKey { step, coords: coords.clone(), inputs: args.clone(), numbers: vec![], extra: String::new() };
+        let key = CacheKey::symbolic(step, &coords, args.clone());
         let hamiltonian_input = is_h(&args[0]);
         if kind == DerivKind::Energy && hamiltonian_input {
             // The energy of a Hamiltonian system is `H` itself: nothing to derive.
@@ -823,13 +822,7 @@ impl Session {
     /// Canonical momenta `p_i = ∂L/∂q'_i` (plain derivatives; used to turn initial
     /// velocities into momenta and for plots).
     pub(super) fn momenta(&mut self, l: &Expr) -> Result<Vec<Expr>, SceneError> {
-        let key = CacheKey {
-            step: Step::Momenta,
-            coords: self.coords.clone(),
-            inputs: vec![l.clone()],
-            numbers: vec![],
-            extra: String::new(),
-        };
+        let key = CacheKey::symbolic(Step::Momenta, &self.coords, vec![l.clone()]);
         if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Momenta, &format!("of {}", short(l))) {
             return Ok(v);
         }
@@ -870,13 +863,7 @@ impl Session {
             inputs.push(e.clone());
         }
         inputs.extend(amps.iter().cloned().map(Expr::sym));
-        let key = CacheKey {
-            step: Step::Average,
-            coords: self.coords.clone(),
-            inputs,
-            numbers: vec![],
-            extra: String::new(),
-        };
+        let key = CacheKey::symbolic(Step::Average, &self.coords, inputs);
         let what = format!("of {}", short(&l));
         if let Some(Value::Lines(v)) = self.lookup(&key, Step::Average, &what) {
             return Ok(v);
@@ -925,13 +912,7 @@ impl Session {
         let new_p: Vec<Symbol> = new[n..].iter().map(|s| Symbol::new(&s.text)).collect();
         let mut inputs = vec![h.clone(), f_expr.clone()];
         inputs.extend(new_q.iter().chain(&new_p).cloned().map(Expr::sym));
-        let key = CacheKey {
-            step: Step::Transform,
-            coords: self.coords.clone(),
-            inputs,
-            numbers: vec![],
-            extra: kind.to_string(),
-        };
+        let key = CacheKey { extra: kind.to_string(), ..CacheKey::symbolic(Step::Transform, &self.coords, inputs) };
         let what = format!("by {kind} = {}", short(&f_expr));
         if let Some(Value::Lines(v)) = self.lookup(&key, Step::Transform, &what) {
             return Ok(v);

@@ -441,13 +441,7 @@ impl Session {
     /// compiles. When `H` is not separable, the first term that mixes coordinates and
     /// momenta is named in the error.
     pub(super) fn split(&mut self, h: &Expr, method: Method) -> Result<(Expr, Expr), SceneError> {
-        let key = CacheKey {
-            step: Step::Split,
-            coords: self.coords.clone(),
-            inputs: vec![h.clone()],
-            numbers: vec![],
-            extra: String::new(),
-        };
+        let key = CacheKey::symbolic(Step::Split, &self.coords, vec![h.clone()]);
         let what = format!("of {}", short(h));
         if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &what) {
             if let [t, v] = &v[..] {
