@@ -14,8 +14,12 @@
 //!    declared on symbols or implied by the node, exact constants), never a value that a
 //!    later merge could change.
 //! 3. **Extraction** by a cost that counts printed operations, with ties broken by the
-//!    canonical order, so the output is deterministic (see [`simplify_with`] for the one
-//!    exception, the wall-clock budget).
+//!    canonical order, so the output is deterministic.
+//!
+//! Every default budget is a count (e-nodes, iterations, expansion terms), never a time: the
+//! same input prints the same bytes on an idle laptop and on a loaded CI runner. A wall-clock
+//! guard exists only on request ([`Budget::with_time`]); when it binds, the result says so
+//! ([`Simplified::budget_limited`]) because it may then differ from run to run.
 //!
 //! Every result is checked by evaluation at a few fixed pseudo-random points against the
 //! input; a disagreement (which would be a bug) falls back to the input.
@@ -34,21 +38,25 @@ use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
 /// How much work one simplification may do. Running out is an outcome, not an error: the
 /// best form found so far is returned together with the [`StopReason`].
+///
+/// The limits that decide an output are counts, so the output depends only on the input.
+/// `time` is an opt-in guard for interactive callers who prefer an answer now to the same
+/// answer every time; it is off by default.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Budget {
     /// Largest number of e-nodes in the e-graph.
     pub nodes: usize,
     /// Largest number of rule-application rounds.
     pub iterations: usize,
-    /// Wall-clock limit for the e-graph run.
-    pub time: Duration,
+    /// Optional wall-clock guard for each e-graph run (`None`, the default: no clock at all).
+    pub time: Option<Duration>,
     /// Largest number of terms a candidate expansion may produce.
     pub expand_terms: usize,
 }
 
 impl Default for Budget {
     fn default() -> Budget {
-        Budget { nodes: 20_000, iterations: 12, time: Duration::from_secs(2), expand_terms: 2_000 }
+        Budget { nodes: 20_000, iterations: 12, time: None, expand_terms: 2_000 }
     }
 }
 
@@ -65,9 +73,10 @@ impl Budget {
         self
     }
 
-    /// Sets the wall-clock limit.
+    /// Turns on the wall-clock guard: each e-graph run stops after `time`. A result it cut
+    /// short is marked ([`Simplified::budget_limited`]) and may differ between runs.
     pub fn with_time(mut self, time: Duration) -> Budget {
-        self.time = time;
+        self.time = Some(time);
         self
     }
 
@@ -87,7 +96,7 @@ pub enum StopReason {
     IterationLimit,
     /// The e-node budget ran out.
     NodeLimit,
-    /// The wall-clock budget ran out.
+    /// The opt-in wall-clock guard ran out (never with the default budget).
     TimeLimit,
 }
 
@@ -107,8 +116,17 @@ impl fmt::Display for StopReason {
 pub struct Simplified {
     /// The cheapest equivalent form found.
     pub expr: Expr,
-    /// Why the search stopped (the last e-graph run's reason).
+    /// Why the search stopped: [`StopReason::TimeLimit`] if the wall-clock guard cut any
+    /// e-graph run short, otherwise the last run's reason.
     pub stop: StopReason,
+}
+
+impl Simplified {
+    /// True when the opt-in wall-clock guard decided this result: the same input may then
+    /// simplify differently on another run. Never true under a budget without `time`.
+    pub fn budget_limited(&self) -> bool {
+        self.stop == StopReason::TimeLimit
+    }
 }
 
 /// Simplifies `e` with the default [`Budget`].
@@ -118,17 +136,25 @@ pub fn simplify(e: &Expr) -> Expr {
 
 /// Simplifies `e` within `budget`.
 ///
-/// Deterministic: the same input gives the same output bytes, unless the wall-clock limit
-/// (`budget.time`, a safety net set well above what the node and iteration limits allow)
-/// is what stops the run.
+/// Deterministic: the same input gives the same output bytes whenever `budget.time` is
+/// `None` (the default). With the guard on, a result it cut short reports
+/// [`Simplified::budget_limited`].
 pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     if matches!(e.node(), Node::Num(_) | Node::Sym(_) | Node::Undefined) {
         return Simplified { expr: e.clone(), stop: StopReason::Saturated };
     }
+    let mut timed_out = false;
     // Arguments of declared functions are opaque to the e-graph; simplify them first.
     let e = e.map_bottom_up(&mut |x| match x.node() {
         Node::Apply { name, orders, args } => {
-            let args: Vec<Expr> = args.iter().map(|a| simplify_with(a, budget).expr).collect();
+            let args: Vec<Expr> = args
+                .iter()
+                .map(|a| {
+                    let inner = simplify_with(a, budget);
+                    timed_out |= inner.budget_limited();
+                    inner.expr
+                })
+                .collect();
             Some(Expr::apply(name, orders.clone(), args))
         }
         _ => None,
@@ -139,6 +165,7 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     for _ in 0..2 {
         let (found, why) = egraph_round(&best, budget);
         stop = why;
+        timed_out |= why == StopReason::TimeLimit;
         if cost(&found) < cost(&best) {
             best = found;
         } else {
@@ -147,6 +174,9 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     }
     if !same_values(&e, &best) {
         best = e;
+    }
+    if timed_out {
+        stop = StopReason::TimeLimit;
     }
     Simplified { expr: best, stop }
 }
@@ -585,7 +615,8 @@ fn egraph_round(e: &Expr, budget: &Budget) -> (Expr, StopReason) {
         .with_egraph(g)
         .with_node_limit(budget.nodes)
         .with_iter_limit(budget.iterations)
-        .with_time_limit(budget.time)
+        // egg's runner has a 5 s clock by default; without the opt-in guard it must never bind.
+        .with_time_limit(budget.time.unwrap_or(Duration::MAX))
         .run(rule_set());
     let stop = match runner.stop_reason {
         Some(egg::StopReason::IterationLimit(_)) => StopReason::IterationLimit,
@@ -645,6 +676,24 @@ mod tests {
         assert_eq!(out.stop, StopReason::Saturated);
         let tight = simplify_with(&e, &Budget::default().with_iterations(1).with_nodes(3));
         assert_ne!(tight.stop, StopReason::Saturated);
+        assert!(!tight.budget_limited(), "count limits are deterministic, not budget-limited");
+    }
+
+    /// The default budget has no clock; the opt-in guard, when it binds, marks the result,
+    /// and a result it cuts short is still an equivalent form (never a wrong one).
+    #[test]
+    fn the_time_guard_is_opt_in_and_marks_its_results() {
+        assert_eq!(Budget::default().time, None);
+        let e = parse("sin(x)^2 + cos(x)^2 + exp(log(exp(y)))").unwrap_or_else(|e| panic!("{e}"));
+        let out = simplify_with(&e, &Budget::default().with_time(Duration::ZERO));
+        assert_eq!(out.stop, StopReason::TimeLimit);
+        assert!(out.budget_limited());
+        assert!(same_values(&e, &out.expr), "{} is not equivalent to {e}", out.expr);
+        // Inside a declared function's argument too: the mark reaches the outer result.
+        let f = parse_with("V(sin(x)^2 + cos(x)^2) + y", &Declarations::new().with_functions(["V"]))
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(simplify_with(&f, &Budget::default().with_time(Duration::ZERO)).budget_limited());
+        assert!(!simplify_with(&f, &Budget::default()).budget_limited());
     }
 
     /// The Pythagorean identity among many unrelated terms, several arguments and scales.

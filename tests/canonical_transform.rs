@@ -52,18 +52,39 @@ fn value(rel: &[(Symbol, Expr)], name: &str) -> Expr {
     rel.iter().find(|(s, _)| s.name() == name).map(|(_, e)| e.clone()).expect("relation present")
 }
 
-/// The forward map (Q, P)(q, p) must have {Q, P} = 1 over the old variables.
-fn assert_forward_canonical(t: &GeneratedTransform, old: &PhaseSpace, q: &str, pm: &str) {
+/// The forward map (Q, P)(q, p) must satisfy every fundamental bracket over the old
+/// variables (PHYSICS.md §4.4): {Q_i, P_j} = δ_ij, {Q_i, Q_j} = {P_i, P_j} = 0.
+fn assert_forward_canonical(t: &GeneratedTransform, old: &PhaseSpace, new: &PhaseSpace) {
     let fwd = t.forward.as_ref().expect("forward map in closed form");
-    let b = poisson(&value(fwd, q), &value(fwd, pm), old);
-    assert!(decide_zero(&b.minus(&Expr::one())).is_zero(), "{{{q}, {pm}}} = {b}");
+    let names = |v: &[Symbol]| v.iter().map(|s| s.name().to_string()).collect::<Vec<_>>();
+    let (qs, ps) = (names(&new.coords), names(&new.momenta));
+    let mut checked = 0;
+    for (i, qi) in qs.iter().enumerate() {
+        for (j, pj) in ps.iter().enumerate() {
+            let b = poisson(&value(fwd, qi), &value(fwd, pj), old);
+            let expected = Expr::int(i64::from(i == j));
+            assert!(decide_zero(&b.minus(&expected)).is_zero(), "{{{qi}, {pj}}} = {b}, expected {expected}");
+            checked += 1;
+        }
+        for (a, b_name) in [(&qs, &qs), (&ps, &ps)] {
+            for other in &b_name[i + 1..] {
+                let b = poisson(&value(fwd, &a[i]), &value(fwd, other), old);
+                assert!(decide_zero(&b).is_zero(), "{{{}, {other}}} = {b}, expected 0", a[i]);
+                checked += 1;
+            }
+        }
+    }
+    // n² mixed brackets and n(n − 1) pure ones.
+    let n = qs.len();
+    assert_eq!(checked, n * n + n * (n - 1));
 }
 
 #[test]
 fn oscillator_action_angle_variables() {
     let old = ps(&["q"]);
-    let g = Generator::new(GeneratorKind::F1, p("1/2 m w q^2 cot(Q)"), old.clone(), new_ps(&["Q"], &["P"]))
-        .expect("valid generator");
+    let new = new_ps(&["Q"], &["P"]);
+    let g =
+        Generator::new(GeneratorKind::F1, p("1/2 m w q^2 cot(Q)"), old.clone(), new.clone()).expect("valid generator");
     let t = g.transform(Some(&p("p_q^2/(2 m) + 1/2 m w^2 q^2"))).expect("transform");
     // K = ω P exactly (PHYSICS.md §4).
     assert_eq!(t.hamiltonian.clone().expect("asked").expect("closed form"), p("w P"));
@@ -74,7 +95,7 @@ fn oscillator_action_angle_variables() {
     // Forward: P = H/ω (the action), tan Q = m ω q/p.
     let fwd = t.forward.as_ref().expect("forward");
     assert_eq!(decide_zero(&value(fwd, "P").minus(&p("(p_q^2/(2 m) + 1/2 m w^2 q^2)/w"))), ZeroCheck::Proven);
-    assert_forward_canonical(&t, &old, "Q", "P");
+    assert_forward_canonical(&t, &old, &new);
     // Second route: Newton on the implicit relation agrees with the closed-form inverse.
     let params: lagrangian::eval::Env = [("m".to_string(), 1.3), ("w".to_string(), 0.7)].into_iter().collect();
     let (qv, pv) = (0.6, 2.1);
@@ -106,13 +127,9 @@ fn adiabatic_oscillator_gains_the_sin_2q_term() {
 fn point_transformation_polar_to_cartesian() {
     // F2 = Σ f_i(q) P_i with Q = f(q): X = r cos φ, Y = r sin φ; then p = (∂f/∂q)ᵀ P.
     let old = ps(&["r", "φ"]);
-    let g = Generator::new(
-        GeneratorKind::F2,
-        p("P_X r cos(φ) + P_Y r sin(φ)"),
-        old.clone(),
-        new_ps(&["X", "Y"], &["P_X", "P_Y"]),
-    )
-    .expect("valid generator");
+    let new = new_ps(&["X", "Y"], &["P_X", "P_Y"]);
+    let g = Generator::new(GeneratorKind::F2, p("P_X r cos(φ) + P_Y r sin(φ)"), old.clone(), new.clone())
+        .expect("valid generator");
     let t = g.transform(Some(&p("p_r^2/(2 m) + p_φ^2/(2 m r^2)"))).expect("transform");
     let rel = &t.relations;
     assert_eq!(value(rel, "X"), p("r cos(φ)"));
@@ -126,6 +143,7 @@ fn point_transformation_polar_to_cartesian() {
     assert!(decide_zero(&value(inv, "r").powi(2).minus(&p("X^2 + Y^2"))).is_zero());
     assert!(decide_zero(&value(inv, "φ").minus(&p("atan(Y/X)"))).is_zero());
     assert!(t.branches.iter().any(|b| b.contains("atan")));
+    assert_forward_canonical(&t, &old, &new);
     snap("canonical_point_transformation", render(&t));
 }
 
@@ -133,14 +151,15 @@ fn point_transformation_polar_to_cartesian() {
 fn exchange_transformation() {
     // F1 = q Q gives Q = p, P = −q (PHYSICS.md §4).
     let old = ps(&["q"]);
-    let g = Generator::new(GeneratorKind::F1, p("q Q"), old.clone(), new_ps(&["Q"], &["P"])).expect("valid");
+    let new = new_ps(&["Q"], &["P"]);
+    let g = Generator::new(GeneratorKind::F1, p("q Q"), old.clone(), new.clone()).expect("valid");
     let t = g.transform(Some(&p("p_q^2/(2 m) + 1/2 m w^2 q^2"))).expect("transform");
     let fwd = t.forward.as_ref().expect("forward");
     assert_eq!(value(fwd, "Q"), p("p_q"));
     assert_eq!(value(fwd, "P"), p("-q"));
     // The oscillator swaps the roles of mass and stiffness.
     assert_eq!(t.hamiltonian.clone().expect("asked").expect("closed form"), p("Q^2/(2 m) + 1/2 m w^2 P^2"));
-    assert_forward_canonical(&t, &old, "Q", "P");
+    assert_forward_canonical(&t, &old, &new);
     snap("canonical_exchange", render(&t));
 }
 
@@ -149,12 +168,13 @@ fn rotating_frame() {
     // X = x cos Ωt + y sin Ωt, Y = −x sin Ωt + y cos Ωt from F2; K = H + ∂F2/∂t = H − Ω L_Z.
     let old = ps(&["x", "y"]);
     let f2 = p("P_X (x cos(Ω t) + y sin(Ω t)) + P_Y (-x sin(Ω t) + y cos(Ω t))");
-    let g = Generator::new(GeneratorKind::F2, f2, old.clone(), new_ps(&["X", "Y"], &["P_X", "P_Y"])).expect("valid");
+    let new = new_ps(&["X", "Y"], &["P_X", "P_Y"]);
+    let g = Generator::new(GeneratorKind::F2, f2, old.clone(), new.clone()).expect("valid");
     let t = g.transform(Some(&p("(p_x^2 + p_y^2)/(2 m) + V(x^2 + y^2)"))).expect("transform");
     let k = t.hamiltonian.clone().expect("asked").expect("closed form");
     let hand = p("(P_X^2 + P_Y^2)/(2 m) + V(X^2 + Y^2) - Ω (X P_Y - Y P_X)");
     assert_eq!(decide_zero(&k.minus(&hand)), ZeroCheck::Proven, "K = {k}");
-    assert_forward_canonical(&t, &old, "X", "P_X");
+    assert_forward_canonical(&t, &old, &new);
     snap("canonical_rotating_frame", render(&t));
 }
 

@@ -348,3 +348,33 @@ fn native_right_hand_sides_are_shared_across_threads() {
     tape.eval(&[0.1; 11], &mut out);
     assert!(out.iter().all(|v| v.is_finite()));
 }
+
+/// Tapes above 60,000 instructions stay interpreted (Cranelift's compile time grows faster
+/// than linearly with one huge block) and still give the right values; a tape of the same shape
+/// below the limit goes native. The outputs are `sin(x + k)` and `sin(x + k) y` for
+/// k = 1…n: two distinct instructions per output, plus a product.
+#[test]
+fn tapes_above_the_native_limit_fall_back_to_the_interpreter() {
+    let outputs = |n: i64| -> Vec<lagrangian::Expr> {
+        let (x, y) = (lagrangian::Expr::var("x"), lagrangian::Expr::var("y"));
+        (1..=n)
+            .flat_map(|k| {
+                let s = lagrangian::Expr::call(Func::Sin, vec![x.plus(&lagrangian::Expr::int(k))]);
+                [s.clone(), s.times(&y)]
+            })
+            .collect()
+    };
+    let big = Tape::compile_with_options(&outputs(21_000), &["x", "y"], &[], &native()).unwrap();
+    assert!(big.instrs().len() > 60_000, "only {} instructions: not above the limit", big.instrs().len());
+    assert!(!big.is_native(), "a tape of {} instructions was compiled natively", big.instrs().len());
+    let (xv, yv) = (0.3, -1.7);
+    let mut out = vec![0.0; big.n_outputs()];
+    big.eval(&[xv, yv], &mut out);
+    for k in [1usize, 7_777, 21_000] {
+        let s = (xv + k as f64).sin();
+        assert_eq!(out[2 * (k - 1)], s, "sin(x + {k})");
+        assert_eq!(out[2 * (k - 1) + 1], s * yv, "sin(x + {k}) y");
+    }
+    let small = Tape::compile_with_options(&outputs(100), &["x", "y"], &[], &native()).unwrap();
+    assert_eq!(small.is_native(), jit_expected());
+}

@@ -111,3 +111,35 @@ fn integrators_stop_with_the_reason_when_the_mass_matrix_becomes_singular() {
         assert!((a - b).abs() < 1e-12, "{:?} vs {:?}", got.last_state(), want.last_state());
     }
 }
+
+/// What the compiled right-hand sides do not handle is a typed `Unsupported` error naming the
+/// feature, not a panic and not a wrong right-hand side.
+#[test]
+fn unsupported_systems_are_refused_by_name() {
+    // A bead on a circle written with a holonomic constraint: W q'' = F alone would ignore it.
+    let constrained = System::from_lagrangian("1/2 m (x'^2 + y'^2) - m g y", &["x", "y"])
+        .unwrap()
+        .with_constraint("x^2 + y^2 = 1")
+        .unwrap()
+        .with_params(&[("m", 1.0), ("g", 9.81)])
+        .unwrap();
+    match constrained.compile_rhs().map(|_| ()) {
+        Err(CompileError::Unsupported { what }) => assert!(what.contains("constraint"), "{what}"),
+        other => panic!("a constrained system compiled to W q'' = F: {other:?}"),
+    }
+    // A Hamiltonian system has no W q'' = F and no Legendre map of a Lagrangian.
+    let h = System::from_hamiltonian("p_x^2/2 + x^2/2", &["x"]).unwrap();
+    for (route, result) in [
+        ("compile_rhs", h.compile_rhs().map(|_| ())),
+        ("compile_implicit_legendre", h.compile_implicit_legendre().map(|_| ())),
+    ] {
+        match result {
+            Err(e @ CompileError::Unsupported { .. }) => {
+                assert!(e.to_string().starts_with("compiling "), "{route}: {e}")
+            }
+            other => panic!("{route} of a Hamiltonian system: {other:?}"),
+        }
+    }
+    // The supported route for it still works.
+    assert!(h.compile_hamiltonian().is_ok());
+}

@@ -175,3 +175,27 @@ fn cli_prints_the_issue_examples() {
     ]);
     assert!(out.contains("L = m (r'^2 + r^2 φ'^2)/2"), "{out}");
 }
+
+/// Five coupled velocities: the closed-form inverse of W (adjugate over determinant) is refused
+/// with `TooLarge` beyond four, for the accelerations and for the Legendre transform alike,
+/// while four still work and the compiled route (numeric solve) handles five.
+#[test]
+fn closed_form_inverse_beyond_four_coupled_velocities_is_too_large() {
+    let coupled = |n: usize| {
+        let qs: Vec<String> = (1..=n).map(|i| format!("q{i}")).collect();
+        let sum: Vec<String> = qs.iter().map(|q| format!("{q}'")).collect();
+        let squares: Vec<String> = qs.iter().map(|q| format!("{q}'^2 - {q}^2")).collect();
+        // W = I + 1 1ᵀ: positive definite, every entry non-zero.
+        let l = format!("1/2 ({})^2 + 1/2 ({})", sum.join(" + "), squares.join(" + "));
+        let coords: Vec<&str> = qs.iter().map(String::as_str).collect();
+        lag(&l, &coords).unwrap()
+    };
+    let five = coupled(5);
+    let expected = MechanicsError::TooLarge { n: 5, limit: 4 };
+    assert_eq!(five.accelerations().unwrap_err(), expected);
+    assert_eq!(five.hamiltonian().unwrap_err(), expected);
+    assert!(expected.to_string().contains("beyond n = 4"), "{expected}");
+    assert!(coupled(4).accelerations().is_ok());
+    assert!(coupled(4).hamiltonian().is_ok());
+    assert!(five.compile_rhs().is_ok(), "the numeric solve of W q'' = F needs no closed-form inverse");
+}

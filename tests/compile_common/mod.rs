@@ -87,30 +87,33 @@ fn parse(s: &str) -> Expr {
 
 /// `L = ½ m x'² − ½ k x²`: `x'' = −(k/m) x`.
 pub fn oscillator() -> System {
-    let (m, k) = (1.3, 2.7);
+    const M: f64 = 1.3;
+    const K: f64 = 2.7;
     System {
         name: "harmonic oscillator",
         lagrangian: parse("1/2 m x'^2 - 1/2 k x^2"),
         coords: vec!["x".into()],
-        params: vec![("m", m), ("k", k)],
-        hand: Box::new(move |_t, y, dy| {
+        params: vec![("m", M), ("k", K)],
+        hand: Box::new(|_t, y, dy| {
             dy[0] = y[1];
-            dy[1] = -(k / m) * y[0];
+            dy[1] = -(K / M) * y[0];
         }),
     }
 }
 
 /// `L = ½ m l² θ'² + m g l cos θ` (PHYSICS.md 2.27): `θ'' = −(g/l) sin θ` (2.28).
 pub fn pendulum() -> System {
-    let (m, l, g) = (1.0, 1.5, 9.81);
+    const M: f64 = 1.0;
+    const L: f64 = 1.5;
+    const G: f64 = 9.81;
     System {
         name: "pendulum",
         lagrangian: parse("1/2 m l^2 θ'^2 + m g l cos(θ)"),
         coords: vec!["θ".into()],
-        params: vec![("m", m), ("l", l), ("g", g)],
-        hand: Box::new(move |_t, y, dy| {
+        params: vec![("m", M), ("l", L), ("g", G)],
+        hand: Box::new(|_t, y, dy| {
             dy[0] = y[1];
-            dy[1] = -(g / l) * y[0].sin();
+            dy[1] = -(G / L) * y[0].sin();
         }),
     }
 }
@@ -118,16 +121,16 @@ pub fn pendulum() -> System {
 /// Planar Kepler problem in Cartesian coordinates, `L = ½ (x'² + y'²) + μ / r`:
 /// `r'' = −μ r / |r|³`.
 pub fn kepler() -> System {
-    let mu = 1.0;
+    const MU: f64 = 1.0;
     System {
         name: "Kepler",
         lagrangian: parse("1/2 (x'^2 + y'^2) + mu / sqrt(x^2 + y^2)"),
         coords: vec!["x".into(), "y".into()],
-        params: vec![("mu", mu)],
-        hand: Box::new(move |_t, s, dy| {
+        params: vec![("mu", MU)],
+        hand: Box::new(|_t, s, dy| {
             let (x, y) = (s[0], s[1]);
             let r2 = x * x + y * y;
-            let k = -mu / (r2 * r2.sqrt());
+            let k = -MU / (r2 * r2.sqrt());
             dy[0] = s[2];
             dy[1] = s[3];
             dy[2] = k * x;
@@ -139,17 +142,18 @@ pub fn kepler() -> System {
 /// Kepler in polar coordinates, `L = ½ m (r'² + r² φ'²) + μ m / r` (2.33 with V = −μm/r):
 /// `r'' = r φ'² − μ/r²`, `φ'' = −2 r' φ' / r` (a position-dependent mass matrix).
 pub fn kepler_polar() -> System {
-    let (m, mu) = (2.0, 1.0);
+    const M: f64 = 2.0;
+    const MU: f64 = 1.0;
     System {
         name: "Kepler (polar)",
         lagrangian: parse("1/2 m (r'^2 + r^2 φ'^2) + mu m / r"),
         coords: vec!["r".into(), "φ".into()],
-        params: vec![("m", m), ("mu", mu)],
-        hand: Box::new(move |_t, s, dy| {
+        params: vec![("m", M), ("mu", MU)],
+        hand: Box::new(|_t, s, dy| {
             let (r, rd, pd) = (s[0], s[2], s[3]);
             dy[0] = rd;
             dy[1] = pd;
-            dy[2] = r * pd * pd - mu / (r * r);
+            dy[2] = r * pd * pd - MU / (r * r);
             dy[3] = -2.0 * rd * pd / r;
         }),
     }
@@ -160,7 +164,11 @@ pub fn kepler_polar() -> System {
 /// `F1 = −m2 l1 l2 s θ2'² − (m1+m2) g l1 sin θ1`, `F2 = m2 l1 l2 s θ1'² − m2 g l2 sin θ2`,
 /// `s = sin(θ1 − θ2)`; solved by Cramer's rule.
 pub fn double_pendulum() -> System {
-    let (m1, m2, l1, l2, g) = (1.0, 1.0, 1.0, 1.0, 9.81);
+    const M1: f64 = 1.0;
+    const M2: f64 = 1.0;
+    const L1: f64 = 1.0;
+    const L2: f64 = 1.0;
+    const G: f64 = 9.81;
     System {
         name: "double pendulum",
         lagrangian: parse(
@@ -168,15 +176,15 @@ pub fn double_pendulum() -> System {
              + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)",
         ),
         coords: vec!["θ1".into(), "θ2".into()],
-        params: vec![("m1", m1), ("m2", m2), ("l1", l1), ("l2", l2), ("g", g)],
-        hand: Box::new(move |_t, y, dy| {
+        params: vec![("m1", M1), ("m2", M2), ("l1", L1), ("l2", L2), ("g", G)],
+        hand: Box::new(|_t, y, dy| {
             let (a, b, ad, bd) = (y[0], y[1], y[2], y[3]);
             let (s, c) = (a - b).sin_cos();
-            let w11 = (m1 + m2) * l1 * l1;
-            let w12 = m2 * l1 * l2 * c;
-            let w22 = m2 * l2 * l2;
-            let f1 = -m2 * l1 * l2 * s * bd * bd - (m1 + m2) * g * l1 * a.sin();
-            let f2 = m2 * l1 * l2 * s * ad * ad - m2 * g * l2 * b.sin();
+            let w11 = (M1 + M2) * L1 * L1;
+            let w12 = M2 * L1 * L2 * c;
+            let w22 = M2 * L2 * L2;
+            let f1 = -M2 * L1 * L2 * s * bd * bd - (M1 + M2) * G * L1 * a.sin();
+            let f2 = M2 * L1 * L2 * s * ad * ad - M2 * G * L2 * b.sin();
             let det = w11 * w22 - w12 * w12;
             dy[0] = ad;
             dy[1] = bd;
@@ -190,9 +198,8 @@ pub fn double_pendulum() -> System {
 /// With `M_ij = n − max(i, j)` (masses at or below the lower of links `i`, `j`; 0-based):
 /// `L = ½ Σ_ij M_ij cos(θi − θj) θi' θj' + g Σ_i (n − i) cos θi`, and by hand
 /// `Σ_j M_ij cos(θi − θj) θj'' = −Σ_j M_ij sin(θi − θj) θj'² − g (n − i) sin θi`,
-/// solved by a hand-written Cholesky on a stack buffer (n ≤ 16).
+/// solved by a hand-written Cholesky ([`chain_hand`]).
 pub fn chain(n: usize) -> System {
-    let g = 9.81;
     let th: Vec<Expr> = (1..=n).map(|i| Expr::var(&format!("θ{i}"))).collect();
     let vel: Vec<Expr> = (1..=n).map(|i| Expr::sym(Symbol::new(&format!("θ{i}")).prime())).collect();
     let mut terms = Vec::new();
@@ -205,6 +212,12 @@ pub fn chain(n: usize) -> System {
         let cos = Expr::call(lagrangian::Func::Cos, vec![th[i].clone()]);
         terms.push(Expr::mul([Expr::var("g"), Expr::int((n - i) as i64), cos]));
     }
+    let hand: HandRhs = match n {
+        3 => Box::new(|_t, y, dy| chain_hand::<3>(y, dy)),
+        5 => Box::new(|_t, y, dy| chain_hand::<5>(y, dy)),
+        10 => Box::new(|_t, y, dy| chain_hand::<10>(y, dy)),
+        _ => panic!("chain({n}): add a chain_hand::<{n}> arm"),
+    };
     System {
         name: match n {
             5 => "5-link pendulum",
@@ -213,60 +226,71 @@ pub fn chain(n: usize) -> System {
         },
         lagrangian: Expr::add(terms),
         coords: (1..=n).map(|i| format!("θ{i}")).collect(),
-        params: vec![("g", g)],
-        hand: Box::new(move |_t, y, dy| {
-            const MAX: usize = 16;
-            let mut w = [[0.0f64; MAX]; MAX];
-            let mut f = [0.0f64; MAX];
-            let (mut s, mut c) = ([0.0f64; MAX], [0.0f64; MAX]);
-            for i in 0..n {
-                (s[i], c[i]) = y[i].sin_cos();
-            }
-            for i in 0..n {
-                let mut fi = -g * (n - i) as f64 * s[i];
-                for j in 0..n {
-                    let mij = (n - i.max(j)) as f64;
-                    // sin and cos of θi − θj from those of θi and θj.
-                    let sij = s[i] * c[j] - c[i] * s[j];
-                    let cij = c[i] * c[j] + s[i] * s[j];
-                    w[i][j] = mij * cij;
-                    fi -= mij * sij * y[n + j] * y[n + j];
-                }
-                f[i] = fi;
-            }
-            for j in 0..n {
-                let mut d = w[j][j];
-                for k in 0..j {
-                    d -= w[j][k] * w[j][k];
-                }
-                let l = d.sqrt();
-                w[j][j] = l;
-                for i in j + 1..n {
-                    let mut x = w[i][j];
-                    for k in 0..j {
-                        x -= w[i][k] * w[j][k];
-                    }
-                    w[i][j] = x / l;
-                }
-            }
-            for i in 0..n {
-                let mut v = f[i];
-                for k in 0..i {
-                    v -= w[i][k] * f[k];
-                }
-                f[i] = v / w[i][i];
-            }
-            for i in (0..n).rev() {
-                let mut v = f[i];
-                for k in i + 1..n {
-                    v -= w[k][i] * f[k];
-                }
-                f[i] = v / w[i][i];
-            }
-            dy[..n].copy_from_slice(&y[n..2 * n]);
-            dy[n..2 * n].copy_from_slice(&f[..n]);
-        }),
+        params: vec![("g", CHAIN_G)],
+        hand,
     }
+}
+
+const CHAIN_G: f64 = 9.81;
+
+/// The n-link chain's right-hand side by hand, the fair baseline: `N` and `g` are compile-time
+/// constants (masses and `g` fold into the code), nothing is allocated, and the buffers are
+/// exactly `N` long (the previous baseline zeroed a 16 × 16 array and looped to a run-time `n`
+/// on every call); only the lower triangle of `W` is formed, as the Cholesky solve reads only it.
+fn chain_hand<const N: usize>(y: &[f64], dy: &mut [f64]) {
+    let (y, dy) = (&y[..2 * N], &mut dy[..2 * N]);
+    let mut s = [0.0f64; N];
+    let mut c = [0.0f64; N];
+    for i in 0..N {
+        (s[i], c[i]) = y[i].sin_cos();
+    }
+    // Lower triangle of W (overwritten by its Cholesky factor) and F.
+    let mut w = [[0.0f64; N]; N];
+    let mut f = [0.0f64; N];
+    for i in 0..N {
+        let mut fi = -CHAIN_G * (N - i) as f64 * s[i];
+        for j in 0..N {
+            let mij = (N - i.max(j)) as f64;
+            // sin and cos of θi − θj from those of θi and θj.
+            let sij = s[i] * c[j] - c[i] * s[j];
+            if j <= i {
+                w[i][j] = mij * (c[i] * c[j] + s[i] * s[j]);
+            }
+            fi -= mij * sij * y[N + j] * y[N + j];
+        }
+        f[i] = fi;
+    }
+    for j in 0..N {
+        let mut d = w[j][j];
+        for k in 0..j {
+            d -= w[j][k] * w[j][k];
+        }
+        let l = d.sqrt();
+        w[j][j] = l;
+        for i in j + 1..N {
+            let mut x = w[i][j];
+            for k in 0..j {
+                x -= w[i][k] * w[j][k];
+            }
+            w[i][j] = x / l;
+        }
+    }
+    for i in 0..N {
+        let mut v = f[i];
+        for k in 0..i {
+            v -= w[i][k] * f[k];
+        }
+        f[i] = v / w[i][i];
+    }
+    for i in (0..N).rev() {
+        let mut v = f[i];
+        for k in i + 1..N {
+            v -= w[k][i] * f[k];
+        }
+        f[i] = v / w[i][i];
+    }
+    dy[..N].copy_from_slice(&y[N..]);
+    dy[N..].copy_from_slice(&f);
 }
 
 /// The benchmark systems, in the order of the tables.

@@ -75,15 +75,19 @@ pub fn concretize(e: &Expr) -> Expr {
     })
 }
 
-/// Random values in `[0.5, 1.5)` for every symbol, except `overrides`.
+/// Random values for every symbol, except `overrides`: symbols declared positive (masses,
+/// lengths, `g`) in `[0.5, 1.5)`; every other symbol — coordinates, velocities, momenta,
+/// parameters of either sign — in `[-1.5, 1.5)`, so a state has negative coordinates and
+/// coordinates near zero, and a sign error or a lost `|x|` shows.
 pub fn random_env(exprs: &[&Expr], rng: &mut Rng, overrides: &[(&str, f64)]) -> BTreeMap<String, f64> {
-    let mut syms: BTreeSet<String> = BTreeSet::new();
+    let mut syms: BTreeSet<Symbol> = BTreeSet::new();
     for e in exprs {
-        syms.extend(e.free_symbols().into_iter().map(|s| s.to_string()));
+        syms.extend(e.free_symbols());
     }
     let mut env = BTreeMap::new();
     for s in syms {
-        env.insert(s, rng.range(0.5, 1.5));
+        let v = if s.is_positive() { rng.range(0.5, 1.5) } else { rng.range(-1.5, 1.5) };
+        env.insert(s.to_string(), v);
     }
     for (k, v) in overrides {
         env.insert((*k).to_string(), *v);
