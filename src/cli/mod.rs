@@ -86,15 +86,27 @@ impl Common {
     }
 }
 
-/// The text of an expression argument; `-` reads standard input.
+/// The most standard input an expression argument reads: 64 MiB, far above any expression
+/// the engine handles in reasonable time (a sum of 10⁵ symbols is under 1 MB), and bounded so
+/// that `lagrangian simplify - < /dev/zero` is refused instead of exhausting memory.
+pub const MAX_STDIN_BYTES: u64 = 64 << 20;
+
+/// The text of an expression argument; `-` reads standard input (at most [`MAX_STDIN_BYTES`]).
 pub fn read_expr_arg(arg: &str) -> Result<String, Failure> {
     if arg != "-" {
         return Ok(arg.to_string());
     }
     let mut bytes = Vec::new();
     std::io::stdin()
+        .take(MAX_STDIN_BYTES + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| bad_input(format!("error: cannot read standard input: {e}")))?;
+    if bytes.len() as u64 > MAX_STDIN_BYTES {
+        return Err(bad_input(format!(
+            "error: standard input is longer than the limit of {} MB for an expression",
+            MAX_STDIN_BYTES >> 20
+        )));
+    }
     String::from_utf8(bytes).map_err(|e| {
         bad_input(format!(
             "error: standard input is not valid UTF-8 (invalid byte at offset {})",
@@ -127,7 +139,22 @@ pub fn emit(input: &str, result: &Expr, format: OutFormat) {
     }
 }
 
+/// Restores the default action of `SIGPIPE`. Rust ignores the signal, so a write to a pipe
+/// whose reader has gone (`lagrangian simplify … | head -c 1`) returns `EPIPE` and `println!`
+/// panics. With the default action the process ends at that write with status 141, as `cat`
+/// and `grep` do, before anything is half-printed; files are written whole before any
+/// message names them, so none is left half-written.
+fn default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with `SIG_DFL` installs no handler code; it is called once, at the
+    // start of `main`, before any thread is spawned.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 pub fn main() -> ExitCode {
+    default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
