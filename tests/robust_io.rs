@@ -103,7 +103,163 @@ fn the_piped_repl_ends_quietly_when_its_reader_closes_the_pipe() {
     assert_quiet_end(status, &stderr, "the REPL");
 }
 
-#[allow(dead_code)]
+/// Runs the binary with `args` in `dir` (stdin from `input`): (exit code, stdout, stderr).
+fn run_in(dir: &Path, args: &[&str], input: &[u8]) -> (Option<i32>, String, String) {
+    let mut child = bin()
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let data = input.to_vec();
+    let writer = std::thread::spawn(move || {
+        use std::io::Write;
+        let _ = stdin.write_all(&data);
+    });
+    let mut stdout = child.stdout.take().unwrap();
+    let out = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
+        s
+    });
+    let (status, err) = finish(child, &args.join(" "));
+    let _ = writer.join();
+    (status.code(), out.join().unwrap(), err)
+}
+
+#[cfg(unix)]
+#[test]
+fn reads_of_devices_are_bounded_and_name_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let start = Instant::now();
+    let (code, _, err) = run_in(dir.path(), &["run", "/dev/zero"], b"");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("`/dev/zero` is not a regular file and longer than the limit"), "{err}");
+    assert!(err.contains("limited to 4 MB"), "{err}");
+    std::fs::write(dir.path().join("s.scene"), "coordinates x\nload \"/dev/zero\"\n").unwrap();
+    let (code, _, err) = run_in(dir.path(), &["run", "s.scene"], b"");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("limited to 4 MB"), "{err}");
+    let (code, _, err) = run_in(dir.path(), &["run", "."], b"");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("it is a directory"), "{err}");
+    // Standard input: 64 MB + 1 byte of zeros is refused (one read of the limit, no more).
+    let (code, _, err) = run_in(dir.path(), &["simplify", "-"], &vec![b'0'; (64 << 20) + 1]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("standard input is longer than the limit of 64 MB"), "{err}");
+    assert!(start.elapsed() < Duration::from_secs(20), "{:?}", start.elapsed());
+}
+
+#[test]
+fn the_piped_repl_recovers_from_an_unclosed_parenthesis_at_a_blank_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, _) =
+        run_in(dir.path(), &[], b"coordinates x\nprint (x + 1\n\nprint 1 + 1\nprint sin(x)^2 + cos(x)^2\n");
+    assert_eq!(code, Some(0), "{out}");
+    // One error for the unfinished entry, then both later statements run.
+    assert!(out.contains("error") || out.contains("×"), "{out}");
+    let after: Vec<&str> = out.lines().skip_while(|l| !l.contains("print 1 + 1")).collect();
+    assert!(after.iter().any(|l| l.trim() == "2"), "{out}");
+    assert!(after.iter().any(|l| l.trim() == "sin(x)² + cos(x)²"), "{out}");
+}
+
+const SCENE: &str = "coordinates x\nH = p_x^2/2 + x^2/2\nsimulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1\n";
+
+/// Runs `scene` with `extra` arguments in a fresh directory holding `out/`.
+fn scene_in(scene: &str, extra: &[&str]) -> (tempfile::TempDir, Option<i32>, String, String) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    std::fs::write(dir.path().join("s.scene"), scene).unwrap();
+    let mut args = vec!["run", "s.scene", "--out-dir", "out"];
+    args.extend_from_slice(extra);
+    let (code, out, err) = run_in(dir.path(), &args, b"");
+    (dir, code, out, err)
+}
+
+#[test]
+fn outputs_stay_inside_the_output_directory_unless_allowed() {
+    let outside = tempfile::tempdir().unwrap();
+    let abs = outside.path().join("abs.csv");
+    for (path, piece) in [
+        ("../escape.csv".to_string(), "leaves the output directory"),
+        ("a/../../escape.csv".to_string(), "leaves the output directory"),
+        (abs.display().to_string(), "is an absolute path"),
+    ] {
+        // The escape is the second output: refused before the first is written or anything runs.
+        let scene = format!("{SCENE}export to fine.csv\nexport to \"{path}\"\n");
+        let (dir, code, out, err) = scene_in(&scene, &[]);
+        assert_eq!(code, Some(2), "{path}: {err}");
+        assert!(err.contains(piece) && err.contains("--allow-outside"), "{path}: {err}");
+        assert!(!out.contains("wrote"), "{out}");
+        assert_eq!(files_in(&dir.path().join("out")), Vec::<String>::new());
+        assert_eq!(files_in(dir.path()), ["out", "s.scene"]);
+        assert!(!abs.exists());
+    }
+    // With --allow-outside both are written.
+    let scene = format!("{SCENE}export to \"../escape.csv\"\nexport to \"{}\"\n", abs.display());
+    let (dir, code, _, err) = scene_in(&scene, &["--allow-outside"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(dir.path().join("escape.csv").is_file() && abs.is_file());
+    // `sub/../x.csv` stays inside and is fine.
+    let (dir, code, _, err) = scene_in(&format!("{SCENE}export to \"sub/../x.csv\"\n"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(dir.path().join("out/x.csv").is_file());
+}
+
+#[cfg(unix)]
+#[test]
+fn a_symbolic_link_out_of_the_output_directory_is_refused() {
+    let outside = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    std::os::unix::fs::symlink(outside.path(), dir.path().join("out/link")).unwrap();
+    std::fs::write(dir.path().join("s.scene"), format!("{SCENE}export to \"link/x.csv\"\n")).unwrap();
+    let (code, _, err) = run_in(dir.path(), &["run", "s.scene", "--out-dir", "out"], b"");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("leads through a symbolic link"), "{err}");
+    assert_eq!(files_in(outside.path()), Vec::<String>::new());
+}
+
+#[test]
+fn two_outputs_to_one_path_are_an_error_before_anything_runs() {
+    let scene = format!("{SCENE}export to a.csv\nplot energy\nexport x to \"./a.csv\"\n");
+    let (dir, code, out, err) = scene_in(&scene, &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("two outputs write") && err.contains("a.csv"), "{err}");
+    assert!(!out.contains("wrote"), "{out}");
+    assert_eq!(files_in(&dir.path().join("out")), Vec::<String>::new());
+    // Two default-named plots of one kind collide too.
+    let (_, code, _, err) = scene_in(&format!("{SCENE}plot energy\nplot energy\n"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("s_energy.svg"), "{err}");
+}
+
+#[test]
+fn wrote_is_printed_only_for_files_that_exist() {
+    // The export succeeds, a later statement fails: nothing is written and nothing claims so.
+    let (dir, code, out, err) = scene_in(&format!("{SCENE}export to a.csv\nprint nosuch + 1\n"), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(!out.contains("wrote"), "{out}");
+    assert_eq!(files_in(&dir.path().join("out")), Vec::<String>::new());
+    // On success every announced file exists, and an existing file is replaced whole.
+    let (dir, code, out, err) = scene_in(&format!("{SCENE}export to a.csv\n"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    for line in out.lines().filter(|l| l.starts_with("wrote ")) {
+        assert!(dir.path().join(&line["wrote ".len()..]).is_file(), "{line}");
+    }
+    let first = std::fs::read_to_string(dir.path().join("out/a.csv")).unwrap();
+    std::fs::write(dir.path().join("s.scene"), format!("{SCENE}export x to a.csv\n")).unwrap();
+    let (code, _, err) = run_in(dir.path(), &["run", "s.scene", "--out-dir", "out"], b"");
+    assert_eq!(code, Some(0), "{err}");
+    let second = std::fs::read_to_string(dir.path().join("out/a.csv")).unwrap();
+    assert_ne!(first, second);
+    assert!(second.lines().next().is_some_and(|h| !h.contains("p_x")), "{second}");
+    assert_eq!(files_in(&dir.path().join("out")), ["a.csv"], "no temporary file left");
+}
+
 fn files_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> =
         std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
