@@ -442,6 +442,23 @@ impl Session {
                     }
                 }
             }
+            // inf and NaN would land in the file silently (NaN as `null` in JSON): refused,
+            // naming the column, the row and the time.
+            for (name, values) in &columns {
+                if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                    return Err(SceneError::new(
+                        ErrorKind::Numeric,
+                        format!(
+                            "column `{name}` is {} at t = {} (row {}): exported numbers must be finite",
+                            values[i],
+                            r.traj.t.get(i).copied().unwrap_or(f64::NAN),
+                            i + 1
+                        ),
+                    )
+                    .at(pspan)
+                    .hint("the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column"));
+                }
+            }
             if ext == "csv" {
                 let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
                 s.push('\n');
