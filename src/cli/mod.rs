@@ -42,10 +42,10 @@ pub struct Common {
     #[arg(long, value_enum, default_value_t = OutFormat::Plain)]
     pub format: OutFormat,
     /// Symbols known to be positive (masses, lengths, g).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = plain_name)]
     pub positive: Vec<String>,
     /// Names of declared, undefined functions (`V` so that `V(r)` is a call).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = plain_name)]
     pub functions: Vec<String>,
 }
 
@@ -67,6 +67,59 @@ impl OutFormat {
             OutFormat::Latex => Format::Latex,
         }
     }
+}
+
+/// A name in a comma-separated list (`--positive m,l`): a letter, then letters, digits or
+/// `_`. An empty entry (`m,,l`) or an expression (`1+2`) is an error, not silently ignored.
+pub fn plain_name(s: &str) -> Result<String, String> {
+    let s = s.trim();
+    if s.is_empty() {
+        return Err("an empty name in the list (two commas in a row, or a trailing comma?)".into());
+    }
+    let ok = s.chars().next().is_some_and(char::is_alphabetic) && s.chars().all(|c| c.is_alphanumeric() || c == '_');
+    if !ok {
+        return Err(format!("`{s}` is not a name (a letter, then letters, digits or `_`)"));
+    }
+    if let Some(msg) = lookalike(s) {
+        return Err(msg);
+    }
+    Ok(s.to_string())
+}
+
+/// A finite number (`--energy`): `nan` and `inf` are refused.
+pub fn finite_f64(s: &str) -> Result<f64, String> {
+    let x: f64 = s.trim().parse().map_err(|e| format!("`{s}` is not a number: {e}"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("`{s}` is not a finite number"))
+    }
+}
+
+/// The first character of `text` that only looks like the Latin or Greek letter a reader
+/// sees (Cyrillic `х`, full-width `ｘ`) or is a combining mark, as an error message with its
+/// position. Names are ASCII or Greek (README); a look-alike would make a second symbol that
+/// prints like the first, so `x + х` would not simplify and nothing would say why.
+pub fn lookalike(text: &str) -> Option<String> {
+    let (col, c) = text.chars().enumerate().find(|(_, c)| {
+        let u = u32::from(*c);
+        (0x0400..=0x052F).contains(&u) // Cyrillic and its supplement
+            || (0xFF01..=0xFF5E).contains(&u) // full-width ASCII
+            || (0x0300..=0x036F).contains(&u) // combining diacritical marks
+            || (0x1AB0..=0x1AFF).contains(&u)
+            || (0x1DC0..=0x1DFF).contains(&u)
+            || (0x20D0..=0x20FF).contains(&u)
+            || (0xFE20..=0xFE2F).contains(&u)
+    })?;
+    let u = u32::from(c);
+    let what = if (0x0400..=0x052F).contains(&u) {
+        "a Cyrillic letter"
+    } else if (0xFF01..=0xFF5E).contains(&u) {
+        "a full-width character"
+    } else {
+        "a combining mark"
+    };
+    Some(format!("`{c}` (U+{u:04X}, column {}) is {what} that looks like another; names are ASCII or Greek", col + 1))
 }
 
 /// A failure with its exit code.
@@ -107,23 +160,32 @@ pub fn read_expr_arg(arg: &str) -> Result<String, Failure> {
             MAX_STDIN_BYTES >> 20
         )));
     }
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         bad_input(format!(
             "error: standard input is not valid UTF-8 (invalid byte at offset {})",
             e.utf8_error().valid_up_to()
         ))
-    })
+    })?;
+    // A byte-order mark some editors write is not part of the expression.
+    Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text))
 }
 
 /// Reads and parses an expression argument.
 pub fn parse_arg(arg: &str, decls: &Declarations) -> Result<(String, Expr), Failure> {
     let text = read_expr_arg(arg)?;
+    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    if let Some(msg) = lookalike(&text) {
+        return Err(bad_input(format!("error: {msg}")));
+    }
     let e = parse_with(&text, decls).map_err(|e| bad_input(e.to_string()))?;
     Ok((text, e))
 }
 
 /// Parses a variable name (`θ`, `x'`, `p_x`).
 pub fn parse_var(text: &str, decls: &Declarations) -> Result<Symbol, Failure> {
+    if let Some(msg) = lookalike(text) {
+        return Err(bad_input(format!("error: {msg}")));
+    }
     let e = parse_with(text, decls).map_err(|e| bad_input(e.to_string()))?;
     e.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{text}` is not a variable")))
 }
@@ -153,6 +215,21 @@ fn default_sigpipe() {
     }
 }
 
+/// A message with control characters (a NUL byte from the input) shown as `\u{0}` instead of
+/// sent raw to the terminal; newlines, tabs and the escape sequences of coloured diagnostics
+/// stay.
+fn printable(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    for c in message.chars() {
+        if c.is_control() && !matches!(c, '\n' | '\t' | '\u{1b}') {
+            out.push_str(&format!("\\u{{{:x}}}", u32::from(c)));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 pub fn main() -> ExitCode {
     default_sigpipe();
     let cli = Cli::parse();
@@ -166,7 +243,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("{}", f.message);
+            eprintln!("{}", printable(&f.message));
             ExitCode::from(f.code)
         }
     }

@@ -1114,6 +1114,10 @@ pub fn read_scene(path: &Path) -> Result<String, SceneError> {
     if bytes.len() as u64 > MAX_SCENE_BYTES {
         return Err(too_large("not a regular file and longer than the limit".to_string()));
     }
+    // A byte-order mark some editors write is not part of the scene.
+    if bytes.starts_with("\u{feff}".as_bytes()) {
+        bytes.drain(..3);
+    }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();
