@@ -266,3 +266,33 @@ fn files_in(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+#[test]
+fn a_failed_simulate_in_the_repl_does_not_consume_its_run_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, _) = run_in(
+        dir.path(),
+        &[],
+        b"coordinates x\nH = p_x^2/2 + x^2/2\nsimulate x = 1, p_x = 0 for t in 0..0\n\
+          simulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1\n",
+    );
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("the time span is empty"), "{out}");
+    assert!(out.lines().any(|l| l.starts_with("run1: rk4")), "{out}");
+    assert!(!out.contains("run2"), "{out}");
+}
+
+#[test]
+fn numbers_that_underflow_or_overflow_f64_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    for (value, piece) in [("1e-400", "underflows to 0 in f64"), ("1e400", "overflows f64")] {
+        std::fs::write(
+            dir.path().join("s.scene"),
+            format!("coordinates x\nparameters m = {value}\nH = p_x^2/(2 m) + x^2/2\nsimulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1\nexport to a.csv\n"),
+        )
+        .unwrap();
+        let (code, _, err) = run_in(dir.path(), &["run", "s.scene"], b"");
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains(piece), "{value}: {err}");
+    }
+}

@@ -580,8 +580,24 @@ impl Session {
     /// The numeric value of an expression of numbers and parameters with values.
     pub(super) fn number(&self, e: &Expr, span: Span) -> Result<f64, SceneError> {
         let v = crate::eval::eval_with(e, &|s: &Symbol| self.params.get(s.name()).and_then(|p| p.value));
+        let exact_nonzero = e.as_num().is_some_and(|r| !num_traits::Zero::is_zero(r));
         match v {
+            Ok(x) if x == 0.0 && exact_nonzero => Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!(
+                    "`{}` underflows to 0 in f64 (the smallest positive f64 is about 4.9e-324)",
+                    crate::print::plain(e)
+                ),
+            )
+            .at(span)
+            .hint("rescale the units so the numbers stay within 1e-300..1e300")),
             Ok(x) if x.is_finite() => Ok(x),
+            Ok(_) if exact_nonzero => Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("`{}` overflows f64 (the largest f64 is about 1.8e308)", crate::print::plain(e)),
+            )
+            .at(span)
+            .hint("rescale the units so the numbers stay within 1e-300..1e300")),
             Ok(x) => Err(SceneError::new(ErrorKind::BadNumber, format!("the value is {x}")).at(span)),
             Err(crate::eval::EvalError::Unbound(name)) => {
                 Err(SceneError::new(ErrorKind::MissingValue, format!("`{name}` has no value"))

@@ -27,9 +27,17 @@ impl Session {
         };
         let id = self.runs.len();
         self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None });
-        self.run_names.insert(name, id);
+        let previous = self.run_names.insert(name.clone(), id);
         if self.opts.mode == Mode::Repl {
-            self.demand_run(id)?;
+            if let Err(e) = self.demand_run(id) {
+                // A run that failed is not a run: its name (or the run it replaced) is as before.
+                self.runs.pop();
+                match previous {
+                    Some(old) => self.run_names.insert(name, old),
+                    None => self.run_names.remove(&name),
+                };
+                return Err(e);
+            }
             let summary = self.run_summary(id);
             self.output.push(summary);
         }
