@@ -10,6 +10,37 @@ use num_traits::ToPrimitive;
 
 use crate::expr::{Expr, Node, Rational, Symbol};
 
+/// The real `q`-th root of `x` for odd `q`: negative for negative `x`, so that `(-8)^(1/3)`
+/// is `-2` numerically as it is symbolically (the simplifier takes real odd roots; `powf`
+/// would give NaN). `cbrt` for `q = 3`. Shared by this evaluator and the compiled tape (and
+/// its native code), so all three agree bit for bit.
+pub fn real_root(x: f64, q: u32) -> f64 {
+    match q {
+        1 => x,
+        3 => x.cbrt(),
+        _ => {
+            let r = x.abs().powf(1.0 / f64::from(q));
+            if x < 0.0 {
+                -r
+            } else {
+                r
+            }
+        }
+    }
+}
+
+/// `(p, q)` when the exponent `r = p/q` has an odd denominator `q > 1` and both fit the
+/// root-then-power evaluation (`|p| ≤ 64`, `q < 2³¹`), so that `x^r = (x^(1/q))^p` is real
+/// for negative `x`.
+pub(crate) fn odd_root_exponent(r: &Rational) -> Option<(i32, u32)> {
+    let q = r.denom().to_u32()?;
+    if q < 3 || q % 2 == 0 || q > i32::MAX as u32 {
+        return None;
+    }
+    let p = r.numer().to_i32().filter(|p| p.abs() <= 64)?;
+    Some((p, q))
+}
+
 /// Why an expression has no numeric value.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum EvalError {
@@ -89,6 +120,10 @@ fn eval_rec(
             match x.as_num() {
                 Some(r) if r.is_integer() && r.numer().bits() < 31 => bv.powi(r.to_integer().to_i32().unwrap_or(0)),
                 Some(r) if *r == Rational::new(1.into(), 2.into()) => bv.sqrt(),
+                Some(r) if bv < 0.0 => match odd_root_exponent(r) {
+                    Some((p, q)) => real_root(bv, q).powi(p),
+                    None => bv.powf(eval_rec(x, lookup, memo)?),
+                },
                 _ => bv.powf(eval_rec(x, lookup, memo)?),
             }
         }

@@ -146,3 +146,33 @@ fn inputs_that_would_make_the_algebra_tools_work_hard_are_answered() {
         assert_eq!(out.stdout.trim(), answer, "{input}");
     }
 }
+
+#[test]
+fn issue_16_unclear_errors_are_clear() {
+    // A byte-order mark is not part of the expression: `x + 1` reads as written.
+    let out = run(&["simplify", "\u{feff}x + 1"], None);
+    assert_eq!((out.code, out.stdout.trim()), (Some(0), "x + 1"), "{}", out.stderr);
+    let out = run(&["simplify", "-"], Some("\u{feff}x + x".as_bytes()));
+    assert_eq!((out.code, out.stdout.trim()), (Some(0), "2 x"), "{}", out.stderr);
+    // A NUL (or any control character) is shown escaped, never sent raw to the terminal.
+    let out = run(&["simplify", "x\u{1} + 1"], None);
+    assert_eq!(out.code, Some(2), "{}", out.stderr);
+    assert!(out.stderr.contains("\\u{1}") && !out.stderr.contains('\u{1}'), "{:?}", out.stderr);
+    // Look-alike letters: Cyrillic, full-width, combining marks.
+    check_bad(&["simplify", "x + \u{445}"], None, &["`х` (U+0445, column 5) is a Cyrillic letter", "ASCII or Greek"]);
+    check_bad(&["simplify", "\u{ff58} + 1"], None, &["U+FF58", "full-width"]);
+    check_bad(&["simplify", "x\u{301} + 1"], None, &["U+0301", "combining mark"]);
+    check_bad(&["diff", "x^2", "\u{445}"], None, &["Cyrillic"]);
+    // Lists of names: an empty entry or an expression is an error, not ignored.
+    check_bad(&["simplify", "x + y", "--positive", "x,,y"], None, &["an empty name in the list"]);
+    check_bad(&["simplify", "x + y", "--positive", "x,1+2"], None, &["`1+2` is not a name"]);
+    check_bad(&["simplify", "x + y", "--functions", "V,"], None, &["an empty name in the list"]);
+    // Energies must be finite numbers.
+    for e in ["nan", "inf", "1,-inf"] {
+        check_bad(
+            &["action", "--hamiltonian", "p^2/2 + q^2/2", "--coord", "q", "--momentum", "p", "--energy", e],
+            None,
+            &["is not a finite number"],
+        );
+    }
+}

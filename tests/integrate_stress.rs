@@ -358,8 +358,12 @@ fn invalid_input_and_step_budget() {
     let e =
         ExplicitRk::rk4(0.01).integrate_with(&sys, 0.0..1.0, &[1.0, 0.0], Options::new().max_steps(10)).unwrap_err();
     assert_eq!(e.reason, FailureReason::StepLimit { max_steps: 10 });
-    assert_eq!(e.steps, 10);
-    assert!((e.t - 0.1).abs() < 1e-12 && e.state.iter().all(|v| v.is_finite()));
+    // A fixed-step run knows it needs 100 steps: refused before the first one, at the start.
+    assert_eq!((e.steps, e.t, e.state.as_slice()), (0, 0.0, &[1.0, 0.0][..]));
+    let e = ExplicitRk::rk4(0.01)
+        .integrate_with(&sys, 0.0..1.0, &[1.0, 0.0], Options::new().max_steps(100))
+        .map(|tr| tr.stats.steps);
+    assert_eq!(e, Ok(100), "exactly the budget is enough");
     // A zero-length span returns the initial state.
     let tr = ExplicitRk::rk4(0.01).integrate(&sys, 1.0..1.0, &[1.0, 0.0]).unwrap();
     assert_eq!(tr.len(), 1);

@@ -106,7 +106,7 @@ pub enum CanonicalCommand {
         #[arg(long)]
         momentum: Option<String>,
         /// Energies, comma-separated.
-        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true, value_parser = super::finite_f64)]
         energy: Vec<f64>,
         /// Parameter values, `m=1,g=9.81`.
         #[arg(long, value_delimiter = ',')]

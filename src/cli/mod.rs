@@ -42,10 +42,10 @@ pub struct Common {
     #[arg(long, value_enum, default_value_t = OutFormat::Plain)]
     pub format: OutFormat,
     /// Symbols known to be positive (masses, lengths, g).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = plain_name)]
     pub positive: Vec<String>,
     /// Names of declared, undefined functions (`V` so that `V(r)` is a call).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = plain_name)]
     pub functions: Vec<String>,
 }
 
@@ -69,6 +69,59 @@ impl OutFormat {
     }
 }
 
+/// A name in a comma-separated list (`--positive m,l`): a letter, then letters, digits or
+/// `_`. An empty entry (`m,,l`) or an expression (`1+2`) is an error, not silently ignored.
+pub fn plain_name(s: &str) -> Result<String, String> {
+    let s = s.trim();
+    if s.is_empty() {
+        return Err("an empty name in the list (two commas in a row, or a trailing comma?)".into());
+    }
+    let ok = s.chars().next().is_some_and(char::is_alphabetic) && s.chars().all(|c| c.is_alphanumeric() || c == '_');
+    if !ok {
+        return Err(format!("`{s}` is not a name (a letter, then letters, digits or `_`)"));
+    }
+    if let Some(msg) = lookalike(s) {
+        return Err(msg);
+    }
+    Ok(s.to_string())
+}
+
+/// A finite number (`--energy`): `nan` and `inf` are refused.
+pub fn finite_f64(s: &str) -> Result<f64, String> {
+    let x: f64 = s.trim().parse().map_err(|e| format!("`{s}` is not a number: {e}"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("`{s}` is not a finite number"))
+    }
+}
+
+/// The first character of `text` that only looks like the Latin or Greek letter a reader
+/// sees (Cyrillic `х`, full-width `ｘ`) or is a combining mark, as an error message with its
+/// position. Names are ASCII or Greek (README); a look-alike would make a second symbol that
+/// prints like the first, so `x + х` would not simplify and nothing would say why.
+pub fn lookalike(text: &str) -> Option<String> {
+    let (col, c) = text.chars().enumerate().find(|(_, c)| {
+        let u = u32::from(*c);
+        (0x0400..=0x052F).contains(&u) // Cyrillic and its supplement
+            || (0xFF01..=0xFF5E).contains(&u) // full-width ASCII
+            || (0x0300..=0x036F).contains(&u) // combining diacritical marks
+            || (0x1AB0..=0x1AFF).contains(&u)
+            || (0x1DC0..=0x1DFF).contains(&u)
+            || (0x20D0..=0x20FF).contains(&u)
+            || (0xFE20..=0xFE2F).contains(&u)
+    })?;
+    let u = u32::from(c);
+    let what = if (0x0400..=0x052F).contains(&u) {
+        "a Cyrillic letter"
+    } else if (0xFF01..=0xFF5E).contains(&u) {
+        "a full-width character"
+    } else {
+        "a combining mark"
+    };
+    Some(format!("`{c}` (U+{u:04X}, column {}) is {what} that looks like another; names are ASCII or Greek", col + 1))
+}
+
 /// A failure with its exit code.
 pub struct Failure {
     pub code: u8,
@@ -86,32 +139,53 @@ impl Common {
     }
 }
 
-/// The text of an expression argument; `-` reads standard input.
+/// The most standard input an expression argument reads: 64 MiB, far above any expression
+/// the engine handles in reasonable time (a sum of 10⁵ symbols is under 1 MB), and bounded so
+/// that `lagrangian simplify - < /dev/zero` is refused instead of exhausting memory.
+pub const MAX_STDIN_BYTES: u64 = 64 << 20;
+
+/// The text of an expression argument; `-` reads standard input (at most [`MAX_STDIN_BYTES`]).
 pub fn read_expr_arg(arg: &str) -> Result<String, Failure> {
     if arg != "-" {
         return Ok(arg.to_string());
     }
     let mut bytes = Vec::new();
     std::io::stdin()
+        .take(MAX_STDIN_BYTES + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| bad_input(format!("error: cannot read standard input: {e}")))?;
-    String::from_utf8(bytes).map_err(|e| {
+    if bytes.len() as u64 > MAX_STDIN_BYTES {
+        return Err(bad_input(format!(
+            "error: standard input is longer than the limit of {} MB for an expression",
+            MAX_STDIN_BYTES >> 20
+        )));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
         bad_input(format!(
             "error: standard input is not valid UTF-8 (invalid byte at offset {})",
             e.utf8_error().valid_up_to()
         ))
-    })
+    })?;
+    // A byte-order mark some editors write is not part of the expression.
+    Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text))
 }
 
 /// Reads and parses an expression argument.
 pub fn parse_arg(arg: &str, decls: &Declarations) -> Result<(String, Expr), Failure> {
     let text = read_expr_arg(arg)?;
+    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    if let Some(msg) = lookalike(&text) {
+        return Err(bad_input(format!("error: {msg}")));
+    }
     let e = parse_with(&text, decls).map_err(|e| bad_input(e.to_string()))?;
     Ok((text, e))
 }
 
 /// Parses a variable name (`θ`, `x'`, `p_x`).
 pub fn parse_var(text: &str, decls: &Declarations) -> Result<Symbol, Failure> {
+    if let Some(msg) = lookalike(text) {
+        return Err(bad_input(format!("error: {msg}")));
+    }
     let e = parse_with(text, decls).map_err(|e| bad_input(e.to_string()))?;
     e.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{text}` is not a variable")))
 }
@@ -127,7 +201,37 @@ pub fn emit(input: &str, result: &Expr, format: OutFormat) {
     }
 }
 
+/// Restores the default action of `SIGPIPE`. Rust ignores the signal, so a write to a pipe
+/// whose reader has gone (`lagrangian simplify … | head -c 1`) returns `EPIPE` and `println!`
+/// panics. With the default action the process ends at that write with status 141, as `cat`
+/// and `grep` do, before anything is half-printed; files are written whole before any
+/// message names them, so none is left half-written.
+fn default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with `SIG_DFL` installs no handler code; it is called once, at the
+    // start of `main`, before any thread is spawned.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// A message with control characters (a NUL byte from the input) shown as `\u{0}` instead of
+/// sent raw to the terminal; newlines, tabs and the escape sequences of coloured diagnostics
+/// stay.
+fn printable(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    for c in message.chars() {
+        if c.is_control() && !matches!(c, '\n' | '\t' | '\u{1b}') {
+            out.push_str(&format!("\\u{{{:x}}}", u32::from(c)));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 pub fn main() -> ExitCode {
+    default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
@@ -139,7 +243,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("{}", f.message);
+            eprintln!("{}", printable(&f.message));
             ExitCode::from(f.code)
         }
     }

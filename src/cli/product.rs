@@ -21,6 +21,9 @@ pub enum ProductCommand {
         /// Directory for output files with relative names (default: the current directory).
         #[arg(long)]
         out_dir: Option<PathBuf>,
+        /// Let the scene write outside the output directory (absolute paths, `..`, links).
+        #[arg(long)]
+        allow_outside: bool,
         #[command(flatten)]
         cache: CacheArgs,
     },
@@ -67,7 +70,7 @@ fn report(e: &SceneError) -> Failure {
 
 pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
     match cmd {
-        ProductCommand::Run { scene, explain, out_dir, cache } => {
+        ProductCommand::Run { scene, explain, out_dir, allow_outside, cache } => {
             let text = read_scene(&scene).map_err(|e| report(&e))?;
             let mut opts = Options::new(Mode::Scene);
             opts.stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
@@ -75,6 +78,7 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             if let Some(d) = out_dir {
                 opts.out_dir = d;
             }
+            opts.allow_outside = allow_outside;
             opts.progress = lagrangian::scene::progress::Draw::from_env();
             let mut session = Session::new(opts).with_cache(cache.cache());
             let result = session.run_scene(&scene.display().to_string(), &text);

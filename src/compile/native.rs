@@ -336,6 +336,12 @@ impl<'a, 'b> Emitter<'a, 'b> {
                     let v = self.call(powf as *const () as usize, &[x, y]);
                     self.set(d, v);
                 }
+                Instr::Root { d, a, q } => {
+                    let x = self.get(a)?;
+                    let qv = self.b.ins().f64const(f64::from(q));
+                    let v = self.call(real_root as *const () as usize, &[x, qv]);
+                    self.set(d, v);
+                }
                 Instr::SinCos { s, c, a } => {
                     let x = self.get(a)?;
                     let pair = *pair.get_or_insert_with(|| {
@@ -468,6 +474,11 @@ extern "C" fn atan2(a: f64, b: f64) -> f64 {
 
 extern "C" fn powf(a: f64, b: f64) -> f64 {
     a.powf(b)
+}
+
+/// The real odd root, with `q` passed as an exact small integer in an `f64`.
+extern "C" fn real_root(a: f64, q: f64) -> f64 {
+    crate::eval::real_root(a, q as u32)
 }
 
 /// `out[0] = sin x`, `out[1] = cos x`.

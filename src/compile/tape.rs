@@ -57,6 +57,9 @@ pub enum Instr {
     Atan2 { d: u32, a: u32, b: u32 },
     /// `d = a ^ b` for a non-integer, non-half-integer exponent.
     Powf { d: u32, a: u32, b: u32 },
+    /// `d` = the real `q`-th root of `a`, `q` odd ([`crate::eval::real_root`]): negative for
+    /// negative `a`, so `x^(p/q)` is real where the simplifier says it is.
+    Root { d: u32, a: u32, q: u32 },
 }
 
 impl Instr {
@@ -71,7 +74,8 @@ impl Instr {
             | Instr::Sqrt { d, .. }
             | Instr::Call { d, .. }
             | Instr::Atan2 { d, .. }
-            | Instr::Powf { d, .. } => [Some(d), None],
+            | Instr::Powf { d, .. }
+            | Instr::Root { d, .. } => [Some(d), None],
         }
     }
 
@@ -83,9 +87,11 @@ impl Instr {
             | Instr::Div { a, b, .. }
             | Instr::Atan2 { a, b, .. }
             | Instr::Powf { a, b, .. } => [Some(a), Some(b)],
-            Instr::Neg { a, .. } | Instr::Sqrt { a, .. } | Instr::SinCos { a, .. } | Instr::Call { a, .. } => {
-                [Some(a), None]
-            }
+            Instr::Neg { a, .. }
+            | Instr::Sqrt { a, .. }
+            | Instr::SinCos { a, .. }
+            | Instr::Call { a, .. }
+            | Instr::Root { a, .. } => [Some(a), None],
         }
     }
 
@@ -103,7 +109,7 @@ impl Instr {
                 *b = src(*b);
                 *d = dst(*d);
             }
-            Instr::Neg { d, a } | Instr::Sqrt { d, a } | Instr::Call { d, a, .. } => {
+            Instr::Neg { d, a } | Instr::Sqrt { d, a } | Instr::Call { d, a, .. } | Instr::Root { d, a, .. } => {
                 *a = src(*a);
                 *d = dst(*d);
             }
@@ -422,7 +428,7 @@ impl Tape {
                 Instr::Sqrt { .. } => c.sqrt += 1,
                 Instr::SinCos { .. } => c.sin_cos += 1,
                 Instr::Call { .. } | Instr::Atan2 { .. } => c.call += 1,
-                Instr::Powf { .. } => c.powf += 1,
+                Instr::Powf { .. } | Instr::Root { .. } => c.powf += 1,
             }
         }
         c
@@ -770,6 +776,7 @@ fn run(instrs: &[Instr], s: &mut [f64], n_slots: usize) {
             Instr::Call { d, f, a } => set(d, f.eval(&[get(a)])),
             Instr::Atan2 { d, a, b } => set(d, get(a).atan2(get(b))),
             Instr::Powf { d, a, b } => set(d, get(a).powf(get(b))),
+            Instr::Root { d, a, q } => set(d, crate::eval::real_root(get(a), q)),
         }
     }
 }
@@ -815,6 +822,7 @@ fn run_lanes(instrs: &[Instr], s: &mut [f64]) {
             Instr::Call { d, f, a } => un(s, d, a, |x| f.eval(&[x])),
             Instr::Atan2 { d, a, b } => bin(s, d, a, b, f64::atan2),
             Instr::Powf { d, a, b } => bin(s, d, a, b, f64::powf),
+            Instr::Root { d, a, q } => un(s, d, a, |x| crate::eval::real_root(x, q)),
         }
     }
 }
@@ -842,6 +850,7 @@ impl fmt::Display for Tape {
                 Instr::Call { d, f: func, a } => writeln!(f, "s{d} = {}(s{a})", func.name())?,
                 Instr::Atan2 { d, a, b } => writeln!(f, "s{d} = atan2(s{a}, s{b})")?,
                 Instr::Powf { d, a, b } => writeln!(f, "s{d} = s{a} ^ s{b}")?,
+                Instr::Root { d, a, q } => writeln!(f, "s{d} = root{q}(s{a})")?,
             }
         }
         for (j, o) in self.outputs.iter().enumerate() {
@@ -864,6 +873,7 @@ enum Key {
     Call(Func, u32),
     Atan2(u32, u32),
     Powf(u32, u32),
+    Root(u32, u32),
 }
 
 struct Lower {
@@ -1044,6 +1054,7 @@ impl Lower {
             Key::Call(f, a) => Instr::Call { d, f, a },
             Key::Atan2(a, b) => Instr::Atan2 { d, a, b },
             Key::Powf(a, b) => Instr::Powf { d, a, b },
+            Key::Root(a, q) => Instr::Root { d, a, q },
         };
         self.instrs.push(ins);
         self.values.insert(key, d);
@@ -1096,6 +1107,7 @@ impl Lower {
             Key::Call(f, a) => c(a).map(|x| f.eval(&[x])),
             Key::Atan2(a, b) => c(a).zip(c(b)).map(|(x, y)| x.atan2(y)),
             Key::Powf(a, b) => c(a).zip(c(b)).map(|(x, y)| x.powf(y)),
+            Key::Root(a, q) => c(a).map(|x| crate::eval::real_root(x, q)),
         }?;
         Some(self.constant(folded))
     }
@@ -1391,6 +1403,19 @@ impl Lower {
             // x^(k/2) = x^⌊|k|/2⌋ · √x, inverted for negative k.
             let mag = self.half_power(b, k.abs(), depth)?;
             return Ok(if k < 0 { self.recip(mag) } else { mag });
+        }
+        if let Some((p, q)) = x.as_num().and_then(crate::eval::odd_root_exponent) {
+            // x^(p/q) with q odd: the real root, then an integer power (real for x < 0, as
+            // the simplifier and the reference evaluator have it).
+            let bs = self.lower(b, depth + 1)?;
+            let root = self.emit(Key::Root(bs, q));
+            let p = i64::from(p);
+            return Ok(if p > 0 {
+                self.pow_chain(root, p)
+            } else {
+                let r = self.recip(root);
+                self.pow_chain(r, -p)
+            });
         }
         let bs = self.lower(b, depth + 1)?;
         let xs = self.lower(x, depth + 1)?;

@@ -24,6 +24,14 @@ pub struct Dop853 {
 }
 
 impl Dop853 {
+    /// The smallest relative tolerance DOP853 accepts: ten units of rounding, the floor of
+    /// Hairer's `dop853.f` (it stops with "tolerances are too small" when `rtol ≤ 10·uround`).
+    /// Below it the error
+    /// estimate is rounding noise, steps shrink until they are accepted by chance, and a run
+    /// of unit length takes ~10⁹ steps: the "hang" of issue 13. Smaller values are refused
+    /// (not raised silently), so what was asked is never quietly changed.
+    pub const MIN_RTOL: f64 = 10.0 * f64::EPSILON;
+
     /// DOP853 with the given tolerances.
     pub fn new(rtol: f64, atol: f64) -> Self {
         Dop853 { rtol, atol, h_max: None, h0: None, compensated: false }
@@ -160,6 +168,32 @@ impl<S: Rhs + ?Sized> Method<S> for Dop853 {
 
     fn fixed_step(&self) -> Option<f64> {
         None
+    }
+
+    fn check(&self) -> Result<(), String> {
+        // `atol > 0` as in `dop853.f`: with `atol = 0` a component passing through zero has a
+        // zero error scale, and 0/0 makes every trial step fail.
+        if !(self.rtol.is_finite() && self.atol.is_finite() && self.atol > 0.0) {
+            return Err(format!(
+                "tolerances must be finite, with atol positive; found rtol = {}, atol = {}",
+                self.rtol, self.atol
+            ));
+        }
+        if self.rtol < Self::MIN_RTOL {
+            return Err(format!(
+                "relative tolerance {:e} is below what f64 arithmetic can meet; the smallest usable value is {:e}",
+                self.rtol,
+                Self::MIN_RTOL
+            ));
+        }
+        for (what, h) in [("h_max", self.h_max), ("h0", self.h0)] {
+            if let Some(h) = h {
+                if !(h.is_finite() && h > 0.0) {
+                    return Err(format!("{what} = {h} must be positive and finite"));
+                }
+            }
+        }
+        Ok(())
     }
 
     fn step(&self, sys: &S, w: &mut Dop853Work, t: f64, y: &mut [f64], h_req: f64) -> Result<f64, StepFailure> {

@@ -44,10 +44,16 @@ pub enum FailureReason {
     },
     /// The right-hand side reported that it cannot be evaluated.
     Rhs(RhsError),
-    /// The step budget ([`super::Options::max_steps`]) was used up before the stop time.
+    /// The step budget ([`super::Options::max_steps`]) was used up before the stop time, or a
+    /// fixed-step run would need more steps than the budget (refused before the first step).
     StepLimit {
         /// The budget.
         max_steps: usize,
+    },
+    /// The wall-clock budget ([`super::Options::time_limit`]) was used up before the stop time.
+    TimeLimit {
+        /// The budget in seconds.
+        seconds: f64,
     },
     /// The request itself is invalid (wrong dimension, non-finite initial state, bad span or
     /// step size).
@@ -72,15 +78,19 @@ impl fmt::Display for FailureReason {
             FailureReason::StepLimit { max_steps } => {
                 write!(f, "step limit of {max_steps} steps reached before the stop time")
             }
+            FailureReason::TimeLimit { seconds } => {
+                write!(f, "time limit of {seconds} s reached before the stop time")
+            }
             FailureReason::InvalidInput(s) => write!(f, "invalid input: {s}"),
         }
     }
 }
 
 /// An integration that stopped before its stop time. `t` and `state` are the last state the
-/// method accepted (always finite), so the caller can inspect or restart from it.
+/// method accepted (always finite), so the caller can inspect or restart from it. The message
+/// names all three: `integration stopped at t = 1.1 with state [0.5, -2]: step size collapsed …`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("integration stopped at t = {t}: {reason}")]
+#[error("integration stopped at t = {t} with state {}: {reason}", fmt_state(state))]
 pub struct IntegrateError {
     /// Time of the last accepted state.
     pub t: f64,
@@ -90,6 +100,24 @@ pub struct IntegrateError {
     pub reason: FailureReason,
     /// Accepted steps before the failure.
     pub steps: usize,
+}
+
+/// The state as `[a, b, …]` with each entry in Rust's shortest round-trip form; very long
+/// states are cut after 8 entries (the full state is in [`IntegrateError::state`]).
+pub fn fmt_state(state: &[f64]) -> String {
+    const SHOWN: usize = 8;
+    let num = |x: &f64| {
+        if *x == 0.0 || (1e-4..1e15).contains(&x.abs()) || !x.is_finite() {
+            format!("{x}")
+        } else {
+            format!("{x:e}")
+        }
+    };
+    let mut parts: Vec<String> = state.iter().take(SHOWN).map(num).collect();
+    if state.len() > SHOWN {
+        parts.push(format!("… {} more", state.len() - SHOWN));
+    }
+    format!("[{}]", parts.join(", "))
 }
 
 /// A failure inside one step, before the driver attaches the last good state.

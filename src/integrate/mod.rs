@@ -53,7 +53,7 @@ mod solver;
 mod splitting;
 
 pub use dop853::Dop853;
-pub use error::{FailureReason, IntegrateError, RhsError, StepFailure};
+pub use error::{fmt_state, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;
 pub use solver::{
@@ -236,6 +236,13 @@ pub trait Method<S: ?Sized> {
     fn work(&self, sys: &S) -> Self::Work;
     /// The step size of a fixed-step method (positive); `None` for adaptive methods.
     fn fixed_step(&self) -> Option<f64>;
+    /// Refuses settings the method cannot honour in `f64` (a tolerance below rounding, a
+    /// non-finite parameter), with a message naming the smallest usable value; checked by
+    /// [`Solver::new`] before the first step, so such a request fails at once instead of
+    /// spinning. The default accepts everything.
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
     /// Advances `(t, y)` in place by the signed step `h` (fixed-step methods) or by at most `h`
     /// (adaptive methods), returning the step actually taken. On error `y` may hold garbage:
     /// the [`Solver`] restores the last good state.

@@ -3,6 +3,7 @@
 //! non-finite states, and the [`Integrate`] entry points.
 
 use std::ops::Range;
+use std::time::{Duration, Instant};
 
 use super::error::{check_finite, FailureReason, IntegrateError, StepFailure};
 use super::Method;
@@ -72,7 +73,17 @@ impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
             if !(h.is_finite() && h > 0.0) {
                 return Err(invalid(format!("step size {h} must be positive and finite")));
             }
+            // A step below the spacing of f64 values near the span would leave `t` where it
+            // is (or move it by a rounding error), so the grid would not be the grid asked for.
+            let t_max = t0.abs().max(t_stop.abs());
+            let resolution = 4.0 * f64::EPSILON * t_max;
+            if t0 != t_stop && h <= resolution {
+                return Err(invalid(format!(
+                    "step size {h:e} is below the time resolution of f64 near t = {t_max:e} (about {resolution:e}); use a larger step"
+                )));
+            }
         }
+        method.check().map_err(invalid)?;
         Ok(Solver {
             method,
             sys,
@@ -232,6 +243,11 @@ pub enum Output {
     Every(usize),
     /// Only the final state (and the initial one), to save memory on long runs.
     Final,
+    /// Every step until `n` states are kept; then every other kept state is dropped and the
+    /// stride doubles, as often as needed. The memory of a run is bounded by `n` states
+    /// whatever its length (an adaptive run cannot know its step count in advance), and the
+    /// kept states stay evenly spaced in steps. The initial and final states are always kept.
+    AtMost(usize),
 }
 
 /// Which sign changes of an event function count.
@@ -300,11 +316,14 @@ pub struct Options<'a> {
     pub max_steps: usize,
     /// Zero crossings to detect.
     pub events: Vec<Event<'a>>,
+    /// Wall-clock budget; exceeding it is [`FailureReason::TimeLimit`]. Checked every 64
+    /// steps, so a run overshoots it by at most 64 steps.
+    pub time_limit: Option<Duration>,
 }
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Options { output: Output::Every(1), max_steps: 100_000_000, events: Vec::new() }
+        Options { output: Output::Every(1), max_steps: 100_000_000, events: Vec::new(), time_limit: None }
     }
 }
 
@@ -326,6 +345,17 @@ impl<'a> Options<'a> {
     /// Sets the step budget.
     pub fn max_steps(mut self, n: usize) -> Self {
         self.max_steps = n;
+        self
+    }
+    /// Keeps at most `n` states (at least 2), thinning evenly as the run grows (see
+    /// [`Output::AtMost`]).
+    pub fn at_most(mut self, n: usize) -> Self {
+        self.output = Output::AtMost(n.max(2));
+        self
+    }
+    /// Sets a wall-clock budget.
+    pub fn time_limit(mut self, limit: Duration) -> Self {
+        self.time_limit = Some(limit);
         self
     }
     /// Adds an event.
@@ -390,6 +420,17 @@ impl Trajectory {
     fn push(&mut self, t: f64, y: &[f64]) {
         self.times.push(t);
         self.states.extend_from_slice(y);
+    }
+    /// Keeps the states at even positions (the initial state is position 0), in place.
+    fn halve(&mut self) {
+        let dim = self.dim;
+        let kept = self.times.len().div_ceil(2);
+        for j in 0..kept {
+            self.times[j] = self.times[2 * j];
+            self.states.copy_within(2 * j * dim..(2 * j + 1) * dim, j * dim);
+        }
+        self.times.truncate(kept);
+        self.states.truncate(kept * dim);
     }
 }
 
@@ -492,6 +533,17 @@ fn run<S: ?Sized, M: Method<S>>(
     mut options: Options<'_>,
 ) -> Result<Trajectory, IntegrateError> {
     let mut solver = Solver::new(method, sys, span.start, y0, span.end)?;
+    if let Some(h) = method.fixed_step() {
+        // A fixed-step run knows its step count: refuse one over budget before the first step
+        // instead of failing after hours.
+        // (The same landing rule as `Solver::step`: a grid point within 1e-9 h of the stop
+        // time is the last step.)
+        let needed = ((span.end - span.start).abs() / h - 1e-9).ceil();
+        if needed > options.max_steps as f64 {
+            return Err(solver.fail(FailureReason::StepLimit { max_steps: options.max_steps }));
+        }
+    }
+    let started = Instant::now();
     let dim = y0.len();
     let mut traj = Trajectory {
         dim,
@@ -503,9 +555,10 @@ fn run<S: ?Sized, M: Method<S>>(
     };
     traj.push(span.start, y0);
     let mut g_prev: Vec<f64> = options.events.iter().map(|e| (e.g)(span.start, y0)).collect();
-    let every = match options.output {
-        Output::Every(k) => Some(k.max(1)),
-        Output::Final => None,
+    let (mut every, cap) = match options.output {
+        Output::Every(k) => (Some(k.max(1)), None),
+        Output::Final => (None, None),
+        Output::AtMost(n) => (Some(1), Some(n.max(2))),
     };
     let events = std::mem::take(&mut options.events);
     if span.start == span.end {
@@ -514,6 +567,11 @@ fn run<S: ?Sized, M: Method<S>>(
     loop {
         if solver.steps >= options.max_steps {
             return Err(solver.fail(FailureReason::StepLimit { max_steps: options.max_steps }));
+        }
+        if let Some(limit) = options.time_limit {
+            if solver.steps % 64 == 0 && started.elapsed() > limit {
+                return Err(solver.fail(FailureReason::TimeLimit { seconds: limit.as_secs_f64() }));
+            }
         }
         let status = solver.step()?;
         let t = solver.t;
@@ -546,6 +604,12 @@ fn run<S: ?Sized, M: Method<S>>(
         };
         if keep {
             traj.push(solver.t, &solver.y);
+            if let (Some(n), Some(k)) = (cap, every) {
+                if traj.len() > n && status != Status::Finished {
+                    traj.halve();
+                    every = Some(2 * k);
+                }
+            }
         }
         if status == Status::Finished {
             break;

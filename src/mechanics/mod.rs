@@ -55,6 +55,20 @@ pub enum MechanicsError {
     /// The text did not parse.
     #[error("{0}")]
     Parse(#[from] ParseError),
+    /// A coordinate is named like the momentum `p_q` of another coordinate `q`, so the
+    /// equations could not tell the two apart.
+    #[error("error: coordinate `{momentum}` has the name of the momentum of `{coord}` (momenta are named p_<coordinate>); rename it, e.g. `{suggestion}`")]
+    MomentumNameCollision {
+        /// The coordinate `q`.
+        coord: String,
+        /// The coordinate named `p_q`.
+        momentum: String,
+        /// A name that does not collide.
+        suggestion: String,
+    },
+    /// An empty name in the list of coordinates (`--coords x,,y`).
+    #[error("error: an empty coordinate name in the list of coordinates (two commas in a row, or a trailing comma?)")]
+    EmptyCoordinate,
     /// The same coordinate was listed twice.
     #[error("error: coordinate `{0}` is declared twice")]
     DuplicateCoordinate(String),

@@ -99,6 +99,9 @@ impl System {
         let mut cs = Vec::new();
         for c in coords {
             let c = c.trim();
+            if c.is_empty() {
+                return Err(MechanicsError::EmptyCoordinate);
+            }
             let ok = !c.is_empty()
                 && c != "t"
                 && c.chars().next().is_some_and(char::is_alphabetic)
@@ -110,6 +113,17 @@ impl System {
                 return Err(MechanicsError::DuplicateCoordinate(c.to_string()));
             }
             cs.push(decls.symbol(c, 0));
+        }
+        // A coordinate `p_x` beside `x` would be read as x's momentum in H (and `hamilton`
+        // printed two equations for `p_x'`): refused, whatever the formulation.
+        for c in &seen {
+            if let Some(q) = c.strip_prefix("p_").filter(|q| seen.contains(*q)) {
+                return Err(MechanicsError::MomentumNameCollision {
+                    coord: q.to_string(),
+                    momentum: c.clone(),
+                    suggestion: c.replacen("p_", "p", 1),
+                });
+            }
         }
         let velocities: Vec<Symbol> = cs.iter().map(|q| Symbol::new(q.name()).with_primes(1)).collect();
         let momenta: Vec<Symbol> = cs.iter().map(momentum_of).collect();

@@ -380,6 +380,7 @@ impl Backend for NativeBackend {
         };
         let c = &native.rhs;
         let events = native.event_fns(&run.events);
+        let names = &native.state;
         let count = AtomicUsize::new(0);
         let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
         let tol = run.tol.unwrap_or(1e-10);
@@ -394,12 +395,16 @@ impl Backend for NativeBackend {
                     "symplectic_euler" => Splitting::symplectic_euler(dt),
                     other => return Err(BackendError::Failed(format!("`{other}` is not a splitting method"))),
                 };
-                drive(&m, &Counted::new(s, &count), run, &events, progress)
+                drive(&m, &Counted::new(s, &count), run, &events, names, progress)
             }
-            NativeCompiled::Hamiltonian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
-            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
+            NativeCompiled::Hamiltonian(r) => {
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
+            }
+            NativeCompiled::Lagrangian(r) => {
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
+            }
             NativeCompiled::LagrangianJacobian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress)
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
             }
         }
         .map(|mut t| {
@@ -513,98 +518,117 @@ fn by_method<S: crate::integrate::Rhs>(
     dt: f64,
     tol: f64,
     events: &EventFns,
+    names: &[String],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Trajectory, BackendError> {
     use crate::integrate::{Dop853, ExplicitRk, Gauss};
     match run.method.name {
-        "midpoint" => drive(&Gauss::midpoint(dt), sys, run, events, progress),
-        "gauss4" => drive(&Gauss::gauss4(dt), sys, run, events, progress),
-        "gauss6" => drive(&Gauss::gauss6(dt), sys, run, events, progress),
-        "euler" => drive(&ExplicitRk::euler(dt), sys, run, events, progress),
-        "rk4" => drive(&ExplicitRk::rk4(dt), sys, run, events, progress),
-        "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, progress),
+        "midpoint" => drive(&Gauss::midpoint(dt), sys, run, events, names, progress),
+        "gauss4" => drive(&Gauss::gauss4(dt), sys, run, events, names, progress),
+        "gauss6" => drive(&Gauss::gauss6(dt), sys, run, events, names, progress),
+        "euler" => drive(&ExplicitRk::euler(dt), sys, run, events, names, progress),
+        "rk4" => drive(&ExplicitRk::rk4(dt), sys, run, events, names, progress),
+        "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, names, progress),
         other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
     }
 }
 
-/// The most states a trajectory keeps (longer runs keep every k-th step).
-const MAX_POINTS: usize = 20_000;
+/// The most states a trajectory keeps: fixed-step runs keep every k-th step for a k chosen
+/// up front, adaptive runs thin as they go ([`crate::integrate::Output::AtMost`]), so the
+/// memory of a run is bounded whatever its length (issue 16: an adaptive run used to keep
+/// every step, and a stiff one ran the allocator dry).
+pub const MAX_POINTS: usize = 20_000;
+
+/// The step budget of an adaptive run. Fixed-step runs are refused up front by the session
+/// when they need more than 10⁹ steps; an adaptive run cannot know its count, so it stops
+/// here with an error that says where it got to and why (typically stiffness).
+pub const MAX_ADAPTIVE_STEPS: usize = 1_000_000;
+
+/// `name = value` pairs of a state, for error messages.
+fn named_state(names: &[String], y: &[f64]) -> String {
+    let parts: Vec<String> = names.iter().zip(y).map(|(n, v)| format!("{n} = {v}")).collect();
+    if parts.len() == y.len() {
+        parts.join(", ")
+    } else {
+        crate::integrate::fmt_state(y)
+    }
+}
+
+/// The integrator's typed failure as the scene reports it: the time, the last good state by
+/// name, the reason, and for an adaptive run that ran out of steps the likely cause.
+fn numeric_error(e: crate::integrate::IntegrateError, run: &RunRequest, names: &[String]) -> BackendError {
+    use crate::integrate::FailureReason;
+    let mut msg = format!("integration stopped at t = {} (state {}): {}", e.t, named_state(names, &e.state), e.reason);
+    if let FailureReason::StepLimit { .. } = e.reason {
+        if run.method.family == Family::Adaptive {
+            let done = e.t - run.t0;
+            let avg = done / e.steps.max(1) as f64;
+            msg.push_str(&format!(
+                "; the average step was {avg:.3e} over {done:.3e} of the {:.3e} span, so the problem is stiff (or very oscillatory) at this tolerance: use an implicit method with a fixed step (`with gauss6 dt = …`), a looser `tol`, or a shorter span",
+                run.t1 - run.t0
+            ));
+        }
+    }
+    BackendError::Numeric(msg)
+}
 
 fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
     method: &M,
     sys: &S,
     run: &RunRequest,
     events: &EventFns,
+    names: &[String],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Trajectory, BackendError> {
-    use crate::integrate::{Crossing, Event, Integrate, Options, Status, StopReason};
-    let numeric = |e: crate::integrate::IntegrateError| BackendError::Numeric(e.to_string());
-    let expected_steps = run.dt.map_or(MAX_POINTS, |h| ((run.t1 - run.t0) / h).ceil() as usize);
-    let every = expected_steps.div_ceil(MAX_POINTS).max(1);
-    if !events.is_empty() {
-        // The driver that locates events takes no progress callback, but it evaluates every
-        // event function once per step at the step's end: one more "event" that never changes
-        // sign reports the time reached, throttled like the loop below.
-        let span = run.t1 - run.t0;
-        let calls = std::cell::Cell::new(0usize);
-        let progress = std::cell::RefCell::new(progress);
-        let watch = Event::new(|t, _y: &[f64]| {
-            calls.set(calls.get() + 1);
-            if calls.get() % 256 == 0 {
-                if let Ok(mut p) = progress.try_borrow_mut() {
-                    p((t - run.t0) / span);
-                }
-            }
-            1.0
-        });
-        let mut opts = Options::new().every(every).event(watch);
-        for (g, req) in events {
-            let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
-                Some(true) => Crossing::Rising,
-                Some(false) => Crossing::Falling,
-                None => Crossing::Either,
-            });
-            if req.terminal {
-                e = e.stop();
-            }
-            opts = opts.event(e);
-        }
-        let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(numeric)?;
-        (progress.into_inner())(1.0);
-        let dim = tr.dim;
-        return Ok(Trajectory {
-            t: tr.times.clone(),
-            y: tr.states.chunks(dim).map(<[f64]>::to_vec).collect(),
-            // The watch is event 0 and never fires; the scene's events are numbered from 1.
-            events: tr.events.iter().filter(|e| e.index > 0).map(|e| (e.index - 1, e.t, e.state.clone())).collect(),
-            steps: tr.stats.steps,
-            evaluations: 0,
-            stop: match tr.stop {
-                StopReason::ReachedEnd => "end of the time span".to_string(),
-                StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
-            },
-        });
-    }
-    let mut solver = method.solver(sys, run.t0, &run.y0, run.t1).map_err(numeric)?;
-    let mut out = Trajectory { t: vec![run.t0], y: vec![run.y0.clone()], ..Trajectory::default() };
+    use crate::integrate::{Crossing, Event, Integrate, Options, StopReason};
+    // The driver that locates events takes no progress callback, but it evaluates every
+    // event function once per step at the step's end: one more "event" that never changes
+    // sign reports the time reached, throttled to every 256th step.
     let span = run.t1 - run.t0;
-    let mut k = 0usize;
-    loop {
-        let status = solver.step().map_err(numeric)?;
-        k += 1;
-        let done = status == Status::Finished;
-        if done || k % every == 0 {
-            out.t.push(solver.t());
-            out.y.push(solver.y().to_vec());
+    let calls = std::cell::Cell::new(0usize);
+    let progress = std::cell::RefCell::new(progress);
+    let watch = Event::new(|t, _y: &[f64]| {
+        calls.set(calls.get() + 1);
+        if calls.get() % 256 == 0 {
+            if let Ok(mut p) = progress.try_borrow_mut() {
+                p((t - run.t0) / span);
+            }
         }
-        if k % 256 == 0 {
-            progress((solver.t() - run.t0) / span);
+        1.0
+    });
+    let mut opts = match run.dt {
+        Some(h) => {
+            let expected_steps = ((run.t1 - run.t0) / h).ceil() as usize;
+            // The session refuses more than 10⁹ steps before this point.
+            Options::new().every(expected_steps.div_ceil(MAX_POINTS).max(1)).max_steps(usize::MAX)
         }
-        if done {
-            break;
-        }
+        None => Options::new().at_most(MAX_POINTS).max_steps(MAX_ADAPTIVE_STEPS),
     }
-    progress(1.0);
-    out.steps = solver.steps();
-    Ok(out)
+    .event(watch);
+    for (g, req) in events {
+        let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
+            Some(true) => Crossing::Rising,
+            Some(false) => Crossing::Falling,
+            None => Crossing::Either,
+        });
+        if req.terminal {
+            e = e.stop();
+        }
+        opts = opts.event(e);
+    }
+    let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(|e| numeric_error(e, run, names))?;
+    (progress.into_inner())(1.0);
+    let dim = tr.dim;
+    Ok(Trajectory {
+        t: tr.times.clone(),
+        y: tr.states.chunks(dim).map(<[f64]>::to_vec).collect(),
+        // The watch is event 0 and never fires; the scene's events are numbered from 1.
+        events: tr.events.iter().filter(|e| e.index > 0).map(|e| (e.index - 1, e.t, e.state.clone())).collect(),
+        steps: tr.stats.steps,
+        evaluations: 0,
+        stop: match tr.stop {
+            StopReason::ReachedEnd => "end of the time span".to_string(),
+            StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
+        },
+    })
 }

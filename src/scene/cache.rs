@@ -9,7 +9,10 @@
 //! collision is a miss, never a wrong answer. Results are stored as plain text, which the
 //! printer guarantees re-parses to the identical expression; a load re-parses each expression
 //! and re-prints it, and any difference (a corrupt, truncated, hand-edited or foreign-version
-//! file) makes the entry a miss that is rebuilt and rewritten. Nothing here is ever an error:
+//! file) makes the entry a miss that is rebuilt and rewritten. Each entry also carries a
+//! checksum of its value, so a well-formed entry whose value was edited (it still re-parses)
+//! is a miss too; entries that are not regular files (links, devices) or are over
+//! [`MAX_ENTRY_BYTES`] are ignored unread. Nothing here is ever an error:
 //! a cache that cannot be read or written only costs the time of building again.
 
 use std::collections::HashMap;
@@ -24,8 +27,37 @@ use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::plain;
 
-/// The on-disk format; entries of another version are ignored.
-pub const CACHE_FORMAT: u32 = 1;
+/// The on-disk format; entries of another version are ignored. (2: entries carry a checksum
+/// of their value.)
+pub const CACHE_FORMAT: u32 = 2;
+
+/// The largest cache entry read, in bytes; a larger file is a miss, like a damaged one.
+pub const MAX_ENTRY_BYTES: u64 = 64 << 20;
+
+/// The bytes of an entry, if it is a regular file (not a symbolic link, a device or a pipe:
+/// an entry linked to `/dev/zero` would otherwise be read forever) of at most
+/// [`MAX_ENTRY_BYTES`].
+fn read_entry(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let meta = std::fs::symlink_metadata(path).ok()?;
+    if !meta.is_file() || meta.len() > MAX_ENTRY_BYTES {
+        return None;
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).ok()?.take(MAX_ENTRY_BYTES + 1).read_to_end(&mut bytes).ok()?;
+    (bytes.len() as u64 <= MAX_ENTRY_BYTES).then_some(bytes)
+}
+
+/// The checksum stored with an entry's value: FNV-1a 128 of the key text and the value's
+/// JSON text. It catches an entry edited by hand or by another program (the key still matches
+/// and every expression still re-parses, but the value is not what was derived); it is a
+/// checksum, not a signature: whoever can write the cache directory can recompute it.
+fn checksum(key: &str, value: &Json) -> String {
+    let text = format!("{key}\u{0}{}", serde_json::to_string(value).unwrap_or_default());
+    let mut name = file_name(&text);
+    name.truncate(32);
+    name
+}
 
 /// The derivation cache: symbolic results keyed by their symbolic inputs. Keep one alive
 /// across runs (the REPL does, and [`Session::with_cache`](super::Session::with_cache) lets
@@ -102,7 +134,7 @@ impl Cache {
     pub(super) fn load(&mut self, key: &CacheKey, decls: &Declarations) -> Option<Value> {
         let text = disk_key(key)?;
         let path = self.dir.as_ref()?.join(file_name(&text));
-        let bytes = std::fs::read(path).ok()?;
+        let bytes = read_entry(&path)?;
         let value = decode(&bytes, &text, decls)?;
         self.map.insert(key.clone(), value.clone());
         Some(value)
@@ -212,7 +244,7 @@ fn encode(value: &Value, key: &str) -> Option<String> {
         Value::Lines(ls) => json!({ "lines": ls.iter().map(line).collect::<Vec<_>>() }),
         Value::Compiled(_) => return None,
     };
-    let doc = json!({ "format": CACHE_FORMAT, "key": key, "value": v });
+    let doc = json!({ "format": CACHE_FORMAT, "key": key, "checksum": checksum(key, &v), "value": v });
     serde_json::to_string(&doc).ok()
 }
 
@@ -231,6 +263,9 @@ fn decode(bytes: &[u8], key: &str, decls: &Declarations) -> Option<Value> {
         return None;
     }
     let v = doc.get("value")?;
+    if doc.get("checksum")?.as_str()? != checksum(key, v) {
+        return None;
+    }
     let expr = |j: &Json| -> Option<Expr> {
         let text = j.as_str()?;
         let e = parse_with(text, decls).ok()?;
@@ -308,6 +343,37 @@ mod tests {
             std::fs::write(&p, &b[..b.len() / 2]).unwrap();
         }
         assert!(Cache::with_dir(dir.path()).load(&key(vec![l]), &decls).is_none());
+    }
+
+    #[test]
+    fn an_edited_value_with_a_matching_key_is_a_miss_and_non_files_are_ignored() {
+        let dir = tempfile::tempdir().unwrap();
+        let decls = Declarations::new();
+        let l = parse_with("x'^2/2 - x^2/2", &decls).unwrap();
+        let h = parse_with("p_x^2/2 + x^2/2", &decls).unwrap();
+        Cache::with_dir(dir.path()).insert(key(vec![l.clone()]), Value::Expr(h.clone()));
+        let entry = std::fs::read_dir(dir.path()).unwrap().next().unwrap().unwrap().path();
+        let text = std::fs::read_to_string(&entry).unwrap();
+        // Well-formed, same key, an expression that re-parses: only the checksum tells.
+        let edited = text.replace("p_x^2/2 + x^2/2", "p_x^2/2 + x^2");
+        assert_ne!(edited, text);
+        std::fs::write(&entry, edited).unwrap();
+        assert!(Cache::with_dir(dir.path()).load(&key(vec![l.clone()]), &decls).is_none());
+        std::fs::write(&entry, &text).unwrap();
+        assert!(
+            matches!(Cache::with_dir(dir.path()).load(&key(vec![l.clone()]), &decls), Some(Value::Expr(e)) if e == h)
+        );
+        // The same entry reached through a symbolic link (to itself, or to /dev/zero) is ignored.
+        #[cfg(unix)]
+        {
+            let real = dir.path().join("real.json");
+            std::fs::rename(&entry, &real).unwrap();
+            std::os::unix::fs::symlink(&real, &entry).unwrap();
+            assert!(Cache::with_dir(dir.path()).load(&key(vec![l.clone()]), &decls).is_none());
+            std::fs::remove_file(&entry).unwrap();
+            std::os::unix::fs::symlink("/dev/zero", &entry).unwrap();
+            assert!(Cache::with_dir(dir.path()).load(&key(vec![l]), &decls).is_none());
+        }
     }
 
     #[test]

@@ -1,27 +1,110 @@
 //! Outputs that read runs: `plot` (the figures) and `export` (CSV and JSON).
 
-use std::path::PathBuf;
+use std::path::{Component, PathBuf};
 use std::sync::Arc;
 
-use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src};
+use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
 use super::backend::Trajectory;
 use super::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
-use super::session::{Layout, Printed, RunResult, Session};
+use super::session::{Layout, Mode, Printed, RunResult, Session};
 use super::simulate::state_names;
 use crate::expr::Symbol;
 
 impl Session {
     // ----- outputs -------------------------------------------------------------------------
 
-    fn out_path(&self, path: Option<&Src>, default: &str) -> (PathBuf, Span) {
-        match path {
-            Some(p) => {
-                let pb = PathBuf::from(&p.text);
-                (if pb.is_absolute() { pb } else { self.opts.out_dir.join(pb) }, p.span)
+    /// Where an output goes. A relative path resolves inside the output directory and may
+    /// not leave it, neither by `..` nor through a symbolic link to a directory outside; an
+    /// absolute path is refused too. Both are allowed with `--allow-outside` (and in the
+    /// REPL, whose user types the paths). So running a scene someone sent you writes only
+    /// under the output directory (issue 13 item 5).
+    fn out_path(&self, path: Option<&Src>, default: &str) -> Result<(PathBuf, Span), SceneError> {
+        let Some(p) = path else {
+            return Ok((self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span));
+        };
+        let pb = PathBuf::from(&p.text);
+        let contained = self.opts.mode == Mode::Scene && !self.opts.allow_outside;
+        let outside = |why: String| {
+            SceneError::new(ErrorKind::Io, why)
+                .at(p.span)
+                .label("outside the output directory")
+                .hint("write a path inside the output directory, or run with `--allow-outside`")
+        };
+        if pb.is_absolute() {
+            if contained {
+                return Err(outside(format!(
+                    "`{}` is an absolute path; outputs are written inside the output directory `{}`",
+                    p.text,
+                    self.opts.out_dir.display()
+                )));
             }
-            None => (self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span),
+            return Ok((pb, p.span));
         }
+        if !contained {
+            return Ok((self.opts.out_dir.join(pb), p.span));
+        }
+        // Lexically: `a/../b.csv` is fine, `../b.csv` leaves.
+        let mut rel = PathBuf::new();
+        for c in pb.components() {
+            match c {
+                Component::Normal(n) => rel.push(n),
+                Component::CurDir => {}
+                Component::ParentDir if rel.pop() => {}
+                _ => {
+                    return Err(outside(format!(
+                        "`{}` leaves the output directory `{}`",
+                        p.text,
+                        self.opts.out_dir.display()
+                    )))
+                }
+            }
+        }
+        let full = self.opts.out_dir.join(&rel);
+        // Through links: the directory the file lands in must resolve inside the output
+        // directory. (A missing directory is reported when the file is written; a link in
+        // the file's own place is replaced by the rename, not written through.)
+        if let (Some(parent), Ok(root)) = (full.parent(), self.opts.out_dir.canonicalize()) {
+            if let Ok(real) = parent.canonicalize() {
+                if !real.starts_with(&root) {
+                    return Err(outside(format!(
+                        "`{}` leads through a symbolic link to `{}`, outside the output directory `{}`",
+                        p.text,
+                        real.display(),
+                        self.opts.out_dir.display()
+                    )));
+                }
+            }
+        }
+        Ok((full, p.span))
+    }
+
+    /// Checks every output of `stmts` before any of them runs: each path is allowed
+    /// ([`Session::out_path`]) and has a known format, and no two outputs of this scene (or
+    /// REPL entry) write the same file, where the second would silently replace the first.
+    pub(super) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
+        for st in stmts {
+            let (file, span) = match &st.kind {
+                StmtKind::Plot(spec) => {
+                    let (file, span, _) = self.out_file(
+                        spec.path.as_ref(),
+                        plot_default(&spec.kind),
+                        "image",
+                        &["svg", "png"],
+                        PLOT_FORMATS,
+                    )?;
+                    (file, if spec.path.is_some() { span } else { st.span })
+                }
+                StmtKind::Export { path, .. } => {
+                    let (file, span, _) =
+                        self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
+                    (file, span)
+                }
+                _ => continue,
+            };
+            self.staging.claim(&file).map_err(|e| e.at(span))?;
+        }
+        Ok(())
     }
 
     /// The output file of a plot or an export, its span and its lower-case extension, which
@@ -34,7 +117,7 @@ impl Session {
         formats: &[&str],
         hint: &str,
     ) -> Result<(PathBuf, Span, String), SceneError> {
-        let (file, span) = self.out_path(path, default);
+        let (file, span) = self.out_path(path, default)?;
         let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         if !formats.contains(&ext.as_str()) {
             return Err(SceneError::new(
@@ -48,28 +131,23 @@ impl Session {
     }
 
     pub(super) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
-        let default = match &spec.kind {
-            PlotKind::Phase(_) => "phase",
-            PlotKind::Energy => "energy",
-            PlotKind::Path(..) => "path",
-            PlotKind::Poincare(..) => "poincare",
-            PlotKind::Series(_) => "series",
-            PlotKind::WorkPrecision(_) => "work_precision",
-        };
-        let (path, pspan, _) = self.out_file(
-            spec.path.as_ref(),
-            default,
-            "image",
-            &["svg", "png"],
-            "plots are written as `.svg` or `.png`",
-        )?;
+        let (path, pspan, _) =
+            self.out_file(spec.path.as_ref(), plot_default(&spec.kind), "image", &["svg", "png"], PLOT_FORMATS)?;
         let figure = self.figure(spec)?;
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         crate::plot::draw(&figure, &tmp).map_err(|e| {
             SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
         })?;
-        self.output.push(format!("wrote {}", path.display()));
+        self.wrote(&path);
         Ok(())
+    }
+
+    /// Announces an output file. The line is withdrawn if the file is not moved into place
+    /// (a later statement of the scene fails), so "wrote" is never printed for a file that
+    /// does not exist.
+    fn wrote(&mut self, path: &std::path::Path) {
+        self.output.push(format!("wrote {}", path.display()));
+        self.staging.announced(self.output.len() - 1);
     }
 
     pub(super) fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
@@ -311,13 +389,7 @@ impl Session {
     }
 
     pub(super) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
-        let (file, pspan, ext) = self.out_file(
-            Some(path),
-            "export",
-            "export",
-            &["csv", "json"],
-            "export to `.csv` (numbers along a run) or `.json`",
-        )?;
+        let (file, pspan, ext) = self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
         let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
         let text = if symbolic {
             if ext == "csv" {
@@ -370,6 +442,23 @@ impl Session {
                     }
                 }
             }
+            // inf and NaN would land in the file silently (NaN as `null` in JSON): refused,
+            // naming the column, the row and the time.
+            for (name, values) in &columns {
+                if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                    return Err(SceneError::new(
+                        ErrorKind::Numeric,
+                        format!(
+                            "column `{name}` is {} at t = {} (row {}): exported numbers must be finite",
+                            values[i],
+                            r.traj.t.get(i).copied().unwrap_or(f64::NAN),
+                            i + 1
+                        ),
+                    )
+                    .at(pspan)
+                    .hint("the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column"));
+                }
+            }
             if ext == "csv" {
                 let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
                 s.push('\n');
@@ -391,8 +480,23 @@ impl Session {
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)
             .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
-        self.output.push(format!("wrote {}", file.display()));
+        self.wrote(&file);
         Ok(())
+    }
+}
+
+const PLOT_FORMATS: &str = "plots are written as `.svg` or `.png`";
+const EXPORT_FORMATS: &str = "export to `.csv` (numbers along a run) or `.json`";
+
+/// The default file name part of a plot without `to FILE` (`pendulum_phase.svg`).
+fn plot_default(kind: &PlotKind) -> &'static str {
+    match kind {
+        PlotKind::Phase(_) => "phase",
+        PlotKind::Energy => "energy",
+        PlotKind::Path(..) => "path",
+        PlotKind::Poincare(..) => "poincare",
+        PlotKind::Series(_) => "series",
+        PlotKind::WorkPrecision(_) => "work_precision",
     }
 }
 

@@ -206,26 +206,32 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         return errors;
     }
     // Not a terminal: read lines, join unfinished statements, echo each entry after the
-    // prompt so the transcript reads like a session.
+    // prompt so the transcript reads like a session. An unfinished statement ends at a blank
+    // line (as a terminal user would give up on it), so one unclosed `(` costs one error,
+    // not the rest of the input; lines and entries are bounded like scene files.
     let stdin = std::io::stdin();
+    let mut input = stdin.lock();
     let mut pending = String::new();
-    let mut lines = stdin.lock().lines();
     loop {
-        let line = match lines.next() {
-            Some(Ok(l)) => l,
-            Some(Err(e)) => {
+        let line = match read_line_bounded(&mut input, MAX_LINE_BYTES) {
+            Ok(Some(l)) => l,
+            Ok(None) => break,
+            Err(e) => {
                 let mut out = stdout.lock();
                 let _ = writeln!(out, "error: cannot read input: {e}");
                 errors += 1;
-                continue;
+                if e.kind() == std::io::ErrorKind::InvalidData {
+                    continue;
+                }
+                break;
             }
-            None => break,
         };
+        let blank = line.trim().is_empty();
         if !pending.is_empty() {
             pending.push('\n');
         }
         pending.push_str(&line);
-        if is_incomplete(&pending) {
+        if is_incomplete(&pending) && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
             continue;
         }
         let text = std::mem::take(&mut pending);
@@ -254,9 +260,72 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     errors
 }
 
+/// The longest input line the piped REPL reads (a statement longer than this is a scene file).
+const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// One line of at most `max` bytes without its terminator; `None` at the end of input. A
+/// longer line is skipped to its end and reported (`InvalidData`), so an endless line (from
+/// `/dev/zero`) costs `max` bytes of memory, never more.
+fn read_line_bounded(input: &mut impl BufRead, max: usize) -> std::io::Result<Option<String>> {
+    let mut buf = Vec::new();
+    let mut too_long = false;
+    let mut any = false;
+    loop {
+        let chunk = input.fill_buf()?;
+        if chunk.is_empty() {
+            break;
+        }
+        any = true;
+        let (take, done) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(i) => (i + 1, true),
+            None => (chunk.len(), false),
+        };
+        if !too_long {
+            buf.extend_from_slice(&chunk[..take]);
+            if buf.len() > max + 1 {
+                too_long = true;
+                buf = Vec::new();
+            }
+        }
+        input.consume(take);
+        if done {
+            break;
+        }
+    }
+    if !any {
+        return Ok(None);
+    }
+    if too_long {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("a line is longer than the limit of {} MB; it was skipped", max >> 20),
+        ));
+    }
+    if buf.last() == Some(&b'\n') {
+        buf.pop();
+        if buf.last() == Some(&b'\r') {
+            buf.pop();
+        }
+    }
+    String::from_utf8(buf)
+        .map(Some)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "a line is not valid UTF-8; it was skipped"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bounded_lines_end_at_newlines_and_skip_overlong_ones() {
+        let mut input = std::io::Cursor::new(b"ab\r\n\nxxxxxxxxxx\ncd".to_vec());
+        let mut next = || read_line_bounded(&mut input, 4).map_err(|e| e.kind());
+        assert_eq!(next(), Ok(Some("ab".to_string())));
+        assert_eq!(next(), Ok(Some(String::new())));
+        assert_eq!(next(), Err(std::io::ErrorKind::InvalidData));
+        assert_eq!(next(), Ok(Some("cd".to_string())));
+        assert_eq!(next(), Ok(None));
+    }
 
     #[test]
     fn completes_statements_methods_and_symbols() {

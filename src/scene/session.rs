@@ -54,6 +54,8 @@ pub struct Options {
     pub progress: Draw,
     /// Default output format.
     pub format: Format,
+    /// Let a scene write outside `out_dir` (absolute paths, `..`, links): `--allow-outside`.
+    pub allow_outside: bool,
 }
 
 impl Options {
@@ -66,6 +68,7 @@ impl Options {
             stem: "scene".to_string(),
             progress: Draw::Hidden,
             format: Format::Unicode,
+            allow_outside: false,
         }
     }
 }
@@ -264,29 +267,32 @@ impl Session {
     /// Runs a whole scene text. On success every output file is in place; on error none of
     /// this call's files are written (they were staged in temporary files and are removed).
     pub fn run_scene(&mut self, name: &str, text: &str) -> Result<(), SceneError> {
-        let result = self.run_text(name, text);
-        match result {
-            Ok(()) => {
-                self.finish_plan();
-                self.staging.commit().map_err(|e| e.with_source(&self.source))
-            }
-            Err(e) => {
-                self.staging.abort();
-                Err(e)
-            }
-        }
+        let result = self.run_text(name, text).and_then(|()| {
+            self.finish_plan();
+            self.staging.commit().map_err(|e| e.with_source(&self.source))
+        });
+        self.settle_outputs(result)
     }
 
     /// Runs one REPL entry (one or more statements). Files are written as each succeeds.
     pub fn run_line(&mut self, text: &str) -> Result<(), SceneError> {
-        let result = self.run_text("input", text);
-        match result {
-            Ok(()) => self.staging.commit().map_err(|e| e.with_source(&self.source)),
-            Err(e) => {
-                self.staging.abort();
-                Err(e)
+        let result =
+            self.run_text("input", text).and_then(|()| self.staging.commit().map_err(|e| e.with_source(&self.source)));
+        self.settle_outputs(result)
+    }
+
+    /// After a failure nothing staged is written: the files are removed and the lines that
+    /// announced them withdrawn.
+    fn settle_outputs(&mut self, result: Result<(), SceneError>) -> Result<(), SceneError> {
+        if result.is_err() {
+            self.staging.abort();
+            for i in self.staging.withdrawn() {
+                if i < self.output.len() {
+                    self.output.remove(i);
+                }
             }
         }
+        result
     }
 
     pub(super) fn run_text(&mut self, name: &str, text: &str) -> Result<(), SceneError> {
@@ -294,6 +300,7 @@ impl Session {
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
         let result = parser::parse_scene(text).and_then(|stmts| {
+            self.claim_outputs(&stmts)?;
             for st in &stmts {
                 self.exec(st, text)?;
             }
@@ -573,8 +580,24 @@ impl Session {
     /// The numeric value of an expression of numbers and parameters with values.
     pub(super) fn number(&self, e: &Expr, span: Span) -> Result<f64, SceneError> {
         let v = crate::eval::eval_with(e, &|s: &Symbol| self.params.get(s.name()).and_then(|p| p.value));
+        let exact_nonzero = e.as_num().is_some_and(|r| !num_traits::Zero::is_zero(r));
         match v {
+            Ok(x) if x == 0.0 && exact_nonzero => Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!(
+                    "`{}` underflows to 0 in f64 (the smallest positive f64 is about 4.9e-324)",
+                    crate::print::plain(e)
+                ),
+            )
+            .at(span)
+            .hint("rescale the units so the numbers stay within 1e-300..1e300")),
             Ok(x) if x.is_finite() => Ok(x),
+            Ok(_) if exact_nonzero => Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("`{}` overflows f64 (the largest f64 is about 1.8e308)", crate::print::plain(e)),
+            )
+            .at(span)
+            .hint("rescale the units so the numbers stay within 1e-300..1e300")),
             Ok(x) => Err(SceneError::new(ErrorKind::BadNumber, format!("the value is {x}")).at(span)),
             Err(crate::eval::EvalError::Unbound(name)) => {
                 Err(SceneError::new(ErrorKind::MissingValue, format!("`{name}` has no value"))
@@ -1081,24 +1104,36 @@ pub(super) fn symbol_span(src: &Src, spelled: &str) -> Span {
     src.span
 }
 
-/// Reads a scene file: at most [`MAX_SCENE_BYTES`], valid UTF-8, or a clear error.
+/// Reads a scene file: at most [`MAX_SCENE_BYTES`], valid UTF-8, or a clear error. The limit
+/// holds for anything the path names (a device such as `/dev/zero`, a pipe): the read
+/// itself stops one byte past it, so no input can make it allocate more.
 pub fn read_scene(path: &Path) -> Result<String, SceneError> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot read `{}`: {e}", path.display())))?;
-    if meta.len() > MAX_SCENE_BYTES {
-        return Err(SceneError::new(
+    use std::io::Read;
+    let cannot = |e: std::io::Error| SceneError::new(ErrorKind::Io, format!("cannot read `{}`: {e}", path.display()));
+    let too_large = |size: String| {
+        SceneError::new(
             ErrorKind::TooLarge,
-            format!(
-                "`{}` is {:.1} MB; scene files are limited to {} MB",
-                path.display(),
-                meta.len() as f64 / 1e6,
-                MAX_SCENE_BYTES >> 20
-            ),
+            format!("`{}` is {size}; scene files are limited to {} MB", path.display(), MAX_SCENE_BYTES >> 20),
         )
-        .hint("a scene is a short list of statements; generate large inputs as data files"));
+        .hint("a scene is a short list of statements; generate large inputs as data files")
+    };
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    if meta.is_dir() {
+        return Err(SceneError::new(ErrorKind::Io, format!("cannot read `{}`: it is a directory", path.display()))
+            .hint("give the path of a scene file"));
     }
-    let bytes = std::fs::read(path)
-        .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot read `{}`: {e}", path.display())))?;
+    if meta.is_file() && meta.len() > MAX_SCENE_BYTES {
+        return Err(too_large(format!("{:.1} MB", meta.len() as f64 / 1e6)));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes)).map_err(cannot)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(too_large("not a regular file and longer than the limit".to_string()));
+    }
+    // A byte-order mark some editors write is not part of the scene.
+    if bytes.starts_with("\u{feff}".as_bytes()) {
+        bytes.drain(..3);
+    }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();

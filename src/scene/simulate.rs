@@ -27,9 +27,17 @@ impl Session {
         };
         let id = self.runs.len();
         self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None });
-        self.run_names.insert(name, id);
+        let previous = self.run_names.insert(name.clone(), id);
         if self.opts.mode == Mode::Repl {
-            self.demand_run(id)?;
+            if let Err(e) = self.demand_run(id) {
+                // A run that failed is not a run: its name (or the run it replaced) is as before.
+                self.runs.pop();
+                match previous {
+                    Some(old) => self.run_names.insert(name, old),
+                    None => self.run_names.remove(&name),
+                };
+                return Err(e);
+            }
             let summary = self.run_summary(id);
             self.output.push(summary);
         }
@@ -111,6 +119,15 @@ impl Session {
         }
         let t0 = self.bound(&spec.t0)?;
         let t1 = self.bound(&spec.t1)?;
+        if t1 == t0 {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("the time span is empty: it starts and ends at {}", fmt_num(t0)),
+            )
+            .at(spec.span_span)
+            .label("end must be after start")
+            .hint(format!("write `for t in {}..{}`", fmt_num(t0), fmt_num(t0 + 10.0))));
+        }
         if t1 <= t0 {
             return Err(SceneError::new(
                 ErrorKind::BadNumber,
@@ -124,10 +141,12 @@ impl Session {
             let Some(src) = s else { return Ok(None) };
             let e = this.resolved(src)?;
             let x = this.number(&e, src.span)?;
-            if x <= 0.0 {
-                return Err(
-                    SceneError::new(ErrorKind::BadNumber, format!("{what} must be positive, found {x}")).at(src.span)
-                );
+            if !(x > 0.0 && x.is_finite()) {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("{what} must be positive and finite, found {x}"),
+                )
+                .at(src.span));
             }
             Ok(Some(x))
         };
@@ -135,7 +154,27 @@ impl Session {
         let mut tol = positive(&spec.tol, self, "the tolerance `tol`")?;
         let steps = positive(&spec.steps, self, "`steps`")?;
         if let Some(n) = steps {
-            dt = Some((t1 - t0) / n.round().max(1.0));
+            if n.fract() != 0.0 {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("`steps` must be a whole number, found {n}"),
+                )
+                .at(spec.steps.as_ref().map_or(stmt_span, |s| s.span))
+                .hint(format!("write `steps = {}`", n.round().max(1.0))));
+            }
+            dt = Some((t1 - t0) / n);
+        }
+        if let (Some(t), Some(src)) = (tol, &spec.tol) {
+            let floor = crate::integrate::Dop853::MIN_RTOL;
+            if t < floor {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("tol = {t:e} is below what f64 can meet; the smallest usable tol is {floor:.2e}"),
+                )
+                .at(src.span)
+                .label("too small")
+                .hint("write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)"));
+            }
         }
         match method.family {
             Family::Adaptive => {
@@ -164,7 +203,7 @@ impl Session {
             if (t1 - t0) / d > 1e9 {
                 return Err(SceneError::new(
                     ErrorKind::BadNumber,
-                    format!("{} steps is more than the limit of 10⁹", fmt_num((t1 - t0) / d)),
+                    format!("{:.3e} steps is more than the limit of 10⁹", (t1 - t0) / d),
                 )
                 .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
                 .hint("use a larger `dt` or a shorter time span"));
@@ -219,6 +258,15 @@ impl Session {
             }
             let v = self.resolved(val)?;
             let x = self.number(&v, val.span)?;
+            if given.contains_key(&s.to_string()) {
+                return Err(SceneError::new(
+                    ErrorKind::Syntax,
+                    format!("`{}` is given twice in this `simulate` statement", sym.text),
+                )
+                .at(sym.span)
+                .label("second value")
+                .hint("keep one of them: the values would otherwise silently replace each other"));
+            }
             given.insert(s.to_string(), (x, sym.span));
         }
         let mut y0 = vec![0.0; 2 * n];
