@@ -232,13 +232,22 @@ fn momentum(q: &Symbol) -> Symbol {
 
 impl Backend for NativeBackend {
     fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
-        let eqs = lagrangian_system(sys, l)?.euler_lagrange().map_err(mechanics_error)?;
-        Ok(sys
+        let system = lagrangian_system(sys, l)?;
+        let eqs = system.euler_lagrange().map_err(mechanics_error)?;
+        let mut lines: Vec<Line> = sys
             .coords
             .iter()
             .zip(eqs)
             .map(|(q, e)| Line { label: Some(format!("E_{}", q.name())), lhs: e, rhs: Expr::zero(), note: None })
-            .collect())
+            .collect();
+        // A singular W: the E_i stand, the last one carries the note saying why no
+        // accelerations follow from them.
+        if let Some(note) = system.hessian_note().map_err(mechanics_error)? {
+            if let Some(last) = lines.last_mut() {
+                last.note = Some(note.trim_start_matches("note: ").to_string());
+            }
+        }
+        Ok(lines)
     }
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         lagrangian_system(sys, l)?.hamiltonian().map_err(mechanics_error)
