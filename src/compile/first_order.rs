@@ -177,6 +177,41 @@ impl crate::mechanics::System {
     }
 }
 
+/// A [`FirstOrderRhs`] on the state layout `(z, z')` that Lagrangian runs use, so that a
+/// first-order Lagrangian's trajectory has velocity columns like any other: the first half
+/// is integrated, the second is carried with zero derivative (it never feeds back into the
+/// first, so the `z` trajectory is exactly that of the `n`-dimensional system, for every
+/// method) and is refreshed with `z' = ω⁻¹ b` at the kept states by
+/// [`FirstOrderRhs::fill_velocities`].
+#[derive(Debug)]
+pub struct WithVelocitySlots(pub FirstOrderRhs);
+
+impl Rhs for WithVelocitySlots {
+    fn dim(&self) -> usize {
+        2 * self.0.n
+    }
+    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.0.n;
+        self.0.try_eval(t, &y[..n], &mut dy[..n])?;
+        dy[n..2 * n].fill(0.0);
+        Ok(())
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if self.try_eval(t, y, dy).is_err() {
+            dy[..2 * self.0.n].fill(f64::NAN);
+        }
+    }
+}
+
+impl FirstOrderRhs {
+    /// Writes `z' = ω⁻¹ b` at `(t, y[..n])` into `y[n..2n]`.
+    pub fn fill_velocities(&self, t: f64, y: &mut [f64]) -> Result<(), RhsError> {
+        let n = self.n;
+        let (z, v) = y.split_at_mut(n);
+        self.try_eval(t, z, &mut v[..n])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::solve_in_place;

@@ -26,7 +26,7 @@ mod system;
 mod tape;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
-pub use first_order::{FirstOrderRhs, MAX_FIRST_ORDER_DIM};
+pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,
