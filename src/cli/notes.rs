@@ -1,9 +1,9 @@
-//! `phase-space`: the commands for the later sections of the notes that go beyond
-//! `W q'' = F` (first-order Lagrangians, §3.4). They parse, call the library, and print.
+//! `phase-space`, `discretize`: the commands for the later sections of the notes that go beyond
+//! `W q'' = F` (first-order Lagrangians, §3.4; discrete mechanics, §4.7.2). They parse, call the library, and print.
 
 use clap::Subcommand;
 use lagrangian::expr::{Expr, Symbol};
-use lagrangian::mechanics::{MechanicsError, System};
+use lagrangian::mechanics::{MechanicsError, Rule, System};
 use lagrangian::print::{plain, render, symbol};
 use serde_json::{json, Value};
 
@@ -24,6 +24,26 @@ pub enum NotesCommand {
         /// Print the bracket {f, g} of the reduced phase space; give exactly two.
         #[arg(long, allow_hyphen_values = true)]
         bracket: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Discrete mechanics: the discrete Lagrangian L_d(q_k, q_{k+1}) of L by a quadrature rule,
+    /// the discrete Euler–Lagrange equations D₂L_d(q_{k−1}, q_k) + D₁L_d(q_k, q_{k+1}) = 0 and
+    /// the discrete Legendre maps p_k = −D₁L_d, p_{k+1} = D₂L_d. For a coordinate x, x_0, x_1,
+    /// x_2 are q_{k−1}, q_k, q_{k+1} in the equations and q_k, q_{k+1} in L_d.
+    Discretize {
+        /// The Lagrangian (`-` reads it from standard input).
+        #[arg(allow_hyphen_values = true)]
+        lagrangian: String,
+        /// The coordinates, in order.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// The quadrature rule: midpoint or trapezoid.
+        #[arg(long, default_value = "midpoint")]
+        rule: String,
+        /// The step: a symbol (`h`) or an exact number.
+        #[arg(long, default_value = "h", allow_hyphen_values = true)]
+        step: String,
         #[command(flatten)]
         common: Common,
     },
@@ -137,6 +157,42 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 out.line(label, &b);
                 out.json.insert("bracket".into(), json!(plain(&b)));
             }
+            out.print();
+        }
+        NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
+            let Some(r) = Rule::from_name(rule.trim()) else {
+                return Err(bad_input(format!(
+                    "error: unknown rule `{rule}` for discretize (expected midpoint or trapezoid; gauss2 is not built yet)"
+                )));
+            };
+            let text = read_expr_arg(&lagrangian)?;
+            let decls = common.declarations();
+            let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+            let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+            let (_, h) = parse_arg(&step, &decls)?;
+            let d = s.discretize(r, &h).map_err(fail)?;
+            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            out.json.insert("input".into(), json!(text.trim()));
+            out.json.insert("rule".into(), json!(r.name()));
+            out.line("L_d".into(), &d.ld);
+            out.json.insert("discrete_lagrangian".into(), json!(plain(&d.ld)));
+            let del = d.euler_lagrange();
+            for (q, e) in d.coords.iter().zip(&del) {
+                let label = format!("DEL_{}", out.s(q));
+                out.lines.push(format!("{label}: {} = 0", out.r(e)));
+            }
+            out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
+            let (pk, pk1) = d.legendre_maps();
+            for (q, e) in d.coords.iter().zip(&pk) {
+                let label = format!("p_{}_0", q.name());
+                out.line(label, e);
+            }
+            for (q, e) in d.coords.iter().zip(&pk1) {
+                let label = format!("p_{}_1", q.name());
+                out.line(label, e);
+            }
+            out.json.insert("momentum_k".into(), json!(pk.iter().map(plain).collect::<Vec<_>>()));
+            out.json.insert("momentum_k1".into(), json!(pk1.iter().map(plain).collect::<Vec<_>>()));
             out.print();
         }
     }

@@ -95,7 +95,7 @@ impl FirstOrderRhs {
 
 /// Solves `a x = b` in place (`x` into `b`) by Gaussian elimination with partial pivoting.
 /// A pivot no larger than `n·ε·max|a_ij|` is a degenerate matrix; the error is its column.
-fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(), usize> {
+pub(super) fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(), usize> {
     let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
     let tol = n as f64 * f64::EPSILON * scale;
     for j in 0..n {

@@ -11,6 +11,8 @@
 //!   Jacobian; [`SeparableHamiltonian`] is the drift/kick split of `H = T(p) + V(q, t)`;
 //!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists;
 //!   [`FirstOrderRhs`] solves `ω z' = ∂H/∂z + ∂a/∂t` of a phase-space Lagrangian.
+//! * [`VariationalMap`]: the variational integrator of a discrete Lagrangian (Newton with
+//!   the exact Jacobian on the discrete Legendre map).
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -18,6 +20,7 @@
 //!
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
+mod discrete;
 mod ensemble;
 mod first_order;
 mod native;
@@ -25,6 +28,7 @@ mod rhs;
 mod system;
 mod tape;
 
+pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use native::NO_JIT_ENV;

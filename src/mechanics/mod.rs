@@ -31,6 +31,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraints;
+mod discrete;
 mod euler_lagrange;
 mod first_order;
 mod hamilton;
@@ -42,6 +43,7 @@ mod tidy;
 mod transform;
 
 pub use constraints::ConstrainedEquations;
+pub use discrete::{point_names, Discrete, Rule};
 pub use first_order::FirstOrder;
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
