@@ -125,7 +125,8 @@ fn cli(args: &[&str]) -> (i32, String, String) {
 #[test]
 fn cli_reports_bad_input_with_exit_code_2() {
     for args in [
-        &["el", "1/2 (x' + y')^2", "--coords", "x,y"][..],
+        // A singular W prints E_i and a note (issue 11); only the accelerations are refused.
+        &["el", "1/2 (x' + y')^2", "--coords", "x,y", "--accelerations"][..],
         &["el", "x'''^2", "--coords", "x"],
         &["el", "x'^2", "--coords", "x,x"],
         &["el", "x'^2", "--coords", "x,y"],

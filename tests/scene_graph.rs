@@ -82,6 +82,7 @@ impl Backend for Counting {
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         self.0.bump(match req.formulation {
             Formulation::Lagrangian(_) => "compile_lagrangian",
+            Formulation::FirstOrder(_) => "compile_first_order",
             Formulation::Hamiltonian(_) => "compile_hamiltonian",
             Formulation::Separable { .. } => "compile_separable",
         });

@@ -193,13 +193,23 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
         MechanicsCommand::El { lagrangian, accelerations, system } => {
             let text = read_expr_arg(&lagrangian)?;
             let s = build(&text, &system, false)?;
+            if accelerations {
+                // Nothing is printed when the accelerations asked for do not exist.
+                s.check_regular().map_err(fail)?;
+            }
             let mut out = Report::new(system.common.format, &s, &text);
             let eqs = s.equations().map_err(fail)?;
             out.per_coordinate("equations", "E", s.coordinates(), &eqs);
             let (w, f) = s.mass_matrix_split().map_err(fail)?;
-            s.check_regular().map_err(fail)?;
             out.matrix("mass_matrix", "W", s.coordinates(), &w);
             out.per_coordinate("forcing", "F", s.coordinates(), &f);
+            // A singular W still has its E_i (they are printed above); say why the
+            // accelerations are missing instead of failing.
+            let note = s.hessian_note().map_err(fail)?;
+            if let Some(n) = &note {
+                out.lines.push(n.clone());
+            }
+            out.json.insert("note".into(), json!(note));
             if !s.constraints().is_empty() {
                 let c = s.constrained_equations().map_err(fail)?;
                 let lam: Vec<String> = c.multipliers.iter().map(|l| l.to_string()).collect();

@@ -12,6 +12,7 @@ use lagrangian::{parse_with, Declarations, Expr, Symbol};
 mod canonical;
 mod core;
 mod mechanics;
+mod notes;
 mod product;
 
 #[derive(Parser)]
@@ -31,6 +32,8 @@ enum Command {
     Mechanics(mechanics::MechanicsCommand),
     #[command(flatten)]
     Canonical(canonical::CanonicalCommand),
+    #[command(flatten)]
+    Notes(notes::NotesCommand),
     #[command(flatten)]
     Product(product::ProductCommand),
 }
@@ -237,6 +240,7 @@ pub fn main() -> ExitCode {
         Some(Command::Core(c)) => core::run(c),
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
+        Some(Command::Notes(c)) => notes::run(c),
         Some(Command::Product(c)) => product::run(c),
         None => product::repl(&product::CacheArgs::default()),
     };

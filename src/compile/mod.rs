@@ -9,7 +9,10 @@
 //! * Right-hand sides for the integrators ([`crate::integrate`]): [`LagrangianRhs`] solves
 //!   `W q'' = F` in place; [`HamiltonianRhs`] evaluates Hamilton's equations and their exact
 //!   Jacobian; [`SeparableHamiltonian`] is the drift/kick split of `H = T(p) + V(q, t)`;
-//!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists.
+//!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists;
+//!   [`FirstOrderRhs`] solves `ω z' = ∂H/∂z + ∂a/∂t` of a phase-space Lagrangian.
+//! * [`VariationalMap`]: the variational integrator of a discrete Lagrangian (Newton with
+//!   the exact Jacobian on the discrete Legendre map).
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -17,13 +20,17 @@
 //!
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
+mod discrete;
 mod ensemble;
+mod first_order;
 mod native;
 mod rhs;
 mod system;
 mod tape;
 
+pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
+pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,

@@ -189,6 +189,34 @@ impl System {
         check_hessian(&w, &self.velocities, "L")
     }
 
+    /// Why the accelerations are not determined, as one printable note line, or `None` when
+    /// `W` is regular. The Euler–Lagrange expressions exist for every Lagrangian; only `W⁻¹`
+    /// may not (Remark 3.1), so `el` prints `E_i` and this note instead of refusing. A
+    /// Lagrangian with `W ≡ 0` (first order in the velocities, such as the phase-space
+    /// Lagrangian (3.31)) is named as such: its equations are first order.
+    pub fn hessian_note(&self) -> Result<Option<String>, MechanicsError> {
+        let (w, _) = self.mass_matrix_split()?;
+        let first_order = w.iter().flatten().all(Expr::is_zero);
+        match check_hessian(&w, &self.velocities, "L") {
+            Ok(()) => Ok(None),
+            Err(_) if first_order => Ok(Some(
+                "note: W = ∂²L/∂q'∂q' is zero: L is linear in every velocity (a first-order, phase-space Lagrangian), \
+                 so E = 0 are first-order equations ω z' = ∂H/∂z + ∂a/∂t (see `phase-space`); no accelerations, \
+                 no Legendre transform"
+                    .to_string(),
+            )),
+            Err(MechanicsError::SingularHessian { var, .. }) => Ok(Some(format!(
+                "note: W = ∂²L/∂q'∂q' is singular: its row for `{var}` is zero (L is at most linear in {var}), \
+                 so E = 0 does not determine every acceleration (Remark 3.1: no Legendre transform)"
+            ))),
+            Err(MechanicsError::SingularHessianDirection { direction, .. }) => Ok(Some(format!(
+                "note: W = ∂²L/∂q'∂q' is singular along the direction {direction}, \
+                 so E = 0 does not determine every acceleration (Remark 3.1: no Legendre transform)"
+            ))),
+            Err(e) => Err(e),
+        }
+    }
+
     /// The accelerations `q'' = W⁻¹ F` in closed form: directly when `W` is diagonal, through
     /// the fraction-free adjugate `adj(W) F / det(W)` for up to four coupled coordinates.
     /// A singular `W` is an error naming the velocity or the null direction (Remark 3.1).
@@ -230,16 +258,25 @@ pub(crate) fn probe_value(s: &Symbol, k: u64) -> f64 {
     0.5 + (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// Checks that a Hessian is regular: a zero row names its variable; otherwise a numeric rank
-/// test at two probe points (when every entry evaluates) or the symbolic determinant (up to
-/// four coordinates) detects a singular matrix, and the error names a null direction.
+/// Checks that a Hessian is regular: a zero row names its variable; otherwise
+/// [`null_direction`] detects a singular matrix and the error names a null direction.
 pub(crate) fn check_hessian(m: &[Vec<Expr>], vars: &[Symbol], function: &'static str) -> Result<(), MechanicsError> {
-    let n = m.len();
     for (i, row) in m.iter().enumerate() {
         if row.iter().all(Expr::is_zero) {
             return Err(MechanicsError::SingularHessian { function, var: vars[i].to_string() });
         }
     }
+    match null_direction(m, vars) {
+        None => Ok(()),
+        Some(direction) => Err(MechanicsError::SingularHessianDirection { function, direction }),
+    }
+}
+
+/// A null direction of a square symbolic matrix, printed as `(1, -1) in (x', y')`, or `None`
+/// when it is regular: a numeric rank test at two probe points (when every entry evaluates),
+/// otherwise the symbolic determinant (up to four variables) and a column of the adjugate.
+pub(crate) fn null_direction(m: &[Vec<Expr>], vars: &[Symbol]) -> Option<String> {
+    let n = m.len();
     let mut numeric_null: Option<Vec<f64>> = None;
     let mut evaluated = true;
     for k in 0..2u64 {
@@ -261,7 +298,7 @@ pub(crate) fn check_hessian(m: &[Vec<Expr>], vars: &[Symbol], function: &'static
         let (imin, min) =
             sv.iter().cloned().enumerate().fold((0, f64::INFINITY), |a, (i, v)| if v < a.1 { (i, v) } else { a });
         if min > 1e-9 * max.max(1e-300) {
-            return Ok(());
+            return None;
         }
         if let Some(vt) = &svd.v_t {
             numeric_null = Some(vt.row(imin).iter().cloned().collect());
@@ -269,22 +306,21 @@ pub(crate) fn check_hessian(m: &[Vec<Expr>], vars: &[Symbol], function: &'static
     }
     if evaluated {
         let dir = numeric_null.unwrap_or_default();
-        return Err(MechanicsError::SingularHessianDirection { function, direction: describe_direction(&dir, vars) });
+        return Some(describe_direction(&dir, vars));
     }
     if n <= MAX_CLOSED_FORM && determinant(m).is_zero() {
         let adj = adjugate(m);
         let col = (0..n).find(|&j| (0..n).any(|i| !adj[i][j].is_zero()));
-        let direction = match col {
+        return Some(match col {
             Some(j) => {
                 let parts: Vec<String> = (0..n).map(|i| adj[i][j].to_string()).collect();
                 let names: Vec<String> = vars.iter().map(Symbol::to_string).collect();
                 format!("({}) in ({})", parts.join(", "), names.join(", "))
             }
             None => "of more than one velocity".to_string(),
-        };
-        return Err(MechanicsError::SingularHessianDirection { function, direction });
+        });
     }
-    Ok(())
+    None
 }
 
 fn describe_direction(v: &[f64], vars: &[Symbol]) -> String {

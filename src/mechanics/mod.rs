@@ -31,7 +31,9 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraints;
+mod discrete;
 mod euler_lagrange;
+mod first_order;
 mod hamilton;
 mod legendre;
 mod linalg;
@@ -41,6 +43,8 @@ mod tidy;
 mod transform;
 
 pub use constraints::ConstrainedEquations;
+pub use discrete::{point_names, Discrete, Rule};
+pub use first_order::FirstOrder;
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
@@ -127,6 +131,12 @@ pub enum MechanicsError {
     /// The expression is undefined (it divides by zero).
     #[error("error: the {0} is undefined (it divides by zero)")]
     Undefined(&'static str),
+    /// A first-order form was asked of a Lagrangian that is not linear in the velocities.
+    #[error("error: the Lagrangian is not first order in the velocities: ∂L/∂{velocity} still contains a velocity (a phase-space Lagrangian is Σ a_i(z, t) z_i' − H(z, t))")]
+    NotFirstOrder { velocity: String },
+    /// The two-form of a first-order Lagrangian is degenerate.
+    #[error("error: the two-form ω = da of this first-order Lagrangian is degenerate along {direction}: a gauge freedom or a constraint, so ω z' = ∂H/∂z does not determine z' (remove that variable or add the missing momentum term)")]
+    DegenerateTwoForm { direction: String },
     /// The system is too large for a closed-form symbolic inverse.
     #[error("error: {n} coupled velocities: the closed-form inverse of the mass matrix is not formed beyond n = {limit} (its size grows like n!); use the numeric solve of W q'' = F")]
     TooLarge { n: usize, limit: usize },

@@ -72,6 +72,9 @@ pub enum Formulation {
     Lagrangian(Expr),
     /// `H(q, p, t)`: state `(q, p)`, Hamilton's equations.
     Hamiltonian(Expr),
+    /// `L = Σ a_i(z, t) z'_i − H(z, t)`, first order in the velocities: state `(z, z')`,
+    /// `ω z' = ∂H/∂z + ∂a/∂t` integrated for `z`, the velocities filled in at kept states.
+    FirstOrder(Expr),
     /// `H = T(p) + V(q, t)`: drift and kick for splitting methods.
     Separable {
         /// The kinetic part `T(p)`.
@@ -208,6 +211,8 @@ pub enum NativeCompiled {
     Lagrangian(crate::compile::LagrangianRhs),
     /// `W q'' = F` with its Jacobian (implicit methods).
     LagrangianJacobian(crate::compile::LagrangianJacobian),
+    /// `ω z' = b` of a first-order Lagrangian, on the `(z, z')` layout.
+    FirstOrder(crate::compile::WithVelocitySlots),
 }
 
 /// The real library.
@@ -232,13 +237,22 @@ fn momentum(q: &Symbol) -> Symbol {
 
 impl Backend for NativeBackend {
     fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
-        let eqs = lagrangian_system(sys, l)?.euler_lagrange().map_err(mechanics_error)?;
-        Ok(sys
+        let system = lagrangian_system(sys, l)?;
+        let eqs = system.euler_lagrange().map_err(mechanics_error)?;
+        let mut lines: Vec<Line> = sys
             .coords
             .iter()
             .zip(eqs)
             .map(|(q, e)| Line { label: Some(format!("E_{}", q.name())), lhs: e, rhs: Expr::zero(), note: None })
-            .collect())
+            .collect();
+        // A singular W: the E_i stand, the last one carries the note saying why no
+        // accelerations follow from them.
+        if let Some(note) = system.hessian_note().map_err(mechanics_error)? {
+            if let Some(last) = lines.last_mut() {
+                last.note = Some(note.trim_start_matches("note: ").to_string());
+            }
+        }
+        Ok(lines)
     }
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         lagrangian_system(sys, l)?.hamiltonian().map_err(mechanics_error)
@@ -351,6 +365,14 @@ impl Backend for NativeBackend {
             Formulation::Hamiltonian(h) => {
                 NativeCompiled::Hamiltonian(HamiltonianRhs::new(h, &coords, &momenta, &params).map_err(failed)?)
             }
+            Formulation::FirstOrder(l) => {
+                let system =
+                    crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
+                let f = system.first_order().map_err(mechanics_error)?;
+                f.check_nondegenerate().map_err(mechanics_error)?;
+                let rhs = crate::compile::FirstOrderRhs::new(&f.omega, &f.force, &coords, &params).map_err(failed)?;
+                NativeCompiled::FirstOrder(crate::compile::WithVelocitySlots(rhs))
+            }
             Formulation::Lagrangian(l) => {
                 let system =
                     crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
@@ -363,7 +385,7 @@ impl Backend for NativeBackend {
                 }
             }
         };
-        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_));
+        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_) | Formulation::FirstOrder(_));
         let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
         state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
         Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
@@ -406,6 +428,19 @@ impl Backend for NativeBackend {
             NativeCompiled::LagrangianJacobian(r) => {
                 by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
             }
+            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress)
+                .and_then(|mut traj| {
+                    let fill = |t: f64, y: &mut Vec<f64>| {
+                        r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
+                    };
+                    for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
+                        fill(*t, y)?;
+                    }
+                    for (_, t, y) in traj.events.iter_mut() {
+                        fill(*t, y)?;
+                    }
+                    Ok(traj)
+                }),
         }
         .map(|mut t| {
             t.evaluations = count.load(Ordering::Relaxed);

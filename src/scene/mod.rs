@@ -26,6 +26,7 @@ pub mod cache;
 pub mod error;
 mod figures;
 pub mod help;
+mod notes;
 pub mod output;
 pub mod parser;
 mod plan;

@@ -221,7 +221,11 @@ impl Session {
             }
             _ if has_l => {
                 let l = self.lagrangian()?;
-                (Formulation::Lagrangian(l.clone()), Layout::Velocities, Some(l), None)
+                if super::notes::is_first_order(&l, &self.coords) {
+                    (Formulation::FirstOrder(l.clone()), Layout::Velocities, Some(l), None)
+                } else {
+                    (Formulation::Lagrangian(l.clone()), Layout::Velocities, Some(l), None)
+                }
             }
             _ if has_h => {
                 let h = self.hamiltonian()?;
@@ -285,7 +289,12 @@ impl Session {
         }
         let vel = |q: &Symbol| format!("{}'", q.name());
         let mom = |q: &Symbol| format!("p_{}", q.name());
+        let first_order = matches!(formulation, Formulation::FirstOrder(_));
+        if first_order {
+            super::notes::check_first_order_inits(&coords, &given)?;
+        }
         match layout {
+            Layout::Velocities if first_order => {}
             Layout::Velocities => {
                 for (i, q) in coords.iter().enumerate() {
                     if let Some((_, span)) = given.get(&mom(q)) {
@@ -354,6 +363,9 @@ impl Session {
         let mut events = Vec::new();
         for (index, ev) in spec.events.iter().enumerate() {
             let e = self.event_expr(ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
+            if first_order {
+                super::notes::check_first_order_event(&e, ev.span)?;
+            }
             event_exprs.push(e);
             events.push(EventRequest { index, terminal: ev.terminal, rising: ev.rising });
         }
@@ -361,7 +373,7 @@ impl Session {
         // Every parameter the equations use needs a value.
         let mut needed: BTreeSet<String> = BTreeSet::new();
         let exprs: Vec<&Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e],
+            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e],
             Formulation::Separable { t, v } => vec![t, v],
         };
         for e in exprs.iter().copied().chain(event_exprs.iter()) {
@@ -404,7 +416,7 @@ impl Session {
             decls: self.declarations(),
         };
         let mut inputs: Vec<Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) => vec![e.clone()],
+            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e.clone()],
             Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
         };
         inputs.extend(event_exprs.iter().cloned());
@@ -647,6 +659,7 @@ impl Session {
 pub(super) fn formulation_name(f: &Formulation) -> &'static str {
     match f {
         Formulation::Lagrangian(_) => "W q'' = F from L",
+        Formulation::FirstOrder(_) => "ω z' = ∂H/∂z from a first-order L",
         Formulation::Hamiltonian(_) => "Hamilton's equations of H",
         Formulation::Separable { .. } => "drift ∂T/∂p and kick −∂V/∂q",
     }

@@ -1,0 +1,200 @@
+//! `phase-space`, `discretize`: the commands for the later sections of the notes that go beyond
+//! `W q'' = F` (first-order Lagrangians, §3.4; discrete mechanics, §4.7.2). They parse, call the library, and print.
+
+use clap::Subcommand;
+use lagrangian::expr::{Expr, Symbol};
+use lagrangian::mechanics::{MechanicsError, Rule, System};
+use lagrangian::print::{plain, render, symbol};
+use serde_json::{json, Value};
+
+use super::{bad_input, parse_arg, read_expr_arg, Common, Failure, OutFormat};
+
+#[derive(Subcommand)]
+pub enum NotesCommand {
+    /// A first-order (phase-space) Lagrangian L = Σ a_i(z,t) z_i' − H(z,t): the one-form a,
+    /// H, the two-form ω_ij = ∂a_j/∂z_i − ∂a_i/∂z_j, the equations ω z' = ∂H/∂z + ∂a/∂t, the
+    /// Poisson tensor ω⁻¹ and the velocities z'.
+    PhaseSpace {
+        /// The Lagrangian (`-` reads it from standard input).
+        #[arg(allow_hyphen_values = true)]
+        lagrangian: String,
+        /// The phase-space variables z, in order (`x,p`).
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Print the bracket {f, g} of the reduced phase space; give exactly two.
+        #[arg(long, allow_hyphen_values = true)]
+        bracket: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Discrete mechanics: the discrete Lagrangian L_d(q_k, q_{k+1}) of L by a quadrature rule,
+    /// the discrete Euler–Lagrange equations D₂L_d(q_{k−1}, q_k) + D₁L_d(q_k, q_{k+1}) = 0 and
+    /// the discrete Legendre maps p_k = −D₁L_d, p_{k+1} = D₂L_d. For a coordinate x, x_0, x_1,
+    /// x_2 are q_{k−1}, q_k, q_{k+1} in the equations and q_k, q_{k+1} in L_d.
+    Discretize {
+        /// The Lagrangian (`-` reads it from standard input).
+        #[arg(allow_hyphen_values = true)]
+        lagrangian: String,
+        /// The coordinates, in order.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// The quadrature rule: midpoint or trapezoid.
+        #[arg(long, default_value = "midpoint")]
+        rule: String,
+        /// The step: a symbol (`h`) or an exact number.
+        #[arg(long, default_value = "h", allow_hyphen_values = true)]
+        step: String,
+        #[command(flatten)]
+        common: Common,
+    },
+}
+
+fn fail(e: MechanicsError) -> Failure {
+    bad_input(e.to_string())
+}
+
+/// Lines and the JSON object, printed only once everything succeeded.
+struct Out {
+    format: OutFormat,
+    lines: Vec<String>,
+    json: serde_json::Map<String, Value>,
+}
+
+impl Out {
+    fn r(&self, e: &Expr) -> String {
+        render(e, self.format.expr_format())
+    }
+    fn s(&self, q: &Symbol) -> String {
+        symbol(q, self.format.expr_format())
+    }
+    fn line(&mut self, name: String, e: &Expr) {
+        self.lines.push(format!("{name} = {}", self.r(e)));
+    }
+    fn print(self) {
+        if self.format == OutFormat::Json {
+            println!("{}", Value::Object(self.json));
+        } else {
+            for l in self.lines {
+                println!("{l}");
+            }
+        }
+    }
+}
+
+pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
+    match cmd {
+        NotesCommand::PhaseSpace { lagrangian, coords, bracket, common } => {
+            if !bracket.is_empty() && bracket.len() != 2 {
+                return Err(bad_input(format!(
+                    "error: --bracket takes exactly two expressions (f and g), {} given",
+                    bracket.len()
+                )));
+            }
+            let text = read_expr_arg(&lagrangian)?;
+            let decls = common.declarations();
+            let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+            let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+            let f = s.first_order().map_err(fail)?;
+            let z = s.coordinates().to_vec();
+            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            out.json.insert("input".into(), json!(text.trim()));
+            out.json.insert("coordinates".into(), json!(z.iter().map(|q| q.to_string()).collect::<Vec<_>>()));
+            for (q, a) in z.iter().zip(&f.a) {
+                let label = format!("a_{}", out.s(q));
+                out.line(label, a);
+            }
+            out.json.insert("one_form".into(), json!(f.a.iter().map(plain).collect::<Vec<_>>()));
+            out.line("H".into(), &f.h);
+            out.json.insert("hamiltonian".into(), json!(plain(&f.h)));
+            for i in 0..z.len() {
+                for j in i + 1..z.len() {
+                    let label = format!("ω[{},{}]", out.s(&z[i]), out.s(&z[j]));
+                    out.line(label, &f.omega[i][j]);
+                }
+            }
+            let omega: Vec<Vec<String>> = f.omega.iter().map(|r| r.iter().map(plain).collect()).collect();
+            out.json.insert("two_form".into(), json!(omega));
+            // ω z' = b, printed row by row as `Σ_j ω_ij z_j' = b_i`.
+            let mut eqs = Vec::new();
+            for (i, q) in z.iter().enumerate() {
+                let lhs = Expr::add(f.omega[i].iter().zip(&z).map(|(w, zj)| w.times(&Expr::sym(zj.prime()))));
+                let lhs = lagrangian::mechanics::tidy(&lhs);
+                out.lines.push(format!("({})_{}: {} = {}", "ω z'", out.s(q), out.r(&lhs), out.r(&f.force[i])));
+                eqs.push(json!({ "coordinate": q.to_string(), "lhs": plain(&lhs), "rhs": plain(&f.force[i]) }));
+            }
+            out.json.insert("equations".into(), Value::Array(eqs));
+            f.check_nondegenerate().map_err(fail)?;
+            match f.poisson_tensor() {
+                Ok(p) => {
+                    for i in 0..z.len() {
+                        for j in i + 1..z.len() {
+                            let label = format!("{{{}, {}}}", out.s(&z[i]), out.s(&z[j]));
+                            out.line(label, &p[i][j]);
+                        }
+                    }
+                    let pj: Vec<Vec<String>> = p.iter().map(|r| r.iter().map(plain).collect()).collect();
+                    out.json.insert("poisson_tensor".into(), json!(pj));
+                    let v = f.velocities().map_err(fail)?;
+                    for (q, e) in z.iter().zip(&v) {
+                        let label = out.s(&q.prime());
+                        out.line(label, e);
+                    }
+                    out.json.insert("velocities".into(), json!(v.iter().map(plain).collect::<Vec<_>>()));
+                }
+                Err(MechanicsError::TooLarge { n, limit }) => {
+                    out.lines.push(format!(
+                        "note: {n} variables: the Poisson tensor is not formed in closed form beyond {limit}; \
+                         the compiled right-hand side solves ω z' = b numerically"
+                    ));
+                }
+                Err(e) => return Err(fail(e)),
+            }
+            if let [fa, ga] = bracket.as_slice() {
+                let (_, fe) = parse_arg(fa, &decls)?;
+                let (_, ge) = parse_arg(ga, &decls)?;
+                let b = f.bracket(&fe, &ge).map_err(fail)?;
+                let label = format!("{{{}, {}}}", fa.trim(), ga.trim());
+                out.line(label, &b);
+                out.json.insert("bracket".into(), json!(plain(&b)));
+            }
+            out.print();
+        }
+        NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
+            let Some(r) = Rule::from_name(rule.trim()) else {
+                return Err(bad_input(format!(
+                    "error: unknown rule `{rule}` for discretize (expected midpoint or trapezoid; gauss2 is not built yet)"
+                )));
+            };
+            let text = read_expr_arg(&lagrangian)?;
+            let decls = common.declarations();
+            let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+            let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+            let (_, h) = parse_arg(&step, &decls)?;
+            let d = s.discretize(r, &h).map_err(fail)?;
+            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            out.json.insert("input".into(), json!(text.trim()));
+            out.json.insert("rule".into(), json!(r.name()));
+            out.line("L_d".into(), &d.ld);
+            out.json.insert("discrete_lagrangian".into(), json!(plain(&d.ld)));
+            let del = d.euler_lagrange();
+            for (q, e) in d.coords.iter().zip(&del) {
+                let label = format!("DEL_{}", out.s(q));
+                out.lines.push(format!("{label}: {} = 0", out.r(e)));
+            }
+            out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
+            let (pk, pk1) = d.legendre_maps();
+            for (q, e) in d.coords.iter().zip(&pk) {
+                let label = format!("p_{}_0", q.name());
+                out.line(label, e);
+            }
+            for (q, e) in d.coords.iter().zip(&pk1) {
+                let label = format!("p_{}_1", q.name());
+                out.line(label, e);
+            }
+            out.json.insert("momentum_k".into(), json!(pk.iter().map(plain).collect::<Vec<_>>()));
+            out.json.insert("momentum_k1".into(), json!(pk1.iter().map(plain).collect::<Vec<_>>()));
+            out.print();
+        }
+    }
+    Ok(())
+}

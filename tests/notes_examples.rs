@@ -1,0 +1,118 @@
+//! The example scenes of issue 11 run end to end: printed derivations snapshotted, numbers
+//! checked against closed forms computed here (the oscillator's cosine, the vortex pair's
+//! rigid rotation) and conserved quantities.
+
+// The checks read several CSV columns at one row index.
+#![allow(clippy::needless_range_loop)]
+
+mod notes_support;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use notes_support::{run, snapshot};
+
+struct Scene {
+    out: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+fn scene(example: &str) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{example}.scene"));
+    let (code, stdout, err) = run(&["run", file.to_str().unwrap(), "--out-dir", dir.path().to_str().unwrap()]);
+    assert_eq!(code, 0, "{example}: {err}\n{stdout}");
+    let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
+    snapshot(&format!("scene_example_{example}"), &stdout);
+    Scene { out: dir.path().to_path_buf(), _dir: dir }
+}
+
+impl Scene {
+    fn csv(&self, file: &str) -> HashMap<String, Vec<f64>> {
+        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+        let mut cols: HashMap<String, Vec<f64>> = header.iter().map(|h| (h.clone(), Vec::new())).collect();
+        for line in lines {
+            for (h, v) in header.iter().zip(line.split(',')) {
+                cols.get_mut(h).unwrap().push(v.parse().unwrap());
+            }
+        }
+        cols
+    }
+}
+
+#[test]
+fn phase_space_oscillator() {
+    let s = scene("phase_space_oscillator");
+    let c = s.csv("phase_space_oscillator.csv");
+    // m = 2, k = 8: x = cos(2 t), p = m x' = −4 sin(2 t); the velocity columns are z' = ω⁻¹ ∂H/∂z.
+    let (m, w) = (2.0, 2.0);
+    let mut worst: f64 = 0.0;
+    for i in 0..c["t"].len() {
+        let t = c["t"][i];
+        let (x, p) = ((w * t).cos(), -m * w * (w * t).sin());
+        worst = worst.max((c["x"][i] - x).abs()).max((c["p"][i] - p).abs());
+        assert!((c["x'"][i] - c["p"][i] / m).abs() < 1e-14, "x' = p/m");
+        assert!((c["p'"][i] + 8.0 * c["x"][i]).abs() < 1e-13, "p' = −k x");
+    }
+    // Gauss4's stability function is the (2, 2) Padé approximant of e^z, whose error is
+    // z⁵/720 + O(z⁶) (error constant k! j!/((k+j)! (k+j+1)!)): a phase error of (h ω)⁵/720 per
+    // step, times the amplitude m ω of p.
+    let (h, steps) = (0.01, 1000.0);
+    let bound = 1.2 * m * w * steps * (h * w).powi(5) / 720.0;
+    assert!(worst < bound, "gauss4 at dt = 0.01 against the exact cosine: {worst:e} (bound {bound:e})");
+    assert_eq!(c["t"].len(), 1001);
+}
+
+#[test]
+fn point_vortices() {
+    let s = scene("point_vortices");
+    let c = s.csv("point_vortices.csv");
+    let (g1, g2) = (1.0, 0.5);
+    let cx = &c["Γ1 x1 + Γ2 x2"];
+    let cy = &c["Γ1 y1 + Γ2 y2"];
+    let r = &c["sqrt((x1 - x2)^2 + (y1 - y2)^2)"];
+    let drift = |v: &[f64]| v.iter().map(|x| (x - v[0]).abs()).fold(0.0, f64::max);
+    assert!(drift(cx) < 1e-12 && drift(cy) < 1e-12, "centre of vorticity: {:e} {:e}", drift(cx), drift(cy));
+    assert!(drift(r) < 1e-12, "distance: {:e}", drift(r));
+    // Rigid rotation at Ω = (Γ1 + Γ2)/(2π r²), checked on the unwrapped angle of x1 − x2.
+    let omega = (g1 + g2) / (2.0 * std::f64::consts::PI * r[0] * r[0]);
+    let angle = |i: usize| (c["y1"][i] - c["y2"][i]).atan2(c["x1"][i] - c["x2"][i]);
+    let mut unwrapped = angle(0);
+    for i in 1..c["t"].len() {
+        let mut d = angle(i) - angle(i - 1);
+        d -= (d / (2.0 * std::f64::consts::PI)).round() * 2.0 * std::f64::consts::PI;
+        unwrapped += d;
+        let expected = angle(0) + omega * c["t"][i];
+        assert!((unwrapped - expected).abs() < 1e-9, "t = {}: angle {unwrapped} vs {expected}", c["t"][i]);
+    }
+}
+
+#[test]
+fn first_order_scene_refuses_velocities_as_initial_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.scene");
+    std::fs::write(
+        &file,
+        "coordinates x, p\nparameters m = 1, k = 1\nL = p x' - p^2/(2 m) - k x^2/2\n\
+         simulate x = 1, p = 0, x' = 0 for t in 0..1 with rk4 dt = 0.1\nexport to run.csv\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (code, _, err) = run(&["run", file.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("first order") && err.contains("x'"), "{err}");
+    assert!(!out.join("run.csv").exists());
+    // A degenerate two-form: y has no one-form term.
+    std::fs::write(
+        &file,
+        "coordinates x, p, y\nparameters m = 1\nL = p x' - p^2/(2 m) - x^2/2 - y^2\n\
+         simulate x = 1, p = 0, y = 0 for t in 0..1 with rk4 dt = 0.1\nexport to run.csv\n",
+    )
+    .unwrap();
+    let (code, _, err) = run(&["run", file.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("degenerate") && err.contains("(0, 0, 1)"), "{err}");
+    assert!(!out.join("run.csv").exists());
+}
