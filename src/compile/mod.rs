@@ -10,6 +10,8 @@
 //!   `W q'' = F` in place; [`HamiltonianRhs`] evaluates Hamilton's equations and their exact
 //!   Jacobian; [`SeparableHamiltonian`] is the drift/kick split of `H = T(p) + V(q, t)`;
 //!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists.
+//! * [`TaylorTape`], [`TaylorOde`]: Taylor-mode automatic differentiation of a tape (the
+//!   coefficients of the ODE solution to any order), for the Taylor integrator.
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -22,6 +24,7 @@ mod native;
 mod rhs;
 mod system;
 mod tape;
+mod taylor;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use native::NO_JIT_ENV;
@@ -30,6 +33,7 @@ pub use rhs::{
     SeparableHamiltonian,
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
+pub use taylor::{Derivative, KinkAt, TaylorError, TaylorOde, TaylorTape};
 
 /// Why a set of expressions could not be compiled.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
