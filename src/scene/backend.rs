@@ -383,6 +383,9 @@ impl Backend for NativeBackend {
         let count = AtomicUsize::new(0);
         let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
         let tol = run.tol.unwrap_or(1e-10);
+        if run.method.name == "taylor" {
+            return taylor(c, run, tol, &events, progress);
+        }
         match c {
             NativeCompiled::Separable(s) => {
                 let m = match run.method.name {
@@ -525,6 +528,34 @@ fn by_method<S: crate::integrate::Rhs>(
         "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, progress),
         other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
     }
+}
+
+/// The Taylor method on the Taylor form of a compiled system. Its work is counted in series
+/// expansions (one per step), reported as [`Trajectory::evaluations`].
+fn taylor(
+    c: &NativeCompiled,
+    run: &RunRequest,
+    tol: f64,
+    events: &EventFns,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Trajectory, BackendError> {
+    use crate::compile::TaylorOde;
+    let ode = match c {
+        NativeCompiled::Lagrangian(r) => TaylorOde::from_lagrangian(r),
+        NativeCompiled::LagrangianJacobian(r) => TaylorOde::from_lagrangian(r.rhs()),
+        NativeCompiled::Hamiltonian(r) => TaylorOde::from_hamiltonian(r),
+        NativeCompiled::Separable(_) => {
+            return Err(BackendError::Failed("`taylor` cannot integrate a drift/kick split".into()))
+        }
+    };
+    let method = crate::integrate::Taylor::new(tol);
+    method.validate().map_err(BackendError::Failed)?;
+    let mut t = drive(&method, &ode, run, events, progress)?;
+    t.evaluations = t.steps;
+    if t.stop.is_empty() {
+        t.stop = "end of the time span".into();
+    }
+    Ok(t)
 }
 
 /// The most states a trajectory keeps (longer runs keep every k-th step).
