@@ -25,6 +25,7 @@ mod rhs;
 mod system;
 mod tape;
 mod taylor;
+mod variational;
 
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use native::NO_JIT_ENV;
@@ -34,6 +35,7 @@ pub use rhs::{
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
 pub use taylor::{Derivative, KinkAt, TaylorError, TaylorOde, TaylorTape};
+pub use variational::Variational;
 
 /// Why a set of expressions could not be compiled.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
