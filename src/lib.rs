@@ -32,6 +32,7 @@
 
 pub mod algebra;
 pub mod canonical;
+pub mod chaos;
 pub mod compile;
 pub mod diff;
 pub mod eval;

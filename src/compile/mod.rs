@@ -13,6 +13,8 @@
 //!   [`FirstOrderRhs`] solves `ω z' = ∂H/∂z + ∂a/∂t` of a phase-space Lagrangian.
 //! * [`VariationalMap`]: the variational integrator of a discrete Lagrangian (Newton with
 //!   the exact Jacobian on the discrete Legendre map).
+//! * [`TaylorTape`], [`TaylorOde`]: Taylor-mode automatic differentiation of a tape (the
+//!   coefficients of the ODE solution to any order), for the Taylor integrator.
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -27,6 +29,8 @@ mod native;
 mod rhs;
 mod system;
 mod tape;
+mod taylor;
+mod variational;
 
 pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
@@ -37,6 +41,8 @@ pub use rhs::{
     SeparableHamiltonian,
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
+pub use taylor::{Derivative, KinkAt, TaylorError, TaylorOde, TaylorTape};
+pub use variational::Variational;
 
 /// Why a set of expressions could not be compiled.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -60,7 +60,7 @@ impl ErrorSlot {
 
 /// How a matrix was factorised in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Factor {
+pub(crate) enum Factor {
     /// `A = L Lᵀ`, `L` in the lower triangle.
     Cholesky,
     /// `P A = L U` with unit `L` below the diagonal, `U` on and above, `perm` the row order.
@@ -71,7 +71,13 @@ enum Factor {
 /// matrix is positive definite, otherwise LU with partial pivoting. `perm` receives the row
 /// order (as `f64`, exact for any realistic `n`). A pivot no larger than `n·ε·max|a_ij|` means
 /// singular to working precision; the error carries the column of the failing pivot.
-fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bool) -> Result<Factor, usize> {
+pub(crate) fn factor(
+    a: &[f64],
+    m: &mut [f64],
+    perm: &mut [f64],
+    n: usize,
+    try_cholesky: bool,
+) -> Result<Factor, usize> {
     let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
     let tol = n as f64 * f64::EPSILON * scale;
     if try_cholesky {
@@ -134,7 +140,7 @@ fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bo
 
 /// Solves with a factorisation from [`factor`]: `x` holds the right-hand side on entry and the
 /// solution on exit; `tmp` is `n` values of workspace.
-fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
+pub(crate) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
     match kind {
         Factor::Cholesky => {
             for i in 0..n {
@@ -338,6 +344,11 @@ impl LagrangianRhs {
     /// The compiled tape (`W` row-major, then `F`), for inspection and operation counts.
     pub fn tape(&self) -> &Tape {
         &self.tape
+    }
+
+    /// Whether `W` is symmetric (structurally), so its factorisation may be Cholesky.
+    pub fn is_symmetric(&self) -> bool {
+        self.symmetric
     }
 
     /// The tape of the fast path, `W`, `F` and the unrolled Cholesky solve (outputs: the

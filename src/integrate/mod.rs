@@ -33,6 +33,7 @@
 //! | implicit midpoint, Gauss 4/6 | [`Rhs`] (+[`Jacobian`]) | 2/4/6 | symplectic, symmetric | [`Gauss::midpoint`], [`Gauss4`], [`Gauss6`] … |
 //! | RK4 | [`Rhs`] | 4 | | [`ExplicitRk::rk4`] |
 //! | DOP853 | [`Rhs`] | 8 | adaptive, dense output | [`Dop853::new`] |
+//! | Taylor | [`TaylorSystem`] | ⌈−½ ln ε + 1⌉ | adaptive, dense output, no rejected steps | [`Taylor::new`] |
 //!
 //! Failures (non-finite values, step-size collapse, a non-converging implicit solve, a
 //! right-hand side that reports an error, the step budget) end the integration with an
@@ -51,6 +52,7 @@ pub mod problems;
 mod rk;
 mod solver;
 mod splitting;
+mod taylor;
 
 pub use dop853::Dop853;
 pub use error::{fmt_state, FailureReason, IntegrateError, RhsError, StepFailure};
@@ -61,6 +63,7 @@ pub use solver::{
     Trajectory,
 };
 pub use splitting::Splitting;
+pub use taylor::{Taylor, TaylorSystem, TaylorWork, MIN_TOL};
 
 /// A first-order system `y' = f(t, y)`.
 pub trait Rhs: Sync {

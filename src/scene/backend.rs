@@ -406,6 +406,9 @@ impl Backend for NativeBackend {
         let count = AtomicUsize::new(0);
         let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
         let tol = run.tol.unwrap_or(1e-10);
+        if run.method.name == "taylor" {
+            return taylor(c, run, tol, &events, names, progress);
+        }
         match c {
             NativeCompiled::Separable(s) => {
                 let m = match run.method.name {
@@ -605,6 +608,35 @@ fn numeric_error(e: crate::integrate::IntegrateError, run: &RunRequest, names: &
         }
     }
     BackendError::Numeric(msg)
+}
+
+/// The Taylor method on the Taylor form of a compiled system. Its work is counted in series
+/// expansions (one per step), reported as [`Trajectory::evaluations`].
+fn taylor(
+    c: &NativeCompiled,
+    run: &RunRequest,
+    tol: f64,
+    events: &EventFns,
+    names: &[String],
+    progress: &mut dyn FnMut(f64),
+) -> Result<Trajectory, BackendError> {
+    use crate::compile::TaylorOde;
+    let ode = match c {
+        NativeCompiled::Lagrangian(r) => TaylorOde::from_lagrangian(r),
+        NativeCompiled::LagrangianJacobian(r) => TaylorOde::from_lagrangian(r.rhs()),
+        NativeCompiled::Hamiltonian(r) => TaylorOde::from_hamiltonian(r),
+        NativeCompiled::Separable(_) => {
+            return Err(BackendError::Failed("`taylor` cannot integrate a drift/kick split".into()))
+        }
+    };
+    let method = crate::integrate::Taylor::new(tol);
+    method.validate().map_err(BackendError::Failed)?;
+    let mut t = drive(&method, &ode, run, events, names, progress)?;
+    t.evaluations = t.steps;
+    if t.stop.is_empty() {
+        t.stop = "end of the time span".into();
+    }
+    Ok(t)
 }
 
 fn drive<S: ?Sized, M: crate::integrate::Method<S>>(

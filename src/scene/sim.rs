@@ -10,7 +10,7 @@ pub enum Family {
     Implicit,
     /// Explicit fixed step (Euler, RK4).
     Explicit,
-    /// Adaptive with a tolerance (DOP853).
+    /// Adaptive with a tolerance (DOP853, Taylor).
     Adaptive,
 }
 
@@ -42,6 +42,7 @@ pub const METHODS: &[Method] = &[
     Method { name: "euler", family: Family::Explicit, order: 1, symplectic: false },
     Method { name: "rk4", family: Family::Explicit, order: 4, symplectic: false },
     Method { name: "dop853", family: Family::Adaptive, order: 8, symplectic: false },
+    Method { name: "taylor", family: Family::Adaptive, order: 20, symplectic: false },
 ];
 
 /// The default when `simulate` names no method.

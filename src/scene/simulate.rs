@@ -186,7 +186,8 @@ impl Session {
                     .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
                     .hint("write `tol = 1e-10`, or pick a fixed-step method such as `gauss6` or `rk4`"));
                 }
-                tol = Some(tol.unwrap_or(1e-10));
+                // Taylor defaults to machine precision (its cost grows only like ln(1/tol)).
+                tol = Some(tol.unwrap_or(if method.name == "taylor" { f64::EPSILON } else { 1e-10 }));
             }
             _ => {
                 if dt.is_none() {

@@ -1,0 +1,186 @@
+//! The Taylor method and the chaos indicators (`harness = false`: prints the tables behind
+//! the Taylor section of BENCHMARKS.md). Run next to heyoka by `scripts/bench_taylor.sh`.
+//!
+//! ```text
+//! cargo bench --bench taylor                    # everything (~1 minute on 2 cores)
+//! cargo bench --bench taylor -- kepler          # one section: kepler, double-pendulum,
+//!                                               #   cold-start, chaos-map
+//! ```
+//!
+//! Every system is compiled from text (the library's own path), not hand-written.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use lagrangian::chaos::{chaos_map, Indicator};
+use lagrangian::compile::{TaylorOde, Variational};
+use lagrangian::integrate::problems::{DoublePendulum, Kepler};
+use lagrangian::integrate::{Dop853, Integrate, Method, Options, Rhs, Status, Taylor, TaylorSystem};
+use lagrangian::mechanics::System;
+use lagrangian::Declarations;
+
+#[path = "../tests/mechanics_support/n_link.rs"]
+mod n_link;
+
+/// The minimum wall time of `reps` runs of `f`, and its last result.
+fn best<R>(reps: usize, f: impl Fn() -> R) -> (f64, R) {
+    let mut t = f64::INFINITY;
+    let mut r = None;
+    for _ in 0..reps {
+        let t0 = Instant::now();
+        r = Some(f());
+        t = t.min(t0.elapsed().as_secs_f64());
+    }
+    (t, r.expect("at least one repeat"))
+}
+
+/// Kepler e = 0.9 over 1000 orbits, the state sampled at the end of each orbit: the largest
+/// relative energy error over the samples, and the steps.
+fn kepler_orbits<S: ?Sized, M: Method<S>>(method: &M, sys: &S) -> (f64, usize) {
+    let y0 = Kepler::pericentre(0.9);
+    let mut solver = method.solver(sys, 0.0, &y0, 2.0 * PI).expect("valid start");
+    let mut worst = 0.0f64;
+    for k in 1..=1000 {
+        solver.set_stop_time(2.0 * PI * k as f64);
+        while solver.step().expect("Kepler integrates") == Status::Stepped {}
+        worst = worst.max((Kepler.energy(solver.y()) + 0.5).abs() / 0.5);
+    }
+    (worst, solver.steps())
+}
+
+fn kepler() {
+    println!("## Kepler e = 0.9, 1000 orbits, sampled once per orbit (H = |p|²/2 − 1/|q|, compiled)");
+    let sys = System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).expect("valid H");
+    let ode = sys.compile_taylor().expect("compiles");
+    let rhs = sys.compile_hamiltonian().expect("compiles");
+    println!("| method | time | max rel. energy error | steps |");
+    println!("|---|---|---|---|");
+    for (name, m) in [
+        ("Taylor tol 1e-15", Taylor::new(1e-15)),
+        ("Taylor tol 1e-15 compensated", Taylor::new(1e-15).compensated()),
+        ("Taylor tol 1e-13", Taylor::new(1e-13)),
+    ] {
+        let (t, (err, steps)) = best(3, || kepler_orbits(&m, &ode));
+        println!("| {name} (order {}) | {:.1} ms | {err:.2e} | {steps} |", m.taylor_order(), t * 1e3);
+    }
+    let m = Dop853::new(1e-15, 1e-15).compensated();
+    let (t, (err, steps)) = best(1, || kepler_orbits(&m, &rhs));
+    println!("| DOP853 tol 1e-15 compensated | {:.1} ms | {err:.2e} | {steps} |", t * 1e3);
+}
+
+fn double_pendulum() {
+    println!("## Double pendulum to t = 10 against the 50-digit reference (compiled from L)");
+    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
+        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
+        .expect("valid L");
+    let ode = sys.compile_taylor().expect("compiles");
+    let rhs = sys.compile_rhs().expect("compiles");
+    let err = |y: &[f64]| (0..4).map(|i| (y[i] - DoublePendulum::REFERENCE_T10[i]).abs()).fold(0.0, f64::max);
+    println!("| tol | Taylor time | Taylor error | Taylor steps | DOP853 (compensated) time | DOP853 error |");
+    println!("|---|---|---|---|---|---|");
+    for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15, 1e-16] {
+        let run_t = |m: &Taylor| m.integrate_with(&ode, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+        let tm = Taylor::new(tol).compensated();
+        let (tt, tr) = best(5, || run_t(&tm).expect("integrates"));
+        let dm = Dop853::new(tol, tol).compensated();
+        let (td, dr) = best(5, || {
+            dm.integrate_with(&rhs, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only()).expect("integrates")
+        });
+        println!(
+            "| {tol:.0e} | {:.3} ms | {:.1e} | {} | {:.3} ms | {:.1e} |",
+            tt * 1e3,
+            err(tr.last_state()),
+            tr.stats.steps,
+            td * 1e3,
+            err(dr.last_state())
+        );
+    }
+}
+
+fn cold_start() {
+    println!("## Cold start: text → W, F → Taylor tape → trajectory to t = 1 (tol 1e-12), n-link pendulum");
+    println!("| n | derive + compile | integrate | total | Taylor rows | steps |");
+    println!("|---|---|---|---|---|---|");
+    for n in [2, 10, 20] {
+        let t0 = Instant::now();
+        let (l, coords, positive) = n_link::n_link(n);
+        let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
+        let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
+        let mut params: Vec<(String, f64)> =
+            (1..=n).flat_map(|i| [(format!("m{i}"), 1.0), (format!("l{i}"), 1.0)]).collect();
+        params.push(("g".into(), 9.81));
+        let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let sys = System::from_lagrangian_with(&l, &coords, &d).and_then(|s| s.with_params(&refs)).expect("valid");
+        let ode: TaylorOde = sys.compile_taylor().expect("compiles");
+        let t1 = Instant::now();
+        let mut y0 = vec![0.0; 2 * n];
+        y0[..n].iter_mut().enumerate().for_each(|(i, q)| *q = 0.5 + 0.1 * i as f64);
+        let tr = Taylor::new(1e-12).integrate_with(&ode, 0.0..1.0, &y0, Options::new().final_only()).expect("runs");
+        let t2 = Instant::now();
+        println!(
+            "| {n} | {:.1} ms | {:.1} ms | {:.1} ms | {} | {} |",
+            (t1 - t0).as_secs_f64() * 1e3,
+            (t2 - t1).as_secs_f64() * 1e3,
+            (t2 - t0).as_secs_f64() * 1e3,
+            ode.taylor_tape().n_rows(),
+            tr.stats.steps
+        );
+    }
+}
+
+fn chaos() {
+    let k: usize = std::env::var("CHAOS_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
+    println!("## Chaos map: double pendulum MEGNO over (θ1, θ2) at rest, {k} × {k} grid, t = 100, tol 1e-9, rayon");
+    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
+        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
+        .expect("valid L");
+    let var = Variational::of_system(&sys, 1, true).expect("compiles");
+    let starts: Vec<Vec<f64>> = (0..k * k)
+        .map(|i| {
+            let (a, b) = (i / k, i % k);
+            let th = |j: usize| -PI + (j as f64 + 0.5) * 2.0 * PI / k as f64;
+            vec![th(a), th(b), 0.0, 0.0]
+        })
+        .collect();
+    let t0 = Instant::now();
+    let map = chaos_map(&var, &starts, 100.0, 1e-9, Indicator::Megno);
+    let secs = t0.elapsed().as_secs_f64();
+    let failed = map.iter().filter(|v| v.is_nan()).count();
+    println!(
+        "{} points in {:.2} s on {} threads: {:.1} points/s ({} failed); 200 × 200 at this rate: {:.0} s",
+        k * k,
+        secs,
+        rayon::current_num_threads(),
+        (k * k) as f64 / secs,
+        failed,
+        40000.0 * secs / (k * k) as f64
+    );
+    let regular = map.iter().filter(|v| **v < 2.5).count();
+    println!(
+        "MEGNO < 2.5 (regular) at {regular} of {} points; max {:.1}",
+        k * k,
+        map.iter().cloned().fold(0.0, f64::max)
+    );
+    let _ = (var.dim(), TaylorSystem::dim(&var), Rhs::dim(&var));
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let want = |s: &str| args.is_empty() || args.iter().any(|a| a == s);
+    if want("kepler") {
+        kepler();
+    }
+    if want("double-pendulum") {
+        double_pendulum();
+    }
+    if want("cold-start") {
+        cold_start();
+    }
+    if want("chaos-map") {
+        chaos();
+    }
+}

@@ -1,0 +1,108 @@
+"""heyoka's side of the Taylor benchmarks (BENCHMARKS.md, "Taylor method"): the same problems,
+tolerances and measures as `cargo bench --bench taylor`. Run by scripts/bench_taylor.sh."""
+import math
+import sys
+import time
+
+import heyoka as hy
+import numpy as np
+
+REF = [-0.75312887429491135322337236831363874419582724673327,
+       1.6279330820537040840890643526897016618948841824665,
+       -4.0873688513441969336361436527166877795014151532526,
+       -8.8697025783875326087224420092458445392757368821853]
+
+
+def best(reps, f):
+    t, r = math.inf, None
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        r = f()
+        t = min(t, time.perf_counter() - t0)
+    return t, r
+
+
+def kepler():
+    print("## heyoka: Kepler e = 0.9, 1000 orbits, sampled once per orbit")
+    x, y, px, py = hy.make_vars("x", "y", "px", "py")
+    r3 = (x * x + y * y) ** -1.5
+    e = 0.9
+    y0 = [1 - e, 0.0, 0.0, math.sqrt((1 + e) / (1 - e))]
+    grid = 2 * math.pi * np.arange(0, 1001, dtype=float)
+    for tol in [1e-15, 1e-13]:
+        tc = time.perf_counter()
+        ta = hy.taylor_adaptive([(x, px), (y, py), (px, -x * r3), (py, -y * r3)], y0, tol=tol)
+        compile_s = time.perf_counter() - tc
+
+        def run():
+            ta.time = 0.0
+            ta.state[:] = y0
+            return ta.propagate_grid(grid)
+
+        t, res = best(3, run)
+        states = res[-1]
+        en = 0.5 * (states[:, 2] ** 2 + states[:, 3] ** 2) - 1 / np.hypot(states[:, 0], states[:, 1])
+        err = np.max(np.abs(en + 0.5) / 0.5)
+        print(f"| heyoka tol {tol:.0e} (order {ta.order}) | {t*1e3:.1f} ms | {err:.2e} | {res[3]} steps | compile {compile_s:.2f} s |")
+
+
+def double_pendulum():
+    print("## heyoka: double pendulum to t = 10 (explicit W⁻¹F, as problems::DoublePendulum)")
+    t1, t2, w1, w2 = hy.make_vars("t1", "t2", "w1", "w2")
+    g = 9.81
+    s, c = hy.sin(t1 - t2), hy.cos(t1 - t2)
+    a, b, d = 2.0, c, 1.0
+    f1 = -w2 * w2 * s - 2.0 * g * hy.sin(t1)
+    f2 = w1 * w1 * s - g * hy.sin(t2)
+    det = a * d - b * b
+    eqs = [(t1, w1), (t2, w2), (w1, (d * f1 - b * f2) / det), (w2, (a * f2 - b * f1) / det)]
+    y0 = [2.0, 2.5, 0.0, 0.0]
+    for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15, 1e-16]:
+        ta = hy.taylor_adaptive(eqs, y0, tol=tol)
+
+        def run():
+            ta.time = 0.0
+            ta.state[:] = y0
+            ta.propagate_until(10.0)
+            return ta.state.copy()
+
+        t, st = best(5, run)
+        err = max(abs(st[i] - REF[i]) for i in range(4))
+        print(f"| heyoka tol {tol:.0e} | {t*1e3:.3f} ms | {err:.1e} |")
+
+
+def cold_start():
+    print("## heyoka: cold start, n-link pendulum (hy.lagrangian → taylor_adaptive → t = 1)")
+    if not hasattr(hy, "lagrangian"):
+        print("this heyoka has no hy.lagrangian; skipped")
+        return
+    for n in [2, 10]:  # n = 20 takes minutes of LLVM compilation on this machine
+        t0 = time.perf_counter()
+        th = [hy.make_vars(f"th{i}") for i in range(n)]
+        om = [hy.make_vars(f"om{i}") for i in range(n)]
+        xs, ys, vx, vy = 0, 0, 0, 0
+        T, V = 0, 0
+        for k in range(n):
+            xs = xs + hy.sin(th[k])
+            ys = ys - hy.cos(th[k])
+            vx = vx + hy.cos(th[k]) * om[k]
+            vy = vy + hy.sin(th[k]) * om[k]
+            T = T + 0.5 * (vx * vx + vy * vy)
+            V = V + 9.81 * ys
+        eqs = hy.lagrangian(T - V, th, om)
+        y0 = [0.5 + 0.1 * i for i in range(n)] + [0.0] * n
+        ta = hy.taylor_adaptive(eqs, y0, tol=1e-12)
+        t1 = time.perf_counter()
+        ta.propagate_until(1.0)
+        t2 = time.perf_counter()
+        print(f"| heyoka n = {n} | derive + compile {(t1-t0)*1e3:.0f} ms | integrate {(t2-t1)*1e3:.1f} ms | total {(t2-t0)*1e3:.0f} ms |")
+        if t2 - t0 > 120:
+            break
+
+
+if __name__ == "__main__":
+    print(f"heyoka {hy.__version__}")
+    want = sys.argv[1:]
+    for name, f in [("kepler", kepler), ("double-pendulum", double_pendulum), ("cold-start", cold_start)]:
+        if not want or name in want:
+            f()

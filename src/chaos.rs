@@ -1,0 +1,173 @@
+//! Chaos indicators from the variational equations ([`crate::compile::Variational`]),
+//! integrated by the Taylor method:
+//!
+//! * the Lyapunov exponents by Benettin's algorithm (Benettin, Galgani, Giorgilli & Strelcyn,
+//!   Meccanica 15, 1980): after every step the tangent vectors are re-orthonormalised by
+//!   Gram–Schmidt (a QR factorisation), and `λ_j(t) = (1/t) Σ ln R_jj`; with one vector this
+//!   is the maximal exponent with periodic renormalisation;
+//! * the fast Lyapunov indicator `FLI(t) = sup_{s ≤ t} ln ‖w(s)‖` of the first tangent vector
+//!   from a unit vector (Froeschlé, Lega & Gonczi 1997);
+//! * MEGNO, `Y(t) = (2/t) ∫₀ᵗ s (ẇ·w / w·w) ds` and its running mean
+//!   `Ȳ(t) = (1/t) ∫₀ᵗ Y(s) ds` (Cincotta & Simó 2000): `Ȳ → 0` for stable isochronous
+//!   motion (a harmonic oscillator), `Ȳ → 2` for quasi-periodic motion, `Ȳ ≈ λ t / 2` for
+//!   chaotic motion. The inner integral is a state of the variational system (integrated
+//!   by the Taylor method with everything else); the outer one is a 5-point Gauss–Legendre
+//!   quadrature of `2 y(s)/s` on each step's own polynomial (no extra right-hand sides).
+//!
+//! A chaos map evaluates an indicator over many initial conditions in parallel (rayon).
+
+use rayon::prelude::*;
+
+use crate::compile::Variational;
+use crate::integrate::{Integrate, IntegrateError, Status, Taylor};
+
+/// Gauss–Legendre nodes and weights on `[−1, 1]`, 5 points (exact for degree 9; Abramowitz &
+/// Stegun, Table 25.4).
+const GL5: [(f64, f64); 5] = [
+    (0.0, 0.568_888_888_888_888_9),
+    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (-0.906_179_845_938_664, 0.236_926_885_056_189_1),
+    (0.906_179_845_938_664, 0.236_926_885_056_189_1),
+];
+
+/// One sample of a run's indicators (at the end of a step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Time.
+    pub t: f64,
+    /// The finite-time maximal Lyapunov exponent `λ₀(t)`.
+    pub lyapunov: f64,
+    /// `ln ‖w₀(t)‖` (its running maximum is the FLI).
+    pub log_norm: f64,
+    /// The mean MEGNO `Ȳ(t)` (NaN without the accumulator).
+    pub megno: f64,
+}
+
+/// The indicators of one orbit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Indicators {
+    /// The finite-time Lyapunov exponents at the end time, one per tangent vector (largest
+    /// first for a generic start).
+    pub lyapunov: Vec<f64>,
+    /// The fast Lyapunov indicator at the end time.
+    pub fli: f64,
+    /// The mean MEGNO `Ȳ` at the end time (NaN without the accumulator).
+    pub megno: f64,
+    /// The indicators along the run, one sample per step.
+    pub samples: Vec<Sample>,
+    /// Taylor steps taken.
+    pub steps: usize,
+}
+
+/// Integrates the variational system from `x0` (tangents start as unit vectors) over
+/// `0..t_end` with the Taylor method at `tol`, re-orthonormalising the tangent vectors after
+/// every step.
+pub fn indicators(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result<Indicators, IntegrateError> {
+    let (n, m) = (sys.n(), sys.tangents());
+    let dim = sys.dim();
+    let method = Taylor::new(tol);
+    let y0 = sys.initial_state(x0);
+    let mut solver = method.solver(sys, 0.0, &y0, t_end)?;
+    let mut logs = vec![0.0; m];
+    let (mut fli, mut ybar_int) = (0.0f64, 0.0f64);
+    let mut y = vec![0.0; dim];
+    let mut buf = vec![0.0; dim];
+    let mut samples = Vec::new();
+    loop {
+        let status = solver.step()?;
+        let (t0, t1) = (solver.previous().0, solver.t());
+        if sys.has_megno() {
+            let (mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+            let mut acc = 0.0;
+            for (x, w) in GL5 {
+                let s = mid + half * x;
+                solver.interpolate(s, &mut buf)?;
+                acc += w * 2.0 * buf[dim - 1] / s;
+            }
+            ybar_int += acc * half;
+        }
+        y.copy_from_slice(solver.y());
+        // Modified Gram–Schmidt on the tangent vectors: w_j ← (w_j − Σ_{k<j} (w_j·q_k) q_k) / R_jj.
+        for (j, log) in logs.iter_mut().enumerate() {
+            let (done, rest) = y[n..n + m * n].split_at_mut(j * n);
+            let wj = &mut rest[..n];
+            for k in 0..j {
+                let qk = &done[k * n..(k + 1) * n];
+                let r: f64 = wj.iter().zip(qk).map(|(a, b)| a * b).sum();
+                wj.iter_mut().zip(qk).for_each(|(a, b)| *a -= r * b);
+            }
+            let norm = wj.iter().map(|a| a * a).sum::<f64>().sqrt();
+            *log += norm.ln();
+            wj.iter_mut().for_each(|a| *a /= norm);
+        }
+        fli = fli.max(logs[0]);
+        solver.set_state(t1, &y);
+        samples.push(Sample {
+            t: t1,
+            lyapunov: logs[0] / t1,
+            log_norm: logs[0],
+            megno: if sys.has_megno() { ybar_int / t1 } else { f64::NAN },
+        });
+        if status == Status::Finished {
+            break;
+        }
+    }
+    let t = solver.t();
+    Ok(Indicators {
+        lyapunov: logs.iter().map(|l| l / t).collect(),
+        fli,
+        megno: if sys.has_megno() { ybar_int / t } else { f64::NAN },
+        samples,
+        steps: solver.steps(),
+    })
+}
+
+/// Which number a chaos map shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Indicator {
+    /// The maximal Lyapunov exponent.
+    Lyapunov,
+    /// The fast Lyapunov indicator.
+    Fli,
+    /// The mean MEGNO.
+    Megno,
+}
+
+/// An indicator over many initial conditions, in parallel (rayon). A start whose
+/// integration fails (escapes to infinity, hits a singularity) gets NaN.
+pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
+    starts
+        .par_iter()
+        .map(|x0| match indicators(sys, x0, t_end, tol) {
+            Ok(r) => match which {
+                Indicator::Lyapunov => r.lyapunov[0],
+                Indicator::Fli => r.fli,
+                Indicator::Megno => r.megno,
+            },
+            Err(_) => f64::NAN,
+        })
+        .collect()
+}
+
+/// The state transition matrix `Φ(t_end)` (row-major, `n × n`) and the state at `t_end`, by
+/// the Taylor method on a variational system with `n` tangent vectors (no renormalisation).
+pub fn transition_matrix(
+    sys: &Variational,
+    x0: &[f64],
+    t_end: f64,
+    tol: f64,
+) -> Result<(Vec<f64>, Vec<f64>), IntegrateError> {
+    let n = sys.n();
+    assert_eq!(sys.tangents(), n, "Φ needs n tangent vectors");
+    let y0 = sys.initial_state(x0);
+    let traj = Taylor::new(tol).integrate_with(sys, 0.0..t_end, &y0, crate::integrate::Options::new().final_only())?;
+    let y = traj.last_state();
+    let mut phi = vec![0.0; n * n];
+    for j in 0..n {
+        for i in 0..n {
+            phi[i * n + j] = y[n + j * n + i];
+        }
+    }
+    Ok((phi, y[..n].to_vec()))
+}

@@ -1,0 +1,792 @@
+//! Taylor-mode automatic differentiation of a [`Tape`]: the normalised Taylor coefficients
+//! `x_[k] = x⁽ᵏ⁾(t₀)/k!` of every value of the tape, order by order, and from them the Taylor
+//! expansion of the solution of an ODE whose right-hand side the tape computes.
+//!
+//! Why a second form of the tape: the register tape reuses a slot as soon as its last reader
+//! has run, which is right for one evaluation but wrong here, because order `k` of an
+//! instruction reads orders `0..=k` of its operands, computed in earlier passes over the tape.
+//! [`TaylorTape`] renames the tape into single assignment (one row of coefficients per value)
+//! and adds, for the functions whose derivative is not a tape value already, one or two
+//! auxiliary rows (the cosine of a lone sine, `1 + tan²`, `√(1 − a²)` of an arcsine, …), so
+//! that every instruction has a recurrence of cost `O(k)` at order `k` (Griewank & Walther,
+//! *Evaluating Derivatives*, 2nd ed. 2008, §13.2, Table 13.2; the same recurrences as
+//! Jorba & Zou 2005, §2.1). Parameters and constants have order 0 only; the time input has
+//! `t₀, 1, 0, …`.
+//!
+//! Order 0 is computed with exactly the floating-point operations of the interpreter, so the
+//! zeroth coefficients equal a plain evaluation bit for bit.
+//!
+//! [`TaylorOde`] turns a tape into the right-hand side of an ODE in the integrators' layout:
+//! for each state component the tape output (or the other state component, for `q' = v`) that
+//! is its derivative, and optionally a linear solve `W a = F` per order for `W q'' = F`
+//! systems (`W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`, one factorisation of `W₀` per expansion).
+
+use std::fmt;
+
+use crate::expr::{Expr, Func};
+use crate::integrate::{RhsError as StepError, TaylorSystem};
+use crate::mechanics::{Kind, System};
+
+use super::rhs::{factor, solve, Factor};
+use super::tape::{Instr, Tape};
+use super::{CompileError, HamiltonianRhs, LagrangianRhs};
+
+/// One instruction of a [`TaylorTape`]. Operands and destinations are rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Op {
+    Add {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Sub {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Mul {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Div {
+        d: u32,
+        a: u32,
+        b: u32,
+    },
+    Neg {
+        d: u32,
+        a: u32,
+    },
+    Sqrt {
+        d: u32,
+        a: u32,
+    },
+    /// `s = sin a`, `c = cos a` (one of them may be an auxiliary row).
+    SinCos {
+        s: u32,
+        c: u32,
+        a: u32,
+    },
+    /// `s = sinh a`, `c = cosh a`.
+    SinhCosh {
+        s: u32,
+        c: u32,
+        a: u32,
+    },
+    Exp {
+        d: u32,
+        a: u32,
+    },
+    Log {
+        d: u32,
+        a: u32,
+    },
+    /// `d = tan a` (`hyp`: `tanh a`) with `u = 1 ± d²`, so `d' = u a'`.
+    Tan {
+        d: u32,
+        a: u32,
+        u: u32,
+        hyp: bool,
+    },
+    /// `d = asin a` (`acos` when `neg`) with `r = √(1 − a²)`, so `r d' = ±a'`.
+    Asin {
+        d: u32,
+        a: u32,
+        r: u32,
+        neg: bool,
+    },
+    /// `d = atan a` with `u = 1 + a²`, so `u d' = a'`.
+    Atan {
+        d: u32,
+        a: u32,
+        u: u32,
+    },
+    /// `d = atan2(a, b)` with `u = a² + b²`, so `u d' = b a' − a b'`.
+    Atan2 {
+        d: u32,
+        a: u32,
+        b: u32,
+        u: u32,
+    },
+    /// `d = a^e` for a constant exponent: `a d' = e d a'`.
+    PowConst {
+        d: u32,
+        a: u32,
+        e: u32,
+    },
+    /// `d = a^b` for a varying exponent, as `exp(b log a)`: `l = log a`, `m = b l`.
+    PowVar {
+        d: u32,
+        a: u32,
+        b: u32,
+        l: u32,
+        m: u32,
+    },
+    /// `d = |a|`: `± a` away from the kink.
+    Abs {
+        d: u32,
+        a: u32,
+    },
+}
+
+/// Why a Taylor expansion has no value.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TaylorError {
+    /// `|x|` evaluated where `x = 0` but `x` is not identically zero: not differentiable.
+    #[error(
+        "abs(…) is not differentiable at its kink: its argument is 0 at t = {t} and changes there; state {state:?}"
+    )]
+    AbsKink { t: f64, state: Vec<f64> },
+    /// A coefficient is infinite or NaN (a singularity within reach, a domain error).
+    #[error("non-finite Taylor coefficient of order {order} at t = {t}; state {state:?}")]
+    NonFinite { t: f64, order: usize, state: Vec<f64> },
+    /// `W q'' = F` with a singular `W` at the expansion point.
+    #[error(
+        "the mass matrix is singular at t = {t} (no pivot for the velocity of coordinate {index}); state {state:?}"
+    )]
+    SingularMassMatrix { t: f64, index: usize, state: Vec<f64> },
+}
+
+/// A [`Tape`] in single-assignment form with the Taylor recurrence of each instruction.
+///
+/// Rows are laid out `inputs | constants | values`. A coefficient buffer holds `stride`
+/// coefficients per row (`row · stride + k`), `stride > ` the highest order asked for.
+#[derive(Clone, Debug)]
+pub struct TaylorTape {
+    n_inputs: usize,
+    consts: Vec<f64>,
+    ops: Vec<Op>,
+    outputs: Vec<u32>,
+    n_rows: usize,
+}
+
+impl TaylorTape {
+    /// The Taylor form of `tape`.
+    pub fn new(tape: &Tape) -> TaylorTape {
+        let n_inputs = tape.n_inputs();
+        let consts = tape.consts().to_vec();
+        let fixed = (n_inputs + consts.len()) as u32;
+        let mut map: Vec<u32> = (0..tape.scratch_len() as u32).collect();
+        let mut next = fixed;
+        let mut fresh = || {
+            next += 1;
+            next - 1
+        };
+        let mut ops = Vec::with_capacity(tape.instrs().len());
+        for ins in tape.instrs() {
+            // Sources are read through the current renaming before destinations get new rows.
+            let op = match *ins {
+                Instr::Add { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    map[d as usize] = fresh();
+                    Op::Add { d: map[d as usize], a, b }
+                }
+                Instr::Sub { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    map[d as usize] = fresh();
+                    Op::Sub { d: map[d as usize], a, b }
+                }
+                Instr::Mul { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    map[d as usize] = fresh();
+                    Op::Mul { d: map[d as usize], a, b }
+                }
+                Instr::Div { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    map[d as usize] = fresh();
+                    Op::Div { d: map[d as usize], a, b }
+                }
+                Instr::Neg { d, a } => {
+                    let a = map[a as usize];
+                    map[d as usize] = fresh();
+                    Op::Neg { d: map[d as usize], a }
+                }
+                Instr::Sqrt { d, a } => {
+                    let a = map[a as usize];
+                    map[d as usize] = fresh();
+                    Op::Sqrt { d: map[d as usize], a }
+                }
+                Instr::SinCos { s, c, a } => {
+                    let a = map[a as usize];
+                    map[s as usize] = fresh();
+                    map[c as usize] = fresh();
+                    Op::SinCos { s: map[s as usize], c: map[c as usize], a }
+                }
+                Instr::Atan2 { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    let d2 = fresh();
+                    map[d as usize] = d2;
+                    Op::Atan2 { d: d2, a, b, u: fresh() }
+                }
+                Instr::Powf { d, a, b } => {
+                    let (a, b) = (map[a as usize], map[b as usize]);
+                    let d2 = fresh();
+                    map[d as usize] = d2;
+                    if b < fixed && b as usize >= n_inputs {
+                        Op::PowConst { d: d2, a, e: b }
+                    } else {
+                        Op::PowVar { d: d2, a, b, l: fresh(), m: fresh() }
+                    }
+                }
+                Instr::Call { d, f, a } => {
+                    let a = map[a as usize];
+                    let d2 = fresh();
+                    map[d as usize] = d2;
+                    match f {
+                        Func::Sin => Op::SinCos { s: d2, c: fresh(), a },
+                        Func::Cos => Op::SinCos { s: fresh(), c: d2, a },
+                        Func::Sinh => Op::SinhCosh { s: d2, c: fresh(), a },
+                        Func::Cosh => Op::SinhCosh { s: fresh(), c: d2, a },
+                        Func::Tan => Op::Tan { d: d2, a, u: fresh(), hyp: false },
+                        Func::Tanh => Op::Tan { d: d2, a, u: fresh(), hyp: true },
+                        Func::Exp => Op::Exp { d: d2, a },
+                        Func::Log => Op::Log { d: d2, a },
+                        Func::Asin => Op::Asin { d: d2, a, r: fresh(), neg: false },
+                        Func::Acos => Op::Asin { d: d2, a, r: fresh(), neg: true },
+                        Func::Atan => Op::Atan { d: d2, a, u: fresh() },
+                        Func::Abs => Op::Abs { d: d2, a },
+                        // The lowering emits `atan2` as its own instruction; a one-operand call
+                        // of it cannot occur (its second operand would be missing).
+                        Func::Atan2 => Op::Atan2 { d: d2, a, b: a, u: fresh() },
+                    }
+                }
+            };
+            ops.push(op);
+        }
+        let outputs = (0..tape.n_outputs()).map(|j| map[tape.output_slot(j)]).collect();
+        TaylorTape { n_inputs, consts, ops, outputs, n_rows: next as usize }
+    }
+
+    /// The number of coefficient rows (inputs, constants, values and auxiliaries).
+    pub fn n_rows(&self) -> usize {
+        self.n_rows
+    }
+
+    /// The number of inputs (rows `0..n_inputs`).
+    pub fn n_inputs(&self) -> usize {
+        self.n_inputs
+    }
+
+    /// The row holding output `j`.
+    pub fn output_row(&self, j: usize) -> usize {
+        self.outputs[j] as usize
+    }
+
+    /// The number of outputs.
+    pub fn n_outputs(&self) -> usize {
+        self.outputs.len()
+    }
+
+    /// Prepares a coefficient buffer (`n_rows · stride` values): constants in their rows with
+    /// zero higher coefficients. Inputs are the caller's.
+    pub fn init(&self, c: &mut [f64], stride: usize) {
+        for (i, &v) in self.consts.iter().enumerate() {
+            let r = (self.n_inputs + i) * stride;
+            c[r] = v;
+            c[r + 1..r + stride].fill(0.0);
+        }
+    }
+
+    /// Computes order `k` of every value, given orders `0..k` of every row and order `k` of
+    /// the inputs. Order 0 runs the interpreter's operations. The only failure is an `abs`
+    /// whose argument is 0 while its order-`k` coefficient is not (a kink).
+    pub fn run_order(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
+        assert!(c.len() >= self.n_rows * stride && k < stride, "Taylor buffer too short");
+        if k == 0 {
+            self.run_order0(c, stride);
+            return Ok(());
+        }
+        let s = stride;
+        let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
+        let kf = k as f64;
+        for op in &self.ops {
+            match *op {
+                Op::Add { d, a, b } => c[d as usize * s + k] = at(c, a, k) + at(c, b, k),
+                Op::Sub { d, a, b } => c[d as usize * s + k] = at(c, a, k) - at(c, b, k),
+                Op::Neg { d, a } => c[d as usize * s + k] = -at(c, a, k),
+                Op::Mul { d, a, b } => {
+                    let (ra, rb) = (row(c, a, s), row(c, b, s));
+                    c[d as usize * s + k] = cauchy(ra, rb, 0, k);
+                }
+                Op::Div { d, a, b } => {
+                    let (rb, rd) = (row(c, b, s), row(c, d, s));
+                    let acc = dot_rev(&rb[1..=k], &rd[..k]);
+                    c[d as usize * s + k] = (at(c, a, k) - acc) / rb[0];
+                }
+                Op::Sqrt { d, a } => {
+                    let rd = row(c, d, s);
+                    let acc = dot_rev(&rd[1..k], &rd[1..k]);
+                    c[d as usize * s + k] = (at(c, a, k) - acc) / (2.0 * rd[0]);
+                }
+                Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
+                    let (ra, rs, rc) = (row(c, a, s), row(c, si, s), row(c, co, s));
+                    let sv = weighted(ra, rc, k) / kf;
+                    let cv = weighted(ra, rs, k) / kf;
+                    let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
+                    c[si as usize * s + k] = sv;
+                    c[co as usize * s + k] = sign * cv;
+                }
+                Op::Exp { d, a } => {
+                    let (ra, rd) = (row(c, a, s), row(c, d, s));
+                    c[d as usize * s + k] = weighted(ra, rd, k) / kf;
+                }
+                Op::Log { d, a } => {
+                    // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
+                    let (ra, rd) = (row(c, a, s), row(c, d, s));
+                    let acc = weighted_short(rd, ra, k);
+                    c[d as usize * s + k] = (ra[k] - acc / kf) / ra[0];
+                }
+                Op::Tan { d, a, u, hyp } => {
+                    let (ra, ru) = (row(c, a, s), row(c, u, s));
+                    let dv = weighted(ra, ru, k) / kf;
+                    c[d as usize * s + k] = dv;
+                    let rd = row(c, d, s);
+                    let sq = cauchy(rd, rd, 0, k);
+                    c[u as usize * s + k] = if hyp { -sq } else { sq };
+                }
+                Op::Asin { d, a, r, neg } => {
+                    // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
+                    let (ra, rr) = (row(c, a, s), row(c, r, s));
+                    let rv = (-cauchy(ra, ra, 0, k) - dot_rev(&rr[1..k], &rr[1..k])) / (2.0 * rr[0]);
+                    // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
+                    let rd = row(c, d, s);
+                    let ak = if neg { -ra[k] } else { ra[k] };
+                    let dv = (ak - weighted_short(rd, rr, k) / kf) / rr[0];
+                    c[r as usize * s + k] = rv;
+                    c[d as usize * s + k] = dv;
+                }
+                Op::Atan { d, a, u } => {
+                    let (ra, ru) = (row(c, a, s), row(c, u, s));
+                    let uv = cauchy(ra, ra, 0, k);
+                    let rd = row(c, d, s);
+                    let dv = (ra[k] - weighted_short(rd, ru, k) / kf) / ru[0];
+                    c[u as usize * s + k] = uv;
+                    c[d as usize * s + k] = dv;
+                }
+                Op::Atan2 { d, a, b, u } => {
+                    let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
+                    let uv = cauchy(ra, ra, 0, k) + cauchy(rb, rb, 0, k);
+                    // u d' = b a' − a b'.
+                    let num = weighted(ra, rb, k) - weighted(rb, ra, k);
+                    let rd = row(c, d, s);
+                    let dv = (num - weighted_short(rd, ru, k)) / (kf * ru[0]);
+                    c[u as usize * s + k] = uv;
+                    c[d as usize * s + k] = dv;
+                }
+                Op::PowConst { d, a, e } => {
+                    // d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀).
+                    let e = at(c, e, 0);
+                    let (ra, rd) = (row(c, a, s), row(c, d, s));
+                    let mut acc = 0.0;
+                    for j in 1..=k {
+                        acc += (e * j as f64 - (k - j) as f64) * ra[j] * rd[k - j];
+                    }
+                    c[d as usize * s + k] = acc / (kf * ra[0]);
+                }
+                Op::PowVar { d, a, b, l, m } => {
+                    let (ra, rl) = (row(c, a, s), row(c, l, s));
+                    let lv = (ra[k] - weighted_short(rl, ra, k) / kf) / ra[0];
+                    c[l as usize * s + k] = lv;
+                    let (rb, rl) = (row(c, b, s), row(c, l, s));
+                    c[m as usize * s + k] = cauchy(rb, rl, 0, k);
+                    let (rm, rd) = (row(c, m, s), row(c, d, s));
+                    c[d as usize * s + k] = weighted(rm, rd, k) / kf;
+                }
+                Op::Abs { d, a } => {
+                    let (a0, ak) = (at(c, a, 0), at(c, a, k));
+                    let v = if a0 > 0.0 {
+                        ak
+                    } else if a0 < 0.0 {
+                        -ak
+                    } else if ak == 0.0 {
+                        0.0
+                    } else {
+                        return Err(KinkAt);
+                    };
+                    c[d as usize * s + k] = v;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Order 0: the interpreter's operations, plus the auxiliary rows.
+    fn run_order0(&self, c: &mut [f64], s: usize) {
+        let ix = |r: u32| r as usize * s;
+        for op in &self.ops {
+            match *op {
+                Op::Add { d, a, b } => c[ix(d)] = c[ix(a)] + c[ix(b)],
+                Op::Sub { d, a, b } => c[ix(d)] = c[ix(a)] - c[ix(b)],
+                Op::Mul { d, a, b } => c[ix(d)] = c[ix(a)] * c[ix(b)],
+                Op::Div { d, a, b } => c[ix(d)] = c[ix(a)] / c[ix(b)],
+                Op::Neg { d, a } => c[ix(d)] = -c[ix(a)],
+                Op::Sqrt { d, a } => c[ix(d)] = c[ix(a)].sqrt(),
+                Op::SinCos { s: si, c: co, a } => {
+                    let (sv, cv) = c[ix(a)].sin_cos();
+                    c[ix(si)] = sv;
+                    c[ix(co)] = cv;
+                }
+                Op::SinhCosh { s: si, c: co, a } => {
+                    let x = c[ix(a)];
+                    c[ix(si)] = x.sinh();
+                    c[ix(co)] = x.cosh();
+                }
+                Op::Exp { d, a } => c[ix(d)] = c[ix(a)].exp(),
+                Op::Log { d, a } => c[ix(d)] = c[ix(a)].ln(),
+                Op::Tan { d, a, u, hyp } => {
+                    let x = c[ix(a)];
+                    let v = if hyp { x.tanh() } else { x.tan() };
+                    c[ix(d)] = v;
+                    c[ix(u)] = if hyp { 1.0 - v * v } else { 1.0 + v * v };
+                }
+                Op::Asin { d, a, r, neg } => {
+                    let x = c[ix(a)];
+                    c[ix(d)] = if neg { x.acos() } else { x.asin() };
+                    c[ix(r)] = (1.0 - x * x).sqrt();
+                }
+                Op::Atan { d, a, u } => {
+                    let x = c[ix(a)];
+                    c[ix(d)] = x.atan();
+                    c[ix(u)] = 1.0 + x * x;
+                }
+                Op::Atan2 { d, a, b, u } => {
+                    let (x, y) = (c[ix(a)], c[ix(b)]);
+                    c[ix(d)] = x.atan2(y);
+                    c[ix(u)] = x * x + y * y;
+                }
+                Op::PowConst { d, a, e } => c[ix(d)] = c[ix(a)].powf(c[ix(e)]),
+                Op::PowVar { d, a, b, l, m } => {
+                    let (x, y) = (c[ix(a)], c[ix(b)]);
+                    let lv = x.ln();
+                    c[ix(d)] = x.powf(y);
+                    c[ix(l)] = lv;
+                    c[ix(m)] = y * lv;
+                }
+                Op::Abs { d, a } => c[ix(d)] = c[ix(a)].abs(),
+            }
+        }
+    }
+
+    /// Fills orders `0..=order` of every row, with the inputs' coefficients given by
+    /// `inputs(k, c)` (called before order `k` is computed, to write order `k` of the inputs).
+    /// For functions of time alone and tests; ODEs use [`TaylorOde`].
+    pub fn expand(
+        &self,
+        c: &mut [f64],
+        stride: usize,
+        order: usize,
+        mut inputs: impl FnMut(usize, &mut [f64]),
+    ) -> Result<(), KinkAt> {
+        self.init(c, stride);
+        for k in 0..=order {
+            inputs(k, c);
+            self.run_order(c, stride, k)?;
+        }
+        Ok(())
+    }
+}
+
+/// An `abs` met its kink (see [`TaylorTape::run_order`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KinkAt;
+
+#[inline(always)]
+fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
+    &c[r as usize * s..(r as usize + 1) * s]
+}
+
+/// `Σ_{j=lo}^{k−lo} a_j b_{k−j}`.
+#[inline(always)]
+fn cauchy(a: &[f64], b: &[f64], lo: usize, k: usize) -> f64 {
+    let mut acc = 0.0;
+    for j in lo..=k - lo {
+        acc += a[j] * b[k - j];
+    }
+    acc
+}
+
+/// `Σ_{j} x_j y_{n−1−j}` for two slices of length `n` (the second read backwards).
+#[inline(always)]
+fn dot_rev(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len();
+    let mut acc = 0.0;
+    for j in 0..n {
+        acc += x[j] * y[n - 1 - j];
+    }
+    acc
+}
+
+/// `Σ_{j=1}^{k} j a_j b_{k−j}` (the coefficient of `t^{k−1}` in `a' b`).
+#[inline(always)]
+fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
+    let mut acc = 0.0;
+    for j in 1..=k {
+        acc += j as f64 * a[j] * b[k - j];
+    }
+    acc
+}
+
+/// `Σ_{j=1}^{k−1} j a_j b_{k−j}`.
+#[inline(always)]
+fn weighted_short(a: &[f64], b: &[f64], k: usize) -> f64 {
+    let mut acc = 0.0;
+    for j in 1..k {
+        acc += j as f64 * a[j] * b[k - j];
+    }
+    acc
+}
+
+/// Where the derivative of a state component comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Derivative {
+    /// Tape output `j`.
+    Output(usize),
+    /// State component `i` (`q' = v` of a second-order system).
+    State(usize),
+    /// Acceleration `i` of the solve `W a = F` (see [`TaylorOde::second_order`]).
+    Solve(usize),
+}
+
+/// `W a = F` solved per order: the tape outputs of `W` (row-major) and `F`.
+#[derive(Clone, Debug)]
+struct MassSolve {
+    n: usize,
+    w: Vec<usize>,
+    f: Vec<usize>,
+    symmetric: bool,
+}
+
+/// The Taylor expansion of the solution of `y' = f(t, y)` from a compiled tape: the state is
+/// the first [`TaylorOde::dim`] inputs, the time (if the tape reads it) the input after them.
+#[derive(Clone, Debug)]
+pub struct TaylorOde {
+    tape: TaylorTape,
+    /// The plain tape, for order-0 evaluation as a right-hand side.
+    plain: Tape,
+    dim: usize,
+    time: Option<usize>,
+    derivs: Vec<Derivative>,
+    solve: Option<MassSolve>,
+}
+
+impl TaylorOde {
+    /// `y' = f(y, t)` with `f_i` tape output `i`; the tape's inputs are `y…, t` (the time last,
+    /// as every compiled right-hand side has it) or `y…` alone.
+    pub fn first_order(tape: &Tape) -> TaylorOde {
+        let dim = tape.n_outputs();
+        let time = (tape.n_inputs() > dim).then_some(dim);
+        TaylorOde {
+            tape: TaylorTape::new(tape),
+            plain: tape.clone(),
+            dim,
+            time,
+            derivs: (0..dim).map(Derivative::Output).collect(),
+            solve: None,
+        }
+    }
+
+    /// `W q'' = F` in `y = (q, q')` with `n` degrees of freedom, from a tape with inputs
+    /// `q…, q'…, t` and outputs `W` (row-major, `n²`) then `F` (`n`). Per order `k` the
+    /// accelerations solve `W₀ a_k = F_k − Σ_{j=1}^{k} W_j a_{k−j}` with one factorisation of
+    /// `W₀` (Cholesky when `W` is symmetric and positive definite, else LU with pivoting).
+    pub fn second_order(tape: &Tape, n: usize, symmetric: bool) -> TaylorOde {
+        let mut derivs: Vec<Derivative> = (0..n).map(|i| Derivative::State(n + i)).collect();
+        derivs.extend((0..n).map(Derivative::Solve));
+        TaylorOde {
+            tape: TaylorTape::new(tape),
+            plain: tape.clone(),
+            dim: 2 * n,
+            time: (tape.n_inputs() > 2 * n).then_some(2 * n),
+            derivs,
+            solve: Some(MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric }),
+        }
+    }
+
+    /// The dimension of the state.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The Taylor form of the tape.
+    pub fn taylor_tape(&self) -> &TaylorTape {
+        &self.tape
+    }
+
+    fn solve_len(&self, stride: usize) -> usize {
+        match &self.solve {
+            // accelerations (n · stride), factor (n²), perm (n), tmp (n), rhs (n), W₀ (n²)
+            Some(m) => m.n * stride + 2 * m.n * m.n + 3 * m.n,
+            None => 0,
+        }
+    }
+
+    /// Scratch values [`TaylorOde::expand`] needs for `order`.
+    pub fn scratch_len(&self, order: usize) -> usize {
+        let stride = order + 1;
+        self.tape.n_rows() * stride + self.solve_len(stride)
+    }
+
+    /// Fills `coeffs[i · (order + 1) + k]` with the normalised Taylor coefficients
+    /// `y_i⁽ᵏ⁾(t)/k!`, `k = 0..=order`, of the solution through `(t, y)`.
+    pub fn expand(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        scratch: &mut [f64],
+        coeffs: &mut [f64],
+    ) -> Result<(), TaylorError> {
+        let s = order + 1;
+        let dim = self.dim;
+        assert!(y.len() >= dim && coeffs.len() >= dim * s, "state or coefficient buffer too short");
+        let rows = self.tape.n_rows() * s;
+        let (c, rest) = scratch[..self.scratch_len(order)].split_at_mut(rows);
+        self.tape.init(c, s);
+        for i in 0..dim {
+            c[i * s] = y[i];
+        }
+        if let Some(ti) = self.time {
+            let r = &mut c[ti * s..(ti + 1) * s];
+            r.fill(0.0);
+            r[0] = t;
+            if s > 1 {
+                r[1] = 1.0;
+            }
+        }
+        let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
+        let mut kind = Factor::Cholesky;
+        for k in 0..order {
+            self.tape.run_order(c, s, k).map_err(kink)?;
+            if let Some(m) = &self.solve {
+                let n = m.n;
+                let (acc, rest) = rest.split_at_mut(n * s);
+                let (fm, rest) = rest.split_at_mut(n * n);
+                let (perm, rest) = rest.split_at_mut(n);
+                let (tmp, rest) = rest.split_at_mut(n);
+                let (rhs, rest) = rest.split_at_mut(n);
+                let w0 = &mut rest[..n * n];
+                let out = |j: usize| self.tape.output_row(j);
+                if k == 0 {
+                    for (e, &o) in w0.iter_mut().zip(&m.w) {
+                        *e = c[out(o) * s];
+                    }
+                    if !w0.iter().all(|x| x.is_finite()) {
+                        return Err(TaylorError::NonFinite { t, order: 0, state: y[..dim].to_vec() });
+                    }
+                    kind = factor(w0, fm, perm, n, m.symmetric).map_err(|index| TaylorError::SingularMassMatrix {
+                        t,
+                        index,
+                        state: y[..dim].to_vec(),
+                    })?;
+                }
+                for i in 0..n {
+                    let mut v = c[out(m.f[i]) * s + k];
+                    for j in 1..=k {
+                        for l in 0..n {
+                            v -= c[out(m.w[i * n + l]) * s + j] * acc[l * s + k - j];
+                        }
+                    }
+                    rhs[i] = v;
+                }
+                solve(kind, fm, perm, n, rhs, tmp);
+                for i in 0..n {
+                    acc[i * s + k] = rhs[i];
+                }
+            }
+            let inv = 1.0 / (k + 1) as f64;
+            for i in 0..dim {
+                let v = match self.derivs[i] {
+                    Derivative::Output(j) => c[self.tape.output_row(j) * s + k],
+                    Derivative::State(j) => c[j * s + k],
+                    Derivative::Solve(j) => rest[j * s + k],
+                };
+                c[i * s + k + 1] = v * inv;
+            }
+        }
+        for i in 0..dim {
+            coeffs[i * s..(i + 1) * s].copy_from_slice(&c[i * s..(i + 1) * s]);
+        }
+        if let Some(bad) = coeffs[..dim * s].iter().position(|x| !x.is_finite()) {
+            return Err(TaylorError::NonFinite { t, order: bad % s, state: y[..dim].to_vec() });
+        }
+        Ok(())
+    }
+
+    /// The right-hand side `f(t, y)` at order 0 (the plain tape and, for `W q'' = F`, one
+    /// solve): the first-order coefficients times one.
+    pub fn eval_rate(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), TaylorError> {
+        let mut scratch = vec![0.0; self.scratch_len(1)];
+        let mut coeffs = vec![0.0; 2 * self.dim];
+        self.expand(t, y, 1, &mut scratch, &mut coeffs)?;
+        for i in 0..self.dim {
+            dy[i] = coeffs[2 * i + 1];
+        }
+        Ok(())
+    }
+
+    /// The plain tape.
+    pub fn tape(&self) -> &Tape {
+        &self.plain
+    }
+}
+
+impl fmt::Display for TaylorTape {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} rows, {} recurrences", self.n_rows, self.ops.len())
+    }
+}
+
+impl TaylorSystem for TaylorOde {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn scratch_len(&self, order: usize) -> usize {
+        TaylorOde::scratch_len(self, order)
+    }
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        scratch: &mut [f64],
+        coeffs: &mut [f64],
+    ) -> Result<(), StepError> {
+        self.expand(t, y, order, scratch, coeffs).map_err(|e| StepError::new(e.to_string()))
+    }
+}
+
+impl TaylorOde {
+    /// The Taylor form of a compiled `W q'' = F` system (state `(q, q')`).
+    pub fn from_lagrangian(rhs: &LagrangianRhs) -> TaylorOde {
+        TaylorOde::second_order(rhs.tape(), rhs.dof(), rhs.is_symmetric())
+    }
+
+    /// The Taylor form of compiled Hamilton's equations (state `(q, p)`).
+    pub fn from_hamiltonian(rhs: &HamiltonianRhs) -> TaylorOde {
+        TaylorOde::first_order(rhs.tape())
+    }
+
+    /// `y' = f(y, t)` compiled from expressions: `state` names the components of `y` (plain
+    /// spelling), `t` is the time, `params` are bound.
+    pub fn from_exprs(f: &[Expr], state: &[&str], params: &[(&str, f64)]) -> Result<TaylorOde, CompileError> {
+        if f.len() != state.len() {
+            return Err(CompileError::Shape { what: "right-hand sides", expected: state.len(), got: f.len() });
+        }
+        let mut inputs: Vec<&str> = state.to_vec();
+        inputs.push("t");
+        let tape = Tape::compile(f, &inputs, params)?;
+        Ok(TaylorOde::first_order(&tape))
+    }
+}
+
+impl System {
+    /// The Taylor form of the system's equations of motion: `W q'' = F` in `(q, q')` for a
+    /// Lagrangian system, Hamilton's equations in `(q, p)` for a Hamiltonian one.
+    pub fn compile_taylor(&self) -> Result<TaylorOde, CompileError> {
+        match self.kind() {
+            Kind::Hamiltonian(_) => Ok(TaylorOde::from_hamiltonian(&self.compile_hamiltonian()?)),
+            _ => Ok(TaylorOde::from_lagrangian(&self.compile_rhs()?)),
+        }
+    }
+}

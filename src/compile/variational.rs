@@ -1,0 +1,193 @@
+//! Variational equations: the state `x` of `x' = f(x, t)` together with `m` tangent vectors
+//! `w_j' = J(x, t) w_j` (`J = ∂f/∂x`, differentiated exactly and compiled into the same tape
+//! as `f`, so what they share is computed once), and optionally the MEGNO accumulator
+//! `y' = t · (w₀ · J w₀) / (w₀ · w₀)` (Cincotta & Simó 2000, eq. 2; its time average is the
+//! MEGNO of `chaos`).
+//!
+//! With `m = dim` and `w_j(0) = e_j` the tangent vectors are the columns of the state
+//! transition matrix `Φ(t)`. The result is one first-order system: its [`TaylorOde`] is
+//! integrated by [`crate::integrate::Taylor`], and it is also an [`Rhs`] for DOP853 and the
+//! Gauss methods.
+//!
+//! State layout: `x` (`n`), then `w_0 … w_{m−1}` (`n` each), then `y` when MEGNO is on.
+
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+use crate::integrate::{Rhs, RhsError as StepError, TaylorSystem};
+use crate::mechanics::System;
+
+use super::{CompileError, Tape, TaylorOde};
+
+/// `x' = f(x, t)` with `m` tangent vectors and an optional MEGNO accumulator.
+#[derive(Clone, Debug)]
+pub struct Variational {
+    n: usize,
+    m: usize,
+    megno: bool,
+    tape: Tape,
+    taylor: TaylorOde,
+}
+
+/// The symbol named `name` in `exprs` (so a positive `m` is found by its name), else a plain one.
+fn symbol_named(exprs: &[Expr], name: &str) -> Symbol {
+    for e in exprs {
+        if let Some(s) = e.free_symbols().into_iter().find(|s| s.to_string() == name) {
+            return s;
+        }
+    }
+    Symbol::new(name)
+}
+
+impl Variational {
+    /// The variational system of `x' = f(x, t)`: `state` names `x` (plain spelling), the time
+    /// is `t`, `params` are bound; `tangents` vectors, and MEGNO's accumulator when `megno`
+    /// (which follows tangent vector 0).
+    pub fn new(
+        f: &[Expr],
+        state: &[&str],
+        params: &[(&str, f64)],
+        tangents: usize,
+        megno: bool,
+    ) -> Result<Variational, CompileError> {
+        let n = state.len();
+        if f.len() != n {
+            return Err(CompileError::Shape { what: "right-hand sides", expected: n, got: f.len() });
+        }
+        if tangents == 0 && megno {
+            return Err(CompileError::Shape { what: "tangent vectors for MEGNO", expected: 1, got: 0 });
+        }
+        let xs: Vec<Symbol> = state.iter().map(|s| symbol_named(f, s)).collect();
+        let names: Vec<Vec<String>> = (0..tangents).map(|j| (0..n).map(|i| format!("δ{j}_{i}")).collect()).collect();
+        let mut d = Differentiator::new();
+        let jac: Vec<Vec<Expr>> = f.iter().map(|fi| xs.iter().map(|x| d.diff(fi, x)).collect()).collect();
+        let mut outputs: Vec<Expr> = f.to_vec();
+        let mut jw0 = Vec::new();
+        for row_names in &names {
+            let w: Vec<Expr> = row_names.iter().map(|s| Expr::var(s)).collect();
+            for row in &jac {
+                let e = Expr::add(row.iter().zip(&w).filter(|(j, _)| !j.is_zero()).map(|(j, wk)| j.times(wk)));
+                outputs.push(e);
+            }
+            if jw0.is_empty() {
+                jw0 = outputs[n..2 * n].to_vec();
+            }
+        }
+        let mut inputs: Vec<String> = state.iter().map(|s| s.to_string()).collect();
+        inputs.extend(names.iter().flatten().cloned());
+        if megno {
+            let w0: Vec<Expr> = names[0].iter().map(|s| Expr::var(s)).collect();
+            let num = Expr::add(w0.iter().zip(&jw0).map(|(w, jw)| w.times(jw)));
+            let den = Expr::add(w0.iter().map(|w| w.powi(2)));
+            outputs.push(Expr::var("t").times(&num.over(&den)));
+            inputs.push("δmegno".to_string());
+        }
+        inputs.push("t".to_string());
+        let input_refs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+        let tape = Tape::compile(&outputs, &input_refs, params)?;
+        let taylor = TaylorOde::first_order(&tape);
+        Ok(Variational { n, m: tangents, megno, tape, taylor })
+    }
+
+    /// The variational system of Hamilton's equations of `h` (state `(q, p)`).
+    pub fn hamiltonian(
+        h: &Expr,
+        coords: &[&str],
+        momenta: &[&str],
+        params: &[(&str, f64)],
+        tangents: usize,
+        megno: bool,
+    ) -> Result<Variational, CompileError> {
+        let syms: Vec<Symbol> =
+            coords.iter().chain(momenta).map(|s| symbol_named(std::slice::from_ref(h), s)).collect();
+        let n = coords.len();
+        let mut d = Differentiator::new();
+        let mut f: Vec<Expr> = syms[n..].iter().map(|p| d.diff(h, p)).collect();
+        f.extend(syms[..n].iter().map(|q| d.diff(h, q).neg()));
+        let state: Vec<&str> = coords.iter().chain(momenta).copied().collect();
+        Variational::new(&f, &state, params, tangents, megno)
+    }
+
+    /// The variational system of a mechanics [`System`] in canonical coordinates `(q, p)`
+    /// (through its Hamiltonian, derived by the Legendre transform for a Lagrangian system).
+    pub fn of_system(sys: &System, tangents: usize, megno: bool) -> Result<Variational, CompileError> {
+        let h = sys.hamiltonian().map_err(|e| CompileError::Mechanics(e.to_string()))?;
+        let q: Vec<String> = sys.coordinates().iter().map(|s| s.to_string()).collect();
+        let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
+        let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
+        let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let qs: Vec<&str> = q.iter().map(String::as_str).collect();
+        let ps: Vec<&str> = p.iter().map(String::as_str).collect();
+        Variational::hamiltonian(&h, &qs, &ps, &refs, tangents, megno)
+    }
+
+    /// The dimension `n` of `x`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// The number of tangent vectors.
+    pub fn tangents(&self) -> usize {
+        self.m
+    }
+
+    /// Whether the MEGNO accumulator is the last state component.
+    pub fn has_megno(&self) -> bool {
+        self.megno
+    }
+
+    /// The dimension of the whole state.
+    pub fn dim(&self) -> usize {
+        self.n * (1 + self.m) + usize::from(self.megno)
+    }
+
+    /// The initial state: `x0`, then the first `m` unit vectors as tangents (all of them: `Φ(0)
+    /// = I`), then a zero accumulator.
+    pub fn initial_state(&self, x0: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        let mut y = vec![0.0; self.dim()];
+        y[..n].copy_from_slice(&x0[..n]);
+        for j in 0..self.m {
+            y[n + j * n + (j % n)] = 1.0;
+        }
+        y
+    }
+
+    /// The compiled tape (`f`, the `J w_j`, the MEGNO integrand).
+    pub fn tape(&self) -> &Tape {
+        &self.tape
+    }
+
+    /// The Taylor form.
+    pub fn taylor(&self) -> &TaylorOde {
+        &self.taylor
+    }
+}
+
+impl Rhs for Variational {
+    fn dim(&self) -> usize {
+        Variational::dim(self)
+    }
+    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let d = Variational::dim(self);
+        self.tape.eval_split(&y[..d], t, &mut dy[..d]);
+    }
+}
+
+impl TaylorSystem for Variational {
+    fn dim(&self) -> usize {
+        Variational::dim(self)
+    }
+    fn scratch_len(&self, order: usize) -> usize {
+        self.taylor.scratch_len(order)
+    }
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        scratch: &mut [f64],
+        coeffs: &mut [f64],
+    ) -> Result<(), StepError> {
+        self.taylor.taylor_coefficients(t, y, order, scratch, coeffs)
+    }
+}

@@ -1,0 +1,282 @@
+//! The adaptive Taylor method: each step expands the solution in its Taylor series to order
+//! `p` at the current state (the coefficients come from the system, by Taylor-mode automatic
+//! differentiation of its compiled tape) and sums the series at the step size.
+//!
+//! Order and step follow Jorba & Zou, *A software package for the numerical integration of
+//! ODEs by means of high-order Taylor methods*, Experimental Mathematics 14 (2005) 99–117,
+//! §3.2–3.3: for a tolerance `ε` the order is `p = ⌈−½ ln ε + 1⌉`, and the step is
+//! `h = ρ / e² · exp(−0.7 / (p − 1))` with `ρ = min(ρ_{p−1}, ρ_p)`,
+//! `ρ_m = (s / ‖y_[m]‖∞)^{1/m}` (an estimate of the radius of convergence from the last two
+//! coefficients; `s = 1` for absolute control, `s = ‖y₀‖∞` for relative control, whichever of
+//! `atol`, `rtol · ‖y₀‖∞` is larger). With `h = ρ/e²` the last term is about
+//! `e^{−2p} ≤ ε`; the factor `exp(−0.7/(p − 1))` is their safety margin. The step is chosen a
+//! priori, so no step is ever rejected.
+//!
+//! Dense output is the step's own polynomial (no extra right-hand sides), so events located
+//! by the [`super::Solver`] are roots of `g` on that polynomial.
+
+use super::error::{check_finite, FailureReason, StepFailure};
+use super::{add_scaled, Method, MethodInfo, RhsError};
+
+/// A system whose solution can be expanded in a Taylor series at any state: the integrators'
+/// view of a compiled Taylor tape (`compile::TaylorOde`).
+pub trait TaylorSystem: Sync {
+    /// The dimension of the state.
+    fn dim(&self) -> usize;
+    /// The scratch [`TaylorSystem::taylor_coefficients`] needs at `order`.
+    fn scratch_len(&self, order: usize) -> usize;
+    /// Writes the normalised Taylor coefficients `y_i⁽ᵏ⁾(t)/k!` of the solution through
+    /// `(t, y)` into `coeffs[i · (order + 1) + k]`, `k = 0..=order`. Must not allocate.
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        scratch: &mut [f64],
+        coeffs: &mut [f64],
+    ) -> Result<(), RhsError>;
+}
+
+/// The smallest tolerance accepted: below it the last bits of an `f64` state are noise, and
+/// the order grows with no gain.
+pub const MIN_TOL: f64 = 1e-18;
+
+/// The adaptive Taylor method (see the module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Taylor {
+    /// Relative tolerance.
+    pub rtol: f64,
+    /// Absolute tolerance.
+    pub atol: f64,
+    /// The order, if not chosen from the tolerance.
+    pub order: Option<usize>,
+    /// Largest step size allowed (default: none).
+    pub h_max: Option<f64>,
+    /// Kahan-compensated summation of the state update.
+    pub compensated: bool,
+}
+
+impl Default for Taylor {
+    /// Machine precision: `tol = ε = 2.2e-16` (order 19).
+    fn default() -> Self {
+        Taylor::new(f64::EPSILON)
+    }
+}
+
+impl Taylor {
+    /// The Taylor method with `rtol = atol = tol`.
+    pub fn new(tol: f64) -> Self {
+        Taylor { rtol: tol, atol: tol, order: None, h_max: None, compensated: false }
+    }
+
+    /// Separate relative and absolute tolerances.
+    pub fn with_tolerances(rtol: f64, atol: f64) -> Self {
+        Taylor { rtol, atol, ..Taylor::new(rtol) }
+    }
+
+    /// Uses compensated summation for the state update.
+    pub fn compensated(mut self) -> Self {
+        self.compensated = true;
+        self
+    }
+
+    /// Fixes the order instead of choosing it from the tolerance.
+    pub fn with_order(mut self, p: usize) -> Self {
+        self.order = Some(p);
+        self
+    }
+
+    /// Caps the step size.
+    pub fn with_h_max(mut self, h: f64) -> Self {
+        self.h_max = Some(h);
+        self
+    }
+
+    /// Name, order and properties.
+    pub fn info(&self) -> MethodInfo {
+        MethodInfo {
+            name: "Taylor",
+            order: self.taylor_order() as u32,
+            symplectic: false,
+            symmetric: false,
+            adaptive: true,
+        }
+    }
+
+    /// The order used: given, or `⌈−½ ln ε + 1⌉` for the smaller tolerance (at least 2).
+    pub fn taylor_order(&self) -> usize {
+        if let Some(p) = self.order {
+            return p;
+        }
+        let eps = self.rtol.min(self.atol);
+        if !(eps.is_finite() && eps > 0.0) {
+            return 2;
+        }
+        ((-0.5 * eps.ln() + 1.0).ceil() as usize).max(2)
+    }
+
+    /// Checks the tolerances and order.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("rtol", self.rtol), ("atol", self.atol)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("Taylor tolerance {name} = {v} must be positive and finite"));
+            }
+            if v < MIN_TOL {
+                return Err(format!(
+                    "Taylor tolerance {name} = {v:e} is below what f64 arithmetic can meet (the smallest accepted is {MIN_TOL:e})"
+                ));
+            }
+        }
+        if let Some(p) = self.order {
+            if !(2..=100).contains(&p) {
+                return Err(format!("Taylor order {p} must be between 2 and 100"));
+            }
+        }
+        if let Some(h) = self.h_max {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(format!("Taylor h_max = {h} must be positive and finite"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The Jorba–Zou step size from the coefficients of one expansion (`stride = p + 1`).
+    fn step_size(&self, y: &[f64], coeffs: &[f64], p: usize) -> f64 {
+        let s = p + 1;
+        let n = y.len();
+        let x0 = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let (mut np1, mut np) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            np1 = np1.max(coeffs[i * s + p - 1].abs());
+            np = np.max(coeffs[i * s + p].abs());
+        }
+        let scale = if self.rtol * x0 <= self.atol { 1.0 } else { x0 };
+        let rho = |norm: f64, m: usize| if norm == 0.0 { f64::INFINITY } else { (scale / norm).powf(1.0 / m as f64) };
+        let r = rho(np1, p - 1).min(rho(np, p));
+        r * (-2.0 - 0.7 / (p - 1) as f64).exp()
+    }
+}
+
+/// Scratch storage of a [`Taylor`] integration.
+pub struct TaylorWork {
+    order: usize,
+    coeffs: Vec<f64>,
+    scratch: Vec<f64>,
+    comp: Vec<f64>,
+    inc: Vec<f64>,
+    /// The last step's size; its polynomial is `coeffs` (dense output).
+    h_last: f64,
+    dense_ready: bool,
+}
+
+impl TaylorWork {
+    /// The order of the expansions.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// The normalised Taylor coefficients of the last step (`i · (order + 1) + k`), expanded
+    /// at its start.
+    pub fn coefficients(&self) -> &[f64] {
+        &self.coeffs
+    }
+
+    /// The signed size of the last step.
+    pub fn last_step(&self) -> f64 {
+        self.h_last
+    }
+}
+
+/// `Σ_k c_k x^k` by Horner, from `k = lo`.
+#[inline]
+fn horner(c: &[f64], x: f64, lo: usize) -> f64 {
+    let mut acc = 0.0;
+    for k in (lo..c.len()).rev() {
+        acc = acc * x + c[k];
+    }
+    acc
+}
+
+impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
+    type Work = TaylorWork;
+
+    fn info(&self) -> MethodInfo {
+        Taylor::info(self)
+    }
+
+    fn dim(&self, sys: &S) -> usize {
+        sys.dim()
+    }
+
+    fn work(&self, sys: &S) -> TaylorWork {
+        let n = sys.dim();
+        let p = self.taylor_order().clamp(2, 100);
+        TaylorWork {
+            order: p,
+            coeffs: vec![0.0; n * (p + 1)],
+            scratch: vec![0.0; sys.scratch_len(p)],
+            comp: vec![0.0; n],
+            inc: vec![0.0; n],
+            h_last: 0.0,
+            dense_ready: false,
+        }
+    }
+
+    fn fixed_step(&self) -> Option<f64> {
+        None
+    }
+
+    fn step(&self, sys: &S, w: &mut TaylorWork, t: f64, y: &mut [f64], h_req: f64) -> Result<f64, StepFailure> {
+        self.validate().map_err(|m| StepFailure(FailureReason::InvalidInput(m)))?;
+        let p = w.order;
+        let s = p + 1;
+        let n = y.len();
+        w.dense_ready = false;
+        sys.taylor_coefficients(t, y, p, &mut w.scratch, &mut w.coeffs)?;
+        check_finite(&w.coeffs)?;
+        let dir = h_req.signum();
+        let mut h = self.step_size(y, &w.coeffs, p);
+        if let Some(m) = self.h_max {
+            h = h.min(m);
+        }
+        let h = if h >= h_req.abs() { h_req } else { dir * h };
+        if h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0 {
+            return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
+        }
+        for i in 0..n {
+            w.inc[i] = h * horner(&w.coeffs[i * s..(i + 1) * s], h, 1);
+        }
+        add_scaled(y, self.compensated.then_some(&mut w.comp[..]), 1.0, &w.inc);
+        w.h_last = h;
+        w.dense_ready = true;
+        Ok(h)
+    }
+
+    fn rate(&self, sys: &S, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepFailure> {
+        let n = sys.dim();
+        let mut scratch = vec![0.0; sys.scratch_len(1)];
+        let mut coeffs = vec![0.0; 2 * n];
+        sys.taylor_coefficients(t, y, 1, &mut scratch, &mut coeffs)?;
+        for i in 0..n {
+            dy[i] = coeffs[2 * i + 1];
+        }
+        Ok(())
+    }
+
+    fn dense(&self, _sys: &S, w: &mut TaylorWork, theta: f64, out: &mut [f64]) -> Result<bool, StepFailure> {
+        if !w.dense_ready {
+            return Ok(false);
+        }
+        let s = w.order + 1;
+        let x = theta * w.h_last;
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = horner(&w.coeffs[i * s..(i + 1) * s], x, 0);
+        }
+        Ok(true)
+    }
+
+    fn reset(&self, w: &mut TaylorWork) {
+        w.comp.fill(0.0);
+        w.dense_ready = false;
+    }
+}

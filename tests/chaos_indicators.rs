@@ -1,0 +1,174 @@
+//! Variational equations and chaos indicators: Φ against finite differences of the flow,
+//! Liouville (det Φ), symplecticity, and the indicators on integrable and chaotic orbits.
+
+use lagrangian::chaos::{chaos_map, indicators, transition_matrix, Indicator};
+use lagrangian::compile::{TaylorOde, Variational};
+use lagrangian::integrate::{Dop853, Integrate, Options, Taylor};
+use lagrangian::parse;
+
+const HH: &str = "1/2 (p_x^2 + p_y^2) + 1/2 (x^2 + y^2) + x^2 y - y^3/3";
+
+fn henon_heiles(tangents: usize, megno: bool) -> Variational {
+    Variational::hamiltonian(&parse(HH).unwrap(), &["x", "y"], &["p_x", "p_y"], &[], tangents, megno).unwrap()
+}
+
+/// A start on the energy surface `E` with `x = 0` and given `y`, `p_y` (`p_x ≥ 0` from E).
+fn hh_start(e: f64, y: f64, py: f64) -> [f64; 4] {
+    let px2 = 2.0 * e - py * py - y * y + 2.0 * y * y * y / 3.0;
+    [0.0, y, px2.sqrt(), py]
+}
+
+fn det(a: &[f64], n: usize) -> f64 {
+    let mut m = a.to_vec();
+    let mut d = 1.0;
+    for j in 0..n {
+        let p = (j..n).max_by(|&r, &s| m[r * n + j].abs().total_cmp(&m[s * n + j].abs())).unwrap();
+        if p != j {
+            for k in 0..n {
+                m.swap(j * n + k, p * n + k);
+            }
+            d = -d;
+        }
+        d *= m[j * n + j];
+        for i in j + 1..n {
+            let f = m[i * n + j] / m[j * n + j];
+            for k in j..n {
+                m[i * n + k] -= f * m[j * n + k];
+            }
+        }
+    }
+    d
+}
+
+#[test]
+fn transition_matrix_matches_finite_differences_of_the_flow() {
+    let sys = henon_heiles(4, false);
+    let flow = TaylorOde::from_exprs(
+        &["p_x", "p_y", "-x - 2 x y", "-y - x^2 + y^2"].map(|s| parse(s).unwrap()),
+        &["x", "y", "p_x", "p_y"],
+        &[],
+    )
+    .unwrap();
+    let x0 = hh_start(0.1, 0.1, 0.05);
+    let t1 = 5.0;
+    let (phi, x1) = transition_matrix(&sys, &x0, t1, 1e-15).unwrap();
+    let end = |x: &[f64]| {
+        Taylor::new(1e-15).integrate_with(&flow, 0.0..t1, x, Options::new().final_only()).unwrap().last_state().to_vec()
+    };
+    assert!(end(&x0).iter().zip(&x1).all(|(a, b)| (a - b).abs() < 1e-13));
+    let h = 1e-5;
+    for j in 0..4 {
+        let (mut xp, mut xm) = (x0, x0);
+        xp[j] += h;
+        xm[j] -= h;
+        let (fp, fm) = (end(&xp), end(&xm));
+        for i in 0..4 {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            // Central differences: truncation O(h²) ~ 1e-10 times the third derivative.
+            assert!((phi[i * 4 + j] - fd).abs() < 1e-7 * (1.0 + fd.abs()), "Φ[{i}][{j}] = {} vs {fd}", phi[i * 4 + j]);
+        }
+    }
+}
+
+#[test]
+fn hamiltonian_flow_preserves_volume_and_the_symplectic_form() {
+    let sys = henon_heiles(4, false);
+    let x0 = hh_start(0.08, 0.05, 0.1);
+    let (phi, _) = transition_matrix(&sys, &x0, 20.0, 1e-15).unwrap();
+    assert!((det(&phi, 4) - 1.0).abs() < 1e-12, "det Φ = {}", det(&phi, 4));
+    // ΦᵀJΦ = J with J = [[0, I], [−I, 0]].
+    let jm = |i: usize, k: usize| -> f64 {
+        match (i < 2, k < 2) {
+            (true, false) if k == i + 2 => 1.0,
+            (false, true) if i == k + 2 => -1.0,
+            _ => 0.0,
+        }
+    };
+    let mut defect = 0.0f64;
+    for a in 0..4 {
+        for b in 0..4 {
+            let mut s = 0.0;
+            for i in 0..4 {
+                for k in 0..4 {
+                    s += phi[i * 4 + a] * jm(i, k) * phi[k * 4 + b];
+                }
+            }
+            defect = defect.max((s - jm(a, b)).abs());
+        }
+    }
+    assert!(defect < 1e-12, "symplectic defect {defect:e}");
+}
+
+#[test]
+fn damped_oscillator_contracts_volume_like_its_trace() {
+    // x' = v, v' = −x − γ v: tr J = −γ, so det Φ(t) = e^{−γt} (Liouville).
+    let gamma = 0.3;
+    let f = [parse("v").unwrap(), parse("-x - 3/10 v").unwrap()];
+    let sys = Variational::new(&f, &["x", "v"], &[], 2, false).unwrap();
+    for t in [1.0, 5.0, 12.0] {
+        let (phi, _) = transition_matrix(&sys, &[1.0, 0.0], t, 1e-15).unwrap();
+        let want = (-gamma * t).exp();
+        assert!((det(&phi, 2) - want).abs() < 1e-13 * want.max(1e-3) * 100.0, "t = {t}: {} vs {want}", det(&phi, 2));
+    }
+    // The same tangent flow through DOP853 (the variational system is an Rhs too).
+    let y0 = sys.initial_state(&[1.0, 0.0]);
+    let tr = Dop853::new(1e-13, 1e-13).integrate_with(&sys, 0.0..5.0, &y0, Options::new().final_only()).unwrap();
+    let y = tr.last_state();
+    let d = y[2] * y[5] - y[4] * y[3];
+    assert!((d - (-gamma * 5.0f64).exp()).abs() < 1e-10, "{d}");
+}
+
+#[test]
+fn integrable_orbits_have_zero_exponent_and_their_megno() {
+    // Harmonic oscillator: isochronous, tangent vectors stay bounded: λ → 0, Ȳ → 0.
+    let osc = Variational::hamiltonian(&parse("1/2 p^2 + 1/2 x^2").unwrap(), &["x"], &["p"], &[], 1, true).unwrap();
+    let r = indicators(&osc, &[1.0, 0.0], 500.0, 1e-14).unwrap();
+    assert!(r.lyapunov[0].abs() < 0.01, "{:?}", r.lyapunov);
+    assert!(r.megno.abs() < 0.05, "Ȳ = {}", r.megno);
+    // Pendulum libration: the period depends on the amplitude, so tangents grow linearly:
+    // λ → 0 like ln t / t, Ȳ → 2.
+    let pend = Variational::hamiltonian(&parse("1/2 p^2 - cos(x)").unwrap(), &["x"], &["p"], &[], 1, true).unwrap();
+    let r = indicators(&pend, &[2.0, 0.0], 2000.0, 1e-14).unwrap();
+    assert!(r.lyapunov[0].abs() < 0.01, "{:?}", r.lyapunov);
+    assert!((r.megno - 2.0).abs() < 0.1, "Ȳ = {}", r.megno);
+    // A regular Hénon–Heiles orbit at low energy: nearly isochronous (both frequencies near
+    // 1), so Ȳ creeps up towards 2 only after very long times; it stays well below chaos.
+    let hh = henon_heiles(1, true);
+    let r = indicators(&hh, &hh_start(0.05, 0.1, 0.0), 2000.0, 1e-14).unwrap();
+    assert!(r.megno < 2.2 && r.lyapunov[0] < 0.01, "Ȳ = {}, λ = {:?}", r.megno, r.lyapunov);
+}
+
+#[test]
+fn chaotic_henon_heiles_orbit_at_e_one_sixth() {
+    let hh = henon_heiles(1, true);
+    let x0 = hh_start(1.0 / 6.0, -0.1, 0.05);
+    let r = indicators(&hh, &x0, 1000.0, 1e-14).unwrap();
+    assert!(r.lyapunov[0] > 0.02, "λ = {:?}", r.lyapunov);
+    assert!(r.megno > 5.0, "Ȳ = {}", r.megno);
+    assert!(r.fli > 10.0, "FLI = {}", r.fli);
+}
+
+#[test]
+fn hamiltonian_spectrum_comes_in_opposite_pairs() {
+    let hh = henon_heiles(4, false);
+    let x0 = hh_start(1.0 / 6.0, -0.1, 0.05);
+    let r = indicators(&hh, &x0, 1000.0, 1e-14).unwrap();
+    let l = &r.lyapunov;
+    assert!(l[0] > 0.02, "{l:?}");
+    assert!((l[0] + l[3]).abs() < 0.02 * l[0], "{l:?}");
+    assert!((l[1] + l[2]).abs() < 0.05 * l[0], "{l:?}");
+    assert!(l.iter().sum::<f64>().abs() < 1e-10, "{l:?}");
+}
+
+#[test]
+fn chaos_map_over_a_small_grid() {
+    let hh = henon_heiles(1, true);
+    let starts: Vec<Vec<f64>> =
+        [(0.05, 0.1, 0.0), (1.0 / 6.0, -0.1, 0.05)].iter().map(|&(e, y, py)| hh_start(e, y, py).to_vec()).collect();
+    let map = chaos_map(&hh, &starts, 300.0, 1e-12, Indicator::Megno);
+    assert_eq!(map.len(), 2);
+    assert!(map[0] < 3.0 && map[1] > map[0], "{map:?}");
+    // Same numbers as one orbit at a time (deterministic, thread-independent).
+    let one = indicators(&hh, &starts[1], 300.0, 1e-12).unwrap().megno;
+    assert_eq!(map[1], one);
+}

@@ -1,0 +1,198 @@
+//! The adaptive Taylor integrator on compiled systems: closed forms, the 50-digit
+//! double-pendulum reference, events on the step polynomial, and bad input.
+
+use std::f64::consts::PI;
+
+use lagrangian::compile::TaylorOde;
+use lagrangian::integrate::problems::{elliptic_k, DoublePendulum, Kepler, Pendulum};
+use lagrangian::integrate::{Crossing, Event, FailureReason, Integrate, Options, Taylor};
+use lagrangian::mechanics::System;
+use lagrangian::parse;
+
+fn lagrangian(l: &str, coords: &[&str], params: &[(&str, f64)]) -> TaylorOde {
+    System::from_lagrangian(l, coords).unwrap().with_params(params).unwrap().compile_taylor().unwrap()
+}
+
+#[test]
+fn order_follows_jorba_zou() {
+    // p = ⌈−½ ln ε + 1⌉.
+    assert_eq!(Taylor::new(1e-16).taylor_order(), (0.5 * 16.0 * 10f64.ln() + 1.0).ceil() as usize);
+    assert_eq!(Taylor::new(1e-16).taylor_order(), 20);
+    assert_eq!(Taylor::new(1e-6).taylor_order(), 8);
+    assert_eq!(Taylor::default().taylor_order(), 20);
+}
+
+#[test]
+fn harmonic_oscillator_matches_the_closed_form_with_dense_output() {
+    let w = 1.7;
+    let sys = lagrangian("1/2 m x'^2 - 1/2 k x^2", &["x"], &[("m", 2.0), ("k", 2.0 * w * w)]);
+    let y0 = [0.3, 0.5];
+    let exact = |t: f64| {
+        [y0[0] * (w * t).cos() + y0[1] / w * (w * t).sin(), -y0[0] * w * (w * t).sin() + y0[1] * (w * t).cos()]
+    };
+    let traj = Taylor::new(1e-15).integrate(&sys, 0.0..100.0, &y0).unwrap();
+    let mut worst = 0.0f64;
+    for (t, y) in traj.iter() {
+        let e = exact(t);
+        worst = worst.max((y[0] - e[0]).abs()).max((y[1] - e[1]).abs());
+    }
+    assert!(worst < 1e-12, "max error over 100 time units: {worst:e}");
+    // Steps are long (a Taylor polynomial of order 20 covers a good part of a period) ...
+    assert!(traj.stats.steps < 400, "{} steps", traj.stats.steps);
+    assert_eq!(traj.stats.rejected, 0);
+    // ... and dense output inside them is the step polynomial, as accurate as the steps.
+    let method = Taylor::new(1e-15);
+    let mut solver = method.solver(&sys, 0.0, &y0, 10.0).unwrap();
+    solver.step().unwrap();
+    let (t0, t1) = (solver.previous().0, solver.t());
+    assert!(t1 - t0 > 0.2, "first step {}", t1 - t0);
+    let mut y = [0.0; 2];
+    for j in 1..10 {
+        let t = t0 + (t1 - t0) * j as f64 / 10.0;
+        solver.interpolate(t, &mut y).unwrap();
+        let e = exact(t);
+        assert!((y[0] - e[0]).abs() < 1e-14 && (y[1] - e[1]).abs() < 1e-14, "dense at {t}: {y:?} vs {e:?}");
+    }
+}
+
+#[test]
+fn kepler_eccentric_orbit_over_1000_periods() {
+    // e = 0.9, period 2π, energy −1/2: Hamiltonian form, state sampled once per orbit.
+    let sys = System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"])
+        .unwrap()
+        .compile_taylor()
+        .unwrap();
+    let e = 0.9;
+    let y0 = Kepler::pericentre(e);
+    let orbits = 1000;
+    let method = Taylor::new(1e-15);
+    let mut solver = method.solver(&sys, 0.0, &y0, 2.0 * PI).unwrap();
+    let mut worst_energy = 0.0f64;
+    for k in 1..=orbits {
+        solver.set_stop_time(2.0 * PI * k as f64);
+        while solver.step().unwrap() == lagrangian::integrate::Status::Stepped {}
+        let h = Kepler.energy(solver.y());
+        worst_energy = worst_energy.max((h + 0.5).abs() / 0.5);
+    }
+    let y = solver.y();
+    let exact = Kepler::exact(e, 2.0 * PI * orbits as f64);
+    let pos = ((y[0] - exact[0]).powi(2) + (y[1] - exact[1]).powi(2)).sqrt();
+    assert!(worst_energy < 1e-12, "max relative energy error {worst_energy:e}");
+    assert!(pos < 1e-8, "position error after {orbits} orbits: {pos:e}");
+    let steps = solver.steps();
+    assert!(steps < 200 * orbits, "{steps} steps");
+}
+
+#[test]
+fn double_pendulum_against_the_50_digit_reference() {
+    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+    let params = [("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)];
+    let sys = lagrangian(l, &["θ1", "θ2"], &params);
+    let reference = DoublePendulum::REFERENCE_T10;
+    let mut errors = Vec::new();
+    for tol in [1e-8, 1e-11, 1e-14] {
+        let traj =
+            Taylor::new(tol).integrate_with(&sys, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only()).unwrap();
+        let y = traj.last_state();
+        let err = (0..4).map(|i| (y[i] - reference[i]).abs()).fold(0.0, f64::max);
+        errors.push(err);
+    }
+    // Chaos amplifies local errors by about 1e8 by t = 10; the error still falls with tol.
+    assert!(errors[0] > errors[1] && errors[1] > errors[2], "{errors:?}");
+    assert!(errors[2] < 1e-5, "{errors:?}");
+    // The energy is conserved along the way at the tight tolerance.
+    let dp = DoublePendulum::default();
+    let traj = Taylor::new(1e-15).integrate(&sys, 0.0..10.0, &DoublePendulum::Y0).unwrap();
+    let e0 = dp.energy(&DoublePendulum::Y0);
+    let drift = traj.iter().map(|(_, y)| (dp.energy(y) - e0).abs() / e0.abs()).fold(0.0, f64::max);
+    assert!(drift < 1e-12, "energy drift {drift:e}");
+}
+
+#[test]
+fn pendulum_turning_points_are_half_periods_apart() {
+    // θ'' = −sin θ released from rest at θ0 = 2.5: turning points (θ' = 0) every T/2 with
+    // T = 4 K(sin²(θ0/2)), located on the step polynomial.
+    let sys = lagrangian("1/2 θ'^2 + cos(θ)", &["θ"], &[]);
+    let theta0: f64 = 2.5;
+    let period = 4.0 * elliptic_k((0.5 * theta0).sin().powi(2));
+    assert!((period - Pendulum { omega: 1.0 }.period(theta0)).abs() < 1e-14);
+    let opts = Options::new().final_only().event(Event::new(|_, y: &[f64]| y[1]).crossing(Crossing::Either));
+    let traj = Taylor::new(1e-15).integrate_with(&sys, 0.0..20.0 * period + 0.1, &[theta0, 0.0], opts).unwrap();
+    // The start itself (θ' = 0 at t = 0) is not a crossing; then one every half period.
+    assert_eq!(traj.events.len(), 40, "{:?}", traj.events.iter().map(|e| e.t).collect::<Vec<_>>());
+    for (j, ev) in traj.events.iter().enumerate() {
+        let expected = (j + 1) as f64 * period / 2.0;
+        assert!((ev.t - expected).abs() < 1e-11, "turning point {j}: {} vs {expected}", ev.t);
+        assert!((ev.state[0].abs() - theta0).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn first_order_system_from_expressions() {
+    // Logistic growth y' = y (1 − y): y = 1 / (1 + 9 e^{−t}) from y(0) = 0.1, with an explicit
+    // time dependence in a second component z' = cos(t) (z = sin t).
+    let f = [parse("y (1 - y)").unwrap(), parse("cos(t)").unwrap()];
+    let sys = TaylorOde::from_exprs(&f, &["y", "z"], &[]).unwrap();
+    let traj = Taylor::new(1e-14).integrate(&sys, 0.0..8.0, &[0.1, 0.0]).unwrap();
+    for (t, y) in traj.iter() {
+        assert!((y[0] - 1.0 / (1.0 + 9.0 * (-t).exp())).abs() < 1e-13, "t = {t}");
+        assert!((y[1] - t.sin()).abs() < 1e-13, "t = {t}");
+    }
+    // Backwards in time too.
+    let back = Taylor::new(1e-14).integrate(&sys, 8.0..0.0, traj.last_state()).unwrap();
+    assert!((back.last_state()[0] - 0.1).abs() < 1e-12);
+}
+
+#[test]
+fn compensated_summation_keeps_long_runs_closer() {
+    let sys = lagrangian("1/2 x'^2 - 1/2 x^2", &["x"], &[]);
+    let t1 = 2000.0 * PI;
+    let plain = Taylor::new(1e-16).integrate_with(&sys, 0.0..t1, &[1.0, 0.0], Options::new().final_only()).unwrap();
+    let comp = Taylor::new(1e-16)
+        .compensated()
+        .integrate_with(&sys, 0.0..t1, &[1.0, 0.0], Options::new().final_only())
+        .unwrap();
+    let err = |y: &[f64]| (y[0] - 1.0).abs().max(y[1].abs());
+    assert!(err(comp.last_state()) < 1e-11, "{:e}", err(comp.last_state()));
+    assert!(err(comp.last_state()) <= err(plain.last_state()) * 1.5);
+}
+
+#[test]
+fn bad_tolerances_are_typed_errors() {
+    let sys = lagrangian("1/2 x'^2 - 1/2 x^2", &["x"], &[]);
+    for tol in [0.0, -1e-8, f64::NAN, f64::INFINITY, 1e-25] {
+        let err = Taylor::new(tol).integrate(&sys, 0.0..1.0, &[1.0, 0.0]).unwrap_err();
+        assert!(matches!(err.reason, FailureReason::InvalidInput(_)), "tol {tol}: {err}");
+        assert_eq!(err.steps, 0);
+    }
+}
+
+#[test]
+fn a_blow_up_ends_with_a_typed_error_not_a_hang() {
+    // y' = y² from y(0) = 1 blows up at t = 1.
+    let sys = TaylorOde::from_exprs(&[parse("y^2").unwrap()], &["y"], &[]).unwrap();
+    let err = Taylor::new(1e-12).integrate(&sys, 0.0..2.0, &[1.0]).unwrap_err();
+    assert!(
+        matches!(
+            err.reason,
+            FailureReason::StepSizeCollapse { .. } | FailureReason::NonFinite { .. } | FailureReason::Rhs(_)
+        ),
+        "{err}"
+    );
+    assert!(err.t > 0.99 && err.t < 1.0 + 1e-12, "{err}");
+    assert!(err.steps < 10_000, "{} steps", err.steps);
+}
+
+#[test]
+fn singular_mass_matrix_and_abs_kink_are_typed_errors() {
+    // W = x², singular at x = 0.
+    let sys = lagrangian("1/2 x^2 x'^2 - x", &["x"], &[]);
+    let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[0.0, 1.0]).unwrap_err();
+    assert!(err.to_string().contains("singular"), "{err}");
+    // A force with |x| at its kink x = 0.
+    let f = [parse("v").unwrap(), parse("-abs(y)").unwrap()];
+    let sys = TaylorOde::from_exprs(&f, &["y", "v"], &[]).unwrap();
+    let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[0.0, 1.0]).unwrap_err();
+    assert!(err.to_string().contains("abs"), "{err}");
+}

@@ -1,0 +1,182 @@
+//! Taylor-mode AD of a tape, instruction by instruction, against an independent computation:
+//! the Taylor coefficients of `f(t)` at `t₀` by Cauchy's integral formula,
+//! `f_k = (1/2πi) ∮ f(z) / (z − t₀)^{k+1} dz`, evaluated with the trapezoidal rule on a circle
+//! of radius `r` inside the disc of convergence in complex arithmetic (num-complex's own
+//! elementary functions). The rule's aliasing error is `O((r/R)^N)`, negligible for `N = 256`
+//! points and `r ≤ R/2`; its rounding error is about `ε · max|f| / r^k`, which sets the
+//! tolerance of each comparison.
+
+use std::f64::consts::PI;
+
+use lagrangian::compile::{Instr, Tape, TaylorTape};
+use lagrangian::{parse, Func};
+use num_complex::Complex64 as C;
+
+const ORDER: usize = 24;
+const POINTS: usize = 256;
+
+/// The coefficients `f_0 … f_ORDER` of `f` at `t0` and the bound `max |f|` on the circle.
+fn cauchy(f: &dyn Fn(C) -> C, t0: f64, r: f64) -> (Vec<f64>, f64) {
+    let mut coeffs = vec![0.0; ORDER + 1];
+    let mut m = 0.0f64;
+    let vals: Vec<C> = (0..POINTS)
+        .map(|j| {
+            let z = C::from_polar(r, 2.0 * PI * j as f64 / POINTS as f64);
+            let v = f(C::new(t0, 0.0) + z);
+            m = m.max(v.norm());
+            v
+        })
+        .collect();
+    for (k, ck) in coeffs.iter_mut().enumerate() {
+        let mut acc = C::new(0.0, 0.0);
+        for (j, v) in vals.iter().enumerate() {
+            acc += v * C::from_polar(1.0, -2.0 * PI * (j * k) as f64 / POINTS as f64);
+        }
+        *ck = acc.re / POINTS as f64 / r.powi(k as i32);
+    }
+    (coeffs, m)
+}
+
+/// Expands the tape of `src` (a function of `t`) to `ORDER` at `t0` and compares every
+/// coefficient with the Cauchy integral; returns the tape for kind checks.
+fn check(src: &str, f: &dyn Fn(C) -> C, t0: f64, r: f64) -> Tape {
+    let tape = Tape::compile(&[parse(src).unwrap()], &["t"], &[]).unwrap();
+    let tt = TaylorTape::new(&tape);
+    let s = ORDER + 1;
+    let mut c = vec![0.0; tt.n_rows() * s];
+    tt.expand(&mut c, s, ORDER, |k, c| {
+        c[k] = match k {
+            0 => t0,
+            1 => 1.0,
+            _ => 0.0,
+        }
+    })
+    .unwrap();
+    let row = tt.output_row(0);
+    let ours = &c[row * s..(row + 1) * s];
+    let (exact, m) = cauchy(f, t0, r);
+    // Order 0 is the interpreter's value, bit for bit.
+    let mut out = [0.0];
+    tape.interpreted().eval(&[t0], &mut out);
+    assert_eq!(ours[0], out[0], "{src}: order 0 differs from the interpreter");
+    for k in 0..=ORDER {
+        let tol = 1e-12 * m / r.powi(k as i32);
+        assert!(
+            (ours[k] - exact[k]).abs() <= tol,
+            "{src} at t0 = {t0}, order {k}: Taylor tape {:e}, Cauchy integral {:e} (tolerance {tol:e})\n{tape}",
+            ours[k],
+            exact[k]
+        );
+    }
+    tape
+}
+
+fn has(tape: &Tape, pred: impl Fn(&Instr) -> bool) -> bool {
+    tape.instrs().iter().any(pred)
+}
+
+fn call(f: Func) -> impl Fn(&Instr) -> bool {
+    move |i| matches!(i, Instr::Call { f: g, .. } if *g == f)
+}
+
+#[test]
+fn arithmetic_add_sub_neg_mul_div() {
+    // A rational function: poles where 2 + t + t² = 0 (|t| = √2) and t = 3.
+    let tape = check(
+        "(t^3 - 2 t + 1) / (2 + t + t^2) - t / (3 - t)",
+        &|t: C| (t * t * t - 2.0 * t + 1.0) / (2.0 + t + t * t) - t / (3.0 - t),
+        0.1,
+        0.6,
+    );
+    assert!(has(&tape, |i| matches!(i, Instr::Div { .. })));
+    assert!(has(&tape, |i| matches!(i, Instr::Mul { .. })));
+    assert!(has(&tape, |i| matches!(i, Instr::Sub { .. })));
+    let tape = check("-(t^2) + t", &|t: C| -(t * t) + t, 0.5, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Sub { .. } | Instr::Neg { .. })));
+    let tape = check("-(t^2 + 1) * exp(t)", &|t: C| -(t * t + 1.0) * t.exp(), 0.5, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Neg { .. })), "{tape}");
+    let tape = check("t + t^2 + exp(t)", &|t: C| t + t * t + t.exp(), 0.3, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Add { .. })));
+}
+
+#[test]
+fn square_roots_and_powers() {
+    let tape = check("sqrt(2 + t + t^2/4)", &|t: C| (2.0 + t + t * t / 4.0).sqrt(), 0.2, 0.6);
+    assert!(has(&tape, |i| matches!(i, Instr::Sqrt { .. })));
+    // A constant non-integer exponent.
+    let tape = check("(2 + t)^(1/3)", &|t: C| (2.0 + t).powf(1.0 / 3.0), 0.2, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Powf { .. })));
+    // An exponent that varies with t: exp(b log a).
+    let tape = check("(2 + t)^(1 + t/2)", &|t: C| (2.0 + t).powc(1.0 + t / 2.0), 0.2, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Powf { .. })));
+    // Half-integer powers lower to sqrt and products.
+    check("(1 + t^2)^(-3/2)", &|t: C| (1.0 + t * t).powf(-1.5), 0.3, 0.5);
+}
+
+#[test]
+fn sine_and_cosine_alone_and_paired() {
+    let g = |t: C| t * t / 3.0 + t;
+    let tape = check("sin(t^2/3 + t)", &move |t: C| g(t).sin(), 0.4, 1.5);
+    assert!(has(&tape, call(Func::Sin)));
+    let tape = check("cos(t^2/3 + t)", &move |t: C| g(t).cos(), 0.4, 1.5);
+    assert!(has(&tape, call(Func::Cos)));
+    let tape = check(
+        "sin(t^2/3 + t) * cos(t^2/3 + t) + cos(t^2/3 + t)",
+        &move |t: C| g(t).sin() * g(t).cos() + g(t).cos(),
+        0.4,
+        1.5,
+    );
+    assert!(has(&tape, |i| matches!(i, Instr::SinCos { .. })));
+}
+
+#[test]
+fn exponential_logarithm_and_hyperbolic_functions() {
+    let tape = check("exp(sin(t))", &|t: C| t.sin().exp(), 0.3, 1.5);
+    assert!(has(&tape, call(Func::Exp)));
+    let tape = check("log(2 + t + t^2/2)", &|t: C| (2.0 + t + t * t / 2.0).ln(), 0.2, 0.6);
+    assert!(has(&tape, call(Func::Log)));
+    let tape = check("sinh(t^2 - t)", &|t: C| (t * t - t).sinh(), 0.3, 1.5);
+    assert!(has(&tape, call(Func::Sinh)));
+    let tape = check("cosh(t^2 - t)", &|t: C| (t * t - t).cosh(), 0.3, 1.5);
+    assert!(has(&tape, call(Func::Cosh)));
+    let tape = check("tanh(t/2 + 1/4)", &|t: C| (t / 2.0 + 0.25).tanh(), 0.3, 1.2);
+    assert!(has(&tape, call(Func::Tanh)));
+}
+
+#[test]
+fn tangent_and_inverse_trigonometric_functions() {
+    // tan has poles at ±π/2 of its argument; asin/acos branch points at ±1, atan at ±i.
+    let tape = check("tan(t/2 + 1/5)", &|t: C| (t / 2.0 + 0.2).tan(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Tan)));
+    let tape = check("asin(t/3 + 1/10)", &|t: C| (t / 3.0 + 0.1).asin(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Asin)));
+    let tape = check("acos(t/3 + 1/10)", &|t: C| (t / 3.0 + 0.1).acos(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Acos)));
+    let tape = check("atan(t^2 + t)", &|t: C| (t * t + t).atan(), 0.3, 0.25);
+    assert!(has(&tape, call(Func::Atan)));
+    // atan2(a, b) = atan(a/b) where b stays in the right half plane.
+    let tape = check("atan2(t + 1/2, 2 + t^2)", &|t: C| ((t + 0.5) / (2.0 + t * t)).atan(), 0.2, 0.6);
+    assert!(has(&tape, |i| matches!(i, Instr::Atan2 { .. })));
+}
+
+#[test]
+fn abs_away_from_its_kink() {
+    // |t − 3| = 3 − t near 0, |t + 2| = t + 2.
+    let tape = check("abs(t - 3) * abs(t + 2)", &|t: C| (3.0 - t) * (t + 2.0), 0.5, 1.0);
+    assert!(has(&tape, call(Func::Abs)));
+}
+
+#[test]
+fn abs_at_its_kink_is_an_error_not_a_wrong_series() {
+    let tape = Tape::compile(&[parse("abs(t - 1)").unwrap()], &["t"], &[]).unwrap();
+    let tt = TaylorTape::new(&tape);
+    let s = 5;
+    let mut c = vec![0.0; tt.n_rows() * s];
+    let r = tt.expand(&mut c, s, 4, |k, c| c[k] = [1.0, 1.0, 0.0, 0.0, 0.0][k]);
+    assert!(r.is_err());
+    // An argument identically zero is smooth: |0| = 0.
+    let tape = Tape::compile(&[parse("abs(t - t) + t").unwrap()], &["t"], &[]).unwrap();
+    let tt = TaylorTape::new(&tape);
+    let mut c = vec![0.0; tt.n_rows() * s];
+    assert!(tt.expand(&mut c, s, 4, |k, c| c[k] = [1.0, 1.0, 0.0, 0.0, 0.0][k]).is_ok());
+}
