@@ -12,7 +12,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from ._core import Expr, System
+from ._core import Event, Expr, System
 
 _cache: dict[Any, System] = {}
 _lock = threading.Lock()
@@ -21,6 +21,10 @@ _CACHE_SIZE = 64
 
 def _expr(text: str, positive: list[str], functions: list[str]) -> Expr:
     return Expr(text, positive=positive, functions=functions)
+
+
+def _event(expr: object, direction: int, terminal: bool) -> Event:
+    return Event(expr, direction=direction, terminal=terminal)
 
 
 def _key(source: dict[str, Any]) -> Any:

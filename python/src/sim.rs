@@ -693,6 +693,12 @@ impl PyEvent {
         PyEvent { expr, direction, terminal }
     }
 
+    /// Pickles as its expression (an `Expr` pickles as text) and options.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (PyObject, i32, bool))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_event")?;
+        Ok((f, (self.expr.clone_ref(py), self.direction, self.terminal)))
+    }
+
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         Ok(format!(
             "Event({}, direction={}, terminal={})",

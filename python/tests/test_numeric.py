@@ -2,6 +2,7 @@
 accuracy against exact solutions, events, the GIL, and errors for bad input."""
 
 import math
+import pickle
 import threading
 import time
 
@@ -146,7 +147,9 @@ def test_events_find_the_pendulum_period(pendulum):
     assert len(te) >= 2 and sol.y_events[0].shape == (len(te), 2)
     np.testing.assert_allclose(np.diff(te), period, rtol=1e-9)
     np.testing.assert_allclose(te[0], period / 4, rtol=1e-9)
-    stop = pendulum.integrate((0, 20), [θ0, 0.0], events=[lg.Event("θ", terminal=True)])
+    ev = pickle.loads(pickle.dumps(lg.Event(lg.Expr("θ"), terminal=True)))
+    assert ev.terminal and ev.direction == 0 and ev.expr == lg.Expr("θ")
+    stop = pendulum.integrate((0, 20), [θ0, 0.0], events=[ev])
     assert stop.status == "event" and stop.t[-1] == pytest.approx(period / 4, rel=1e-8)
 
 

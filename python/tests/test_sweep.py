@@ -128,3 +128,22 @@ def test_a_chunk_lost_for_good_is_reported_and_the_rest_returns():
     assert lost, r.failures
     assert all("the chunk of points" in f["reason"] for f in lost)
     assert r.ok.sum() == 6 - len(lost) and r.ok.sum() >= 2
+
+
+def test_sweep_example_script(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent.parent / "examples" / "sweep.py"
+    out = tmp_path / "flip.png"
+    run = subprocess.run(
+        [sys.executable, str(script), "--n", "6", "--t", "3", "--workers", "1", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, MPLBACKEND="Agg"),
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "36 trajectories" in run.stdout and "0 failed" in run.stdout
+    assert out.stat().st_size > 1000
