@@ -1,0 +1,168 @@
+"""The Python rows of BENCHMARKS.md, measured in one run (run through
+`python/benchmarks/run.sh`, which builds the package with the release profile):
+
+1. text → trajectory for the double pendulum to t = 10: `lagrangian` from the text of L
+   (parse, derive, compile, integrate with DOP853) against SymPy (`LagrangesMethod`, solve
+   for the accelerations, `lambdify`) + SciPy `solve_ivp(method="DOP853")`, each at the
+   loosest tolerance whose final error is at most the target, against a reference from
+   `lagrangian`'s compensated DOP853 at tol 1e-15 (checked against SciPy at rtol 1e-13);
+2. the cost of one call of the compiled right-hand side from Python (`f(t, y)`), against the
+   per-point cost of a large batch call (the Rust evaluation with the Python overhead
+   amortised away) and a SymPy-lambdified call;
+3. sweep throughput (trajectories per second) on a LocalCluster with 1 and 2 workers.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import time
+
+import numpy as np
+
+import lagrangian as lg
+
+L_TEXT = (
+    "1/2 (m1 + m2) l1^2 θ1'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) + 1/2 m2 l2^2 θ2'^2"
+    " + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)"
+)
+PARAMS = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+Y0 = [2.0, 2.5, 0.0, 0.0]
+T = 10.0
+
+
+def best(f, reps):
+    times = []
+    out = None
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        out = f()
+        times.append(time.perf_counter() - t0)
+    return min(times), statistics.median(times), out
+
+
+def ours_pipeline(tol):
+    def run():
+        s = lg.System.from_lagrangian(L_TEXT, ["θ1", "θ2"], params=PARAMS, positive=list(PARAMS))
+        return s.integrate((0, T), Y0, "dop853", tol=tol, t_eval=[T], progress=False).y[:, -1]
+
+    return run
+
+
+def sympy_derive():
+    import sympy as sp
+    from sympy.physics.mechanics import LagrangesMethod, dynamicsymbols
+
+    q1, q2 = dynamicsymbols("θ1 θ2")
+    m1, m2, l1, l2, g = sp.symbols("m1 m2 l1 l2 g", positive=True)
+    t = sp.Symbol("t")
+    u1, u2 = q1.diff(t), q2.diff(t)
+    Ls = (
+        sp.Rational(1, 2) * (m1 + m2) * l1**2 * u1**2
+        + m2 * l1 * l2 * u1 * u2 * sp.cos(q1 - q2)
+        + sp.Rational(1, 2) * m2 * l2**2 * u2**2
+        + (m1 + m2) * g * l1 * sp.cos(q1)
+        + m2 * g * l2 * sp.cos(q2)
+    )
+    lm = LagrangesMethod(Ls, [q1, q2])
+    lm.form_lagranges_equations()
+    acc = lm.mass_matrix.LUsolve(lm.forcing)
+    a1, a2, b1, b2 = sp.symbols("a1 a2 b1 b2")
+    acc = acc.subs({u1: b1, u2: b2}).subs({q1: a1, q2: a2})
+    num = {m1: 1.0, m2: 1.0, l1: 1.0, l2: 1.0, g: 9.81}
+    f = sp.lambdify([a1, a2, b1, b2], list(acc.subs(num)), "math")
+
+    def rhs(t, y):
+        a = f(y[0], y[1], y[2], y[3])
+        return [y[2], y[3], a[0], a[1]]
+
+    return rhs
+
+
+def main():
+    from scipy.integrate import solve_ivp
+
+    print(f"# machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
+    ref_sys = lg.System.from_lagrangian(L_TEXT, ["θ1", "θ2"], params=PARAMS, positive=list(PARAMS))
+    ref = ref_sys.integrate((0, T), Y0, "dop853", tol=1e-15, compensated=True, t_eval=[T], progress=False).y[:, -1]
+
+    t0 = time.perf_counter()
+    rhs = sympy_derive()
+    sympy_derive_s = time.perf_counter() - t0
+    check = solve_ivp(rhs, (0, T), Y0, method="DOP853", rtol=1e-13, atol=1e-13).y[:, -1]
+    print(f"reference check: |ours(1e-15) − SciPy(1e-13)| = {np.max(np.abs(check - ref)):.1e}")
+
+    print("\n## 1. text → trajectory, double pendulum to t = 10")
+    print("| target error | SymPy + lambdify + SciPy DOP853 | lagrangian (Python) | speed-up |")
+    print("|---|---|---|---|")
+    for target in (1e-3, 1e-6):
+        # SciPy: the loosest rtol = atol (decades) meeting the target.
+        for rtol in [10.0**-k for k in range(3, 14)]:
+            sp_y = solve_ivp(rhs, (0, T), Y0, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
+            if np.max(np.abs(sp_y - ref)) <= target:
+                break
+        sp_err = np.max(np.abs(sp_y - ref))
+        sp_int, _, _ = best(lambda: solve_ivp(rhs, (0, T), Y0, method="DOP853", rtol=rtol, atol=rtol), 3)
+        for tol in [10.0**-k for k in range(3, 15)]:
+            y = ours_pipeline(tol)()
+            if np.max(np.abs(y - ref)) <= target:
+                break
+        err = np.max(np.abs(y - ref))
+        ours_t, ours_med, _ = best(ours_pipeline(tol), 20)
+        sp_total = sympy_derive_s + sp_int
+        print(
+            f"| ≤ {target:.0e} | {sp_total * 1e3:.0f} ms (derive + lambdify {sympy_derive_s * 1e3:.0f} ms, "
+            f"integrate {sp_int * 1e3:.0f} ms at rtol {rtol:.0e}; error {sp_err:.1e}) "
+            f"| {ours_t * 1e3:.2f} ms (median {ours_med * 1e3:.2f}; tol {tol:.0e}; error {err:.1e}) "
+            f"| {sp_total / ours_t:.0f}× (integration alone: {sp_int / ours_t:.0f}×) |"
+        )
+
+    print("\n## 2. one call of the compiled right-hand side")
+    f = ref_sys.compile()
+    y = np.array(Y0)
+    n_calls = 200_000
+    t0 = time.perf_counter()
+    for _ in range(n_calls):
+        f(0.0, y)
+    per_call = (time.perf_counter() - t0) / n_calls
+    k = 100_000
+    Y = np.random.default_rng(1).uniform(-2, 2, size=(4, k))
+    batch, _, _ = best(lambda: f(0.0, Y), 10)
+    n_sym = 20_000
+    t0 = time.perf_counter()
+    for _ in range(n_sym):
+        rhs(0.0, Y0)
+    sym_call = (time.perf_counter() - t0) / n_sym
+    print("| call | time per evaluation |")
+    print("|---|---|")
+    print(f"| `f(t, y)` from Python, one state | {per_call * 1e9:.0f} ns |")
+    print(f"| `f(t, Y)` from Python, batch of {k} (≈ the Rust evaluation) | {batch / k * 1e9:.1f} ns per point |")
+    print(f"| Python overhead of one call | {(per_call - batch / k) * 1e9:.0f} ns |")
+    print(f"| SymPy `lambdify` (math module) + list, one state | {sym_call * 1e9:.0f} ns |")
+
+    print("\n## 3. sweep throughput (double pendulum to t = 10, DOP853 tol 1e-9, 4096 points)")
+    from dask.distributed import Client, LocalCluster
+
+    angles = np.linspace(-2.5, 2.5, 64)
+    grid = {"θ1": angles, "θ2": angles}
+    print("| workers | trajectories / s | wall |")
+    print("|---|---|---|")
+    for workers in (1, 2):
+        with LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster) as client:
+            lg.sweep(ref_sys, {"θ1": angles[:4], "θ2": angles[:4]}, (0, T), y0=Y0, tol=1e-9, client=client)  # warm up
+            t0 = time.perf_counter()
+            r = lg.sweep(ref_sys, grid, (0, T), y0=Y0, tol=1e-9, chunk_size=256, client=client)
+            wall = time.perf_counter() - t0
+            assert r.ok.all()
+            print(f"| {workers} | {r.t.size / wall:.0f} | {wall:.2f} s |")
+    t0 = time.perf_counter()
+    states = np.array([[a, b, 0.0, 0.0] for a in angles for b in angles])
+    e = ref_sys.ensemble(states, (0, T), tol=1e-9, threads=1)
+    wall = time.perf_counter() - t0
+    print(f"| (in-process `ensemble`, 1 thread, no Dask) | {e.t.size / wall:.0f} | {wall:.2f} s |")
+    print(f"\n# load after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()

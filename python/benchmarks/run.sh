@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Builds the package with the release profile into its own virtual environment and runs
+# bench.py (the Python rows of BENCHMARKS.md). Usage: bash python/benchmarks/run.sh
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+export CARGO_TARGET_DIR="$PWD/target"
+venv="$CARGO_TARGET_DIR/python-bench-venv"
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+export PATH="$venv/bin:$PATH"  # the build backend runs the venv's `maturin`
+"$venv/bin/pip" install --quiet --disable-pip-version-check maturin numpy scipy sympy "dask[distributed]"
+MATURIN_PEP517_ARGS="--profile release" "$venv/bin/pip" install --quiet --disable-pip-version-check --no-build-isolation --force-reinstall --no-deps ./python
+"$venv/bin/python" python/benchmarks/bench.py

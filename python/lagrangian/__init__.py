@@ -1,0 +1,79 @@
+"""Exact Lagrangian and Hamiltonian mechanics from Python.
+
+Write a Lagrangian or Hamiltonian as text; the Rust engine derives the equations of motion
+exactly and integrates them fast::
+
+    import lagrangian as lg
+    sys = lg.System.from_lagrangian(
+        "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", ["θ"],
+        params={"m": 1, "l": 1, "g": 9.81}, positive=["m", "l", "g"])
+    sys.euler_lagrange()          # [Expr("g l m sin(θ) + l^2 m θ''")]
+    sol = sys.integrate((0, 10), [3.0, 0.0], method="gauss6", dt=0.01)
+    sol.t.shape, sol.y.shape      # ((1001,), (2, 1001))
+
+``System.compile()`` gives a right-hand side ``f(t, y)`` for SciPy's ``solve_ivp``;
+``System.ensemble`` integrates many initial states in parallel; :func:`sweep` maps a grid of
+initial states or parameter values over a Dask cluster.
+"""
+
+from ._core import (
+    METHODS,
+    ActionAngleError,
+    AverageError,
+    CompiledRhs,
+    CompileError,
+    EnsembleError,
+    EnsembleResult,
+    EvalError,
+    Event,
+    Expr,
+    IntegrationError,
+    LagrangianError,
+    LieError,
+    MechanicsError,
+    ParseError,
+    PhaseSpaceError,
+    RhsError,
+    Solution,
+    SolveError,
+    System,
+    TransformError,
+    parse,
+    poisson,
+)
+from ._sympy import from_sympy, to_sympy
+from ._sweep import SweepResult, sweep
+
+__all__ = [
+    "METHODS",
+    "ActionAngleError",
+    "AverageError",
+    "CompiledRhs",
+    "CompileError",
+    "EnsembleError",
+    "EnsembleResult",
+    "EvalError",
+    "Event",
+    "Expr",
+    "IntegrationError",
+    "LagrangianError",
+    "LieError",
+    "MechanicsError",
+    "ParseError",
+    "PhaseSpaceError",
+    "RhsError",
+    "Solution",
+    "SolveError",
+    "SweepResult",
+    "System",
+    "TransformError",
+    "from_sympy",
+    "parse",
+    "poisson",
+    "sweep",
+    "to_sympy",
+]
+
+# `Expr.to_sympy()` / `Expr.from_sympy(...)` as methods too (the conversion is pure Python).
+Expr.to_sympy = to_sympy  # type: ignore[attr-defined]
+Expr.from_sympy = staticmethod(from_sympy)  # type: ignore[attr-defined]

@@ -1,0 +1,247 @@
+"""Sweeps over a Dask cluster: a grid of initial states or parameter values is cut into
+chunks, each chunk is one Dask task that integrates its rows with the Rust core
+(``System.ensemble``), and the final states are gathered into NumPy arrays.
+
+Dask does the scheduling, the retries of failed tasks and the recovery from lost workers;
+nothing here schedules. The system travels as its printed source (see ``_pickle``) and is
+derived and compiled once per worker process. A trajectory that fails is reported with its
+initial condition and the engine's reason; a chunk whose task fails for good (its worker
+killed more often than Dask allows, say) has all its rows reported with the task's error; the
+rest of the sweep still returns.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from ._core import System
+
+
+@dataclass
+class SweepResult:
+    """Final states of a sweep.
+
+    ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``), ``t`` the final
+    times (the end of ``t_span``, or a terminal event's time), ``ok`` whether each point
+    integrated, ``errors`` the reason where it did not (``None`` elsewhere). ``axes`` maps each
+    swept name to its values when the grid was given as axes. ``failures`` lists the failed
+    points as dicts with ``index``, ``values`` (the swept values there) and ``reason``.
+    """
+
+    y: np.ndarray
+    t: np.ndarray
+    ok: np.ndarray
+    errors: np.ndarray
+    names: list[str]
+    axes: dict[str, np.ndarray]
+    failures: list[dict[str, Any]] = field(default_factory=list)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Final values of the state variable ``name`` over the grid."""
+        return self.y[..., self.names.index(name)]
+
+    def to_xarray(self) -> Any:
+        """An ``xarray.Dataset`` with one variable per state variable (needs xarray)."""
+        import xarray as xr  # type: ignore[import-untyped]
+
+        dims = list(self.axes) if self.axes else ["point"]
+        coords = {k: v for k, v in self.axes.items()}
+        data = {n: (dims, self.y[..., i]) for i, n in enumerate(self.names)}
+        data["t_final"] = (dims, self.t)
+        data["ok"] = (dims, self.ok)
+        return xr.Dataset(data, coords=coords)
+
+
+def _run_chunk(
+    system: System,
+    states: np.ndarray,
+    params: Optional[list[dict[str, float]]],
+    run: dict[str, Any],
+) -> dict[str, Any]:
+    """One Dask task: integrates the rows of ``states`` (each with its own parameter values
+    when ``params`` is given) and returns their final states and errors."""
+    if params is None:
+        r = system.ensemble(states, **run)
+        return {"y": r.y, "t": r.t, "errors": r.errors}
+    k, n = states.shape
+    ys = np.full((k, n), np.nan)
+    ts = np.full(k, np.nan)
+    errors: list[Optional[str]] = [None] * k
+    for i in range(k):
+        try:
+            r = system.with_params(params[i]).ensemble(states[i : i + 1], **run)
+            ys[i], ts[i], errors[i] = r.y[0], r.t[0], r.errors[0]
+        except Exception as e:  # a bad parameter value fails its own row only
+            errors[i] = f"{type(e).__name__}: {e}"
+    return {"y": ys, "t": ts, "errors": errors}
+
+
+def sweep(
+    system: System,
+    grid: Union[np.ndarray, Mapping[str, Sequence[float]]],
+    t_span: tuple[float, float],
+    method: str = "dop853",
+    *,
+    y0: Union[None, Sequence[float], Mapping[str, float]] = None,
+    dt: Optional[float] = None,
+    tol: float = 1e-10,
+    atol: Optional[float] = None,
+    events: Optional[list[Any]] = None,
+    max_steps: Optional[int] = None,
+    chunk_size: int = 256,
+    client: Any = None,
+    retries: int = 2,
+    threads: Optional[int] = 1,
+) -> SweepResult:
+    """Integrates ``system`` from every point of ``grid`` on a Dask cluster and returns the
+    final states as a :class:`SweepResult`.
+
+    ``grid`` is either an array of initial states, shape ``(k, n)``, or a dict of axes
+    ``{name: values}`` whose outer product is swept: names are state variables (their other
+    entries come from ``y0``) or parameters (their other values from the system). ``client``
+    is a ``dask.distributed.Client`` (for any cluster: ``Client("tcp://…")``); by default a
+    ``LocalCluster`` is started for the call and closed after. Each task integrates
+    ``chunk_size`` points with ``threads`` threads (1 by default: Dask runs one task per
+    worker thread already); a task that raises is retried ``retries`` times by Dask.
+    """
+    names = system.state_names(method)
+    n = len(names)
+    params_list = set(system.parameters)
+    axes: dict[str, np.ndarray] = {}
+    if isinstance(grid, Mapping):
+        if not grid:
+            raise ValueError("the grid has no axes")
+        for k, v in grid.items():
+            if k not in names and k not in params_list:
+                raise ValueError(
+                    f"`{k}` is neither a state variable ({', '.join(names)}) nor a parameter "
+                    f"({', '.join(sorted(params_list)) or 'none'})"
+                )
+            a = np.asarray(v, dtype=float).ravel()
+            if a.size == 0:
+                raise ValueError(f"the axis `{k}` is empty")
+            axes[k] = a
+        shape = tuple(a.size for a in axes.values())
+        base = _base_state(y0, names, required=[x for x in names if x not in axes])
+        points = list(itertools.product(*axes.values()))
+        states = np.tile(base, (len(points), 1))
+        param_rows: Optional[list[dict[str, float]]] = None
+        pnames = [k for k in axes if k not in names]
+        if pnames:
+            param_rows = []
+        for j, vals in enumerate(points):
+            row = dict(zip(axes, vals))
+            for k, v in row.items():
+                if k in names:
+                    states[j, names.index(k)] = v
+            if param_rows is not None:
+                param_rows.append({k: float(row[k]) for k in pnames})
+    else:
+        states = np.ascontiguousarray(grid, dtype=float)
+        if states.ndim != 2 or states.shape[1] != n:
+            raise ValueError(f"grid has shape {states.shape}; expected (k, {n}): one state ({', '.join(names)}) per row")
+        shape = (states.shape[0],)
+        param_rows = None
+    if chunk_size < 1:
+        raise ValueError("chunk_size must be at least 1")
+    run = dict(method=method, dt=dt, tol=tol, atol=atol, events=events, max_steps=max_steps, threads=threads, progress=False)
+    # Check the request once here (method, dt, events), not once per chunk on the workers.
+    if len(states):
+        system.ensemble(states[:0], t_span, **run)
+    run["t_span"] = t_span
+
+    total = states.shape[0]
+    ys = np.full((total, n), np.nan)
+    ts = np.full(total, np.nan)
+    errors = np.empty(total, dtype=object)
+    own = client is None
+    if own:
+        from dask.distributed import Client, LocalCluster
+
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    try:
+        from dask.distributed import as_completed
+
+        futures = {}
+        for start in range(0, total, chunk_size):
+            stop = min(start + chunk_size, total)
+            pr = param_rows[start:stop] if param_rows is not None else None
+            fut = client.submit(_run_chunk, system, states[start:stop], pr, run, retries=retries, pure=False)
+            futures[fut] = (start, stop, pr, 0)
+        pending = as_completed(list(futures))
+        for fut in pending:
+            start, stop, pr, resubmitted = futures.pop(fut)
+            try:
+                r = fut.result()
+            except Exception as exc:  # the task raised, or its result was lost with a worker
+                if _lost(exc) and resubmitted < retries:
+                    # A finished result that died with its worker before it was gathered: Dask
+                    # does not recompute a released future, so ask for it again.
+                    again = client.submit(_run_chunk, system, states[start:stop], pr, run, retries=retries, pure=False)
+                    futures[again] = (start, stop, pr, resubmitted + 1)
+                    pending.add(again)
+                    continue
+                reason = f"the chunk of points {start}..{stop - 1} failed: {type(exc).__name__}: {exc}"
+                errors[start:stop] = [reason] * (stop - start)
+                continue
+            ys[start:stop] = r["y"]
+            ts[start:stop] = r["t"]
+            errors[start:stop] = r["errors"]
+    finally:
+        if own:
+            client.close()
+            cluster.close()
+
+    ok = np.array([e is None for e in errors], dtype=bool)
+    failures = []
+    for j in np.flatnonzero(~ok):
+        idx = np.unravel_index(j, shape)
+        if axes:
+            values = {k: float(a[i]) for (k, a), i in zip(axes.items(), idx)}
+        else:
+            values = dict(zip(names, states[j].tolist()))
+        failures.append({"index": tuple(int(i) for i in idx), "values": values, "reason": errors[j]})
+    return SweepResult(
+        y=ys.reshape(shape + (n,)),
+        t=ts.reshape(shape),
+        ok=ok.reshape(shape),
+        errors=errors.reshape(shape),
+        names=names,
+        axes=axes,
+        failures=failures,
+    )
+
+
+def _lost(exc: BaseException) -> bool:
+    """Whether a task's result was lost (its worker died after computing it) rather than the
+    task failing."""
+    from distributed.client import FutureCancelledError
+    from distributed.comm.core import CommClosedError
+
+    return isinstance(exc, (FutureCancelledError, CommClosedError))
+
+
+def _base_state(y0: Any, names: list[str], required: list[str]) -> np.ndarray:
+    if y0 is None:
+        if required:
+            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(required)}")
+        return np.zeros(len(names))
+    if isinstance(y0, Mapping):
+        base = np.full(len(names), np.nan)
+        for k, v in y0.items():
+            if k not in names:
+                raise ValueError(f"`{k}` is not a state variable ({', '.join(names)})")
+            base[names.index(k)] = float(v)
+        missing = [x for x in required if np.isnan(base[names.index(x)])]
+        if missing:
+            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(missing)}")
+        return np.nan_to_num(base)
+    base = np.asarray(y0, dtype=float).ravel()
+    if base.size != len(names):
+        raise ValueError(f"y0 has {base.size} entries; the state has {len(names)} ({', '.join(names)})")
+    return base

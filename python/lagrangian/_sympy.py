@@ -1,0 +1,107 @@
+"""Conversion to and from SymPy through the engine's plain printed form (SymPy is imported
+only when these are called).
+
+The plain form is regular enough to translate token by token: names with primes (``θ'``)
+become SymPy symbols of the same name, juxtaposition becomes ``*``, ``^`` becomes ``**``,
+built-in functions map to SymPy's, declared functions to ``sympy.Function``. Positive
+symbols become ``Symbol(..., positive=True)``.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Iterable, Optional
+
+from ._core import Expr
+
+_BUILTINS = {
+    "sin": "sin", "cos": "cos", "tan": "tan", "cot": "cot", "exp": "exp", "log": "log",
+    "sqrt": "sqrt", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "asin": "asin",
+    "acos": "acos", "atan": "atan", "atan2": "atan2", "abs": "Abs",
+}
+
+_TOKEN = re.compile(
+    r"\s*(?:(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)"
+    r"|(?P<name>[^\W\d]\w*'*)(?P<call>\()?"
+    r"|(?P<op>\*\*|[-+*/^(),]))",
+    re.UNICODE,
+)
+
+
+def _tokens(text: str) -> list[tuple[str, str]]:
+    out = []
+    pos = 0
+    text = text.rstrip()
+    while pos < len(text):
+        m = _TOKEN.match(text, pos)
+        if not m or m.end() == pos:
+            raise ValueError(f"cannot convert `{text}` to SymPy: unexpected text at {text[pos:pos + 10]!r}")
+        if m.group("num"):
+            out.append(("num", m.group("num")))
+        elif m.group("name"):
+            out.append(("call" if m.group("call") else "name", m.group("name")))
+        else:
+            out.append(("op", m.group("op")))
+        pos = m.end()
+    return out
+
+
+def to_sympy(e: Expr) -> Any:
+    """The SymPy expression equal to ``e`` (needs SymPy)."""
+    import sympy
+
+    positive = set(e.__reduce__()[1][1])  # the names declared positive
+    text = e.plain()
+    names: dict[str, Any] = {}
+    keys: dict[str, str] = {}
+    pieces: list[str] = []
+    prev = None
+    for kind, tok in _tokens(text):
+        operand_start = kind in ("num", "name", "call") or tok == "("
+        if prev is not None and operand_start and (prev[0] in ("num", "name") or prev[1] == ")"):
+            pieces.append("*")
+        if kind == "num":
+            pieces.append(f"Rational('{tok}')" if ("." in tok or "e" in tok.lower()) else tok)
+        elif kind == "name":
+            if tok not in keys:
+                keys[tok] = f"_s{len(names)}"
+                names[keys[tok]] = sympy.Symbol(tok, positive=True) if tok in positive else sympy.Symbol(tok)
+            pieces.append(keys[tok])
+        elif kind == "call":
+            if tok in _BUILTINS:
+                pieces.append(_BUILTINS[tok] + "(")
+            elif "'" in tok:
+                raise ValueError(f"cannot convert `{text}` to SymPy: the derivative `{tok}(…)` of a declared function")
+            else:
+                key = f"_f{len(names)}"
+                names[key] = sympy.Function(tok)
+                pieces.append(key + "(")
+        else:
+            pieces.append("**" if tok in ("^", "**") else tok)
+        prev = (kind, tok) if kind != "call" else ("op", "(")
+    ns = {k: getattr(sympy, k) for k in set(_BUILTINS.values())}
+    ns["Rational"] = sympy.Rational
+    ns.update(names)
+    return sympy.sympify("".join(pieces), locals=ns, rational=True)
+
+
+def from_sympy(expr: Any, *, positive: Optional[Iterable[str]] = None, functions: Optional[Iterable[str]] = None) -> Expr:
+    """The :class:`Expr` equal to the SymPy expression ``expr`` (exact: SymPy floats become
+    the rationals they print as). Symbols SymPy knows to be positive are declared positive,
+    undefined SymPy functions are declared as functions."""
+    import sympy
+    from sympy.core.function import AppliedUndef
+
+    expr = sympy.sympify(expr)
+    if expr.has(sympy.pi, sympy.I, sympy.oo, sympy.zoo, sympy.nan):
+        raise ValueError(f"`{expr}` contains pi, I or an infinity, which the engine has no exact form for")
+    if expr.has(sympy.Derivative):
+        raise ValueError(f"`{expr}` contains an unevaluated Derivative; substitute or evaluate it first")
+    pos = set(positive or ())
+    pos |= {s.name for s in expr.free_symbols if s.is_positive}
+    funcs = set(functions or ())
+    funcs |= {f.func.__name__ for f in expr.atoms(AppliedUndef)}
+    expr = expr.subs(sympy.E, sympy.exp(1))
+    text = sympy.sstr(expr, order="none")
+    text = text.replace("**", "^").replace("Abs(", "abs(")
+    return Expr(text, positive=sorted(pos), functions=sorted(funcs))

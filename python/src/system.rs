@@ -1,0 +1,598 @@
+//! `lagrangian.System`: a mechanical system and every derivation of the library on it. The
+//! numeric side (compile, integrate, ensemble) is in `sim.rs`.
+
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex};
+
+use lagrangian::canonical::{self, Generator, GeneratorKind, PhaseSpace, Trial};
+use lagrangian::mechanics::{Kind, System};
+use lagrangian::parse::{parse_with, Declarations};
+use lagrangian::print::{render, Format};
+use lagrangian::{Expr, Symbol};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::errors::PyResultExt;
+use crate::expr::{declarations, to_expr, to_symbol, PyExpr};
+use crate::sim::{CompiledCache, Formulation};
+
+/// A mechanical system given by a Lagrangian ``L(q, q', t)`` or a Hamiltonian
+/// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation and
+/// holonomic constraints.
+///
+/// Coordinates are named (``["θ1", "θ2"]``); their velocities are ``θ1'`` and their momenta
+/// ``p_θ1``. Every other free symbol except ``t`` is a parameter. Derivations return exact
+/// :class:`Expr` objects; :meth:`compile` and :meth:`integrate` are the numeric side.
+/// Systems pickle as their printed source and options, and are derived again when unpickled
+/// (on a Dask worker, for instance).
+#[pyclass(name = "System", module = "lagrangian", frozen)]
+pub struct PySystem {
+    pub sys: System,
+    pub compiled: CompiledCache,
+}
+
+impl PySystem {
+    pub fn wrap(sys: System) -> PySystem {
+        PySystem { sys, compiled: Arc::new(Mutex::new(HashMap::new())) }
+    }
+
+    fn decls(&self) -> &Declarations {
+        self.sys.declarations()
+    }
+
+    fn ex(&self, e: Expr) -> PyExpr {
+        PyExpr::new(e, self.decls())
+    }
+
+    fn exs(&self, v: Vec<Expr>) -> Vec<PyExpr> {
+        v.into_iter().map(|e| self.ex(e)).collect()
+    }
+
+    fn phase_space(&self) -> PyResult<PhaseSpace> {
+        let q: Vec<&str> = self.sys.coordinates().iter().map(Symbol::name).collect();
+        let p: Vec<&str> = self.sys.momenta().iter().map(Symbol::name).collect();
+        PhaseSpace::with_momenta(q, p).py()
+    }
+
+    fn h(&self, py: Python<'_>) -> PyResult<Expr> {
+        let sys = &self.sys;
+        py.allow_threads(|| sys.hamiltonian()).py()
+    }
+
+    /// The printed source and options: what a pickle carries, and what `from_*` rebuilds.
+    pub fn spec(&self) -> Spec {
+        let sys = &self.sys;
+        let (kind, e) = match sys.kind() {
+            Kind::Lagrangian(l) => ("lagrangian", l),
+            Kind::Hamiltonian(h) => ("hamiltonian", h),
+        };
+        let coords: Vec<String> = sys.coordinates().iter().map(|s| s.name().to_string()).collect();
+        let forces = coords
+            .iter()
+            .zip(sys.forces())
+            .filter(|(_, f)| !f.is_zero())
+            .map(|(c, f)| (c.clone(), render(f, Format::Plain)))
+            .collect();
+        Spec {
+            kind,
+            text: render(e, Format::Plain),
+            coords,
+            params: sys.param_values().iter().map(|(k, v)| (k.name().to_string(), *v)).collect(),
+            positive: sys.declarations().positive.iter().cloned().collect(),
+            functions: sys.declarations().functions.iter().cloned().collect(),
+            forces,
+            rayleigh: sys.rayleigh().map(|r| render(r, Format::Plain)),
+            constraints: sys.constraints().iter().map(|c| render(c, Format::Plain)).collect(),
+        }
+    }
+}
+
+/// See [`PySystem::spec`].
+pub struct Spec {
+    pub kind: &'static str,
+    pub text: String,
+    pub coords: Vec<String>,
+    pub params: BTreeMap<String, f64>,
+    pub positive: Vec<String>,
+    pub functions: Vec<String>,
+    pub forces: Vec<(String, String)>,
+    pub rayleigh: Option<String>,
+    pub constraints: Vec<String>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build(
+    hamiltonian: bool,
+    text: &str,
+    coords: Vec<String>,
+    params: Option<&Bound<'_, PyDict>>,
+    positive: Option<Vec<String>>,
+    functions: Option<Vec<String>>,
+    forces: Option<&Bound<'_, PyDict>>,
+    rayleigh: Option<String>,
+    constraints: Option<Vec<String>>,
+) -> PyResult<PySystem> {
+    let decls = declarations(positive, functions);
+    let cs: Vec<&str> = coords.iter().map(String::as_str).collect();
+    let mut sys = if hamiltonian {
+        System::from_hamiltonian_with(text, &cs, &decls)
+    } else {
+        System::from_lagrangian_with(text, &cs, &decls)
+    }
+    .py()?;
+    if let Some(f) = forces {
+        for (k, v) in f.iter() {
+            let coord: String = k.extract()?;
+            let text: String = v.str()?.extract()?;
+            sys = sys.with_force(&coord, &text).py()?;
+        }
+    }
+    if let Some(r) = rayleigh {
+        sys = sys.with_rayleigh(&r).py()?;
+    }
+    for c in constraints.unwrap_or_default() {
+        sys = sys.with_constraint(&c).py()?;
+    }
+    if let Some(p) = params {
+        sys = with_params(sys, p)?;
+    }
+    Ok(PySystem::wrap(sys))
+}
+
+fn with_params(sys: System, values: &Bound<'_, PyDict>) -> PyResult<System> {
+    let mut owned: Vec<(String, f64)> = Vec::new();
+    for (k, v) in values.iter() {
+        owned.push((k.extract()?, v.extract()?));
+    }
+    let refs: Vec<(&str, f64)> = owned.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    sys.with_params(&refs).py()
+}
+
+fn matrix(v: Vec<Vec<Expr>>, d: &Declarations) -> Vec<Vec<PyExpr>> {
+    v.into_iter().map(|row| row.into_iter().map(|e| PyExpr::new(e, d)).collect()).collect()
+}
+
+fn relations<'py>(py: Python<'py>, rel: &[(Symbol, Expr)], d: &Declarations) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    for (s, e) in rel {
+        out.set_item(s.to_string(), PyExpr::new(e.clone(), d))?;
+    }
+    Ok(out)
+}
+
+#[pymethods]
+impl PySystem {
+    /// A Lagrangian system. ``params`` gives parameter values (needed to compile),
+    /// ``positive`` names positive symbols, ``functions`` undefined functions (``V`` for
+    /// ``V(r)``), ``forces`` generalized forces by coordinate (``{"x": "-c x'"}``),
+    /// ``rayleigh`` a dissipation function and ``constraints`` holonomic constraints
+    /// (``"x^2 + y^2 = l^2"``).
+    #[staticmethod]
+    #[pyo3(signature = (text, coords, *, params=None, positive=None, functions=None, forces=None, rayleigh=None, constraints=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_lagrangian(
+        text: &str,
+        coords: Vec<String>,
+        params: Option<&Bound<'_, PyDict>>,
+        positive: Option<Vec<String>>,
+        functions: Option<Vec<String>>,
+        forces: Option<&Bound<'_, PyDict>>,
+        rayleigh: Option<String>,
+        constraints: Option<Vec<String>>,
+    ) -> PyResult<PySystem> {
+        build(false, text, coords, params, positive, functions, forces, rayleigh, constraints)
+    }
+
+    /// A Hamiltonian system: ``H`` in the coordinates, the momenta ``p_q`` and ``t``.
+    #[staticmethod]
+    #[pyo3(signature = (text, coords, *, params=None, positive=None, functions=None))]
+    fn from_hamiltonian(
+        text: &str,
+        coords: Vec<String>,
+        params: Option<&Bound<'_, PyDict>>,
+        positive: Option<Vec<String>>,
+        functions: Option<Vec<String>>,
+    ) -> PyResult<PySystem> {
+        build(true, text, coords, params, positive, functions, None, None, None)
+    }
+
+    fn __repr__(&self) -> String {
+        let s = self.spec();
+        let head = if s.kind == "lagrangian" { "L" } else { "H" };
+        format!("System({head} = {}, coords = [{}])", s.text, s.coords.join(", "))
+    }
+
+    /// Jupyter's rich display: ``L = …`` or ``H = …`` in LaTeX.
+    fn _repr_latex_(&self) -> String {
+        let (head, e) = match self.sys.kind() {
+            Kind::Lagrangian(l) => ("L", l),
+            Kind::Hamiltonian(h) => ("H", h),
+        };
+        format!("$\\displaystyle {head} = {}$", render(e, Format::Latex))
+    }
+
+    /// ``"lagrangian"`` or ``"hamiltonian"``.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.spec().kind
+    }
+
+    /// The Lagrangian, or ``None`` for a Hamiltonian system.
+    #[getter]
+    fn lagrangian(&self) -> Option<PyExpr> {
+        self.sys.lagrangian().map(|l| self.ex(l.clone()))
+    }
+
+    /// The coordinate names, in order.
+    #[getter]
+    fn coordinates(&self) -> Vec<String> {
+        self.sys.coordinates().iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The velocity names (``q'``).
+    #[getter]
+    fn velocities(&self) -> Vec<String> {
+        self.sys.velocities().iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The momentum names (``p_q``).
+    #[getter]
+    fn momenta(&self) -> Vec<String> {
+        self.sys.momenta().iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The parameter names (every free symbol but the coordinates, velocities, momenta and t).
+    #[getter]
+    fn parameters(&self) -> Vec<String> {
+        self.sys.parameters().iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The parameter values given so far.
+    #[getter]
+    fn params(&self) -> BTreeMap<String, f64> {
+        self.spec().params
+    }
+
+    /// The printed source and options this system pickles as (a dict that
+    /// ``System.from_lagrangian`` / ``from_hamiltonian`` accept back as keywords).
+    #[getter]
+    fn source<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.spec();
+        let d = PyDict::new(py);
+        d.set_item("kind", s.kind)?;
+        d.set_item("text", s.text)?;
+        d.set_item("coords", s.coords)?;
+        d.set_item("params", s.params)?;
+        d.set_item("positive", s.positive)?;
+        d.set_item("functions", s.functions)?;
+        if s.kind == "lagrangian" {
+            let f = PyDict::new(py);
+            for (c, t) in s.forces {
+                f.set_item(c, t)?;
+            }
+            d.set_item("forces", f)?;
+            d.set_item("rayleigh", s.rayleigh)?;
+            d.set_item("constraints", s.constraints)?;
+        }
+        Ok(d)
+    }
+
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_system")?;
+        Ok((f, (self.source(py)?,)))
+    }
+
+    /// A copy with parameter values set (merged with those already given):
+    /// ``sys.with_params(g=9.81)`` or ``sys.with_params({"g": 9.81})``.
+    #[pyo3(signature = (values=None, **kwargs))]
+    fn with_params(
+        &self,
+        values: Option<&Bound<'_, PyDict>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PySystem> {
+        let mut sys = self.sys.clone();
+        for d in [values, kwargs].into_iter().flatten() {
+            sys = with_params(sys, d)?;
+        }
+        Ok(PySystem::wrap(sys))
+    }
+
+    /// A copy with a generalized force ``Q`` on ``coord`` added: the equation becomes ``E = Q``.
+    fn with_force(&self, coord: &str, text: &str) -> PyResult<PySystem> {
+        Ok(PySystem::wrap(self.sys.clone().with_force(coord, text).py()?))
+    }
+
+    /// A copy with a Rayleigh dissipation function ``R(q, q')``.
+    fn with_rayleigh(&self, text: &str) -> PyResult<PySystem> {
+        Ok(PySystem::wrap(self.sys.clone().with_rayleigh(text).py()?))
+    }
+
+    /// A copy with a holonomic constraint ``f(q, t) = 0`` (``"f = g"`` means ``f − g``).
+    fn with_constraint(&self, text: &str) -> PyResult<PySystem> {
+        Ok(PySystem::wrap(self.sys.clone().with_constraint(text).py()?))
+    }
+
+    /// The Euler–Lagrange expressions ``E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i`` (each ``= 0``;
+    /// accelerations appear as ``q''``).
+    fn euler_lagrange(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
+        let sys = &self.sys;
+        Ok(self.exs(py.allow_threads(|| sys.euler_lagrange()).py()?))
+    }
+
+    /// The full equations of motion, each ``= 0``: Euler–Lagrange with forces, dissipation
+    /// and constraint multipliers.
+    fn equations(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
+        let sys = &self.sys;
+        Ok(self.exs(py.allow_threads(|| sys.equations()).py()?))
+    }
+
+    /// The split ``W q'' = F``: returns ``(W, F)``, ``W`` as a list of rows.
+    fn mass_matrix(&self, py: Python<'_>) -> PyResult<(Vec<Vec<PyExpr>>, Vec<PyExpr>)> {
+        let sys = &self.sys;
+        let (w, f) = py.allow_threads(|| sys.mass_matrix_split()).py()?;
+        Ok((matrix(w, self.decls()), self.exs(f)))
+    }
+
+    /// The accelerations ``q'' = W⁻¹ F`` in closed form (up to four coupled coordinates).
+    fn accelerations(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
+        let sys = &self.sys;
+        Ok(self.exs(py.allow_threads(|| sys.accelerations()).py()?))
+    }
+
+    /// The canonical momenta ``p_i = ∂L/∂q'_i``.
+    fn canonical_momenta(&self) -> PyResult<Vec<PyExpr>> {
+        Ok(self.exs(self.sys.canonical_momenta().py()?))
+    }
+
+    /// The Legendre transform: the Hamiltonian system ``H = p·q' − L``.
+    fn legendre(&self, py: Python<'_>) -> PyResult<PySystem> {
+        let sys = &self.sys;
+        Ok(PySystem::wrap(py.allow_threads(|| sys.legendre()).py()?))
+    }
+
+    /// The inverse Legendre transform: the Lagrangian system of a Hamiltonian.
+    fn inverse_legendre(&self, py: Python<'_>) -> PyResult<PySystem> {
+        let sys = &self.sys;
+        Ok(PySystem::wrap(py.allow_threads(|| sys.inverse_legendre()).py()?))
+    }
+
+    /// The Hamiltonian: the system's own, or the Legendre transform of its Lagrangian.
+    fn hamiltonian(&self, py: Python<'_>) -> PyResult<PyExpr> {
+        Ok(self.ex(self.h(py)?))
+    }
+
+    /// Hamilton's equations: ``(qdot, pdot)`` with ``qdot[i] = ∂H/∂p_i`` and
+    /// ``pdot[i] = −∂H/∂q_i``.
+    fn hamilton(&self, py: Python<'_>) -> PyResult<(Vec<PyExpr>, Vec<PyExpr>)> {
+        let sys = &self.sys;
+        let eq = py.allow_threads(|| sys.hamilton_equations()).py()?;
+        Ok((self.exs(eq.qdot), self.exs(eq.pdot)))
+    }
+
+    /// The energy function ``h = Σ q' ∂L/∂q' − L`` (or ``H`` of a Hamiltonian system).
+    fn energy(&self) -> PyExpr {
+        self.ex(self.sys.energy_function())
+    }
+
+    /// Conserved quantities found by Noether's theorem: a list of ``(name, expr, reason)``.
+    fn conserved(&self, py: Python<'_>) -> Vec<(String, PyExpr, String)> {
+        let sys = &self.sys;
+        py.allow_threads(|| sys.conserved())
+            .into_iter()
+            .map(|c| (c.name, self.ex(c.expr), c.reason.to_string()))
+            .collect()
+    }
+
+    /// The point transformation ``q = Q(s, t)``: ``mapping`` gives each old coordinate in the
+    /// new ones (``{"x": "r cos(φ)", "y": "r sin(φ)"}``), ``new_coords`` names them.
+    fn transform(&self, py: Python<'_>, mapping: &Bound<'_, PyDict>, new_coords: Vec<String>) -> PyResult<PySystem> {
+        let mut pairs: Vec<(String, String)> = Vec::new();
+        for (k, v) in mapping.iter() {
+            pairs.push((k.extract()?, v.str()?.extract()?));
+        }
+        let refs: Vec<(&str, &str)> = pairs.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+        let new: Vec<&str> = new_coords.iter().map(String::as_str).collect();
+        let sys = &self.sys;
+        Ok(PySystem::wrap(py.allow_threads(|| sys.transform(&refs, &new)).py()?))
+    }
+
+    /// The gauge-transformed system ``L + dΛ/dt`` (same equations of motion).
+    fn gauge(&self, lam: &str) -> PyResult<PySystem> {
+        Ok(PySystem::wrap(self.sys.with_gauge(lam).py()?))
+    }
+
+    /// The equations of a constrained system: a dict with ``multipliers``, ``equations``,
+    /// ``W``, ``F``, ``Phi`` (``∂f_j/∂q_i``) and ``c`` (``Φ q'' = c``).
+    fn constrained_equations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let sys = &self.sys;
+        let c = py.allow_threads(|| sys.constrained_equations()).py()?;
+        let d = PyDict::new(py);
+        let decls = self.decls();
+        d.set_item("multipliers", c.multipliers.iter().map(|s| s.to_string()).collect::<Vec<_>>())?;
+        d.set_item("equations", self.exs(c.equations))?;
+        d.set_item("W", matrix(c.w, decls))?;
+        d.set_item("F", self.exs(c.f))?;
+        d.set_item("Phi", matrix(c.phi, decls))?;
+        d.set_item("c", self.exs(c.c))?;
+        Ok(d)
+    }
+
+    /// The Poisson bracket ``{f, g}`` over this system's phase space (``q``, ``p_q``).
+    fn poisson(&self, f: &Bound<'_, PyAny>, g: &Bound<'_, PyAny>) -> PyResult<PyExpr> {
+        let ps = self.phase_space()?;
+        let f = to_expr(f, self.decls(), true)?;
+        let g = to_expr(g, self.decls(), true)?;
+        Ok(self.ex(canonical::poisson(&f, &g, &ps)))
+    }
+
+    /// ``df/dt = {f, H} + ∂f/∂t`` along the flow.
+    fn time_derivative(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<PyExpr> {
+        let ps = self.phase_space()?;
+        let f = to_expr(f, self.decls(), true)?;
+        let h = self.h(py)?;
+        Ok(self.ex(canonical::time_derivative(&f, &h, &ps)))
+    }
+
+    /// Whether ``f`` is an integral of motion: ``(is_integral, how it was decided)``.
+    fn is_integral(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<(bool, String)> {
+        let ps = self.phase_space()?;
+        let f = to_expr(f, self.decls(), true)?;
+        let h = self.h(py)?;
+        let z = canonical::is_integral(&f, &h, &ps);
+        Ok((z.is_zero(), z.describe()))
+    }
+
+    /// A canonical transformation from a generating function ``F`` of type ``kind``
+    /// (``"F1"`` … ``"F4"``) to new variables ``new_coords`` with momenta ``new_momenta``.
+    /// Returns a dict: ``relations`` (the defining equations), ``inverse`` (old variables in
+    /// the new), ``forward`` (new in the old), ``branches`` and ``hamiltonian`` (the new
+    /// ``K``); an entry that could not be solved is the error message instead.
+    #[pyo3(signature = (generator, kind, new_coords, new_momenta))]
+    fn canonical_transform<'py>(
+        &self,
+        py: Python<'py>,
+        generator: &Bound<'py, PyAny>,
+        kind: &str,
+        new_coords: Vec<String>,
+        new_momenta: Vec<String>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let kind = match kind {
+            "F1" | "f1" => GeneratorKind::F1,
+            "F2" | "f2" => GeneratorKind::F2,
+            "F3" | "f3" => GeneratorKind::F3,
+            "F4" | "f4" => GeneratorKind::F4,
+            other => return Err(PyValueError::new_err(format!("unknown generator kind `{other}` (F1, F2, F3 or F4)"))),
+        };
+        let decls = self.decls().clone();
+        let f = to_expr(generator, &decls, true)?;
+        let new = PhaseSpace::with_momenta(&new_coords, &new_momenta).py()?;
+        let old = self.phase_space()?;
+        let h = self.h(py)?;
+        let gen = Generator::new(kind, f, old, new).py()?;
+        let t = py.allow_threads(|| gen.transform(Some(&h))).py()?;
+        let d = PyDict::new(py);
+        d.set_item("kind", kind.to_string())?;
+        d.set_item("relations", relations(py, &t.relations, &decls)?)?;
+        let either = |r: &Result<Vec<(Symbol, Expr)>, canonical::SolveError>| -> PyResult<PyObject> {
+            Ok(match r {
+                Ok(rel) => relations(py, rel, &decls)?.into_any().unbind(),
+                Err(e) => e.to_string().into_pyobject(py)?.into_any().unbind(),
+            })
+        };
+        d.set_item("inverse", either(&t.inverse)?)?;
+        d.set_item("forward", either(&t.forward)?)?;
+        d.set_item("branches", t.branches.clone())?;
+        match &t.hamiltonian {
+            Some(Ok(k)) => d.set_item("hamiltonian", PyExpr::new(k.clone(), &decls))?,
+            Some(Err(e)) => d.set_item("hamiltonian", e.to_string())?,
+            None => d.set_item("hamiltonian", py.None())?,
+        }
+        Ok(d)
+    }
+
+    /// The flow of ``f`` under ``H`` as a truncated Lie series ``Σ tᵏ/k! {…{f, H}…, H}``.
+    fn lie_flow(&self, py: Python<'_>, f: &Bound<'_, PyAny>, order: usize) -> PyResult<PyExpr> {
+        let ps = self.phase_space()?;
+        let f = to_expr(f, self.decls(), true)?;
+        let h = self.h(py)?;
+        Ok(self.ex(py.allow_threads(|| canonical::lie_flow(&f, &h, order, &ps)).py()?))
+    }
+
+    /// The Lie series ``exp(ε L_g) f = Σ εᵏ/k! {…{f, g}…, g}`` to ``order``.
+    fn lie_series(
+        &self,
+        py: Python<'_>,
+        f: &Bound<'_, PyAny>,
+        g: &Bound<'_, PyAny>,
+        epsilon: &Bound<'_, PyAny>,
+        order: usize,
+    ) -> PyResult<PyExpr> {
+        let ps = self.phase_space()?;
+        let decls = self.decls();
+        let (f, g, eps) = (to_expr(f, decls, true)?, to_expr(g, decls, true)?, to_symbol(epsilon, decls)?);
+        Ok(self.ex(py.allow_threads(|| canonical::lie_series(&f, &g, &eps, order, &ps))))
+    }
+
+    /// Action ``J(E)``, period and frequency of a one-degree-of-freedom Hamiltonian on the
+    /// orbit of energy ``energy`` through ``q = inside`` (parameters from the system's values).
+    /// Returns a dict with ``energy``, ``action``, ``period``, ``omega``, ``turning_points``
+    /// and ``error_estimate``.
+    fn action_frequency<'py>(&self, py: Python<'py>, energy: f64, inside: f64) -> PyResult<Bound<'py, PyDict>> {
+        if self.sys.coordinates().len() != 1 {
+            return Err(PyValueError::new_err("action-angle variables are computed for one degree of freedom"));
+        }
+        let h = self.h(py)?;
+        let q = &self.sys.coordinates()[0];
+        let p = &self.sys.momenta()[0];
+        let env: HashMap<String, f64> = self.spec().params.into_iter().collect();
+        let r = py.allow_threads(|| canonical::action_angle::action_frequency(&h, q, p, energy, &env, inside)).py()?;
+        let d = PyDict::new(py);
+        d.set_item("energy", r.energy)?;
+        d.set_item("action", r.action)?;
+        d.set_item("period", r.period)?;
+        d.set_item("omega", r.omega)?;
+        d.set_item("turning_points", r.turning_points)?;
+        d.set_item("error_estimate", r.error_estimate)?;
+        Ok(d)
+    }
+
+    /// The averaged Lagrangian of trial functions (``{"x": "l0 (A cos(θ) + B cos(3θ))"}``) over
+    /// the phase ``phase`` with frequency ``frequency`` and amplitudes ``amplitudes``. Returns a
+    /// dict: ``lagrangian`` ⟨L⟩, ``relations`` (``∂⟨L⟩/∂A_k``, each ``= 0``) and ``action``
+    /// ``∂⟨L⟩/∂ω``.
+    fn average<'py>(
+        &self,
+        py: Python<'py>,
+        trials: &Bound<'py, PyDict>,
+        phase: &str,
+        frequency: &str,
+        amplitudes: Vec<String>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let Some(l) = self.sys.lagrangian() else {
+            return Err(crate::errors::exc::MechanicsError::new_err("error: averaging needs a Lagrangian system"));
+        };
+        let decls = self.decls().clone();
+        let mut ts = Vec::new();
+        for (k, v) in trials.iter() {
+            let coord = to_symbol(&k, &decls)?;
+            let text: String = v.str()?.extract()?;
+            ts.push(Trial { coord, expr: parse_with(&text, &decls).py()? });
+        }
+        let phase = to_symbol(&phase.into_pyobject(py)?.into_any(), &decls)?;
+        let freq = to_symbol(&frequency.into_pyobject(py)?.into_any(), &decls)?;
+        let amps: Vec<Symbol> =
+            amplitudes.iter().map(|a| to_symbol(&a.into_pyobject(py)?.into_any(), &decls)).collect::<PyResult<_>>()?;
+        let avg = py.allow_threads(|| canonical::average::average_lagrangian(l, &ts, &phase, &freq, &amps)).py()?;
+        let d = PyDict::new(py);
+        d.set_item("lagrangian", PyExpr::new(avg.lagrangian, &decls))?;
+        let rel = PyList::empty(py);
+        for (s, e) in avg.relations {
+            rel.append((s.to_string(), PyExpr::new(e, &decls)))?;
+        }
+        d.set_item("relations", rel)?;
+        d.set_item("action", PyExpr::new(avg.action, &decls))?;
+        Ok(d)
+    }
+
+    /// The state variable names of the formulation ``method`` integrates: ``(q…, q'…)`` for a
+    /// Lagrangian system with a Runge–Kutta or collocation method, ``(q…, p_q…)`` for a
+    /// Hamiltonian system or a splitting method.
+    #[pyo3(signature = (method="dop853"))]
+    fn state_names(&self, method: &str) -> PyResult<Vec<String>> {
+        let f = Formulation::for_method(&self.sys, crate::sim::method(method)?);
+        Ok(f.state_names(&self.sys))
+    }
+}
+
+/// The Poisson bracket ``{f, g}`` over the phase space of ``coords`` (momenta ``p_q``).
+#[pyfunction]
+pub fn poisson(f: &Bound<'_, PyAny>, g: &Bound<'_, PyAny>, coords: Vec<String>) -> PyResult<PyExpr> {
+    let decls = match f.downcast::<PyExpr>() {
+        Ok(e) => e.get().decls.0.clone(),
+        Err(_) => Declarations::new(),
+    };
+    let ps = PhaseSpace::new(&coords).py()?;
+    let (f, g) = (to_expr(f, &decls, true)?, to_expr(g, &decls, true)?);
+    Ok(PyExpr::new(canonical::poisson(&f, &g, &ps), &decls))
+}

@@ -1,0 +1,149 @@
+"""Sweeps on a Dask LocalCluster with 2 worker processes: a grid of initial angles with a
+chunk that fails, a worker killed mid-sweep (Dask reschedules its tasks), a parameter grid,
+and a chunk lost for good when Dask allows no failures."""
+
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lagrangian as lg
+
+distributed = pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def pendulum():
+    return lg.System.from_lagrangian(
+        "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", ["θ"], params={"m": 1.0, "l": 1.0, "g": 1.0}, positive=["m", "l", "g"]
+    )
+
+
+def test_sweep_reports_failed_points_and_survives_a_killed_worker(client):
+    sys = pendulum()
+    # θ0 over a grid with NaN in it: the chunk holding the NaN fails point by point.
+    theta = np.linspace(-2.5, 2.5, 64)
+    theta[5] = np.nan
+    grid = {"θ": theta}
+    t_span = (0.0, 2000.0)
+    result = {}
+
+    def run():
+        result["r"] = lg.sweep(sys, grid, t_span, "rk4", y0={"θ'": 0.0}, dt=0.01, chunk_size=4, client=client)
+
+    pids_before = set(client.run(os.getpid).values())
+    th = threading.Thread(target=run)
+    th.start()
+    # Kill one worker process while it is integrating a chunk.
+    deadline = time.time() + 60
+    victim = None
+    while time.time() < deadline and victim is None:
+        busy = [w for w, tasks in client.processing().items() if tasks]
+        if busy:
+            victim = busy[0]
+        else:
+            time.sleep(0.05)
+    assert victim is not None, "no worker ever got a task"
+    pid = client.run(os.getpid, workers=[victim])[victim]
+    os.kill(pid, signal.SIGKILL)
+    th.join(timeout=300)
+    assert not th.is_alive()
+    r = result["r"]
+    assert pid in pids_before and pid not in set(client.run(os.getpid).values())
+
+    assert r.y.shape == (64, 2) and r.t.shape == (64,) and r.names == ["θ", "θ'"]
+    assert r.ok.sum() == 63 and not r.ok[5]
+    assert len(r.failures) == 1
+    f = r.failures[0]
+    assert f["index"] == (5,) and np.isnan(f["values"]["θ"]) and "NaN" in f["reason"]
+    # Every other point equals the same integration done locally.
+    local = sys.ensemble(np.column_stack([theta, np.zeros(64)]), t_span, "rk4", dt=0.01)
+    ok = r.ok
+    np.testing.assert_array_equal(r.y[ok], local.y[ok])
+    np.testing.assert_array_equal(r["θ"][ok], local.y[ok, 0])
+
+
+def test_parameter_grid_and_state_grid(client):
+    sys = pendulum()
+    r = lg.sweep(
+        sys, {"θ": [0.1, 0.2], "g": [1.0, 4.0, float("inf")]}, (0.0, 1.0), "gauss6", y0=[0.0, 0.0], dt=0.01, client=client
+    )
+    assert r.y.shape == (2, 3, 2)
+    assert r.ok[:, :2].all() and not r.ok[:, 2].any()
+    assert "non-finite" in r.errors[0, 2]
+    for i, θ0 in enumerate([0.1, 0.2]):
+        for j, g in enumerate([1.0, 4.0]):
+            ref = sys.with_params(g=g).integrate((0, 1), [θ0, 0.0], "gauss6", dt=0.01)
+            assert r.y[i, j, 0] == ref.y[0, -1]
+    # An array of states is a flat list of points.
+    states = np.array([[0.1, 0.0], [0.2, 0.1], [0.3, -0.1]])
+    flat = lg.sweep(sys, states, (0, 1), tol=1e-10, chunk_size=2, client=client)
+    assert flat.y.shape == (3, 2) and flat.ok.all()
+    with pytest.raises(ValueError, match="is neither a state variable"):
+        lg.sweep(sys, {"x": [1.0]}, (0, 1), client=client)
+    with pytest.raises(ValueError, match="needs a step"):
+        lg.sweep(sys, states, (0, 1), "rk4", client=client)
+
+
+def test_a_chunk_lost_for_good_is_reported_and_the_rest_returns():
+    import dask
+
+    sys = pendulum()
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = distributed.Client(cluster)
+        try:
+            grid = {"θ": np.linspace(0.1, 1.0, 6)}
+            result = {}
+            th = threading.Thread(
+                target=lambda: result.update(
+                    r=lg.sweep(sys, grid, (0, 20000.0), "rk4", y0=[0.0, 0.0], dt=0.01, chunk_size=2, client=client)
+                )
+            )
+            th.start()
+            victim = None
+            while victim is None and th.is_alive():
+                busy = [w for w, tasks in client.processing().items() if tasks]
+                victim = busy[0] if busy else None
+                time.sleep(0.02)
+            pid = client.run(os.getpid, workers=[victim])[victim]
+            os.kill(pid, signal.SIGKILL)
+            th.join(timeout=300)
+        finally:
+            client.close()
+            cluster.close()
+    r = result["r"]
+    lost = [f for f in r.failures if "KilledWorker" in f["reason"]]
+    assert lost, r.failures
+    assert all("the chunk of points" in f["reason"] for f in lost)
+    assert r.ok.sum() == 6 - len(lost) and r.ok.sum() >= 2
+
+
+def test_sweep_example_script(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent.parent / "examples" / "sweep.py"
+    out = tmp_path / "flip.png"
+    run = subprocess.run(
+        [sys.executable, str(script), "--n", "6", "--t", "3", "--workers", "1", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, MPLBACKEND="Agg"),
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "36 trajectories" in run.stdout and "0 failed" in run.stdout
+    assert out.stat().st_size > 1000
