@@ -195,4 +195,9 @@ fn singular_mass_matrix_and_abs_kink_are_typed_errors() {
     let sys = TaylorOde::from_exprs(&f, &["y", "v"], &[]).unwrap();
     let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[0.0, 1.0]).unwrap_err();
     assert!(err.to_string().contains("abs"), "{err}");
+    // A kink crossed inside a step (y' = v, v' = −|y| from y = 0.5 falling through 0) is
+    // reported, not summed over with the series of the wrong branch.
+    let err = Taylor::new(1e-12).integrate(&sys, 0.0..5.0, &[0.5, -1.0]).unwrap_err();
+    assert!(err.to_string().contains("kink"), "{err}");
+    assert!(err.t < 0.5, "{err}");
 }

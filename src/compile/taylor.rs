@@ -159,6 +159,8 @@ pub struct TaylorTape {
     ops: Vec<Op>,
     outputs: Vec<u32>,
     n_rows: usize,
+    /// The rows of the arguments of `abs` (whose sign must not change within a step).
+    abs_args: Vec<u32>,
 }
 
 impl TaylorTape {
@@ -255,7 +257,19 @@ impl TaylorTape {
             ops.push(op);
         }
         let outputs = (0..tape.n_outputs()).map(|j| map[tape.output_slot(j)]).collect();
-        TaylorTape { n_inputs, consts, ops, outputs, n_rows: next as usize }
+        let abs_args = ops.iter().filter_map(|op| if let Op::Abs { a, .. } = op { Some(*a) } else { None }).collect();
+        TaylorTape { n_inputs, consts, ops, outputs, n_rows: next as usize, abs_args }
+    }
+
+    /// Whether the argument of some `abs` changes sign between the expansion point and `h`
+    /// (its polynomial, orders `0..=order` of a buffer filled by [`TaylorTape::expand`] or
+    /// [`TaylorOde::expand`], evaluated at `h`): the series is then not the solution there.
+    pub fn kink_within(&self, c: &[f64], stride: usize, order: usize, h: f64) -> bool {
+        self.abs_args.iter().any(|&r| {
+            let row = &c[r as usize * stride..r as usize * stride + order + 1];
+            let end = row.iter().rev().fold(0.0, |acc, &x| acc * h + x);
+            (row[0] > 0.0 && end < 0.0) || (row[0] < 0.0 && end > 0.0)
+        })
     }
 
     /// The number of coefficient rows (inputs, constants, values and auxiliaries).
@@ -753,6 +767,16 @@ impl TaylorSystem for TaylorOde {
         coeffs: &mut [f64],
     ) -> Result<(), StepError> {
         self.expand(t, y, order, scratch, coeffs).map_err(|e| StepError::new(e.to_string()))
+    }
+    fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
+        // Tape values are expanded to `order − 1` (the state's order-`order` terms come from
+        // them), so their polynomial stops there.
+        if self.tape.kink_within(scratch, order + 1, order - 1, h) {
+            return Err(StepError::new(format!(
+                "the argument of abs(…) changes sign within the step of size {h:e}: the right-hand side has a kink there, and the Taylor method needs it smooth"
+            )));
+        }
+        Ok(())
     }
 }
 

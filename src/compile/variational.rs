@@ -190,4 +190,7 @@ impl TaylorSystem for Variational {
     ) -> Result<(), StepError> {
         self.taylor.taylor_coefficients(t, y, order, scratch, coeffs)
     }
+    fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
+        self.taylor.check_step(scratch, order, h)
+    }
 }

@@ -35,6 +35,13 @@ pub trait TaylorSystem: Sync {
         scratch: &mut [f64],
         coeffs: &mut [f64],
     ) -> Result<(), RhsError>;
+    /// Checks that the expansion last written by [`TaylorSystem::taylor_coefficients`] (still
+    /// in `scratch`) may be summed at the step `h`: a system with a non-smooth operation
+    /// (`abs`) reports a kink inside the step as an error instead of a silently wrong step.
+    /// The default accepts every step.
+    fn check_step(&self, _scratch: &[f64], _order: usize, _h: f64) -> Result<(), RhsError> {
+        Ok(())
+    }
 }
 
 /// The smallest tolerance accepted: below it the last bits of an `f64` state are noise, and
@@ -243,6 +250,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         if h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0 {
             return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
         }
+        sys.check_step(&w.scratch, p, h)?;
         for i in 0..n {
             w.inc[i] = h * horner(&w.coeffs[i * s..(i + 1) * s], h, 1);
         }
