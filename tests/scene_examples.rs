@@ -315,3 +315,40 @@ fn anharmonic_oscillator() {
     assert!((2.0 * std::f64::consts::PI / period / 1.075 - 1.0).abs() < 5e-3);
     r.svg("anharmonic_phase.svg");
 }
+
+/// The damped, driven pendulum: the stroboscopic section has one point per drive period
+/// (t = 3π k), the exported points are the plotted ones, and the first point agrees with a
+/// hand-written RK4 integration of θ'' = −b θ' − sin θ + A cos(Ω t) (before chaos separates
+/// nearby solutions).
+#[test]
+fn damped_driven_pendulum() {
+    let r = run("damped_driven_pendulum");
+    let svg = r.svg("damped_driven_section.svg");
+    let c = r.csv("damped_driven_section.csv");
+    let (t, wrapped, v) = (&c["t"], &c["wrapped"], &c["θ'"]);
+    let period = 3.0 * std::f64::consts::PI;
+    assert_eq!(t.len(), (9000.0 / period) as usize);
+    for (k, tk) in t.iter().enumerate() {
+        assert!((tk - period * (k + 1) as f64).abs() < 1e-9, "point {k} at t = {tk}");
+    }
+    assert!(wrapped.iter().all(|w| w.abs() <= std::f64::consts::PI));
+    assert_eq!(svg.matches("<circle").count(), t.len(), "plotted and exported points differ in number");
+    assert!(r.stdout.contains(&format!("({} points)", t.len())));
+    let (b, a, w) = (0.5f64, 1.5f64, 2.0f64 / 3.0);
+    let f = |t: f64, y: [f64; 2]| [y[1], -b * y[1] - y[0].sin() + a * (w * t).cos()];
+    let (mut y, steps) = ([0.2f64, 0.0], 20_000);
+    let h = period / steps as f64;
+    for i in 0..steps {
+        let t0 = i as f64 * h;
+        let k1 = f(t0, y);
+        let k2 = f(t0 + h / 2.0, [y[0] + h / 2.0 * k1[0], y[1] + h / 2.0 * k1[1]]);
+        let k3 = f(t0 + h / 2.0, [y[0] + h / 2.0 * k2[0], y[1] + h / 2.0 * k2[1]]);
+        let k4 = f(t0 + h, [y[0] + h * k3[0], y[1] + h * k3[1]]);
+        y = [
+            y[0] + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            y[1] + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+        ];
+    }
+    let theta = y[0].sin().atan2(y[0].cos());
+    assert!((wrapped[0] - theta).abs() < 1e-6 && (v[0] - y[1]).abs() < 1e-6, "({}, {}) vs {y:?}", wrapped[0], v[0]);
+}

@@ -10,6 +10,8 @@
 //!   `W q'' = F` in place; [`HamiltonianRhs`] evaluates Hamilton's equations and their exact
 //!   Jacobian; [`SeparableHamiltonian`] is the drift/kick split of `H = T(p) + V(q, t)`;
 //!   [`ImplicitLegendreRhs`] inverts `p = ∂L/∂q'` by Newton when no closed form exists.
+//! * [`ConstrainedRhs`]: holonomic constraints by the augmented system `[W Φᵀ; Φ 0]`, with
+//!   Baumgarte stabilisation or projection ([`Projected`]) against drift.
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -17,12 +19,14 @@
 //!
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
+mod constrained;
 mod ensemble;
 mod native;
 mod rhs;
 mod system;
 mod tape;
 
+pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
@@ -87,4 +91,5 @@ const _: () = {
     sync_send::<HamiltonianRhs>();
     sync_send::<SeparableHamiltonian>();
     sync_send::<ImplicitLegendreRhs>();
+    sync_send::<ConstrainedRhs>();
 };

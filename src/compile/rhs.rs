@@ -28,6 +28,11 @@ pub enum RhsError {
     /// A mass-matrix entry, a force or a derivative is infinite or NaN.
     #[error("non-finite {what} at t = {t}; state {state:?}")]
     NonFinite { t: f64, state: Vec<f64>, what: &'static str },
+    /// The augmented matrix `[W Φᵀ; Φ 0]` of a constrained system is singular: the
+    /// constraint (numbered from 1) has no pivot, so it is redundant with the others (or the
+    /// constraints are not independent at this state).
+    #[error("the augmented matrix [W Φᵀ; Φ 0] is singular at t = {t}: constraint {constraint} is redundant (its gradient is a combination of the others' or zero); state {state:?}")]
+    SingularAugmented { t: f64, state: Vec<f64>, constraint: usize },
     /// Newton's method for `p = ∂L/∂q'` did not converge.
     #[error("the Legendre map did not converge at t = {t} after {iterations} Newton steps (residual {residual:e}); state {state:?}")]
     LegendreNewton { t: f64, state: Vec<f64>, iterations: usize, residual: f64 },
@@ -60,7 +65,7 @@ impl ErrorSlot {
 
 /// How a matrix was factorised in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Factor {
+pub(super) enum Factor {
     /// `A = L Lᵀ`, `L` in the lower triangle.
     Cholesky,
     /// `P A = L U` with unit `L` below the diagonal, `U` on and above, `perm` the row order.
@@ -71,7 +76,13 @@ enum Factor {
 /// matrix is positive definite, otherwise LU with partial pivoting. `perm` receives the row
 /// order (as `f64`, exact for any realistic `n`). A pivot no larger than `n·ε·max|a_ij|` means
 /// singular to working precision; the error carries the column of the failing pivot.
-fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bool) -> Result<Factor, usize> {
+pub(super) fn factor(
+    a: &[f64],
+    m: &mut [f64],
+    perm: &mut [f64],
+    n: usize,
+    try_cholesky: bool,
+) -> Result<Factor, usize> {
     let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
     let tol = n as f64 * f64::EPSILON * scale;
     if try_cholesky {
@@ -134,7 +145,7 @@ fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bo
 
 /// Solves with a factorisation from [`factor`]: `x` holds the right-hand side on entry and the
 /// solution on exit; `tmp` is `n` values of workspace.
-fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
+pub(super) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
     match kind {
         Factor::Cholesky => {
             for i in 0..n {
@@ -176,7 +187,7 @@ fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &m
 }
 
 /// The inputs of every compiled tape of a system with coordinates `q`: `q…, q'…, t`.
-fn state_inputs(coords: &[String]) -> Vec<String> {
+pub(super) fn state_inputs(coords: &[String]) -> Vec<String> {
     let mut v: Vec<String> = coords.to_vec();
     v.extend(coords.iter().map(|q| velocity_name(q)));
     v.push("t".to_string());

@@ -72,6 +72,9 @@ pub enum Formulation {
     Lagrangian(Expr),
     /// `H(q, p, t)`: state `(q, p)`, Hamilton's equations.
     Hamiltonian(Expr),
+    /// `L(q, q', t)` with generalized forces, a Rayleigh function or holonomic constraints:
+    /// state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
+    Extended(Box<ExtendedLagrangian>),
     /// `H = T(p) + V(q, t)`: drift and kick for splitting methods.
     Separable {
         /// The kinetic part `T(p)`.
@@ -79,6 +82,32 @@ pub enum Formulation {
         /// The potential part `V(q, t)`.
         v: Expr,
     },
+}
+
+/// A Lagrangian with what `force`, `rayleigh` and `constraint` statements add to it.
+#[derive(Clone, Debug)]
+pub struct ExtendedLagrangian {
+    /// `L(q, q', t)`.
+    pub l: Expr,
+    /// The generalized force `Q_i(q, q', t)` on each coordinate (zero where none).
+    pub forces: Vec<Expr>,
+    /// The Rayleigh dissipation function `R(q, q')`.
+    pub rayleigh: Option<Expr>,
+    /// Holonomic constraints `f_j(q, t)`, each `= 0`.
+    pub constraints: Vec<Expr>,
+    /// How a constrained run is held on its constraints.
+    pub stabilization: crate::compile::Stabilization,
+}
+
+impl ExtendedLagrangian {
+    /// Every expression the compiled system depends on (for cache keys and parameter checks).
+    pub fn exprs(&self) -> Vec<Expr> {
+        let mut v = vec![self.l.clone()];
+        v.extend(self.forces.iter().cloned());
+        v.extend(self.rayleigh.iter().cloned());
+        v.extend(self.constraints.iter().cloned());
+        v
+    }
 }
 
 /// What to compile: the formulation with its parameters bound.
@@ -126,6 +155,9 @@ pub struct RunRequest {
     pub tol: Option<f64>,
     /// Events.
     pub events: Vec<EventRequest>,
+    /// Keep every `k`-th step (`Some(1)`: all); `None` keeps at most [`MAX_POINTS`] states of
+    /// a fixed-step run.
+    pub every: Option<usize>,
 }
 
 /// A computed trajectory.
@@ -145,6 +177,9 @@ pub struct Trajectory {
     pub evaluations: usize,
     /// Why the integration ended.
     pub stop: String,
+    /// Further named values at each stored state, computed by the compiled system (the
+    /// multipliers `λ1, …` and the constraint residuals `residual1, …` of a constrained run).
+    pub aux: Vec<(String, Vec<f64>)>,
 }
 
 /// A compiled system, opaque to the session (the backend downcasts it).
@@ -208,6 +243,8 @@ pub enum NativeCompiled {
     Lagrangian(crate::compile::LagrangianRhs),
     /// `W q'' = F` with its Jacobian (implicit methods).
     LagrangianJacobian(crate::compile::LagrangianJacobian),
+    /// The augmented system of a constrained Lagrangian.
+    Constrained(crate::compile::ConstrainedRhs),
 }
 
 /// The real library.
@@ -362,8 +399,45 @@ impl Backend for NativeBackend {
                     NativeCompiled::Lagrangian(rhs)
                 }
             }
+            Formulation::Extended(x) => {
+                let mut system = crate::mechanics::System::from_lagrangian_expr(x.l.clone(), &req.coords)
+                    .map_err(mechanics_error)?;
+                for (q, force) in req.coords.iter().zip(&x.forces) {
+                    if !force.is_zero() {
+                        system = system.with_force_expr(q.name(), force.clone()).map_err(mechanics_error)?;
+                    }
+                }
+                if let Some(r) = &x.rayleigh {
+                    system = system.with_rayleigh_expr(r.clone()).map_err(mechanics_error)?;
+                }
+                if x.constraints.is_empty() {
+                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
+                    let rhs = LagrangianRhs::new(&w, &f, &coords, &params).map_err(failed)?;
+                    if req.method.family == Family::Implicit {
+                        NativeCompiled::LagrangianJacobian(rhs.with_jacobian().map_err(failed)?)
+                    } else {
+                        NativeCompiled::Lagrangian(rhs)
+                    }
+                } else {
+                    for f in &x.constraints {
+                        system = system.with_constraint_expr(f.clone()).map_err(mechanics_error)?;
+                    }
+                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
+                    NativeCompiled::Constrained(
+                        crate::compile::ConstrainedRhs::new(
+                            &w,
+                            &f,
+                            system.constraints(),
+                            &req.coords,
+                            &params,
+                            x.stabilization,
+                        )
+                        .map_err(failed)?,
+                    )
+                }
+            }
         };
-        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_));
+        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_) | Formulation::Extended(_));
         let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
         state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
         Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
@@ -396,10 +470,20 @@ impl Backend for NativeBackend {
                 };
                 drive(&m, &Counted::new(s, &count), run, &events, progress)
             }
-            NativeCompiled::Hamiltonian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
-            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress),
+            NativeCompiled::Hamiltonian(r) => {
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress, None)
+            }
+            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress, None),
             NativeCompiled::LagrangianJacobian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress)
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress, None)
+            }
+            NativeCompiled::Constrained(r) => {
+                check_constrained_start(r, run)?;
+                let project = (r.stabilization() == crate::compile::Stabilization::Projection).then_some(r);
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, progress, project).map(|mut t| {
+                    t.aux = constrained_aux(r, &t);
+                    t
+                })
             }
         }
         .map(|mut t| {
@@ -507,6 +591,8 @@ impl Native {
     }
 }
 
+/// Integrates with the method named in `run`; with `project`, every step is followed by a
+/// projection onto those constraints ([`crate::compile::Projected`]).
 fn by_method<S: crate::integrate::Rhs>(
     sys: &S,
     run: &RunRequest,
@@ -514,21 +600,72 @@ fn by_method<S: crate::integrate::Rhs>(
     tol: f64,
     events: &EventFns,
     progress: &mut dyn FnMut(f64),
+    project: Option<&crate::compile::ConstrainedRhs>,
 ) -> Result<Trajectory, BackendError> {
+    use crate::compile::Projected;
     use crate::integrate::{Dop853, ExplicitRk, Gauss};
+    macro_rules! go {
+        ($m:expr) => {
+            match project {
+                Some(c) => drive(&Projected { method: &$m, constraints: c }, sys, run, events, progress),
+                None => drive(&$m, sys, run, events, progress),
+            }
+        };
+    }
     match run.method.name {
-        "midpoint" => drive(&Gauss::midpoint(dt), sys, run, events, progress),
-        "gauss4" => drive(&Gauss::gauss4(dt), sys, run, events, progress),
-        "gauss6" => drive(&Gauss::gauss6(dt), sys, run, events, progress),
-        "euler" => drive(&ExplicitRk::euler(dt), sys, run, events, progress),
-        "rk4" => drive(&ExplicitRk::rk4(dt), sys, run, events, progress),
-        "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, progress),
+        "midpoint" => go!(Gauss::midpoint(dt)),
+        "gauss4" => go!(Gauss::gauss4(dt)),
+        "gauss6" => go!(Gauss::gauss6(dt)),
+        "euler" => go!(ExplicitRk::euler(dt)),
+        "rk4" => go!(ExplicitRk::rk4(dt)),
+        "dop853" => go!(Dop853::new(tol, tol)),
         other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
     }
 }
 
-/// The most states a trajectory keeps (longer runs keep every k-th step).
-const MAX_POINTS: usize = 20_000;
+/// A constrained run's initial state must lie on the constraints (positions and velocities),
+/// and the augmented matrix must be regular there: otherwise the run is refused before it
+/// starts, naming the constraint.
+fn check_constrained_start(r: &crate::compile::ConstrainedRhs, run: &RunRequest) -> Result<(), BackendError> {
+    let mut dy = vec![0.0; run.y0.len()];
+    r.try_eval(run.t0, &run.y0, &mut dy).map_err(|e| BackendError::Failed(format!("at the initial state: {e}")))
+}
+
+/// The multipliers and residuals of a constrained run at each stored state.
+fn constrained_aux(r: &crate::compile::ConstrainedRhs, tr: &Trajectory) -> Vec<(String, Vec<f64>)> {
+    let m = r.constraints();
+    let mut lambda = vec![vec![0.0; tr.t.len()]; m];
+    let mut resid = vec![vec![0.0; tr.t.len()]; m];
+    let (mut l, mut f) = (vec![0.0; m], vec![0.0; m]);
+    for (k, (t, y)) in tr.t.iter().zip(&tr.y).enumerate() {
+        if r.multipliers(*t, y, &mut l).is_err() {
+            l.fill(f64::NAN);
+        }
+        r.residuals(*t, y, &mut f);
+        for (column, value) in lambda.iter_mut().zip(&l).chain(resid.iter_mut().zip(&f)) {
+            column[k] = *value;
+        }
+    }
+    let mut out = Vec::new();
+    for (j, v) in lambda.into_iter().enumerate() {
+        out.push((format!("λ{}", j + 1), v));
+    }
+    for (j, v) in resid.into_iter().enumerate() {
+        out.push((format!("residual{}", j + 1), v));
+    }
+    out
+}
+
+/// The most states a fixed-step trajectory keeps unless the run says otherwise (longer runs
+/// keep every k-th step, and the session prints a note saying so).
+pub const MAX_POINTS: usize = 20_000;
+
+/// The thinning a run gets without `every` or `points`: every k-th step so that a fixed-step
+/// run keeps at most [`MAX_POINTS`] states (adaptive runs keep every step).
+pub fn default_every(dt: Option<f64>, t0: f64, t1: f64) -> usize {
+    let expected_steps = dt.map_or(MAX_POINTS, |h| ((t1 - t0) / h).ceil() as usize);
+    expected_steps.div_ceil(MAX_POINTS).max(1)
+}
 
 fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
     method: &M,
@@ -539,8 +676,7 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
 ) -> Result<Trajectory, BackendError> {
     use crate::integrate::{Crossing, Event, Integrate, Options, Status, StopReason};
     let numeric = |e: crate::integrate::IntegrateError| BackendError::Numeric(e.to_string());
-    let expected_steps = run.dt.map_or(MAX_POINTS, |h| ((run.t1 - run.t0) / h).ceil() as usize);
-    let every = expected_steps.div_ceil(MAX_POINTS).max(1);
+    let every = run.every.unwrap_or_else(|| default_every(run.dt, run.t0, run.t1)).max(1);
     if !events.is_empty() {
         // The driver that locates events takes no progress callback, but it evaluates every
         // event function once per step at the step's end: one more "event" that never changes
@@ -583,6 +719,7 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
                 StopReason::ReachedEnd => "end of the time span".to_string(),
                 StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
             },
+            aux: Vec::new(),
         });
     }
     let mut solver = method.solver(sys, run.t0, &run.y0, run.t1).map_err(numeric)?;

@@ -110,6 +110,8 @@ pub(super) struct RunEntry {
     pub(super) spec: SimSpec,
     pub(super) line: usize,
     pub(super) result: Option<RunResult>,
+    /// The forces, Rayleigh function and constraints declared before the `simulate`.
+    pub(super) dynamics: super::dynamics::Dynamics,
 }
 
 #[derive(Clone)]
@@ -157,6 +159,8 @@ pub struct Session {
     /// Names a statement introduces for itself (the phase, frequency and amplitudes of
     /// `average`), accepted in its expressions.
     pub(super) local_names: Vec<String>,
+    /// `force`, `rayleigh` and `constraint` statements so far.
+    pub(super) dynamics: super::dynamics::Dynamics,
 }
 
 /// The deepest chain of `load` statements.
@@ -214,6 +218,7 @@ impl Session {
             load_depth: 0,
             diff: Differentiator::new(),
             local_names: Vec::new(),
+            dynamics: Default::default(),
         }
     }
 
@@ -362,6 +367,10 @@ impl Session {
                 self.print_all(vec![Printed::Lines(lines)], *format);
                 Ok(())
             }
+            StmtKind::ExportPoincare { items, run, path } => self.export_poincare(items, run.as_ref(), path),
+            StmtKind::Force { coord, value } => self.declare_force(coord, value),
+            StmtKind::Rayleigh { name, value } => self.declare_rayleigh(name.as_ref(), value),
+            StmtKind::Constraint { lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
                 let text = super::help::help(word.as_ref().map(|w| w.text.as_str()));
@@ -514,7 +523,7 @@ impl Session {
         if s.is_time() || (s.primes() == 0 && self.local_names.iter().any(|n| n == name)) {
             return Ok(None);
         }
-        if self.coords.iter().any(|c| c.name() == name) {
+        if self.coords.iter().any(|c| c.name() == name) || self.dynamics.is_aux_name(s) {
             return Ok(None);
         }
         if let Some(c) = name.strip_prefix("p_") {
