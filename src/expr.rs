@@ -13,15 +13,18 @@
 //! Associativity and commutativity are therefore never rewrite rules: the e-graph in
 //! [`crate::simplify`] works on identities a canonical form cannot see.
 //!
-//! Nodes are interned for the life of the process (like a symbol table), so structurally equal
-//! expressions are the same pointer: equality and hashing are O(1), derivative and evaluation
-//! memo tables key on nodes, and deep expressions are never dropped recursively.
+//! Nodes are interned while they are alive, so structurally equal live expressions are the same
+//! pointer: equality and hashing are O(1) and derivative and evaluation memo tables key on
+//! nodes. The interner holds only weak references: a node that nothing references any more is
+//! freed, so a long-running host (a REPL, a notebook kernel, a server) does not grow without
+//! bound. Dropping a node frees its unreferenced descendants with an explicit stack, never by
+//! recursion, so deep expressions cannot overflow the stack when they go.
 
 use std::cmp::Ordering;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::fmt;
 use std::hash::{BuildHasher, BuildHasherDefault, Hash, Hasher};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock, Weak};
 
 use num_bigint::BigInt;
 use num_integer::Integer;
@@ -234,6 +237,43 @@ struct ExprData {
     hash: u64,
 }
 
+impl Drop for ExprData {
+    /// Frees the children that this node held last without recursing: each is moved onto a
+    /// local stack, and a child whose last reference that was gives up its own children the
+    /// same way before it is freed. (A child still referenced elsewhere just loses a count.)
+    fn drop(&mut self) {
+        let mut stack = Vec::new();
+        self.node.take_children(&mut stack);
+        while let Some(child) = stack.pop() {
+            if let Some(mut data) = Arc::into_inner(child.0) {
+                data.node.take_children(&mut stack);
+            }
+        }
+    }
+}
+
+impl Node {
+    /// Moves this node's children onto `stack`, leaving it childless (only for a node that is
+    /// being dropped: its power operands are replaced by a private placeholder).
+    fn take_children(&mut self, stack: &mut Vec<Expr>) {
+        match self {
+            Node::Add(v) | Node::Mul(v) | Node::Call(_, v) | Node::Apply { args: v, .. } => stack.append(v),
+            Node::Pow(base, exp) => {
+                stack.push(std::mem::replace(base, placeholder()));
+                stack.push(std::mem::replace(exp, placeholder()));
+            }
+            Node::Num(_) | Node::Sym(_) | Node::Undefined => {}
+        }
+    }
+}
+
+/// A node outside the interner that stands in for the operands of a power being dropped. It is
+/// built without touching the interner, so dropping never takes the interner's lock.
+fn placeholder() -> Expr {
+    static PLACEHOLDER: OnceLock<Expr> = OnceLock::new();
+    PLACEHOLDER.get_or_init(|| Expr(Arc::new(ExprData { node: Node::Undefined, hash: 0 }))).clone()
+}
+
 /// A shared, immutable, canonical expression. Cloning is a reference-count increment.
 #[derive(Clone)]
 pub struct Expr(Arc<ExprData>);
@@ -252,10 +292,44 @@ impl Hash for Expr {
     }
 }
 
-/// Interning key: a node whose children are already interned, so comparing two keys is
-/// shallow (children compare by pointer).
+/// Interning table: node hash → the live nodes with that hash. A node's children are already
+/// interned, so comparing two nodes is shallow (children compare by pointer).
+///
+/// Entries are weak, so the table never keeps a node alive. Dead entries are dropped when their
+/// bucket is next visited, and by a sweep of the whole table whenever it has doubled since the
+/// last sweep, which keeps the cost amortised O(1) per node and the table proportional to the
+/// live nodes.
 struct Interner {
-    table: HashMap<u64, Vec<Expr>, BuildHasherDefault<PassThrough>>,
+    table: HashMap<u64, Vec<Weak<ExprData>>, BuildHasherDefault<PassThrough>>,
+    /// Entries in the table, live or dead.
+    entries: usize,
+    /// `entries` above which the next insertion sweeps the table.
+    sweep_at: usize,
+}
+
+/// The smallest table size that triggers a sweep.
+const MIN_SWEEP: usize = 1 << 12;
+
+impl Interner {
+    /// Drops every dead entry and sets the next sweep at twice the live count.
+    fn sweep(&mut self) {
+        self.table.retain(|_, bucket| {
+            bucket.retain(|w| w.strong_count() > 0);
+            !bucket.is_empty()
+        });
+        self.entries = self.table.values().map(Vec::len).sum();
+        self.sweep_at = (2 * self.entries).max(MIN_SWEEP);
+    }
+}
+
+/// The number of interned nodes alive now (diagnostics and memory tests; takes the interner's
+/// lock and walks the table).
+pub fn live_nodes() -> usize {
+    let guard = match interner().lock() {
+        Ok(guard) => guard,
+        Err(poisoned) => poisoned.into_inner(),
+    };
+    guard.table.values().flatten().filter(|w| w.strong_count() > 0).count()
 }
 
 /// The interner's table is keyed by node hashes that are already well mixed; hashing them
@@ -278,7 +352,7 @@ impl Hasher for PassThrough {
 
 fn interner() -> &'static Mutex<Interner> {
     static INTERNER: OnceLock<Mutex<Interner>> = OnceLock::new();
-    INTERNER.get_or_init(|| Mutex::new(Interner { table: HashMap::default() }))
+    INTERNER.get_or_init(|| Mutex::new(Interner { table: HashMap::default(), entries: 0, sweep_at: MIN_SWEEP }))
 }
 
 /// A fixed hasher, so node hashes (and anything ordered by them) never vary between runs.
@@ -297,13 +371,31 @@ fn intern(node: Node) -> Expr {
         Ok(guard) => guard,
         Err(poisoned) => poisoned.into_inner(),
     };
-    let bucket = guard.table.entry(hash).or_default();
-    if let Some(found) = bucket.iter().find(|e| e.0.node == node) {
-        return found.clone();
+    let interner = &mut *guard;
+    let bucket = interner.table.entry(hash).or_default();
+    let mut found = None;
+    let before = bucket.len();
+    bucket.retain(|w| match w.upgrade() {
+        Some(data) => {
+            if found.is_none() && data.node == node {
+                found = Some(Expr(data));
+            }
+            true
+        }
+        None => false,
+    });
+    let removed = before - bucket.len();
+    if let Some(found) = found {
+        interner.entries -= removed;
+        return found;
     }
-    let expr = Expr(Arc::new(ExprData { node, hash }));
-    bucket.push(expr.clone());
-    expr
+    let data = Arc::new(ExprData { node, hash });
+    bucket.push(Arc::downgrade(&data));
+    interner.entries = interner.entries - removed + 1;
+    if interner.entries > interner.sweep_at {
+        interner.sweep();
+    }
+    Expr(data)
 }
 
 /// The range of the interned small numbers `n/d`: `|n| ≤ SMALL_NUM`, `1 ≤ d ≤ SMALL_DEN`.

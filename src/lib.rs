@@ -44,6 +44,6 @@ pub mod print;
 pub mod scene;
 pub mod simplify;
 
-pub use expr::{Expr, Func, Node, Rational, Symbol};
+pub use expr::{live_nodes, Expr, Func, Node, Rational, Symbol};
 pub use parse::{parse, parse_with, Declarations, ParseError};
 pub use print::Format;
