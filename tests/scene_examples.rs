@@ -148,6 +148,12 @@ fn charged_particle() {
         assert!((x * x + y * y - 1.0).abs() < 1e-8, "radius at t = {t}");
         assert!((z + 0.05 * t * t).abs() < 1e-8, "z at t = {t}");
     }
+    // The scene's comment says so: uniform acceleration, z(10) = −5, no drift promised.
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/charged_particle.scene")).unwrap();
+    assert!(text.contains("z = −e E t²/(2 m) = −0.05 t², so z(10) = −5") && !text.contains("uniform drift"));
+    let (t_end, z_end) = (*c["t"].last().unwrap(), *c["z"].last().unwrap());
+    assert!((t_end - 10.0).abs() < 1e-9 && (z_end + 5.0).abs() < 1e-8, "z({t_end}) = {z_end}");
     r.svg("charged_particle_path.svg");
     r.svg("charged_particle_series.svg");
 }
@@ -313,6 +319,19 @@ fn anharmonic_oscillator() {
     // The averaged-Lagrangian estimate ω ≈ ω0 (1 + 3σA²/4) (the force is x + 2σx³) is within
     // its O(σ²) error.
     assert!((2.0 * std::f64::consts::PI / period / 1.075 - 1.0).abs() < 5e-3);
+    // The scene's comment states the frequency 2π/period to four decimals, and the period.
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/anharmonic_oscillator.scene"))
+            .unwrap();
+    let at = text.find("period 2π/").expect("the comment states the period") + "period 2π/".len();
+    let numbers: Vec<f64> = text[at..]
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter(|w| !w.is_empty())
+        .take(2)
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert!((numbers[0] - 2.0 * std::f64::consts::PI / measured).abs() < 5e-5, "{numbers:?} vs {measured}");
+    assert!((numbers[1] - measured).abs() < 5e-4, "{numbers:?} vs {measured}");
     r.svg("anharmonic_phase.svg");
 }
 

@@ -959,7 +959,7 @@ impl Session {
                         _ => Printed::Lines(vec![]),
                     });
                 }
-                Ok(Printed::Value(self.resolve(&raw, &refs)?))
+                Ok(Printed::Value(printable(&self.resolve(&raw, &refs)?)))
             }
         }
     }
@@ -1013,6 +1013,20 @@ impl Session {
         self.output.push(format!("loaded {name}"));
         Ok(())
     }
+}
+
+/// An expression as `print` shows it: `0` when it is identically zero (a symbolic proof by
+/// the canonical normal form, as a Jacobi-identity check expects), otherwise with
+/// inverse-function compositions (`exp(log x)`, `sinh(asinh x)`, …) reduced under their domain
+/// conditions.
+pub(super) fn printable(e: &Expr) -> Expr {
+    if e.is_zero() {
+        return e.clone();
+    }
+    if crate::canonical::decide_zero(e) == crate::canonical::ZeroCheck::Proven {
+        return Expr::zero();
+    }
+    crate::canonical::reduce::tidy(e)
 }
 
 pub(super) fn deriv_step(kind: DerivKind) -> Step {
