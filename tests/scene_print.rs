@@ -34,11 +34,13 @@ fn inverse_function_compositions_reduce() {
     let out = printed(
         "coordinates q
 parameters a positive
-print exp(log(a q^2 + a)), sin(asin(q)) as plain",
+print exp(log(a q^2 + a)), sin(asin(q)), sinh(log(q + sqrt(q^2 + 1)))^2 as plain",
     );
-    assert_eq!(out.len(), 2);
+    assert_eq!(out.len(), 3);
     let d = lagrangian::Declarations::new().with_positive(["a"]);
     assert_eq!(lagrangian::parse_with(&out[0], &d).unwrap(), lagrangian::parse_with("a q^2 + a", &d).unwrap());
     assert!(!out[0].contains("exp") && !out[0].contains("log"), "{}", out[0]);
     assert_eq!(out[1], "q");
+    // sinh(asinh q)² written with the logarithmic form of asinh (the issue's case).
+    assert_eq!(out[2], "q^2");
 }
