@@ -63,6 +63,8 @@ pub struct Figure {
     ylabel: String,
     series: Vec<Series>,
     style: Style,
+    /// The phase portrait's coordinate is an angle: its orbits are wrapped to `(−π, π]`.
+    periodic: bool,
 }
 
 /// A fixed point of the phase portrait.
@@ -80,34 +82,87 @@ pub struct FixedPoint {
 impl Figure {
     /// Curves.
     pub fn lines(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Lines }
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Lines, periodic: false }
     }
 
     /// Points.
     pub fn scatter(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Scatter }
+        Figure {
+            title: title.into(),
+            xlabel: x.into(),
+            ylabel: y.into(),
+            series,
+            style: Style::Scatter,
+            periodic: false,
+        }
     }
 
     /// Curves on a logarithmic y axis (non-positive values are left out).
     pub fn log_y(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogY }
+        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogY, periodic: false }
     }
 
     /// Marked lines on logarithmic x and y axes, the work-precision diagram (points with a
     /// non-positive coordinate are left out).
     pub fn log_log(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogLog }
+        Figure {
+            title: title.into(),
+            xlabel: x.into(),
+            ylabel: y.into(),
+            series,
+            style: Style::LogLog,
+            periodic: false,
+        }
     }
 
     /// A phase portrait: orbits and, optionally, contours of an energy function.
+    ///
+    /// When the energy function is 2π-periodic in the coordinate ([`is_angle`]), the
+    /// coordinate is an angle: orbits are wrapped to `(−π, π]` (a rotation is drawn as
+    /// repeated passes across the frame, cut at the seam), and each equilibrium is marked once.
     pub fn phase(title: &str, q: &str, p: &str, orbits: Vec<Series>, contours: Option<Contours>) -> Figure {
+        let periodic = contours.as_ref().is_some_and(|c| is_angle(&*c.f));
+        let series = if periodic {
+            orbits
+                .into_iter()
+                .map(|s| {
+                    let mut points = Vec::with_capacity(s.points.len());
+                    for (k, piece) in split_at_seam(&s.points).into_iter().enumerate() {
+                        if k > 0 {
+                            points.push((f64::NAN, f64::NAN));
+                        }
+                        points.extend(piece);
+                    }
+                    Series { label: s.label, points }
+                })
+                .collect()
+        } else {
+            orbits
+        };
         Figure {
             title: title.into(),
             xlabel: q.into(),
             ylabel: p.into(),
-            series: orbits,
+            series,
             style: Style::Phase(contours),
+            periodic,
         }
+    }
+
+    /// The series as drawn: over-dense lines thinned by [`decimate`] at about a pixel of
+    /// `ranges` (scatter plots are drawn point for point).
+    pub fn drawn_pieces(&self, ranges: (f64, f64, f64, f64)) -> Vec<Vec<Vec<(f64, f64)>>> {
+        let (x0, x1, y0, y1) = ranges;
+        let cell = ((x1 - x0) / SIZE.0 as f64, (y1 - y0) / SIZE.1 as f64);
+        self.series
+            .iter()
+            .map(|s| match self.style {
+                Style::Scatter => {
+                    vec![s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect()]
+                }
+                _ => decimate(&s.points, cell),
+            })
+            .collect()
     }
 
     /// The plotted ranges `(x0, x1, y0, y1)`.
@@ -126,7 +181,11 @@ impl Figure {
         if let Style::Phase(Some(c)) = &self.style {
             if !r.0.is_finite() {
                 // No orbit: frame the fixed points and the separatrix.
-                let (q0, q1) = (-1.25 * std::f64::consts::PI, 1.25 * std::f64::consts::PI);
+                let (q0, q1) = if self.periodic {
+                    (-std::f64::consts::PI, std::f64::consts::PI)
+                } else {
+                    (-1.25 * std::f64::consts::PI, 1.25 * std::f64::consts::PI)
+                };
                 let fps = fixed_points(&*c.f, q0, q1);
                 let centre = fps.iter().find(|f| f.elliptic).map_or(0.0, |f| f.q);
                 let base = (c.f)(centre, 0.0);
@@ -140,6 +199,10 @@ impl Figure {
         }
         if !r.0.is_finite() {
             return (0.0, 1.0, 0.0, 1.0);
+        }
+        if self.periodic {
+            let w = if r.3 > r.2 { r.3 - r.2 } else { r.2.abs().max(1.0) };
+            return (-std::f64::consts::PI, std::f64::consts::PI, r.2 - 0.05 * w, r.3 + 0.05 * w);
         }
         let pad = |a: f64, b: f64| {
             let w = if b > a { b - a } else { a.abs().max(1.0) };
@@ -261,6 +324,132 @@ fn contour_segments(values: &[Vec<f64>], xs: &[f64], ys: &[f64], level: f64) -> 
     segs
 }
 
+/// Joins the two-point segments of a contour into polylines: neighbouring cells compute a
+/// shared edge's crossing from the same two values in the same order, so their endpoints are
+/// bit-identical and are matched exactly. An SVG then holds one `<polyline>` per contour
+/// piece instead of one element per grid cell.
+fn chain_segments(segs: Vec<((f64, f64), (f64, f64))>) -> Vec<Vec<(f64, f64)>> {
+    use std::collections::HashMap;
+    let key = |p: (f64, f64)| (p.0.to_bits(), p.1.to_bits());
+    let mut at: HashMap<(u64, u64), Vec<usize>> = HashMap::new();
+    for (i, (a, b)) in segs.iter().enumerate() {
+        at.entry(key(*a)).or_default().push(i);
+        at.entry(key(*b)).or_default().push(i);
+    }
+    let mut used = vec![false; segs.len()];
+    let mut out = Vec::new();
+    // Extends `line` from its last point along unused segments.
+    let extend = |line: &mut Vec<(f64, f64)>, used: &mut Vec<bool>| loop {
+        let end = *line.last().expect("a line has a point");
+        let next = at.get(&key(end)).and_then(|v| v.iter().copied().find(|&j| !used[j]));
+        let Some(j) = next else { break };
+        used[j] = true;
+        let (a, b) = segs[j];
+        line.push(if key(a) == key(end) { b } else { a });
+    };
+    for i in 0..segs.len() {
+        if used[i] {
+            continue;
+        }
+        used[i] = true;
+        let mut line = vec![segs[i].0, segs[i].1];
+        extend(&mut line, &mut used);
+        line.reverse();
+        extend(&mut line, &mut used);
+        out.push(line);
+    }
+    out
+}
+
+/// Thins an over-dense path for drawing, keeping its look at the figure's resolution: a point
+/// is kept when it moves to another cell of a grid `cell` wide (in data units, about a pixel),
+/// and stretches that only retrace cells this path has already drawn are cut out, so an orbit
+/// that goes round the same curve a hundred times is drawn about once. The result is the
+/// pieces to draw as polylines, in order.
+pub fn decimate(points: &[(f64, f64)], cell: (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    use std::collections::HashSet;
+    let (cx, cy) = (cell.0.max(f64::MIN_POSITIVE), cell.1.max(f64::MIN_POSITIVE));
+    let index = |p: (f64, f64)| ((p.0 / cx).floor() as i64, (p.1 / cy).floor() as i64);
+    let mut seen: HashSet<(i64, i64)> = HashSet::new();
+    let mut pieces: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    let mut last_cell = None;
+    let mut prev: Option<(f64, f64)> = None;
+    for &p in points {
+        if !(p.0.is_finite() && p.1.is_finite()) {
+            if current.len() > 1 {
+                pieces.push(std::mem::take(&mut current));
+            }
+            current.clear();
+            last_cell = None;
+            prev = None;
+            continue;
+        }
+        let c = index(p);
+        if last_cell == Some(c) {
+            prev = Some(p);
+            continue;
+        }
+        let fresh = seen.insert(c);
+        if fresh {
+            if current.is_empty() {
+                // Re-enter at the last point on the old track, so no gap opens.
+                if let Some(q) = prev {
+                    current.push(q);
+                }
+            }
+            current.push(p);
+        } else if !current.is_empty() {
+            current.push(p);
+            pieces.push(std::mem::take(&mut current));
+        }
+        last_cell = Some(c);
+        prev = Some(p);
+    }
+    // A lone point is kept only when it is all there is (a path at rest).
+    if current.len() > 1 || (current.len() == 1 && pieces.is_empty()) {
+        pieces.push(current);
+    }
+    pieces
+}
+
+/// Wraps `q` into `(−π, π]`.
+pub fn wrap_angle(q: f64) -> f64 {
+    use std::f64::consts::PI;
+    let w = (q + PI).rem_euclid(2.0 * PI) - PI;
+    if w <= -PI {
+        w + 2.0 * PI
+    } else {
+        w
+    }
+}
+
+/// Whether `f(q, p)` is 2π-periodic in `q` (an angle): compared at a few fixed points, to
+/// rounding.
+pub fn is_angle(f: &dyn Fn(f64, f64) -> f64) -> bool {
+    let samples = [(0.3, 0.0), (-1.1, 0.7), (2.5, -1.3), (0.05, 2.1)];
+    samples.iter().all(|&(q, p)| {
+        let (a, b) = (f(q, p), f(q + 2.0 * std::f64::consts::PI, p));
+        a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * (1.0 + a.abs())
+    }) && samples.iter().any(|&(q, p)| (f(q, p) - f(q + 1.0, p)).abs() > 1e-9)
+}
+
+/// Splits a path whose `x` was wrapped to `(−π, π]` where it jumps across the seam.
+fn split_at_seam(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
+    let mut out: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for &(x, y) in points {
+        let w = wrap_angle(x);
+        if let Some(&(px, _)) = out.last().and_then(|l| l.last()) {
+            if (w - px).abs() > std::f64::consts::PI {
+                out.push(Vec::new());
+            }
+        }
+        out.last_mut().expect("one line at least").push((w, y));
+    }
+    out.retain(|l| !l.is_empty());
+    out
+}
+
 /// Draws `fig` into `path` (SVG or PNG by extension).
 pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
     ensure_font();
@@ -366,18 +555,31 @@ where
             let levels = 14;
             for k in 1..levels {
                 let level = lo + (hi - lo) * k as f64 / levels as f64;
-                let segs = contour_segments(&values, &xs, &ys, level);
-                chart
-                    .draw_series(segs.into_iter().map(|(a, b)| PathElement::new(vec![a, b], grey.stroke_width(1))))
-                    .map_err(err)?;
+                let lines = chain_segments(contour_segments(&values, &xs, &ys, level));
+                chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, grey.stroke_width(1)))).map_err(err)?;
             }
-            let fps = fixed_points(&*c.f, x0, x1);
+            let mut fps = fixed_points(&*c.f, x0, x1);
+            if fig.periodic {
+                // One mark per equilibrium: −π and π are the same point of the circle.
+                let tol = 1e-6;
+                let mut kept: Vec<FixedPoint> = Vec::new();
+                for mut fp in fps {
+                    fp.q = wrap_angle(fp.q);
+                    if (fp.q + std::f64::consts::PI).abs() < tol {
+                        fp.q = std::f64::consts::PI;
+                    }
+                    if !kept.iter().any(|k| (wrap_angle(k.q - fp.q)).abs() < tol) {
+                        kept.push(fp);
+                    }
+                }
+                fps = kept;
+            }
             let mut labelled = false;
             for fp in fps.iter().filter(|f| !f.elliptic) {
-                let segs = contour_segments(&values, &xs, &ys, fp.level);
+                let lines = chain_segments(contour_segments(&values, &xs, &ys, fp.level));
                 let red = RGBColor(200, 30, 30);
                 let drawn = chart
-                    .draw_series(segs.into_iter().map(|(a, b)| PathElement::new(vec![a, b], red.stroke_width(2))))
+                    .draw_series(lines.into_iter().map(|l| PathElement::new(l, red.stroke_width(2))))
                     .map_err(err)?;
                 if !labelled {
                     drawn
@@ -400,13 +602,15 @@ where
         }
     }
     let scatter = matches!(fig.style, Style::Scatter);
-    for (i, s) in fig.series.iter().enumerate() {
+    let pieces = fig.drawn_pieces((x0, x1, y0, y1));
+    for (i, (s, lines)) in fig.series.iter().zip(pieces).enumerate() {
         let color = Palette99::pick(i + 1).to_rgba();
-        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
         let drawn = if scatter {
-            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
+            let pts = lines.into_iter().flatten();
+            chart.draw_series(pts.map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
         } else {
-            chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?
+            // One polyline per piece (a single element when nothing was cut).
+            chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, color.stroke_width(2)))).map_err(err)?
         };
         drawn
             .label(s.label.clone())
@@ -444,6 +648,48 @@ mod tests {
             assert!((p.q.abs() - std::f64::consts::PI).abs() < 1e-9, "{p:?}");
             assert!((p.level - 2.0).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn an_orbit_retraced_a_hundred_times_is_drawn_about_once() {
+        let lap: Vec<(f64, f64)> = (0..2000).map(|i| (i as f64 * 0.00314159).sin_cos()).collect();
+        let laps: Vec<(f64, f64)> = (0..100).flat_map(|_| lap.iter().copied()).collect();
+        let cell = (2.0 / 960.0, 2.0 / 680.0);
+        let once: usize = decimate(&lap, cell).iter().map(Vec::len).sum();
+        let all: usize = decimate(&laps, cell).iter().map(Vec::len).sum();
+        assert!(once < 2000 && all < once + once / 5, "one lap {once} points, a hundred {all}");
+        // Every point kept is a point of the orbit, and the kept path has no gap wider than
+        // a few cells.
+        for piece in decimate(&laps, cell) {
+            for w in piece.windows(2) {
+                assert!((w[0].0 - w[1].0).hypot(w[0].1 - w[1].1) < 0.02, "{w:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn angles_wrap_into_the_half_open_interval() {
+        use std::f64::consts::PI;
+        assert_eq!(wrap_angle(PI), PI);
+        assert_eq!(wrap_angle(-PI), PI);
+        assert!((wrap_angle(3.0 * PI + 0.5) - (-PI + 0.5)).abs() < 1e-12);
+        assert!(is_angle(&|q: f64, p: f64| 0.5 * p * p - q.cos()));
+        assert!(!is_angle(&|q: f64, p: f64| 0.5 * p * p + q * q));
+        // A rotation crossing the seam is cut there, not joined across the frame.
+        let pieces = split_at_seam(&[(3.0, 1.0), (3.2, 1.0), (3.4, 1.0)]);
+        assert_eq!(pieces.len(), 2);
+    }
+
+    #[test]
+    fn contour_segments_join_into_polylines() {
+        let xs: Vec<f64> = (0..=40).map(|i| -2.0 + 0.1 * i as f64).collect();
+        let vals: Vec<Vec<f64>> = xs.iter().map(|&y| xs.iter().map(|&x| x * x + y * y).collect()).collect();
+        let segs = contour_segments(&vals, &xs, &xs, 1.0);
+        let n = segs.len();
+        let lines = chain_segments(segs);
+        assert_eq!(lines.len(), 1, "the unit circle is one closed polyline");
+        assert_eq!(lines[0].len(), n + 1);
+        assert_eq!(lines[0].first(), lines[0].last());
     }
 
     #[test]

@@ -148,6 +148,12 @@ fn charged_particle() {
         assert!((x * x + y * y - 1.0).abs() < 1e-8, "radius at t = {t}");
         assert!((z + 0.05 * t * t).abs() < 1e-8, "z at t = {t}");
     }
+    // The scene's comment says so: uniform acceleration, z(10) = −5, no drift promised.
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/charged_particle.scene")).unwrap();
+    assert!(text.contains("z = −e E t²/(2 m) = −0.05 t², so z(10) = −5") && !text.contains("uniform drift"));
+    let (t_end, z_end) = (*c["t"].last().unwrap(), *c["z"].last().unwrap());
+    assert!((t_end - 10.0).abs() < 1e-9 && (z_end + 5.0).abs() < 1e-8, "z({t_end}) = {z_end}");
     r.svg("charged_particle_path.svg");
     r.svg("charged_particle_series.svg");
 }
@@ -313,5 +319,55 @@ fn anharmonic_oscillator() {
     // The averaged-Lagrangian estimate ω ≈ ω0 (1 + 3σA²/4) (the force is x + 2σx³) is within
     // its O(σ²) error.
     assert!((2.0 * std::f64::consts::PI / period / 1.075 - 1.0).abs() < 5e-3);
+    // The scene's comment states the frequency 2π/period to four decimals, and the period.
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/anharmonic_oscillator.scene"))
+            .unwrap();
+    let at = text.find("period 2π/").expect("the comment states the period") + "period 2π/".len();
+    let numbers: Vec<f64> = text[at..]
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter(|w| !w.is_empty())
+        .take(2)
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert!((numbers[0] - 2.0 * std::f64::consts::PI / measured).abs() < 5e-5, "{numbers:?} vs {measured}");
+    assert!((numbers[1] - measured).abs() < 5e-4, "{numbers:?} vs {measured}");
     r.svg("anharmonic_phase.svg");
+}
+
+/// The damped, driven pendulum: the stroboscopic section has one point per drive period
+/// (t = 3π k), the exported points are the plotted ones, and the first point agrees with a
+/// hand-written RK4 integration of θ'' = −b θ' − sin θ + A cos(Ω t) (before chaos separates
+/// nearby solutions).
+#[test]
+fn damped_driven_pendulum() {
+    let r = run("damped_driven_pendulum");
+    let svg = r.svg("damped_driven_section.svg");
+    let c = r.csv("damped_driven_section.csv");
+    let (t, wrapped, v) = (&c["t"], &c["wrapped"], &c["θ'"]);
+    let period = 3.0 * std::f64::consts::PI;
+    assert_eq!(t.len(), (9000.0 / period) as usize);
+    for (k, tk) in t.iter().enumerate() {
+        assert!((tk - period * (k + 1) as f64).abs() < 1e-9, "point {k} at t = {tk}");
+    }
+    assert!(wrapped.iter().all(|w| w.abs() <= std::f64::consts::PI));
+    assert_eq!(svg.matches("<circle").count(), t.len(), "plotted and exported points differ in number");
+    assert!(r.stdout.contains(&format!("({} points)", t.len())));
+    let (b, a, w) = (0.5f64, 1.5f64, 2.0f64 / 3.0);
+    let f = |t: f64, y: [f64; 2]| [y[1], -b * y[1] - y[0].sin() + a * (w * t).cos()];
+    let (mut y, steps) = ([0.2f64, 0.0], 20_000);
+    let h = period / steps as f64;
+    for i in 0..steps {
+        let t0 = i as f64 * h;
+        let k1 = f(t0, y);
+        let k2 = f(t0 + h / 2.0, [y[0] + h / 2.0 * k1[0], y[1] + h / 2.0 * k1[1]]);
+        let k3 = f(t0 + h / 2.0, [y[0] + h / 2.0 * k2[0], y[1] + h / 2.0 * k2[1]]);
+        let k4 = f(t0 + h, [y[0] + h * k3[0], y[1] + h * k3[1]]);
+        y = [
+            y[0] + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            y[1] + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+        ];
+    }
+    let theta = y[0].sin().atan2(y[0].cos());
+    assert!((wrapped[0] - theta).abs() < 1e-6 && (v[0] - y[1]).abs() < 1e-6, "({}, {}) vs {y:?}", wrapped[0], v[0]);
 }

@@ -81,7 +81,7 @@ impl Backend for Counting {
     }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         self.0.bump(match req.formulation {
-            Formulation::Lagrangian(_) => "compile_lagrangian",
+            Formulation::Lagrangian(_) | Formulation::Extended(_) => "compile_lagrangian",
             Formulation::FirstOrder(_) => "compile_first_order",
             Formulation::Hamiltonian(_) => "compile_hamiltonian",
             Formulation::Separable { .. } => "compile_separable",
@@ -99,7 +99,7 @@ impl Backend for Counting {
         // A constant trajectory: enough for plots and exports to have data.
         let t: Vec<f64> = (0..=10).map(|i| run.t0 + (run.t1 - run.t0) * i as f64 / 10.0).collect();
         let y = vec![run.y0.clone(); t.len()];
-        Ok(Trajectory { t, y, events: vec![], steps: 10, evaluations: 10, stop: "end".into() })
+        Ok(Trajectory { t, y, events: vec![], steps: 10, evaluations: 10, stop: "end".into(), aux: vec![] })
     }
 }
 

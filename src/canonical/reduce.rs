@@ -500,14 +500,48 @@ fn compose_inverse(f: Func, arg: &Expr) -> Option<Expr> {
         (Func::Sin, Func::Acos) | (Func::Cos, Func::Asin) => Some(one.minus(&x.powi(2)).sqrt()),
         (Func::Sin, Func::Atan) => Some(x.times(&Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2)))),
         (Func::Cos, Func::Atan) => Some(Expr::pow(one.plus(&x.powi(2)), Expr::frac(-1, 2))),
+        // sinh(log u) = (u − 1/u)/2 and cosh(log u) = (u + 1/u)/2 on the logarithm's domain
+        // u > 0; for the log forms of the inverse functions, u = a + sqrt(a² ± 1), 1/u is
+        // ±(sqrt(a² ± 1) − a) and both give back a exactly (cosh for a ≥ 1, its domain).
+        (Func::Sinh, Func::Log) => log_form_argument(&x, 1),
+        (Func::Cosh, Func::Log) => log_form_argument(&x, -1),
         _ => None,
     }
+}
+
+/// `a` when `u = a + sqrt(a² + sign)` (the logarithmic form of asinh for `sign = 1`, of acosh
+/// for `sign = −1`).
+fn log_form_argument(u: &Expr, sign: i64) -> Option<Expr> {
+    let Node::Add(terms) = u.node() else { return None };
+    for t in terms {
+        let Node::Pow(base, exp) = t.node() else { continue };
+        if *exp != Expr::frac(1, 2) {
+            continue;
+        }
+        let a = u.minus(t);
+        if crate::algebra::expand(&base.minus(&a.powi(2)).minus(&Expr::frac(sign, 1))).is_ok_and(|d| d.is_zero()) {
+            return Some(a);
+        }
+    }
+    None
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::parse::parse;
+
+    #[test]
+    fn hyperbolic_functions_of_the_log_forms_of_their_inverses() {
+        // sinh(asinh q) with asinh q = log(q + sqrt(q² + 1)), and cosh(acosh q) likewise.
+        let e = parse("sinh(log(q + sqrt(q^2 + 1)))^2").expect("parses");
+        assert_eq!(tidy(&e), parse("q^2").expect("parses"));
+        let e = parse("cosh(log(q + sqrt(q^2 - 1)))").expect("parses");
+        assert_eq!(tidy(&e), parse("q").expect("parses"));
+        // Any other logarithm is left alone.
+        let e = parse("sinh(log(u))").expect("parses");
+        assert_eq!(tidy(&e), e);
+    }
 
     #[test]
     fn radical_reduction_sees_sum_of_squares() {

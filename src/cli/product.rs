@@ -76,6 +76,12 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             opts.stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
             opts.base_dir = scene.parent().map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."));
             if let Some(d) = out_dir {
+                // A missing output directory is created (with its parents), as a user naming
+                // a fresh directory for a scene's figures expects.
+                std::fs::create_dir_all(&d).map_err(|e| Failure {
+                    code: 2,
+                    message: format!("error: cannot create the output directory `{}`: {e}", d.display()),
+                })?;
                 opts.out_dir = d;
             }
             opts.allow_outside = allow_outside;

@@ -15,6 +15,8 @@
 //!   the exact Jacobian on the discrete Legendre map).
 //! * [`TaylorTape`], [`TaylorOde`]: Taylor-mode automatic differentiation of a tape (the
 //!   coefficients of the ODE solution to any order), for the Taylor integrator.
+//! * [`ConstrainedRhs`]: holonomic constraints by the augmented system `[W Φᵀ; Φ 0]`, with
+//!   Baumgarte stabilisation or projection ([`Projected`]) against drift.
 //! * [`ensemble`]: many initial conditions in parallel (rayon) for any integrator closure.
 //! * The native back end (`native.rs`): every tape is also compiled to machine code with
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
@@ -22,6 +24,7 @@
 //!
 //! This stage never parses: it receives [`Expr`]s and symbol names.
 
+mod constrained;
 mod discrete;
 mod ensemble;
 mod first_order;
@@ -32,6 +35,7 @@ mod tape;
 mod taylor;
 mod variational;
 
+pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
@@ -100,4 +104,5 @@ const _: () = {
     sync_send::<HamiltonianRhs>();
     sync_send::<SeparableHamiltonian>();
     sync_send::<ImplicitLegendreRhs>();
+    sync_send::<ConstrainedRhs>();
 };

@@ -28,6 +28,11 @@ pub enum RhsError {
     /// A mass-matrix entry, a force or a derivative is infinite or NaN.
     #[error("non-finite {what} at t = {t}; state {state:?}")]
     NonFinite { t: f64, state: Vec<f64>, what: &'static str },
+    /// The augmented matrix `[W Φᵀ; Φ 0]` of a constrained system is singular: the
+    /// constraint (numbered from 1) has no pivot, so it is redundant with the others (or the
+    /// constraints are not independent at this state).
+    #[error("the augmented matrix [W Φᵀ; Φ 0] is singular at t = {t}: constraint {constraint} is redundant (its gradient is a combination of the others' or zero); state {state:?}")]
+    SingularAugmented { t: f64, state: Vec<f64>, constraint: usize },
     /// Newton's method for `p = ∂L/∂q'` did not converge.
     #[error("the Legendre map did not converge at t = {t} after {iterations} Newton steps (residual {residual:e}); state {state:?}")]
     LegendreNewton { t: f64, state: Vec<f64>, iterations: usize, residual: f64 },
@@ -182,7 +187,7 @@ pub(crate) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f6
 }
 
 /// The inputs of every compiled tape of a system with coordinates `q`: `q…, q'…, t`.
-fn state_inputs(coords: &[String]) -> Vec<String> {
+pub(super) fn state_inputs(coords: &[String]) -> Vec<String> {
     let mut v: Vec<String> = coords.to_vec();
     v.extend(coords.iter().map(|q| velocity_name(q)));
     v.push("t".to_string());

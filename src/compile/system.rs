@@ -3,7 +3,10 @@
 
 use crate::mechanics::{Kind, System};
 
-use super::{CompileError, HamiltonianRhs, ImplicitLegendreRhs, LagrangianRhs, SeparableHamiltonian};
+use super::{
+    CompileError, ConstrainedRhs, HamiltonianRhs, ImplicitLegendreRhs, LagrangianRhs, SeparableHamiltonian,
+    Stabilization,
+};
 
 fn names(syms: &[crate::Symbol]) -> Vec<String> {
     syms.iter().map(|s| s.to_string()).collect()
@@ -40,7 +43,9 @@ impl System {
     /// ```
     pub fn compile_rhs(&self) -> Result<LagrangianRhs, CompileError> {
         if !self.constraints().is_empty() {
-            return Err(CompileError::Unsupported { what: "holonomic constraints" });
+            return Err(CompileError::Unsupported {
+                what: "holonomic constraints as W q'' = F (use compile_constrained for the augmented system)",
+            });
         }
         if let Kind::Hamiltonian(_) = self.kind() {
             return Err(CompileError::Unsupported {
@@ -50,6 +55,32 @@ impl System {
         let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e.to_string()))?;
         let coords = names(self.coordinates());
         self.with_param_refs(|p| LagrangianRhs::new(&w, &f, &strs(&coords), p))
+    }
+
+    /// The augmented system `[W Φᵀ; Φ 0][q''; −λ] = [F; c]` of a Lagrangian system with
+    /// holonomic constraints ([`System::with_constraint`]), forces and dissipation included,
+    /// parameters bound; state `(q, q')`. With [`Stabilization::Projection`] integrate it with
+    /// [`super::Projected`] around the method, so each step ends on the constraint manifold.
+    ///
+    /// ```
+    /// use lagrangian::compile::Stabilization;
+    /// use lagrangian::mechanics::System;
+    /// use lagrangian::integrate::Rhs;
+    /// // The pendulum in Cartesian coordinates: a mass on a rod of length l.
+    /// let sys = System::from_lagrangian("1/2 m (x'^2 + y'^2) - m g y", &["x", "y"]).unwrap()
+    ///     .with_constraint("x^2 + y^2 = l^2").unwrap()
+    ///     .with_params(&[("m", 1.0), ("g", 9.81), ("l", 1.0)]).unwrap();
+    /// let rhs = sys.compile_constrained(Stabilization::None).unwrap();
+    /// let mut dy = [0.0; 4];
+    /// rhs.eval(0.0, &[1.0, 0.0, 0.0, 0.0], &mut dy); // horizontal, at rest: free fall
+    /// assert!((dy[3] + 9.81).abs() < 1e-12 && dy[2].abs() < 1e-12);
+    /// ```
+    pub fn compile_constrained(&self, stabilization: Stabilization) -> Result<ConstrainedRhs, CompileError> {
+        if let Kind::Hamiltonian(_) = self.kind() {
+            return Err(CompileError::Unsupported { what: "constraints on a Hamiltonian system" });
+        }
+        let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e.to_string()))?;
+        self.with_param_refs(|p| ConstrainedRhs::new(&w, &f, self.constraints(), self.coordinates(), p, stabilization))
     }
 
     /// Hamilton's equations (with their exact Jacobian) of the system's Hamiltonian (derived by

@@ -109,6 +109,13 @@ enum Op {
         b: u32,
         u: u32,
     },
+    /// `d` = the real `q`-th root of `a` (odd `q`, negative `a` allowed): like `PowConst` with
+    /// `e = 1/q`, since `a d' = d a'/q` holds on both sides of zero.
+    Root {
+        d: u32,
+        a: u32,
+        q: u32,
+    },
     /// `d = a^e` for a constant exponent: `a d' = e d a'`.
     PowConst {
         d: u32,
@@ -230,6 +237,12 @@ impl TaylorTape {
                     } else {
                         Op::PowVar { d: d2, a, b, l: fresh(), m: fresh() }
                     }
+                }
+                Instr::Root { d, a, q } => {
+                    let a = map[a as usize];
+                    let d2 = fresh();
+                    map[d as usize] = d2;
+                    Op::Root { d: d2, a, q }
                 }
                 Instr::Call { d, f, a } => {
                     let a = map[a as usize];
@@ -388,6 +401,16 @@ impl TaylorTape {
                     c[u as usize * s + k] = uv;
                     c[d as usize * s + k] = dv;
                 }
+                Op::Root { d, a, q } => {
+                    // As PowConst with e = 1/q.
+                    let e = 1.0 / f64::from(q);
+                    let (ra, rd) = (row(c, a, s), row(c, d, s));
+                    let mut acc = 0.0;
+                    for j in 1..=k {
+                        acc += (e * j as f64 - (k - j) as f64) * ra[j] * rd[k - j];
+                    }
+                    c[d as usize * s + k] = acc / (kf * ra[0]);
+                }
                 Op::PowConst { d, a, e } => {
                     // d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀).
                     let e = at(c, e, 0);
@@ -469,6 +492,7 @@ impl TaylorTape {
                     c[ix(d)] = x.atan2(y);
                     c[ix(u)] = x * x + y * y;
                 }
+                Op::Root { d, a, q } => c[ix(d)] = crate::eval::real_root(c[ix(a)], q),
                 Op::PowConst { d, a, e } => c[ix(d)] = c[ix(a)].powf(c[ix(e)]),
                 Op::PowVar { d, a, b, l, m } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);

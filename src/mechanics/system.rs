@@ -266,6 +266,7 @@ impl System {
             return Err(MechanicsError::ForceOnNonCoordinate(coord.to_string()));
         };
         self.check_extra(&q, "force")?;
+        self.absorb_params(&q);
         self.forces[i] = self.forces[i].plus(&q);
         Ok(self)
     }
@@ -274,6 +275,7 @@ impl System {
     pub fn with_rayleigh(mut self, text: &str) -> Result<System, MechanicsError> {
         let r = parse_with(text, &self.decls)?;
         self.check_extra(&r, "Rayleigh function")?;
+        self.absorb_params(&r);
         self.rayleigh = Some(r);
         Ok(self)
     }
@@ -305,8 +307,69 @@ impl System {
         if f.is_undefined() {
             return Err(MechanicsError::Undefined("constraint"));
         }
+        self.absorb_params(&f);
         self.constraints.push(f);
         Ok(self)
+    }
+
+    /// [`System::with_force`] for an expression already built (the scene's `force` statement).
+    pub fn with_force_expr(mut self, coord: &str, q: Expr) -> Result<System, MechanicsError> {
+        let Some(i) = self.coords.iter().position(|c| c.name() == coord.trim()) else {
+            return Err(MechanicsError::ForceOnNonCoordinate(coord.to_string()));
+        };
+        self.check_extra(&q, "force")?;
+        self.absorb_params(&q);
+        self.forces[i] = self.forces[i].plus(&q);
+        Ok(self)
+    }
+
+    /// [`System::with_rayleigh`] for an expression already built.
+    pub fn with_rayleigh_expr(mut self, r: Expr) -> Result<System, MechanicsError> {
+        self.check_extra(&r, "Rayleigh function")?;
+        self.absorb_params(&r);
+        self.rayleigh = Some(r);
+        Ok(self)
+    }
+
+    /// [`System::with_constraint`] for an expression `f` already built (the constraint is
+    /// `f = 0`).
+    pub fn with_constraint_expr(mut self, f: Expr) -> Result<System, MechanicsError> {
+        let names: BTreeSet<&str> = self.coords.iter().map(Symbol::name).collect();
+        let free = f.free_symbols();
+        let shown = f.to_string();
+        if let Some(v) = free.iter().find(|s| s.primes() > 0) {
+            return Err(MechanicsError::NotHolonomic {
+                constraint: shown,
+                why: format!("it contains the time derivative `{v}`; a holonomic constraint is f(q, t) = 0"),
+            });
+        }
+        if !free.iter().any(|s| names.contains(s.name())) {
+            return Err(MechanicsError::NotHolonomic {
+                constraint: shown,
+                why: "it involves no coordinate".to_string(),
+            });
+        }
+        if f.is_undefined() {
+            return Err(MechanicsError::Undefined("constraint"));
+        }
+        self.absorb_params(&f);
+        self.constraints.push(f);
+        Ok(self)
+    }
+
+    /// Adds the free symbols of a force, Rayleigh function or constraint that are not state
+    /// or time to the parameters, so [`System::with_params`] can give them values.
+    fn absorb_params(&mut self, e: &Expr) {
+        let names: BTreeSet<&str> = self.coords.iter().map(Symbol::name).collect();
+        for s in e.free_symbols() {
+            let state = s.primes() > 0
+                || s.is_time()
+                || names.contains(s.name())
+                || self.momenta.iter().any(|p| p.name() == s.name());
+            if !state && !self.params.contains(&s) {
+                self.params.push(s);
+            }
+        }
     }
 
     fn check_extra(&self, e: &Expr, _what: &'static str) -> Result<(), MechanicsError> {

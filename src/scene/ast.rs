@@ -136,6 +136,23 @@ pub struct SimSpec {
     pub events: Vec<EventSpec>,
     /// `as NAME`.
     pub name: Option<Src>,
+    /// `stabilize projection | baumgarte [= RATE] | none` (constrained runs).
+    pub stabilize: Option<StabilizeSpec>,
+    /// `every N`: keep every N-th step.
+    pub every: Option<Src>,
+    /// `points N`: keep about N states.
+    pub points: Option<Src>,
+}
+
+/// `stabilize …` of a `simulate` statement.
+#[derive(Clone, Debug)]
+pub struct StabilizeSpec {
+    /// `projection`, `baumgarte` or `none`.
+    pub kind: String,
+    /// The Baumgarte rate, if given.
+    pub rate: Option<Src>,
+    /// The whole clause.
+    pub span: Span,
 }
 
 /// What a `plot` draws.
@@ -215,6 +232,15 @@ pub enum StmtKind {
         /// The file.
         path: Src,
     },
+    /// `export poincare [EXPR, …] [from RUN] to FILE`
+    ExportPoincare {
+        /// Expressions at the recorded points (empty: the state).
+        items: Vec<Src>,
+        /// `from RUN`.
+        run: Option<Src>,
+        /// The file.
+        path: Src,
+    },
     /// `average [L] with x = … phase θ frequency ω amplitudes A, B`
     Average {
         /// The Lagrangian (default `L`).
@@ -242,6 +268,27 @@ pub enum StmtKind {
         new: Vec<Src>,
         /// `as latex`.
         format: Option<Format>,
+    },
+    /// `force x = …`: a generalized force on a coordinate.
+    Force {
+        /// The coordinate.
+        coord: Src,
+        /// The force `Q(q, q', t)`.
+        value: Src,
+    },
+    /// `rayleigh [R =] …`: the Rayleigh dissipation function.
+    Rayleigh {
+        /// The name it is defined as, if any.
+        name: Option<Src>,
+        /// `R(q, q')`.
+        value: Src,
+    },
+    /// `constraint f = g`: the holonomic constraint `f − g = 0`.
+    Constraint {
+        /// The left side.
+        lhs: Src,
+        /// The right side (zero when absent).
+        rhs: Option<Src>,
     },
     /// `load FILE`
     Load(Src),

@@ -75,6 +75,9 @@ pub enum Formulation {
     /// `L = Σ a_i(z, t) z'_i − H(z, t)`, first order in the velocities: state `(z, z')`,
     /// `ω z' = ∂H/∂z + ∂a/∂t` integrated for `z`, the velocities filled in at kept states.
     FirstOrder(Expr),
+    /// `L(q, q', t)` with generalized forces, a Rayleigh function or holonomic constraints:
+    /// state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
+    Extended(Box<ExtendedLagrangian>),
     /// `H = T(p) + V(q, t)`: drift and kick for splitting methods.
     Separable {
         /// The kinetic part `T(p)`.
@@ -82,6 +85,32 @@ pub enum Formulation {
         /// The potential part `V(q, t)`.
         v: Expr,
     },
+}
+
+/// A Lagrangian with what `force`, `rayleigh` and `constraint` statements add to it.
+#[derive(Clone, Debug)]
+pub struct ExtendedLagrangian {
+    /// `L(q, q', t)`.
+    pub l: Expr,
+    /// The generalized force `Q_i(q, q', t)` on each coordinate (zero where none).
+    pub forces: Vec<Expr>,
+    /// The Rayleigh dissipation function `R(q, q')`.
+    pub rayleigh: Option<Expr>,
+    /// Holonomic constraints `f_j(q, t)`, each `= 0`.
+    pub constraints: Vec<Expr>,
+    /// How a constrained run is held on its constraints.
+    pub stabilization: crate::compile::Stabilization,
+}
+
+impl ExtendedLagrangian {
+    /// Every expression the compiled system depends on (for cache keys and parameter checks).
+    pub fn exprs(&self) -> Vec<Expr> {
+        let mut v = vec![self.l.clone()];
+        v.extend(self.forces.iter().cloned());
+        v.extend(self.rayleigh.iter().cloned());
+        v.extend(self.constraints.iter().cloned());
+        v
+    }
 }
 
 /// What to compile: the formulation with its parameters bound.
@@ -129,6 +158,10 @@ pub struct RunRequest {
     pub tol: Option<f64>,
     /// Events.
     pub events: Vec<EventRequest>,
+    /// Keep every `k`-th step (`Some(1)`: all); `None` keeps at most [`MAX_POINTS`] states
+    /// (every k-th of a fixed-step run for a k chosen up front; evenly thinned as an adaptive
+    /// run grows).
+    pub every: Option<usize>,
 }
 
 /// A computed trajectory.
@@ -148,6 +181,9 @@ pub struct Trajectory {
     pub evaluations: usize,
     /// Why the integration ended.
     pub stop: String,
+    /// Further named values at each stored state, computed by the compiled system (the
+    /// multipliers `λ1, …` and the constraint residuals `residual1, …` of a constrained run).
+    pub aux: Vec<(String, Vec<f64>)>,
 }
 
 /// A compiled system, opaque to the session (the backend downcasts it).
@@ -213,6 +249,8 @@ pub enum NativeCompiled {
     LagrangianJacobian(crate::compile::LagrangianJacobian),
     /// `ω z' = b` of a first-order Lagrangian, on the `(z, z')` layout.
     FirstOrder(crate::compile::WithVelocitySlots),
+    /// The augmented system of a constrained Lagrangian.
+    Constrained(crate::compile::ConstrainedRhs),
 }
 
 /// The real library.
@@ -384,8 +422,46 @@ impl Backend for NativeBackend {
                     NativeCompiled::Lagrangian(rhs)
                 }
             }
+            Formulation::Extended(x) => {
+                let mut system = crate::mechanics::System::from_lagrangian_expr(x.l.clone(), &req.coords)
+                    .map_err(mechanics_error)?;
+                for (q, force) in req.coords.iter().zip(&x.forces) {
+                    if !force.is_zero() {
+                        system = system.with_force_expr(q.name(), force.clone()).map_err(mechanics_error)?;
+                    }
+                }
+                if let Some(r) = &x.rayleigh {
+                    system = system.with_rayleigh_expr(r.clone()).map_err(mechanics_error)?;
+                }
+                if x.constraints.is_empty() {
+                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
+                    let rhs = LagrangianRhs::new(&w, &f, &coords, &params).map_err(failed)?;
+                    if req.method.family == Family::Implicit {
+                        NativeCompiled::LagrangianJacobian(rhs.with_jacobian().map_err(failed)?)
+                    } else {
+                        NativeCompiled::Lagrangian(rhs)
+                    }
+                } else {
+                    for f in &x.constraints {
+                        system = system.with_constraint_expr(f.clone()).map_err(mechanics_error)?;
+                    }
+                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
+                    NativeCompiled::Constrained(
+                        crate::compile::ConstrainedRhs::new(
+                            &w,
+                            &f,
+                            system.constraints(),
+                            &req.coords,
+                            &params,
+                            x.stabilization,
+                        )
+                        .map_err(failed)?,
+                    )
+                }
+            }
         };
-        let lagrangian = matches!(req.formulation, Formulation::Lagrangian(_) | Formulation::FirstOrder(_));
+        let lagrangian =
+            matches!(req.formulation, Formulation::Lagrangian(_) | Formulation::FirstOrder(_) | Formulation::Extended(_));
         let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
         state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
         Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
@@ -423,15 +499,23 @@ impl Backend for NativeBackend {
                 drive(&m, &Counted::new(s, &count), run, &events, names, progress)
             }
             NativeCompiled::Hamiltonian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
             }
             NativeCompiled::Lagrangian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
             }
             NativeCompiled::LagrangianJacobian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress)
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
             }
-            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, progress)
+            NativeCompiled::Constrained(r) => {
+                check_constrained_start(r, run)?;
+                let project = (r.stabilization() == crate::compile::Stabilization::Projection).then_some(r);
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, project).map(|mut t| {
+                    t.aux = constrained_aux(r, &t);
+                    t
+                })
+            }
+            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
                 .and_then(|mut traj| {
                     let fill = |t: f64, y: &mut Vec<f64>| {
                         r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
@@ -550,6 +634,8 @@ impl Native {
     }
 }
 
+/// Integrates with the method named in `run`; with `project`, every step is followed by a
+/// projection onto those constraints ([`crate::compile::Projected`]).
 fn by_method<S: crate::integrate::Rhs>(
     sys: &S,
     run: &RunRequest,
@@ -558,17 +644,60 @@ fn by_method<S: crate::integrate::Rhs>(
     events: &EventFns,
     names: &[String],
     progress: &mut dyn FnMut(f64),
+    project: Option<&crate::compile::ConstrainedRhs>,
 ) -> Result<Trajectory, BackendError> {
+    use crate::compile::Projected;
     use crate::integrate::{Dop853, ExplicitRk, Gauss};
+    macro_rules! go {
+        ($m:expr) => {
+            match project {
+                Some(c) => drive(&Projected { method: &$m, constraints: c }, sys, run, events, names, progress),
+                None => drive(&$m, sys, run, events, names, progress),
+            }
+        };
+    }
     match run.method.name {
-        "midpoint" => drive(&Gauss::midpoint(dt), sys, run, events, names, progress),
-        "gauss4" => drive(&Gauss::gauss4(dt), sys, run, events, names, progress),
-        "gauss6" => drive(&Gauss::gauss6(dt), sys, run, events, names, progress),
-        "euler" => drive(&ExplicitRk::euler(dt), sys, run, events, names, progress),
-        "rk4" => drive(&ExplicitRk::rk4(dt), sys, run, events, names, progress),
-        "dop853" => drive(&Dop853::new(tol, tol), sys, run, events, names, progress),
+        "midpoint" => go!(Gauss::midpoint(dt)),
+        "gauss4" => go!(Gauss::gauss4(dt)),
+        "gauss6" => go!(Gauss::gauss6(dt)),
+        "euler" => go!(ExplicitRk::euler(dt)),
+        "rk4" => go!(ExplicitRk::rk4(dt)),
+        "dop853" => go!(Dop853::new(tol, tol)),
         other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
     }
+}
+
+/// A constrained run's initial state must lie on the constraints (positions and velocities),
+/// and the augmented matrix must be regular there: otherwise the run is refused before it
+/// starts, naming the constraint.
+fn check_constrained_start(r: &crate::compile::ConstrainedRhs, run: &RunRequest) -> Result<(), BackendError> {
+    let mut dy = vec![0.0; run.y0.len()];
+    r.try_eval(run.t0, &run.y0, &mut dy).map_err(|e| BackendError::Failed(format!("at the initial state: {e}")))
+}
+
+/// The multipliers and residuals of a constrained run at each stored state.
+fn constrained_aux(r: &crate::compile::ConstrainedRhs, tr: &Trajectory) -> Vec<(String, Vec<f64>)> {
+    let m = r.constraints();
+    let mut lambda = vec![vec![0.0; tr.t.len()]; m];
+    let mut resid = vec![vec![0.0; tr.t.len()]; m];
+    let (mut l, mut f) = (vec![0.0; m], vec![0.0; m]);
+    for (k, (t, y)) in tr.t.iter().zip(&tr.y).enumerate() {
+        if r.multipliers(*t, y, &mut l).is_err() {
+            l.fill(f64::NAN);
+        }
+        r.residuals(*t, y, &mut f);
+        for (column, value) in lambda.iter_mut().zip(&l).chain(resid.iter_mut().zip(&f)) {
+            column[k] = *value;
+        }
+    }
+    let mut out = Vec::new();
+    for (j, v) in lambda.into_iter().enumerate() {
+        out.push((format!("λ{}", j + 1), v));
+    }
+    for (j, v) in resid.into_iter().enumerate() {
+        out.push((format!("residual{}", j + 1), v));
+    }
+    out
 }
 
 /// The most states a trajectory keeps: fixed-step runs keep every k-th step for a k chosen
@@ -628,6 +757,11 @@ fn taylor(
         NativeCompiled::Separable(_) => {
             return Err(BackendError::Failed("`taylor` cannot integrate a drift/kick split".into()))
         }
+        NativeCompiled::FirstOrder(_) | NativeCompiled::Constrained(_) => {
+            return Err(BackendError::Failed(
+                "`taylor` does not yet integrate first-order or constrained Lagrangians: use dop853 or gauss6".into(),
+            ))
+        }
     };
     let method = crate::integrate::Taylor::new(tol);
     method.validate().map_err(BackendError::Failed)?;
@@ -637,6 +771,13 @@ fn taylor(
         t.stop = "end of the time span".into();
     }
     Ok(t)
+}
+
+/// The thinning of a fixed-step run that keeps at most [`MAX_POINTS`] states (1 for an
+/// adaptive run, whose count is not known in advance).
+pub fn default_every(dt: Option<f64>, t0: f64, t1: f64) -> usize {
+    let expected_steps = dt.map_or(MAX_POINTS, |h| ((t1 - t0) / h).ceil() as usize);
+    expected_steps.div_ceil(MAX_POINTS).max(1)
 }
 
 fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
@@ -663,14 +804,15 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
         }
         1.0
     });
-    let mut opts = match run.dt {
-        Some(h) => {
-            let expected_steps = ((run.t1 - run.t0) / h).ceil() as usize;
-            // The session refuses more than 10⁹ steps before this point.
-            Options::new().every(expected_steps.div_ceil(MAX_POINTS).max(1)).max_steps(usize::MAX)
-        }
-        None => Options::new().at_most(MAX_POINTS).max_steps(MAX_ADAPTIVE_STEPS),
+    // The session refuses fixed-step runs of more than 10⁹ steps before this point; an
+    // adaptive run stops at its step budget, so even `every 1` keeps a bounded number.
+    let budget = if run.dt.is_some() { usize::MAX } else { MAX_ADAPTIVE_STEPS };
+    let mut opts = match (run.every, run.dt) {
+        (Some(k), _) => Options::new().every(k.max(1)),
+        (None, Some(_)) => Options::new().every(default_every(run.dt, run.t0, run.t1)),
+        (None, None) => Options::new().at_most(MAX_POINTS),
     }
+    .max_steps(budget)
     .event(watch);
     for (g, req) in events {
         let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
@@ -697,5 +839,6 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
             StopReason::ReachedEnd => "end of the time span".to_string(),
             StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
         },
+        aux: Vec::new(),
     })
 }

@@ -1,15 +1,36 @@
 //! Outputs that read runs: `plot` (the figures) and `export` (CSV and JSON).
 
 use std::path::{Component, PathBuf};
-use std::sync::Arc;
 
 use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
-use super::backend::Trajectory;
 use super::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::{Layout, Mode, Printed, RunResult, Session};
 use super::simulate::state_names;
 use crate::expr::Symbol;
+
+/// Columns of numbers as CSV (a header of names, one row per index) or as JSON (the run, its
+/// method and the named columns). Every column has the same length.
+pub(super) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str, method: &str) -> String {
+    let rows = columns.first().map_or(0, |c| c.1.len());
+    if ext == "csv" {
+        let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
+        s.push('\n');
+        for i in 0..rows {
+            let row: Vec<String> = columns.iter().map(|c| format!("{:e}", c.1[i])).collect();
+            s.push_str(&row.join(","));
+            s.push('\n');
+        }
+        s
+    } else {
+        let cols: Vec<serde_json::Value> =
+            columns.iter().map(|(n, v)| serde_json::json!({ "name": n, "values": v })).collect();
+        let v = serde_json::json!({ "run": run, "method": method, "columns": cols });
+        let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+}
 
 impl Session {
     // ----- outputs -------------------------------------------------------------------------
@@ -109,7 +130,7 @@ impl Session {
 
     /// The output file of a plot or an export, its span and its lower-case extension, which
     /// must be one of `formats` (otherwise an error naming the file, with `hint`).
-    fn out_file(
+    pub(super) fn out_file(
         &self,
         path: Option<&Src>,
         default: &str,
@@ -180,22 +201,7 @@ impl Session {
                     let ex = self.resolved(x)?;
                     let ey = self.resolved(y)?;
                     let pts = if poincare {
-                        if r.traj.events.is_empty() {
-                            return Err(SceneError::new(
-                                ErrorKind::Undeclared,
-                                "the run recorded no events for a Poincaré section",
-                            )
-                            .at(self.span)
-                            .hint("add `record when … = 0` to the `simulate` statement"));
-                        }
-                        let sub = RunResult {
-                            traj: Arc::new(Trajectory {
-                                t: r.traj.events.iter().map(|e| e.1).collect(),
-                                y: r.traj.events.iter().map(|e| e.2.clone()).collect(),
-                                ..Trajectory::default()
-                            }),
-                            ..r.clone()
-                        };
+                        let sub = self.section_of(&r)?;
                         let xs = self.along(&sub, &ex, x.span)?;
                         let ys = self.along(&sub, &ey, y.span)?;
                         xs.into_iter().zip(ys).collect()
@@ -319,12 +325,29 @@ impl Session {
         let mut layout = Layout::Momenta;
         let has_runs = !self.runs.is_empty();
         if has_runs {
-            for id in self.run_ids(runs)? {
-                let r = self.demand_run(id)?;
-                layout = r.layout;
+            // Without `from`, every run is drawn (those in the latest run's variables: a
+            // portrait in (q, q') cannot hold a run in (q, p)).
+            let ids = if runs.is_empty() { (0..self.runs.len()).collect() } else { self.run_ids(runs)? };
+            let mut results = Vec::new();
+            for id in ids {
+                results.push((id, self.demand_run(id)?));
+            }
+            layout = results.last().map_or(Layout::Momenta, |(_, r)| r.layout);
+            let mut skipped = Vec::new();
+            for (id, r) in results {
+                if r.layout != layout {
+                    skipped.push(self.runs[id].name.clone());
+                    continue;
+                }
                 let n = r.coords.len();
                 let pts = r.traj.y.iter().map(|y| (y[index], y[n + index])).collect();
                 orbits.push(Series { label: self.runs[id].name.clone(), points: pts });
+            }
+            if !skipped.is_empty() {
+                self.output.push(format!(
+                    "note: the phase portrait leaves out {} (integrated in the other phase-space variables); name the runs with `from`",
+                    skipped.join(", ")
+                ));
             }
         }
         let vname = match layout {
@@ -459,23 +482,7 @@ impl Session {
                     .hint("the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column"));
                 }
             }
-            if ext == "csv" {
-                let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
-                s.push('\n');
-                for i in 0..r.traj.t.len() {
-                    let row: Vec<String> = columns.iter().map(|c| format!("{:e}", c.1[i])).collect();
-                    s.push_str(&row.join(","));
-                    s.push('\n');
-                }
-                s
-            } else {
-                let cols: Vec<serde_json::Value> =
-                    columns.iter().map(|(n, v)| serde_json::json!({ "name": n, "values": v })).collect();
-                let v = serde_json::json!({ "run": self.runs[ids[0]].name, "method": r.method.name, "columns": cols });
-                let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
-                s.push('\n');
-                s
-            }
+            columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name)
         };
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)

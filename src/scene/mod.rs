@@ -6,6 +6,9 @@
 //!   scene; outputs demand them. Its work is split by job: `simulate` (one run), `figures`
 //!   (`plot`, `export`), `plan` (what was built, reused, loaded or skipped: what
 //!   `lagrangian run --explain` prints).
+//! * `dynamics`: `force`, `rayleigh` and `constraint` statements, resolved into the
+//!   extended Lagrangian a run compiles.
+//! * `sections`: Poincaré sections (`record when …` points) as data for plots and exports.
 //! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
 //! * [`progress`]: progress bars of long simulations, only on a terminal.
 //! * [`backend`]: the one place that calls the mechanics, canonical, compile and integrate
@@ -23,6 +26,7 @@
 pub mod ast;
 pub mod backend;
 pub mod cache;
+mod dynamics;
 pub mod error;
 mod figures;
 pub mod help;
@@ -32,6 +36,7 @@ pub mod parser;
 mod plan;
 pub mod progress;
 pub mod repl;
+mod sections;
 pub mod session;
 pub mod sim;
 mod simulate;

@@ -9,7 +9,8 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    DefValue, DerivCall, DerivKind, EventSpec, Item, PlotKind, PlotSpec, SimSpec, Src, Statement, StmtKind,
+    DefValue, DerivCall, DerivKind, EventSpec, Item, PlotKind, PlotSpec, SimSpec, Src, StabilizeSpec, Statement,
+    StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -32,6 +33,9 @@ pub const STATEMENTS: &[&str] = &[
     "energy",
     "average",
     "transform",
+    "force",
+    "rayleigh",
+    "constraint",
     "print",
     "simulate",
     "plot",
@@ -214,8 +218,11 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::step => "`dt = …`",
         Rule::tolerance => "`tol = …`",
         Rule::steps => "`steps = …`",
+        Rule::every => "`every N`",
+        Rule::points => "`points N`",
         Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
         Rule::direction => "`rising` or `falling`",
+        Rule::stabilize | Rule::stabilize_kind => "`stabilize projection`, `stabilize baumgarte` or `stabilize none`",
         Rule::as_format | Rule::format_name => "a format (`plain`, `unicode`, `latex`)",
         Rule::path | Rule::quoted_path | Rule::bare_path => "a file name",
         Rule::assumption => "`positive`",
@@ -495,6 +502,21 @@ impl Builder {
                 let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
                 StmtKind::Export { items, run, path }
             }
+            Rule::export_poincare => {
+                let mut items = Vec::new();
+                let mut run = None;
+                let mut path = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::sexpr => items.push(self.src(&q)),
+                        Rule::name => run = Some(self.src(&q)),
+                        Rule::path => path = Some(self.path(q)),
+                        _ => {}
+                    }
+                }
+                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+                StmtKind::ExportPoincare { items, run, path }
+            }
             Rule::average => {
                 let mut l = None;
                 let mut trials = Vec::new();
@@ -542,6 +564,32 @@ impl Builder {
                     exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
                 StmtKind::Transform { h: exprs.pop(), kind, f, new, format }
             }
+            Rule::force => {
+                let mut it = inner.into_iter();
+                match (it.next(), it.next()) {
+                    (Some(c), Some(v)) => StmtKind::Force { coord: self.src(&c), value: self.src(&v) },
+                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
+                }
+            }
+            Rule::rayleigh => {
+                let mut name = None;
+                let mut value = None;
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::name => name = Some(self.src(&q)),
+                        _ => value = Some(self.src(&q)),
+                    }
+                }
+                let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
+                StmtKind::Rayleigh { name, value }
+            }
+            Rule::constraint => {
+                let mut it = inner.into_iter();
+                let lhs = it.next().map(|q| self.src(&q));
+                let rhs = it.next().map(|q| self.src(&q));
+                let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
+                StmtKind::Constraint { lhs, rhs }
+            }
             Rule::load => {
                 let path = inner.into_iter().next().map(|q| self.path(q));
                 StmtKind::Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?)
@@ -569,6 +617,9 @@ impl Builder {
         let mut steps = None;
         let mut events = Vec::new();
         let mut name = None;
+        let mut stabilize = None;
+        let mut every = None;
+        let mut points = None;
         for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
             match q.as_rule() {
                 Rule::init => {
@@ -589,6 +640,21 @@ impl Builder {
                 Rule::step => dt = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::tolerance => tol = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::steps => steps = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::every => every = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::points => points = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::stabilize => {
+                    let sspan = self.span(&q);
+                    let mut kind = String::new();
+                    let mut rate = None;
+                    for r in q.into_inner() {
+                        match r.as_rule() {
+                            Rule::stabilize_kind => kind = r.as_str().to_string(),
+                            Rule::sexpr => rate = Some(self.src(&r)),
+                            _ => {}
+                        }
+                    }
+                    stabilize = Some(StabilizeSpec { kind, rate, span: sspan });
+                }
                 Rule::event => {
                     let espan = self.span(&q);
                     let mut terminal = false;
@@ -623,6 +689,9 @@ impl Builder {
             steps,
             events,
             name,
+            stabilize,
+            every,
+            points,
         })
     }
 }

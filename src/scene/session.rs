@@ -113,6 +113,8 @@ pub(super) struct RunEntry {
     pub(super) spec: SimSpec,
     pub(super) line: usize,
     pub(super) result: Option<RunResult>,
+    /// The forces, Rayleigh function and constraints declared before the `simulate`.
+    pub(super) dynamics: super::dynamics::Dynamics,
 }
 
 #[derive(Clone)]
@@ -160,6 +162,8 @@ pub struct Session {
     /// Names a statement introduces for itself (the phase, frequency and amplitudes of
     /// `average`), accepted in its expressions.
     pub(super) local_names: Vec<String>,
+    /// `force`, `rayleigh` and `constraint` statements so far.
+    pub(super) dynamics: super::dynamics::Dynamics,
 }
 
 /// The deepest chain of `load` statements.
@@ -217,6 +221,7 @@ impl Session {
             load_depth: 0,
             diff: Differentiator::new(),
             local_names: Vec::new(),
+            dynamics: Default::default(),
         }
     }
 
@@ -369,6 +374,10 @@ impl Session {
                 self.print_all(vec![Printed::Lines(lines)], *format);
                 Ok(())
             }
+            StmtKind::ExportPoincare { items, run, path } => self.export_poincare(items, run.as_ref(), path),
+            StmtKind::Force { coord, value } => self.declare_force(coord, value),
+            StmtKind::Rayleigh { name, value } => self.declare_rayleigh(name.as_ref(), value),
+            StmtKind::Constraint { lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
                 let text = super::help::help(word.as_ref().map(|w| w.text.as_str()));
@@ -521,7 +530,7 @@ impl Session {
         if s.is_time() || (s.primes() == 0 && self.local_names.iter().any(|n| n == name)) {
             return Ok(None);
         }
-        if self.coords.iter().any(|c| c.name() == name) {
+        if self.coords.iter().any(|c| c.name() == name) || self.dynamics.is_aux_name(s) {
             return Ok(None);
         }
         if let Some(c) = name.strip_prefix("p_") {
@@ -973,7 +982,7 @@ impl Session {
                         _ => Printed::Lines(vec![]),
                     });
                 }
-                Ok(Printed::Value(self.resolve(&raw, &refs)?))
+                Ok(Printed::Value(printable(&self.resolve(&raw, &refs)?)))
             }
         }
     }
@@ -1027,6 +1036,20 @@ impl Session {
         self.output.push(format!("loaded {name}"));
         Ok(())
     }
+}
+
+/// An expression as `print` shows it: `0` when it is identically zero (a symbolic proof by
+/// the canonical normal form, as a Jacobi-identity check expects), otherwise with
+/// inverse-function compositions (`exp(log x)`, `sinh(asinh x)`, …) reduced under their domain
+/// conditions.
+pub(super) fn printable(e: &Expr) -> Expr {
+    if e.is_zero() {
+        return e.clone();
+    }
+    if crate::canonical::decide_zero(e) == crate::canonical::ZeroCheck::Proven {
+        return Expr::zero();
+    }
+    crate::canonical::reduce::tidy(e)
 }
 
 pub(super) fn deriv_step(kind: DerivKind) -> Step {

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
 use super::backend::{CompileRequest, Compiled, EventRequest, Formulation, RunRequest, Trajectory};
 use super::cache::{CacheKey, Value};
+use super::dynamics::Dynamics;
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
@@ -26,7 +27,8 @@ impl Session {
             None => format!("run{}", self.runs.len() + 1),
         };
         let id = self.runs.len();
-        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None });
+        let dynamics = self.dynamics.clone();
+        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None, dynamics });
         let previous = self.run_names.insert(name.clone(), id);
         if self.opts.mode == Mode::Repl {
             if let Err(e) = self.demand_run(id) {
@@ -91,6 +93,15 @@ impl Session {
         if !tr.events.is_empty() {
             s.push_str(&format!("; {} events", tr.events.len()));
         }
+        let drift = tr
+            .aux
+            .iter()
+            .filter(|(n, _)| n.starts_with("residual"))
+            .flat_map(|(_, v)| v.iter())
+            .fold(None, |m: Option<f64>, x| Some(m.unwrap_or(0.0).max(x.abs())));
+        if let Some(d) = drift {
+            s.push_str(&format!("; constraint drift max |f| = {d:.1e}"));
+        }
         s
     }
 
@@ -101,14 +112,20 @@ impl Session {
         let spec = self.runs[id].spec.clone();
         let saved = (self.line, self.span);
         self.line = self.runs[id].line;
-        let r = self.run_simulation(&spec, &self.runs[id].name.clone());
+        let dynamics = self.runs[id].dynamics.clone();
+        let r = self.run_simulation(&spec, &self.runs[id].name.clone(), &dynamics);
         (self.line, self.span) = saved;
         let r = r?;
         self.runs[id].result = Some(r.clone());
         Ok(r)
     }
 
-    pub(super) fn run_simulation(&mut self, spec: &SimSpec, name: &str) -> Result<RunResult, SceneError> {
+    pub(super) fn run_simulation(
+        &mut self,
+        spec: &SimSpec,
+        name: &str,
+        dynamics: &Dynamics,
+    ) -> Result<RunResult, SceneError> {
         let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
         self.span = stmt_span;
         let method = self.check_method(spec)?;
@@ -215,6 +232,36 @@ impl Session {
         let has_l = self.def_names.contains_key("L");
         let has_h = self.def_names.contains_key("H");
         let (formulation, layout, l_expr, h_expr) = match method.family {
+            _ if !dynamics.is_empty() => {
+                if method.family == Family::Splitting {
+                    return Err(SceneError::new(
+                        ErrorKind::Derivation,
+                        format!(
+                            "`{}` splits a conservative H = T(p) + V(q); forces, dissipation and constraints are not part of H",
+                            method.name
+                        ),
+                    )
+                    .at(spec.method.as_ref().map_or(stmt_span, |m| m.span))
+                    .hint("use `dop853`, `rk4` or `gauss6`, which integrate the equations of motion from `L`"));
+                }
+                if !has_l {
+                    return Err(SceneError::new(
+                        ErrorKind::Undeclared,
+                        "forces, dissipation and constraints act on the equations of `L`, and no `L` is defined",
+                    )
+                    .at(stmt_span)
+                    .hint("define the Lagrangian: `L = …`"));
+                }
+                let l = self.lagrangian()?;
+                let ext = self.extended(l.clone(), dynamics, spec)?;
+                (Formulation::Extended(Box::new(ext)), Layout::Velocities, Some(l), None)
+            }
+            _ if spec.stabilize.is_some() => {
+                let s = spec.stabilize.as_ref().map_or(stmt_span, |s| s.span);
+                return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
+                    .at(s)
+                    .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
+            }
             Family::Splitting => {
                 let h = self.hamiltonian()?;
                 let (t, v) = self.split(&h, method)?;
@@ -359,6 +406,13 @@ impl Session {
             }
         }
 
+        if let Formulation::Extended(ext) = &formulation {
+            if dynamics.constrained() {
+                let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
+                self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
+            }
+        }
+
         // Events, in the state's variables.
         let mut event_exprs = Vec::new();
         let mut events = Vec::new();
@@ -373,11 +427,8 @@ impl Session {
 
         // Every parameter the equations use needs a value.
         let mut needed: BTreeSet<String> = BTreeSet::new();
-        let exprs: Vec<&Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e],
-            Formulation::Separable { t, v } => vec![t, v],
-        };
-        for e in exprs.iter().copied().chain(event_exprs.iter()) {
+        let exprs = formulation_exprs(&formulation);
+        for e in exprs.iter().chain(event_exprs.iter()) {
             if let Some(f) = e.applied_functions().into_iter().next() {
                 return Err(SceneError::new(
                     ErrorKind::MissingValue,
@@ -416,10 +467,7 @@ impl Session {
             events: event_exprs.clone(),
             decls: self.declarations(),
         };
-        let mut inputs: Vec<Expr> = match &formulation {
-            Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e.clone()],
-            Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
-        };
+        let mut inputs: Vec<Expr> = formulation_exprs(&formulation);
         inputs.extend(event_exprs.iter().cloned());
         let key = CacheKey {
             step: Step::Compile,
@@ -427,8 +475,19 @@ impl Session {
             inputs,
             numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
             extra: format!(
-                "{:?}{}",
+                "{:?}{}{}",
                 method.family,
+                match &formulation {
+                    // Which input is which, and the stabilisation, are part of the content.
+                    Formulation::Extended(x) => format!(
+                        "extended:{}:{}:{}:{:?}",
+                        x.forces.len(),
+                        x.rayleigh.is_some(),
+                        x.constraints.len(),
+                        x.stabilization
+                    ),
+                    _ => String::new(),
+                },
                 params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
             ),
         };
@@ -443,7 +502,8 @@ impl Session {
                 }
             }
         };
-        let run = RunRequest { method, y0, t0, t1, dt, tol, events };
+        let every = self.thinning(spec, dt, t0, t1, name)?;
+        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every };
         let traj = self.integrate(&compiled, &run, name, stmt_span)?;
         Ok(RunResult {
             method,
@@ -454,6 +514,65 @@ impl Session {
             lagrangian: l_expr,
             hamiltonian: h_expr,
         })
+    }
+
+    /// Which steps a run keeps: `every N`, `points N`, or by default at most
+    /// [`super::backend::MAX_POINTS`] states of a fixed-step run, with a printed note when that
+    /// thins it (no data is dropped without a word).
+    fn thinning(
+        &mut self,
+        spec: &SimSpec,
+        dt: Option<f64>,
+        t0: f64,
+        t1: f64,
+        name: &str,
+    ) -> Result<Option<usize>, SceneError> {
+        let count = |this: &mut Session, src: &Src, what: &str| -> Result<usize, SceneError> {
+            let e = this.resolved(src)?;
+            let x = this.number(&e, src.span)?;
+            if x < 1.0 || x.fract() != 0.0 || x > 1e12 {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("{what} must be a whole number ≥ 1, found {x}"),
+                )
+                .at(src.span)
+                .hint(format!("for example `{what} 10`")));
+            }
+            Ok(x as usize)
+        };
+        if let (Some(a), Some(_)) = (&spec.every, &spec.points) {
+            return Err(SceneError::new(ErrorKind::Syntax, "give `every` or `points`, not both").at(a.span));
+        }
+        if let Some(src) = &spec.every {
+            return count(self, src, "every").map(Some);
+        }
+        if let Some(src) = &spec.points {
+            let n = count(self, src, "points")?;
+            let Some(h) = dt else {
+                return Err(SceneError::new(
+                    ErrorKind::Syntax,
+                    "`points` needs a fixed step; an adaptive method's step count is not known in advance",
+                )
+                .at(src.span)
+                .hint("use `every N` to keep every N-th step"));
+            };
+            let steps = ((t1 - t0) / h).ceil() as usize;
+            return Ok(Some(steps.div_ceil(n).max(1)));
+        }
+        if dt.is_none() {
+            // An adaptive run's step count is unknown: the backend keeps at most MAX_POINTS
+            // states, evenly spaced in steps, and says so when it thins.
+            return Ok(None);
+        }
+        let every = super::backend::default_every(dt, t0, t1);
+        if every > 1 {
+            let steps = dt.map_or(0, |h| ((t1 - t0) / h).ceil() as usize);
+            self.output.push(format!(
+                "note: {name} keeps 1 state in {every} of its {steps} steps ({} states); add `every 1` to keep all, or `points N`",
+                steps.div_ceil(every) + 1
+            ));
+        }
+        Ok(Some(every))
     }
 
     pub(super) fn integrate(
@@ -620,7 +739,7 @@ impl Session {
         let names = state_names(&r.coords, r.layout);
         let mut out = Vec::with_capacity(r.traj.t.len());
         let params = self.param_values();
-        for (t, y) in r.traj.t.iter().zip(&r.traj.y) {
+        for (k, (t, y)) in r.traj.t.iter().zip(&r.traj.y).enumerate() {
             let lookup = |s: &Symbol| -> Option<f64> {
                 if s.is_time() {
                     return Some(*t);
@@ -628,6 +747,9 @@ impl Session {
                 let spelled = s.to_string();
                 if let Some(i) = names.iter().position(|n| *n == spelled) {
                     return y.get(i).copied();
+                }
+                if let Some((_, v)) = r.traj.aux.iter().find(|(n, _)| *n == spelled) {
+                    return v.get(k).copied();
                 }
                 r.params.get(s.name()).or_else(|| params.get(s.name())).copied()
             };
@@ -657,10 +779,21 @@ impl Session {
     }
 }
 
+/// Every expression a formulation compiles from.
+pub(super) fn formulation_exprs(f: &Formulation) -> Vec<Expr> {
+    match f {
+        Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e.clone()],
+        Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
+        Formulation::Extended(x) => x.exprs(),
+    }
+}
+
 pub(super) fn formulation_name(f: &Formulation) -> &'static str {
     match f {
         Formulation::Lagrangian(_) => "W q'' = F from L",
         Formulation::FirstOrder(_) => "ω z' = ∂H/∂z from a first-order L",
+        Formulation::Extended(x) if !x.constraints.is_empty() => "the augmented system [W Φᵀ; Φ 0] from L",
+        Formulation::Extended(_) => "W q'' = F from L with forces",
         Formulation::Hamiltonian(_) => "Hamilton's equations of H",
         Formulation::Separable { .. } => "drift ∂T/∂p and kick −∂V/∂q",
     }

@@ -1,0 +1,280 @@
+//! `force`, `rayleigh` and `constraint`: what a scene adds to its Lagrangian beyond `L`
+//! (PHYSICS.md §1–2: generalized forces `E_i = Q_i` (2.12), a Rayleigh function
+//! `E_i + ∂R/∂q'_i = 0`, holonomic constraints `f_j(q, t) = 0` with multipliers (1.25–1.29)).
+//!
+//! The statements are checked when they are read (the coordinate exists, the expression uses
+//! only known names, a constraint has no velocities) and resolved when a run needs them. A
+//! `simulate` keeps the statements declared before it, so a later `force` does not change an
+//! earlier run. A constrained run's initial state must satisfy the constraints and their time
+//! derivatives; otherwise the run is refused with the residual named.
+
+use std::collections::{BTreeSet, HashMap};
+
+use super::ast::{SimSpec, Src};
+use super::backend::ExtendedLagrangian;
+use super::error::{ErrorKind, SceneError, Span};
+use super::session::{fmt_num, symbol_span, Mode, Refs, Session};
+use crate::compile::Stabilization;
+use crate::expr::{Expr, Symbol};
+
+/// The default Baumgarte rate `α = β` (1/time) when `stabilize baumgarte` gives none.
+pub(super) const DEFAULT_BAUMGARTE_RATE: f64 = 10.0;
+
+/// A declared expression: as parsed, the definitions it refers to, and its source.
+#[derive(Clone)]
+pub(super) struct Declared {
+    raw: Expr,
+    refs: Refs,
+    src: Src,
+}
+
+/// The forces, Rayleigh function and constraints declared so far.
+#[derive(Clone, Default)]
+pub(super) struct Dynamics {
+    /// Coordinate index and force.
+    forces: Vec<(usize, Declared)>,
+    rayleigh: Option<Declared>,
+    constraints: Vec<Declared>,
+}
+
+impl Dynamics {
+    /// Nothing beyond `L`.
+    pub(super) fn is_empty(&self) -> bool {
+        self.forces.is_empty() && self.rayleigh.is_none() && self.constraints.is_empty()
+    }
+
+    /// Whether there are constraints.
+    pub(super) fn constrained(&self) -> bool {
+        !self.constraints.is_empty()
+    }
+
+    /// `λ1…λm` and `residual1…residualm` name values along a constrained run.
+    pub(super) fn is_aux_name(&self, s: &Symbol) -> bool {
+        if s.primes() != 0 {
+            return false;
+        }
+        let name = s.name();
+        let index = name.strip_prefix('λ').or_else(|| name.strip_prefix("residual"));
+        index.and_then(|i| i.parse::<usize>().ok()).is_some_and(|j| j >= 1 && j <= self.constraints.len())
+    }
+}
+
+impl Session {
+    /// Parses an expression of coordinates, velocities, parameters, definitions and `t` for a
+    /// force, Rayleigh function or constraint: no accelerations, no momenta, and (for a
+    /// constraint) no velocities.
+    fn dynamics_expr(&mut self, src: &Src, what: &str, velocities: bool) -> Result<Declared, SceneError> {
+        let (raw, refs) = self.expr(src)?;
+        for s in raw.free_symbols() {
+            let spelled = s.to_string();
+            let is_coord = self.coords.iter().any(|q| q.name() == s.name());
+            if is_coord && s.primes() >= 2 {
+                return Err(SceneError::new(ErrorKind::Syntax, format!("`{spelled}` is an acceleration"))
+                    .at(symbol_span(src, &spelled))
+                    .hint(format!("a {what} depends on coordinates, velocities and `t` only")));
+            }
+            if is_coord && s.primes() == 1 && !velocities {
+                return Err(SceneError::new(
+                    ErrorKind::Syntax,
+                    format!("a constraint with the velocity `{spelled}` is not holonomic"),
+                )
+                .at(symbol_span(src, &spelled))
+                .hint("a holonomic constraint is f(q, t) = 0: coordinates, parameters and `t` only"));
+            }
+            if s.primes() <= 1 && s.name().strip_prefix("p_").is_some_and(|c| self.coords.iter().any(|q| q.name() == c))
+            {
+                return Err(SceneError::new(ErrorKind::Syntax, format!("`{spelled}` is a momentum"))
+                    .at(symbol_span(src, &spelled))
+                    .hint(format!("write the {what} with velocities (`x'`), the state of a Lagrangian run")));
+            }
+        }
+        Ok(Declared { raw, refs, src: src.clone() })
+    }
+
+    /// `force x = Q`.
+    pub(super) fn declare_force(&mut self, coord: &Src, value: &Src) -> Result<(), SceneError> {
+        let Some(i) = self.coords.iter().position(|q| q.name() == coord.text) else {
+            let known: Vec<&str> = self.coords.iter().map(|q| q.name()).collect();
+            let err = SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", coord.text))
+                .at(coord.span)
+                .label("a force acts on a coordinate");
+            return Err(if known.is_empty() {
+                err.hint(format!("declare it first: `coordinates {}`", coord.text))
+            } else {
+                err.hint(format!("the coordinates are {}", known.join(", ")))
+            });
+        };
+        let d = self.dynamics_expr(value, "force", true)?;
+        if self.opts.mode == Mode::Repl {
+            self.output.push(format!("force on {}: Q = {}", coord.text, d.raw));
+        }
+        self.dynamics.forces.push((i, d));
+        Ok(())
+    }
+
+    /// `rayleigh [R =] …`.
+    pub(super) fn declare_rayleigh(&mut self, name: Option<&Src>, value: &Src) -> Result<(), SceneError> {
+        if let Some(old) = &self.dynamics.rayleigh {
+            return Err(SceneError::new(ErrorKind::Redeclared, "a Rayleigh function is already declared")
+                .at(value.span)
+                .hint(format!("add the terms to the first one: `{}`", old.src.text)));
+        }
+        let d = self.dynamics_expr(value, "Rayleigh function", true)?;
+        if let Some(n) = name {
+            self.define(n, &super::ast::DefValue::Expr(value.clone()))?;
+        }
+        if self.opts.mode == Mode::Repl && name.is_none() {
+            self.output.push(format!("R = {}", d.raw));
+        }
+        self.dynamics.rayleigh = Some(d);
+        Ok(())
+    }
+
+    /// `constraint f = g`.
+    pub(super) fn declare_constraint(&mut self, lhs: &Src, rhs: Option<&Src>) -> Result<(), SceneError> {
+        let mut d = self.dynamics_expr(lhs, "constraint", false)?;
+        if let Some(r) = rhs {
+            let b = self.dynamics_expr(r, "constraint", false)?;
+            d.raw = d.raw.minus(&b.raw);
+            d.refs.extend(b.refs);
+            d.src = Src { text: format!("{} = {}", lhs.text, r.text), span: (lhs.span.0, r.span.1) };
+        }
+        let coords: BTreeSet<&str> = self.coords.iter().map(|q| q.name()).collect();
+        if !d.raw.free_symbols().iter().any(|s| coords.contains(s.name())) && d.refs.is_empty() {
+            return Err(SceneError::new(ErrorKind::Syntax, "the constraint involves no coordinate")
+                .at(d.src.span)
+                .hint("a constraint restricts the coordinates: `constraint x^2 + y^2 = l^2`"));
+        }
+        let j = self.dynamics.constraints.len() + 1;
+        if self.opts.mode == Mode::Repl {
+            self.output.push(format!("constraint {j}: {} = 0 (multiplier λ{j})", d.raw));
+        }
+        self.dynamics.constraints.push(d);
+        Ok(())
+    }
+
+    /// The extended Lagrangian of a run: `L` with the run's forces, Rayleigh function and
+    /// constraints resolved.
+    pub(super) fn extended(
+        &mut self,
+        l: Expr,
+        dynamics: &Dynamics,
+        spec: &SimSpec,
+    ) -> Result<ExtendedLagrangian, SceneError> {
+        let n = self.coords.len();
+        let mut forces = vec![Expr::zero(); n];
+        for (i, d) in &dynamics.forces {
+            let q = self.resolve(&d.raw, &d.refs)?;
+            forces[*i] = forces[*i].plus(&q);
+        }
+        let rayleigh = match &dynamics.rayleigh {
+            Some(d) => Some(self.resolve(&d.raw, &d.refs)?),
+            None => None,
+        };
+        let mut constraints = Vec::new();
+        for d in &dynamics.constraints {
+            let f = self.resolve(&d.raw, &d.refs)?;
+            if f.free_symbols().iter().any(|s| s.primes() > 0) {
+                return Err(SceneError::new(ErrorKind::Syntax, "the constraint is not holonomic: it has a velocity")
+                    .at(d.src.span)
+                    .hint("a holonomic constraint is f(q, t) = 0"));
+            }
+            constraints.push(f);
+        }
+        let stabilization = match &spec.stabilize {
+            None => Stabilization::Projection,
+            Some(s) => match s.kind.as_str() {
+                "projection" => Stabilization::Projection,
+                "none" => Stabilization::None,
+                _ => {
+                    let rate = match &s.rate {
+                        Some(src) => {
+                            let e = self.resolved(src)?;
+                            let x = self.number(&e, src.span)?;
+                            if x <= 0.0 {
+                                return Err(SceneError::new(
+                                    ErrorKind::BadNumber,
+                                    format!("the Baumgarte rate must be positive, found {}", fmt_num(x)),
+                                )
+                                .at(src.span)
+                                .hint("a rate of a few over the time step's scale, such as `baumgarte = 10`"));
+                            }
+                            x
+                        }
+                        None => DEFAULT_BAUMGARTE_RATE,
+                    };
+                    Stabilization::Baumgarte { rate }
+                }
+            },
+        };
+        if let Some(s) = &spec.stabilize {
+            if constraints.is_empty() {
+                return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
+                    .at(s.span)
+                    .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
+            }
+        }
+        Ok(ExtendedLagrangian { l, forces, rayleigh, constraints, stabilization })
+    }
+
+    /// Refuses an initial state off the constraints: each `f_j(q0, t0)` and
+    /// `ḟ_j = Φ q0' + ∂f/∂t` must vanish (to 1e-9 of the coordinates' scale).
+    pub(super) fn check_initial_constraints(
+        &mut self,
+        dynamics: &Dynamics,
+        ext: &ExtendedLagrangian,
+        y0: &[f64],
+        t0: f64,
+        params: &[(String, f64)],
+        span: Span,
+    ) -> Result<(), SceneError> {
+        let n = self.coords.len();
+        let mut env: HashMap<String, f64> = self.param_values();
+        env.extend(params.iter().cloned());
+        for (i, q) in self.coords.iter().enumerate() {
+            env.insert(q.name().to_string(), y0[i]);
+            env.insert(format!("{}'", q.name()), y0[n + i]);
+        }
+        env.insert("t".into(), t0);
+        let names: BTreeSet<String> = self.coords.iter().map(|q| q.name().to_string()).collect();
+        let scale = y0[..n].iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        let vscale = y0[n..].iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        let state: Vec<String> =
+            self.coords.iter().enumerate().map(|(i, q)| format!("{} = {}", q.name(), fmt_num(y0[i]))).collect();
+        for (j, (f, d)) in ext.constraints.iter().zip(&dynamics.constraints).enumerate() {
+            let value = crate::eval::eval(f, &env).map_err(|e| self.value_error(e, span))?;
+            if value.is_nan() || value.abs() > 1e-9 * scale * scale {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!(
+                        "the initial state violates constraint {} (`{}`): its residual is {:e} at {}",
+                        j + 1,
+                        d.src.text,
+                        value,
+                        state.join(", ")
+                    ),
+                )
+                .at(span)
+                .label(format!("residual{} = {value:e}", j + 1))
+                .hint("start on the constraint: choose initial coordinates that satisfy it exactly"));
+            }
+            let rate = self.diff.dt(f, &names);
+            let value = crate::eval::eval(&rate, &env).map_err(|e| self.value_error(e, span))?;
+            if value.is_nan() || value.abs() > 1e-9 * scale * vscale {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!(
+                        "the initial velocities violate constraint {} (`{}`): its time derivative is {:e}",
+                        j + 1,
+                        d.src.text,
+                        value
+                    ),
+                )
+                .at(span)
+                .label(format!("d/dt residual{} = {value:e}", j + 1))
+                .hint("start with velocities tangent to the constraint (d/dt of it must vanish)"));
+            }
+        }
+        Ok(())
+    }
+}

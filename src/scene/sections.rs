@@ -1,0 +1,70 @@
+//! Poincaré sections as data: the states a `record when …` event recorded, as a run of their
+//! own. `plot poincare` draws them and `export poincare` writes them, from the same points.
+
+use std::sync::Arc;
+
+use super::ast::Src;
+use super::backend::Trajectory;
+use super::error::{ErrorKind, SceneError};
+use super::figures::columns_text;
+use super::session::{RunResult, Session};
+use super::simulate::state_names;
+
+impl Session {
+    /// The run's recorded event states as a trajectory (time = the crossing's time), or an
+    /// error when it recorded none.
+    pub(super) fn section_of(&self, r: &RunResult) -> Result<RunResult, SceneError> {
+        if r.traj.events.is_empty() {
+            return Err(SceneError::new(ErrorKind::Undeclared, "the run recorded no events for a Poincaré section")
+                .at(self.span)
+                .hint("add `record when … = 0` to the `simulate` statement"));
+        }
+        Ok(RunResult {
+            traj: Arc::new(Trajectory {
+                t: r.traj.events.iter().map(|e| e.1).collect(),
+                y: r.traj.events.iter().map(|e| e.2.clone()).collect(),
+                ..Trajectory::default()
+            }),
+            ..r.clone()
+        })
+    }
+
+    /// `export poincare [EXPR, …] [from RUN] to FILE`: one row per recorded event, with the
+    /// event's time, which event it was (numbered from 1 in the `simulate` statement), and the
+    /// expressions (default: the state) at the crossing.
+    pub(super) fn export_poincare(&mut self, items: &[Src], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
+        let (file, pspan, ext) = self.out_file(
+            Some(path),
+            "poincare",
+            "export",
+            &["csv", "json"],
+            "export Poincaré points to `.csv` or `.json`",
+        )?;
+        let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
+        let r = self.demand_run(ids[0])?;
+        let sub = self.section_of(&r)?;
+        let mut columns: Vec<(String, Vec<f64>)> = vec![
+            ("t".to_string(), sub.traj.t.clone()),
+            ("event".to_string(), r.traj.events.iter().map(|e| (e.0 + 1) as f64).collect()),
+        ];
+        if items.is_empty() {
+            for (i, n) in state_names(&r.coords, r.layout).iter().enumerate() {
+                columns.push((n.clone(), sub.traj.y.iter().map(|y| y[i]).collect()));
+            }
+        } else {
+            for src in items {
+                if src.text.trim() == "t" {
+                    continue;
+                }
+                let e = self.resolved(src)?;
+                columns.push((src.text.trim().to_string(), self.along(&sub, &e, src.span)?));
+            }
+        }
+        let text = columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name);
+        let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
+        std::fs::write(&tmp, text)
+            .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
+        self.output.push(format!("wrote {} ({} points)", file.display(), sub.traj.t.len()));
+        Ok(())
+    }
+}
