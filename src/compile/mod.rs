@@ -23,6 +23,7 @@
 mod discrete;
 mod ensemble;
 mod first_order;
+mod geodesic;
 mod native;
 mod rhs;
 mod system;
@@ -31,6 +32,7 @@ mod tape;
 pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
+pub use geodesic::{shoot, ShootError, Shot};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,
