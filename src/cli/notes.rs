@@ -27,6 +27,25 @@ pub enum NotesCommand {
         #[command(flatten)]
         common: Common,
     },
+    /// Geodesics of a line element ds² = Σ g_ij dq_i dq_j (differentials `dx`): the metric,
+    /// the Christoffel symbols Γ^k_ij, the geodesic equations, their conserved quantities, and
+    /// with --from/--to a shooting solution in unit time.
+    Geodesic {
+        /// The line element, e.g. "dθ^2 + sin(θ)^2 dφ^2".
+        #[arg(allow_hyphen_values = true)]
+        line_element: String,
+        /// The coordinates, in order.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// Start point (numbers, in coordinate order).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        from: Vec<f64>,
+        /// End point.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        to: Vec<f64>,
+        #[command(flatten)]
+        common: Common,
+    },
     /// Discrete mechanics: the discrete Lagrangian L_d(q_k, q_{k+1}) of L by a quadrature rule,
     /// the discrete Euler–Lagrange equations D₂L_d(q_{k−1}, q_k) + D₁L_d(q_k, q_{k+1}) = 0 and
     /// the discrete Legendre maps p_k = −D₁L_d, p_{k+1} = D₂L_d. For a coordinate x, x_0, x_1,
@@ -156,6 +175,57 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 let label = format!("{{{}, {}}}", fa.trim(), ga.trim());
                 out.line(label, &b);
                 out.json.insert("bracket".into(), json!(plain(&b)));
+            }
+            out.print();
+        }
+        NotesCommand::Geodesic { line_element, coords, from, to, common } => {
+            let decls = common.declarations();
+            let (text, ds2) = parse_arg(&line_element, &decls)?;
+            let mut z = Vec::new();
+            for c in &coords {
+                let e = lagrangian::parse_with(c.trim(), &decls).map_err(|e| bad_input(e.to_string()))?;
+                match e.as_sym() {
+                    Some(s) if s.primes() == 0 && !s.is_time() => z.push(s.clone()),
+                    _ => return Err(fail(MechanicsError::BadCoordinate(c.clone()))),
+                }
+            }
+            let g = lagrangian::mechanics::geodesic(&ds2, &z).map_err(fail)?;
+            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            out.json.insert("input".into(), json!(text.trim()));
+            for i in 0..z.len() {
+                for j in i..z.len() {
+                    let label = format!("g[{},{}]", out.s(&z[i]), out.s(&z[j]));
+                    out.line(label, &g.metric[i][j]);
+                }
+            }
+            for k in 0..z.len() {
+                for i in 0..z.len() {
+                    for j in i..z.len() {
+                        if !g.christoffel[k][i][j].is_zero() {
+                            let label = format!("Γ^{}_{}{}", out.s(&z[k]), out.s(&z[i]), out.s(&z[j]));
+                            out.line(label, &g.christoffel[k][i][j]);
+                        }
+                    }
+                }
+            }
+            for (q, e) in z.iter().zip(&g.equations) {
+                let label = format!("geodesic_{}", out.s(q));
+                out.lines.push(format!("{label}: {} = 0", out.r(e)));
+            }
+            out.json.insert("equations".into(), json!(g.equations.iter().map(plain).collect::<Vec<_>>()));
+            let sys = g.system().map_err(fail)?;
+            for c in sys.conserved() {
+                out.lines.push(format!("{} = {}    # {}", c.name, out.r(&c.expr), c.reason));
+            }
+            if !from.is_empty() || !to.is_empty() {
+                if from.len() != z.len() || to.len() != z.len() {
+                    return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
+                }
+                let shot =
+                    lagrangian::compile::shoot(&g, &from, &to, &[], 1).map_err(|e| bad_input(format!("error: {e}")))?;
+                let v: Vec<String> = shot.velocity.iter().map(|x| format!("{x:.12}")).collect();
+                out.lines.push(format!("shooting: q'(0) = ({}) after {} Newton steps", v.join(", "), shot.iterations));
+                out.json.insert("initial_velocity".into(), json!(shot.velocity));
             }
             out.print();
         }

@@ -28,6 +28,7 @@ mod constrained;
 mod discrete;
 mod ensemble;
 mod first_order;
+mod geodesic;
 mod native;
 mod rhs;
 mod system;
@@ -39,6 +40,7 @@ pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
+pub use geodesic::{shoot, ShootError, Shot};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,

@@ -34,6 +34,7 @@ mod constraints;
 mod discrete;
 mod euler_lagrange;
 mod first_order;
+mod geodesic;
 mod hamilton;
 mod legendre;
 mod linalg;
@@ -45,6 +46,7 @@ mod transform;
 pub use constraints::ConstrainedEquations;
 pub use discrete::{point_names, Discrete, Rule};
 pub use first_order::FirstOrder;
+pub use geodesic::{geodesic, Geodesic};
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
@@ -137,6 +139,9 @@ pub enum MechanicsError {
     /// The two-form of a first-order Lagrangian is degenerate.
     #[error("error: the two-form ω = da of this first-order Lagrangian is degenerate along {direction}: a gauge freedom or a constraint, so ω z' = ∂H/∂z does not determine z' (remove that variable or add the missing momentum term)")]
     DegenerateTwoForm { direction: String },
+    /// A line element that does not define a metric.
+    #[error("error: bad line element: {0}")]
+    BadMetric(String),
     /// The system is too large for a closed-form symbolic inverse.
     #[error("error: {n} coupled velocities: the closed-form inverse of the mass matrix is not formed beyond n = {limit} (its size grows like n!); use the numeric solve of W q'' = F")]
     TooLarge { n: usize, limit: usize },

@@ -1,0 +1,153 @@
+//! A geodesic between two points by shooting: Newton's method on the initial velocity `v₀`
+//! of the geodesic equations (integrated by DOP853 on `t ∈ [0, 1]`) until `q(1)` is the end
+//! point, with the Jacobian `∂q(1)/∂v₀` by central differences. The metric must be regular
+//! at the start point; a start where `det g = 0` (the pole of spherical coordinates) is
+//! refused, not integrated into NaN.
+
+use crate::eval::eval_with;
+use crate::integrate::{Dop853, Integrate};
+use crate::mechanics::Geodesic;
+
+use super::first_order::solve_in_place;
+
+/// Why a shooting solution was not found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShootError {
+    /// `det g` vanishes (or is not finite) at the start point.
+    #[error("the metric is singular at the start point {point:?} (det g = {det:e}); choose coordinates regular there")]
+    SingularMetric { point: Vec<f64>, det: f64 },
+    /// Newton's method on the initial velocity did not converge.
+    #[error("shooting did not converge after {iterations} Newton steps (the end point is missed by {miss:e})")]
+    NoConvergence { iterations: usize, miss: f64 },
+    /// The equations could not be compiled or integrated.
+    #[error("{0}")]
+    Numeric(String),
+}
+
+/// A geodesic from `from` to `to` in unit time: the initial velocity and the path sampled at
+/// `samples + 1` equally spaced times.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shot {
+    /// `q'(0)`.
+    pub velocity: Vec<f64>,
+    /// `(t, q(t))`.
+    pub path: Vec<(f64, Vec<f64>)>,
+    /// Newton steps used.
+    pub iterations: usize,
+}
+
+/// Shoots from `from` to `to`; `params` binds the metric's parameters.
+pub fn shoot(
+    g: &Geodesic,
+    from: &[f64],
+    to: &[f64],
+    params: &[(&str, f64)],
+    samples: usize,
+) -> Result<Shot, ShootError> {
+    let n = g.coords.len();
+    let lookup = |s: &crate::expr::Symbol| {
+        g.coords
+            .iter()
+            .position(|q| q == s)
+            .map(|i| from[i])
+            .or_else(|| params.iter().find(|(k, _)| *k == s.to_string()).map(|(_, v)| *v))
+    };
+    let mut m = vec![0.0; n * n];
+    let mut scale = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            m[i * n + j] = eval_with(&g.metric[i][j], &lookup).unwrap_or(f64::NAN);
+            scale = scale.max(m[i * n + j].abs());
+        }
+    }
+    let det = det_numeric(&m, n);
+    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(n as i32) {
+        return Err(ShootError::SingularMetric { point: from.to_vec(), det });
+    }
+    let numeric = |e: String| ShootError::Numeric(e);
+    let sys =
+        g.system().map_err(|e| numeric(e.to_string()))?.with_params(params).map_err(|e| numeric(e.to_string()))?;
+    let rhs = sys.compile_rhs().map_err(|e| numeric(e.to_string()))?;
+    let method = Dop853::new(1e-13, 1e-13);
+    let end = |v: &[f64]| -> Result<Vec<f64>, ShootError> {
+        let mut y0 = from.to_vec();
+        y0.extend_from_slice(v);
+        let t = method.integrate(&rhs, 0.0..1.0, &y0).map_err(|e| numeric(e.to_string()))?;
+        Ok(t.last_state()[..n].to_vec())
+    };
+    let mut v: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
+    let mut miss = f64::INFINITY;
+    for it in 1..=30 {
+        let q1 = end(&v)?;
+        let mut r: Vec<f64> = (0..n).map(|i| to[i] - q1[i]).collect();
+        miss = r.iter().fold(0.0f64, |s, x| s.max(x.abs()));
+        if miss <= 1e-12 {
+            return Ok(Shot { velocity: v.clone(), path: sample(&method, &rhs, from, &v, samples)?, iterations: it });
+        }
+        let mut jac = vec![0.0; n * n];
+        for j in 0..n {
+            let e = 1e-6 * (1.0 + v[j].abs());
+            let (mut up, mut dn) = (v.clone(), v.clone());
+            up[j] += e;
+            dn[j] -= e;
+            let (a, b) = (end(&up)?, end(&dn)?);
+            for i in 0..n {
+                jac[i * n + j] = (a[i] - b[i]) / (2.0 * e);
+            }
+        }
+        if solve_in_place(&mut jac, &mut r, n).is_err() {
+            break;
+        }
+        for i in 0..n {
+            v[i] += r[i];
+        }
+    }
+    Err(ShootError::NoConvergence { iterations: 30, miss })
+}
+
+fn sample(
+    method: &Dop853,
+    rhs: &super::LagrangianRhs,
+    from: &[f64],
+    v: &[f64],
+    samples: usize,
+) -> Result<Vec<(f64, Vec<f64>)>, ShootError> {
+    let n = from.len();
+    let mut y = from.to_vec();
+    y.extend_from_slice(v);
+    let mut out = vec![(0.0, from.to_vec())];
+    let samples = samples.max(1);
+    for k in 1..=samples {
+        let (t0, t1) = ((k - 1) as f64 / samples as f64, k as f64 / samples as f64);
+        let tr = method.integrate(rhs, t0..t1, &y).map_err(|e| ShootError::Numeric(e.to_string()))?;
+        y = tr.last_state().to_vec();
+        out.push((t1, y[..n].to_vec()));
+    }
+    Ok(out)
+}
+
+/// The determinant of a small row-major matrix by elimination with partial pivoting.
+fn det_numeric(m: &[f64], n: usize) -> f64 {
+    let mut a = m.to_vec();
+    let mut det = 1.0;
+    for j in 0..n {
+        let piv = (j..n).max_by(|&x, &y| a[x * n + j].abs().total_cmp(&a[y * n + j].abs())).unwrap_or(j);
+        if a[piv * n + j] == 0.0 {
+            return 0.0;
+        }
+        if piv != j {
+            for k in 0..n {
+                a.swap(j * n + k, piv * n + k);
+            }
+            det = -det;
+        }
+        det *= a[j * n + j];
+        for i in j + 1..n {
+            let f = a[i * n + j] / a[j * n + j];
+            for k in j..n {
+                a[i * n + k] -= f * a[j * n + k];
+            }
+        }
+    }
+    det
+}
