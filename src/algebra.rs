@@ -30,7 +30,7 @@ use num_integer::Integer;
 use num_traits::{One, Signed, ToPrimitive, Zero};
 use thiserror::Error;
 
-use crate::expr::{Expr, Func, Node, Rational};
+use crate::expr::{Expr, Func, Node, Rational, MAX_FOLD_BITS};
 
 /// The default largest number of terms [`expand`] produces (or multiplies through).
 pub const MAX_EXPAND_TERMS: usize = 20_000;
@@ -47,6 +47,17 @@ pub enum AlgebraError {
         estimate: u128,
         /// The budget in force.
         limit: usize,
+    },
+    /// Expanding would form coefficients larger than [`crate::expr::MAX_FOLD_BITS`] bits
+    /// (the same bound that keeps `2^(10^10)` unevaluated).
+    #[error("resource limit: expanding `{what}` would form coefficients of about {bits} bits (the limit is {limit})")]
+    HugeCoefficients {
+        /// The plain form of the sub-expression that was refused (shortened).
+        what: String,
+        /// An estimate of the largest coefficient's size in bits, saturating.
+        bits: u64,
+        /// The bound in force, in bits.
+        limit: u64,
     },
 }
 
@@ -99,6 +110,14 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps);
                 if estimate > limit as u128 || work > 64 * limit as u128 {
                     return Err(AlgebraError::TooManyTerms { what: short(&rebuilt), estimate, limit });
+                }
+                // The k-th power of a coefficient of B bits has about k·B bits, and exact
+                // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
+                // took minutes (found by tests/fuzz.rs).
+                let base_bits = ts.iter().map(|t| rational_bits(&t.coeff_rest().0)).max().unwrap_or(0);
+                let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
+                if bits > MAX_FOLD_BITS {
+                    return Err(AlgebraError::HugeCoefficients { what: short(&rebuilt), bits, limit: MAX_FOLD_BITS });
                 }
                 let k = k.to_u32().unwrap_or(u32::MAX);
                 let p = power_of_sum(b, k, limit)?;
@@ -384,8 +403,13 @@ impl Poly {
     /// `self / d` if `d` divides `self` exactly (in the lexicographic monomial order the
     /// leading term of a multiple is the product of leading terms, so a failed leading-term
     /// division proves non-divisibility). Gives up after `steps` reduction steps.
+    ///
+    /// Also gives up when a quotient coefficient outgrows [`Poly::coefficient_bits_bound`]:
+    /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
+    /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
     fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
         let (ld, lc) = d.lead()?;
+        let max_bits = self.coefficient_bits_bound(d);
         let mut r = self.clone();
         let mut q = Poly { terms: BTreeMap::new() };
         for _ in 0..steps {
@@ -395,10 +419,24 @@ impl Poly {
             }
             let shift: Vec<u32> = lm.iter().zip(ld).map(|(a, b)| a - b).collect();
             let coeff = c / lc;
+            if rational_bits(&coeff) > max_bits {
+                return None;
+            }
             q.terms.insert(shift.clone(), coeff.clone());
             r.sub_scaled(&shift, &coeff, d);
         }
         None
+    }
+
+    /// The largest quotient coefficient, in bits, that an exact division of `self` by `d` is
+    /// allowed to form: twice the inputs' sizes plus a margin. Exact quotients met in practice
+    /// stay near their dividend's size (`(x+1)^400 / (x+1)`); a larger coefficient almost
+    /// always means the division is not exact and is only growing numbers. (Mignotte's bound
+    /// allows a factor of a degree-n polynomial 2ⁿ times its norm; such a rare division is not
+    /// attempted, and the expression stays uncancelled, which is still correct.)
+    fn coefficient_bits_bound(&self, d: &Poly) -> u64 {
+        let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
+        2 * (bits(self) + bits(d)) + 256
     }
 
     /// The variable indices that occur.
@@ -429,6 +467,11 @@ impl Poly {
     }
 }
 
+/// The size of a rational in bits (the larger of numerator and denominator).
+fn rational_bits(r: &Rational) -> u64 {
+    r.numer().bits().max(r.denom().bits())
+}
+
 /// Univariate GCD over ℚ by Euclid's algorithm, in variable `var` of polynomials whose other
 /// exponents are all zero. Monic result.
 fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
@@ -454,7 +497,17 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
     trim(&mut x);
     trim(&mut y);
     let is_zero = |v: &Vec<Rational>| v.iter().all(Zero::is_zero);
+    // Euclid's remainders over ℚ grow past the final gcd's size, up to about the
+    // subresultants' (degree times the input size plus log of the degree). The guard allows
+    // that for the small coefficients of mechanics and stops the runaway growth of a divisor
+    // with huge coefficients: (x^100 − 1) mod (10^308 x − 1) forms 10^30800 (found by
+    // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
+    let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
+    let max_bits = 4 * (bits(a) + bits(b)) + 64 * (degree(a) + degree(b)) as u64 + 256;
     for _ in 0..10_000 {
+        if x.iter().chain(&y).any(|c| rational_bits(c) > max_bits) {
+            return None;
+        }
         if is_zero(&y) {
             let lc = x.last()?.clone();
             if lc.is_zero() {
