@@ -146,6 +146,7 @@ const EXPR_SEEDS: &[&str] = &[
     "atan2(y, x) - asin(x/2) * acos(y/3)",
     // Found by the long run: trial division with runaway coefficient growth (now refused).
     "(x^10000exp00 - 1)/(x 1e308- 1)",
+    "(x^100+0exp00 - 1)/(x 1e308- 1)",
 ];
 
 const SCENE_SEEDS: &[&str] = &[

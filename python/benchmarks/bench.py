@@ -96,7 +96,9 @@ def main():
     print("\n## 1. text → trajectory, double pendulum to t = 10")
     print("| target error | SymPy + lambdify + SciPy DOP853 | lagrangian (Python) | speed-up |")
     print("|---|---|---|---|")
-    for target in (1e-3, 1e-6):
+    # One level only: the reference agrees with SciPy at rtol 1e-13 to about 5e-5 (chaos), so
+    # tighter targets are not resolved by it.
+    for target in (1e-3,):
         # SciPy: the loosest rtol = atol (decades) meeting the target.
         for rtol in [10.0**-k for k in range(3, 14)]:
             sp_y = solve_ivp(rhs, (0, T), Y0, method="DOP853", rtol=rtol, atol=rtol).y[:, -1]
