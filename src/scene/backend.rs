@@ -460,8 +460,10 @@ impl Backend for NativeBackend {
                 }
             }
         };
-        let lagrangian =
-            matches!(req.formulation, Formulation::Lagrangian(_) | Formulation::FirstOrder(_) | Formulation::Extended(_));
+        let lagrangian = matches!(
+            req.formulation,
+            Formulation::Lagrangian(_) | Formulation::FirstOrder(_) | Formulation::Extended(_)
+        );
         let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
         state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
         Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
@@ -515,19 +517,22 @@ impl Backend for NativeBackend {
                     t
                 })
             }
-            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
-                .and_then(|mut traj| {
-                    let fill = |t: f64, y: &mut Vec<f64>| {
-                        r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
-                    };
-                    for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
-                        fill(*t, y)?;
-                    }
-                    for (_, t, y) in traj.events.iter_mut() {
-                        fill(*t, y)?;
-                    }
-                    Ok(traj)
-                }),
+            NativeCompiled::FirstOrder(r) => {
+                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None).and_then(
+                    |mut traj| {
+                        let fill = |t: f64, y: &mut Vec<f64>| {
+                            r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
+                        };
+                        for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
+                            fill(*t, y)?;
+                        }
+                        for (_, t, y) in traj.events.iter_mut() {
+                            fill(*t, y)?;
+                        }
+                        Ok(traj)
+                    },
+                )
+            }
         }
         .map(|mut t| {
             t.evaluations = count.load(Ordering::Relaxed);
