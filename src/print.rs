@@ -211,8 +211,19 @@ impl Printer {
         // group the sums, `n ((a + b) (c + d))`; a lone sum goes last, after the division.
         let coeff_on_sums = plain && !coeff.numer().is_one() && numer_other == 0 && !numer_sums.is_empty();
         let lone_sum_last = coeff_on_sums && numer_sums.len() == 1;
+        // `1/1000 (a + b)/(c + d)` would distribute `1/1000` over `a + b` on re-parsing: when
+        // the numerator is only sums, a coefficient `1/q` goes last, `(a + b)/(c + d)/1000`
+        // (found by tests/fuzz.rs).
+        let coeff_trails = plain
+            && coeff.numer().is_one()
+            && !coeff.denom().is_one()
+            && numer_other == 0
+            && !numer_sums.is_empty()
+            && denom_other == 0
+            && !denom_sums.is_empty();
         // `1/(2 (x + 1))` likewise: the coefficient stays in front, `1/2/(x + 1)`.
-        let coeff_under_sums = plain && !coeff.denom().is_one() && denom_other == 0 && !denom_sums.is_empty();
+        let coeff_under_sums =
+            plain && !coeff_trails && !coeff.denom().is_one() && denom_other == 0 && !denom_sums.is_empty();
         let mut trailing = Vec::new();
         if coeff_on_sums {
             if lone_sum_last {
@@ -230,7 +241,7 @@ impl Printer {
             numer.insert(0, Piece { text, prec: ATOM });
         }
         numer.extend(numer_sums);
-        if !coeff.denom().is_one() && !coeff_under_sums {
+        if !coeff.denom().is_one() && !coeff_under_sums && !coeff_trails {
             denom.insert(0, Piece { text: d_text.clone(), prec: ATOM });
         }
         denom.extend(denom_sums);
@@ -255,6 +266,10 @@ impl Printer {
                 }
             };
             prec = if self.format == Format::Latex { ATOM } else { PRODUCT };
+        }
+        if coeff_trails {
+            text = format!("{text}/{d_text}");
+            prec = PRODUCT;
         }
         if !trailing.is_empty() {
             text = format!("{text} {}", self.join_factors(trailing));

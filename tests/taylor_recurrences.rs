@@ -105,7 +105,10 @@ fn square_roots_and_powers() {
     assert!(has(&tape, |i| matches!(i, Instr::Sqrt { .. })));
     // A constant non-integer exponent.
     let tape = check("(2 + t)^(1/3)", &|t: C| (2.0 + t).powf(1.0 / 3.0), 0.2, 1.0);
-    assert!(has(&tape, |i| matches!(i, Instr::Powf { .. })));
+    assert!(has(&tape, |i| matches!(i, Instr::Powf { .. } | Instr::Root { .. })));
+    // An odd root is real for a negative base: the tape's `Root` instruction.
+    let tape = check("(t - 2)^(1/3)", &|t: C| -(2.0 - t).powf(1.0 / 3.0), 0.2, 1.0);
+    assert!(has(&tape, |i| matches!(i, Instr::Root { .. })), "{tape}");
     // An exponent that varies with t: exp(b log a).
     let tape = check("(2 + t)^(1 + t/2)", &|t: C| (2.0 + t).powc(1.0 + t / 2.0), 0.2, 1.0);
     assert!(has(&tape, |i| matches!(i, Instr::Powf { .. })));

@@ -182,7 +182,16 @@ impl Session {
             dt = Some((t1 - t0) / n);
         }
         if let (Some(t), Some(src)) = (tol, &spec.tol) {
-            let floor = crate::integrate::Dop853::MIN_RTOL;
+            // Each adaptive method's own floor: DOP853's is Hairer's 10·ε; the Taylor method
+            // controls the error of its series, which can go below ε.
+            let (floor, hint) = if method.name == "taylor" {
+                (crate::integrate::MIN_TOL, "omit `tol`: the Taylor method defaults to machine precision")
+            } else {
+                (
+                    crate::integrate::Dop853::MIN_RTOL,
+                    "write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)",
+                )
+            };
             if t < floor {
                 return Err(SceneError::new(
                     ErrorKind::BadNumber,
@@ -190,7 +199,7 @@ impl Session {
                 )
                 .at(src.span)
                 .label("too small")
-                .hint("write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)"));
+                .hint(hint));
             }
         }
         match method.family {
