@@ -529,6 +529,9 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
         while x.len() >= y.len() && !is_zero(&x) {
             let shift = x.len() - y.len();
             let q = x.last()?.clone() / &ly;
+            if rational_bits(&q) > max_bits {
+                return None;
+            }
             for (i, c) in y.iter().enumerate() {
                 x[i + shift] -= c * &q;
             }
