@@ -147,6 +147,7 @@ const EXPR_SEEDS: &[&str] = &[
     // Found by the long run: trial division with runaway coefficient growth (now refused).
     "(x^10000exp00 - 1)/(x 1e308- 1)",
     "(x^100+0exp00 - 1)/(x 1e308- 1)",
+    "(x^100+0exp00 - 1)/(x 1e3008- 1)",
 ];
 
 const SCENE_SEEDS: &[&str] = &[
