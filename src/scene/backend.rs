@@ -164,6 +164,18 @@ pub struct RunRequest {
     pub every: Option<usize>,
 }
 
+impl RunRequest {
+    /// The fixed step, or a thousandth of the span when none was given.
+    pub fn step(&self) -> f64 {
+        self.dt.unwrap_or((self.t1 - self.t0) / 1000.0)
+    }
+
+    /// The tolerance, or 1e-10 when none was given.
+    pub fn tolerance(&self) -> f64 {
+        self.tol.unwrap_or(1e-10)
+    }
+}
+
 /// A computed trajectory.
 #[derive(Clone, Debug, Default)]
 pub struct Trajectory {
@@ -482,8 +494,7 @@ impl Backend for NativeBackend {
         let events = native.event_fns(&run.events);
         let names = &native.state;
         let count = AtomicUsize::new(0);
-        let dt = run.dt.unwrap_or((run.t1 - run.t0) / 1000.0);
-        let tol = run.tol.unwrap_or(1e-10);
+        let (dt, tol) = (run.step(), run.tolerance());
         if run.method.name == "taylor" {
             return taylor(c, run, tol, &events, names, progress);
         }
@@ -500,39 +511,32 @@ impl Backend for NativeBackend {
                 };
                 drive(&m, &Counted::new(s, &count), run, &events, names, progress)
             }
-            NativeCompiled::Hamiltonian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
-            }
-            NativeCompiled::Lagrangian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
-            }
+            NativeCompiled::Hamiltonian(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None),
+            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None),
             NativeCompiled::LagrangianJacobian(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None)
+                by_method(&Counted::new(r, &count), run, &events, names, progress, None)
             }
             NativeCompiled::Constrained(r) => {
                 check_constrained_start(r, run)?;
                 let project = (r.stabilization() == crate::compile::Stabilization::Projection).then_some(r);
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, project).map(|mut t| {
+                by_method(&Counted::new(r, &count), run, &events, names, progress, project).map(|mut t| {
                     t.aux = constrained_aux(r, &t);
                     t
                 })
             }
-            NativeCompiled::FirstOrder(r) => {
-                by_method(&Counted::new(r, &count), run, dt, tol, &events, names, progress, None).and_then(
-                    |mut traj| {
-                        let fill = |t: f64, y: &mut Vec<f64>| {
-                            r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
-                        };
-                        for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
-                            fill(*t, y)?;
-                        }
-                        for (_, t, y) in traj.events.iter_mut() {
-                            fill(*t, y)?;
-                        }
-                        Ok(traj)
-                    },
-                )
-            }
+            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None)
+                .and_then(|mut traj| {
+                    let fill = |t: f64, y: &mut Vec<f64>| {
+                        r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
+                    };
+                    for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
+                        fill(*t, y)?;
+                    }
+                    for (_, t, y) in traj.events.iter_mut() {
+                        fill(*t, y)?;
+                    }
+                    Ok(traj)
+                }),
         }
         .map(|mut t| {
             t.evaluations = count.load(Ordering::Relaxed);
@@ -644,8 +648,6 @@ impl Native {
 fn by_method<S: crate::integrate::Rhs>(
     sys: &S,
     run: &RunRequest,
-    dt: f64,
-    tol: f64,
     events: &EventFns,
     names: &[String],
     progress: &mut dyn FnMut(f64),
@@ -653,6 +655,7 @@ fn by_method<S: crate::integrate::Rhs>(
 ) -> Result<Trajectory, BackendError> {
     use crate::compile::Projected;
     use crate::integrate::{Dop853, ExplicitRk, Gauss};
+    let (dt, tol) = (run.step(), run.tolerance());
     macro_rules! go {
         ($m:expr) => {
             match project {
