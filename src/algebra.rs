@@ -107,15 +107,17 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 // Repeated multiplication does about k · terms · m products: (x+1)^1999 has
                 // few terms for its power but needs thousands of steps with huge coefficients.
                 let steps = k.to_u128().unwrap_or(u128::MAX);
-                let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps);
+                // The k-th power of a coefficient of B bits has about k·B bits, and exact
+                // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
+                // took minutes, and (x^2 + 10^20)^100 half a minute (found by tests/fuzz.rs), so
+                // the work counts machine words of coefficient as well as terms.
+                let base_bits = ts.iter().map(|t| rational_bits(&t.coeff_rest().0)).max().unwrap_or(0);
+                let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
+                let words = 1 + u128::from(bits / 64);
+                let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps).saturating_mul(words);
                 if estimate > limit as u128 || work > 64 * limit as u128 {
                     return Err(AlgebraError::TooManyTerms { what: short(&rebuilt), estimate, limit });
                 }
-                // The k-th power of a coefficient of B bits has about k·B bits, and exact
-                // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
-                // took minutes (found by tests/fuzz.rs).
-                let base_bits = ts.iter().map(|t| rational_bits(&t.coeff_rest().0)).max().unwrap_or(0);
-                let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
                 if bits > MAX_FOLD_BITS {
                     return Err(AlgebraError::HugeCoefficients { what: short(&rebuilt), bits, limit: MAX_FOLD_BITS });
                 }
