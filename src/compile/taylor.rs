@@ -402,24 +402,12 @@ impl TaylorTape {
                     c[d as usize * s + k] = dv;
                 }
                 Op::Root { d, a, q } => {
-                    // As PowConst with e = 1/q.
-                    let e = 1.0 / f64::from(q);
-                    let (ra, rd) = (row(c, a, s), row(c, d, s));
-                    let mut acc = 0.0;
-                    for j in 1..=k {
-                        acc += (e * j as f64 - (k - j) as f64) * ra[j] * rd[k - j];
-                    }
-                    c[d as usize * s + k] = acc / (kf * ra[0]);
+                    let v = constant_power(row(c, a, s), row(c, d, s), 1.0 / f64::from(q), k);
+                    c[d as usize * s + k] = v;
                 }
                 Op::PowConst { d, a, e } => {
-                    // d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀).
-                    let e = at(c, e, 0);
-                    let (ra, rd) = (row(c, a, s), row(c, d, s));
-                    let mut acc = 0.0;
-                    for j in 1..=k {
-                        acc += (e * j as f64 - (k - j) as f64) * ra[j] * rd[k - j];
-                    }
-                    c[d as usize * s + k] = acc / (kf * ra[0]);
+                    let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
+                    c[d as usize * s + k] = v;
                 }
                 Op::PowVar { d, a, b, l, m } => {
                     let (ra, rl) = (row(c, a, s), row(c, l, s));
@@ -837,4 +825,13 @@ impl System {
             _ => Ok(TaylorOde::from_lagrangian(&self.compile_rhs()?)),
         }
     }
+}
+/// Coefficient `k` of `d = a^e` for a constant `e` (also the real root, `e = 1/q`), from
+/// `a d' = e d a'`: `d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀)`.
+fn constant_power(ra: &[f64], rd: &[f64], e: f64, k: usize) -> f64 {
+    let mut acc = 0.0;
+    for j in 1..=k {
+        acc += (e * j as f64 - (k - j) as f64) * ra[j] * rd[k - j];
+    }
+    acc / (k as f64 * ra[0])
 }
