@@ -74,8 +74,8 @@ fn point_vortices() {
     let cy = &c["Γ1 y1 + Γ2 y2"];
     let r = &c["sqrt((x1 - x2)^2 + (y1 - y2)^2)"];
     let drift = |v: &[f64]| v.iter().map(|x| (x - v[0]).abs()).fold(0.0, f64::max);
-    assert!(drift(cx) < 1e-12 && drift(cy) < 1e-12, "centre of vorticity: {:e} {:e}", drift(cx), drift(cy));
-    assert!(drift(r) < 1e-12, "distance: {:e}", drift(r));
+    assert!(drift(cx) < 2e-14 && drift(cy) < 2e-14, "centre of vorticity: {:e} {:e}", drift(cx), drift(cy));
+    assert!(drift(r) < 2e-14, "distance: {:e}", drift(r));
     // Rigid rotation at Ω = (Γ1 + Γ2)/(2π r²), checked on the unwrapped angle of x1 − x2.
     let omega = (g1 + g2) / (2.0 * std::f64::consts::PI * r[0] * r[0]);
     let angle = |i: usize| (c["y1"][i] - c["y2"][i]).atan2(c["x1"][i] - c["x2"][i]);
@@ -85,7 +85,7 @@ fn point_vortices() {
         d -= (d / (2.0 * std::f64::consts::PI)).round() * 2.0 * std::f64::consts::PI;
         unwrapped += d;
         let expected = angle(0) + omega * c["t"][i];
-        assert!((unwrapped - expected).abs() < 1e-9, "t = {}: angle {unwrapped} vs {expected}", c["t"][i]);
+        assert!((unwrapped - expected).abs() < 2e-14, "t = {}: angle {unwrapped} vs {expected}", c["t"][i]);
     }
 }
 
