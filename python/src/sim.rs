@@ -1007,14 +1007,17 @@ impl PySystem {
 
     /// Integrates from ``y0`` over ``t_span = (t0, t1)`` and returns a :class:`Solution`.
     ///
-    /// ``method`` is one of ``dop853`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
+    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
     /// ``euler``, ``midpoint``, ``gauss4``, ``gauss6`` (symplectic collocation),
     /// ``leapfrog``/``verlet``, ``yoshida4``/``6``/``8``, ``blanes_moan``,
     /// ``symplectic_euler`` (splitting methods, which need ``H = T(p) + V(q)`` and use the
     /// state ``(q, p_q)``); fixed-step methods need ``dt``. :meth:`state_names` gives the
     /// layout of ``y0`` (an array, or a dict by state name). ``t_eval`` asks for the states at
     /// given times (dense output) instead of at every step; ``every=k`` keeps every k-th
-    /// step. ``events`` is a list of expressions or :class:`Event` objects. The GIL is
+    /// step. ``events`` is a list of expressions or :class:`Event` objects, located on the
+    /// step's interpolant; with ``t_eval`` too, as in SciPy, events are watched over the whole
+    /// span and a terminal one ends the output at the last ``t_eval`` time before it.
+    /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
     #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=1e-10, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
