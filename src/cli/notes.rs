@@ -57,7 +57,8 @@ pub enum NotesCommand {
         /// The coordinates, in order.
         #[arg(long, value_delimiter = ',', required = true)]
         coords: Vec<String>,
-        /// The quadrature rule: midpoint or trapezoid.
+        /// The quadrature rule: midpoint, trapezoid (order 2) or gauss2 (order 4: a quadratic
+        /// through q_k, an inner point x_m and q_{k+1}, two Gauss–Legendre nodes).
         #[arg(long, default_value = "midpoint")]
         rule: String,
         /// The step: a symbol (`h`) or an exact number.
@@ -232,7 +233,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
         NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
             let Some(r) = Rule::from_name(rule.trim()) else {
                 return Err(bad_input(format!(
-                    "error: unknown rule `{rule}` for discretize (expected midpoint or trapezoid; gauss2 is not built yet)"
+                    "error: unknown rule `{rule}` for discretize (expected midpoint, trapezoid or gauss2)"
                 )));
             };
             let text = read_expr_arg(&lagrangian)?;
@@ -252,6 +253,20 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 out.lines.push(format!("{label}: {} = 0", out.r(e)));
             }
             out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
+            if !d.inner.is_empty() {
+                // Galerkin: each step's inner point is fixed by ∂L̃/∂Q = 0.
+                let stages = d.stage_equations();
+                let labels =
+                    ["m0", "m1"].iter().flat_map(|tag| d.coords.iter().map(move |q| format!("{}_{tag}", q.name())));
+                for (label, e) in labels.zip(&stages) {
+                    out.lines.push(format!("stage_{label}: {} = 0", out.r(e)));
+                }
+                for (m, e) in d.inner.iter().zip(&d.dm) {
+                    out.lines.push(format!("∂L_d/∂{}: {} = 0", out.s(m), out.r(e)));
+                }
+                out.json.insert("stage_equations".into(), json!(stages.iter().map(plain).collect::<Vec<_>>()));
+                out.json.insert("inner_condition".into(), json!(d.dm.iter().map(plain).collect::<Vec<_>>()));
+            }
             let (pk, pk1) = d.legendre_maps();
             for (q, e) in d.coords.iter().zip(&pk) {
                 let label = format!("p_{}_0", q.name());
