@@ -28,8 +28,9 @@ pub enum NotesCommand {
         common: Common,
     },
     /// Geodesics of a line element ds² = Σ g_ij dq_i dq_j (differentials `dx`): the metric,
-    /// the Christoffel symbols Γ^k_ij, the geodesic equations, their conserved quantities, and
-    /// with --from/--to a shooting solution in unit time.
+    /// the Christoffel symbols Γ^k_ij, the geodesic equations, the curvature (Riemann
+    /// components R_abcd, scalar R, and for a surface the Gauss curvature K), the conserved
+    /// quantities, and with --from/--to a shooting solution in unit time.
     Geodesic {
         /// The line element, e.g. "dθ^2 + sin(θ)^2 dφ^2".
         #[arg(allow_hyphen_values = true)]
@@ -214,6 +215,29 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 out.lines.push(format!("{label}: {} = 0", out.r(e)));
             }
             out.json.insert("equations".into(), json!(g.equations.iter().map(plain).collect::<Vec<_>>()));
+            // The curvature (§1.6.3): independent components R_abcd (a < b, c < d,
+            // (a, b) ≤ (c, d)) that are not zero, the scalar R and, for a surface, K.
+            let curv = g.curvature();
+            let n = z.len();
+            for a in 0..n {
+                for b in a + 1..n {
+                    for c in a..n {
+                        for e in c + 1..n {
+                            if (c, e) < (a, b) || curv.lowered[a][b][c][e].is_zero() {
+                                continue;
+                            }
+                            let label = format!("R_{}{}{}{}", out.s(&z[a]), out.s(&z[b]), out.s(&z[c]), out.s(&z[e]));
+                            out.line(label, &curv.lowered[a][b][c][e]);
+                        }
+                    }
+                }
+            }
+            out.line("scalar_curvature".into(), &curv.scalar);
+            out.json.insert("scalar_curvature".into(), json!(plain(&curv.scalar)));
+            if let Some(k) = &curv.gauss {
+                out.line("K".into(), k);
+                out.json.insert("gauss_curvature".into(), json!(plain(k)));
+            }
             let sys = g.system().map_err(fail)?;
             for c in sys.conserved() {
                 out.lines.push(format!("{} = {}    # {}", c.name, out.r(&c.expr), c.reason));

@@ -46,7 +46,7 @@ mod transform;
 pub use constraints::ConstrainedEquations;
 pub use discrete::{point_names, Discrete, Rule};
 pub use first_order::FirstOrder;
-pub use geodesic::{geodesic, Geodesic};
+pub use geodesic::{geodesic, Curvature, Geodesic};
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
