@@ -39,6 +39,7 @@ mod hamilton;
 mod legendre;
 mod linalg;
 mod noether;
+mod ritz;
 mod system;
 mod tidy;
 mod transform;
@@ -50,6 +51,7 @@ pub use geodesic::{geodesic, Curvature, Geodesic};
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
+pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use system::{Kind, System};
 pub use tidy::tidy;
 
