@@ -179,3 +179,42 @@ fn variational_method_refuses_events_and_forces() {
         assert!(!out.join("run.csv").exists());
     }
 }
+
+#[test]
+fn geodesic_sphere() {
+    let s = scene("geodesic_sphere");
+    let c = s.csv("geodesic_sphere.csv");
+    let u = |th: f64, ph: f64| [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+    let du = |th: f64, ph: f64, dth: f64, dph: f64| {
+        [
+            dth * th.cos() * ph.cos() - dph * th.sin() * ph.sin(),
+            dth * th.cos() * ph.sin() + dph * th.sin() * ph.cos(),
+            -dth * th.sin(),
+        ]
+    };
+    // The plane of the great circle through the start: normal u × u'.
+    let (a, b) = (u(c["θ"][0], c["φ"][0]), du(c["θ"][0], c["φ"][0], c["θ'"][0], c["φ'"][0]));
+    let n = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let mut worst: f64 = 0.0;
+    for i in 0..c["t"].len() {
+        let p = u(c["θ"][i], c["φ"][i]);
+        worst = worst.max((p[0] * n[0] + p[1] * n[1] + p[2] * n[2]).abs() / norm);
+    }
+    assert!(worst < 1e-10, "distance from the great circle's plane: {worst:e}");
+    // Constant speed along a great circle: the arc covered is speed × t.
+    let speed = c["θ'^2 + sin(θ)^2 φ'^2"][0].sqrt();
+    let k = c["t"].len() - 1;
+    let arc = (u(c["θ"][k], c["φ"][k]).iter().zip(a.iter()).map(|(x, y)| x * y).sum::<f64>()).acos();
+    let turns = speed * c["t"][k] / (2.0 * std::f64::consts::PI);
+    let expected = {
+        let r = (speed * c["t"][k]) % (2.0 * std::f64::consts::PI);
+        r.min(2.0 * std::f64::consts::PI - r)
+    };
+    assert!((arc - expected).abs() < 1e-9, "arc {arc} vs {expected} ({turns} turns)");
+    for col in ["sin(θ)^2 φ'", "θ'^2 + sin(θ)^2 φ'^2"] {
+        let v = &c[col];
+        let drift = v.iter().map(|x| (x - v[0]).abs()).fold(0.0, f64::max);
+        assert!(drift < 1e-11, "{col} drifts by {drift:e}");
+    }
+}
