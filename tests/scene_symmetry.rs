@@ -81,3 +81,44 @@ fn scene_conserved_reports_lz_for_cartesian_kepler() {
     let got = parse_with(value, &d).expect("re-parses");
     assert!(equal_up_to_sign(&got, &parse_with("x p_y - y p_x", &d).expect("parses")), "{value}");
 }
+
+/// The issue's ring: a particle on x² + y² = l² in Cartesian coordinates. The constraint acts
+/// on x and y, so neither momentum is conserved and no boost survives; the rotation preserves
+/// the constraint, so L_z is found.
+#[test]
+fn a_particle_on_a_ring_keeps_only_lz_and_the_energy() {
+    let mut session = Session::new(Options::new(Mode::Scene));
+    session
+        .run_scene(
+            "ring",
+            "coordinates x, y\nparameters m = 1, l = 1 positive\nL = 1/2 m (x'^2 + y'^2)\n\
+             constraint x^2 + y^2 = l^2\nconserved as plain",
+        )
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    let out: Vec<String> = session.take_output().into_iter().filter(|l| !l.starts_with("constraint ")).collect();
+    assert!(!out.iter().any(|l| l.starts_with("p_x") || l.starts_with("p_y") || l.contains("boost")), "{out:?}");
+    assert!(out.iter().any(|l| l.starts_with("h = ")), "{out:?}");
+    let q: Vec<&String> = out.iter().filter(|l| l.starts_with('Q')).collect();
+    assert_eq!(q.len(), 1, "{out:?}");
+    assert!(q[0].contains("rotation in (x, y)"), "{}", q[0]);
+    let d = Declarations::new().with_positive(["m", "l"]);
+    let value = q[0].strip_prefix("Q1 = ").and_then(|r| r.split("   ").next()).expect("Q1 = value");
+    let got = parse_with(value, &d).expect("re-parses");
+    assert!(equal_up_to_sign(&got, &parse_with("m (x y' - y x')", &d).expect("parses")), "{value}");
+}
+
+/// Two free particles: each boost is found on its own, and the centre-of-mass boost integral
+/// t (p1 + p2) − (m1 x1 + m2 x2) is their sum.
+#[test]
+fn two_free_particles_give_the_centre_of_mass_boost() {
+    let l = p("1/2 m1 x1'^2 + 1/2 m2 x2'^2");
+    let h = p("p_x1^2/(2 m1) + p_x2^2/(2 m2)");
+    let s = point_symmetries(&l, &syms(&["x1", "x2"]), &h);
+    let boosts: Vec<&Expr> =
+        s.found.iter().filter(|f| f.kind.starts_with("Galilean boost")).map(|f| &f.charge).collect();
+    assert_eq!(boosts.len(), 2, "{:#?}", s.found);
+    let cm = p("t (p_x1 + p_x2) - m1 x1 - m2 x2");
+    let combos = [boosts[0].plus(boosts[1]), boosts[0].minus(boosts[1])];
+    assert!(combos.iter().any(|c| equal_up_to_sign(c, &cm)), "{} and {}", boosts[0], boosts[1]);
+    assert!(s.found.iter().all(|f| f.check == ZeroCheck::Proven));
+}

@@ -325,7 +325,7 @@ impl Backend for NativeBackend {
             .into_iter()
             .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
             .collect();
-        let more = super::symmetries::symmetry_lines(&system, sys.coords, &lines, is_hamiltonian);
+        let more = super::symmetries::symmetry_lines(&system, sys.coords, &lines, is_hamiltonian, &[]);
         lines.extend(more);
         Ok(lines)
     }

@@ -811,6 +811,9 @@ impl Session {
             // The energy of a Hamiltonian system is `H` itself: nothing to derive.
             return Ok(Value::Expr(args[0].clone()));
         }
+        if kind == DerivKind::Conserved && !hamiltonian_input && !self.dynamics.is_empty() {
+            return self.conserved_with_dynamics(&args[0], span).map(Value::Lines);
+        }
         if let Some(v) = self.lookup(&key, step, &what) {
             return Ok(v);
         }
