@@ -325,11 +325,14 @@ impl Backend for NativeBackend {
     }
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError> {
         let system = if is_hamiltonian { hamiltonian_system(sys, f)? } else { lagrangian_system(sys, f)? };
-        Ok(system
+        let mut lines: Vec<Line> = system
             .conserved()
             .into_iter()
             .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
-            .collect())
+            .collect();
+        let more = super::symmetries::symmetry_lines(&system, sys.coords, &lines, is_hamiltonian, &[]);
+        lines.extend(more);
+        Ok(lines)
     }
     fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         Ok(lagrangian_system(sys, l)?.energy_function())
