@@ -22,8 +22,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
-const FAMILY: &str = "sans-serif";
+pub(crate) static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+pub(crate) const FAMILY: &str = "sans-serif";
 const SIZE: (u32, u32) = (960, 680);
 /// The strip above the chart that holds the title.
 const TITLE_H: u32 = 44;
@@ -91,7 +91,7 @@ pub struct Description {
     pub legend_covers: usize,
 }
 
-fn ensure_font() {
+pub(crate) fn ensure_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The embedded font is valid; if registration failed, plotting reports a font error.

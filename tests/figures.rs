@@ -1,0 +1,258 @@
+//! The example figures, checked by content: each scene is run through the library, and the
+//! [`Description`] of every figure it draws (what the renderer draws: title, labels, series,
+//! ranges, labelled decades, legend corner) is inspected, together with the SVG text and the
+//! GIF's frames. The numbers compared with (energies, slopes) are computed here
+//! independently. Small grids and few frames keep this file at a few seconds.
+
+use std::path::{Path, PathBuf};
+
+use lagrangian::plot::{Description, Figure, Series, PLOT_AREA};
+use lagrangian::scene::{Mode, Options, Session};
+
+/// Runs `text` as a scene writing into a fresh directory; the session and the directory.
+fn run(text: &str) -> (Session, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut opts = Options::new(Mode::Scene);
+    opts.out_dir = dir.path().to_path_buf();
+    let mut s = Session::new(opts);
+    s.run_scene("test", text).unwrap_or_else(|e| panic!("{e:?}"));
+    (s, dir)
+}
+
+fn example(name: &str) -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{name}.scene")))
+        .unwrap()
+}
+
+fn figure<'a>(s: &'a Session, file: &str) -> &'a Description {
+    &s.figures().iter().find(|(p, _)| p.file_name().unwrap() == file).unwrap_or_else(|| panic!("no {file}")).1
+}
+
+/// The texts of an SVG (plotters writes each on its own line between the tags).
+fn svg_texts(path: &PathBuf) -> Vec<String> {
+    let svg = std::fs::read_to_string(path).unwrap();
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>'))
+        .map(|(_, rest)| rest.split("</text>").next().unwrap().trim().to_string())
+        .collect()
+}
+
+/// Checks that hold for every figure: the legend hides no data, every series has points,
+/// a log axis is labelled at each decade of its range, which starts and ends on one.
+fn sound(d: &Description) {
+    assert_eq!(d.legend_covers, 0, "{}: the legend hides data", d.title);
+    assert!(d.series.iter().all(|s| s.points > 0), "{}: an empty series", d.title);
+    for (log, (a, b), decades) in [(d.log_x, d.x_range, &d.x_decades), (d.log_y, d.y_range, &d.y_decades)] {
+        if log {
+            let (lo, hi) = (a.log10(), b.log10());
+            assert!((lo - lo.round()).abs() < 1e-9 && (hi - hi.round()).abs() < 1e-9, "{}: {a}..{b}", d.title);
+            let want: Vec<i32> = (lo.round() as i32..=hi.round() as i32).collect();
+            assert_eq!(decades, &want, "{}: every decade labelled", d.title);
+        }
+    }
+}
+
+#[test]
+fn double_pendulum_figures_say_what_they_show() {
+    let (s, dir) = run(&example("double_pendulum"));
+    for (_, d) in s.figures() {
+        sound(d);
+    }
+    let chaos = figure(&s, "double_pendulum_chaos.svg");
+    assert_eq!(chaos.title, "θ₂(t), runs a, b");
+    assert_eq!((chaos.xlabel.as_str(), chaos.ylabel.as_str()), ("t", "θ₂"));
+    let labels: Vec<&str> = chaos.series.iter().map(|s| s.label.as_str()).collect();
+    assert_eq!(labels, ["θ₂, a", "θ₂, b"]);
+    assert!(chaos.x_range.0 <= 0.0 && chaos.x_range.1 >= 10.0);
+    let texts = svg_texts(&dir.path().join("double_pendulum_chaos.svg"));
+    for t in ["θ₂(t), runs a, b", "θ₂, a", "θ₂, b", "t"] {
+        assert!(texts.iter().any(|x| x == t), "`{t}` not drawn: {texts:?}");
+    }
+
+    // The path: equal scales, so a circle looks round; it holds the reach l1 + l2 = 2.
+    let path = figure(&s, "double_pendulum_path.svg");
+    assert!(path.equal_aspect);
+    let (sx, sy) = (
+        (path.x_range.1 - path.x_range.0) / PLOT_AREA.0 as f64,
+        (path.y_range.1 - path.y_range.0) / PLOT_AREA.1 as f64,
+    );
+    assert!((sx / sy - 1.0).abs() < 1e-9, "{sx} {sy}");
+    assert!(path.x_range.0 < -1.5 && path.x_range.1 > 1.5 && path.y_range.0 < -1.9);
+    assert_eq!(path.xlabel, "l₁ sin(θ₁) + l₂ sin(θ₂)");
+
+    let energy = figure(&s, "double_pendulum_energy.svg");
+    assert!(energy.log_y && energy.ylabel == "|ΔE/E₀|" && energy.title.contains("run a"));
+
+    // The separation: the data and the fitted line, whose slope is printed.
+    let sep = figure(&s, "double_pendulum_separation.svg");
+    assert_eq!(sep.series.len(), 2);
+    assert_eq!(sep.ylabel, "log₁₀ |Δz|");
+    assert!(sep.series[1].label.starts_with("fit: slope"));
+    // From 10⁻⁹ to order one in ten time units.
+    assert!(sep.y_range.0 < -8.5 && sep.y_range.1 > -1.0, "{:?}", sep.y_range);
+
+    // The animation: 3 s at 8 fps, 200 pixels, frames that differ (the bodies move).
+    let file = std::fs::File::open(dir.path().join("double_pendulum.gif")).unwrap();
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::RGBA);
+    let mut dec = opts.read_info(file).unwrap();
+    assert_eq!((dec.width(), dec.height()), (200, 200));
+    let mut frames = Vec::new();
+    while let Some(f) = dec.read_next_frame().unwrap() {
+        assert_eq!(f.delay, 13, "100/8 hundredths of a second, rounded");
+        frames.push(f.buffer.to_vec());
+    }
+    assert_eq!(frames.len(), 24);
+    assert!(frames.windows(2).all(|w| w[0] != w[1]), "a frame repeats the one before it");
+}
+
+/// H of the Hénon–Heiles system, written out here.
+fn henon_heiles(x: f64, y: f64, px: f64, py: f64) -> f64 {
+    0.5 * (px * px + py * py) + 0.5 * (x * x + y * y) + x * x * y - y * y * y / 3.0
+}
+
+#[test]
+fn ensemble_members_start_on_the_requested_energy_surface() {
+    let mut scene = String::from(
+        "coordinates x, y\nH = (p_x^2 + p_y^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3\n\
+         simulate x = 0, p_y = 0 for each y in -0.3..0.3 step 0.03 on H = 1/8 solve p_x > 0 \
+         for t in 0..30 with yoshida6 dt = 0.05 record when x = 0 rising as low\n\
+         plot poincare y, p_y to low.svg\n\
+         simulate x = 0, p_y = 0 for each y in 0..0.4 step 0.1 on H = 1/6 solve p_x < 0 \
+         for t in 0..1 with rk4 dt = 0.05 as high\n",
+    );
+    for k in 1..=21 {
+        scene.push_str(&format!("export x, y, p_x, p_y from low_{k} to low{k}.csv\n"));
+    }
+    for k in 1..=5 {
+        scene.push_str(&format!("export x, y, p_x, p_y from high_{k} to high{k}.csv\n"));
+    }
+    let (mut s, dir) = run(&scene);
+    let first_row = |file: &str| -> Vec<f64> {
+        let text = std::fs::read_to_string(dir.path().join(file)).unwrap();
+        text.lines().nth(1).unwrap().split(',').map(|v| v.parse().unwrap()).collect()
+    };
+    for (prefix, n, energy, sign, y0, dy) in
+        [("low", 21, 0.125, 1.0, -0.3, 0.03), ("high", 5, 1.0 / 6.0, -1.0, 0.0, 0.1)]
+    {
+        for k in 1..=n {
+            let r = first_row(&format!("{prefix}{k}.csv"));
+            // Columns t, x, y, p_x, p_y.
+            let (x, y, px, py) = (r[1], r[2], r[3], r[4]);
+            assert!(
+                (henon_heiles(x, y, px, py) - energy).abs() <= 1e-12,
+                "{prefix}_{k}: H = {}",
+                henon_heiles(x, y, px, py)
+            );
+            assert!((y - (y0 + dy * (k - 1) as f64)).abs() < 1e-12 && x == 0.0 && py == 0.0);
+            assert!(px * sign > 0.0, "{prefix}_{k}: p_x on the asked side");
+        }
+    }
+    // The section colours each orbit: one series per member, named by its y; with 21 of
+    // them the legend is left out and the title says what they are.
+    let d = figure(&s, "low.svg");
+    sound(d);
+    assert_eq!(d.series.len(), 21);
+    assert_eq!(d.series[0].label, "y = -0.3");
+    assert!(d.legend.is_none());
+    assert_eq!(d.title, "Poincaré section at x = 0 (rising), 21 runs of low on H = 1/8");
+    assert!(s.take_output().iter().any(|l| l.starts_with("low: 21 runs")));
+}
+
+#[test]
+fn henon_heiles_example_sections_hold_every_orbit() {
+    let (s, _dir) = run(&example("henon_heiles"));
+    for (file, level) in [("henon_heiles_ensemble_e8.svg", "H = 1/8"), ("henon_heiles_ensemble_e6.svg", "H = 1/6")] {
+        let d = figure(&s, file);
+        sound(d);
+        assert_eq!(d.series.len(), 21, "{file}");
+        assert!(d.title.ends_with(level), "{}", d.title);
+        // Every orbit crosses the section many times over t = 600 (period about 2π).
+        assert!(d.series.iter().all(|s| s.points > 40), "{file}: {:?}", d.series);
+    }
+    assert_eq!(figure(&s, "henon_heiles_section.svg").series.len(), 1);
+}
+
+#[test]
+fn separation_slope_of_a_saddle_matches_its_exponent() {
+    // H = p²/2 − x²/2: a start displaced by δ along x separates as δ (cosh t, sinh t), so
+    // log₁₀ |Δz| = log₁₀ δ + ½ log₁₀ cosh 2t, whose rate tends to 1/ln 10 (λ = 1).
+    let scene = "coordinates x\nH = p_x^2/2 - x^2/2\n\
+        simulate x = 0, p_x = 0 for t in 0..8 with gauss6 dt = 0.01 as a\n\
+        simulate x = 1e-8, p_x = 0 for t in 0..8 with gauss6 dt = 0.01 as b\n\
+        plot separation a, b to sep.svg\n";
+    let (mut s, _dir) = run(scene);
+    let out = s.take_output().join("\n");
+    let line = out.lines().find(|l| l.starts_with("separation of a and b")).expect(&out).to_string();
+    let num = |after: &str| -> f64 {
+        let rest = &line[line.find(after).unwrap() + after.len()..];
+        rest.split(|c: char| c == ' ' || c == ';').next().unwrap().parse().unwrap()
+    };
+    let (slope, lambda) = (num("grows by "), num("λ ≈ "));
+    let t_end: f64 = line.split("over t = 0..").nth(1).unwrap().split(';').next().unwrap().parse().unwrap();
+    // The least-squares slope of the exact curve over the same times, computed here.
+    let ts: Vec<f64> = (0..).map(|k| k as f64 * 0.01).take_while(|t| *t <= t_end + 1e-9).collect();
+    let ls: Vec<f64> = ts.iter().map(|t| (1e-8f64).log10() + 0.5 * (2.0 * t).cosh().log10()).collect();
+    let n = ts.len() as f64;
+    let (mt, ml) = (ts.iter().sum::<f64>() / n, ls.iter().sum::<f64>() / n);
+    let sxy: f64 = ts.iter().zip(&ls).map(|(t, l)| (t - mt) * (l - ml)).sum();
+    let sxx: f64 = ts.iter().map(|t| (t - mt) * (t - mt)).sum();
+    let exact = sxy / sxx;
+    assert!((slope / exact - 1.0).abs() < 1e-3, "{slope} vs {exact}");
+    assert!((lambda - slope * std::f64::consts::LN_10).abs() < 1e-3 * lambda);
+    assert!((lambda - 1.0).abs() < 0.15, "λ = {lambda}");
+}
+
+#[test]
+fn figure_mistakes_are_errors_with_their_place() {
+    let one = "coordinates x\nH = p_x^2/2 + x^2/2\n";
+    let two = "coordinates x, y\nH = (p_x^2 + p_y^2)/2 + (x^2 + y^2)/2\n";
+    let cases = [
+        (
+            format!("{one}simulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1 as a\nsimulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.05 as b\nplot separation a, b to s.svg\n"),
+            "do not share their states' times",
+        ),
+        (
+            format!("{two}simulate y = 0, p_x = 0, p_y = 0 for each x in 0..1 step 0.5 on H = 1 solve p_x > 0 for t in 0..1 with rk4 dt = 0.1\n"),
+            "is set by the ensemble clause",
+        ),
+        (
+            format!("{two}simulate y = 0, p_y = 0 for each x in 0..1 step 0.5 on H = -1 solve p_x > 0 for t in 0..1 with rk4 dt = 0.1\n"),
+            "has a point on H = -1",
+        ),
+        (format!("{one}simulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1\nanimate (x, 0) to a.gif fps 0\n"), "`fps` must be between"),
+        (format!("{one}simulate x = 1, p_x = 0 for t in 0..1 with rk4 dt = 0.1\nanimate (x, 0) to a.svg\n"), "written as `.gif`"),
+    ];
+    for (text, want) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let mut opts = Options::new(Mode::Scene);
+        opts.out_dir = dir.path().to_path_buf();
+        let mut s = Session::new(opts);
+        let e = s.run_scene("bad", &text).expect_err(&text);
+        let msg = format!("{} {:?}", e.message, e.hint);
+        assert!(msg.contains(want), "{text}: {msg}");
+        assert!(e.span.is_some(), "{text}: no location");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "{text}: a file was left");
+    }
+}
+
+#[test]
+fn log_axes_are_labelled_at_every_decade_and_legends_avoid_data() {
+    // Work against error over six decades: every decade from 10² to 10⁸ and 10⁻¹² to 10⁻³.
+    let pts = vec![(300.0, 2e-4), (3e4, 5e-8), (4e7, 3e-12)];
+    let d = Figure::log_log("wp", "work", "error", vec![Series { label: "m".into(), points: pts }]).describe();
+    sound(&d);
+    assert_eq!(d.x_decades, (2..=8).collect::<Vec<_>>());
+    assert_eq!(d.y_decades, (-12..=-3).collect::<Vec<_>>());
+    assert_eq!(lagrangian::plot::decade_label(-12), "10⁻¹²");
+    // A falling line fills the upper left and lower right: the legend goes upper right.
+    let line: Vec<(f64, f64)> = (0..100).map(|i| (i as f64, 100.0 - i as f64)).collect();
+    let d = Figure::lines("l", "x", "y", vec![Series { label: "a long legend label".into(), points: line }]).describe();
+    assert_eq!(d.legend, Some(lagrangian::plot::Corner::UpperRight));
+    // Data in every corner: the y range grows until the legend has room above the data.
+    let corners: Vec<(f64, f64)> = (0..400).map(|i| ((i % 20) as f64, (i / 20) as f64)).collect();
+    let d = Figure::scatter("s", "x", "y", vec![Series { label: "grid".into(), points: corners }]).describe();
+    sound(&d);
+    assert!(d.y_range.1 > 19.0 * 1.05);
+}
