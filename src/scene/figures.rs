@@ -398,7 +398,7 @@ impl Session {
                 format!("`{}` and `{}` do not share their states' times and variables", a.text, b.text),
             )
             .at((a.span.0, b.span.1))
-            .hint("simulate both with the same fixed-step method, step and time span (for example `with gauss6 dt = 0.005`)"));
+            .hint("simulate both with the same fixed-step method, step and time span (for example `with gauss6 dt = 0.004`)"));
         }
         let pts: Vec<(f64, f64)> = ra
             .traj
