@@ -187,7 +187,7 @@ fn separation_slope_of_a_saddle_matches_its_exponent() {
     let line = out.lines().find(|l| l.starts_with("separation of a and b")).expect(&out).to_string();
     let num = |after: &str| -> f64 {
         let rest = &line[line.find(after).unwrap() + after.len()..];
-        rest.split(|c: char| c == ' ' || c == ';').next().unwrap().parse().unwrap()
+        rest.split([' ', ';']).next().unwrap().parse().unwrap()
     };
     let (slope, lambda) = (num("grows by "), num("λ ≈ "));
     let t_end: f64 = line.split("over t = 0..").nth(1).unwrap().split(';').next().unwrap().parse().unwrap();
