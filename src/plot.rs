@@ -366,6 +366,10 @@ impl Figure {
         let (log_x, log_y) = self.logs();
         let (mut x0, mut x1, mut y0, mut y1) = self.ranges();
         let decades = |a: f64, b: f64| -> (f64, f64) {
+            // Nothing positive to draw (an energy error that is exactly zero): one decade.
+            if !(a > 0.0 && b >= a && b.is_finite()) {
+                return (0.1, 1.0);
+            }
             let lo = a.log10().floor();
             let mut hi = b.log10().ceil();
             if hi <= lo {

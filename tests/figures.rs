@@ -246,6 +246,10 @@ fn log_axes_are_labelled_at_every_decade_and_legends_avoid_data() {
     assert_eq!(d.x_decades, (2..=8).collect::<Vec<_>>());
     assert_eq!(d.y_decades, (-12..=-3).collect::<Vec<_>>());
     assert_eq!(lagrangian::plot::decade_label(-12), "10⁻¹²");
+    // Nothing positive on a log axis (an error that is exactly zero): one decade, no panic.
+    let zero =
+        Figure::log_y("e", "t", "|ΔE/E₀|", vec![Series { label: "a".into(), points: vec![(0.0, 0.0), (1.0, 0.0)] }]);
+    assert_eq!(zero.describe().y_decades, [-1, 0]);
     // A falling line fills the upper left and lower right: the legend goes upper right.
     let line: Vec<(f64, f64)> = (0..100).map(|i| (i as f64, 100.0 - i as f64)).collect();
     let d = Figure::lines("l", "x", "y", vec![Series { label: "a long legend label".into(), points: line }]).describe();
