@@ -260,3 +260,52 @@ fn log_axes_are_labelled_at_every_decade_and_legends_avoid_data() {
     sound(&d);
     assert!(d.y_range.1 > 19.0 * 1.05);
 }
+
+/// Every figure of every other example: its title, axis labels and series as the scene text
+/// says (read off the `plot` statements and run names), and the rules of [`sound`]. Time
+/// series span their run's time span; paths have equal scales.
+#[test]
+fn every_example_figure_is_labelled_by_what_it_draws() {
+    // (example, file, title, x label, y label, series labels, time span)
+    #[rustfmt::skip]
+    let table: &[(&str, &str, &str, &str, &str, &[&str], Option<f64>)] = &[
+        ("adiabatic_oscillator", "adiabatic_oscillator.svg", "H(t), J(t), run run1", "t", "H, J", &["H", "J"], Some(100.0)),
+        ("anharmonic_oscillator", "anharmonic_phase.svg", "phase portrait of x", "x", "x\u{307}", &["run1"], None),
+        ("charged_particle", "charged_particle_path.svg", "path (x, y), run run1", "x", "y", &["run1"], None),
+        ("charged_particle", "charged_particle_series.svg", "x(t), z(t), run run1", "t", "x, z", &["x", "z"], Some(10.0)),
+        ("kepler", "kepler_energy.svg", "relative energy error |ΔE/E₀|, runs symplectic, classical", "t", "|ΔE/E₀|", &["symplectic (yoshida4)", "classical (rk4)"], Some(1000.0)),
+        ("kepler", "kepler_orbit.svg", "path (x, y), run symplectic", "x", "y", &["symplectic"], None),
+        ("kepler", "kepler_work_precision.svg", "work-precision diagram against run reference", "right-hand-side evaluations", "max |q(T) − q_reference(T)|", &["leapfrog", "yoshida4", "rk4"], None),
+        ("oscillator_action_angle", "oscillator_phase.svg", "phase portrait of q", "q", "p_q", &["run1"], None),
+        ("pendulum", "pendulum_phase.svg", "phase portrait of θ", "θ", "θ\u{307}", &["libration", "near_separatrix"], None),
+        ("pendulum", "pendulum_energy.svg", "relative energy error |ΔE/E₀|, runs libration, near_separatrix", "t", "|ΔE/E₀|", &["libration (gauss6)", "near_separatrix (gauss6)"], Some(20.0)),
+        ("phase_space_oscillator", "phase_space_oscillator.svg", "x(t), p(t), run orbit", "t", "x, p", &["x", "p"], Some(10.0)),
+        ("point_vortices", "point_vortices_path.svg", "path (x₁, y₁), run pair", "x₁", "y₁", &["pair"], None),
+    ];
+    let mut sessions: Vec<(&str, Session, tempfile::TempDir)> = Vec::new();
+    for (name, file, title, xl, yl, labels, span) in table {
+        if !sessions.iter().any(|(n, _, _)| n == name) {
+            let (s, d) = run(&example(name));
+            sessions.push((name, s, d));
+        }
+        let (_, s, dir) = sessions.iter().find(|(n, _, _)| n == name).unwrap();
+        let d = figure(s, file);
+        sound(d);
+        assert_eq!((d.title.as_str(), d.xlabel.as_str(), d.ylabel.as_str()), (*title, *xl, *yl), "{file}");
+        let got: Vec<&str> = d.series.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(&got, labels, "{file}");
+        if let Some(t1) = span {
+            assert!(d.x_range.0 <= 0.0 && d.x_range.1 >= *t1, "{file}: {:?}", d.x_range);
+        }
+        if d.title.starts_with("path") {
+            assert!(d.equal_aspect, "{file}");
+        }
+        // The title is drawn, as text of the SVG.
+        assert!(svg_texts(&dir.path().join(file)).iter().any(|t| t == title), "{file}: title not drawn");
+    }
+    // The damped driven pendulum's section names its event and run.
+    let (s, _dir) = run(&example("damped_driven_pendulum"));
+    let d = figure(&s, "damped_driven_section.svg");
+    sound(d);
+    assert!(d.title.starts_with("Poincaré section at ") && d.title.ends_with("run chaotic"), "{}", d.title);
+}
