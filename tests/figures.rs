@@ -267,8 +267,10 @@ fn log_axes_are_labelled_at_every_decade_and_legends_avoid_data() {
 #[test]
 fn every_example_figure_is_labelled_by_what_it_draws() {
     // (example, file, title, x label, y label, series labels, time span)
+    type Row =
+        (&'static str, &'static str, &'static str, &'static str, &'static str, &'static [&'static str], Option<f64>);
     #[rustfmt::skip]
-    let table: &[(&str, &str, &str, &str, &str, &[&str], Option<f64>)] = &[
+    let table: &[Row] = &[
         ("adiabatic_oscillator", "adiabatic_oscillator.svg", "H(t), J(t), run run1", "t", "H, J", &["H", "J"], Some(100.0)),
         ("anharmonic_oscillator", "anharmonic_phase.svg", "phase portrait of x", "x", "x\u{307}", &["run1"], None),
         ("charged_particle", "charged_particle_path.svg", "path (x, y), run run1", "x", "y", &["run1"], None),
