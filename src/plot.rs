@@ -3,6 +3,13 @@
 //! and the separatrix through X), configuration-space paths, energy error on a log scale,
 //! Poincaré sections, and work-precision diagrams (log–log, one marked line per method).
 //!
+//! Every figure is first reduced to a [`Description`] (title, axis labels, series, ranges,
+//! labelled decades of log axes, the legend's corner); the renderer draws exactly that, and
+//! tests inspect it, so what a figure shows is checked without reading pixels. Log axes are
+//! widened to whole decades and labelled at each one; configuration-space paths get equal
+//! scales on both axes; the legend goes to the first corner where it covers no data, or the
+//! y range grows to make room for it.
+//!
 //! Text needs a font for both back ends (plotters measures text with it). The DejaVu Sans
 //! font is embedded (`assets/fonts/`, Bitstream Vera licence, which allows redistribution
 //! with its notice, in `assets/fonts/LICENSE-DejaVu.txt`), so output does not depend on the
@@ -13,12 +20,78 @@ use std::sync::Once;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
-const FAMILY: &str = "sans-serif";
+pub(crate) static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+pub(crate) const FAMILY: &str = "sans-serif";
 const SIZE: (u32, u32) = (960, 680);
+/// The strip above the chart that holds the title.
+const TITLE_H: u32 = 44;
+const MARGIN: u32 = 16;
+const X_LABEL_AREA: u32 = 48;
+const Y_LABEL_AREA: u32 = 80;
+/// The plotting area in pixels: the figure less the title strip, margins and label areas.
+pub const PLOT_AREA: (u32, u32) = (SIZE.0 - 2 * MARGIN - Y_LABEL_AREA, SIZE.1 - TITLE_H - 2 * MARGIN - X_LABEL_AREA);
+/// Series beyond this many (an ensemble's orbits) get no legend entries: the title says what
+/// they are.
+pub const MAX_LEGEND: usize = 12;
 
-fn ensure_font() {
+/// Where the legend sits inside the plotting area.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Corner {
+    /// Top right.
+    UpperRight,
+    /// Top left.
+    UpperLeft,
+    /// Bottom right.
+    LowerRight,
+    /// Bottom left.
+    LowerLeft,
+}
+
+/// One drawn series: its legend text and how many finite points it has.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeriesInfo {
+    /// Legend text.
+    pub label: String,
+    /// Finite points drawn (before thinning for the screen).
+    pub points: usize,
+}
+
+/// What a figure shows, as the renderer draws it.
+#[derive(Clone, Debug)]
+pub struct Description {
+    /// The title above the chart.
+    pub title: String,
+    /// The x axis label.
+    pub xlabel: String,
+    /// The y axis label.
+    pub ylabel: String,
+    /// The series, in drawing order.
+    pub series: Vec<SeriesInfo>,
+    /// The x range drawn (data units).
+    pub x_range: (f64, f64),
+    /// The y range drawn (data units).
+    pub y_range: (f64, f64),
+    /// Whether the x axis is logarithmic.
+    pub log_x: bool,
+    /// Whether the y axis is logarithmic.
+    pub log_y: bool,
+    /// The exponents of the labelled decades of a logarithmic x axis (every one in range).
+    pub x_decades: Vec<i32>,
+    /// The same for the y axis.
+    pub y_decades: Vec<i32>,
+    /// Both axes have the same scale (data units per pixel).
+    pub equal_aspect: bool,
+    /// The legend's corner, when there is a legend.
+    pub legend: Option<Corner>,
+    /// Its size in pixels (an upper estimate of what plotters draws).
+    pub legend_size: (u32, u32),
+    /// Data points under the legend box (zero unless nothing could be moved).
+    pub legend_covers: usize,
+}
+
+pub(crate) fn ensure_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The embedded font is valid; if registration failed, plotting reports a font error.
@@ -65,6 +138,8 @@ pub struct Figure {
     style: Style,
     /// The phase portrait's coordinate is an angle: its orbits are wrapped to `(−π, π]`.
     periodic: bool,
+    /// Equal scales on both axes (a path in configuration space).
+    equal_aspect: bool,
 }
 
 /// A fixed point of the phase portrait.
@@ -82,7 +157,21 @@ pub struct FixedPoint {
 impl Figure {
     /// Curves.
     pub fn lines(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::Lines, periodic: false }
+        Figure {
+            title: title.into(),
+            xlabel: x.into(),
+            ylabel: y.into(),
+            series,
+            style: Style::Lines,
+            periodic: false,
+            equal_aspect: false,
+        }
+    }
+
+    /// A path in configuration space: curves drawn with equal scales on both axes, so a
+    /// circle looks round.
+    pub fn path(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
+        Figure { equal_aspect: true, ..Figure::lines(title, x, y, series) }
     }
 
     /// Points.
@@ -94,12 +183,21 @@ impl Figure {
             series,
             style: Style::Scatter,
             periodic: false,
+            equal_aspect: false,
         }
     }
 
     /// Curves on a logarithmic y axis (non-positive values are left out).
     pub fn log_y(title: &str, x: &str, y: &str, series: Vec<Series>) -> Figure {
-        Figure { title: title.into(), xlabel: x.into(), ylabel: y.into(), series, style: Style::LogY, periodic: false }
+        Figure {
+            title: title.into(),
+            xlabel: x.into(),
+            ylabel: y.into(),
+            series,
+            style: Style::LogY,
+            periodic: false,
+            equal_aspect: false,
+        }
     }
 
     /// Marked lines on logarithmic x and y axes, the work-precision diagram (points with a
@@ -112,6 +210,7 @@ impl Figure {
             series,
             style: Style::LogLog,
             periodic: false,
+            equal_aspect: false,
         }
     }
 
@@ -146,6 +245,7 @@ impl Figure {
             series,
             style: Style::Phase(contours),
             periodic,
+            equal_aspect: false,
         }
     }
 
@@ -224,6 +324,191 @@ impl Figure {
         let (y0, y1) = pad(r.2, r.3);
         (x0, x1, y0, y1)
     }
+}
+
+impl Figure {
+    /// Whether the axes are logarithmic `(x, y)`.
+    fn logs(&self) -> (bool, bool) {
+        match self.style {
+            Style::LogLog => (true, true),
+            Style::LogY => (false, true),
+            _ => (false, false),
+        }
+    }
+
+    /// The points as drawn: finite, and positive on a log axis.
+    fn drawable(&self) -> impl Iterator<Item = (usize, (f64, f64))> + '_ {
+        let (lx, ly) = self.logs();
+        self.series.iter().enumerate().flat_map(move |(i, s)| {
+            s.points
+                .iter()
+                .copied()
+                .filter(move |(x, y)| x.is_finite() && y.is_finite() && (!lx || *x > 0.0) && (!ly || *y > 0.0))
+                .map(move |p| (i, p))
+        })
+    }
+
+    /// The legend's entries.
+    fn legend_entries(&self) -> Vec<String> {
+        if self.series.len() > MAX_LEGEND {
+            return Vec::new();
+        }
+        let mut v: Vec<String> = self.series.iter().map(|s| s.label.clone()).collect();
+        if matches!(&self.style, Style::Phase(Some(_))) {
+            v.push("separatrix".into());
+        }
+        v
+    }
+
+    /// What the figure shows: the ranges after widening log axes to whole decades, equal
+    /// scales and room for the legend, and where the legend goes.
+    pub fn describe(&self) -> Description {
+        let (log_x, log_y) = self.logs();
+        let (mut x0, mut x1, mut y0, mut y1) = self.ranges();
+        let decades = |a: f64, b: f64| -> (f64, f64) {
+            // Nothing positive to draw (an energy error that is exactly zero): one decade.
+            if !(a > 0.0 && b >= a && b.is_finite()) {
+                return (0.1, 1.0);
+            }
+            let lo = a.log10().floor();
+            let mut hi = b.log10().ceil();
+            if hi <= lo {
+                hi = lo + 1.0;
+            }
+            (10f64.powf(lo), 10f64.powf(hi))
+        };
+        if log_x {
+            (x0, x1) = decades(x0, x1);
+        }
+        if log_y {
+            (y0, y1) = decades(y0, y1);
+        }
+        let (w, h) = (PLOT_AREA.0 as f64, PLOT_AREA.1 as f64);
+        let equal = |x0: &mut f64, x1: &mut f64, y0: &mut f64, y1: &mut f64| {
+            let scale = ((*x1 - *x0) / w).max((*y1 - *y0) / h);
+            let (cx, cy) = (0.5 * (*x0 + *x1), 0.5 * (*y0 + *y1));
+            (*x0, *x1) = (cx - 0.5 * scale * w, cx + 0.5 * scale * w);
+            (*y0, *y1) = (cy - 0.5 * scale * h, cy + 0.5 * scale * h);
+        };
+        if self.equal_aspect && !log_x && !log_y {
+            equal(&mut x0, &mut x1, &mut y0, &mut y1);
+        }
+        let entries = self.legend_entries();
+        let legend_size = if entries.is_empty() {
+            (0, 0)
+        } else {
+            let chars = entries.iter().map(|e| e.chars().count()).max().unwrap_or(0) as u32;
+            (chars * 9 + 60, entries.len() as u32 * 24 + 16)
+        };
+        let mut legend = None;
+        let mut covers = 0;
+        if !entries.is_empty() {
+            let corners = [Corner::UpperRight, Corner::UpperLeft, Corner::LowerRight, Corner::LowerLeft];
+            let counts: Vec<usize> =
+                corners.iter().map(|c| self.covered(*c, legend_size, (x0, x1, y0, y1), (log_x, log_y))).collect();
+            match counts.iter().position(|n| *n == 0) {
+                Some(i) => legend = Some(corners[i]),
+                None => {
+                    // Every corner has data: raise the top of the y range until the legend's
+                    // height above the highest point is free.
+                    let room = h / (h - legend_size.1 as f64 - 12.0).max(h / 4.0);
+                    if log_y {
+                        let (a, b) = (y0.log10(), y1.log10());
+                        y1 = 10f64.powf((a + (b - a) * room).ceil());
+                    } else {
+                        y1 = y0 + (y1 - y0) * room;
+                    }
+                    if self.equal_aspect && !log_x && !log_y {
+                        // Widen x to keep equal scales; the top band stays free.
+                        let scale = (y1 - y0) / h;
+                        let cx = 0.5 * (x0 + x1);
+                        (x0, x1) = (cx - 0.5 * scale * w, cx + 0.5 * scale * w);
+                    }
+                    legend = Some(Corner::UpperRight);
+                    covers = self.covered(Corner::UpperRight, legend_size, (x0, x1, y0, y1), (log_x, log_y));
+                }
+            }
+        }
+        let decade_list = |on: bool, a: f64, b: f64| -> Vec<i32> {
+            if !on {
+                return Vec::new();
+            }
+            let (lo, hi) = (a.log10().round() as i32, b.log10().round() as i32);
+            let stride = ((hi - lo) / 24 + 1).max(1);
+            (lo..=hi).filter(|k| (k - lo) % stride == 0).collect()
+        };
+        Description {
+            title: self.title.clone(),
+            xlabel: self.xlabel.clone(),
+            ylabel: self.ylabel.clone(),
+            series: self
+                .series
+                .iter()
+                .enumerate()
+                .map(|(i, s)| SeriesInfo {
+                    label: s.label.clone(),
+                    points: self.drawable().filter(|(j, _)| *j == i).count(),
+                })
+                .collect(),
+            x_range: (x0, x1),
+            y_range: (y0, y1),
+            log_x,
+            log_y,
+            x_decades: decade_list(log_x, x0, x1),
+            y_decades: decade_list(log_y, y0, y1),
+            equal_aspect: self.equal_aspect,
+            legend,
+            legend_size,
+            legend_covers: covers,
+        }
+    }
+
+    /// How many drawn points fall under a legend of `size` pixels in `corner` (placed as
+    /// plotters places it, 5 pixels in from the corner, plus a few pixels of slack).
+    fn covered(&self, corner: Corner, size: (u32, u32), r: (f64, f64, f64, f64), logs: (bool, bool)) -> usize {
+        let (w, h) = (PLOT_AREA.0 as f64, PLOT_AREA.1 as f64);
+        let (bw, bh) = (size.0 as f64 + 8.0, size.1 as f64 + 8.0);
+        let map = |v: f64, a: f64, b: f64, log: bool| {
+            if log {
+                (v.log10() - a.log10()) / (b.log10() - a.log10())
+            } else {
+                (v - a) / (b - a)
+            }
+        };
+        let (left, top) = match corner {
+            Corner::UpperRight => (true, true),
+            Corner::UpperLeft => (false, true),
+            Corner::LowerRight => (true, false),
+            Corner::LowerLeft => (false, false),
+        };
+        self.drawable()
+            .filter(|(_, (x, y))| {
+                let px = map(*x, r.0, r.1, logs.0) * w;
+                let py = (1.0 - map(*y, r.2, r.3, logs.1)) * h;
+                let in_x = if left { px >= w - 5.0 - bw } else { px <= 5.0 + bw };
+                let in_y = if top { py <= 5.0 + bh } else { py >= h - 5.0 - bh };
+                in_x && in_y
+            })
+            .count()
+    }
+}
+
+/// `10⁻³`: a decade label with a superscript exponent.
+pub fn decade_label(k: i32) -> String {
+    let sup = |c: char| match c {
+        '-' => '⁻',
+        '0' => '⁰',
+        '1' => '¹',
+        '2' => '²',
+        '3' => '³',
+        '4' => '⁴',
+        '5' => '⁵',
+        '6' => '⁶',
+        '7' => '⁷',
+        '8' => '⁸',
+        _ => '⁹',
+    };
+    format!("10{}", k.to_string().chars().map(sup).collect::<String>())
 }
 
 /// Fixed points along `v = 0`: zeros of `∂f/∂q` (central differences on a grid, refined by
@@ -465,167 +750,202 @@ pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
     }
 }
 
+/// Draws `fig` as [`Figure::describe`] lays it out: the title in a strip above the chart,
+/// then the chart.
 fn render<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> Result<(), String>
 where
     DB::ErrorType: 'static,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
-    let (x0, x1, y0, y1) = fig.ranges();
-    let mut builder = ChartBuilder::on(root);
-    builder.caption(&fig.title, (FAMILY, 24)).margin(16).x_label_area_size(48).y_label_area_size(80);
-    if let Style::LogY = fig.style {
-        let mut chart = builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(&fig.xlabel)
-            .y_desc(&fig.ylabel)
-            .label_style((FAMILY, 15))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(err)?;
-        for (i, s) in fig.series.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
-            let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(_, y)| *y > 0.0 && y.is_finite()).collect();
+    let d = fig.describe();
+    let (top, body) = root.split_vertically(TITLE_H);
+    top.draw(&Text::new(
+        d.title.clone(),
+        (SIZE.0 as i32 / 2, 12),
+        TextStyle::from((FAMILY, 24).into_font()).pos(Pos::new(HPos::Center, VPos::Top)),
+    ))
+    .map_err(err)?;
+    let mut builder = ChartBuilder::on(&body);
+    builder.margin(MARGIN).x_label_area_size(X_LABEL_AREA).y_label_area_size(Y_LABEL_AREA);
+    let ((x0, x1), (y0, y1)) = (d.x_range, d.y_range);
+    let decade_points = |ks: &[i32]| ks.iter().map(|k| 10f64.powi(*k)).collect::<Vec<f64>>();
+    let decade_text = |v: &f64| decade_label(v.log10().round() as i32);
+    match fig.style {
+        Style::LogY => {
+            let mut chart = builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale().with_key_points(decade_points(&d.y_decades)))
+                .map_err(err)?;
             chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(err)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-        }
-        if !fig.series.is_empty() {
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.85))
-                .label_font((FAMILY, 15))
+                .configure_mesh()
+                .x_desc(&d.xlabel)
+                .y_desc(&d.ylabel)
+                .label_style((FAMILY, 15))
+                .y_label_formatter(&decade_text)
                 .draw()
                 .map_err(err)?;
-        }
-        return Ok(());
-    }
-    if let Style::LogLog = fig.style {
-        let mut chart = builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()).map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(&fig.xlabel)
-            .y_desc(&fig.ylabel)
-            .label_style((FAMILY, 15))
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(err)?;
-        for (i, s) in fig.series.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
-            let pts: Vec<(f64, f64)> = s
-                .points
-                .iter()
-                .copied()
-                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
-                .collect();
-            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))).map_err(err)?;
-            chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(err)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-        }
-        if !fig.series.is_empty() {
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.85))
-                .label_font((FAMILY, 15))
-                .draw()
-                .map_err(err)?;
-        }
-        return Ok(());
-    }
-    let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?;
-    chart.configure_mesh().x_desc(&fig.xlabel).y_desc(&fig.ylabel).label_style((FAMILY, 15)).draw().map_err(err)?;
-    if let Style::Phase(Some(c)) = &fig.style {
-        let (nx, ny) = (120, 96);
-        let xs: Vec<f64> = (0..=nx).map(|i| x0 + (x1 - x0) * i as f64 / nx as f64).collect();
-        let ys: Vec<f64> = (0..=ny).map(|j| y0 + (y1 - y0) * j as f64 / ny as f64).collect();
-        let values: Vec<Vec<f64>> = ys.iter().map(|&y| xs.iter().map(|&x| (c.f)(x, y)).collect()).collect();
-        let finite = values.iter().flatten().copied().filter(|v| v.is_finite());
-        let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-        if lo.is_finite() && hi > lo {
-            let grey = RGBColor(150, 150, 170);
-            let levels = 14;
-            for k in 1..levels {
-                let level = lo + (hi - lo) * k as f64 / levels as f64;
-                let lines = chain_segments(contour_segments(&values, &xs, &ys, level));
-                chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, grey.stroke_width(1)))).map_err(err)?;
-            }
-            let mut fps = fixed_points(&*c.f, x0, x1);
-            if fig.periodic {
-                // One mark per equilibrium: −π and π are the same point of the circle.
-                let tol = 1e-6;
-                let mut kept: Vec<FixedPoint> = Vec::new();
-                for mut fp in fps {
-                    fp.q = wrap_angle(fp.q);
-                    if (fp.q + std::f64::consts::PI).abs() < tol {
-                        fp.q = std::f64::consts::PI;
-                    }
-                    if !kept.iter().any(|k| (wrap_angle(k.q - fp.q)).abs() < tol) {
-                        kept.push(fp);
-                    }
-                }
-                fps = kept;
-            }
-            let mut labelled = false;
-            for fp in fps.iter().filter(|f| !f.elliptic) {
-                let lines = chain_segments(contour_segments(&values, &xs, &ys, fp.level));
-                let red = RGBColor(200, 30, 30);
-                let drawn = chart
-                    .draw_series(lines.into_iter().map(|l| PathElement::new(l, red.stroke_width(2))))
-                    .map_err(err)?;
-                if !labelled {
+            for (i, s) in fig.series.iter().enumerate() {
+                let color = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> =
+                    s.points.iter().copied().filter(|(x, y)| *y > 0.0 && y.is_finite() && x.is_finite()).collect();
+                let drawn = chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?;
+                if d.legend.is_some() {
                     drawn
-                        .label("separatrix")
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
-                    labelled = true;
+                        .label(s.label.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
                 }
             }
-            for fp in &fps {
-                let name = if fp.elliptic { "O" } else { "X" };
-                let style = ShapeStyle::from(&BLACK).filled();
-                chart
-                    .draw_series(std::iter::once(
-                        EmptyElement::at((fp.q, 0.0))
-                            + Circle::new((0, 0), 4, style)
-                            + Text::new(name.to_string(), (6, -18), (FAMILY, 18)),
-                    ))
-                    .map_err(err)?;
+            draw_legend(&mut chart, &d).map_err(err)
+        }
+        Style::LogLog => {
+            let mut chart = builder
+                .build_cartesian_2d(
+                    (x0..x1).log_scale().with_key_points(decade_points(&d.x_decades)),
+                    (y0..y1).log_scale().with_key_points(decade_points(&d.y_decades)),
+                )
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(&d.xlabel)
+                .y_desc(&d.ylabel)
+                .label_style((FAMILY, 15))
+                .x_label_formatter(&decade_text)
+                .y_label_formatter(&decade_text)
+                .draw()
+                .map_err(err)?;
+            for (i, s) in fig.series.iter().enumerate() {
+                let color = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+                    .collect();
+                chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))).map_err(err)?;
+                let drawn = chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?;
+                if d.legend.is_some() {
+                    drawn
+                        .label(s.label.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+                }
             }
+            draw_legend(&mut chart, &d).map_err(err)
+        }
+        _ => {
+            let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?;
+            chart.configure_mesh().x_desc(&d.xlabel).y_desc(&d.ylabel).label_style((FAMILY, 15)).draw().map_err(err)?;
+            if let Style::Phase(Some(c)) = &fig.style {
+                draw_contours(&mut chart, fig, c, (x0, x1, y0, y1), d.legend.is_some()).map_err(err)?;
+            }
+            let scatter = matches!(fig.style, Style::Scatter);
+            let pieces = fig.drawn_pieces((x0, x1, y0, y1));
+            for (i, (s, lines)) in fig.series.iter().zip(pieces).enumerate() {
+                let color = Palette99::pick(i + 1).to_rgba();
+                let drawn = if scatter {
+                    let pts = lines.into_iter().flatten();
+                    chart.draw_series(pts.map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
+                } else {
+                    // One polyline per piece (a single element when nothing was cut).
+                    chart
+                        .draw_series(lines.into_iter().map(|l| PathElement::new(l, color.stroke_width(2))))
+                        .map_err(err)?
+                };
+                if d.legend.is_some() {
+                    drawn
+                        .label(s.label.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+                }
+            }
+            draw_legend(&mut chart, &d).map_err(err)
         }
     }
-    let scatter = matches!(fig.style, Style::Scatter);
-    let pieces = fig.drawn_pieces((x0, x1, y0, y1));
-    for (i, (s, lines)) in fig.series.iter().zip(pieces).enumerate() {
-        let color = Palette99::pick(i + 1).to_rgba();
-        let drawn = if scatter {
-            let pts = lines.into_iter().flatten();
-            chart.draw_series(pts.map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
-        } else {
-            // One polyline per piece (a single element when nothing was cut).
-            chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, color.stroke_width(2)))).map_err(err)?
-        };
-        drawn
-            .label(s.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+}
+
+/// The legend box in the corner [`Figure::describe`] chose.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    d: &Description,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let Some(corner) = d.legend else { return Ok(()) };
+    let position = match corner {
+        Corner::UpperRight => SeriesLabelPosition::UpperRight,
+        Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
+        Corner::LowerRight => SeriesLabelPosition::LowerRight,
+        Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
+    };
+    chart
+        .configure_series_labels()
+        .position(position)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.85))
+        .label_font((FAMILY, 15))
+        .draw()
+}
+
+/// Contours of the phase portrait's energy, its fixed points (O, X) and the separatrix.
+fn draw_contours<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    fig: &Figure,
+    c: &Contours,
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+    legend: bool,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (nx, ny) = (120, 96);
+    let xs: Vec<f64> = (0..=nx).map(|i| x0 + (x1 - x0) * i as f64 / nx as f64).collect();
+    let ys: Vec<f64> = (0..=ny).map(|j| y0 + (y1 - y0) * j as f64 / ny as f64).collect();
+    let values: Vec<Vec<f64>> = ys.iter().map(|&y| xs.iter().map(|&x| (c.f)(x, y)).collect()).collect();
+    let finite = values.iter().flatten().copied().filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    if !(lo.is_finite() && hi > lo) {
+        return Ok(());
     }
-    let has_legend = !fig.series.is_empty() || matches!(&fig.style, Style::Phase(Some(_)));
-    if has_legend {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.85))
-            .label_font((FAMILY, 15))
-            .draw()
-            .map_err(err)?;
+    let grey = RGBColor(150, 150, 170);
+    let levels = 14;
+    for k in 1..levels {
+        let level = lo + (hi - lo) * k as f64 / levels as f64;
+        let lines = chain_segments(contour_segments(&values, &xs, &ys, level));
+        chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, grey.stroke_width(1))))?;
+    }
+    let mut fps = fixed_points(&*c.f, x0, x1);
+    if fig.periodic {
+        // One mark per equilibrium: −π and π are the same point of the circle.
+        let tol = 1e-6;
+        let mut kept: Vec<FixedPoint> = Vec::new();
+        for mut fp in fps {
+            fp.q = wrap_angle(fp.q);
+            if (fp.q + std::f64::consts::PI).abs() < tol {
+                fp.q = std::f64::consts::PI;
+            }
+            if !kept.iter().any(|k| (wrap_angle(k.q - fp.q)).abs() < tol) {
+                kept.push(fp);
+            }
+        }
+        fps = kept;
+    }
+    let mut labelled = !legend;
+    for fp in fps.iter().filter(|f| !f.elliptic) {
+        let lines = chain_segments(contour_segments(&values, &xs, &ys, fp.level));
+        let red = RGBColor(200, 30, 30);
+        let drawn = chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, red.stroke_width(2))))?;
+        if !labelled {
+            drawn
+                .label("separatrix")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+            labelled = true;
+        }
+    }
+    for fp in &fps {
+        let name = if fp.elliptic { "O" } else { "X" };
+        let style = ShapeStyle::from(&BLACK).filled();
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((fp.q, 0.0))
+                + Circle::new((0, 0), 4, style)
+                + Text::new(name.to_string(), (6, -18), (FAMILY, 18)),
+        ))?;
     }
     Ok(())
 }

@@ -142,6 +142,48 @@ pub struct SimSpec {
     pub every: Option<Src>,
     /// `points N`: keep about N states.
     pub points: Option<Src>,
+    /// `for each y in A..B step H on E = VALUE solve p > 0`: an ensemble of runs.
+    pub ensemble: Option<EnsembleSpec>,
+}
+
+/// `for each y in A..B step H on E = VALUE solve p > 0` of a `simulate` statement.
+#[derive(Clone, Debug)]
+pub struct EnsembleSpec {
+    /// The swept state variable.
+    pub var: Src,
+    /// First value.
+    pub from: Src,
+    /// Last value (included when the steps reach it).
+    pub to: Src,
+    /// Step between values.
+    pub step: Src,
+    /// The named expression held fixed (`H`).
+    pub on: Src,
+    /// Its value.
+    pub value: Src,
+    /// The state variable solved for.
+    pub solve: Src,
+    /// Solve on the positive (`> 0`) or negative side.
+    pub positive: bool,
+    /// The whole clause.
+    pub span: Span,
+}
+
+/// `animate …`.
+#[derive(Clone, Debug)]
+pub struct AnimateSpec {
+    /// The points `(x, y)`: bodies, joined by arms in order.
+    pub points: Vec<(Src, Src)>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The GIF file.
+    pub path: Src,
+    /// `fps N`.
+    pub fps: Option<Src>,
+    /// `duration SECONDS`.
+    pub duration: Option<Src>,
+    /// `size PIXELS`.
+    pub size: Option<Src>,
 }
 
 /// `stabilize …` of a `simulate` statement.
@@ -188,6 +230,8 @@ pub enum PlotKind {
     Poincare(Src, Src),
     /// Expressions against time.
     Series(Vec<Src>),
+    /// log₁₀ of the phase-space distance between two runs against time.
+    Separation(Src, Src),
     /// Error against work over several runs of the system, one line per method; the error
     /// is against the named reference run, else the largest relative energy error.
     WorkPrecision(Option<Src>),
@@ -243,6 +287,8 @@ pub enum StmtKind {
     Simulate(Box<SimSpec>),
     /// `plot …`
     Plot(Box<PlotSpec>),
+    /// `animate …`
+    Animate(Box<AnimateSpec>),
     /// `export … to FILE`
     Export {
         /// Columns or symbolic results (empty: the whole state).

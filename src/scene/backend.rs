@@ -249,6 +249,24 @@ pub trait Backend {
         run: &RunRequest,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Trajectory, BackendError>;
+    /// Integrates one compiled system from several initial states (an ensemble); `progress`
+    /// receives the fraction of runs finished. One at a time unless a backend does better.
+    fn integrate_many(
+        &self,
+        compiled: &Compiled,
+        runs: &[RunRequest],
+        progress: &mut dyn FnMut(f64),
+    ) -> Vec<Result<Trajectory, BackendError>> {
+        let n = runs.len().max(1) as f64;
+        runs.iter()
+            .enumerate()
+            .map(|(k, r)| {
+                let out = self.integrate(compiled, r, &mut |_| {});
+                progress((k + 1) as f64 / n);
+                out
+            })
+            .collect()
+    }
 }
 
 /// What [`NativeBackend::compile`] builds.
@@ -563,6 +581,38 @@ impl Backend for NativeBackend {
                 t.stop = "end of the time span".into();
             }
             t
+        })
+    }
+
+    /// The runs in parallel on rayon's pool; this thread reports how many have finished
+    /// (every 50 ms) while a scoped thread waits for the pool.
+    fn integrate_many(
+        &self,
+        compiled: &Compiled,
+        runs: &[RunRequest],
+        progress: &mut dyn FnMut(f64),
+    ) -> Vec<Result<Trajectory, BackendError>> {
+        use rayon::prelude::*;
+        let done = AtomicUsize::new(0);
+        let n = runs.len().max(1) as f64;
+        std::thread::scope(|scope| {
+            let work = scope.spawn(|| {
+                runs.par_iter()
+                    .map(|r| {
+                        let out = NativeBackend.integrate(compiled, r, &mut |_| {});
+                        done.fetch_add(1, Ordering::Relaxed);
+                        out
+                    })
+                    .collect::<Vec<_>>()
+            });
+            while !work.is_finished() {
+                progress(done.load(Ordering::Relaxed) as f64 / n);
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            progress(1.0);
+            work.join().unwrap_or_else(|_| {
+                runs.iter().map(|_| Err(BackendError::Failed("internal: an ensemble worker panicked".into()))).collect()
+            })
         })
     }
 }

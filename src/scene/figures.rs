@@ -5,9 +5,11 @@ use std::path::{Component, PathBuf};
 use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
 use super::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
+use super::session::fmt_num;
 use super::session::{Layout, Mode, Printed, RunResult, Session};
 use super::simulate::state_names;
 use crate::expr::Symbol;
+use crate::print::Format;
 
 /// Columns of numbers as CSV (a header of names, one row per index) or as JSON (the run, its
 /// method and the named columns). Every column has the same length.
@@ -121,6 +123,16 @@ impl Session {
                         self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
                     (file, span)
                 }
+                StmtKind::Animate(spec) => {
+                    let (file, span, _) = self.out_file(
+                        Some(&spec.path),
+                        "animation",
+                        "animation",
+                        &["gif"],
+                        super::animate::ANIMATION_FORMATS,
+                    )?;
+                    (file, span)
+                }
                 _ => continue,
             };
             self.staging.claim(&file).map_err(|e| e.at(span))?;
@@ -155,6 +167,7 @@ impl Session {
         let (path, pspan, _) =
             self.out_file(spec.path.as_ref(), plot_default(&spec.kind), "image", &["svg", "png"], PLOT_FORMATS)?;
         let figure = self.figure(spec)?;
+        self.figures.push((path.clone(), figure.describe()));
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         crate::plot::draw(&figure, &tmp).map_err(|e| {
             SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
@@ -166,7 +179,7 @@ impl Session {
     /// Announces an output file. The line is withdrawn if the file is not moved into place
     /// (a later statement of the scene fails), so "wrote" is never printed for a file that
     /// does not exist.
-    fn wrote(&mut self, path: &std::path::Path) {
+    pub(super) fn wrote(&mut self, path: &std::path::Path) {
         self.output.push(format!("wrote {}", path.display()));
         self.staging.announced(self.output.len() - 1);
     }
@@ -176,27 +189,39 @@ impl Session {
         match &spec.kind {
             PlotKind::Series(exprs) => {
                 let ids = self.run_ids(&spec.runs)?;
+                let labels: Vec<String> = exprs.iter().map(|s| self.unicode(s)).collect();
                 let mut series = Vec::new();
-                for id in ids {
+                for &id in &ids {
                     let r = self.demand_run(id)?;
-                    for src in exprs {
+                    for (src, label) in exprs.iter().zip(&labels) {
                         let e = self.resolved(src)?;
                         let ys = self.along(&r, &e, src.span)?;
-                        let label = if spec.runs.len() > 1 {
-                            format!("{} ({})", src.text, self.runs[id].name)
-                        } else {
-                            src.text.clone()
-                        };
+                        let label =
+                            if ids.len() > 1 { format!("{label}, {}", self.runs[id].name) } else { label.clone() };
                         series.push(Series { label, points: r.traj.t.iter().copied().zip(ys).collect() });
                     }
                 }
-                Ok(Figure::lines("time series", "t", "value", series))
+                // `θ₂(t)` for a symbol, `(l₁ sin(θ₁))(t)` for a longer expression.
+                let of_t: Vec<String> = exprs
+                    .iter()
+                    .zip(&labels)
+                    .map(|(src, l)| {
+                        if src.text.trim().chars().all(|c| c.is_alphanumeric() || c == '_' || c == '\'') {
+                            format!("{l}(t)")
+                        } else {
+                            format!("({l})(t)")
+                        }
+                    })
+                    .collect();
+                let title = format!("{}, {}", of_t.join(", "), self.runs_phrase(&ids));
+                Ok(Figure::lines(&title, "t", &labels.join(", "), series))
             }
             PlotKind::Path(x, y) | PlotKind::Poincare(x, y) => {
                 let poincare = matches!(spec.kind, PlotKind::Poincare(..));
                 let ids = self.run_ids(&spec.runs)?;
+                let group = self.group_of(&ids).cloned();
                 let mut series = Vec::new();
-                for id in ids {
+                for (k, &id) in ids.iter().enumerate() {
                     let r = self.demand_run(id)?;
                     let ex = self.resolved(x)?;
                     let ey = self.resolved(y)?;
@@ -210,25 +235,34 @@ impl Session {
                         let ys = self.along(&r, &ey, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     };
-                    series.push(Series { label: self.runs[id].name.clone(), points: pts });
+                    let label = match &group {
+                        Some(g) => format!("{} = {}", g.var, fmt_num(g.values[k])),
+                        None => self.runs[id].name.clone(),
+                    };
+                    series.push(Series { label, points: pts });
                 }
+                let (xl, yl) = (self.unicode(x), self.unicode(y));
+                let runs = self.runs_phrase(&ids);
                 Ok(if poincare {
-                    Figure::scatter("Poincaré section", &x.text, &y.text, series)
+                    let at = self.section_phrase(ids[0]);
+                    Figure::scatter(&format!("Poincaré section{at}, {runs}"), &xl, &yl, series)
                 } else {
-                    Figure::lines("configuration-space path", &x.text, &y.text, series)
+                    Figure::path(&format!("path ({xl}, {yl}), {runs}"), &xl, &yl, series)
                 })
             }
             PlotKind::Energy => {
                 let ids = self.run_ids(&spec.runs)?;
                 let mut series = Vec::new();
-                for id in ids {
+                for &id in &ids {
                     let r = self.demand_run(id)?;
                     let errors = self.energy_errors(&r)?;
                     let pts = r.traj.t.iter().copied().zip(errors).collect();
                     series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
                 }
-                Ok(Figure::log_y("relative energy error", "t", "|ΔE/E₀|", series))
+                let title = format!("relative energy error |ΔE/E₀|, {}", self.runs_phrase(&ids));
+                Ok(Figure::log_y(&title, "t", "|ΔE/E₀|", series))
             }
+            PlotKind::Separation(a, b) => self.separation(a, b),
             PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
             PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
         }
@@ -302,7 +336,101 @@ impl Session {
             Some((name, _)) => format!("max |q(T) − q_{name}(T)|"),
             None => "max |ΔE/E₀|".to_string(),
         };
-        Ok(Figure::log_log("work-precision diagram", "right-hand-side evaluations", &ylabel, series))
+        let title = match &exact {
+            Some((name, _)) => format!("work-precision diagram against run {name}"),
+            None => "work-precision diagram".to_string(),
+        };
+        Ok(Figure::log_log(&title, "right-hand-side evaluations", &ylabel, series))
+    }
+
+    /// An expression as written, in Unicode (`θ2` → `θ₂`, `θ'` → `θ̇`); the text itself when
+    /// it does not parse on its own.
+    pub(super) fn unicode(&mut self, src: &Src) -> String {
+        let text = match self.expr(src) {
+            Ok((e, _)) => crate::print::render(&e, Format::Unicode),
+            Err(_) => src.text.trim().to_string(),
+        };
+        subscript_indices(&text)
+    }
+
+    /// `run a`, `runs a, b`, or `21 runs of sea on H = 1/8` for an ensemble.
+    pub(super) fn runs_phrase(&self, ids: &[usize]) -> String {
+        if let Some(g) = self.group_of(ids) {
+            return format!("{} runs of {} on {}", ids.len(), g.name, g.level);
+        }
+        let names: Vec<&str> = ids.iter().map(|i| self.runs[*i].name.as_str()).collect();
+        match names.len() {
+            1 => format!("run {}", names[0]),
+            _ => format!("runs {}", names.join(", ")),
+        }
+    }
+
+    /// ` at x = 0 (rising)`: the first `record when` event of a run.
+    fn section_phrase(&mut self, id: usize) -> String {
+        let Some(ev) = self.runs[id].spec.events.iter().find(|e| !e.terminal).cloned() else {
+            return String::new();
+        };
+        let lhs = self.unicode(&ev.lhs);
+        let rhs = ev.rhs.as_ref().map_or("0".to_string(), |r| self.unicode(r));
+        let dir = match ev.rising {
+            Some(true) => " (rising)",
+            Some(false) => " (falling)",
+            None => "",
+        };
+        format!(" at {lhs} = {rhs}{dir}")
+    }
+
+    /// `plot separation a, b`: log₁₀ of the Euclidean distance between the two runs' states
+    /// against t, and a least-squares line through it up to where it first comes within a
+    /// decade of its largest value (where the growth saturates). Its slope times ln 10 is a
+    /// finite-time Lyapunov estimate, printed. The runs must share their stored times (two
+    /// fixed-step runs with the same step and span), since interpolating one of them would
+    /// add an error larger than the early separation.
+    fn separation(&mut self, a: &Src, b: &Src) -> Result<crate::plot::Figure, SceneError> {
+        use crate::plot::{Figure, Series};
+        let ids = self.run_ids(&[a.clone(), b.clone()])?;
+        let (ra, rb) = (self.demand_run(ids[0])?, self.demand_run(ids[1])?);
+        let same_times = ra.traj.t.len() == rb.traj.t.len()
+            && ra.traj.t.iter().zip(&rb.traj.t).all(|(x, y)| (x - y).abs() <= 1e-12 * x.abs().max(1.0));
+        if ra.layout != rb.layout || ra.coords != rb.coords || !same_times {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("`{}` and `{}` do not share their states' times and variables", a.text, b.text),
+            )
+            .at((a.span.0, b.span.1))
+            .hint("simulate both with the same fixed-step method, step and time span (for example `with gauss6 dt = 0.004`)"));
+        }
+        let pts: Vec<(f64, f64)> = ra
+            .traj
+            .t
+            .iter()
+            .zip(ra.traj.y.iter().zip(&rb.traj.y))
+            .map(|(t, (ya, yb))| {
+                let d = ya.iter().zip(yb).map(|(u, v)| (u - v) * (u - v)).sum::<f64>().sqrt();
+                (*t, d.log10())
+            })
+            .filter(|(_, l)| l.is_finite())
+            .collect();
+        let mut series = vec![Series { label: "log₁₀ |Δz|".to_string(), points: pts.clone() }];
+        if let Some((slope, intercept, t_end)) = growth_fit(&pts) {
+            let t0 = pts[0].0;
+            let lambda = slope * std::f64::consts::LN_10;
+            self.output.push(format!(
+                "separation of {} and {}: log₁₀ |Δz| grows by {} per unit time over t = {}..{}; finite-time Lyapunov estimate λ ≈ {}",
+                a.text,
+                b.text,
+                fmt_sig(slope),
+                fmt_num(t0),
+                fmt_num(t_end),
+                fmt_sig(lambda)
+            ));
+            series.push(Series {
+                label: format!("fit: slope {}, λ ≈ {}", fmt_sig(slope), fmt_sig(lambda)),
+                points: vec![(t0, intercept + slope * t0), (t_end, intercept + slope * t_end)],
+            });
+        }
+        let title = format!("phase-space separation of runs {} and {}", a.text, b.text);
+        Ok(Figure::lines(&title, "t", "log₁₀ |Δz|", series))
     }
 
     pub(super) fn phase_figure(
@@ -404,11 +532,12 @@ impl Session {
             .at(self.span)
             .hint("add a `simulate …` statement before `plot phase`"));
         }
+        let qs = crate::print::symbol(&q, Format::Unicode);
         let vlabel = match layout {
-            Layout::Momenta => format!("p_{}", q.name()),
-            Layout::Velocities => format!("{}'", q.name()),
+            Layout::Momenta => crate::print::symbol(&Symbol::new(&format!("p_{}", q.name())), Format::Unicode),
+            Layout::Velocities => crate::print::symbol(&q.prime(), Format::Unicode),
         };
-        Ok(Figure::phase("phase portrait", q.name(), &vlabel, orbits, contours))
+        Ok(Figure::phase(&format!("phase portrait of {qs}"), &qs, &vlabel, orbits, contours))
     }
 
     pub(super) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
@@ -504,6 +633,7 @@ fn plot_default(kind: &PlotKind) -> &'static str {
         PlotKind::Poincare(..) => "poincare",
         PlotKind::Series(_) => "series",
         PlotKind::WorkPrecision(_) => "work_precision",
+        PlotKind::Separation(..) => "separation",
     }
 }
 
@@ -527,4 +657,48 @@ fn final_distance(r: &RunResult, reference: &RunResult, name: &str, ref_name: &s
     let n = r.coords.len();
     let (y, y_ref) = (&r.traj.y[r.traj.y.len() - 1], &reference.traj.y[reference.traj.y.len() - 1]);
     Ok(y[..n].iter().zip(&y_ref[..n]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+}
+
+/// Four significant digits.
+fn fmt_sig(x: f64) -> String {
+    format!("{}", format!("{x:.3e}").parse::<f64>().unwrap_or(x))
+}
+
+/// The least-squares line `(slope, intercept, t_end)` through `(t, log₁₀ d)` from the start
+/// to the first point within one decade of the largest value; `None` with fewer than three
+/// points there.
+pub(super) fn growth_fit(pts: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    let top = pts.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+    let end = pts.iter().position(|p| p.1 >= top - 1.0)?;
+    let window = &pts[..=end];
+    if window.len() < 3 {
+        return None;
+    }
+    let n = window.len() as f64;
+    let (mt, ml) = (window.iter().map(|p| p.0).sum::<f64>() / n, window.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = window.iter().map(|p| (p.0 - mt) * (p.0 - mt)).sum();
+    let sxy: f64 = window.iter().map(|p| (p.0 - mt) * (p.1 - ml)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let slope = sxy / sxx;
+    Some((slope, ml - slope * mt, window[end].0))
+}
+
+/// Digits that end a name become subscripts (`θ2` → `θ₂`, `θ̇1` → `θ̇₁`, `p_θ2` → `p_θ₂`);
+/// numbers standing alone (`0.5`, `2 y`) are left as they are.
+pub(super) fn subscript_indices(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    let mut in_name = false;
+    for c in s.chars() {
+        if c.is_ascii_digit() && in_name {
+            out.push_str(&crate::print::subscript(&c.to_string()));
+            continue;
+        }
+        // A name continues through letters, `_`, combining marks (the dots of θ̇) and its
+        // subscript digits.
+        in_name = c.is_alphabetic() || c == '_' || ('\u{300}'..='\u{36f}').contains(&c);
+        out.push(c);
+    }
+    out
 }

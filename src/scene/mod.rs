@@ -8,6 +8,9 @@
 //!   `lagrangian run --explain` prints).
 //! * `dynamics`: `force`, `rayleigh` and `constraint` statements, resolved into the
 //!   extended Lagrangian a run compiles.
+//! * `ensemble`: `simulate … for each y in A..B step H on E = VALUE solve p > 0`: many runs
+//!   started on one level set, integrated in parallel, named as one group.
+//! * `animate`: `animate path (x, y), … to FILE.gif`, the motion as frames of bodies and arms.
 //! * `sections`: Poincaré sections (`record when …` points) as data for plots and exports.
 //! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
 //! * [`progress`]: progress bars of long simulations, only on a terminal.
@@ -23,10 +26,12 @@
 //! assert_eq!(s.take_output(), ["m x'^2/2 - k x^2/2"]);
 //! ```
 
+mod animate;
 pub mod ast;
 pub mod backend;
 pub mod cache;
 mod dynamics;
+mod ensemble;
 pub mod error;
 mod figures;
 pub mod help;

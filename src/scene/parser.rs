@@ -9,7 +9,7 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    DefValue, DerivCall, DerivKind, EventSpec, Item, LieGenerator, PlotKind, PlotSpec, SimSpec, SmallSpec, Src,
+    AnimateSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind, PlotSpec, SimSpec, SmallSpec, Src,
     StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
@@ -42,6 +42,7 @@ pub const STATEMENTS: &[&str] = &[
     "print",
     "simulate",
     "plot",
+    "animate",
     "export",
     "load",
     "help",
@@ -235,8 +236,9 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         | Rule::plot_path
         | Rule::plot_poincare
         | Rule::plot_series
+        | Rule::plot_separation
         | Rule::plot_work_precision => {
-            "a plot (`phase`, `energy`, `path x, y`, `poincare q, p`, `work_precision`, or expressions)"
+            "a plot (`phase`, `energy`, `path x, y`, `poincare q, p`, `separation a, b`, `work_precision`, or expressions)"
         }
         _ => return None,
     })
@@ -461,6 +463,13 @@ impl Builder {
                             kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
                         }
                         Rule::plot_energy => kind = Some(PlotKind::Energy),
+                        Rule::plot_separation => {
+                            let names: Vec<Src> =
+                                q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| self.src(&s)).collect();
+                            if let [a, b] = &names[..] {
+                                kind = Some(PlotKind::Separation(a.clone(), b.clone()));
+                            }
+                        }
                         Rule::plot_work_precision => {
                             let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
                             kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
@@ -489,6 +498,38 @@ impl Builder {
                 }
                 let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
                 StmtKind::Plot(Box::new(PlotSpec { kind, runs, path }))
+            }
+            Rule::animate => {
+                let mut points = Vec::new();
+                let mut run = None;
+                let mut path = None;
+                let (mut fps, mut duration, mut size) = (None, None, None);
+                for q in inner {
+                    match q.as_rule() {
+                        Rule::anim_point => {
+                            let xs: Vec<Src> = q.into_inner().map(|s| self.src(&s)).collect();
+                            if let [x, y] = &xs[..] {
+                                points.push((x.clone(), y.clone()));
+                            }
+                        }
+                        Rule::name => run = Some(self.src(&q)),
+                        Rule::path => path = Some(self.path(q)),
+                        Rule::anim_option => {
+                            let parts: Vec<Pair<Rule>> = q.into_inner().collect();
+                            if let [key, value] = &parts[..] {
+                                let v = Some(self.src(value));
+                                match key.as_str() {
+                                    "fps" => fps = v,
+                                    "duration" => duration = v,
+                                    _ => size = v,
+                                }
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
+                StmtKind::Animate(Box::new(AnimateSpec { points, run, path, fps, duration, size }))
             }
             Rule::export => {
                 let mut items = Vec::new();
@@ -629,8 +670,10 @@ impl Builder {
         let mut stabilize = None;
         let mut every = None;
         let mut points = None;
+        let mut ensemble = None;
         for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
             match q.as_rule() {
+                Rule::ensemble => ensemble = Some(self.ensemble(q)),
                 Rule::init => {
                     let mut it = q.into_inner();
                     if let (Some(s), Some(v)) = (it.next(), it.next()) {
@@ -701,7 +744,31 @@ impl Builder {
             stabilize,
             every,
             points,
+            ensemble,
         })
+    }
+
+    fn ensemble(&self, q: Pair<Rule>) -> EnsembleSpec {
+        let espan = self.span(&q);
+        let parts: Vec<Pair<Rule>> = q.into_inner().filter(|q| !is_kw(q.as_rule())).collect();
+        let src = |i: usize| parts.get(i).map_or(Src { text: String::new(), span: espan }, |p| self.src(p));
+        let (mut from, mut to) = (src(1), src(1));
+        if let Some(ts) = parts.get(1) {
+            let mut it = ts.clone().into_inner();
+            from = it.next().map_or(from, |b| self.src(&b));
+            to = it.next().map_or(to, |b| self.src(&b));
+        }
+        EnsembleSpec {
+            var: src(0),
+            from,
+            to,
+            step: src(2),
+            on: src(3),
+            value: src(4),
+            solve: src(5),
+            positive: parts.get(6).is_some_and(|p| p.as_str() == ">"),
+            span: espan,
+        }
     }
 }
 

@@ -164,6 +164,11 @@ pub struct Session {
     pub(super) local_names: Vec<String>,
     /// `force`, `rayleigh` and `constraint` statements so far.
     pub(super) dynamics: super::dynamics::Dynamics,
+    /// Ensembles: a name for several runs (`from NAME` means all of them), with what they
+    /// share (the level set they start on), in statement order.
+    pub(super) groups: Vec<super::ensemble::Group>,
+    /// What every figure drawn so far shows, by file.
+    pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
 }
 
 /// The deepest chain of `load` statements.
@@ -222,7 +227,15 @@ impl Session {
             diff: Differentiator::new(),
             local_names: Vec::new(),
             dynamics: Default::default(),
+            groups: Vec::new(),
+            figures: Vec::new(),
         }
+    }
+
+    /// What each figure drawn so far shows (title, labels, series, ranges, legend), by file,
+    /// in the order drawn: the content a test can check without reading pixels.
+    pub fn figures(&self) -> &[(PathBuf, crate::plot::Description)] {
+        &self.figures
     }
 
     /// Starts with the derivations of an earlier session.
@@ -353,6 +366,7 @@ impl Session {
             }
             StmtKind::Simulate(spec) => self.simulate(spec),
             StmtKind::Plot(spec) => self.plot(spec),
+            StmtKind::Animate(spec) => self.animate(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
             StmtKind::Average { small: Some(_), .. } => self.average_small(&st.kind),
             StmtKind::Average { l, trials, phase, frequency, amplitudes, small: None, format } => {

@@ -20,6 +20,9 @@ impl Session {
     // ----- simulation ----------------------------------------------------------------------
 
     pub(super) fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+        if spec.ensemble.is_some() {
+            return self.simulate_ensemble(spec);
+        }
         // Validate the parts that need no derivation now, so a typo is reported at once.
         self.check_method(spec)?;
         let name = match &spec.name {
@@ -126,6 +129,21 @@ impl Session {
         name: &str,
         dynamics: &Dynamics,
     ) -> Result<RunResult, SceneError> {
+        let (compiled, run, template) = self.prepare_run(spec, name, dynamics)?;
+        let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
+        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        Ok(RunResult { traj: Arc::new(traj), ..template })
+    }
+
+    /// Everything of a run but its integration: the compiled system, the request (with the
+    /// initial state) and the result without its trajectory. `self.span` is left at the
+    /// statement.
+    pub(super) fn prepare_run(
+        &mut self,
+        spec: &SimSpec,
+        name: &str,
+        dynamics: &Dynamics,
+    ) -> Result<(Compiled, RunRequest, RunResult), SceneError> {
         let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
         self.span = stmt_span;
         let method = self.check_method(spec)?;
@@ -527,16 +545,16 @@ impl Session {
         };
         let every = self.thinning(spec, dt, t0, t1, name)?;
         let run = RunRequest { method, y0, t0, t1, dt, tol, events, every };
-        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
-        Ok(RunResult {
+        let template = RunResult {
             method,
             layout,
             coords,
             params: params.into_iter().collect(),
-            traj: Arc::new(traj),
+            traj: Arc::new(Trajectory::default()),
             lagrangian: l_expr,
             hamiltonian: h_expr,
-        })
+        };
+        Ok((compiled, run, template))
     }
 
     /// Which steps a run keeps: `every N`, `points N`, or by default at most
@@ -735,11 +753,20 @@ impl Session {
                 0 => Err(SceneError::new(ErrorKind::Undeclared, "no simulation to use")
                     .at(self.span)
                     .hint("add a `simulate …` statement before it")),
-                n => Ok(vec![n - 1]),
+                // The latest statement's runs: all of an ensemble.
+                n => Ok(self
+                    .groups
+                    .last()
+                    .filter(|g| g.ids.last() == Some(&(n - 1)))
+                    .map_or(vec![n - 1], |g| g.ids.clone())),
             };
         }
         let mut out = Vec::new();
         for n in names {
+            if let Some(g) = self.groups.iter().rev().find(|g| g.name == n.text) {
+                out.extend(g.ids.iter().copied());
+                continue;
+            }
             match self.run_names.get(&n.text) {
                 Some(&id) => out.push(id),
                 None => {

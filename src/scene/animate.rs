@@ -1,0 +1,98 @@
+//! `animate [path] (x0, y0), (x1, y1), … [from RUN] to FILE.gif [fps N] [duration S] [size P]`:
+//! the motion of a run as a GIF. The run's span is shown in `duration` seconds at `fps`
+//! frames per second; each frame's points are the expressions linearly interpolated between
+//! stored states at the frame's time (drawing only: the run's numbers are untouched).
+
+use super::ast::{AnimateSpec, Src};
+use super::error::{ErrorKind, SceneError};
+use super::session::{fmt_num, Session};
+use crate::animate::{Animation, Frame};
+
+/// The error hint for a file that is not a GIF.
+pub(super) const ANIMATION_FORMATS: &str = "animations are written as `.gif`";
+
+/// Limits: frames per second, duration in seconds, size in pixels, frames in all.
+const FPS: (f64, f64, f64) = (10.0, 1.0, 50.0);
+const DURATION: (f64, f64, f64) = (4.0, 0.1, 60.0);
+const SIZE: (f64, f64, f64) = (320.0, 64.0, 1024.0);
+const MAX_FRAMES: f64 = 1500.0;
+
+impl Session {
+    pub(super) fn animate(&mut self, spec: &AnimateSpec) -> Result<(), SceneError> {
+        let (path, pspan, _) =
+            self.out_file(Some(&spec.path), "animation", "animation", &["gif"], ANIMATION_FORMATS)?;
+        let fps = self.setting(spec.fps.as_ref(), "fps", FPS)?;
+        let duration = self.setting(spec.duration.as_ref(), "duration", DURATION)?;
+        let size = self.setting(spec.size.as_ref(), "size", SIZE)?.round() as u32;
+        let n = (fps * duration).round().max(2.0);
+        if n > MAX_FRAMES {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("{n:.0} frames (fps × duration) is more than the limit of {MAX_FRAMES:.0}"),
+            )
+            .at(pspan)
+            .hint("lower `fps` or `duration`"));
+        }
+        let id = self.run_ids(&spec.run.clone().into_iter().collect::<Vec<_>>())?[0];
+        let r = self.demand_run(id)?;
+        let mut coords: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
+        for (x, y) in &spec.points {
+            let ex = self.resolved(x)?;
+            let ey = self.resolved(y)?;
+            coords.push((self.along(&r, &ex, x.span)?, self.along(&r, &ey, y.span)?));
+        }
+        let ts = &r.traj.t;
+        let (Some(&t0), Some(&t1)) = (ts.first(), ts.last()) else {
+            return Err(SceneError::new(ErrorKind::Undeclared, "the run has no states to animate").at(pspan));
+        };
+        let n = n as usize;
+        let frames = (0..n)
+            .map(|k| {
+                let t = t0 + (t1 - t0) * k as f64 / (n - 1) as f64;
+                // The stored interval holding t, and the fraction of the way through it.
+                let j = ts.partition_point(|s| *s <= t).clamp(1, ts.len().max(2) - 1).min(ts.len() - 1);
+                let (i, w) = if ts.len() < 2 {
+                    (0, 0.0)
+                } else {
+                    let (a, b) = (ts[j - 1], ts[j]);
+                    (j - 1, if b > a { ((t - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 })
+                };
+                let at = |v: &[f64]| if ts.len() < 2 { v[0] } else { v[i] + w * (v[i + 1] - v[i]) };
+                Frame { t, points: coords.iter().map(|(xs, ys)| (at(xs), at(ys))).collect() }
+            })
+            .collect();
+        let anim = Animation::new(frames, fps, size);
+        let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
+        crate::animate::draw(&anim, &tmp).map_err(|e| {
+            SceneError::new(ErrorKind::Io, format!("cannot write the animation `{}`: {e}", path.display())).at(pspan)
+        })?;
+        self.output.push(format!(
+            "animation of {}: {n} frames at {} fps, t = {}..{}",
+            self.runs[id].name,
+            fmt_num(fps),
+            fmt_num(t0),
+            fmt_num(t1)
+        ));
+        self.wrote(&path);
+        Ok(())
+    }
+
+    /// An animation setting: its value, or the default, within limits.
+    fn setting(
+        &mut self,
+        src: Option<&Src>,
+        what: &str,
+        (default, lo, hi): (f64, f64, f64),
+    ) -> Result<f64, SceneError> {
+        let Some(src) = src else { return Ok(default) };
+        let x = self.bound(src)?;
+        if !(lo..=hi).contains(&x) {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("`{what}` must be between {} and {}, found {}", fmt_num(lo), fmt_num(hi), fmt_num(x)),
+            )
+            .at(src.span));
+        }
+        Ok(x)
+    }
+}
