@@ -31,6 +31,7 @@
 //! [`parse`] text → [`expr`] canonical DAG → [`simplify`] (egg) → [`diff`] → [`print`] / [`eval`].
 
 pub mod algebra;
+pub mod cancel;
 pub mod canonical;
 pub mod chaos;
 pub mod compile;

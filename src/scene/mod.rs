@@ -26,6 +26,7 @@
 pub mod ast;
 pub mod backend;
 pub mod cache;
+pub mod drift;
 mod dynamics;
 pub mod error;
 mod figures;

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
 use super::backend::{CompileRequest, Compiled, EventRequest, Formulation, RunRequest, Trajectory};
 use super::cache::{CacheKey, Value};
+use super::drift::Ledger;
 use super::dynamics::Dynamics;
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
@@ -102,6 +103,7 @@ impl Session {
         if let Some(d) = drift {
             s.push_str(&format!("; constraint drift max |f| = {d:.1e}"));
         }
+        s.push_str(&super::drift::summary_clause(&tr.energy));
         s
     }
 
@@ -512,8 +514,17 @@ impl Session {
             }
         };
         let every = self.thinning(spec, dt, t0, t1, name)?;
-        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every };
-        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        let names = super::drift::input_names(&coords, layout);
+        let check = self.energy_check(spec, &formulation, &names, &params)?;
+        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
+        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every, energy };
+        let mut traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        traj.energy = match (check, std::mem::take(&mut traj.energy)) {
+            (Ok((symbol, _)), Ledger::Checked { report, .. }) => Ledger::Checked { symbol, report },
+            (Err(why), _) => Ledger::Skipped(why),
+            (Ok(_), other) => other,
+        };
+        self.judge_drift(name, &traj, stmt_span)?;
         Ok(RunResult {
             method,
             layout,
