@@ -524,6 +524,13 @@ impl Session {
             (Err(why), _) => Ledger::Skipped(why),
             (Ok(_), other) => other,
         };
+        // The `--explain` plan carries the ledger too (scenes print no run summary).
+        if let Some(entry) = self.plan.iter_mut().rev().find(|e| e.step == Step::Integrate) {
+            let clause = super::drift::summary_clause(&traj.energy);
+            if let Some(open) = entry.what.rfind(')') {
+                entry.what.insert_str(open, &clause.replacen(';', ",", 1));
+            }
+        }
         self.judge_drift(name, &traj, stmt_span)?;
         Ok(RunResult {
             method,
@@ -605,7 +612,11 @@ impl Session {
         let mut bar = Progress::new(name, self.opts.progress);
         let mut progress = |frac: f64| bar.update(frac);
         let result = self.backend.integrate(compiled, run, &mut progress);
-        bar.finish();
+        if result.is_ok() {
+            bar.finish();
+        } else {
+            bar.abandon();
+        }
         let traj = result.map_err(|e| backend_error(e, span))?;
         self.plan.push(PlanEntry {
             step: Step::Integrate,
