@@ -32,6 +32,7 @@
 
 pub mod algebra;
 pub mod animate;
+pub mod cancel;
 pub mod canonical;
 pub mod chaos;
 pub mod compile;

@@ -98,6 +98,9 @@ pub enum StopReason {
     NodeLimit,
     /// The opt-in wall-clock guard ran out (never with the default budget).
     TimeLimit,
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the search; the result is
+    /// the best form found so far, still equal to the input.
+    Interrupted,
 }
 
 impl fmt::Display for StopReason {
@@ -107,6 +110,7 @@ impl fmt::Display for StopReason {
             StopReason::IterationLimit => "iteration limit",
             StopReason::NodeLimit => "node limit",
             StopReason::TimeLimit => "time limit",
+            StopReason::Interrupted => "interrupted",
         })
     }
 }
@@ -122,10 +126,11 @@ pub struct Simplified {
 }
 
 impl Simplified {
-    /// True when the opt-in wall-clock guard decided this result: the same input may then
-    /// simplify differently on another run. Never true under a budget without `time`.
+    /// True when the opt-in wall-clock guard (or an interrupt) decided this result: the same
+    /// input may then simplify differently on another run. Never true under a budget
+    /// without `time` when nothing is interrupted.
     pub fn budget_limited(&self) -> bool {
-        self.stop == StopReason::TimeLimit
+        matches!(self.stop, StopReason::TimeLimit | StopReason::Interrupted)
     }
 }
 
@@ -171,11 +176,14 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
         } else {
             break;
         }
+        if why == StopReason::Interrupted {
+            break;
+        }
     }
     if !same_values(&e, &best) {
         best = e;
     }
-    if timed_out {
+    if timed_out && stop != StopReason::Interrupted {
         stop = StopReason::TimeLimit;
     }
     Simplified { expr: best, stop }
@@ -617,13 +625,17 @@ fn egraph_round(e: &Expr, budget: &Budget) -> (Expr, StopReason) {
         .with_iter_limit(budget.iterations)
         // egg's runner has a 5 s clock by default; without the opt-in guard it must never bind.
         .with_time_limit(budget.time.unwrap_or(Duration::MAX))
+        // Ctrl-C ends the search between iterations (the caller sees `interrupted()` and
+        // reports it; the best form so far is still a correct result).
+        .with_hook(|_| if crate::cancel::interrupted() { Err("interrupted".into()) } else { Ok(()) })
         .run(rule_set());
     let stop = match runner.stop_reason {
         Some(egg::StopReason::IterationLimit(_)) => StopReason::IterationLimit,
         Some(egg::StopReason::NodeLimit(_)) => StopReason::NodeLimit,
         Some(egg::StopReason::TimeLimit(_)) => StopReason::TimeLimit,
-        // `Other` only comes from runner hooks, which are not used.
-        Some(egg::StopReason::Saturated | egg::StopReason::Other(_)) | None => StopReason::Saturated,
+        // `Other` only comes from the interrupt hook above.
+        Some(egg::StopReason::Other(_)) => StopReason::Interrupted,
+        Some(egg::StopReason::Saturated) | None => StopReason::Saturated,
     };
     let best = runner.egraph[runner.egraph.find(root)].data.repr.clone();
     (best, stop)

@@ -100,7 +100,16 @@ impl Backend for Counting {
         // A constant trajectory: enough for plots and exports to have data.
         let t: Vec<f64> = (0..=10).map(|i| run.t0 + (run.t1 - run.t0) * i as f64 / 10.0).collect();
         let y = vec![run.y0.clone(); t.len()];
-        Ok(Trajectory { t, y, events: vec![], steps: 10, evaluations: 10, stop: "end".into(), aux: vec![] })
+        Ok(Trajectory {
+            t,
+            y,
+            events: vec![],
+            steps: 10,
+            evaluations: 10,
+            stop: "end".into(),
+            aux: vec![],
+            ..Default::default()
+        })
     }
 }
 

@@ -34,6 +34,7 @@ fn reports(name: &str, t1: f64, with_event: bool) -> (Vec<f64>, usize) {
         tol: None,
         events: if with_event { vec![EventRequest { index: 0, terminal: false, rising: Some(true) }] } else { vec![] },
         every: None,
+        energy: None,
     };
     let mut seen = Vec::new();
     let tr = NativeBackend.integrate(&compiled, &run, &mut |f| seen.push(f)).unwrap();

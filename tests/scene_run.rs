@@ -208,7 +208,7 @@ plot θ vs t to theta.svg
         "separable split",
         "canonical momenta",
         "compiled right-hand side drift",
-        "integration run1 with yoshida4 (100 steps)",
+        "integration run1 with yoshida4 (100 steps, energy drift max |ΔH/H₀| = ",
     ]) {
         assert!(line.contains(what), "{line} / {what}");
     }

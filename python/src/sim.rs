@@ -2,14 +2,14 @@
 //! or a batch; a drop-in `fun=` for SciPy's `solve_ivp`), `integrate` returning NumPy arrays
 //! and `ensemble` over many initial states. Every integration runs with the GIL released.
 //!
-//! Progress and Ctrl-C without touching the integrators: the driver adds one event whose
-//! function records the current time on every step (the progress bar reads it) and turns
-//! negative when a cancel flag is set, which stops the integration at the next step. The
-//! calling thread waits with the GIL released and, a few times a second, takes the GIL to
-//! draw the bar and check for `KeyboardInterrupt`.
+//! Progress and Ctrl-C: the driver adds one event whose function records the current time on
+//! every step (the progress bar reads it), and hands the run the engine's cancellation token
+//! ([`lagrangian::cancel::CancelToken`], checked before every step), which the waiting thread
+//! sets on `KeyboardInterrupt`. The calling thread waits with the GIL released and, a few
+//! times a second, takes the GIL to draw the bar and check for the signal.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -17,8 +17,8 @@ use lagrangian::compile::{
     CompileError, HamiltonianRhs, LagrangianJacobian, LagrangianRhs, SeparableHamiltonian, Tape, TaylorOde,
 };
 use lagrangian::integrate::{
-    Crossing, Dop853, Event, EventRecord, ExplicitRk, Gauss, Integrate, IntegrateError, Options, Rhs, Separable,
-    Splitting, Status, StopReason, Taylor,
+    Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError, Options, Rhs,
+    Separable, Splitting, Status, StopReason, Taylor,
 };
 use lagrangian::mechanics::{Kind, System};
 use lagrangian::scene::sim::{self as methods, Family};
@@ -351,7 +351,7 @@ impl CompiledRhs {
 pub struct Control {
     t: AtomicU64,
     done: AtomicUsize,
-    cancel: AtomicBool,
+    cancel: lagrangian::cancel::CancelToken,
 }
 
 /// One integration request, checked.
@@ -410,8 +410,13 @@ pub enum RunError {
 }
 
 impl From<IntegrateError> for RunError {
+    /// The token's [`FailureReason::Interrupted`] is the user's Ctrl-C, not a failure.
     fn from(e: IntegrateError) -> Self {
-        RunError::Failed(e)
+        if e.reason == FailureReason::Interrupted {
+            RunError::Cancelled
+        } else {
+            RunError::Failed(e)
+        }
     }
 }
 
@@ -423,15 +428,11 @@ fn drive<S: ?Sized, M: Integrate<S>>(m: &M, sys: &S, y0: &[f64], p: &RunSpec, ct
     if p.final_only {
         opts = opts.final_only();
     }
-    // Event 0 is the progress/cancel hook (see the module docs); the user's follow.
-    opts = opts.event(
+    // Event 0 is the progress hook (see the module docs); the user's follow.
+    opts = opts.cancel(ctl.cancel.clone()).event(
         Event::new(|t, _| {
             ctl.t.store(t.to_bits(), Ordering::Relaxed);
-            if ctl.cancel.load(Ordering::Relaxed) {
-                -1.0
-            } else {
-                1.0
-            }
+            1.0
         })
         .crossing(Crossing::Falling)
         .stop(),
@@ -445,6 +446,7 @@ fn drive<S: ?Sized, M: Integrate<S>>(m: &M, sys: &S, y0: &[f64], p: &RunSpec, ct
     }
     let traj = m.integrate_with(sys, p.t0..p.t1, y0, opts)?;
     let stop = match traj.stop {
+        // The progress hook never changes sign, so event 0 never stops a run.
         StopReason::Event { index: 0, .. } => return Err(RunError::Cancelled),
         StopReason::Event { index, t } => Some((index - 1, t)),
         StopReason::ReachedEnd => None,
@@ -478,6 +480,7 @@ fn drive_dense<S: ?Sized, M: Integrate<S>>(
 ) -> Result<Out, RunError> {
     let n = y0.len();
     let mut solver = m.solver(sys, p.t0, y0, p.t1)?;
+    solver.set_cancel(ctl.cancel.clone());
     let dir = if p.t1 >= p.t0 { 1.0 } else { -1.0 };
     let mut times = Vec::with_capacity(t_eval.len());
     let mut states = vec![0.0; t_eval.len() * n];
@@ -500,7 +503,7 @@ fn drive_dense<S: ?Sized, M: Integrate<S>>(
                 steps: solver.steps(),
             }));
         }
-        if ctl.cancel.load(Ordering::Relaxed) {
+        if ctl.cancel.is_cancelled() {
             return Err(RunError::Cancelled);
         }
         let status = solver.step()?;
@@ -677,7 +680,7 @@ fn with_progress<R: Send>(
                 show(&mut bar);
                 Python::with_gil(|py| {
                     if let Err(e) = py.check_signals() {
-                        ctl.cancel.store(true, Ordering::Relaxed);
+                        ctl.cancel.cancel();
                         interrupted.get_or_insert(e);
                     }
                     if let Some(b) = &bar {
@@ -1113,7 +1116,7 @@ impl PySystem {
         let ctl = Control::default();
         let frac = || if k == 0 { 1.0 } else { ctl.done.load(Ordering::Relaxed) as f64 / k as f64 };
         let one = |y: &[f64]| -> Result<Vec<f64>, String> {
-            if ctl.cancel.load(Ordering::Relaxed) {
+            if ctl.cancel.is_cancelled() {
                 return Err("cancelled".into());
             }
             let r = match run(&c, y, &spec, &ctl) {
@@ -1133,7 +1136,7 @@ impl PySystem {
             Some(th) => lagrangian::compile::ensemble_with_threads(th.max(1), &flat, n, one),
             None => lagrangian::compile::ensemble(&flat, n, one),
         })?;
-        if ctl.cancel.load(Ordering::Relaxed) {
+        if ctl.cancel.is_cancelled() {
             return Err(PyKeyboardInterrupt::new_err("ensemble interrupted"));
         }
         let results = match results {

@@ -24,6 +24,14 @@ pub enum ProductCommand {
         /// Let the scene write outside the output directory (absolute paths, `..`, links).
         #[arg(long)]
         allow_outside: bool,
+        /// Relative energy drift above which a run is reported on standard error (a
+        /// `simulate … drift = X` overrides it for that run).
+        #[arg(long, value_name = "X", default_value_t = lagrangian::integrate::drift::DEFAULT_THRESHOLD, value_parser = super::finite_f64)]
+        drift: f64,
+        /// Make excess energy drift (or an energy jump in one step) an error: exit status 2
+        /// and no output files.
+        #[arg(long)]
+        strict: bool,
         #[command(flatten)]
         cache: CacheArgs,
     },
@@ -65,7 +73,15 @@ fn report(e: &SceneError) -> Failure {
 
 pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
     match cmd {
-        ProductCommand::Run { scene, explain, out_dir, allow_outside, cache } => {
+        ProductCommand::Run { scene, explain, out_dir, allow_outside, drift, strict, cache } => {
+            if drift <= 0.0 {
+                return Err(Failure { code: 2, message: format!("error: --drift must be positive, found {drift}") });
+            }
+            // Ctrl-C stops the running statement at its next check; the staged files are
+            // removed and the exit status is 130 (128 + SIGINT). A second Ctrl-C exits at once.
+            if let Err(e) = lagrangian::cancel::install_ctrlc(lagrangian::cancel::SecondPress::Exit) {
+                eprintln!("warning: {e}; Ctrl-C will end the process without cleaning up");
+            }
             let text = read_scene(&scene).map_err(|e| report(&e))?;
             let mut opts = Options::new(Mode::Scene);
             opts.stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
@@ -80,16 +96,24 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
                 opts.out_dir = d;
             }
             opts.allow_outside = allow_outside;
+            opts.drift_threshold = drift;
+            opts.strict = strict;
             opts.progress = lagrangian::scene::progress::Draw::from_env();
             let mut session = Session::new(opts).with_cache(cache.cache());
             let result = session.run_scene(&scene.display().to_string(), &text);
             for line in session.take_output() {
                 println!("{line}");
             }
+            for line in session.take_warnings() {
+                eprintln!("{line}");
+            }
             if explain {
                 print!("{}", session.explain());
             }
-            result.map_err(|e| report(&e))
+            result.map_err(|e| match e.kind {
+                ErrorKind::Interrupted => Failure { code: 130, message: "interrupted".into() },
+                _ => report(&e),
+            })
         }
         ProductCommand::Repl { cache } => repl(&cache),
     }

@@ -37,6 +37,9 @@ pub enum VariationalError {
     /// `∂D₁L_d/∂q_{k+1}` is singular at an iterate.
     #[error("the Jacobian of the discrete Legendre map is singular at t = {t}; state q = {q:?}")]
     Singular { t: f64, q: Vec<f64> },
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the iteration at `t`.
+    #[error("interrupted at t = {t}; state q = {q:?}")]
+    Interrupted { t: f64, q: Vec<f64> },
 }
 
 /// One point of a discrete trajectory.
@@ -254,6 +257,9 @@ impl VariationalMap {
         let mut out = vec![DiscretePoint { t: t0, q: q.clone(), p: p.clone() }];
         for k in 0..steps {
             let t = t0 + k as f64 * self.h;
+            if crate::cancel::interrupted() {
+                return Err(VariationalError::Interrupted { t, q });
+            }
             self.step(t, &q, &p, &mut dq, &mut p1)?;
             for i in 0..n {
                 q[i] += dq[i];

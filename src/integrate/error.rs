@@ -58,6 +58,9 @@ pub enum FailureReason {
     /// The request itself is invalid (wrong dimension, non-finite initial state, bad span or
     /// step size).
     InvalidInput(String),
+    /// The run's [`crate::cancel::CancelToken`] (or Ctrl-C through the process-wide one) asked
+    /// it to stop; the state is the last accepted one, so the run can be resumed from it.
+    Interrupted,
 }
 
 impl fmt::Display for FailureReason {
@@ -82,6 +85,7 @@ impl fmt::Display for FailureReason {
                 write!(f, "time limit of {seconds} s reached before the stop time")
             }
             FailureReason::InvalidInput(s) => write!(f, "invalid input: {s}"),
+            FailureReason::Interrupted => write!(f, "interrupted"),
         }
     }
 }

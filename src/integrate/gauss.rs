@@ -259,6 +259,9 @@ impl<S: Rhs + ?Sized> Method<S> for Gauss {
         let mut iterations = 0;
         let mut last = f64::NAN;
         while iterations < max_iter {
+            if crate::cancel::interrupted() {
+                return Err(StepFailure(FailureReason::Interrupted));
+            }
             iterations += 1;
             self.eval_stages(sys, w, t, y, h)?;
             // Residual G(Z) = Z − h (A ⊗ I) F(Z), stored negated in rhs.

@@ -46,6 +46,7 @@
 
 pub mod coefficients;
 mod dop853;
+pub mod drift;
 mod error;
 mod gauss;
 pub mod problems;

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::error::{check_finite, FailureReason, IntegrateError, StepFailure};
 use super::Method;
+use crate::cancel::CancelToken;
 
 /// What a [`Solver::step`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,6 +49,8 @@ pub struct Solver<'s, S: ?Sized, M: Method<S>> {
     steps: usize,
     /// Derivatives at both ends of the last step, for Hermite interpolation (computed lazily).
     rates: Option<(Vec<f64>, Vec<f64>)>,
+    /// Checked before every step (with the process-wide token, see [`crate::cancel`]).
+    cancel: Option<CancelToken>,
 }
 
 impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
@@ -97,7 +100,14 @@ impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
             k: 0,
             steps: 0,
             rates: None,
+            cancel: None,
         })
+    }
+
+    /// Stops the stepping with [`FailureReason::Interrupted`] once `token` is cancelled
+    /// (Ctrl-C through the process-wide token stops every solver without this).
+    pub fn set_cancel(&mut self, token: CancelToken) {
+        self.cancel = Some(token);
     }
 
     /// Changes the stop time (the fixed-step grid restarts at the current time).
@@ -159,11 +169,15 @@ impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
         IntegrateError { t: self.t, state: self.y.clone(), reason, steps: self.steps }
     }
 
-    /// Takes one step toward the stop time.
+    /// Takes one step toward the stop time; fails with [`FailureReason::Interrupted`] (before
+    /// stepping, so the state stays the last accepted one) once cancelled.
     pub fn step(&mut self) -> Result<Status, IntegrateError> {
         let remaining = self.t_stop - self.t;
         if remaining == 0.0 {
             return Ok(Status::Finished);
+        }
+        if crate::cancel::interrupted() || self.cancel.as_ref().is_some_and(CancelToken::is_cancelled) {
+            return Err(self.fail(FailureReason::Interrupted));
         }
         let dir = remaining.signum();
         let h = match self.method.fixed_step() {
@@ -332,11 +346,14 @@ pub struct Options<'a> {
     /// Wall-clock budget; exceeding it is [`FailureReason::TimeLimit`]. Checked every 64
     /// steps, so a run overshoots it by at most 64 steps.
     pub time_limit: Option<Duration>,
+    /// A token that stops the run with [`FailureReason::Interrupted`], checked before every
+    /// step (the process-wide Ctrl-C token is checked whether or not one is given).
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Options { output: Output::Every(1), max_steps: 100_000_000, events: Vec::new(), time_limit: None }
+        Options { output: Output::Every(1), max_steps: 100_000_000, events: Vec::new(), time_limit: None, cancel: None }
     }
 }
 
@@ -369,6 +386,11 @@ impl<'a> Options<'a> {
     /// Sets a wall-clock budget.
     pub fn time_limit(mut self, limit: Duration) -> Self {
         self.time_limit = Some(limit);
+        self
+    }
+    /// Stops the run with [`FailureReason::Interrupted`] once `token` is cancelled.
+    pub fn cancel(mut self, token: CancelToken) -> Self {
+        self.cancel = Some(token);
         self
     }
     /// Adds an event.
@@ -550,6 +572,7 @@ fn run<S: ?Sized, M: Method<S>>(
     mut options: Options<'_>,
 ) -> Result<Trajectory, IntegrateError> {
     let mut solver = Solver::new(method, sys, span.start, y0, span.end)?;
+    solver.cancel = options.cancel.take();
     if let Some(h) = method.fixed_step() {
         // A fixed-step run knows its step count: refuse one over budget before the first step
         // instead of failing after hours.

@@ -142,6 +142,8 @@ pub struct SimSpec {
     pub every: Option<Src>,
     /// `points N`: keep about N states.
     pub points: Option<Src>,
+    /// `drift = …`: the relative energy drift above which the run is reported.
+    pub drift: Option<Src>,
     /// `for each y in A..B step H on E = VALUE solve p > 0`: an ensemble of runs.
     pub ensemble: Option<EnsembleSpec>,
 }

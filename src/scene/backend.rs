@@ -165,6 +165,8 @@ pub struct RunRequest {
     /// (every k-th of a fixed-step run for a k chosen up front; evenly thinned as an adaptive
     /// run grows).
     pub every: Option<usize>,
+    /// The conserved energy to check after every step ([`super::drift`]); `None`: unchecked.
+    pub energy: Option<super::drift::EnergyCheck>,
 }
 
 impl RunRequest {
@@ -199,6 +201,8 @@ pub struct Trajectory {
     /// Further named values at each stored state, computed by the compiled system (the
     /// multipliers `λ1, …` and the constraint residuals `residual1, …` of a constrained run).
     pub aux: Vec<(String, Vec<f64>)>,
+    /// The energy ledger: what [`RunRequest::energy`] saw (the session names it).
+    pub energy: super::drift::Ledger,
 }
 
 /// A compiled system, opaque to the session (the backend downcasts it).
@@ -872,7 +876,13 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
     let span = run.t1 - run.t0;
     let calls = std::cell::Cell::new(0usize);
     let progress = std::cell::RefCell::new(progress);
-    let watch = Event::new(|t, _y: &[f64]| {
+    // The same per-step hook feeds the energy ledger (every accepted step, the initial state
+    // first), so a step that jumps is seen even when the output is thinned.
+    let monitor = run.energy.as_ref().map(|c| std::cell::RefCell::new(c.monitor()));
+    let watch = Event::new(|t, y: &[f64]| {
+        if let Some(m) = &monitor {
+            m.borrow_mut().observe(t, y);
+        }
         calls.set(calls.get() + 1);
         if calls.get() % 256 == 0 {
             if let Ok(mut p) = progress.try_borrow_mut() {
@@ -904,6 +914,7 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
     }
     let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(|e| numeric_error(e, run, names))?;
     (progress.into_inner())(1.0);
+    let report = monitor.and_then(|m| m.into_inner().report());
     let dim = tr.dim;
     Ok(Trajectory {
         t: tr.times.clone(),
@@ -917,5 +928,9 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
             StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
         },
         aux: Vec::new(),
+        energy: match report {
+            Some(report) => super::drift::Ledger::Checked { symbol: "", report },
+            None => super::drift::Ledger::Unchecked,
+        },
     })
 }

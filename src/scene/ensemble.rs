@@ -86,7 +86,7 @@ impl Session {
             None => format!("run{}", self.runs.len() + 1),
         };
         let dynamics = self.dynamics.clone();
-        let (compiled, run, template) = self.prepare_run(&base, &name, &dynamics)?;
+        let (compiled, run, template, energy) = self.prepare_run(&base, &name, &dynamics)?;
         let stmt_span = self.span;
         let names = state_names(&template.coords, template.layout);
         let index = |s: &Symbol, src: &Src| {
@@ -173,6 +173,8 @@ impl Session {
                 ))
             })?;
             let member = format!("{name}_{}", k + 1);
+            let mut traj = traj;
+            self.settle_energy(&member, &energy, &mut traj, stmt_span)?;
             let id = self.runs.len();
             let mut member_spec = base.clone();
             member_spec.name = Some(Src { text: member.clone(), span: stmt_span });

@@ -42,6 +42,8 @@ pub enum ErrorKind {
     Encoding,
     /// The scene file is larger than the limit.
     TooLarge,
+    /// Ctrl-C stopped the statement (see [`crate::cancel`]); nothing it was computing is kept.
+    Interrupted,
 }
 
 /// An error in a scene or a REPL line.
@@ -147,6 +149,7 @@ impl Diagnostic for SceneError {
             ErrorKind::Io => "scene::io",
             ErrorKind::Encoding => "scene::encoding",
             ErrorKind::TooLarge => "scene::too_large",
+            ErrorKind::Interrupted => "scene::interrupted",
         };
         Some(Box::new(code))
     }

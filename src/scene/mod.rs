@@ -30,6 +30,7 @@ mod animate;
 pub mod ast;
 pub mod backend;
 pub mod cache;
+pub mod drift;
 mod dynamics;
 mod ensemble;
 pub mod error;

@@ -223,6 +223,7 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::tolerance => "`tol = …`",
         Rule::steps => "`steps = …`",
         Rule::every => "`every N`",
+        Rule::drift => "`drift = …`",
         Rule::points => "`points N`",
         Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
         Rule::direction => "`rising` or `falling`",
@@ -670,6 +671,7 @@ impl Builder {
         let mut stabilize = None;
         let mut every = None;
         let mut points = None;
+        let mut drift = None;
         let mut ensemble = None;
         for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
             match q.as_rule() {
@@ -694,6 +696,7 @@ impl Builder {
                 Rule::steps => steps = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::every => every = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::points => points = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::drift => drift = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::stabilize => {
                     let sspan = self.span(&q);
                     let mut kind = String::new();
@@ -744,6 +747,7 @@ impl Builder {
             stabilize,
             every,
             points,
+            drift,
             ensemble,
         })
     }

@@ -109,6 +109,17 @@ impl Progress {
         self.bar.is_some()
     }
 
+    /// Ends a report whose run failed or was interrupted: a terminal bar is cleared, a plain
+    /// one is left where the run stopped (not drawn at 100 %).
+    pub fn abandon(self) {
+        if let Some(b) = self.bar {
+            match self.draw {
+                Draw::Lines => b.abandon(),
+                _ => b.finish_and_clear(),
+            }
+        }
+    }
+
     /// Ends the report: a terminal bar is cleared, a plain one drawn a last time.
     pub fn finish(self) {
         if let Some(b) = self.bar {

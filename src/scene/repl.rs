@@ -134,9 +134,15 @@ impl Repl {
             }
             return Entry::Ok;
         }
+        crate::cancel::reset_global();
         let result = self.session.run_line(text);
+        crate::cancel::reset_global();
         for line in self.session.take_output() {
             let _ = writeln!(out, "{line}");
+        }
+        let _ = out.flush();
+        for line in self.session.take_warnings() {
+            eprintln!("{line}");
         }
         match result {
             Ok(()) => Entry::Ok,
@@ -156,6 +162,11 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     opts.progress = super::progress::Draw::from_env();
     opts.stem = "repl".to_string();
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
+    // Ctrl-C while a statement runs stops it (at the integrator's next step, the simplifier's
+    // next iteration) and returns to the prompt; at the prompt rustyline reads it as a key.
+    if let Err(e) = crate::cancel::install_ctrlc(crate::cancel::SecondPress::Ignore) {
+        eprintln!("warning: {e}");
+    }
     let mut repl = Repl { session: Session::new(opts).with_cache(cache), history: Vec::new(), color: interactive };
     let mut file_history = FileHistory::new();
     if let Some(p) = &history {

@@ -56,6 +56,12 @@ pub struct Options {
     pub format: Format,
     /// Let a scene write outside `out_dir` (absolute paths, `..`, links): `--allow-outside`.
     pub allow_outside: bool,
+    /// The relative energy drift above which a run is reported (`--drift`; a `simulate`
+    /// statement's `drift = …` overrides it). See [`super::drift`].
+    pub drift_threshold: f64,
+    /// Excess drift (or an energy jump in one step) is an error instead of a warning:
+    /// `--strict`.
+    pub strict: bool,
 }
 
 impl Options {
@@ -69,6 +75,8 @@ impl Options {
             progress: Draw::Hidden,
             format: Format::Unicode,
             allow_outside: false,
+            drift_threshold: crate::integrate::drift::DEFAULT_THRESHOLD,
+            strict: false,
         }
     }
 }
@@ -153,6 +161,8 @@ pub struct Session {
     pub(super) plan: Vec<PlanEntry>,
     pub(super) staging: Staging,
     pub(super) output: Vec<String>,
+    /// Warnings for standard error (energy drift), in order.
+    pub(super) warnings: Vec<String>,
     pub(super) last_printed: Vec<Printed>,
     pub(super) source: Arc<NamedSource<String>>,
     pub(super) line: usize,
@@ -180,6 +190,14 @@ pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 pub(super) fn line_of(text: &str, pos: usize) -> usize {
     let pos = pos.min(text.len());
     text.as_bytes()[..pos].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// `Err(Interrupted)` at `span` once Ctrl-C was pressed (the process-wide token).
+pub(super) fn interruption(span: Span) -> Result<(), SceneError> {
+    crate::cancel::check().map_err(|_| {
+        SceneError::new(ErrorKind::Interrupted, "interrupted (Ctrl-C); this statement's results were discarded")
+            .at(span)
+    })
 }
 
 pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
@@ -219,6 +237,7 @@ impl Session {
             plan: Vec::new(),
             staging,
             output: Vec::new(),
+            warnings: Vec::new(),
             last_printed: Vec::new(),
             source: Arc::new(NamedSource::new("input", String::new())),
             line: 0,
@@ -257,6 +276,11 @@ impl Session {
     /// Lines printed since the last call.
     pub fn take_output(&mut self) -> Vec<String> {
         std::mem::take(&mut self.output)
+    }
+
+    /// The warnings since the last call (each one line, `warning: …`), for standard error.
+    pub fn take_warnings(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.warnings)
     }
 
     /// The session's options.
@@ -320,7 +344,12 @@ impl Session {
         let result = parser::parse_scene(text).and_then(|stmts| {
             self.claim_outputs(&stmts)?;
             for st in &stmts {
-                self.exec(st, text)?;
+                // Ctrl-C: stop before the next statement, and report a statement whose work
+                // was cut short as interrupted whatever error the cut produced.
+                interruption(st.span)?;
+                let r = self.exec(st, text);
+                interruption(st.span)?;
+                r?;
             }
             Ok(())
         });
@@ -868,6 +897,9 @@ impl Session {
         key: CacheKey,
         built: Result<Value, SceneError>,
     ) -> Result<Value, SceneError> {
+        // A value computed while Ctrl-C was pending may be cut short (a simplification
+        // stopped early): it is never cached.
+        interruption(self.span)?;
         let v = built?;
         self.cache.insert(key.clone(), v.clone());
         self.built_here.insert(key);

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
 use super::backend::{CompileRequest, Compiled, EventRequest, Formulation, RunRequest, Trajectory};
 use super::cache::{CacheKey, Value};
+use super::drift::EnergyPlan;
 use super::dynamics::Dynamics;
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
@@ -105,6 +106,7 @@ impl Session {
         if let Some(d) = drift {
             s.push_str(&format!("; constraint drift max |f| = {d:.1e}"));
         }
+        s.push_str(&super::drift::summary_clause(&tr.energy));
         s
     }
 
@@ -129,21 +131,30 @@ impl Session {
         name: &str,
         dynamics: &Dynamics,
     ) -> Result<RunResult, SceneError> {
-        let (compiled, run, template) = self.prepare_run(spec, name, dynamics)?;
+        let (compiled, run, template, energy) = self.prepare_run(spec, name, dynamics)?;
         let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
-        let traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        let mut traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        self.settle_energy(name, &energy, &mut traj, stmt_span)?;
+        // The `--explain` plan carries the ledger too (scenes print no run summary).
+        if let Some(entry) = self.plan.iter_mut().rev().find(|e| e.step == Step::Integrate) {
+            let clause = super::drift::summary_clause(&traj.energy);
+            if let Some(open) = entry.what.rfind(')') {
+                entry.what.insert_str(open, &clause.replacen(';', ",", 1));
+            }
+        }
         Ok(RunResult { traj: Arc::new(traj), ..template })
     }
 
     /// Everything of a run but its integration: the compiled system, the request (with the
-    /// initial state) and the result without its trajectory. `self.span` is left at the
+    /// initial state and the energy check), the result without its trajectory, and which
+    /// energy is checked (or why none is). `self.span` is left at the
     /// statement.
     pub(super) fn prepare_run(
         &mut self,
         spec: &SimSpec,
         name: &str,
         dynamics: &Dynamics,
-    ) -> Result<(Compiled, RunRequest, RunResult), SceneError> {
+    ) -> Result<(Compiled, RunRequest, RunResult, EnergyPlan), SceneError> {
         let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
         self.span = stmt_span;
         let method = self.check_method(spec)?;
@@ -544,7 +555,10 @@ impl Session {
             }
         };
         let every = self.thinning(spec, dt, t0, t1, name)?;
-        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every };
+        let names = super::drift::input_names(&coords, layout);
+        let check = self.energy_check(spec, &formulation, &names, &params)?;
+        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
+        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every, energy };
         let template = RunResult {
             method,
             layout,
@@ -554,7 +568,7 @@ impl Session {
             lagrangian: l_expr,
             hamiltonian: h_expr,
         };
-        Ok((compiled, run, template))
+        Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
     }
 
     /// Which steps a run keeps: `every N`, `points N`, or by default at most
@@ -626,7 +640,11 @@ impl Session {
         let mut bar = Progress::new(name, self.opts.progress);
         let mut progress = |frac: f64| bar.update(frac);
         let result = self.backend.integrate(compiled, run, &mut progress);
-        bar.finish();
+        if result.is_ok() {
+            bar.finish();
+        } else {
+            bar.abandon();
+        }
         let traj = result.map_err(|e| backend_error(e, span))?;
         self.plan.push(PlanEntry {
             step: Step::Integrate,

@@ -1,0 +1,149 @@
+//! Cooperative cancellation: a shared flag that long-running work polls, so that Ctrl-C
+//! (or a library caller on another thread) can stop an integration, a simplification or a
+//! plot between two of its steps and get a typed "interrupted" failure back, with every
+//! earlier result intact.
+//!
+//! Why cooperative and not a signal that kills the thread: the REPL must survive an
+//! interrupt with its definitions, and `lagrangian run` must remove its staged output files
+//! before it exits; both need the work to return normally. The checks are one relaxed atomic
+//! load each, placed where the work already loops (the integrators' step loop, the
+//! simplifier's e-graph iterations, Newton iterations, figure series), so the cost is nil
+//! and the latency is one step of the innermost loop that checks.
+//!
+//! Two kinds of token:
+//! * [`CancelToken::new`] — a private token for one job, given to
+//!   [`crate::integrate::Options::cancel`] or [`crate::integrate::Solver::set_cancel`];
+//! * [`global`] — the process-wide token that the front ends connect to Ctrl-C
+//!   ([`install_ctrlc`]). Every check also honours it, so the stages that take no token
+//!   parameter (the simplifier, the scene session) stop on Ctrl-C too. A library that never
+//!   installs the handler never sees it set.
+//!
+//! The Python binding keeps its own per-call flag (it must also poll Python's signal state
+//! with the GIL held); it stops the library's integrators through the same
+//! [`crate::integrate::Options`] path.
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
+
+/// A cancellation flag shared between the work and whoever may stop it. Cloning shares it.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    /// A fresh, unset token.
+    pub fn new() -> CancelToken {
+        CancelToken::default()
+    }
+
+    /// Asks the work holding this token to stop at its next check.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Clears the request (before starting the next piece of work).
+    pub fn reset(&self) {
+        self.0.store(false, Ordering::Relaxed);
+    }
+
+    /// Whether this token (or the process-wide one) has been cancelled.
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed) || interrupted()
+    }
+
+    /// `Err(Interrupted)` once cancelled.
+    pub fn check(&self) -> Result<(), Interrupted> {
+        if self.is_cancelled() {
+            Err(Interrupted)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// The work stopped because it was asked to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("interrupted")]
+pub struct Interrupted;
+
+static GLOBAL: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+static PRESSES: AtomicUsize = AtomicUsize::new(0);
+
+fn global_flag() -> &'static Arc<AtomicBool> {
+    GLOBAL.get_or_init(|| Arc::new(AtomicBool::new(false)))
+}
+
+/// The process-wide token (set by Ctrl-C once [`install_ctrlc`] has run).
+pub fn global() -> CancelToken {
+    CancelToken(global_flag().clone())
+}
+
+/// Whether the process-wide token is set: the check for code that takes no token.
+#[inline]
+pub fn interrupted() -> bool {
+    GLOBAL.get().is_some_and(|f| f.load(Ordering::Relaxed))
+}
+
+/// `Err(Interrupted)` when the process-wide token is set.
+#[inline]
+pub fn check() -> Result<(), Interrupted> {
+    if interrupted() {
+        Err(Interrupted)
+    } else {
+        Ok(())
+    }
+}
+
+/// Clears the process-wide token and the press count (the REPL does this before each entry).
+pub fn reset_global() {
+    global_flag().store(false, Ordering::Relaxed);
+    PRESSES.store(0, Ordering::Relaxed);
+}
+
+/// What a second Ctrl-C does while the first is still being honoured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SecondPress {
+    /// Nothing more: the REPL waits for the work to reach a check.
+    Ignore,
+    /// Exit at once with status 130 (`lagrangian run`: the user insists; some stage between
+    /// checks is taking too long). Staged output files carry a `.partial` name, so an
+    /// abandoned one is never mistaken for a finished output.
+    Exit,
+}
+
+/// Connects SIGINT (Ctrl-C) to the process-wide token, once per process (later calls return
+/// `Ok` and keep the first handler). On a terminal, rustyline reads keys in raw mode, so
+/// Ctrl-C at the REPL prompt stays a key for the line editor; the signal arrives only while
+/// a command runs.
+pub fn install_ctrlc(second: SecondPress) -> Result<(), String> {
+    static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+    let flag = global_flag().clone();
+    INSTALLED
+        .get_or_init(|| {
+            ctrlc::set_handler(move || {
+                flag.store(true, Ordering::Relaxed);
+                let n = PRESSES.fetch_add(1, Ordering::Relaxed) + 1;
+                if n >= 2 && second == SecondPress::Exit {
+                    std::process::exit(130);
+                }
+            })
+            .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
+        })
+        .clone()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_private_token_is_shared_by_its_clones_and_reset() {
+        let t = CancelToken::new();
+        let u = t.clone();
+        assert!(!u.is_cancelled());
+        t.cancel();
+        assert!(u.is_cancelled());
+        assert_eq!(u.check(), Err(Interrupted));
+        u.reset();
+        assert!(!t.is_cancelled());
+    }
+}

@@ -1,0 +1,170 @@
+//! Interruptible work (issue 13, item 2): a real SIGINT to a child `lagrangian run` ends it
+//! within a second with status 130 and no output file; the piped REPL survives one with its
+//! definitions; and the library's token stops an integration and the simplifier.
+//!
+//! The child-process tests start a simulation of ~10⁸ steps (minutes if nothing stopped it),
+//! wait until its progress line appears on stderr (`LAGRANGIAN_PROGRESS=always`), then send
+//! the signal; a watchdog kills the child after 20 s so a regression fails instead of hanging.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use lagrangian::cancel::CancelToken;
+use lagrangian::integrate::{ExplicitRk, FailureReason, FnRhs, Integrate, Options};
+
+/// A harmonic oscillator run of 10⁸ steps.
+const LONG: &str = "\
+coordinates x
+H = p_x^2/2 + x^2/2
+simulate x = 1, p_x = 0 for t in 0..10000 with rk4 dt = 0.0001 as spin
+";
+
+fn sigint(child: &Child) {
+    // SAFETY: `kill` with a valid pid and signal number has no memory effects here.
+    let r = unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    assert_eq!(r, 0, "kill failed");
+}
+
+/// Lines of a child's stream, as they arrive, on a channel.
+fn lines(stream: impl Read + Send + 'static) -> mpsc::Receiver<String> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stream).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+/// Waits (at most 20 s) for a line containing `needle`, returning everything seen.
+fn wait_for(rx: &mpsc::Receiver<String>, needle: &str) -> Vec<String> {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut seen = Vec::new();
+    while Instant::now() < deadline {
+        if let Ok(l) = rx.recv_timeout(Duration::from_millis(50)) {
+            let hit = l.contains(needle);
+            seen.push(l);
+            if hit {
+                return seen;
+            }
+        }
+    }
+    panic!("no line containing `{needle}` within 20 s; seen {seen:?}");
+}
+
+fn wait_exit(child: &mut Child, limit: Duration) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    while start.elapsed() < limit {
+        if let Some(s) = child.try_wait().unwrap() {
+            return Some(s);
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
+#[test]
+fn ctrl_c_ends_a_scene_run_with_status_130_and_no_output_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("long.scene");
+    std::fs::write(&scene, format!("{LONG}export t, x from spin to spin.csv\n")).unwrap();
+    let out = dir.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .args(["run", scene.to_str().unwrap(), "--no-cache", "--out-dir", out.to_str().unwrap()])
+        .env("LAGRANGIAN_PROGRESS", "always")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = lines(child.stderr.take().unwrap());
+    wait_for(&err, "spin");
+    let sent = Instant::now();
+    sigint(&child);
+    let status = wait_exit(&mut child, Duration::from_secs(20)).expect("the run did not stop within 20 s");
+    let took = sent.elapsed();
+    assert_eq!(status.code(), Some(130), "exit status");
+    assert!(took < Duration::from_secs(1), "took {took:?} to exit after SIGINT");
+    let left: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "files left behind: {left:?}");
+    let mut stdout = String::new();
+    child.stdout.take().unwrap().read_to_string(&mut stdout).unwrap();
+    assert!(!stdout.contains("wrote"), "no file is announced: {stdout}");
+}
+
+#[test]
+fn ctrl_c_in_the_piped_repl_returns_to_the_prompt_with_earlier_definitions() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .arg("repl")
+        .arg("--no-cache")
+        .env("LAGRANGIAN_PROGRESS", "always")
+        .env("LAGRANGIAN_HISTORY", dir.path().join("history"))
+        .current_dir(dir.path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let out = lines(child.stdout.take().unwrap());
+    let err = lines(child.stderr.take().unwrap());
+    stdin.write_all(LONG.as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    wait_for(&err, "spin");
+    let sent = Instant::now();
+    sigint(&child);
+    let before = wait_for(&out, "interrupted");
+    let took = sent.elapsed();
+    assert!(took < Duration::from_secs(1), "took {took:?} to stop after SIGINT");
+    // The definitions before the interrupted statement are intact, and the REPL goes on: a
+    // short run of the same H, then the Hamiltonian printed.
+    stdin
+        .write_all(b"simulate x = 1, p_x = 0 for t in 0..1 with leapfrog dt = 0.01 as short\nprint H\nquit\n")
+        .unwrap();
+    drop(stdin);
+    let status = wait_exit(&mut child, Duration::from_secs(20)).expect("the REPL did not end");
+    assert_eq!(status.code(), Some(0));
+    let rest: Vec<String> = out.try_iter().collect();
+    let transcript = before.into_iter().chain(rest).collect::<Vec<_>>().join("\n");
+    assert!(transcript.contains("short: leapfrog from t = 0 to t = 1 in 100 steps"), "{transcript}");
+    assert!(transcript.contains("H = p_x²/2 + x²/2"), "{transcript}");
+    // The interrupted run was not kept: its name is unknown afterwards.
+    assert!(!transcript.contains("spin: rk4"), "{transcript}");
+}
+
+#[test]
+fn a_token_stops_an_integration_at_its_next_step_with_the_last_good_state() {
+    let token = CancelToken::new();
+    let canceller = token.clone();
+    let rhs = FnRhs {
+        dim: 2,
+        f: |_t: f64, y: &[f64], dy: &mut [f64]| {
+            dy[0] = y[1];
+            dy[1] = -y[0];
+        },
+    };
+    // Cancel from another thread after 50 ms; the run (5·10⁷ steps) would take seconds to minutes.
+    let stopper = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(50));
+        canceller.cancel();
+    });
+    let start = Instant::now();
+    let e = ExplicitRk::rk4(1e-6)
+        .integrate_with(&rhs, 0.0..50.0, &[1.0, 0.0], Options::new().final_only().cancel(token))
+        .unwrap_err();
+    stopper.join().unwrap();
+    assert_eq!(e.reason, FailureReason::Interrupted);
+    assert!(start.elapsed() < Duration::from_secs(5));
+    assert!(e.t > 0.0 && e.t < 50.0 && e.steps > 0, "{e}");
+    // The state is the last accepted one: on the unit circle of the oscillator.
+    let r2 = e.state[0] * e.state[0] + e.state[1] * e.state[1];
+    assert!((r2 - 1.0).abs() < 1e-9, "{e}");
+}
