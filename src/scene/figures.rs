@@ -116,6 +116,16 @@ impl Session {
                     )?;
                     (file, if spec.path.is_some() { span } else { st.span })
                 }
+                StmtKind::Chaos(spec) if spec.map => {
+                    let (file, span, _) = self.out_file(
+                        spec.path.as_ref(),
+                        "chaos_map",
+                        "chaos map",
+                        &["svg", "png", "csv"],
+                        "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
+                    )?;
+                    (file, if spec.path.is_some() { span } else { st.span })
+                }
                 StmtKind::Export { path, .. } => {
                     let (file, span, _) =
                         self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
@@ -166,7 +176,7 @@ impl Session {
     /// Announces an output file. The line is withdrawn if the file is not moved into place
     /// (a later statement of the scene fails), so "wrote" is never printed for a file that
     /// does not exist.
-    fn wrote(&mut self, path: &std::path::Path) {
+    pub(super) fn wrote(&mut self, path: &std::path::Path) {
         self.output.push(format!("wrote {}", path.display()));
         self.staging.announced(self.output.len() - 1);
     }
@@ -231,6 +241,7 @@ impl Session {
             }
             PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
             PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
+            PlotKind::Chaos(word) => self.chaos_figure(word, &spec.runs),
         }
     }
 
@@ -504,6 +515,7 @@ fn plot_default(kind: &PlotKind) -> &'static str {
         PlotKind::Poincare(..) => "poincare",
         PlotKind::Series(_) => "series",
         PlotKind::WorkPrecision(_) => "work_precision",
+        PlotKind::Chaos(_) => "chaos",
     }
 }
 

@@ -8,6 +8,8 @@
 //!   `lagrangian run --explain` prints).
 //! * `dynamics`: `force`, `rayleigh` and `constraint` statements, resolved into the
 //!   extended Lagrangian a run compiles.
+//! * `chaos`: `lyapunov`, `megno`, `fli` and `chaos_map` (chaos indicators of the
+//!   Hamiltonian flow, through [`crate::chaos`]).
 //! * `sections`: Poincaré sections (`record when …` points) as data for plots and exports.
 //! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
 //! * [`progress`]: progress bars of long simulations, only on a terminal.
@@ -26,6 +28,7 @@
 pub mod ast;
 pub mod backend;
 pub mod cache;
+mod chaos;
 mod dynamics;
 pub mod error;
 mod figures;

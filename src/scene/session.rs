@@ -164,6 +164,8 @@ pub struct Session {
     pub(super) local_names: Vec<String>,
     /// `force`, `rayleigh` and `constraint` statements so far.
     pub(super) dynamics: super::dynamics::Dynamics,
+    /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
+    pub(super) chaos_runs: Vec<super::chaos::ChaosRun>,
 }
 
 /// The deepest chain of `load` statements.
@@ -222,6 +224,7 @@ impl Session {
             diff: Differentiator::new(),
             local_names: Vec::new(),
             dynamics: Default::default(),
+            chaos_runs: Vec::new(),
         }
     }
 
@@ -352,6 +355,7 @@ impl Session {
                 Ok(())
             }
             StmtKind::Simulate(spec) => self.simulate(spec),
+            StmtKind::Chaos(spec) => self.chaos(spec),
             StmtKind::Plot(spec) => self.plot(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
             StmtKind::Average { l, trials, phase, frequency, amplitudes, format } => {
