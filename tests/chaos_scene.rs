@@ -101,7 +101,7 @@ megno x = 1, p_x = 0 for t in 0..200
 fli x = 1, p_x = 0 for t in 0..200 as f
 plot megno
 plot fli from f to fli.svg
-chaos_map megno x = -1..1, p_x = -1..1 for t in 0..50 points 3 to map.svg
+chaos_map megno x = -1..1, p_x = -1..1 for t in 0..50 points 3 tol = 1e-12 to map.svg
 ";
     let (code, out, err) = run_in(dir.path(), scene);
     assert_eq!(code, 0, "{err}");
