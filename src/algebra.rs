@@ -111,7 +111,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
                 // took minutes, and (x^2 + 10^20)^100 half a minute (found by tests/fuzz.rs), so
                 // the work counts machine words of coefficient as well as terms.
-                let base_bits = ts.iter().map(|t| rational_bits(&t.coeff_rest().0)).max().unwrap_or(0);
+                let base_bits = ts.iter().map(numeric_bits).max().unwrap_or(0);
                 let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
                 let words = 1 + u128::from(bits / 64);
                 let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps).saturating_mul(words);
@@ -135,6 +135,24 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
     };
     memo.insert(e.clone(), out.clone());
     Ok(out)
+}
+
+/// The bits of exact number a term carries: its rational coefficient and its surds
+/// (`sqrt(99999999999)` has a coefficient of 1, but its 50th power folds to a 1,800-bit
+/// integer: `(x^2 + sqrt(99999999999) a)^100` took 8 s before surds were counted; found by
+/// tests/fuzz.rs).
+fn numeric_bits(t: &Expr) -> u64 {
+    let surd_bits = |f: &Expr| match f.node() {
+        Node::Pow(b, x) => match (b.as_num(), x.as_num()) {
+            (Some(b), Some(x)) => {
+                let power = x.abs().ceil().to_integer().to_u64().unwrap_or(u64::MAX);
+                rational_bits(b).saturating_mul(power)
+            }
+            _ => 0,
+        },
+        _ => 0,
+    };
+    t.factors().iter().map(surd_bits).fold(rational_bits(&t.coeff_rest().0), u64::saturating_add)
 }
 
 /// The number of monomials of degree `k` in `m` variables, `C(k+m−1, m−1)`, saturating.
@@ -409,9 +427,19 @@ impl Poly {
     /// Also gives up when a quotient coefficient outgrows [`Poly::coefficient_bits_bound`]:
     /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
     /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
+    ///
+    /// And it gives up when the arithmetic itself grows too costly: each step normalises
+    /// rationals by a binary gcd, about b²/64 word operations for b-bit numbers, once per term
+    /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
+    /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
     fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
+        /// About 0.2 s of gcd work; exact divisions met in practice use well under 1% of it.
+        const MAX_WORK: u128 = 200_000_000;
         let (ld, lc) = d.lead()?;
         let max_bits = self.coefficient_bits_bound(d);
+        let d_bits = u128::from(d.terms.values().map(rational_bits).max().unwrap_or(0));
+        let d_terms = d.terms.len() as u128;
+        let mut work: u128 = 0;
         let mut r = self.clone();
         let mut q = Poly { terms: BTreeMap::new() };
         for _ in 0..steps {
@@ -421,7 +449,13 @@ impl Poly {
             }
             let shift: Vec<u32> = lm.iter().zip(ld).map(|(a, b)| a - b).collect();
             let coeff = c / lc;
-            if rational_bits(&coeff) > max_bits {
+            let bits = rational_bits(&coeff);
+            if bits > max_bits {
+                return None;
+            }
+            let b = u128::from(bits) + d_bits;
+            work += (d_terms + 1) * b * b / 64;
+            if work > MAX_WORK {
                 return None;
             }
             q.terms.insert(shift.clone(), coeff.clone());

@@ -52,8 +52,8 @@ fn double_pendulum_example_separates_regular_from_chaotic_motion() {
     // A small swing is regular: MEGNO stays bounded (quasi-periodic motion has ⟨Y⟩ → 2, a
     // nearly linear one less) and the finite-time exponent is small; a large one is chaotic:
     // ⟨Y⟩ grows like λt/2.
-    let (y_small, l_small) = (value(&out, "small:", "⟨Y⟩ = "), value(&out, "small:", "λ = "));
-    let (y_large, l_large) = (value(&out, "large:", "⟨Y⟩ = "), value(&out, "large:", "λ = "));
+    let (y_small, l_small) = (value(&out, "low:", "⟨Y⟩ = "), value(&out, "low:", "λ = "));
+    let (y_large, l_large) = (value(&out, "high:", "⟨Y⟩ = "), value(&out, "high:", "λ = "));
     assert!(y_small < 2.5 && l_small < 0.1, "{out}");
     assert!(y_large > 8.0 && l_large > 0.5, "{out}");
     // For a chaotic orbit MEGNO's slope is half the exponent: ⟨Y⟩ ≈ λt/2 at t = 50, to the

@@ -35,6 +35,7 @@ mod figures;
 pub mod help;
 mod notes;
 pub mod output;
+mod parity;
 pub mod parser;
 mod plan;
 pub mod progress;
@@ -43,6 +44,7 @@ mod sections;
 pub mod session;
 pub mod sim;
 mod simulate;
+mod symmetries;
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};
