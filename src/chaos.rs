@@ -15,6 +15,10 @@
 //!   quadrature of `2 y(s)/s` on each step's own polynomial (no extra right-hand sides).
 //!
 //! A chaos map evaluates an indicator over many initial conditions in parallel (rayon).
+//!
+//! [`floquet`] gives the monodromy matrix `M = Φ(T)` over a period and its eigenvalues, the
+//! Floquet multipliers: the linear stability of a periodic orbit, or of a periodically
+//! forced linear system such as Mathieu's equation.
 
 use rayon::prelude::*;
 
@@ -170,4 +174,51 @@ pub fn transition_matrix(
         }
     }
     Ok((phi, y[..n].to_vec()))
+}
+
+/// The monodromy matrix of a periodic orbit (or of a `T`-periodic linear system) and its
+/// Floquet multipliers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Floquet {
+    /// `M = Φ(T)`, row-major `n × n`.
+    pub monodromy: Vec<f64>,
+    /// The state at `T`.
+    pub end: Vec<f64>,
+    /// `‖x(T) − x(0)‖∞`: how far the orbit is from closing (a true periodic orbit has 0;
+    /// for a periodic linear system any start is fine and this is not a test).
+    pub closure: f64,
+    /// The eigenvalues of `M` as `(re, im)`, largest modulus first (ties: larger real part,
+    /// then larger imaginary part, so the order is deterministic). An orbit is linearly
+    /// stable when all have modulus ≤ 1; an autonomous flow always has one multiplier 1
+    /// (along the orbit), a Hamiltonian one has them in pairs `μ, 1/μ` with `Π μ = 1`.
+    pub multipliers: Vec<(f64, f64)>,
+}
+
+impl Floquet {
+    /// The largest modulus of a multiplier.
+    pub fn spectral_radius(&self) -> f64 {
+        self.multipliers.iter().map(|&(re, im)| re.hypot(im)).fold(0.0, f64::max)
+    }
+
+    /// The trace of `M` (for a one-degree-of-freedom Hamiltonian system, `|tr M| < 2` is
+    /// stability and `|tr M| = 2` the boundary).
+    pub fn trace(&self) -> f64 {
+        let n = self.end.len();
+        (0..n).map(|i| self.monodromy[i * n + i]).sum()
+    }
+}
+
+/// The monodromy matrix `Φ(period)` from `x0` with the Taylor method at `tol`, and its Floquet
+/// multipliers (eigenvalues by nalgebra's real Schur decomposition). `sys` needs `n` tangent
+/// vectors and no MEGNO accumulator.
+pub fn floquet(sys: &Variational, x0: &[f64], period: f64, tol: f64) -> Result<Floquet, IntegrateError> {
+    let n = sys.n();
+    assert!(!sys.has_megno(), "the monodromy matrix needs a system without the MEGNO accumulator");
+    let (monodromy, end) = transition_matrix(sys, x0, period, tol)?;
+    let closure = end.iter().zip(x0).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let m = nalgebra::DMatrix::from_row_slice(n, n, &monodromy);
+    let mut multipliers: Vec<(f64, f64)> = m.complex_eigenvalues().iter().map(|z| (z.re, z.im)).collect();
+    multipliers
+        .sort_by(|a, b| b.0.hypot(b.1).total_cmp(&a.0.hypot(a.1)).then(b.0.total_cmp(&a.0)).then(b.1.total_cmp(&a.1)));
+    Ok(Floquet { monodromy, end, closure, multipliers })
 }

@@ -1,7 +1,8 @@
 //! Plots with plotters, as SVG or PNG (chosen by the file extension): time series, phase
 //! portraits with contours of `H` (fixed points marked O — elliptic — and X — hyperbolic —,
 //! and the separatrix through X), configuration-space paths, energy error on a log scale,
-//! Poincaré sections, and work-precision diagrams (log–log, one marked line per method).
+//! Poincaré sections, work-precision diagrams (log–log, one marked line per method), and
+//! heat maps (a value over a grid of starts, such as a chaos map).
 //!
 //! Every figure is first reduced to a [`Description`] (title, axis labels, series, ranges,
 //! labelled decades of log axes, the legend's corner); the renderer draws exactly that, and
@@ -127,6 +128,43 @@ enum Style {
     LogY,
     LogLog,
     Phase(Option<Contours>),
+    Heat(HeatMap),
+}
+
+/// Values on a square grid of cells over `x × y` (row `j` is the `j`-th cell along `y`).
+struct HeatMap {
+    x: (f64, f64),
+    y: (f64, f64),
+    side: usize,
+    values: Vec<f64>,
+}
+
+/// Viridis at five evenly spaced points (the published colour map of matplotlib's
+/// `viridis`), interpolated linearly: perceptually ordered and legible in grey.
+const VIRIDIS: [(f64, f64, f64); 5] =
+    [(68.0, 1.0, 84.0), (59.0, 82.0, 139.0), (33.0, 145.0, 140.0), (94.0, 201.0, 98.0), (253.0, 231.0, 37.0)];
+
+/// The colour of `s ∈ [0, 1]` (clamped).
+fn viridis(s: f64) -> RGBColor {
+    let s = s.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
+    let k = (s.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = s - k as f64;
+    let (a, b) = (VIRIDIS[k], VIRIDIS[k + 1]);
+    let mix = |u: f64, v: f64| (u + (v - u) * f).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The colour scale of a heat map: the smallest finite value to the 95th percentile (a few
+/// runaway values, such as strongly chaotic MEGNO, saturate instead of flattening the rest).
+pub fn heat_range(values: &[f64]) -> Option<(f64, f64)> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let lo = v[0];
+    let hi = v[((v.len() - 1) as f64 * 0.95).round() as usize];
+    Some(if hi > lo { (lo, hi) } else { (lo, lo + 1.0) })
 }
 
 /// A figure ready to draw.
@@ -211,6 +249,27 @@ impl Figure {
             style: Style::LogLog,
             periodic: false,
             equal_aspect: false,
+        }
+    }
+
+    /// A heat map of `values` on a `side × side` grid of cells over `x × y`, row by row
+    /// (`values[j·side + i]` is the cell `i` along x, `j` along y); NaN cells are left grey.
+    pub fn heat_map(
+        title: &str,
+        xlabel: &str,
+        ylabel: &str,
+        x: (f64, f64),
+        y: (f64, f64),
+        side: usize,
+        values: Vec<f64>,
+    ) -> Figure {
+        Figure {
+            title: title.into(),
+            xlabel: xlabel.into(),
+            ylabel: ylabel.into(),
+            series: Vec::new(),
+            style: Style::Heat(HeatMap { x, y, side, values }),
+            periodic: false,
         }
     }
 
@@ -758,6 +817,9 @@ where
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
+    if let Style::Heat(h) = &fig.style {
+        return render_heat(fig, h, root);
+    }
     let d = fig.describe();
     let (top, body) = root.split_vertically(TITLE_H);
     top.draw(&Text::new(
@@ -947,6 +1009,60 @@ fn draw_contours<'a, DB: DrawingBackend + 'a>(
                 + Text::new(name.to_string(), (6, -18), (FAMILY, 18)),
         ))?;
     }
+    Ok(())
+}
+
+fn render_heat<DB: DrawingBackend>(fig: &Figure, h: &HeatMap, root: &DrawingArea<DB, Shift>) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let (x0, x1) = h.x;
+    let (y0, y1) = h.y;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&fig.title, (FAMILY, 24))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(&fig.xlabel)
+        .y_desc(&fig.ylabel)
+        .label_style((FAMILY, 15))
+        .draw()
+        .map_err(err)?;
+    let (lo, hi) = heat_range(&h.values).unwrap_or((0.0, 1.0));
+    let n = h.side;
+    let (dx, dy) = ((x1 - x0) / n as f64, (y1 - y0) / n as f64);
+    let grey = RGBColor(190, 190, 190);
+    chart
+        .draw_series(h.values.iter().enumerate().map(|(k, &v)| {
+            let (i, j) = ((k % n) as f64, (k / n) as f64);
+            let color = if v.is_finite() { viridis((v - lo) / (hi - lo)) } else { grey };
+            Rectangle::new([(x0 + i * dx, y0 + j * dy), (x0 + (i + 1.0) * dx, y0 + (j + 1.0) * dy)], color.filled())
+        }))
+        .map_err(err)?;
+    // The colour scale as a legend of five levels.
+    for k in 0..5 {
+        let s = k as f64 / 4.0;
+        let color = viridis(s);
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(err)?
+            .label(format!("{:.3}{}", lo + s * (hi - lo), if k == 4 { " and above" } else { "" }))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 16, y + 6)], color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.85))
+        .label_font((FAMILY, 15))
+        .draw()
+        .map_err(err)?;
     Ok(())
 }
 

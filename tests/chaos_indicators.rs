@@ -1,7 +1,7 @@
 //! Variational equations and chaos indicators: Φ against finite differences of the flow,
 //! Liouville (det Φ), symplecticity, and the indicators on integrable and chaotic orbits.
 
-use lagrangian::chaos::{chaos_map, indicators, transition_matrix, Indicator};
+use lagrangian::chaos::{chaos_map, floquet, indicators, transition_matrix, Indicator};
 use lagrangian::compile::{TaylorOde, Variational};
 use lagrangian::integrate::{Dop853, Integrate, Options, Taylor};
 use lagrangian::parse;
@@ -171,4 +171,64 @@ fn chaos_map_over_a_small_grid() {
     // Same numbers as one orbit at a time (deterministic, thread-independent).
     let one = indicators(&hh, &starts[1], 300.0, 1e-12).unwrap().megno;
     assert_eq!(map[1], one);
+}
+
+/// Mathieu's equation `x'' + (a − 2q cos 2t) x = 0` as a first-order variational system.
+fn mathieu(a: f64, q: f64) -> Variational {
+    let f = ["v", "-(a - 2 q cos(2 t)) x"].map(|s| parse(s).unwrap());
+    Variational::new(&f, &["x", "v"], &[("a", a), ("q", q)], 2, false).unwrap()
+}
+
+#[test]
+fn monodromy_of_a_constant_coefficient_oscillator_is_its_rotation() {
+    // q = 0: x'' + a x = 0, so over T = π, M = [[cos ωT, sin ωT / ω], [−ω sin ωT, cos ωT]]
+    // with ω = √a, and the multipliers are e^{±iωT}.
+    let a: f64 = 0.3;
+    let w = a.sqrt();
+    let t = std::f64::consts::PI;
+    let fl = floquet(&mathieu(a, 0.0), &[1.0, 0.0], t, 1e-15).unwrap();
+    let want = [(w * t).cos(), (w * t).sin() / w, -w * (w * t).sin(), (w * t).cos()];
+    for (got, want) in fl.monodromy.iter().zip(want) {
+        assert!((got - want).abs() < 1e-13, "{:?} vs {want:?}", fl.monodromy);
+    }
+    assert!((fl.spectral_radius() - 1.0).abs() < 1e-13);
+    let (re, im) = fl.multipliers[0];
+    assert!((re - (w * t).cos()).abs() < 1e-13 && (im.abs() - (w * t).sin().abs()).abs() < 1e-13, "{fl:?}");
+    assert!((fl.trace() - 2.0 * (w * t).cos()).abs() < 1e-13);
+}
+
+#[test]
+fn mathieu_first_instability_tongue_matches_the_series_boundaries() {
+    // Abramowitz & Stegun 20.2.25: the characteristic values bounding the first tongue are
+    // a₁(q) = 1 − q − q²/8 + q³/64 − q⁴/1536 − 11q⁵/36864 + …
+    // b₁(q) = 1 + q − q²/8 − q³/64 − q⁴/1536 + 11q⁵/36864 + …
+    // Between them the solutions grow (|tr M| > 2 over the period π); outside, they are bounded.
+    let q: f64 = 0.2;
+    let a1 = 1.0 - q - q * q / 8.0 + q.powi(3) / 64.0 - q.powi(4) / 1536.0 - 11.0 * q.powi(5) / 36864.0;
+    let b1 = 1.0 + q - q * q / 8.0 - q.powi(3) / 64.0 - q.powi(4) / 1536.0 + 11.0 * q.powi(5) / 36864.0;
+    let t = std::f64::consts::PI;
+    let excess = |a: f64| {
+        let fl = floquet(&mathieu(a, q), &[1.0, 0.0], t, 1e-15).unwrap();
+        // Liouville: the flow of a trace-free linear system keeps volume.
+        assert!((fl.monodromy[0] * fl.monodromy[3] - fl.monodromy[1] * fl.monodromy[2] - 1.0).abs() < 1e-12);
+        fl.trace().abs() - 2.0
+    };
+    assert!(excess(a1 - 0.02) < 0.0 && excess(1.0) > 0.0 && excess(b1 + 0.02) < 0.0);
+    // Locate both boundaries by bisection on |tr M| − 2.
+    let bisect = |mut lo: f64, mut hi: f64| {
+        let s = excess(lo).signum();
+        for _ in 0..30 {
+            let mid = 0.5 * (lo + hi);
+            if excess(mid).signum() == s {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    };
+    let (fa, fb) = (bisect(a1 - 0.02, 1.0), bisect(1.0, b1 + 0.02));
+    // The next series terms are O(q⁶) ≈ 1e-6 here.
+    assert!((fa - a1).abs() < 1e-5, "a1: {fa} vs series {a1}");
+    assert!((fb - b1).abs() < 1e-5, "b1: {fb} vs series {b1}");
 }

@@ -199,6 +199,21 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
+/// `megno …`, `lyapunov …`, `fli …` (one orbit) or `chaos_map INDICATOR …` (a grid).
+#[derive(Clone, Debug)]
+pub struct ChaosSpec {
+    /// `lyapunov`, `megno` or `fli`.
+    pub indicator: Src,
+    /// The starts, time span, options and name, read like a `simulate` statement's.
+    pub sim: SimSpec,
+    /// `chaos_map`: over a grid of starts.
+    pub map: bool,
+    /// The map's axes: `θ1 = -3..3` as (coordinate, from, to).
+    pub ranges: Vec<(Src, Src, Src)>,
+    /// The map's `to FILE`.
+    pub path: Option<Src>,
+}
+
 /// `small σ unperturbed ω0 [principal A]` of an `average` statement.
 #[derive(Clone, Debug)]
 pub struct SmallSpec {
@@ -234,6 +249,8 @@ pub enum PlotKind {
     Series(Vec<Src>),
     /// log₁₀ of the phase-space distance between two runs against time.
     Separation(Src, Src),
+    /// A chaos indicator (`lyapunov`, `megno`, `fli`) against time, from chaos statements.
+    Chaos(Src),
     /// Error against work over several runs of the system, one line per method; the error
     /// is against the named reference run, else the largest relative energy error.
     WorkPrecision(Option<Src>),
@@ -287,6 +304,8 @@ pub enum StmtKind {
     },
     /// `simulate …`
     Simulate(Box<SimSpec>),
+    /// `megno …`, `chaos_map megno …`
+    Chaos(Box<ChaosSpec>),
     /// `plot …`
     Plot(Box<PlotSpec>),
     /// `animate …`

@@ -127,6 +127,17 @@ impl Session {
             Formulation::FirstOrder(_) => return Ok(Err("first-order Lagrangian: not implemented".into())),
             Formulation::Separable { t: kinetic, v } => ("H", kinetic.plus(v)),
             Formulation::Hamiltonian(h) => ("H", h.clone()),
+            // The map's state is (q, p) with the discrete momenta, which approach ∂L/∂q' at
+            // the method's order: the Legendre transform's H measures its energy error.
+            Formulation::Variational(l) => {
+                if has_t(l) {
+                    return Ok(Err("L depends on t explicitly: H is not conserved".into()));
+                }
+                match self.derive(DerivKind::Legendre, vec![l.clone()], self.span)? {
+                    Value::Expr(e) => ("H", e),
+                    _ => return Ok(Err("no Hamiltonian".into())),
+                }
+            }
             Formulation::Lagrangian(l) => {
                 if has_t(l) {
                     return Ok(Err("L depends on t explicitly: h is not conserved".into()));

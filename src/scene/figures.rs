@@ -118,6 +118,16 @@ impl Session {
                     )?;
                     (file, if spec.path.is_some() { span } else { st.span })
                 }
+                StmtKind::Chaos(spec) if spec.map => {
+                    let (file, span, _) = self.out_file(
+                        spec.path.as_ref(),
+                        "chaos_map",
+                        "chaos map",
+                        &["svg", "png", "csv"],
+                        "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
+                    )?;
+                    (file, if spec.path.is_some() { span } else { st.span })
+                }
                 StmtKind::Export { path, .. } => {
                     let (file, span, _) =
                         self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
@@ -265,6 +275,7 @@ impl Session {
             PlotKind::Separation(a, b) => self.separation(a, b),
             PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
             PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
+            PlotKind::Chaos(word) => self.chaos_figure(word, &spec.runs),
         }
     }
 
@@ -634,6 +645,7 @@ fn plot_default(kind: &PlotKind) -> &'static str {
         PlotKind::Series(_) => "series",
         PlotKind::WorkPrecision(_) => "work_precision",
         PlotKind::Separation(..) => "separation",
+        PlotKind::Chaos(_) => "chaos",
     }
 }
 

@@ -11,6 +11,8 @@
 //! * `ensemble`: `simulate … for each y in A..B step H on E = VALUE solve p > 0`: many runs
 //!   started on one level set, integrated in parallel, named as one group.
 //! * `animate`: `animate path (x, y), … to FILE.gif`, the motion as frames of bodies and arms.
+//! * `chaos`: `lyapunov`, `megno`, `fli` and `chaos_map` (chaos indicators of the
+//!   Hamiltonian flow, through [`crate::chaos`]).
 //! * `sections`: Poincaré sections (`record when …` points) as data for plots and exports.
 //! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
 //! * [`progress`]: progress bars of long simulations, only on a terminal.
@@ -31,6 +33,7 @@ pub mod ast;
 pub mod backend;
 pub mod cache;
 pub mod drift;
+mod chaos;
 mod dynamics;
 mod ensemble;
 pub mod error;

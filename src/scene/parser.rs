@@ -9,8 +9,8 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind, PlotSpec, SimSpec, SmallSpec, Src,
-    StabilizeSpec, Statement, StmtKind,
+    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind, PlotSpec,
+    SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -41,6 +41,10 @@ pub const STATEMENTS: &[&str] = &[
     "constraint",
     "print",
     "simulate",
+    "lyapunov",
+    "megno",
+    "fli",
+    "chaos_map",
     "plot",
     "animate",
     "export",
@@ -232,7 +236,10 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::path | Rule::quoted_path | Rule::bare_path => "a file name",
         Rule::assumption => "`positive`",
         Rule::print_item | Rule::derivation | Rule::deriv_kw => "something to print",
-        Rule::plot_phase
+        Rule::map_range => "a range like `θ = -3..3`",
+        Rule::chaos_kw => "an indicator (`lyapunov`, `megno`, `fli`)",
+        Rule::plot_chaos
+        | Rule::plot_phase
         | Rule::plot_energy
         | Rule::plot_path
         | Rule::plot_poincare
@@ -453,6 +460,31 @@ impl Builder {
                 StmtKind::Print { items, format }
             }
             Rule::simulate => StmtKind::Simulate(Box::new(self.simulate(inner, span)?)),
+            Rule::chaos | Rule::chaos_map => {
+                let map = rule == Rule::chaos_map;
+                let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
+                let mut ranges = Vec::new();
+                let mut path = None;
+                for q in &inner {
+                    match q.as_rule() {
+                        Rule::map_range => {
+                            let mut it = q.clone().into_inner();
+                            if let (Some(s), Some(r)) = (it.next(), it.next()) {
+                                let mut b = r.into_inner();
+                                if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                                    ranges.push((self.src(&s), self.src(&lo), self.src(&hi)));
+                                }
+                            }
+                        }
+                        Rule::path => path = Some(self.path(q.clone())),
+                        _ => {}
+                    }
+                }
+                let indicator =
+                    indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
+                let sim = self.simulate(inner, span)?;
+                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path }))
+            }
             Rule::plot => {
                 let mut kind = None;
                 let mut runs = Vec::new();
@@ -471,6 +503,7 @@ impl Builder {
                                 kind = Some(PlotKind::Separation(a.clone(), b.clone()));
                             }
                         }
+                        Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(self.src(&k))),
                         Rule::plot_work_precision => {
                             let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
                             kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));

@@ -179,6 +179,8 @@ pub struct Session {
     pub(super) groups: Vec<super::ensemble::Group>,
     /// What every figure drawn so far shows, by file.
     pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
+    /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
+    pub(super) chaos_runs: Vec<super::chaos::ChaosRun>,
 }
 
 /// The deepest chain of `load` statements.
@@ -248,6 +250,7 @@ impl Session {
             dynamics: Default::default(),
             groups: Vec::new(),
             figures: Vec::new(),
+            chaos_runs: Vec::new(),
         }
     }
 
@@ -394,6 +397,7 @@ impl Session {
                 Ok(())
             }
             StmtKind::Simulate(spec) => self.simulate(spec),
+            StmtKind::Chaos(spec) => self.chaos(spec),
             StmtKind::Plot(spec) => self.plot(spec),
             StmtKind::Animate(spec) => self.animate(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),

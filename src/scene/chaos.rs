@@ -1,0 +1,529 @@
+//! Chaos statements: `lyapunov`, `megno` and `fli` (the indicator of one orbit, printed, and
+//! kept for `plot lyapunov` / `plot megno` / `plot fli`), and `chaos_map` (an indicator over
+//! a grid of starts, in parallel, written as a heat map or a CSV table).
+//!
+//! The indicators are properties of the Hamiltonian flow, so every statement works on `H`
+//! (given, or `legendre(L)`), in canonical variables; velocities in the starts are turned
+//! into momenta through `p = ∂L/∂q'` like `simulate` does. The variational system is
+//! compiled here ([`crate::compile::Variational`]) and integrated by [`crate::chaos`] with the
+//! Taylor method: unlike a `simulate` run, nothing here goes through the backend's trajectory
+//! (a chaos run has no trajectory to export), so these statements call the two stages
+//! directly. They are outputs: in a scene file they run when reached, like `print`.
+
+use std::collections::HashMap;
+
+use super::ast::{ChaosSpec, Src};
+use super::error::{ErrorKind, SceneError, Span};
+use super::progress::Progress;
+use super::session::{fmt_num, Session};
+use crate::chaos::{Indicator, Indicators};
+use crate::compile::Variational;
+use crate::expr::{Expr, Symbol};
+
+/// A finished one-orbit chaos statement, for `plot megno` and its kin.
+pub(super) struct ChaosRun {
+    pub(super) name: String,
+    pub(super) which: Indicator,
+    pub(super) result: Indicators,
+}
+
+/// The default tolerance of chaos statements: the tangent vectors grow like `e^{λt}`, so
+/// machine precision buys nothing for the indicator and costs steps.
+const DEFAULT_TOL: f64 = 1e-12;
+
+/// The default side of a chaos map's grid (`points N` sets it).
+const DEFAULT_GRID: usize = 32;
+
+/// The largest side of a chaos map's grid.
+const MAX_GRID: usize = 2000;
+
+/// The indicator a keyword names.
+pub(super) fn indicator(word: &str) -> Option<Indicator> {
+    match word {
+        "lyapunov" => Some(Indicator::Lyapunov),
+        "megno" => Some(Indicator::Megno),
+        "fli" => Some(Indicator::Fli),
+        _ => None,
+    }
+}
+
+fn label(which: Indicator) -> &'static str {
+    match which {
+        Indicator::Lyapunov => "maximal Lyapunov exponent λ",
+        Indicator::Megno => "MEGNO ⟨Y⟩",
+        Indicator::Fli => "FLI",
+    }
+}
+
+/// What a chaos statement integrates: the variational system and how to build a start.
+struct Setup {
+    var: Variational,
+    coords: Vec<Symbol>,
+    /// `p = ∂L/∂q'` when the starts give velocities.
+    momenta: Option<Vec<Expr>>,
+    env: HashMap<String, f64>,
+    t1: f64,
+    tol: f64,
+    span: Span,
+}
+
+impl Setup {
+    /// The canonical start `(q, p)` from values of the coordinates and their velocities or
+    /// momenta (named `q`, `q'` or `p_q`).
+    fn start(&self, given: &HashMap<String, f64>) -> Result<Vec<f64>, crate::eval::EvalError> {
+        let n = self.coords.len();
+        let mut x = vec![0.0; 2 * n];
+        for (i, q) in self.coords.iter().enumerate() {
+            x[i] = given[q.name()];
+        }
+        match &self.momenta {
+            None => {
+                for (i, q) in self.coords.iter().enumerate() {
+                    x[n + i] = given[&format!("p_{}", q.name())];
+                }
+            }
+            Some(ps) => {
+                let mut env = self.env.clone();
+                env.extend(given.iter().map(|(k, v)| (k.clone(), *v)));
+                env.insert("t".into(), 0.0);
+                for (i, p) in ps.iter().enumerate() {
+                    x[n + i] = crate::eval::eval(p, &env)?;
+                }
+            }
+        }
+        Ok(x)
+    }
+}
+
+impl Session {
+    /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
+    pub(super) fn chaos(&mut self, spec: &ChaosSpec) -> Result<(), SceneError> {
+        let which = indicator(&spec.indicator.text)
+            .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`"))?;
+        if spec.map {
+            self.chaos_map(spec, which)
+        } else {
+            self.chaos_orbit(spec, which)
+        }
+    }
+
+    fn chaos_orbit(&mut self, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
+        let given = self.chaos_values(spec, &[])?;
+        // The full spectrum for `lyapunov` (2n tangents); one tangent and the MEGNO
+        // accumulator otherwise.
+        let n = self.coords.len();
+        let (tangents, megno) = if which == Indicator::Lyapunov { (2 * n, false) } else { (1, true) };
+        let setup = self.chaos_setup(spec, tangents, megno)?;
+        let x0 = setup.start(&given).map_err(|e| self.value_error(e, setup.span))?;
+        let r = crate::chaos::indicators(&setup.var, &x0, setup.t1, setup.tol).map_err(|e| {
+            SceneError::new(ErrorKind::Numeric, format!("the variational equations failed: {e}")).at(setup.span)
+        })?;
+        let name = match &spec.sim.name {
+            Some(n) => n.text.clone(),
+            None => format!("{}{}", spec.indicator.text, self.chaos_runs.len() + 1),
+        };
+        let t = fmt_num(setup.t1);
+        let line = match which {
+            Indicator::Lyapunov => format!(
+                "{name}: Lyapunov exponents at t = {t}: {} ({} Taylor steps)",
+                r.lyapunov.iter().map(|l| format!("{l:.6}")).collect::<Vec<_>>().join(", "),
+                r.steps
+            ),
+            Indicator::Megno => format!(
+                "{name}: MEGNO ⟨Y⟩ = {:.4} at t = {t} (λ = {:.6}; {} Taylor steps)",
+                r.megno, r.lyapunov[0], r.steps
+            ),
+            Indicator::Fli => format!("{name}: FLI = {:.4} at t = {t} ({} Taylor steps)", r.fli, r.steps),
+        };
+        self.output.push(line);
+        self.chaos_runs.retain(|c| c.name != name);
+        self.chaos_runs.push(ChaosRun { name, which, result: r });
+        Ok(())
+    }
+
+    fn chaos_map(&mut self, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
+        if spec.ranges.len() != 2 {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("a chaos map needs two ranges, found {}", spec.ranges.len()),
+            )
+            .at(spec.indicator.span)
+            .hint("write the two axes as ranges: `chaos_map megno θ1 = -3..3, θ2 = -3..3, θ1' = 0, θ2' = 0 for t in 0..50`"));
+        }
+        let side = match &spec.sim.points {
+            None => DEFAULT_GRID,
+            Some(src) => {
+                let e = self.resolved(src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x.fract() == 0.0 && (2.0..=MAX_GRID as f64).contains(&x)) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`points` is the grid's side, a whole number from 2 to {MAX_GRID}; found {x}"),
+                    )
+                    .at(src.span));
+                }
+                x as usize
+            }
+        };
+        let mut axes = Vec::new();
+        for (sym, lo, hi) in &spec.ranges {
+            let (a, b) = (self.bound(lo)?, self.bound(hi)?);
+            if !(a < b && a.is_finite() && b.is_finite()) {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("the range of `{}` must run from a smaller to a larger number", sym.text),
+                )
+                .at((lo.span.0, hi.span.1)));
+            }
+            axes.push((sym.clone(), a, b));
+        }
+        let names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
+        let base = self.chaos_values(spec, &names)?;
+        let setup = self.chaos_setup(spec, 1, which == Indicator::Megno)?;
+        let (path, pspan, ext) = self.out_file(
+            spec.path.as_ref(),
+            "chaos_map",
+            "chaos map",
+            &["svg", "png", "csv"],
+            "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
+        )?;
+        // Cell centres, row by row (the second axis outer).
+        let centre = |k: usize, (_, a, b): &(Src, f64, f64)| a + (b - a) * (k as f64 + 0.5) / side as f64;
+        let (kx, ky) = (self.state_key(&axes[0].0)?, self.state_key(&axes[1].0)?);
+        let mut starts = Vec::with_capacity(side * side);
+        for j in 0..side {
+            for i in 0..side {
+                let mut given = base.clone();
+                given.insert(kx.clone(), centre(i, &axes[0]));
+                given.insert(ky.clone(), centre(j, &axes[1]));
+                starts.push(setup.start(&given).map_err(|e| self.value_error(e, setup.span))?);
+            }
+        }
+        // Row by row, so the progress bar moves; each row is spread over the threads.
+        let mut bar = Progress::new("chaos map", self.opts.progress);
+        let mut values = Vec::with_capacity(starts.len());
+        for (j, row) in starts.chunks(side).enumerate() {
+            values.extend(crate::chaos::chaos_map(&setup.var, row, setup.t1, setup.tol, which));
+            bar.update((j + 1) as f64 / side as f64);
+        }
+        bar.finish();
+        let failed = values.iter().filter(|v| !v.is_finite()).count();
+        let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        finite.sort_by(f64::total_cmp);
+        let median = finite.get(finite.len() / 2).copied().unwrap_or(f64::NAN);
+        let (xn, yn) = (&axes[0].0.text, &axes[1].0.text);
+        let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
+        if ext == "csv" {
+            let mut s = format!(
+                "{},{},{}\n",
+                super::figures::csv_field(xn),
+                super::figures::csv_field(yn),
+                spec.indicator.text
+            );
+            for j in 0..side {
+                for i in 0..side {
+                    let v = values[j * side + i];
+                    s.push_str(&format!("{:e},{:e},{:e}\n", centre(i, &axes[0]), centre(j, &axes[1]), v));
+                }
+            }
+            std::fs::write(&tmp, s).map_err(|e| {
+                SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", path.display())).at(pspan)
+            })?;
+        } else {
+            let title = format!("{} at t = {}", label(which), fmt_num(setup.t1));
+            let fig = crate::plot::Figure::heat_map(
+                &title,
+                xn,
+                yn,
+                (axes[0].1, axes[0].2),
+                (axes[1].1, axes[1].2),
+                side,
+                values.clone(),
+            );
+            crate::plot::draw(&fig, &tmp).map_err(|e| {
+                SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
+            })?;
+        }
+        self.output.push(format!(
+            "chaos map: {} over {xn} ∈ [{}, {}] × {yn} ∈ [{}, {}], {side}×{side} starts to t = {}: median {median:.4}{}",
+            label(which),
+            fmt_num(axes[0].1),
+            fmt_num(axes[0].2),
+            fmt_num(axes[1].1),
+            fmt_num(axes[1].2),
+            fmt_num(setup.t1),
+            if failed > 0 { format!(", {failed} starts failed (blank)") } else { String::new() }
+        ));
+        self.wrote(&path);
+        Ok(())
+    }
+
+    /// The state variable a start names (`θ`, `θ'` or `p_θ`), as the key of its value.
+    fn state_key(&mut self, sym: &Src) -> Result<String, SceneError> {
+        let (e, _) = self.expr(sym)?;
+        let s = e.as_sym().cloned().ok_or_else(|| {
+            SceneError::new(ErrorKind::Syntax, "expected a coordinate, velocity or momentum").at(sym.span)
+        })?;
+        let coords = &self.coords;
+        let is_state = coords.iter().any(|c| c.name() == s.name() && s.primes() <= 1)
+            || (s.primes() == 0 && s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c)));
+        if !is_state {
+            return Err(SceneError::new(
+                ErrorKind::UndefinedSymbol,
+                format!("`{}` is not part of the state", sym.text),
+            )
+            .at(sym.span)
+            .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
+        }
+        Ok(s.to_string())
+    }
+
+    /// The fixed starting values of a chaos statement (`axes` are given by the map's grid):
+    /// every coordinate, and either every velocity or every momentum, exactly once.
+    fn chaos_values(&mut self, spec: &ChaosSpec, axes: &[Src]) -> Result<HashMap<String, f64>, SceneError> {
+        let stmt = spec.indicator.span;
+        if self.coords.is_empty() {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
+                .at(stmt)
+                .hint("declare them first, for example `coordinates θ`"));
+        }
+        let mut given = HashMap::new();
+        let mut seen = Vec::new();
+        for sym in axes {
+            let k = self.state_key(sym)?;
+            seen.push((k, sym.span));
+        }
+        for (sym, val) in &spec.sim.inits {
+            let k = self.state_key(sym)?;
+            let v = self.resolved(val)?;
+            let x = self.number(&v, val.span)?;
+            given.insert(k.clone(), x);
+            seen.push((k, sym.span));
+        }
+        for (i, (k, span)) in seen.iter().enumerate() {
+            if seen[..i].iter().any(|(o, _)| o == k) {
+                return Err(SceneError::new(ErrorKind::Syntax, format!("`{k}` is given twice")).at(*span));
+            }
+        }
+        let has = |k: &str| seen.iter().any(|(o, _)| o == k);
+        let coords = self.coords.clone();
+        let velocities = coords.iter().any(|q| has(&format!("{}'", q.name())));
+        for q in &coords {
+            let v = format!("{}'", q.name());
+            let p = format!("p_{}", q.name());
+            for need in [q.name(), if velocities { v.as_str() } else { p.as_str() }] {
+                if !has(need) {
+                    return Err(SceneError::new(ErrorKind::MissingValue, format!("no starting value for `{need}`"))
+                        .at(stmt)
+                        .hint(format!(
+                            "add `{need} = …` (give every coordinate and every velocity, or every momentum)"
+                        )));
+                }
+            }
+            if velocities && has(&p) {
+                return Err(SceneError::new(ErrorKind::Syntax, "give either velocities or momenta, not both").at(stmt));
+            }
+        }
+        Ok(given)
+    }
+
+    /// The checked options, `H`, its parameters and the compiled variational system.
+    fn chaos_setup(&mut self, spec: &ChaosSpec, tangents: usize, megno: bool) -> Result<Setup, SceneError> {
+        let sim = &spec.sim;
+        let span = (spec.indicator.span.0, sim.span_span.1);
+        let word = &spec.indicator.text;
+        if sim.time_var.text != "t" {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("the time variable is `t`, not `{}`", sim.time_var.text),
+            )
+            .at(sim.time_var.span));
+        }
+        let refuse = |what: &str, src: Option<Span>| -> Result<(), SceneError> {
+            match src {
+                None => Ok(()),
+                Some(s) => Err(SceneError::new(ErrorKind::Syntax, format!("`{word}` does not take {what}"))
+                    .at(s)
+                    .hint("a chaos indicator integrates the variational equations with the Taylor method; it takes `tol = …` (and a map `points N`)")),
+            }
+        };
+        refuse("a method", sim.method.as_ref().map(|m| m.span))?;
+        refuse("a step", sim.dt.as_ref().or(sim.steps.as_ref()).map(|m| m.span))?;
+        refuse("events", sim.events.first().map(|e| e.span))?;
+        refuse("`every`", sim.every.as_ref().map(|e| e.span))?;
+        refuse("`stabilize`", sim.stabilize.as_ref().map(|e| e.span))?;
+        if !spec.map {
+            refuse("`points` (only `chaos_map` has a grid)", sim.points.as_ref().map(|e| e.span))?;
+        }
+        let t0 = self.bound(&sim.t0)?;
+        let t1 = self.bound(&sim.t1)?;
+        if t0 != 0.0 || !(t1 > 0.0 && t1.is_finite()) {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!(
+                    "a chaos indicator is measured from t = 0 to a later time; found {}..{}",
+                    fmt_num(t0),
+                    fmt_num(t1)
+                ),
+            )
+            .at(sim.span_span)
+            .hint("write `for t in 0..100`"));
+        }
+        let tol = match &sim.tol {
+            None => DEFAULT_TOL,
+            Some(src) => {
+                let e = self.resolved(src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x > 0.0 && x.is_finite()) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("the tolerance must be positive, found {x}"),
+                    )
+                    .at(src.span));
+                }
+                if x < crate::integrate::MIN_TOL {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!(
+                            "tol = {x:e} is below what f64 can meet; the smallest usable tol is {:.2e}",
+                            crate::integrate::MIN_TOL
+                        ),
+                    )
+                    .at(src.span)
+                    .label("too small"));
+                }
+                x
+            }
+        };
+        if !self.dynamics.is_empty() {
+            return Err(SceneError::new(
+                ErrorKind::Derivation,
+                "chaos indicators are computed on the Hamiltonian flow; forces, dissipation and constraints are not part of it",
+            )
+            .at(span));
+        }
+        let coords = self.coords.clone();
+        let velocities = sim.inits.iter().any(|(s, _)| s.text.trim_end().ends_with('\''))
+            || spec.ranges.iter().any(|(s, _, _)| s.text.trim_end().ends_with('\''));
+        let momenta = if velocities {
+            let l = self.lagrangian().map_err(|e| {
+                e.hint("velocities are turned into momenta through `L`: give the momenta `p_q` instead, or define `L`")
+            })?;
+            Some(self.momenta(&l)?)
+        } else {
+            None
+        };
+        let h = self.hamiltonian()?;
+        if let Some(f) = h.applied_functions().into_iter().next() {
+            return Err(SceneError::new(
+                ErrorKind::MissingValue,
+                format!("the declared function `{f}` has no numeric definition"),
+            )
+            .at(span));
+        }
+        let mut params = Vec::new();
+        let mut needed: Vec<String> = h
+            .free_symbols()
+            .into_iter()
+            .filter(|s| s.primes() == 0 && self.params.contains_key(s.name()))
+            .map(|s| s.name().to_string())
+            .collect();
+        for e in momenta.iter().flatten() {
+            needed.extend(
+                e.free_symbols()
+                    .into_iter()
+                    .filter(|s| self.params.contains_key(s.name()))
+                    .map(|s| s.name().to_string()),
+            );
+        }
+        needed.sort();
+        needed.dedup();
+        for p in needed {
+            match self.params.get(&p).and_then(|x| x.value) {
+                Some(v) => params.push((p, v)),
+                None => {
+                    return Err(SceneError::new(ErrorKind::MissingValue, format!("parameter `{p}` has no value"))
+                        .at(span)
+                        .hint(format!("declare `{p}` with a value first: `parameters {p} = …`")))
+                }
+            }
+        }
+        let q: Vec<String> = coords.iter().map(|c| c.name().to_string()).collect();
+        let p: Vec<String> = q.iter().map(|c| format!("p_{c}")).collect();
+        let qs: Vec<&str> = q.iter().map(String::as_str).collect();
+        let ps: Vec<&str> = p.iter().map(String::as_str).collect();
+        let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let var = Variational::hamiltonian(&h, &qs, &ps, &refs, tangents, megno).map_err(|e| {
+            SceneError::new(ErrorKind::Derivation, format!("cannot compile the variational equations: {e}")).at(span)
+        })?;
+        let env = params.into_iter().collect();
+        Ok(Setup { var, coords, momenta, env, t1, tol, span })
+    }
+
+    /// `plot lyapunov | megno | fli [from NAME, …]`: the indicator against time.
+    pub(super) fn chaos_figure(&mut self, word: &Src, runs: &[Src]) -> Result<crate::plot::Figure, SceneError> {
+        use crate::plot::{Figure, Series};
+        let which = indicator(&word.text)
+            .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`").at(word.span))?;
+        let usable = |c: &ChaosRun| which != Indicator::Megno || c.which != Indicator::Lyapunov;
+        let mut chosen = Vec::new();
+        if runs.is_empty() {
+            match self.chaos_runs.iter().rev().find(|c| usable(c)) {
+                Some(c) => chosen.push(c),
+                None => {
+                    return Err(SceneError::new(
+                        ErrorKind::Undeclared,
+                        format!(
+                            "no `{}` statement before this plot",
+                            if which == Indicator::Lyapunov { "lyapunov` or `megno" } else { word.text.as_str() }
+                        ),
+                    )
+                    .at(word.span)
+                    .hint(format!("compute it first: `{} θ = 1, θ' = 0 for t in 0..100`", word.text)))
+                }
+            }
+        }
+        for r in runs {
+            match self.chaos_runs.iter().find(|c| c.name == r.text) {
+                Some(c) if usable(c) => chosen.push(c),
+                Some(_) => {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!("`{}` computed Lyapunov exponents, not MEGNO", r.text),
+                    )
+                    .at(r.span)
+                    .hint("use `megno …` for MEGNO"))
+                }
+                None => {
+                    return Err(SceneError::new(
+                        ErrorKind::Undeclared,
+                        format!("no chaos statement named `{}`", r.text),
+                    )
+                    .at(r.span)
+                    .hint("name one with `as NAME`: `megno θ = 1, θ' = 0 for t in 0..100 as orbit`"))
+                }
+            }
+        }
+        let series = chosen
+            .iter()
+            .map(|c| Series {
+                label: c.name.clone(),
+                points: c
+                    .result
+                    .samples
+                    .iter()
+                    .scan(0.0f64, |fli, s| {
+                        *fli = fli.max(s.log_norm);
+                        let y = match which {
+                            Indicator::Lyapunov => s.lyapunov,
+                            Indicator::Megno => s.megno,
+                            Indicator::Fli => *fli,
+                        };
+                        Some((s.t, y))
+                    })
+                    .collect(),
+            })
+            .collect();
+        Ok(Figure::lines(label(which), "t", label(which), series))
+    }
+}
