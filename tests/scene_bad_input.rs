@@ -97,7 +97,7 @@ fn ten_megabyte_scene() {
 #[test]
 fn deeply_nested_expression() {
     let deep = format!("print {}1{}\n", "(".repeat(5000), ")".repeat(5000));
-    check(&with(&deep), &["nesting deeper than 200 levels"]);
+    check(&with(&deep), &["nesting deeper than 1000 levels"]);
 }
 
 #[test]
