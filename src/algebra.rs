@@ -438,9 +438,19 @@ impl Poly {
     /// Also gives up when a quotient coefficient outgrows [`Poly::coefficient_bits_bound`]:
     /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
     /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
+    ///
+    /// And it gives up when the arithmetic itself grows too costly: each step normalises
+    /// rationals by a binary gcd, about b²/64 word operations for b-bit numbers, once per term
+    /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
+    /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
     fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
+        /// About 0.2 s of gcd work; exact divisions met in practice use well under 1% of it.
+        const MAX_WORK: u128 = 200_000_000;
         let (ld, lc) = d.lead()?;
         let max_bits = self.coefficient_bits_bound(d);
+        let d_bits = u128::from(d.terms.values().map(rational_bits).max().unwrap_or(0));
+        let d_terms = d.terms.len() as u128;
+        let mut work: u128 = 0;
         let mut r = self.clone();
         let mut q = Poly { terms: BTreeMap::new() };
         for _ in 0..steps {
@@ -450,7 +460,13 @@ impl Poly {
             }
             let shift: Vec<u32> = lm.iter().zip(ld).map(|(a, b)| a - b).collect();
             let coeff = c / lc;
-            if rational_bits(&coeff) > max_bits {
+            let bits = rational_bits(&coeff);
+            if bits > max_bits {
+                return None;
+            }
+            let b = u128::from(bits) + d_bits;
+            work += (d_terms + 1) * b * b / 64;
+            if work > MAX_WORK {
                 return None;
             }
             q.terms.insert(shift.clone(), coeff.clone());

@@ -141,6 +141,9 @@ fn inputs_that_would_make_the_algebra_tools_work_hard_are_answered() {
         // Found by tests/fuzz.rs: the trial division grew coefficients of millions of digits.
         ("(x^10000 - 1)/(x 1e3 - 1)", "(x^10000 - 1)/(1000 x - 1)"),
         ("(x^100 - 1)/(x 1e300 - 1)", &format!("(x^100 - 1)/(1{} x - 1)", "0".repeat(300))),
+        // Found by the 10^6 fuzz run: under the coefficient bound, but thousands of division
+        // steps on 20,000-bit rationals (10 · 1/2308 = 5/1154 by hand).
+        ("(x^10000 - 1e-3201)/(x 1e1/2308 - 1)", &format!("(x^10000 - 1/1{})/(5 x/1154 - 1)", "0".repeat(3201))),
     ] {
         let out = run(&["simplify", input], None);
         assert_eq!(out.code, Some(0), "{input}: {}", out.stderr);
