@@ -111,7 +111,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
                 // took minutes, and (x^2 + 10^20)^100 half a minute (found by tests/fuzz.rs), so
                 // the work counts machine words of coefficient as well as terms.
-                let base_bits = ts.iter().map(|t| rational_bits(&t.coeff_rest().0)).max().unwrap_or(0);
+                let base_bits = ts.iter().map(numeric_bits).max().unwrap_or(0);
                 let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
                 let words = 1 + u128::from(bits / 64);
                 // A binomial is written out term by term (`binomial_power`), so its work is
@@ -140,6 +140,24 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
     };
     memo.insert(e.clone(), out.clone());
     Ok(out)
+}
+
+/// The bits of exact number a term carries: its rational coefficient and its surds
+/// (`sqrt(99999999999)` has a coefficient of 1, but its 50th power folds to a 1,800-bit
+/// integer: `(x^2 + sqrt(99999999999) a)^100` took 8 s before surds were counted; found by
+/// tests/fuzz.rs).
+fn numeric_bits(t: &Expr) -> u64 {
+    let surd_bits = |f: &Expr| match f.node() {
+        Node::Pow(b, x) => match (b.as_num(), x.as_num()) {
+            (Some(b), Some(x)) => {
+                let power = x.abs().ceil().to_integer().to_u64().unwrap_or(u64::MAX);
+                rational_bits(b).saturating_mul(power)
+            }
+            _ => 0,
+        },
+        _ => 0,
+    };
+    t.factors().iter().map(surd_bits).fold(rational_bits(&t.coeff_rest().0), u64::saturating_add)
 }
 
 /// The number of monomials of degree `k` in `m` variables, `C(k+m−1, m−1)`, saturating.

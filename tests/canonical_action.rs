@@ -73,10 +73,20 @@ fn pendulum_librations_match_elliptic_integrals() {
         assert!(rel(r.action, j_exact) < 1e-13, "θmax {theta_max}: J {} vs {j_exact}", r.action);
         assert!(rel(r.turning_points.1, theta_max) < 1e-13);
     }
-    // Above the separatrix the pendulum rotates: no turning points, a clear error.
-    let err = action_frequency(&h, &Symbol::new("θ"), &Symbol::new("p_θ"), 3.0 * m * g * l, &params, 0.0)
-        .expect_err("rotation");
-    assert!(matches!(err, ActionAngleError::NoTurningPoint { .. }), "{err}");
+    // Above the separatrix the pendulum rotates (issue 15): no turning points, and
+    // J = (1/2π)∫₀^{2π} p dθ over one turn. With E = ε m g l and k² = 2/ε,
+    // p = √(2 m² g l³ ε) √(1 − k² sin²(θ/2)), so J = (2/π) √(2 m² g l³ ε) E(k) and
+    // T = ∫ m l² dθ/p = 4 K(k) √(l/(2 g ε)).
+    for eps in [2.5f64, 3.0, 10.0] {
+        let r = action_frequency(&h, &Symbol::new("θ"), &Symbol::new("p_θ"), eps * m * g * l, &params, 0.0)
+            .expect("rotation");
+        let k = (2.0 / eps).sqrt();
+        let j_exact = 2.0 / PI * (2.0 * m * m * g * l.powi(3) * eps).sqrt() * elliptic_e(k);
+        let t_exact = 4.0 * elliptic_k(k) * (l / (2.0 * g * eps)).sqrt();
+        assert!(r.rotation);
+        assert!(rel(r.action, j_exact) < 1e-13, "ε {eps}: J {} vs {j_exact}", r.action);
+        assert!(rel(r.period, t_exact) < 1e-13, "ε {eps}: T {} vs {t_exact}", r.period);
+    }
 }
 
 #[test]

@@ -25,12 +25,12 @@ fn oscillator_zero_crossings_are_located() {
     let tr = Gauss::gauss6(0.05).integrate_with(&sys, 0.0..20.0, &y0, opts()).unwrap();
     assert_eq!(tr.events.len(), 3);
     for (k, ev) in tr.events.iter().enumerate() {
-        assert!((ev.t - expect(k)).abs() < 1e-6, "Gauss 6 event {k} at {}", ev.t);
+        assert!((ev.t - expect(k)).abs() < 1e-9, "Gauss 6 event {k} at {}", ev.t);
     }
     let tr = Splitting::yoshida8(0.05).integrate_with(&sys, 0.0..20.0, &y0, opts()).unwrap();
     assert_eq!(tr.events.len(), 3);
     for (k, ev) in tr.events.iter().enumerate() {
-        assert!((ev.t - expect(k)).abs() < 1e-6, "Yoshida 8 event {k} at {}", ev.t);
+        assert!((ev.t - expect(k)).abs() < 1e-9, "Yoshida 8 event {k} at {}", ev.t);
     }
     // Rising crossings only: 3π/2 + 2kπ.
     let tr = Dop853::new(1e-12, 1e-14)
@@ -84,7 +84,7 @@ fn henon_heiles_poincare_section() {
     let ys = Splitting::yoshida8(0.01).integrate_with(&HenonHeiles, 0.0..300.0, &y0, opts()).unwrap();
     assert_eq!(ys.events.len(), tr.events.len());
     for (a, b) in ys.events.iter().zip(&tr.events).take(10) {
-        assert!((a.t - b.t).abs() < 1e-7 && (a.state[1] - b.state[1]).abs() < 1e-7);
+        assert!((a.t - b.t).abs() < 1e-10 && (a.state[1] - b.state[1]).abs() < 1e-10);
     }
 }
 
@@ -123,7 +123,7 @@ fn dop853_tolerance_and_dense_output() {
             break;
         }
     }
-    assert!(worst < 1e-10, "dense output error {worst:e}");
+    assert!(worst < 2e-11, "dense output error {worst:e}");
     assert!(s.steps() > 10);
 }
 
@@ -139,14 +139,14 @@ fn double_pendulum_against_the_reference() {
         tr.last_state().iter().zip(&DoublePendulum::REFERENCE_T10).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let de = (dp.energy(tr.last_state()) - dp.energy(&DoublePendulum::Y0)).abs();
     println!("DOP853 double pendulum error {err:.2e}, energy error {de:.2e}, steps {}", tr.stats.steps);
-    assert!(err < 1e-3, "error {err:e}");
+    assert!(err < 3e-4, "error {err:e}");
     assert!(de < 1e-10, "energy error {de:e}");
     let tr =
         Gauss::gauss6(2e-3).integrate_with(&dp, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only()).unwrap();
     let err =
         tr.last_state().iter().zip(&DoublePendulum::REFERENCE_T10).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     println!("Gauss 6 (h = 2e-3) double pendulum error {err:.2e}");
-    assert!(err < 1e-2, "error {err:e}");
+    assert!(err < 5e-5, "error {err:e}");
 }
 
 #[test]

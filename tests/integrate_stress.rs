@@ -126,7 +126,7 @@ fn steps_beyond_the_stability_limit_end_in_a_non_finite_error() {
     }
     // DOP853 adapts its step: correct result.
     let tr = Dop853::new(1e-10, 1e-12).integrate(&sys, 0.0..100.0, &y0).unwrap();
-    assert!(max_diff(tr.last_state(), &sys.exact(&y0, 100.0)) < 1e-7);
+    assert!(max_diff(tr.last_state(), &sys.exact(&y0, 100.0)) < 1e-8);
 }
 
 #[test]
@@ -204,7 +204,7 @@ fn close_kepler_encounters_at_e099() {
     let tr = Dop853::new(1e-14, 1e-16).integrate(&Kepler, 0.0..t, &y0).unwrap();
     let err = max_diff(tr.last_state(), &exact);
     let de = (Kepler.energy(tr.last_state()) + 0.5).abs();
-    assert!(err < 1e-6 && de < 1e-12, "DOP853 error {err:e}, energy error {de:e}");
+    assert!(err < 5e-7 && de < 1e-12, "DOP853 error {err:e}, energy error {de:e}");
     // Fixed steps small enough for the encounter (h = 2π/2¹⁷) give correct results too.
     let h = t / 131072.0;
     for m in splittings(h).into_iter().skip(1) {

@@ -137,7 +137,7 @@ fn hamilton_and_euler_lagrange_give_the_same_motion() {
             for i in 0..n {
                 let qd = value(&hs.qdot[i], &env);
                 let v = env[&s.velocities()[i].to_string()];
-                assert!((qd - v).abs() < 1e-9 * (1.0 + v.abs()), "{}: q' = ∂H/∂p ({qd} vs {v})", spec.0);
+                assert!((qd - v).abs() < 1e-12 * (1.0 + v.abs()), "{}: q' = ∂H/∂p ({qd} vs {v})", spec.0);
             }
             // Second half: q'' = d/dt ∂H/∂p along Hamilton's flow equals W⁻¹ F.
             let acc = el_accelerations(&dv, &env);
@@ -164,7 +164,7 @@ fn closed_form_accelerations_match_the_numeric_solve() {
         let num = el_accelerations(&dv, &env);
         for i in 0..acc.len() {
             let a = value(&acc[i], &env);
-            assert!((a - num[i]).abs() < 1e-8 * (1.0 + a.abs()), "{}: {a} vs {}", spec.0, num[i]);
+            assert!((a - num[i]).abs() < 1e-12 * (1.0 + a.abs()), "{}: {a} vs {}", spec.0, num[i]);
         }
     }
 }

@@ -72,3 +72,39 @@ fn bad_metrics_are_refused() {
     assert_eq!(code, 2);
     assert!(err.contains("not quadratic"), "{err}");
 }
+
+/// `K` printed by `lagrangian geodesic`, evaluated at `point`.
+fn gauss_curvature(line_element: &str, coords: &str, point: &[(&str, f64)]) -> (f64, String) {
+    let (code, out, err) = run(&["geodesic", line_element, "--coords", coords]);
+    assert_eq!(code, 0, "{err}");
+    let k = parse(line(&out, "K = ")).unwrap();
+    let env: std::collections::HashMap<String, f64> = point.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    (lagrangian::eval::eval(&k, &env).unwrap(), out)
+}
+
+#[test]
+fn gauss_curvature_of_sphere_plane_and_a_saddle() {
+    // Sphere of radius R: K = 1/R², R_θφθφ = R² sin²θ (by hand from the Christoffel symbols
+    // above: R^θ_φθφ = ∂_θ Γ^θ_φφ − Γ^θ_φφ Γ^φ_θφ = sin²θ).
+    let (code, out, err) = run(&["geodesic", "R^2 dθ^2 + R^2 sin(θ)^2 dφ^2", "--coords", "θ,φ"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(parse(line(&out, "K = ")).unwrap(), parse("1/R^2").unwrap());
+    assert_eq!(parse(line(&out, "R_θφθφ = ")).unwrap(), parse("R^2 sin(θ)^2").unwrap());
+    assert_eq!(parse(line(&out, "scalar_curvature = ")).unwrap(), parse("2/R^2").unwrap());
+    // The plane in polar coordinates: flat, no component of the Riemann tensor survives.
+    let (k, out) = gauss_curvature("dr^2 + r^2 dφ^2", "r,φ", &[]);
+    assert_eq!(k, 0.0);
+    assert!(!out.lines().any(|l| l.starts_with("R_")), "{out}");
+    // ds² = dx² + G(x) dy²: K = −(√G)''/√G (Gauss); G = cosh²x gives K = −1.
+    for x in [-0.7, 0.0, 1.3] {
+        let (k, _) = gauss_curvature("dx^2 + cosh(x)^2 dy^2", "x,y", &[("x", x), ("y", 0.4)]);
+        assert!((k + 1.0).abs() < 1e-13, "K = {k} at x = {x}");
+    }
+    // A metric with a cross term: the graph z = x y, g = [[1 + y², x y], [x y, 1 + x²]], whose
+    // Monge-patch curvature is K = (z_xx z_yy − z_xy²)/(1 + z_x² + z_y²)² = −1/(1 + x² + y²)².
+    for (x, y) in [(0.3, -0.8), (1.1, 0.5), (0.0, 0.0)] {
+        let (k, _) = gauss_curvature("(1 + y^2) dx^2 + 2 x y dx dy + (1 + x^2) dy^2", "x,y", &[("x", x), ("y", y)]);
+        let exact = -1.0 / (1.0 + x * x + y * y).powi(2);
+        assert!((k - exact).abs() < 1e-13, "K = {k} at ({x}, {y}), Monge patch {exact}");
+    }
+}

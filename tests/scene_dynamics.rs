@@ -67,7 +67,7 @@ export t, E, R to damped.csv",
     assert!(worst < 1e-5 * rmax, "dE/dt + 2R up to {worst:e} (max R {rmax})");
     let integral: f64 = (1..t.len()).map(|i| 0.5 * (r[i] + r[i - 1]) * (t[i] - t[i - 1])).sum();
     let balance = (e[t.len() - 1] - e[0]) + 2.0 * integral;
-    assert!(balance.abs() < 1e-6, "E(10) − E(0) + 2∫R dt = {balance:e}");
+    assert!(balance.abs() < 1e-7, "E(10) − E(0) + 2∫R dt = {balance:e}");
     assert!(e[t.len() - 1] < 0.5 * e[0], "the energy did not decay: {} → {}", e[0], e[t.len() - 1]);
 }
 
@@ -91,7 +91,7 @@ export t, x to driven.csv",
     let t = last(&c, "t");
     let exact = f0 / (m * (w * w - big_omega * big_omega)) * ((big_omega * t).cos() - (w * t).cos());
     assert!((t - 10.0).abs() < 1e-12);
-    assert!((last(&c, "x") - exact).abs() < 1e-9, "x(10) = {} vs {exact}", last(&c, "x"));
+    assert!((last(&c, "x") - exact).abs() < 1e-11, "x(10) = {} vs {exact}", last(&c, "x"));
 }
 
 const CARTESIAN_PENDULUM: &str = "coordinates x, y
@@ -132,7 +132,7 @@ export t, θ, θ' to angle.csv",
         let c = csv(&dir.path().join(file));
         assert!((last(&c, "t") - 10.0).abs() < 1e-12);
         let (dx, dy) = (last(&c, "x") - l * theta.sin(), last(&c, "y") + l * theta.cos());
-        assert!(dx.abs() < 1e-10 && dy.abs() < 1e-10, "{file}: off the angle form by ({dx:e}, {dy:e})");
+        assert!(dx.abs() < 1e-12 && dy.abs() < 1e-12, "{file}: off the angle form by ({dx:e}, {dy:e})");
     }
     // The multiplier is the rod's tension T = m v²/l + m g cos θ, as λ ∇f = −T r̂: λ = −T/(2l).
     let c = csv(&dir.path().join("adaptive.csv"));
@@ -171,7 +171,9 @@ export t, residual1 to drift.csv"
     );
     let c = csv(&dir.path().join("drift.csv"));
     let drift = c["residual1"].iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-    assert!(drift < 1e-10, "drift {drift:e}");
+    // Projection puts the state back on x² + y² = l² every step: the drift is rounding
+    // (4.4e-16 documented and measured), so 1e-14 rather than the 1e-10 this test had.
+    assert!(drift < 1e-14, "drift {drift:e}");
     assert!((last(&c, "t") - 100.0).abs() < 1e-9);
     // The same run without stabilisation drifts measurably (RK4 at this step is not exact),
     // and Baumgarte's damping holds it much closer than none.
@@ -230,14 +232,14 @@ export t, xcm, ycm, angle, length2 to rod.csv",
     let t = c["t"].clone();
     for i in 0..t.len() {
         let ycm = 4.0 * t[i] - 0.5 * 9.81 * t[i] * t[i];
-        assert!((c["xcm"][i]).abs() < 1e-9);
-        assert!((c["ycm"][i] - ycm).abs() < 1e-8, "y_cm({}) = {} vs {ycm}", t[i], c["ycm"][i]);
+        assert!((c["xcm"][i]).abs() < 1e-12);
+        assert!((c["ycm"][i] - ycm).abs() < 1e-12, "y_cm({}) = {} vs {ycm}", t[i], c["ycm"][i]);
         let angle = 1.5 * t[i];
         let got = c["angle"][i];
         let wrapped =
             (got - angle + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI;
-        assert!(wrapped.abs() < 1e-8, "angle at {}: {got} vs {angle}", t[i]);
-        assert!((c["length2"][i] - 4.0).abs() < 1e-10);
+        assert!(wrapped.abs() < 1e-10, "angle at {}: {got} vs {angle}", t[i]);
+        assert!((c["length2"][i] - 4.0).abs() < 1e-12);
     }
 }
 
@@ -268,7 +270,7 @@ export t, -R cos(θ) to angle.csv",
     );
     let z = last(&csv(&dir.path().join("hoop.csv")), "z");
     let zr = last(&csv(&reduced.path().join("angle.csv")), "-R cos(θ)");
-    assert!((z - zr).abs() < 1e-9, "z(5) = {z} vs {zr}");
+    assert!((z - zr).abs() < 1e-13, "z(5) = {z} vs {zr}");
 }
 
 fn err(scene: &str) -> SceneError {
@@ -362,7 +364,7 @@ export t, x from pushed to pushed.csv",
     let free = last(&csv(&dir.path().join("free.csv")), "x");
     let pushed = last(&csv(&dir.path().join("pushed.csv")), "x");
     assert!((free - 2.0).abs() < 1e-12, "{free}");
-    assert!((pushed - (2.0 - 1.5 * 4.0)).abs() < 1e-10, "{pushed}");
+    assert!((pushed - (2.0 - 1.5 * 4.0)).abs() < 1e-12, "{pushed}");
 }
 
 /// A pendulum swinging over the top for 50 time units at a small step: the portrait wraps θ
@@ -408,5 +410,5 @@ export t, x to all.csv",
     assert_eq!(text.lines().count(), 1 + 1_000_001);
     let last = text.lines().last().unwrap();
     let x: f64 = last.split(',').nth(1).unwrap().parse().unwrap();
-    assert!((x - 100f64.cos()).abs() < 1e-9, "x(100) = {x}");
+    assert!((x - 100f64.cos()).abs() < 1e-12, "x(100) = {x}");
 }

@@ -90,7 +90,7 @@ fn pendulum() {
     // energy is m g l (1 − cos 3) = 9.81 (1 − cos 3) (by hand).
     let e0 = 9.81 * (1.0 - 3f64.cos());
     assert!((c["H"][0] - e0).abs() < 1e-12);
-    assert!(max_rel_drift(&c["H"]) < 1e-8, "{}", max_rel_drift(&c["H"]));
+    assert!(max_rel_drift(&c["H"]) < 1e-12, "{}", max_rel_drift(&c["H"]));
     // A libration: |θ| never exceeds its start.
     assert!(c["θ"].iter().all(|x| x.abs() <= 3.0 + 1e-9));
     let svg = r.svg("pendulum_phase.svg");
@@ -124,7 +124,7 @@ fn atwood() {
     let c = r.csv("atwood.csv");
     let a = -2.0 * 9.81 / 4.0;
     for (t, x) in c["t"].iter().zip(&c["x"]) {
-        assert!((x - 0.5 * a * t * t).abs() < 1e-10, "t = {t}: {x}");
+        assert!((x - 0.5 * a * t * t).abs() < 1e-12, "t = {t}: {x}");
     }
 }
 
@@ -145,15 +145,15 @@ fn charged_particle() {
     let c = r.csv("charged_particle.csv");
     for (i, &t) in c["t"].iter().enumerate() {
         let (x, y, z) = (c["x"][i], c["y"][i], c["z"][i]);
-        assert!((x * x + y * y - 1.0).abs() < 1e-8, "radius at t = {t}");
-        assert!((z + 0.05 * t * t).abs() < 1e-8, "z at t = {t}");
+        assert!((x * x + y * y - 1.0).abs() < 1e-13, "radius at t = {t}");
+        assert!((z + 0.05 * t * t).abs() < 1e-12, "z at t = {t}");
     }
     // The scene's comment says so: uniform acceleration, z(10) = −5, no drift promised.
     let text =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/charged_particle.scene")).unwrap();
     assert!(text.contains("z = −e E t²/(2 m) = −0.05 t², so z(10) = −5") && !text.contains("uniform drift"));
     let (t_end, z_end) = (*c["t"].last().unwrap(), *c["z"].last().unwrap());
-    assert!((t_end - 10.0).abs() < 1e-9 && (z_end + 5.0).abs() < 1e-8, "z({t_end}) = {z_end}");
+    assert!((t_end - 10.0).abs() < 1e-9 && (z_end + 5.0).abs() < 1e-12, "z({t_end}) = {z_end}");
     r.svg("charged_particle_path.svg");
     r.svg("charged_particle_series.svg");
 }
@@ -170,14 +170,15 @@ fn double_pendulum() {
             u * u + 0.5 * v * v + u * v * (a - b).cos() - 2.0 * g * a.cos() - g * b.cos()
         })
         .collect();
-    assert!(max_rel_drift(&energy) < 1e-9, "{}", max_rel_drift(&energy));
+    assert!(max_rel_drift(&energy) < 1e-10, "{}", max_rel_drift(&energy));
     // The reference state at t = 10 (shared/reference/double_pendulum.md). The motion
-    // amplifies errors by ~1e8, so DOP853 at tol 1e-12 is only expected to be near it.
+    // amplifies errors by ~1e8, so DOP853 at tol 1e-12 is only expected to be near it:
+    // BENCHMARKS.md documents 4.6e-4 at this tolerance (measured 4.56e-4 here), hence 1e-3.
     let last = c["t"].len() - 1;
     assert_eq!(c["t"][last], 10.0);
     let reference = [-0.7531288742949114, 1.627933082053704, -4.087368851344197, -8.869702578387533];
     for (k, want) in ["θ1", "θ2", "θ1'", "θ2'"].iter().zip(reference) {
-        assert!((c[*k][last] - want).abs() < 1e-2, "{k}: {} vs {want}", c[*k][last]);
+        assert!((c[*k][last] - want).abs() < 1e-3, "{k}: {} vs {want}", c[*k][last]);
     }
     r.svg("double_pendulum_chaos.svg");
     r.svg("double_pendulum_path.svg");
@@ -218,7 +219,7 @@ fn henon_heiles() {
     let c = r.csv("henon_heiles.csv");
     // E = 1/8 by construction of p_x.
     assert!((c["H"][0] - 0.125).abs() < 1e-14);
-    assert!(max_rel_drift(&c["H"]) < 1e-8);
+    assert!(max_rel_drift(&c["H"]) < 1e-12);
     let svg = r.svg("henon_heiles_section.svg");
     // One point per upward crossing of x = 0: about one per period 2π over t = 1000.
     let points = svg.matches("<circle").count();
@@ -254,7 +255,7 @@ fn oscillator_action_angle() {
     let c = r.csv("oscillator.csv");
     // J = E/ω = (½ m ω² q0²)/ω = ½·2·3·1 = 3.
     assert!((c["J"][0] - 3.0).abs() < 1e-12);
-    assert!(max_rel_drift(&c["J"]) < 1e-5);
+    assert!(max_rel_drift(&c["J"]) < 1e-6);
     r.svg("oscillator_phase.svg");
 }
 
@@ -264,9 +265,11 @@ fn adiabatic_oscillator() {
     let c = r.csv("adiabatic_oscillator.csv");
     let n = c["t"].len() - 1;
     // ω doubles over t = 100; the energy follows ω (E ∝ ω while J = E/ω is invariant).
+    // J is invariant only to O(ε) = O(0.01) — physics, not integration error (measured
+    // 1.2e-3) — so these bounds cannot be tightened to the integrator's accuracy.
     let (h0, h1, j0, j1) = (c["H"][0], c["H"][n], c["J"][0], c["J"][n]);
     assert!((j1 / j0 - 1.0).abs() < 0.01, "J changed by {}", j1 / j0);
-    assert!((h1 / h0 - 2.0).abs() < 0.05, "H ratio {}", h1 / h0);
+    assert!((h1 / h0 - 2.0).abs() < 0.02, "H ratio {}", h1 / h0);
     r.svg("adiabatic_oscillator.svg");
 }
 
@@ -300,7 +303,7 @@ fn anharmonic_oscillator() {
     assert!(eval(&ra, &values(0.8, 0.0, 0.0, w)).abs() < 1e-13);
     assert!(eval(&ra, &values(0.8, 0.0, 0.0, 1.3)).abs() > 1e-3, "the linear frequency must not solve it");
     let c = r.csv("anharmonic.csv");
-    assert!(max_rel_drift(&c["H"]) < 1e-9);
+    assert!(max_rel_drift(&c["H"]) < 1e-12);
     // The period from downward zero crossings of x, against the quadrature
     // T = 4 ∫₀^{π/2} A cos u du / sqrt(2 (V(A) − V(A sin u))), V = (x² + σ x⁴)/2, A = 1, σ = 0.1.
     let v = |x: f64| 0.5 * (x * x + 0.1 * x.powi(4));
@@ -315,7 +318,7 @@ fn anharmonic_oscillator() {
         .map(|i| t[i - 1] + (t[i] - t[i - 1]) * x[i - 1] / (x[i - 1] - x[i]))
         .collect();
     let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
-    assert!((measured / period - 1.0).abs() < 1e-4, "{measured} vs {period}");
+    assert!((measured / period - 1.0).abs() < 1e-9, "{measured} vs {period}");
     // The averaged-Lagrangian estimate ω ≈ ω0 (1 + 3σA²/4) (the force is x + 2σx³) is within
     // its O(σ²) error.
     assert!((2.0 * std::f64::consts::PI / period / 1.075 - 1.0).abs() < 5e-3);
@@ -369,5 +372,5 @@ fn damped_driven_pendulum() {
         ];
     }
     let theta = y[0].sin().atan2(y[0].cos());
-    assert!((wrapped[0] - theta).abs() < 1e-6 && (v[0] - y[1]).abs() < 1e-6, "({}, {}) vs {y:?}", wrapped[0], v[0]);
+    assert!((wrapped[0] - theta).abs() < 5e-9 && (v[0] - y[1]).abs() < 5e-9, "({}, {}) vs {y:?}", wrapped[0], v[0]);
 }

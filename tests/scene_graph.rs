@@ -85,6 +85,7 @@ impl Backend for Counting {
             Formulation::FirstOrder(_) => "compile_first_order",
             Formulation::Hamiltonian(_) => "compile_hamiltonian",
             Formulation::Separable { .. } => "compile_separable",
+            Formulation::Variational(_) => "compile_variational",
         });
         Ok(Arc::new(req.coords.len()))
     }

@@ -13,7 +13,9 @@ exactly and integrates them fast::
 
 ``System.compile()`` gives a right-hand side ``f(t, y)`` for SciPy's ``solve_ivp``;
 ``System.ensemble`` integrates many initial states in parallel; :func:`sweep` maps a grid of
-initial states or parameter values over a Dask cluster.
+initial states or parameter values over a Dask cluster. Derivations are kept in the same
+on-disk cache as the command line's (``$LAGRANGIAN_CACHE_DIR``, else ``~/.cache/lagrangian``;
+see :func:`cache_info` and :func:`set_cache_dir`).
 """
 
 from ._core import (
@@ -38,8 +40,10 @@ from ._core import (
     SolveError,
     System,
     TransformError,
+    cache_info,
     parse,
     poisson,
+    set_cache_dir,
 )
 from ._sympy import from_sympy, to_sympy
 from ._sweep import SweepResult, sweep
@@ -67,9 +71,11 @@ __all__ = [
     "SweepResult",
     "System",
     "TransformError",
+    "cache_info",
     "from_sympy",
     "parse",
     "poisson",
+    "set_cache_dir",
     "sweep",
     "to_sympy",
 ]

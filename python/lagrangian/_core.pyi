@@ -1,5 +1,6 @@
 """Type stubs of the native module (signatures and short docs for editors)."""
 
+import os
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
@@ -66,6 +67,10 @@ class Expr:
 
 def parse(text: str, *, positive: Optional[Sequence[str]] = None, functions: Optional[Sequence[str]] = None) -> Expr: ...
 def poisson(f: Union[Expr, str], g: Union[Expr, str], coords: Sequence[str]) -> Expr: ...
+def cache_info() -> dict[str, Any]:
+    """The derivation cache's ``dir`` (``None``: memory only) and this process's ``derived`` and ``hits`` counts."""
+def set_cache_dir(path: Union[str, "os.PathLike[str]", None]) -> None:
+    """Keeps derivations in ``path`` from now on (``None``: in memory only)."""
 
 class Event:
     """A zero crossing of ``expr`` (in the state variables and ``t``) to detect."""
@@ -81,6 +86,8 @@ class CompiledRhs:
     dim: int
     names: list[str]
     def __call__(self, t: float, y: ArrayLike) -> np.ndarray: ...
+    def jac(self, t: float, y: ArrayLike) -> np.ndarray:
+        """The exact Jacobian ``(n, n)``: ``solve_ivp(f, ..., method="Radau", jac=f.jac)``."""
 
 class Solution:
     """``t`` ``(k,)``, ``y`` ``(n, k)``, events per event function; like ``solve_ivp``'s result."""

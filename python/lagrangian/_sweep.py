@@ -4,7 +4,9 @@ chunks, each chunk is one Dask task that integrates its rows with the Rust core
 
 Dask does the scheduling, the retries of failed tasks and the recovery from lost workers;
 nothing here schedules. The system travels as its printed source (see ``_pickle``) and is
-derived and compiled once per worker process. A trajectory that fails is reported with its
+compiled once per worker process; its derivation (``W q'' = F``, ``H``) comes from the
+engine's on-disk derivation cache, so a machine derives it once, whichever process is first
+(see ``cache_info``). A trajectory that fails is reported with its
 initial condition and the engine's reason; a chunk whose task fails for good (its worker
 killed more often than Dask allows, say) has all its rows reported with the task's error; the
 rest of the sweep still returns.
@@ -30,6 +32,7 @@ class SweepResult:
     integrated, ``errors`` the reason where it did not (``None`` elsewhere). ``axes`` maps each
     swept name to its values when the grid was given as axes. ``failures`` lists the failed
     points as dicts with ``index``, ``values`` (the swept values there) and ``reason``.
+    ``method`` and ``t_span`` record the integration asked for.
     """
 
     y: np.ndarray
@@ -39,21 +42,34 @@ class SweepResult:
     names: list[str]
     axes: dict[str, np.ndarray]
     failures: list[dict[str, Any]] = field(default_factory=list)
+    method: str = ""
+    t_span: tuple[float, float] = (float("nan"), float("nan"))
 
     def __getitem__(self, name: str) -> np.ndarray:
         """Final values of the state variable ``name`` over the grid."""
         return self.y[..., self.names.index(name)]
 
     def to_xarray(self) -> Any:
-        """An ``xarray.Dataset`` with one variable per state variable (needs xarray)."""
+        """An ``xarray.Dataset`` (needs xarray) over one dimension per swept axis, named as
+        in the grid with the swept values as coordinates (a grid given as an array of states
+        has one dimension, ``point``): the final value of each state variable ``q`` as
+        ``q_final`` (a swept initial ``θ`` and the final ``θ_final`` are different things),
+        ``t_final`` and ``ok``. The attributes record ``method``, ``t0``, ``t1`` and the
+        number of ``failed`` points."""
         import xarray as xr  # type: ignore[import-untyped]
 
         dims = list(self.axes) if self.axes else ["point"]
         coords = {k: v for k, v in self.axes.items()}
-        data = {n: (dims, self.y[..., i]) for i, n in enumerate(self.names)}
+        data = {f"{n}_final": (dims, self.y[..., i]) for i, n in enumerate(self.names)}
         data["t_final"] = (dims, self.t)
         data["ok"] = (dims, self.ok)
-        return xr.Dataset(data, coords=coords)
+        attrs = {
+            "method": self.method,
+            "t0": float(self.t_span[0]),
+            "t1": float(self.t_span[1]),
+            "failed": len(self.failures),
+        }
+        return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
 def _run_chunk(
@@ -214,6 +230,8 @@ def sweep(
         names=names,
         axes=axes,
         failures=failures,
+        method=method,
+        t_span=(float(t_span[0]), float(t_span[1])),
     )
 
 

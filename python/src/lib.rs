@@ -1,13 +1,15 @@
 //! The `lagrangian` Python package's native module, `lagrangian._core`.
 //!
 //! It mirrors the library, not the command line: [`expr::PyExpr`] wraps an expression,
-//! [`system::PySystem`] a mechanical system with every derivation, and `sim.rs` the numeric
-//! side (compiled right-hand sides, `integrate`, `ensemble`). Errors become one Python
-//! exception class per engine error type (`errors.rs`). The pure-Python parts of the package
-//! (pickling helpers, progress bar, SymPy conversion, Dask sweeps) live in `lagrangian/`.
+//! [`system::PySystem`] a mechanical system with every derivation, `sim.rs` the numeric side
+//! (compiled right-hand sides and their Jacobians, `integrate`, `ensemble`) and `cache.rs` the
+//! on-disk derivation cache shared with the command line. Errors become one Python exception
+//! class per engine error type (`errors.rs`). The pure-Python parts of the package (pickling
+//! helpers, progress bar, SymPy conversion, Dask sweeps) live in `lagrangian/`.
 
 use pyo3::prelude::*;
 
+mod cache;
 mod errors;
 mod expr;
 mod sim;
@@ -23,6 +25,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sim::PyEvent>()?;
     m.add_function(wrap_pyfunction!(expr::parse, m)?)?;
     m.add_function(wrap_pyfunction!(system::poisson, m)?)?;
+    m.add_function(wrap_pyfunction!(cache::cache_info, m)?)?;
+    m.add_function(wrap_pyfunction!(cache::set_cache_dir, m)?)?;
     m.add("METHODS", lagrangian::scene::sim::METHODS.iter().map(|m| m.name).collect::<Vec<_>>())?;
     errors::register(m)?;
     Ok(())

@@ -13,10 +13,12 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use lagrangian::compile::{HamiltonianRhs, LagrangianJacobian, LagrangianRhs, SeparableHamiltonian, Tape};
+use lagrangian::compile::{
+    CompileError, HamiltonianRhs, LagrangianJacobian, LagrangianRhs, SeparableHamiltonian, Tape, TaylorOde,
+};
 use lagrangian::integrate::{
     Crossing, Dop853, Event, EventRecord, ExplicitRk, Gauss, Integrate, IntegrateError, Options, Rhs, Separable,
-    Splitting, Status, StopReason,
+    Splitting, Status, StopReason, Taylor,
 };
 use lagrangian::mechanics::{Kind, System};
 use lagrangian::scene::sim::{self as methods, Family};
@@ -40,6 +42,9 @@ pub enum Formulation {
     Hamiltonian,
     /// `H = T(p) + V(q, t)` split into drift and kick (splitting methods); state `(q, p)`.
     Separable,
+    /// The Taylor form of `W q'' = F` (state `(q, q')`) or of Hamilton's equations (state
+    /// `(q, p)`), for the Taylor method.
+    Taylor,
 }
 
 impl Formulation {
@@ -48,6 +53,7 @@ impl Formulation {
         let lagrangian = matches!(sys.kind(), Kind::Lagrangian(_));
         match m.family {
             Family::Splitting => Formulation::Separable,
+            Family::Adaptive if m.name == "taylor" => Formulation::Taylor,
             Family::Implicit if lagrangian => Formulation::LagrangianJacobian,
             _ if lagrangian => Formulation::Lagrangian,
             _ => Formulation::Hamiltonian,
@@ -56,8 +62,10 @@ impl Formulation {
 
     /// `(q…, q'…)` or `(q…, p_q…)`.
     pub fn state_names(self, sys: &System) -> Vec<String> {
+        let lagrangian = matches!(sys.kind(), Kind::Lagrangian(_));
         let second = match self {
             Formulation::Lagrangian | Formulation::LagrangianJacobian => sys.velocities(),
+            Formulation::Taylor if lagrangian => sys.velocities(),
             _ => sys.momenta(),
         };
         sys.coordinates().iter().chain(second).map(|s| s.to_string()).collect()
@@ -70,6 +78,8 @@ pub enum Compiled {
     LagrangianJacobian(LagrangianJacobian),
     Hamiltonian(HamiltonianRhs),
     Separable(SeparableHamiltonian),
+    /// The Taylor form, and the right-hand side it was made from (for `f(t, y)` calls).
+    Taylor(TaylorOde, Box<Compiled>),
 }
 
 impl Compiled {
@@ -79,8 +89,58 @@ impl Compiled {
             Compiled::LagrangianJacobian(r) => r,
             Compiled::Hamiltonian(r) => r,
             Compiled::Separable(r) => r,
+            Compiled::Taylor(_, r) => r.rhs(),
         }
     }
+
+    /// Writes the exact Jacobian `∂f_i/∂y_j` into `jac[i * dim + j]`, if this formulation
+    /// carries one.
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), lagrangian::compile::RhsError>> {
+        match self {
+            Compiled::LagrangianJacobian(r) => Some(r.try_jacobian(t, y, jac)),
+            Compiled::Hamiltonian(r) => Some(r.try_jacobian(t, y, jac)),
+            _ => None,
+        }
+    }
+}
+
+/// Compiles `f` for `sys`, taking the symbolic inputs from the derivation cache
+/// (`cache.rs`), so a worker process or a new parameter set does not derive them again.
+fn compile_formulation(sys: &System, f: Formulation) -> Result<Compiled, CompileError> {
+    let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
+    let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let q: Vec<String> = sys.coordinates().iter().map(|s| s.to_string()).collect();
+    let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
+    let q: Vec<&str> = q.iter().map(String::as_str).collect();
+    let p: Vec<&str> = p.iter().map(String::as_str).collect();
+    let lagrangian_rhs = || match sys.kind() {
+        // The checks of `System::compile_rhs` (constraints, a Hamiltonian system) come first.
+        Kind::Lagrangian(l) if sys.constraints().is_empty() => {
+            let (w, f) = crate::cache::mass_matrix(sys, l)?;
+            LagrangianRhs::new(&w, &f, &q, &params)
+        }
+        _ => sys.compile_rhs(),
+    };
+    Ok(match f {
+        Formulation::Lagrangian => Compiled::Lagrangian(lagrangian_rhs()?),
+        Formulation::LagrangianJacobian => Compiled::LagrangianJacobian(lagrangian_rhs()?.with_jacobian()?),
+        Formulation::Hamiltonian => {
+            Compiled::Hamiltonian(HamiltonianRhs::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?)
+        }
+        Formulation::Separable => {
+            Compiled::Separable(SeparableHamiltonian::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?)
+        }
+        Formulation::Taylor => match sys.kind() {
+            Kind::Lagrangian(_) => {
+                let r = lagrangian_rhs()?;
+                Compiled::Taylor(TaylorOde::from_lagrangian(&r), Box::new(Compiled::Lagrangian(r)))
+            }
+            Kind::Hamiltonian(_) => {
+                let r = HamiltonianRhs::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?;
+                Compiled::Taylor(TaylorOde::from_hamiltonian(&r), Box::new(Compiled::Hamiltonian(r)))
+            }
+        },
+    })
 }
 
 /// Compiled systems of one `System`, by formulation (compiling is done once per process).
@@ -92,16 +152,8 @@ pub fn compiled(py: Python<'_>, s: &PySystem, f: Formulation) -> PyResult<Arc<Co
         return Ok(c);
     }
     let sys = &s.sys;
-    let c = py
-        .allow_threads(|| -> Result<Compiled, lagrangian::compile::CompileError> {
-            Ok(match f {
-                Formulation::Lagrangian => Compiled::Lagrangian(sys.compile_rhs()?),
-                Formulation::LagrangianJacobian => Compiled::LagrangianJacobian(sys.compile_rhs()?.with_jacobian()?),
-                Formulation::Hamiltonian => Compiled::Hamiltonian(sys.compile_hamiltonian()?),
-                Formulation::Separable => Compiled::Separable(sys.compile_separable()?),
-            })
-        })
-        .py()?;
+    crate::cache::init(py);
+    let c = py.allow_threads(|| compile_formulation(sys, f)).py()?;
     let c = Arc::new(c);
     if let Ok(mut m) = s.compiled.lock() {
         m.insert(f, c.clone());
@@ -143,14 +195,34 @@ fn float_array<'py>(y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
 /// shape ``(n, k)`` (``k`` states as columns, SciPy's ``vectorized=True`` convention) it
 /// returns ``(n, k)``. It is a drop-in ``fun=`` for ``scipy.integrate.solve_ivp``. A state
 /// where the equations have no value (a singular mass matrix, a non-finite result) raises
-/// :class:`RhsError`.
+/// :class:`RhsError`. ``f.jac(t, y)`` is the exact Jacobian, a drop-in ``jac=`` for
+/// ``solve_ivp``'s implicit methods (Radau, BDF, LSODA).
 #[pyclass(name = "CompiledRhs", module = "lagrangian", frozen)]
 pub struct CompiledRhs {
     c: Arc<Compiled>,
     names: Vec<String>,
+    /// The system and formulation, to compile the Jacobian on first use.
+    system: Py<PySystem>,
+    formulation: Formulation,
+    jac: std::sync::OnceLock<Arc<Compiled>>,
 }
 
 impl CompiledRhs {
+    /// The formulation with the exact Jacobian of this one's equations, compiled once.
+    fn jacobian_code(&self, py: Python<'_>) -> PyResult<Arc<Compiled>> {
+        if let Some(c) = self.jac.get() {
+            return Ok(c.clone());
+        }
+        let f = match self.formulation {
+            Formulation::Lagrangian | Formulation::LagrangianJacobian => Formulation::LagrangianJacobian,
+            // The split integrates Hamilton's equations in the same state `(q, p)`.
+            Formulation::Hamiltonian | Formulation::Separable | Formulation::Taylor => Formulation::Hamiltonian,
+        };
+        let c = compiled(py, self.system.bind(py).get(), f)?;
+        let _ = self.jac.set(c.clone());
+        Ok(c)
+    }
+
     fn eval_one(&self, t: f64, y: &[f64], dy: &mut [f64]) -> PyResult<()> {
         self.c.rhs().try_eval(t, y, dy).map_err(|e| exc::RhsError::new_err(e.reason))
     }
@@ -172,6 +244,30 @@ impl CompiledRhs {
 
     fn __repr__(&self) -> String {
         format!("CompiledRhs(state = ({}))", self.names.join(", "))
+    }
+
+    /// The exact Jacobian ``J[i, j] = ∂f_i/∂y_j`` at ``(t, y)``, shape ``(n, n)``, from the
+    /// symbolic derivatives of the equations compiled into a tape (on the first call; the
+    /// same Jacobian the engine's implicit methods use). Pass it as
+    /// ``solve_ivp(f, …, method="Radau", jac=f.jac)``.
+    fn jac<'py>(&self, py: Python<'py>, t: f64, y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.names.len();
+        let a = float_array(y)?;
+        let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+        if shape != [n] {
+            return Err(PyValueError::new_err(format!(
+                "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
+                self.names.join(", ")
+            )));
+        }
+        let v = f64_vec(&a)?;
+        let c = self.jacobian_code(py)?;
+        let mut j = vec![0.0; n * n];
+        match c.jacobian(t, &v, &mut j) {
+            Some(r) => r.py()?,
+            None => return Err(PyValueError::new_err("this formulation has no compiled Jacobian")),
+        }
+        Ok(PyArray1::from_vec(py, j).reshape([n, n])?.into_any())
     }
 
     fn __call__<'py>(&self, py: Python<'py>, t: f64, y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
@@ -283,6 +379,21 @@ pub struct EventSpec {
     terminal: bool,
 }
 
+impl EventSpec {
+    /// `g(t, y)`.
+    fn function(&self) -> impl Fn(f64, &[f64]) -> f64 {
+        let tape = self.tape.clone();
+        move |t, y| {
+            let mut x = Vec::with_capacity(y.len() + 1);
+            x.extend_from_slice(y);
+            x.push(t);
+            let mut o = [0.0];
+            tape.eval(&x, &mut o);
+            o[0]
+        }
+    }
+}
+
 /// The result of one integration.
 pub struct Out {
     times: Vec<f64>,
@@ -326,16 +437,7 @@ fn drive<S: ?Sized, M: Integrate<S>>(m: &M, sys: &S, y0: &[f64], p: &RunSpec, ct
         .stop(),
     );
     for e in &p.events {
-        let tape = e.tape.clone();
-        let mut ev = Event::new(move |t, y| {
-            let mut x = Vec::with_capacity(y.len() + 1);
-            x.extend_from_slice(y);
-            x.push(t);
-            let mut o = [0.0];
-            tape.eval(&x, &mut o);
-            o[0]
-        })
-        .crossing(e.crossing);
+        let mut ev = Event::new(e.function()).crossing(e.crossing);
         if e.terminal {
             ev = ev.stop();
         }
@@ -360,7 +462,12 @@ fn drive<S: ?Sized, M: Integrate<S>>(m: &M, sys: &S, y0: &[f64], p: &RunSpec, ct
 }
 
 /// Steps with a [`lagrangian::integrate::Solver`] and interpolates at the requested times
-/// (the method's dense output, or Hermite interpolation for methods without one).
+/// (the method's dense output, or Hermite interpolation for methods without one). Events are
+/// watched as the engine's own driver does: after each step every event function is evaluated
+/// at the step's end, and a sign change is located on the same interpolant
+/// ([`lagrangian::integrate::Solver::locate`]). As in SciPy's `solve_ivp`, the integration
+/// then runs over the whole span (events may come after the last requested time), and a
+/// terminal event ends the output at the last requested time before it.
 fn drive_dense<S: ?Sized, M: Integrate<S>>(
     m: &M,
     sys: &S,
@@ -380,7 +487,11 @@ fn drive_dense<S: ?Sized, M: Integrate<S>>(
         times.push(p.t0);
         next += 1;
     }
-    while next < t_eval.len() {
+    let gs: Vec<_> = p.events.iter().map(EventSpec::function).collect();
+    let mut g_prev: Vec<f64> = gs.iter().map(|g| g(p.t0, y0)).collect();
+    let mut events = Vec::new();
+    let mut stop = None;
+    while next < t_eval.len() || !gs.is_empty() {
         if solver.steps() >= p.max_steps {
             return Err(RunError::Failed(IntegrateError {
                 t: solver.t(),
@@ -395,16 +506,38 @@ fn drive_dense<S: ?Sized, M: Integrate<S>>(
         let status = solver.step()?;
         let t = solver.t();
         ctl.t.store(t.to_bits(), Ordering::Relaxed);
-        while next < t_eval.len() && dir * (t_eval[next] - t) <= 0.0 {
+        // This step's crossings in time order; a terminal one ends the output there.
+        let mut hits = Vec::new();
+        for (i, g) in gs.iter().enumerate() {
+            let g1 = g(t, solver.y());
+            if p.events[i].crossing.crossed(g_prev[i], g1) {
+                let (te, ye) = solver.locate(g, g_prev[i], g1)?;
+                hits.push(EventRecord { index: i, t: te, state: ye });
+            }
+            g_prev[i] = g1;
+        }
+        hits.sort_by(|a, b| (dir * a.t).total_cmp(&(dir * b.t)));
+        let mut until = t;
+        for h in hits {
+            let (i, te) = (h.index, h.t);
+            events.push(h);
+            if p.events[i].terminal {
+                stop = Some((i, te));
+                until = te;
+                break;
+            }
+        }
+        while next < t_eval.len() && dir * (t_eval[next] - until) <= 0.0 {
             solver.interpolate(t_eval[next], &mut states[next * n..(next + 1) * n])?;
             times.push(t_eval[next]);
             next += 1;
         }
-        if status == Status::Finished {
+        if stop.is_some() || status == Status::Finished {
             break;
         }
     }
-    Ok(Out { times, states, events: Vec::new(), stop: None, steps: solver.steps(), rejected: solver.rejected() })
+    states.truncate(times.len() * n);
+    Ok(Out { times, states, events, stop, steps: solver.steps(), rejected: solver.rejected() })
 }
 
 /// Runs `p` on `c` from `y0`.
@@ -444,6 +577,22 @@ pub fn run(c: &Compiled, y0: &[f64], p: &RunSpec, ctl: &Control) -> Result<Out, 
                 r = r.compensated();
             }
             drive(&r, c.rhs(), y0, p, ctl)
+        }
+        Family::Adaptive if m.name == "taylor" => {
+            let Compiled::Taylor(ode, _) = c else { unreachable!("the Taylor method is compiled to its Taylor form") };
+            let mut t = Taylor::with_tolerances(p.rtol, p.atol);
+            if p.compensated {
+                t = t.compensated();
+            }
+            t.validate().map_err(|msg| {
+                RunError::Failed(IntegrateError {
+                    t: p.t0,
+                    state: y0.to_vec(),
+                    reason: lagrangian::integrate::FailureReason::InvalidInput(msg),
+                    steps: 0,
+                })
+            })?;
+            drive(&t, ode, y0, p, ctl)
         }
         Family::Adaptive => {
             let mut d = Dop853::new(p.rtol, p.atol);
@@ -830,8 +979,10 @@ impl PySystem {
     /// ``"separable"`` (``H = T(p) + V(q)``). Parameters need values (``params=`` or
     /// :meth:`with_params`).
     #[pyo3(signature = (formulation=None))]
-    fn compile(&self, py: Python<'_>, formulation: Option<&str>) -> PyResult<CompiledRhs> {
-        let lagrangian = matches!(self.sys.kind(), Kind::Lagrangian(_));
+    fn compile(slf: &Bound<'_, Self>, formulation: Option<&str>) -> PyResult<CompiledRhs> {
+        let py = slf.py();
+        let this = slf.get();
+        let lagrangian = matches!(this.sys.kind(), Kind::Lagrangian(_));
         let f = match formulation {
             None if lagrangian => Formulation::Lagrangian,
             None => Formulation::Hamiltonian,
@@ -844,20 +995,29 @@ impl PySystem {
                 )))
             }
         };
-        let c = compiled(py, self, f)?;
-        Ok(CompiledRhs { c, names: f.state_names(&self.sys) })
+        let c = compiled(py, this, f)?;
+        Ok(CompiledRhs {
+            c,
+            names: f.state_names(&this.sys),
+            system: slf.clone().unbind(),
+            formulation: f,
+            jac: std::sync::OnceLock::new(),
+        })
     }
 
     /// Integrates from ``y0`` over ``t_span = (t0, t1)`` and returns a :class:`Solution`.
     ///
-    /// ``method`` is one of ``dop853`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
+    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
     /// ``euler``, ``midpoint``, ``gauss4``, ``gauss6`` (symplectic collocation),
     /// ``leapfrog``/``verlet``, ``yoshida4``/``6``/``8``, ``blanes_moan``,
     /// ``symplectic_euler`` (splitting methods, which need ``H = T(p) + V(q)`` and use the
     /// state ``(q, p_q)``); fixed-step methods need ``dt``. :meth:`state_names` gives the
     /// layout of ``y0`` (an array, or a dict by state name). ``t_eval`` asks for the states at
     /// given times (dense output) instead of at every step; ``every=k`` keeps every k-th
-    /// step. ``events`` is a list of expressions or :class:`Event` objects. The GIL is
+    /// step. ``events`` is a list of expressions or :class:`Event` objects, located on the
+    /// step's interpolant; with ``t_eval`` too, as in SciPy, events are watched over the whole
+    /// span and a terminal one ends the output at the last ``t_eval`` time before it.
+    /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
     #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=1e-10, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
@@ -882,11 +1042,6 @@ impl PySystem {
         let y0 = initial_state(y0, &names)?;
         spec.every = every.max(1);
         if let Some(te) = t_eval {
-            if !spec.events.is_empty() {
-                return Err(PyValueError::new_err(
-                    "t_eval together with events is not supported: integrate with events, or without them at t_eval",
-                ));
-            }
             let a = float_array(te)?;
             let te: Vec<f64> = f64_vec(&a.call_method0("ravel")?)?;
             let (t0, t1) = t_span;

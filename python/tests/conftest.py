@@ -1,11 +1,22 @@
 """Shared model systems (the same ones the Rust tests use: pendulum, oscillator, double
 pendulum), with expected values derived independently in each test."""
 
+import atexit
 import math
+import os
+import shutil
+import tempfile
 
 import pytest
 
-import lagrangian as lg
+# The derivation cache of this run (and of the Dask workers and scripts it starts, which
+# inherit the environment) lives in a fresh directory: tests neither read the user's
+# ~/.cache/lagrangian nor write to it.
+_CACHE = tempfile.mkdtemp(prefix="lagrangian-test-cache-")
+os.environ["LAGRANGIAN_CACHE_DIR"] = _CACHE
+atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
+
+import lagrangian as lg  # noqa: E402
 
 PENDULUM = "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))"
 DOUBLE_PENDULUM = (

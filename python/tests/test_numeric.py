@@ -207,3 +207,87 @@ def test_progress_bar_reaches_the_end(pendulum, capsys):
     pendulum.integrate((0, 50), [1.0, 0.0], "gauss6", dt=0.01, progress=True)
     err = capsys.readouterr().err
     assert "100.0%" in err or "1000/1000" in err
+
+
+@pytest.mark.parametrize("method,dt,atol", [("dop853", None, 1e-9), ("gauss6", 0.01, 1e-9), ("taylor", None, 1e-9)])
+def test_t_eval_with_events(oscillator, method, dt, atol):
+    # x'' = -4 x from x = 1 at rest: x = cos 2t, zero at t = π/4 + kπ/2, falling for even k.
+    t_eval = np.linspace(0, 10, 101)
+    kw = dict(t_eval=t_eval, dt=dt) if dt else dict(t_eval=t_eval, tol=1e-13)
+    sol = oscillator.integrate((0, 10), [1.0, 0.0], method, events=["x", lg.Event("x", direction=-1)], **kw)
+    zeros = np.pi / 4 + np.arange(6) * np.pi / 2
+    assert sol.status == "end"
+    np.testing.assert_array_equal(sol.t, t_eval)
+    np.testing.assert_allclose(sol["x"], np.cos(2 * t_eval), atol=atol)
+    np.testing.assert_allclose(sol.t_events[0], zeros, atol=atol)
+    np.testing.assert_allclose(sol.t_events[1], zeros[::2], atol=atol)
+    np.testing.assert_allclose(sol.y_events[0][:, 1], -2 * np.sin(2 * zeros), atol=atol)
+    # A terminal event: the first upward zero, at 3π/4. t_eval is sampled up to it.
+    stop = oscillator.integrate((0, 10), [1.0, 0.0], method, events=[lg.Event("x", direction=1, terminal=True)], **kw)
+    assert stop.status == "event"
+    assert stop.t_events[0] == pytest.approx([3 * np.pi / 4], abs=atol)
+    kept = t_eval[t_eval <= 3 * np.pi / 4]
+    np.testing.assert_array_equal(stop.t, kept)
+    assert stop.y.shape == (2, len(kept)) == (2, 24)
+    np.testing.assert_allclose(stop.y[0], np.cos(2 * kept), atol=atol)
+
+
+def test_taylor_is_the_taylor_method(pendulum, oscillator):
+    # Not DOP853 under another name (as it once was): at one tolerance the Taylor method, of
+    # order 16 there against DOP853's 8, takes far fewer steps.
+    t = oscillator.integrate((0, 10), [1.0, 0.0], "taylor", tol=1e-13)
+    d = oscillator.integrate((0, 10), [1.0, 0.0], "dop853", tol=1e-13)
+    assert t.method == "taylor" and t.rejected == 0 and t.steps < d.steps / 2
+    assert t["x"][-1] == pytest.approx(math.cos(20), abs=1e-13)
+    # Hamiltonian systems too, in (q, p).
+    h = lg.System.from_hamiltonian("p_x^2/2 + 2 x^2", ["x"])
+    sol = h.integrate((0, 10), [1.0, 0.0], "taylor", tol=1e-15)
+    assert sol.names == ["x", "p_x"] and sol["x"][-1] == pytest.approx(math.cos(20), abs=1e-13)
+    r = pendulum.ensemble(np.array([[1.0, 0.0], [2.0, 0.0]]), (0, 5), "taylor")
+    assert r.ok.all()
+    np.testing.assert_allclose(r.y, pendulum.ensemble(np.array([[1.0, 0.0], [2.0, 0.0]]), (0, 5), tol=1e-13).y, atol=1e-8)
+
+
+def finite_difference_jacobian(f, t, y, h=1e-6):
+    cols = []
+    for j in range(len(y)):
+        e = np.zeros(len(y))
+        e[j] = h
+        cols.append((f(t, y + e) - f(t, y - e)) / (2 * h))
+    return np.column_stack(cols)
+
+
+@pytest.mark.parametrize("formulation", ["lagrangian", "hamiltonian"])
+def test_exact_jacobian_against_finite_differences(double_pendulum, formulation):
+    f = double_pendulum.compile(formulation)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        y = rng.uniform(-1.5, 1.5, 4)
+        J = f.jac(0.0, y)
+        assert J.shape == (4, 4) and J.dtype == np.float64
+        np.testing.assert_allclose(J, finite_difference_jacobian(f, 0.0, y), rtol=1e-6, atol=1e-7)
+    with pytest.raises(ValueError, match=r"\(4,\)"):
+        f.jac(0.0, np.zeros((4, 2)))
+    # Separable: Hamilton's equations of the same H, so the same Jacobian.
+    k = KEPLER.compile("separable")
+    y = np.array([1.0, 0.3, -0.2, 0.9])
+    np.testing.assert_allclose(k.jac(0.0, y), finite_difference_jacobian(k, 0.0, y), rtol=1e-6, atol=1e-7)
+
+
+def test_exact_jacobian_drives_a_stiff_solve():
+    integrate = pytest.importorskip("scipy.integrate")
+    # x'' + c x' + x = 0 with c = 1000: rates λ = (-c ± sqrt(c² - 4))/2 ≈ -1000 and -0.001.
+    c = 1000.0
+    s = System.from_lagrangian("1/2 x'^2 - 1/2 x^2", ["x"], rayleigh="1/2 c x'^2", params={"c": c})
+    f = s.compile()
+    l1, l2 = (-c + math.sqrt(c * c - 4)) / 2, (-c - math.sqrt(c * c - 4)) / 2
+    # x(0) = 1, x'(0) = 0: x = (l2 e^{l1 t} - l1 e^{l2 t}) / (l2 - l1).
+    exact = lambda t: (l2 * math.exp(l1 * t) - l1 * math.exp(l2 * t)) / (l2 - l1)  # noqa: E731
+    for method in ("Radau", "BDF", "LSODA"):
+        sol = integrate.solve_ivp(f, (0, 10), [1.0, 0.0], method=method, jac=f.jac, rtol=1e-8, atol=1e-10)
+        assert sol.success and sol.njev >= 1, method
+        assert sol.y[0, -1] == pytest.approx(exact(10.0), rel=1e-5), method
+    explicit = integrate.solve_ivp(f, (0, 4), [1.0, 0.0], method="RK45", rtol=1e-8, atol=1e-10)
+    radau = integrate.solve_ivp(f, (0, 4), [1.0, 0.0], method="Radau", jac=f.jac, rtol=1e-8, atol=1e-10)
+    # Stiff: the explicit method is held to |h λ| ≲ 3 by stability, the implicit one is not.
+    assert explicit.nfev > 10 * radau.nfev

@@ -96,6 +96,69 @@ def test_parameter_grid_and_state_grid(client):
         lg.sweep(sys, states, (0, 1), "rk4", client=client)
 
 
+def test_to_xarray_matches_the_numpy_result(client):
+    xr = pytest.importorskip("xarray")
+    sys = pendulum()
+    theta, g = [0.1, 0.2, 0.3], [1.0, 4.0]
+    r = lg.sweep(sys, {"θ": theta, "g": g}, (0.0, 1.0), "gauss6", y0=[0.0, 0.0], dt=0.01, client=client)
+    ds = r.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert dict(ds.sizes) == {"θ": 3, "g": 2}
+    for name in ("θ_final", "θ'_final", "t_final", "ok"):
+        assert ds[name].dims == ("θ", "g")
+    np.testing.assert_array_equal(ds["θ_final"].values, r.y[..., 0])
+    np.testing.assert_array_equal(ds["θ'_final"].values, r["θ'"])
+    np.testing.assert_array_equal(ds["t_final"].values, r.t)
+    np.testing.assert_array_equal(ds["ok"].values, r.ok)
+    # The swept values are the coordinates, so a point is selected by its values.
+    np.testing.assert_array_equal(ds.coords["θ"].values, theta)
+    np.testing.assert_array_equal(ds.coords["g"].values, g)
+    ref = sys.with_params(g=4.0).integrate((0, 1), [0.2, 0.0], "gauss6", dt=0.01)
+    assert float(ds["θ_final"].sel(θ=0.2, g=4.0)) == ref.y[0, -1]
+    assert ds.attrs == {"method": "gauss6", "t0": 0.0, "t1": 1.0, "failed": 0}
+    # A grid of states has one dimension, `point`, and failures are counted.
+    states = np.array([[0.1, 0.0], [float("nan"), 0.0]])
+    flat = lg.sweep(sys, states, (0, 1), client=client).to_xarray()
+    assert flat["θ'_final"].dims == ("point",) and flat.sizes["point"] == 2
+    assert list(flat["ok"].values) == [True, False] and flat.attrs["failed"] == 1
+
+
+def test_workers_share_the_on_disk_derivation_cache(client, tmp_path):
+    # A Lagrangian no other test derives, so every count below is this test's.
+    text = "1/2 m (x'^2 + y'^2) - 1/4 k (x^4 + y^4) - c x y + 1/2 m x' y' cos(x - y)"
+    sys = lg.System.from_lagrangian(text, ["x", "y"], params={"m": 1.0, "k": 1.0, "c": 0.3}, positive=["m"])
+    workers = sorted(client.scheduler_info()["workers"])
+    assert len(workers) == 2
+    before = client.run(lg.cache_info)
+    old_dirs = {w: i["dir"] for w, i in before.items()}
+    client.run(lg.set_cache_dir, str(tmp_path))
+    try:
+
+        def compile_here(system):
+            system.compile()
+            return lg.cache_info()
+
+        first = client.run(compile_here, sys, workers=[workers[0]])[workers[0]]
+        second = client.run(compile_here, sys, workers=[workers[1]])[workers[1]]
+        # The first process derived W q'' = F once and wrote it; the second loaded it.
+        assert first["dir"] == str(tmp_path) == second["dir"]
+        assert first["derived"] - before[workers[0]]["derived"] == 1
+        assert second["derived"] - before[workers[1]]["derived"] == 0
+        assert second["hits"] - before[workers[1]]["hits"] == 1
+        assert len(list(tmp_path.glob("*.json"))) == 1
+        # A parameter sweep (a new System per parameter row) derives nothing more anywhere,
+        # and gives what this process computes on its own.
+        r = lg.sweep(sys, {"c": [0.0, 0.3, 0.6]}, (0.0, 2.0), y0=[1.0, 0.5, 0.0, 0.0], chunk_size=1, client=client)
+        after = client.run(lg.cache_info)
+        assert sum(after[w]["derived"] - before[w]["derived"] for w in workers) == 1
+        for j, c in enumerate([0.0, 0.3, 0.6]):
+            ref = sys.with_params(c=c).integrate((0.0, 2.0), [1.0, 0.5, 0.0, 0.0])
+            np.testing.assert_array_equal(r.y[j], ref.y[:, -1])
+    finally:
+        for w, d in old_dirs.items():
+            client.run(lg.set_cache_dir, d, workers=[w])
+
+
 def test_a_chunk_lost_for_good_is_reported_and_the_rest_returns():
     import dask
 

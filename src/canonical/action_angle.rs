@@ -7,6 +7,7 @@
 //! * `J = (1/2π) ∮ p dq = (1/2π) ∫_{q1}^{q2} √D/|a| dq`,
 //! * `T = ∮ dq/q' = 2 ∫_{q1}^{q2} dq/√D`, `ω = 2π/T`,
 //!
+//! (for a rotation of an angle, with no turning points, see [`super::rotation`]),
 //! with turning points `q1 < q2` the roots of `D` around a point inside the well, found by
 //! bracketing outwards and bisecting to the last bit. The endpoint singularity `1/√D` is
 //! removed by `q = m + h sin φ` (`m`, `h` the midpoint and half-width): `D = h² cos²φ R(q)`
@@ -37,8 +38,12 @@ pub struct ActionFrequency {
     pub period: f64,
     /// `ω(E) = 2π/T(E)`.
     pub omega: f64,
-    /// The turning points `(q1, q2)`.
+    /// The turning points `(q1, q2)`; for a rotation, the ends of the turn integrated over
+    /// (`q0`, `q0 + 2π`).
     pub turning_points: (f64, f64),
+    /// Whether the orbit is a rotation (`J = (1/2π)∫₀^{2π} p dq` over one turn of an angle)
+    /// rather than a libration between turning points.
+    pub rotation: bool,
     /// Quadrature points used in the last (converged) pass.
     pub points: usize,
     /// The relative change between the last two passes: about 1e-13 normally; larger (up to
@@ -71,8 +76,8 @@ pub enum ActionAngleError {
         /// The discriminant there.
         disc: f64,
     },
-    /// No turning point on one side: a rotation or an unbounded orbit.
-    #[error("no turning point on the {side} side of q = {inside} at energy {energy}: the orbit is not a libration (it is a rotation or unbounded), so J and ω by turning points do not apply")]
+    /// No turning point on one side, and the orbit is not a rotation of an angle: unbounded.
+    #[error("no turning point on the {side} side of q = {inside} at energy {energy}: the orbit is not a libration, and not a rotation either (H is not 2π-periodic in q with real momentum over a whole turn), so it is unbounded and J and ω do not apply")]
     NoTurningPoint {
         /// `"left"` or `"right"`.
         side: &'static str,
@@ -169,10 +174,19 @@ pub fn action_frequency(
     if d0.is_nan() || d0 <= 0.0 {
         return Err(ActionAngleError::NotInside { inside, energy, disc: d0 });
     }
-    let q1 =
-        turning_point(&disc, inside, -1.0).ok_or(ActionAngleError::NoTurningPoint { side: "left", inside, energy })?;
-    let q2 =
-        turning_point(&disc, inside, 1.0).ok_or(ActionAngleError::NoTurningPoint { side: "right", inside, energy })?;
+    let ends = (turning_point(&disc, inside, -1.0), turning_point(&disc, inside, 1.0));
+    let (q1, q2) = match ends {
+        (Some(q1), Some(q2)) => (q1, q2),
+        (left, _) => {
+            // No turning point: a rotation when the coordinate is an angle (D periodic and
+            // positive over a whole turn), else an unbounded orbit.
+            let side = if left.is_none() { "left" } else { "right" };
+            let a_at = |x: f64| ev(&a, x).unwrap_or(f64::NAN);
+            let b_at = |x: f64| ev(&b, x).unwrap_or(f64::NAN);
+            return super::rotation::rotation(&disc, &a_at, &b_at, energy, inside)
+                .ok_or(ActionAngleError::NoTurningPoint { side, inside, energy })?;
+        }
+    };
     let half = 0.5 * (q2 - q1);
     // Near a turning point D is a difference of nearly equal numbers (E − V with V ≈ E), so
     // its relative error there grows without bound. Within `tau` of an end, D/(q − q_end) comes
@@ -272,6 +286,7 @@ pub fn action_frequency(
         period: t_prev,
         omega: std::f64::consts::TAU / t_prev,
         turning_points: (q1, q2),
+        rotation: false,
         points: n,
         error_estimate: change,
     })

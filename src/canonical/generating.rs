@@ -18,6 +18,7 @@ use std::fmt;
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 
+use super::compact::compact;
 use super::reduce::{decide_zero, normalize, tidy};
 use super::solve::{determinant, solve_system, SolveError};
 use super::{time, PhaseSpace};
@@ -243,10 +244,10 @@ impl Generator {
             let xmap: std::collections::HashMap<Symbol, Expr> = xs.iter().cloned().collect();
             let mut out: Vec<Relation> = Vec::new();
             for (s, v) in &xs {
-                out.push((s.clone(), tidy(v)));
+                out.push((s.clone(), compact(&tidy(v))));
             }
             for (c, rhs) in &old_rel {
-                out.push((c.clone(), normalize(&tidy(&rhs.subs(&xmap)))));
+                out.push((c.clone(), compact(&normalize(&tidy(&rhs.subs(&xmap))))));
             }
             order_like(&out, &self.old)
         });
@@ -256,10 +257,10 @@ impl Generator {
             let ymap: std::collections::HashMap<Symbol, Expr> = ys.iter().cloned().collect();
             let mut out: Vec<Relation> = Vec::new();
             for (s, v) in &ys {
-                out.push((s.clone(), tidy(v)));
+                out.push((s.clone(), compact(&tidy(v))));
             }
             for (c, rhs) in &new_rel {
-                out.push((c.clone(), normalize(&tidy(&rhs.subs(&ymap)))));
+                out.push((c.clone(), compact(&normalize(&tidy(&rhs.subs(&ymap))))));
             }
             order_like(&out, &self.new)
         });
@@ -274,7 +275,7 @@ impl Generator {
                     Ok(inv) => {
                         let xmap: std::collections::HashMap<Symbol, Expr> =
                             inv.iter().filter(|(s, _)| x.contains(s)).cloned().collect();
-                        Ok(normalize(&tidy(&mixed.subs(&xmap))))
+                        Ok(compact(&normalize(&tidy(&mixed.subs(&xmap)))))
                     }
                     Err(e) => Err(e.clone()),
                 };

@@ -34,6 +34,9 @@ fn factorial_inv(k: i64) -> crate::expr::Rational {
     f.recip()
 }
 
+/// The highest order the command line and scenes accept: each order nests one more bracket.
+pub const MAX_ORDER: usize = 40;
+
 /// `exp(ε {·, G}) f` truncated after `ε^order`.
 pub fn lie_series(f: &Expr, g: &Expr, epsilon: &Symbol, order: usize, ps: &PhaseSpace) -> Expr {
     let eps = Expr::sym(epsilon.clone());

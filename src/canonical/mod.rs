@@ -13,10 +13,14 @@
 //! Submodules, one operation each:
 //! * [`mod@poisson`]: brackets, `df/dt`, integrals of motion, Poisson's theorem;
 //! * [`mod@solve`]: the small equation solver behind generating-function inversion;
+//! * [`compact`]: the short printed forms of `K` and the maps (terms over one denominator cancelled);
 //! * [`generating`]: F1–F4, their relations, inverse and forward maps, `K = H + ∂F/∂t`;
 //! * [`explicit`]: canonicity of explicit maps `Q(q,p,t)`, `P(q,p,t)`;
 //! * [`lie`]: Lie series `exp(ε{·,G}) f` and the flow of `H` as a series in `t`;
 //! * [`action_angle`]: `J(E)` and `ω(E)` by quadrature, with turning points by root finding;
+//! * [`rotation`]: `J` and `ω` of a rotation (an angle turning over the top, no turning points);
+//! * [`report`]: the printed lines of `integral`, `action`, `average`, one text for the CLI and scenes;
+//! * [`symmetry`]: point symmetries of `L` by a polynomial ansatz, each charge checked by `{Q, H}`;
 //! * [`average`]: the exact phase average of a trial-function Lagrangian.
 
 use std::fmt;
@@ -25,12 +29,16 @@ use crate::expr::{Expr, Symbol};
 
 pub mod action_angle;
 pub mod average;
+pub mod compact;
 pub mod explicit;
 pub mod generating;
 pub mod lie;
 pub mod poisson;
 pub mod reduce;
+pub mod report;
+pub mod rotation;
 pub mod solve;
+pub mod symmetry;
 
 pub use action_angle::{action_frequency, elliptic_e, elliptic_k, ActionAngleError, ActionFrequency};
 pub use average::{

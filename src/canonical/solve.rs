@@ -266,6 +266,11 @@ fn solve_polynomial(e: &Expr, k: &Expr, u: &Symbol, eq: &Expr) -> Result<(Expr, 
 
 /// An `n`-th root taken factor by factor (`(a² b)^(1/2) = a b^(1/2)`): one of the roots, the
 /// branch stated by the caller, with no absolute values introduced.
+///
+/// The common content of every sum is pulled out first and, for an even root, a negative
+/// coefficient is paired with a sum led by a minus sign (`−P/(−a − b)` is `P/(a + b)`), so a
+/// real value is never written through `√(−1)`: `(2 P sin²Q/ω)^(1/2)` becomes
+/// `√2 √P sin Q/√ω`, which keeps the sign of `sin Q` that the forward map `tan Q = ω q/p` needs.
 pub fn root(v: &Expr, n: u32) -> Expr {
     let inv = Expr::frac(1, i64::from(n));
     let per_factor = |f: &Expr| {
@@ -275,10 +280,36 @@ pub fn root(v: &Expr, n: u32) -> Expr {
             _ => Expr::pow(b, x.times(&inv)),
         }
     };
+    let v = real_sign(&crate::algebra::factor_content(v), n);
     match v.node() {
         Node::Mul(fs) => Expr::mul(fs.iter().map(per_factor)),
-        _ => per_factor(v),
+        _ => per_factor(&v),
     }
+}
+
+/// For an even `n`: a product with a negative coefficient and a factor `S^k` (`k` an odd
+/// integer, `S` a sum led by a minus sign) is rewritten with both signs flipped, so the
+/// coefficient under the root is positive. Anything else is returned unchanged.
+fn real_sign(v: &Expr, n: u32) -> Expr {
+    if n % 2 == 1 {
+        return v.clone();
+    }
+    let fs = v.factors();
+    let negative = fs.first().and_then(Expr::as_num).is_some_and(|r| r < &Rational::from_integer(0.into()));
+    if !negative {
+        return v.clone();
+    }
+    let odd = |x: &Expr| x.as_num().is_some_and(|r| r.is_integer() && r.numer() % 2 != 0.into());
+    let flip = fs.iter().position(|f| {
+        let (b, x) = f.base_exp();
+        matches!(b.node(), Node::Add(_)) && b.is_negative_form() && odd(&x)
+    });
+    let Some(i) = flip else { return v.clone() };
+    let mut out = fs.clone();
+    out[0] = out[0].neg();
+    let (b, x) = fs[i].base_exp();
+    out[i] = Expr::pow(b.neg(), x);
+    Expr::mul(out)
 }
 
 /// Inverts `k(u) = value` for `u`.

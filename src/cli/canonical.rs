@@ -196,7 +196,7 @@ pub struct AverageArgs {
 }
 
 /// The highest Lie-series order the CLI accepts (each order nests one more bracket).
-const MAX_LIE_ORDER: usize = 40;
+const MAX_LIE_ORDER: usize = canonical::lie::MAX_ORDER;
 
 struct Out {
     format: OutFormat,
@@ -245,7 +245,6 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             let (_, h) = parse_arg(&hamiltonian, &decls)?;
             let dfdt = canonical::time_derivative(&fe, &h, &ps);
             let check = canonical::is_integral(&fe, &h, &ps);
-            let verdict = if check.is_zero() { "an integral of motion" } else { "not an integral of motion" };
             let out = Out { format: common.format };
             if common.format == OutFormat::Json {
                 println!(
@@ -253,8 +252,9 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                     json!({"f": fe.to_string(), "dfdt": dfdt.to_string(), "integral": check.is_zero(), "check": check.describe()})
                 );
             } else {
-                println!("df/dt = {{f, H}} + ∂f/∂t = {}", out.e(&dfdt));
-                println!("{verdict}: {}", check.describe());
+                for l in canonical::report::integral_lines(&dfdt, &check, out.format.expr_format()) {
+                    println!("{l}");
+                }
             }
         }
         CanonicalCommand::Canonical(args) => {
@@ -363,16 +363,12 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 let v: Vec<Value> = rows
                     .iter()
                     .map(|r| json!({"energy": r.energy, "action": r.action, "period": r.period, "omega": r.omega,
-                                   "turning_points": [r.turning_points.0, r.turning_points.1], "relative_error_estimate": r.error_estimate}))
+                                   "turning_points": [r.turning_points.0, r.turning_points.1], "rotation": r.rotation, "relative_error_estimate": r.error_estimate}))
                     .collect();
                 println!("{}", Value::Array(v));
             } else {
-                println!("{:>14} {:>22} {:>22} {:>22} {:>9}", "E", "J(E)", "T(E)", "ω(E)", "rel.err");
-                for r in rows {
-                    println!(
-                        "{:>14.6e} {:>22.15e} {:>22.15e} {:>22.15e} {:>9.1e}",
-                        r.energy, r.action, r.period, r.omega, r.error_estimate
-                    );
+                for l in canonical::report::action_table(&rows) {
+                    println!("{l}");
                 }
             }
         }
@@ -435,17 +431,9 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                            "leading_order": lo})
                 );
             } else {
-                println!("⟨L⟩ = {}", out.e(&avg.lagrangian));
-                for (a, e) in &avg.relations {
-                    println!("∂⟨L⟩/∂{} = {} = 0", out.s(a), out.e(e));
-                }
-                println!("J = ∂⟨L⟩/∂{} = {}", out.s(&w), out.e(&avg.action));
-                if let Some(lo) = &lead {
-                    println!("to first order in {}:", small.as_deref().unwrap_or("σ"));
-                    println!("  {}", out.eq(&w, &lo.frequency));
-                    for (a, e) in &lo.amplitudes {
-                        println!("  {}", out.eq(a, e));
-                    }
+                let lead = lead.as_ref().map(|lo| (small.as_deref().unwrap_or("σ"), lo));
+                for l in canonical::report::average_lines(&avg, &w, lead, out.format.expr_format()) {
+                    println!("{l}");
                 }
             }
         }

@@ -28,8 +28,9 @@ pub enum NotesCommand {
         common: Common,
     },
     /// Geodesics of a line element ds² = Σ g_ij dq_i dq_j (differentials `dx`): the metric,
-    /// the Christoffel symbols Γ^k_ij, the geodesic equations, their conserved quantities, and
-    /// with --from/--to a shooting solution in unit time.
+    /// the Christoffel symbols Γ^k_ij, the geodesic equations, the curvature (Riemann
+    /// components R_abcd, scalar R, and for a surface the Gauss curvature K), the conserved
+    /// quantities, and with --from/--to a shooting solution in unit time.
     Geodesic {
         /// The line element, e.g. "dθ^2 + sin(θ)^2 dφ^2".
         #[arg(allow_hyphen_values = true)]
@@ -46,6 +47,40 @@ pub enum NotesCommand {
         #[command(flatten)]
         common: Common,
     },
+    /// The trial-function (Ritz) method (§1.4.2): a trial path q(t; a_1…a_K) meeting the end
+    /// conditions, the action S(a) = ∫ L dt (exact for an integrand polynomial in t, else by
+    /// Gauss–Legendre quadrature), the conditions ∂S/∂a_k = 0 and their solution by Newton.
+    Ritz {
+        /// The Lagrangian (`-` reads it from standard input).
+        #[arg(allow_hyphen_values = true)]
+        lagrangian: String,
+        /// The coordinates, in order.
+        #[arg(long, value_delimiter = ',', required = true)]
+        coords: Vec<String>,
+        /// The trial path of each coordinate, in order (repeat the option), in t and the unknowns.
+        #[arg(long, required = true, allow_hyphen_values = true)]
+        trial: Vec<String>,
+        /// The unknown coefficients a_k.
+        #[arg(long, value_delimiter = ',', required = true)]
+        unknowns: Vec<String>,
+        /// The time span `t0,t1` (exact expressions).
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+        span: Vec<String>,
+        /// q(t0), one per coordinate.
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+        from: Vec<String>,
+        /// q(t1), one per coordinate.
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+        to: Vec<String>,
+        /// Parameter values for the numeric solution (`m=1,k=2`).
+        #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
+        set: Vec<String>,
+        /// Starting values of the unknowns for Newton (default 0).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        guess: Vec<f64>,
+        #[command(flatten)]
+        common: Common,
+    },
     /// Discrete mechanics: the discrete Lagrangian L_d(q_k, q_{k+1}) of L by a quadrature rule,
     /// the discrete Euler–Lagrange equations D₂L_d(q_{k−1}, q_k) + D₁L_d(q_k, q_{k+1}) = 0 and
     /// the discrete Legendre maps p_k = −D₁L_d, p_{k+1} = D₂L_d. For a coordinate x, x_0, x_1,
@@ -57,7 +92,8 @@ pub enum NotesCommand {
         /// The coordinates, in order.
         #[arg(long, value_delimiter = ',', required = true)]
         coords: Vec<String>,
-        /// The quadrature rule: midpoint or trapezoid.
+        /// The quadrature rule: midpoint, trapezoid (order 2) or gauss2 (order 4: a quadratic
+        /// through q_k, an inner point x_m and q_{k+1}, two Gauss–Legendre nodes).
         #[arg(long, default_value = "midpoint")]
         rule: String,
         /// The step: a symbol (`h`) or an exact number.
@@ -213,6 +249,29 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 out.lines.push(format!("{label}: {} = 0", out.r(e)));
             }
             out.json.insert("equations".into(), json!(g.equations.iter().map(plain).collect::<Vec<_>>()));
+            // The curvature (§1.6.3): independent components R_abcd (a < b, c < d,
+            // (a, b) ≤ (c, d)) that are not zero, the scalar R and, for a surface, K.
+            let curv = g.curvature();
+            let n = z.len();
+            for a in 0..n {
+                for b in a + 1..n {
+                    for c in a..n {
+                        for e in c + 1..n {
+                            if (c, e) < (a, b) || curv.lowered[a][b][c][e].is_zero() {
+                                continue;
+                            }
+                            let label = format!("R_{}{}{}{}", out.s(&z[a]), out.s(&z[b]), out.s(&z[c]), out.s(&z[e]));
+                            out.line(label, &curv.lowered[a][b][c][e]);
+                        }
+                    }
+                }
+            }
+            out.line("scalar_curvature".into(), &curv.scalar);
+            out.json.insert("scalar_curvature".into(), json!(plain(&curv.scalar)));
+            if let Some(k) = &curv.gauss {
+                out.line("K".into(), k);
+                out.json.insert("gauss_curvature".into(), json!(plain(k)));
+            }
             let sys = g.system().map_err(fail)?;
             for c in sys.conserved() {
                 out.lines.push(format!("{} = {}    # {}", c.name, out.r(&c.expr), c.reason));
@@ -229,10 +288,13 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
+        NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
+            ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
+        }
         NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
             let Some(r) = Rule::from_name(rule.trim()) else {
                 return Err(bad_input(format!(
-                    "error: unknown rule `{rule}` for discretize (expected midpoint or trapezoid; gauss2 is not built yet)"
+                    "error: unknown rule `{rule}` for discretize (expected midpoint, trapezoid or gauss2)"
                 )));
             };
             let text = read_expr_arg(&lagrangian)?;
@@ -252,6 +314,20 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 out.lines.push(format!("{label}: {} = 0", out.r(e)));
             }
             out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
+            if !d.inner.is_empty() {
+                // Galerkin: each step's inner point is fixed by ∂L̃/∂Q = 0.
+                let stages = d.stage_equations();
+                let labels =
+                    ["m0", "m1"].iter().flat_map(|tag| d.coords.iter().map(move |q| format!("{}_{tag}", q.name())));
+                for (label, e) in labels.zip(&stages) {
+                    out.lines.push(format!("stage_{label}: {} = 0", out.r(e)));
+                }
+                for (m, e) in d.inner.iter().zip(&d.dm) {
+                    out.lines.push(format!("∂L_d/∂{}: {} = 0", out.s(m), out.r(e)));
+                }
+                out.json.insert("stage_equations".into(), json!(stages.iter().map(plain).collect::<Vec<_>>()));
+                out.json.insert("inner_condition".into(), json!(d.dm.iter().map(plain).collect::<Vec<_>>()));
+            }
             let (pk, pk1) = d.legendre_maps();
             for (q, e) in d.coords.iter().zip(&pk) {
                 let label = format!("p_{}_0", q.name());
@@ -266,5 +342,83 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             out.print();
         }
     }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn ritz(
+    lagrangian: String,
+    coords: Vec<String>,
+    trial: Vec<String>,
+    unknowns: Vec<String>,
+    span: Vec<String>,
+    from: Vec<String>,
+    to: Vec<String>,
+    set: Vec<String>,
+    guess: Vec<f64>,
+    common: Common,
+) -> Result<(), Failure> {
+    let text = read_expr_arg(&lagrangian)?;
+    let decls = common.declarations();
+    let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+    let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+    let exprs =
+        |v: &[String]| -> Result<Vec<Expr>, Failure> { v.iter().map(|x| parse_arg(x, &decls).map(|p| p.1)).collect() };
+    let trial = exprs(&trial)?;
+    let (from, to) = (exprs(&from)?, exprs(&to)?);
+    let span = exprs(&span)?;
+    let [t0, t1] = span.as_slice() else {
+        return Err(bad_input(format!("error: --span takes two values t0,t1, {} given", span.len())));
+    };
+    let mut a = Vec::new();
+    for u in &unknowns {
+        match parse_arg(u, &decls)?.1.as_sym() {
+            Some(sym) if sym.primes() == 0 && !sym.is_time() => a.push(sym.clone()),
+            _ => return Err(bad_input(format!("error: the unknown `{u}` must be a plain name"))),
+        }
+    }
+    let mut values: Vec<(String, f64)> = Vec::new();
+    for kv in &set {
+        let Some((k, v)) = kv.split_once('=') else {
+            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
+        };
+        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
+        values.push((k.trim().to_string(), v));
+    }
+    let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
+    let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+    out.json.insert("input".into(), json!(text.trim()));
+    out.line("L(trial)".into(), &r.integrand);
+    match &r.action {
+        Some(sa) => {
+            out.line("S".into(), sa);
+            out.json.insert("action".into(), json!(plain(sa)));
+            for (u, c) in a.iter().zip(&r.conditions) {
+                let label = format!("∂S/∂{}", out.s(u));
+                out.lines.push(format!("{label}: {} = 0", out.r(c)));
+            }
+        }
+        None => {
+            out.lines.push(format!(
+                "note: L(trial) is not a polynomial in t; S and ∂S/∂a are integrated numerically (Gauss–Legendre, {} points graded towards the ends)",
+                lagrangian::mechanics::ritz_quadrature_points()
+            ));
+            for (u, c) in a.iter().zip(&r.conditions) {
+                let label = format!("∂S/∂{}", out.s(u));
+                out.lines.push(format!("{label}: ∫ {} dt = 0", out.r(c)));
+            }
+        }
+    }
+    out.json.insert("conditions".into(), json!(r.conditions.iter().map(plain).collect::<Vec<_>>()));
+    let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let sol = r.solve(&guess, &bound).map_err(fail)?;
+    for (u, v) in a.iter().zip(&sol.values) {
+        let label = out.s(u);
+        out.lines.push(format!("{label} ≈ {v:.15e}"));
+    }
+    out.lines.push(format!("S ≈ {:.15e}    # at the stationary point, {} Newton steps", sol.action, sol.iterations));
+    out.json.insert("solution".into(), json!(sol.values));
+    out.json.insert("stationary_action".into(), json!(sol.action));
+    out.print();
     Ok(())
 }

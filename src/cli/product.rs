@@ -53,12 +53,7 @@ impl CacheArgs {
         if self.no_cache {
             return Cache::new();
         }
-        let env = std::env::var_os("LAGRANGIAN_CACHE_DIR").filter(|v| !v.is_empty());
-        if self.cache_dir.is_none() && env.as_deref() == Some(std::ffi::OsStr::new("off")) {
-            return Cache::new();
-        }
-        let dir =
-            self.cache_dir.clone().or_else(|| env.map(PathBuf::from)).or_else(lagrangian::scene::cache::default_dir);
+        let dir = self.cache_dir.clone().or_else(lagrangian::scene::cache::configured_dir);
         dir.map_or_else(Cache::new, Cache::with_dir)
     }
 }

@@ -37,7 +37,7 @@ mod taylor;
 mod variational;
 
 pub use constrained::{ConstrainedRhs, Projected, Stabilization};
-pub use discrete::{DiscretePoint, VariationalError, VariationalMap, MAX_NEWTON};
+pub use discrete::{DiscretePoint, StepperWork, VariationalError, VariationalMap, VariationalStepper, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use geodesic::{shoot, ShootError, Shot};

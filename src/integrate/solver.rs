@@ -132,6 +132,19 @@ impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
         self.method.rejected(&self.work)
     }
 
+    /// Locates the zero of `g(t, y(t))` inside the last step, where `g` went from `g0` at its
+    /// start to `g1` at its end, on the step's interpolant (the method's dense output, else
+    /// Hermite), exactly as [`Integrate::integrate_with`] locates its [`Event`]s. For drivers
+    /// that step a solver themselves (sampling at given times while watching events).
+    pub fn locate(
+        &mut self,
+        g: &dyn Fn(f64, &[f64]) -> f64,
+        g0: f64,
+        g1: f64,
+    ) -> Result<(f64, Vec<f64>), IntegrateError> {
+        locate(self, g, g0, g1)
+    }
+
     /// Replaces the state (and forgets the method's cached values).
     pub fn set_state(&mut self, t: f64, y: &[f64]) {
         self.t = t;
@@ -467,13 +480,17 @@ pub trait Integrate<S: ?Sized>: Method<S> + Sized {
 
 impl<S: ?Sized, M: Method<S>> Integrate<S> for M {}
 
-fn crossed(c: Crossing, g0: f64, g1: f64) -> bool {
-    let rising = g0 < 0.0 && g1 >= 0.0;
-    let falling = g0 > 0.0 && g1 <= 0.0;
-    match c {
-        Crossing::Rising => rising,
-        Crossing::Falling => falling,
-        Crossing::Either => rising || falling,
+impl Crossing {
+    /// Whether a step over which the event function went from `g0` to `g1` holds a crossing
+    /// of this kind.
+    pub fn crossed(self, g0: f64, g1: f64) -> bool {
+        let rising = g0 < 0.0 && g1 >= 0.0;
+        let falling = g0 > 0.0 && g1 <= 0.0;
+        match self {
+            Crossing::Rising => rising,
+            Crossing::Falling => falling,
+            Crossing::Either => rising || falling,
+        }
     }
 }
 
@@ -579,7 +596,7 @@ fn run<S: ?Sized, M: Method<S>>(
         let mut hits: Vec<(f64, usize, Vec<f64>)> = Vec::new();
         for (i, e) in events.iter().enumerate() {
             let g1 = (e.g)(t, &solver.y);
-            if crossed(e.crossing, g_prev[i], g1) {
+            if e.crossing.crossed(g_prev[i], g1) {
                 let (te, ye) = locate(&mut solver, &*e.g, g_prev[i], g1)?;
                 hits.push((te, i, ye));
             }

@@ -6,6 +6,11 @@
 //! quantities are the geodesics' conserved quantities.
 //!
 //! A line element names the differential of coordinate `x` as `dx` (`dθ^2 + sin(θ)^2 dφ^2`).
+//!
+//! [`Geodesic::curvature`] gives the Riemann tensor, the scalar curvature and, for a
+//! surface, the Gauss curvature `K` (§1.6.3 "curvature of geodesics": on a surface the
+//! geodesics' spreading is governed by `K`; the unit sphere has `K = 1`, a plane in polar
+//! coordinates `K = 0`).
 
 use std::collections::HashMap;
 
@@ -128,5 +133,79 @@ impl Geodesic {
     /// its compiled right-hand side integrates them).
     pub fn system(&self) -> Result<System, MechanicsError> {
         System::from_lagrangian_expr(self.lagrangian.clone(), &self.coords)
+    }
+}
+
+/// The curvature of a metric (§1.6.3): the Riemann tensor, its scalar, and for a surface
+/// the Gauss curvature.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curvature {
+    /// `R^a_bcd = ∂_c Γ^a_db − ∂_d Γ^a_cb + Σ_e (Γ^a_ce Γ^e_db − Γ^a_de Γ^e_cb)` as
+    /// `riemann[a][b][c][d]` (the sign convention of Misner, Thorne & Wheeler (11.12), in
+    /// which the unit sphere has `R_θφθφ = sin²θ > 0`).
+    pub riemann: Vec<Vec<Vec<Vec<Expr>>>>,
+    /// `R_abcd = Σ_e g_ae R^e_bcd`.
+    pub lowered: Vec<Vec<Vec<Vec<Expr>>>>,
+    /// The scalar curvature `R = Σ g^bd R^a_bad`.
+    pub scalar: Expr,
+    /// For two coordinates, the Gauss curvature `K = R_1212 / det g` (`R = 2K`).
+    pub gauss: Option<Expr>,
+}
+
+impl Geodesic {
+    /// The curvature of the metric, from the Christoffel symbols.
+    pub fn curvature(&self) -> Curvature {
+        let n = self.coords.len();
+        let mut d = Differentiator::new();
+        let g = &self.christoffel;
+        // ∂_c Γ^a_db, as dg[c][a][d][b].
+        let dg: Vec<Vec<Vec<Vec<Expr>>>> = self
+            .coords
+            .iter()
+            .map(|q| {
+                (0..n).map(|a| (0..n).map(|x| (0..n).map(|y| d.diff(&g[a][x][y], q)).collect()).collect()).collect()
+            })
+            .collect();
+        let mut riemann = vec![vec![vec![vec![Expr::zero(); n]; n]; n]; n];
+        for a in 0..n {
+            for b in 0..n {
+                for c in 0..n {
+                    for e in c + 1..n {
+                        let mut terms = vec![dg[c][a][e][b].clone(), dg[e][a][c][b].neg()];
+                        for k in 0..n {
+                            terms.push(g[a][c][k].times(&g[k][e][b]));
+                            terms.push(g[a][e][k].times(&g[k][c][b]).neg());
+                        }
+                        let r = tidy(&Expr::add(terms));
+                        riemann[a][b][e][c] = tidy(&r.neg());
+                        riemann[a][b][c][e] = r;
+                    }
+                }
+            }
+        }
+        let mut lowered = vec![vec![vec![vec![Expr::zero(); n]; n]; n]; n];
+        for a in 0..n {
+            for b in 0..n {
+                for c in 0..n {
+                    for e in 0..n {
+                        let s = Expr::add((0..n).map(|k| self.metric[a][k].times(&riemann[k][b][c][e])));
+                        lowered[a][b][c][e] = tidy(&s);
+                    }
+                }
+            }
+        }
+        let det = determinant(&self.metric);
+        let adj = adjugate(&self.metric);
+        let mut terms = Vec::new();
+        for a in 0..n {
+            for b in 0..n {
+                for e in 0..n {
+                    terms.push(adj[b][e].times(&riemann[a][b][a][e]));
+                }
+            }
+        }
+        let scalar = tidy(&Expr::add(terms).over(&det));
+        let gauss = (n == 2).then(|| tidy(&lowered[0][1][0][1].over(&det)));
+        Curvature { riemann, lowered, scalar, gauss }
     }
 }

@@ -155,6 +155,26 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
+/// `small σ unperturbed ω0 [principal A]` of an `average` statement.
+#[derive(Clone, Debug)]
+pub struct SmallSpec {
+    /// The small parameter.
+    pub small: Src,
+    /// The frequency at zeroth order.
+    pub unperturbed: Src,
+    /// The amplitude left free (default: the first).
+    pub principal: Option<Src>,
+}
+
+/// The generator of a `lie` statement.
+#[derive(Clone, Debug)]
+pub enum LieGenerator {
+    /// `with G`.
+    With(Src),
+    /// `flow [H]`.
+    Flow(Option<Src>),
+}
+
 /// What a `plot` draws.
 #[derive(Clone, Debug)]
 pub enum PlotKind {
@@ -253,8 +273,52 @@ pub enum StmtKind {
         frequency: Src,
         /// The amplitudes.
         amplitudes: Vec<Src>,
+        /// `small σ unperturbed ω0 [principal A]`: solve to first order in `σ`.
+        small: Option<SmallSpec>,
         /// `as latex`.
         format: Option<Format>,
+    },
+    /// `transform [L] with x = r cos(φ), … [to r, φ]`: a point transformation.
+    PointTransform {
+        /// The Lagrangian (default `L`).
+        l: Option<Src>,
+        /// Old coordinate and its value in the new coordinates.
+        map: Vec<(Src, Src)>,
+        /// The new coordinates (empty: the map's new symbols, in order).
+        to: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
+    Lie {
+        /// The function transformed.
+        f: Src,
+        /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
+        generator: LieGenerator,
+        /// `order N` (default 3, as on the command line).
+        order: Option<Src>,
+        /// `in ε` (default `ε`).
+        epsilon: Option<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `integral f [with H]`.
+    Integral {
+        /// The candidate.
+        f: Src,
+        /// The Hamiltonian (default the session's).
+        h: Option<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `action [H] at E = … [near q0]`.
+    Action {
+        /// The Hamiltonian (default the session's).
+        h: Option<Src>,
+        /// The energies.
+        energies: Vec<Src>,
+        /// A coordinate value inside the well (default 0).
+        near: Option<Src>,
     },
     /// `transform [H] with F1 = … new Q, P`
     Transform {

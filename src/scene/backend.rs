@@ -78,6 +78,9 @@ pub enum Formulation {
     /// `L(q, q', t)` with generalized forces, a Rayleigh function or holonomic constraints:
     /// state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
     Extended(Box<ExtendedLagrangian>),
+    /// `L(q, q', t)` discretized (`variational` methods): state `(q, p)`, the map
+    /// `(q_k, p_k) → (q_{k+1}, p_{k+1})` of the discrete Lagrangian.
+    Variational(Expr),
     /// `H = T(p) + V(q, t)`: drift and kick for splitting methods.
     Separable {
         /// The kinetic part `T(p)`.
@@ -263,6 +266,8 @@ pub enum NativeCompiled {
     FirstOrder(crate::compile::WithVelocitySlots),
     /// The augmented system of a constrained Lagrangian.
     Constrained(crate::compile::ConstrainedRhs),
+    /// The variational map of a discrete Lagrangian, with the order of its rule.
+    Variational(crate::compile::VariationalMap, u32),
 }
 
 /// The real library.
@@ -320,11 +325,14 @@ impl Backend for NativeBackend {
     }
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError> {
         let system = if is_hamiltonian { hamiltonian_system(sys, f)? } else { lagrangian_system(sys, f)? };
-        Ok(system
+        let mut lines: Vec<Line> = system
             .conserved()
             .into_iter()
             .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
-            .collect())
+            .collect();
+        let more = super::symmetries::symmetry_lines(&system, sys.coords, &lines, is_hamiltonian, &[]);
+        lines.extend(more);
+        Ok(lines)
     }
     fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         Ok(lagrangian_system(sys, l)?.energy_function())
@@ -423,6 +431,10 @@ impl Backend for NativeBackend {
                 let rhs = crate::compile::FirstOrderRhs::new(&f.omega, &f.force, &coords, &params).map_err(failed)?;
                 NativeCompiled::FirstOrder(crate::compile::WithVelocitySlots(rhs))
             }
+            Formulation::Variational(l) => {
+                let (map, order) = super::notes::variational_map(l, &req.coords, req.method.name, &params)?;
+                NativeCompiled::Variational(map, order)
+            }
             Formulation::Lagrangian(l) => {
                 let system =
                     crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
@@ -476,6 +488,7 @@ impl Backend for NativeBackend {
             req.formulation,
             Formulation::Lagrangian(_) | Formulation::FirstOrder(_) | Formulation::Extended(_)
         );
+        // (A `Variational` state is `(q, p)`, the discrete Legendre momenta.)
         let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
         state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
         Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
@@ -523,6 +536,12 @@ impl Backend for NativeBackend {
                     t.aux = constrained_aux(r, &t);
                     t
                 })
+            }
+            NativeCompiled::Variational(m, order) => {
+                let before = m.evaluations();
+                let stepper = crate::compile::VariationalStepper { h: dt, order: *order };
+                drive(&stepper, m, run, &events, names, progress)
+                    .inspect(|_| count.store(m.evaluations() - before, Ordering::Relaxed))
             }
             NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None)
                 .and_then(|mut traj| {
@@ -765,7 +784,7 @@ fn taylor(
         NativeCompiled::Separable(_) => {
             return Err(BackendError::Failed("`taylor` cannot integrate a drift/kick split".into()))
         }
-        NativeCompiled::FirstOrder(_) | NativeCompiled::Constrained(_) => {
+        NativeCompiled::FirstOrder(_) | NativeCompiled::Constrained(_) | NativeCompiled::Variational(..) => {
             return Err(BackendError::Failed(
                 "`taylor` does not yet integrate first-order or constrained Lagrangians: use dop853 or gauss6".into(),
             ))

@@ -67,6 +67,9 @@ fn checksum(key: &str, value: &Json) -> String {
 pub struct Cache {
     map: HashMap<CacheKey, Value>,
     dir: Option<PathBuf>,
+    /// The engine build named in on-disk keys, when not the running executable (see
+    /// [`Cache::for_build`]).
+    build: Option<String>,
 }
 
 /// Everything a derivation depends on. Symbols carry their positivity, so equal keys mean
@@ -107,7 +110,43 @@ impl Cache {
 
     /// An empty in-memory cache backed by the directory `dir` (created when first written).
     pub fn with_dir(dir: impl Into<PathBuf>) -> Cache {
-        Cache { map: HashMap::new(), dir: Some(dir.into()) }
+        Cache { map: HashMap::new(), dir: Some(dir.into()), build: None }
+    }
+
+    /// Names the engine build whose entries this cache reads and writes, in place of the
+    /// running executable's size and modification time (the default, see `engine_identity`).
+    /// A library loaded into another program needs this: in the Python extension the
+    /// executable is the interpreter, which stays the same when the engine is rebuilt, so the
+    /// binding names its own module file instead.
+    pub fn for_build(mut self, build: impl Into<String>) -> Cache {
+        self.build = Some(build.into());
+        self
+    }
+
+    /// Expressions a library caller outside the scene runner derived by `step` from `inputs`
+    /// in the coordinates `coords` (the Python binding keeps `W q'' = F` and the Hamiltonian
+    /// this way, so that its Dask workers derive a system once per machine, not once per
+    /// process): from memory, else from the disk, re-parsed with `decls` and checked like
+    /// every entry. `what` tells apart results of one step (it is part of the key).
+    pub fn load_exprs(
+        &mut self,
+        step: Step,
+        what: &str,
+        coords: &[Symbol],
+        inputs: &[Expr],
+        decls: &Declarations,
+    ) -> Option<Vec<Expr>> {
+        let key = CacheKey { extra: what.to_string(), ..CacheKey::symbolic(step, coords, inputs.to_vec()) };
+        match self.get(&key).or_else(|| self.load(&key, decls))? {
+            Value::Exprs(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// Keeps what [`Cache::load_exprs`] looks up, in memory and (with a directory) on disk.
+    pub fn store_exprs(&mut self, step: Step, what: &str, coords: &[Symbol], inputs: &[Expr], value: Vec<Expr>) {
+        let key = CacheKey { extra: what.to_string(), ..CacheKey::symbolic(step, coords, inputs.to_vec()) };
+        self.insert(key, Value::Exprs(value));
     }
 
     /// The directory of the on-disk cache, if any.
@@ -132,7 +171,7 @@ impl Cache {
 
     /// A result from the disk, re-parsed with `decls`; it is then held in memory too.
     pub(super) fn load(&mut self, key: &CacheKey, decls: &Declarations) -> Option<Value> {
-        let text = disk_key(key)?;
+        let text = disk_key(key, self.build.as_deref())?;
         let path = self.dir.as_ref()?.join(file_name(&text));
         let bytes = read_entry(&path)?;
         let value = decode(&bytes, &text, decls)?;
@@ -142,13 +181,23 @@ impl Cache {
 
     /// Keeps a result in memory, and on disk when it is symbolic and a directory is set.
     pub(super) fn insert(&mut self, key: CacheKey, value: Value) {
-        if let (Some(dir), Some(text)) = (&self.dir, disk_key(&key)) {
+        if let (Some(dir), Some(text)) = (&self.dir, disk_key(&key, self.build.as_deref())) {
             if let Some(entry) = encode(&value, &text) {
                 // A failed write only means the next run builds again.
                 let _ = write_atomically(dir, &file_name(&text), entry.as_bytes());
             }
         }
         self.map.insert(key, value);
+    }
+}
+
+/// The cache directory of the command line and of the library's other front ends:
+/// `$LAGRANGIAN_CACHE_DIR` (`off` means none), else [`default_dir`].
+pub fn configured_dir() -> Option<PathBuf> {
+    match std::env::var_os("LAGRANGIAN_CACHE_DIR").filter(|v| !v.is_empty()) {
+        Some(v) if v == "off" => None,
+        Some(v) => Some(PathBuf::from(v)),
+        None => default_dir(),
     }
 }
 
@@ -161,16 +210,17 @@ pub fn default_dir() -> Option<PathBuf> {
     std::env::var_os("HOME").and_then(nonempty).map(|h| h.join(".cache").join("lagrangian"))
 }
 
-/// The key as stable text: plain printed forms, one per line, with the format version.
-/// `None` for results that are not kept on disk (compiled code).
-fn disk_key(key: &CacheKey) -> Option<String> {
+/// The key as stable text: plain printed forms, one per line, with the format version and the
+/// engine build (`build`, else the running executable's). `None` for results that are not
+/// kept on disk (compiled code).
+fn disk_key(key: &CacheKey, build: Option<&str>) -> Option<String> {
     if key.step == Step::Compile || !key.numbers.is_empty() {
         return None;
     }
     let mut symbols: Vec<String> = Vec::new();
     let mut s = format!(
         "lagrangian derivation cache, format {CACHE_FORMAT}\nengine: {}\nstep: {:?}\ncoordinates:",
-        engine_identity(),
+        build.map_or_else(|| engine_identity().to_string(), |b| format!("{} ({b})", env!("CARGO_PKG_VERSION"))),
         key.step
     );
     for q in &key.coords {
@@ -382,6 +432,8 @@ mod tests {
         assert_eq!(file_name(""), "6c62272e07bb014262b821756295c58d.json");
         let m = Expr::sym(Symbol::new("m"));
         let m_pos = Expr::sym(Symbol::positive("m"));
-        assert_ne!(disk_key(&key(vec![m])), disk_key(&key(vec![m_pos])));
+        assert_ne!(disk_key(&key(vec![m.clone()]), None), disk_key(&key(vec![m_pos]), None));
+        // The build is part of the key: another build never reads this one's entries.
+        assert_ne!(disk_key(&key(vec![m.clone()]), Some("a")), disk_key(&key(vec![m]), Some("b")));
     }
 }

@@ -17,6 +17,9 @@ use super::session::{fmt_num, symbol_span, Mode, Refs, Session};
 use crate::compile::Stabilization;
 use crate::expr::{Expr, Symbol};
 
+/// Forces per coordinate, the Rayleigh function and the constraints, resolved.
+pub(super) type ResolvedDynamics = (Vec<Expr>, Option<Expr>, Vec<Expr>);
+
 /// The default Baumgarte rate `α = β` (1/time) when `stabilize baumgarte` gives none.
 pub(super) const DEFAULT_BAUMGARTE_RATE: f64 = 10.0;
 
@@ -151,6 +154,25 @@ impl Session {
         }
         self.dynamics.constraints.push(d);
         Ok(())
+    }
+
+    /// The declared forces (per coordinate), Rayleigh function and constraints, resolved
+    /// against the current definitions (what `conserved` must respect).
+    pub(super) fn resolved_dynamics(&mut self) -> Result<ResolvedDynamics, SceneError> {
+        let dynamics = self.dynamics.clone();
+        let mut forces = vec![Expr::zero(); self.coords.len()];
+        for (i, d) in &dynamics.forces {
+            forces[*i] = forces[*i].plus(&self.resolve(&d.raw, &d.refs)?);
+        }
+        let rayleigh = match &dynamics.rayleigh {
+            Some(d) => Some(self.resolve(&d.raw, &d.refs)?),
+            None => None,
+        };
+        let mut constraints = Vec::new();
+        for d in &dynamics.constraints {
+            constraints.push(self.resolve(&d.raw, &d.refs)?);
+        }
+        Ok((forces, rayleigh, constraints))
     }
 
     /// The extended Lagrangian of a run: `L` with the run's forces, Rayleigh function and

@@ -32,6 +32,7 @@ mod figures;
 pub mod help;
 mod notes;
 pub mod output;
+mod parity;
 pub mod parser;
 mod plan;
 pub mod progress;
@@ -40,6 +41,7 @@ mod sections;
 pub mod session;
 pub mod sim;
 mod simulate;
+mod symmetries;
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};

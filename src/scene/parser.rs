@@ -9,8 +9,8 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    DefValue, DerivCall, DerivKind, EventSpec, Item, PlotKind, PlotSpec, SimSpec, Src, StabilizeSpec, Statement,
-    StmtKind,
+    DefValue, DerivCall, DerivKind, EventSpec, Item, LieGenerator, PlotKind, PlotSpec, SimSpec, SmallSpec, Src,
+    StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -33,6 +33,9 @@ pub const STATEMENTS: &[&str] = &[
     "energy",
     "average",
     "transform",
+    "lie",
+    "integral",
+    "action",
     "force",
     "rayleigh",
     "constraint",
@@ -529,6 +532,7 @@ impl Builder {
                 let mut trials = Vec::new();
                 let mut names = Vec::new();
                 let mut amplitudes = Vec::new();
+                let mut small = None;
                 let mut format = None;
                 for q in inner {
                     match q.as_rule() {
@@ -541,6 +545,7 @@ impl Builder {
                         }
                         Rule::name => names.push(self.src(&q)),
                         Rule::name_list => amplitudes = self.names(q),
+                        Rule::average_small => small = Some(self.small(q)),
                         Rule::as_format => format = Some(self.format(q)),
                         _ => {}
                     }
@@ -548,7 +553,7 @@ impl Builder {
                 let mut it = names.into_iter();
                 match (it.next(), it.next()) {
                     (Some(phase), Some(frequency)) => {
-                        StmtKind::Average { l, trials, phase, frequency, amplitudes, format }
+                        StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format }
                     }
                     _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
                 }
@@ -571,6 +576,10 @@ impl Builder {
                     exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
                 StmtKind::Transform { h: exprs.pop(), kind, f, new, format }
             }
+            Rule::transform_point => self.point_transform(inner),
+            Rule::lie => self.lie(inner, span)?,
+            Rule::integral => self.integral(inner, span)?,
+            Rule::action => self.action(inner),
             Rule::force => {
                 let mut it = inner.into_iter();
                 match (it.next(), it.next()) {
@@ -700,6 +709,101 @@ impl Builder {
             every,
             points,
         })
+    }
+}
+
+/// The derivation statements that mirror the command line (`transform … with x = …`, `lie`,
+/// `integral`, `action`, `average … small`): issue 15's scene parity.
+impl Builder {
+    fn small(&self, p: Pair<Rule>) -> SmallSpec {
+        let mut names = Vec::new();
+        let mut unperturbed = None;
+        for q in p.into_inner() {
+            match q.as_rule() {
+                Rule::name => names.push(self.src(&q)),
+                Rule::sexpr => unperturbed = Some(self.src(&q)),
+                _ => {}
+            }
+        }
+        let mut it = names.into_iter();
+        let small = it.next().unwrap_or_else(|| Src { text: String::new(), span: (self.base, self.base) });
+        let unperturbed = unperturbed.unwrap_or_else(|| small.clone());
+        SmallSpec { small, unperturbed, principal: it.next() }
+    }
+
+    fn point_transform(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+        let (mut l, mut map, mut to, mut format) = (None, Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => l = Some(self.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        map.push((self.src(&s), self.src(&v)));
+                    }
+                }
+                Rule::name_list => to = self.names(q),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        StmtKind::PointTransform { l, map, to, format }
+    }
+
+    fn lie(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr if f.is_none() => f = Some(self.src(&q)),
+                Rule::sexpr => order = Some(self.src(&q)),
+                Rule::lie_with => {
+                    let g = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
+                    generator = g.map(LieGenerator::With);
+                }
+                Rule::lie_flow => {
+                    let h = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
+                    generator = Some(LieGenerator::Flow(h));
+                }
+                Rule::name => epsilon = Some(self.src(&q)),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        match (f, generator) {
+            (Some(f), Some(generator)) => Ok(StmtKind::Lie { f, generator, order, epsilon, format }),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `lie`")
+                .at(span)
+                .hint("`lie f with G order 3` or `lie f flow H order 3`")),
+        }
+    }
+
+    fn integral(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut exprs = Vec::new();
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(self.src(&q)),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = exprs.into_iter();
+        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
+        Ok(StmtKind::Integral { f, h: it.next(), format })
+    }
+
+    fn action(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+        let (mut h, mut energies, mut near) = (None, Vec::new(), None);
+        let first = |q: Pair<Rule>| q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
+        for q in inner {
+            match q.as_rule() {
+                Rule::action_h => h = first(q),
+                Rule::action_energy => energies.extend(first(q)),
+                Rule::action_near => near = first(q),
+                _ => {}
+            }
+        }
+        StmtKind::Action { h, energies, near }
     }
 }
 

@@ -355,7 +355,8 @@ impl Session {
             StmtKind::Simulate(spec) => self.simulate(spec),
             StmtKind::Plot(spec) => self.plot(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
-            StmtKind::Average { l, trials, phase, frequency, amplitudes, format } => {
+            StmtKind::Average { small: Some(_), .. } => self.average_small(&st.kind),
+            StmtKind::Average { l, trials, phase, frequency, amplitudes, small: None, format } => {
                 self.local_names = std::iter::once(phase)
                     .chain(std::iter::once(frequency))
                     .chain(amplitudes)
@@ -375,6 +376,12 @@ impl Session {
                 self.print_all(vec![Printed::Lines(lines)], *format);
                 Ok(())
             }
+            StmtKind::PointTransform { l, map, to, format } => self.point_transform(l.as_ref(), map, to, *format),
+            StmtKind::Lie { f, generator, order, epsilon, format } => {
+                self.lie(f, generator, order.as_ref(), epsilon.as_ref(), *format)
+            }
+            StmtKind::Integral { f, h, format } => self.integral(f, h.as_ref(), *format),
+            StmtKind::Action { h, energies, near } => self.action(h.as_ref(), energies, near.as_ref()),
             StmtKind::ExportPoincare { items, run, path } => self.export_poincare(items, run.as_ref(), path),
             StmtKind::Force { coord, value } => self.declare_force(coord, value),
             StmtKind::Rayleigh { name, value } => self.declare_rayleigh(name.as_ref(), value),
@@ -804,6 +811,9 @@ impl Session {
         if kind == DerivKind::Energy && hamiltonian_input {
             // The energy of a Hamiltonian system is `H` itself: nothing to derive.
             return Ok(Value::Expr(args[0].clone()));
+        }
+        if kind == DerivKind::Conserved && !hamiltonian_input && !self.dynamics.is_empty() {
+            return self.conserved_with_dynamics(&args[0], span).map(Value::Lines);
         }
         if let Some(v) = self.lookup(&key, step, &what) {
             return Ok(v);

@@ -12,6 +12,8 @@ pub enum Family {
     Explicit,
     /// Adaptive with a tolerance (DOP853, Taylor).
     Adaptive,
+    /// A discrete Lagrangian's map (`variational`): needs `L`, state `(q, p)`.
+    Variational,
 }
 
 /// An integrator.
@@ -43,6 +45,9 @@ pub const METHODS: &[Method] = &[
     Method { name: "rk4", family: Family::Explicit, order: 4, symplectic: false },
     Method { name: "dop853", family: Family::Adaptive, order: 8, symplectic: false },
     Method { name: "taylor", family: Family::Adaptive, order: 20, symplectic: false },
+    Method { name: "variational", family: Family::Variational, order: 2, symplectic: true },
+    Method { name: "variational_trapezoid", family: Family::Variational, order: 2, symplectic: true },
+    Method { name: "variational_gauss2", family: Family::Variational, order: 4, symplectic: true },
 ];
 
 /// The default when `simulate` names no method.

@@ -242,6 +242,9 @@ impl Session {
         let has_h = self.def_names.contains_key("H");
         let (formulation, layout, l_expr, h_expr) = match method.family {
             _ if !dynamics.is_empty() => {
+                if method.family == Family::Variational {
+                    return Err(super::notes::variational_dynamics_error(method.name, spec, stmt_span));
+                }
                 if method.family == Family::Splitting {
                     return Err(SceneError::new(
                         ErrorKind::Derivation,
@@ -270,6 +273,15 @@ impl Session {
                 return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
                     .at(s)
                     .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
+            }
+            Family::Variational => {
+                super::notes::check_variational_run(method.name, spec, has_l, stmt_span)?;
+                let l = self.lagrangian()?;
+                if super::notes::is_first_order(&l, &self.coords) {
+                    return Err(super::notes::variational_first_order_error(method.name, spec, stmt_span));
+                }
+                let h = self.hamiltonian()?;
+                (Formulation::Variational(l.clone()), Layout::Momenta, Some(l), Some(h))
             }
             Family::Splitting => {
                 let h = self.hamiltonian()?;
@@ -495,6 +507,8 @@ impl Session {
                         x.constraints.len(),
                         x.stabilization
                     ),
+                    // The rule is part of the content (the methods share a family).
+                    Formulation::Variational(_) => format!("variational:{}", method.name),
                     _ => String::new(),
                 },
                 params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
@@ -791,7 +805,10 @@ impl Session {
 /// Every expression a formulation compiles from.
 pub(super) fn formulation_exprs(f: &Formulation) -> Vec<Expr> {
     match f {
-        Formulation::Lagrangian(e) | Formulation::Hamiltonian(e) | Formulation::FirstOrder(e) => vec![e.clone()],
+        Formulation::Lagrangian(e)
+        | Formulation::Hamiltonian(e)
+        | Formulation::FirstOrder(e)
+        | Formulation::Variational(e) => vec![e.clone()],
         Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
         Formulation::Extended(x) => x.exprs(),
     }
@@ -801,6 +818,7 @@ pub(super) fn formulation_name(f: &Formulation) -> &'static str {
     match f {
         Formulation::Lagrangian(_) => "W q'' = F from L",
         Formulation::FirstOrder(_) => "ω z' = ∂H/∂z from a first-order L",
+        Formulation::Variational(_) => "the discrete Euler–Lagrange map of L",
         Formulation::Extended(x) if !x.constraints.is_empty() => "the augmented system [W Φᵀ; Φ 0] from L",
         Formulation::Extended(_) => "W q'' = F from L with forces",
         Formulation::Hamiltonian(_) => "Hamilton's equations of H",

@@ -1,0 +1,316 @@
+//! The trial-function (Ritz) method for a fixed-end-point problem (§1.4.2, (1.21)–(1.22)):
+//! a trial path `q(t; a_1 … a_K)` that meets the end conditions, the action
+//! `S(a) = ∫_{t₀}^{t₁} L(q, ∂_t q, t) dt`, its stationarity conditions `∂S/∂a_k = 0`, and
+//! their numeric solution by Newton's method.
+//!
+//! The integral is exact when the integrand is a polynomial in `t` (its `(d+1)`-th
+//! derivative vanishes identically; then `∫ I dt = Σ_{j≤d} I⁽ʲ⁾(t₀) (t₁ − t₀)^{j+1}/(j+1)!`,
+//! Taylor's formula, which is exact for a polynomial), and is otherwise done numerically by
+//! composite Gauss–Legendre quadrature, where `∂S/∂a_k` is the integral of `∂L/∂a_k`.
+
+use std::collections::HashMap;
+
+use crate::algebra::expand;
+use crate::diff::Differentiator;
+use crate::eval::eval_with;
+use crate::expr::{Expr, Symbol};
+
+use super::system::{time, System};
+use super::tidy::tidy;
+use super::MechanicsError;
+
+/// The highest polynomial degree in `t` integrated exactly.
+const MAX_EXACT_DEGREE: usize = 40;
+/// Composite Gauss–Legendre: panels graded geometrically towards both ends (halving
+/// `GRADED` times, so an integrable end singularity such as the brachistochrone's `1/√y`
+/// loses only its last `2⁻⁴⁰` of the span), each with `NODES` points.
+const GRADED: usize = 40;
+const NODES: usize = 12;
+/// The quadrature's number of points.
+const QUADRATURE_POINTS: usize = 2 * GRADED * NODES;
+
+/// A Ritz problem: the action and its stationarity conditions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ritz {
+    /// The unknowns `a_k`.
+    pub unknowns: Vec<Symbol>,
+    /// The integrand `L(q(t; a), ∂_t q(t; a), t)`.
+    pub integrand: Expr,
+    /// `S(a)` in closed form, when the integrand is a polynomial in `t`.
+    pub action: Option<Expr>,
+    /// `∂S/∂a_k` in closed form (exact case), or the integrands `∂L/∂a_k` of
+    /// `∂S/∂a_k = ∫ ∂L/∂a_k dt` (quadrature case).
+    pub conditions: Vec<Expr>,
+    /// `∂²S/∂a_k∂a_l` (or its integrands), row-major.
+    hessian: Vec<Expr>,
+    t0: Expr,
+    t1: Expr,
+}
+
+/// Why a Ritz problem could not be set up or solved.
+fn bad(msg: String) -> MechanicsError {
+    MechanicsError::WrongKind(msg)
+}
+
+impl System {
+    /// The Ritz problem of the system's `L` for the trial path `trial` (one expression in
+    /// `t` and the unknowns per coordinate) between `q(t0) = from` and `q(t1) = to`. A trial
+    /// path that misses an end condition is refused, naming it.
+    pub fn ritz(
+        &self,
+        trial: &[Expr],
+        unknowns: &[Symbol],
+        (t0, t1): (&Expr, &Expr),
+        (from, to): (&[Expr], &[Expr]),
+    ) -> Result<Ritz, MechanicsError> {
+        let l = self.need_lagrangian("ritz")?;
+        let n = self.coords.len();
+        if trial.len() != n || from.len() != n || to.len() != n {
+            return Err(bad(format!(
+                "ritz needs one trial path and one value at each end per coordinate ({n}); got {} paths, {} and {} end values",
+                trial.len(),
+                from.len(),
+                to.len()
+            )));
+        }
+        if unknowns.is_empty() {
+            return Err(bad("ritz needs at least one unknown coefficient a_k in the trial path".into()));
+        }
+        for (q, e) in self.coords.iter().zip(trial) {
+            if let Some(s) = e.free_symbols().into_iter().find(|s| s.primes() > 0 || self.coords.contains(s)) {
+                return Err(bad(format!(
+                    "the trial path of {q} must be a function of t and the unknowns, not of `{s}`"
+                )));
+            }
+        }
+        let t = time();
+        // End conditions: q(t_end; a) − value must vanish for every a.
+        for (i, q) in self.coords.iter().enumerate() {
+            for (end, value) in [(t0, &from[i]), (t1, &to[i])] {
+                let at: HashMap<Symbol, Expr> = [(t.clone(), end.clone())].into_iter().collect();
+                let miss = trial[i].subs(&at).minus(value);
+                if !vanishes(&miss, unknowns) {
+                    return Err(bad(format!(
+                        "the trial path misses the end condition {q}({end}) = {value}: it gives {q}({end}) = {}",
+                        tidy(&trial[i].subs(&at))
+                    )));
+                }
+            }
+        }
+        let mut d = Differentiator::new();
+        let mut m: HashMap<Symbol, Expr> = HashMap::new();
+        for (i, q) in self.coords.iter().enumerate() {
+            m.insert(q.clone(), trial[i].clone());
+            m.insert(self.velocities[i].clone(), d.diff(&trial[i], &t));
+        }
+        let integrand = tidy(&l.subs(&m));
+        let grad: Vec<Expr> = unknowns.iter().map(|a| tidy(&d.diff(&integrand, a))).collect();
+        let hess: Vec<Expr> =
+            grad.iter().flat_map(|g| unknowns.iter().map(|a| d.diff(g, a)).collect::<Vec<_>>()).collect();
+        let exact = |e: &Expr, d: &mut Differentiator| exact_integral(e, &t, t0, t1, d);
+        let action = exact(&integrand, &mut d);
+        let (conditions, hessian) = if action.is_some() {
+            let c: Option<Vec<Expr>> = grad.iter().map(|g| exact(g, &mut d)).collect();
+            let h: Option<Vec<Expr>> = hess.iter().map(|g| exact(g, &mut d)).collect();
+            match (c, h) {
+                (Some(c), Some(h)) => (c, h),
+                _ => (grad, hess),
+            }
+        } else {
+            (grad, hess)
+        };
+        let exact_case = action.is_some() && conditions.iter().all(|c| !c.contains(&t));
+        Ok(Ritz {
+            unknowns: unknowns.to_vec(),
+            integrand,
+            action: if exact_case { action } else { None },
+            conditions,
+            hessian,
+            t0: t0.clone(),
+            t1: t1.clone(),
+        })
+    }
+}
+
+/// Whether `e` is identically zero: by expansion, else numerically at a few values of the
+/// unknowns (for trial paths with functions that expansion does not cancel).
+fn vanishes(e: &Expr, unknowns: &[Symbol]) -> bool {
+    if expand(e).map(|x| x.is_zero()).unwrap_or(false) || tidy(e).is_zero() {
+        return true;
+    }
+    let free = e.free_symbols();
+    if free.iter().any(|s| !unknowns.contains(s)) {
+        return false;
+    }
+    [0.37, -1.21, 2.3].iter().all(|&base| {
+        let v = eval_with(e, &|s| unknowns.iter().position(|a| a == s).map(|k| base + 0.11 * k as f64));
+        v.is_ok_and(|v| v.abs() < 1e-12)
+    })
+}
+
+/// `∫_{t0}^{t1} e dt` when `e` is a polynomial in `t` of degree at most [`MAX_EXACT_DEGREE`].
+fn exact_integral(e: &Expr, t: &Symbol, t0: &Expr, t1: &Expr, d: &mut Differentiator) -> Option<Expr> {
+    let at0: HashMap<Symbol, Expr> = [(t.clone(), t0.clone())].into_iter().collect();
+    let width = t1.minus(t0);
+    let mut terms = Vec::new();
+    let mut der = e.clone();
+    let mut factorial = 1i64;
+    for j in 0..=MAX_EXACT_DEGREE {
+        if expand(&der).ok()?.is_zero() {
+            return Some(tidy(&expand(&Expr::add(terms)).ok()?));
+        }
+        factorial = factorial.checked_mul(j as i64 + 1)?;
+        terms.push(der.subs(&at0).times(&width.powi(j as i64 + 1)).over(&Expr::int(factorial)));
+        der = d.diff(&der, t);
+    }
+    None
+}
+
+/// A numeric solution of the Ritz conditions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RitzSolution {
+    /// `a_k`.
+    pub values: Vec<f64>,
+    /// `S` at the solution.
+    pub action: f64,
+    /// Newton steps used.
+    pub iterations: usize,
+}
+
+impl Ritz {
+    /// Solves `∂S/∂a = 0` by Newton's method from `guess`, with `params` bound.
+    pub fn solve(&self, guess: &[f64], params: &[(&str, f64)]) -> Result<RitzSolution, MechanicsError> {
+        let k = self.unknowns.len();
+        let t = time();
+        let bind = |a: &[f64], tt: f64| {
+            let unknowns = self.unknowns.clone();
+            let a = a.to_vec();
+            let t = t.clone();
+            move |s: &Symbol| {
+                if *s == t {
+                    return Some(tt);
+                }
+                if let Some(i) = unknowns.iter().position(|u| u == s) {
+                    return Some(a[i]);
+                }
+                params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v)
+            }
+        };
+        let num = |e: &Expr| eval_with(e, &|s| params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v));
+        let (t0, t1) = (num(&self.t0).map_err(|e| bad(e.to_string()))?, num(&self.t1).map_err(|e| bad(e.to_string()))?);
+        let exact = self.action.is_some();
+        let nodes = gauss_legendre(NODES);
+        let value = |e: &Expr, a: &[f64]| -> Result<f64, MechanicsError> {
+            let ev = |tt: f64| {
+                eval_with(e, &bind(a, tt)).map_err(|err| bad(format!("evaluating the Ritz conditions: {err}")))
+            };
+            if exact {
+                return ev(t0);
+            }
+            let w = t1 - t0;
+            let mut s = 0.0;
+            // Panels [2^-(k+1), 2^-k]·w/… from each end towards the middle.
+            for k in 0..GRADED {
+                let (lo, hi) = (0.5f64.powi(k as i32 + 2), 0.5f64.powi(k as i32 + 1));
+                for (a, b) in [(t0 + lo * w, t0 + hi * w), (t1 - hi * w, t1 - lo * w)] {
+                    let (mid, half) = (0.5 * (a + b), 0.5 * (b - a));
+                    for (x, wt) in &nodes {
+                        s += wt * half * ev(mid + half * x)?;
+                    }
+                }
+            }
+            Ok(s)
+        };
+        let mut a = guess.to_vec();
+        a.resize(k, 0.0);
+        for it in 1..=50 {
+            let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
+            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
+            let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if !gmax.is_finite() {
+                break;
+            }
+            solve_dense(&mut h, &mut g, k).ok_or_else(|| {
+                bad("the Hessian of S(a) is singular: the trial coefficients are not independent".into())
+            })?;
+            let mut step = 0.0f64;
+            let mut scale = 1.0f64;
+            for i in 0..k {
+                a[i] -= g[i];
+                step = step.max(g[i].abs());
+                scale = scale.max(a[i].abs());
+            }
+            if step <= 1e-13 * scale {
+                let action = match &self.action {
+                    Some(s) => value(s, &a)?,
+                    None => value(&self.integrand, &a)?,
+                };
+                return Ok(RitzSolution { values: a, action, iterations: it });
+            }
+        }
+        Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
+    }
+}
+
+/// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
+fn solve_dense(m: &mut [f64], b: &mut [f64], n: usize) -> Option<()> {
+    for j in 0..n {
+        let piv = (j..n).max_by(|&x, &y| m[x * n + j].abs().total_cmp(&m[y * n + j].abs()))?;
+        if m[piv * n + j].abs() < 1e-300 || !m[piv * n + j].is_finite() {
+            return None;
+        }
+        if piv != j {
+            for c in 0..n {
+                m.swap(j * n + c, piv * n + c);
+            }
+            b.swap(j, piv);
+        }
+        for i in j + 1..n {
+            let f = m[i * n + j] / m[j * n + j];
+            for c in j..n {
+                m[i * n + c] -= f * m[j * n + c];
+            }
+            b[i] -= f * b[j];
+        }
+    }
+    for j in (0..n).rev() {
+        let mut s = b[j];
+        for c in j + 1..n {
+            s -= m[j * n + c] * b[c];
+        }
+        b[j] = s / m[j * n + j];
+    }
+    Some(())
+}
+
+/// The `n`-point Gauss–Legendre nodes and weights on [−1, 1]: Newton on `P_n` from the
+/// Chebyshev-like guesses `cos(π (i − ¼)/(n + ½))`, weights `2/((1 − x²) P_n'(x)²)`
+/// (Abramowitz & Stegun 25.4.29; the three-term recurrence for `P_n`).
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (1..=n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
+            let mut dp = 1.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    break;
+                }
+            }
+            (x, 2.0 / ((1.0 - x * x) * dp * dp))
+        })
+        .collect()
+}
+
+/// The number of points of the Ritz quadrature (for the printed note).
+pub fn ritz_quadrature_points() -> usize {
+    QUADRATURE_POINTS
+}

@@ -1,0 +1,264 @@
+//! The scene statements that mirror derivations of the command line: `transform … with x = …`
+//! (a point transformation), `lie`, `integral`, `action` and `average … small σ`.
+//!
+//! Each calls the same library function as the matching command and prints the same lines
+//! (the text comes from [`crate::canonical::report`] or the same `name = value` shape), so a
+//! scene and `lagrangian pb|lie|integral|action|average|transform` agree line for line in the
+//! same format (tested in `tests/scene_parity.rs`). These are quick symbolic steps or a
+//! quadrature, so they go straight to the library instead of through the cached, counted
+//! [`super::backend::Backend`] stages that simulations need.
+
+use crate::canonical::{self, PhaseSpace, Trial};
+use crate::expr::{Expr, Symbol};
+use crate::print::{render, Format};
+
+use super::ast::{LieGenerator, Src, StmtKind};
+use super::error::{ErrorKind, SceneError};
+use super::session::Session;
+
+fn failed(what: &str, e: impl std::fmt::Display, span: super::ast::Span) -> SceneError {
+    SceneError::new(ErrorKind::Derivation, format!("{what}: {e}")).at(span)
+}
+
+impl Session {
+    fn phase_space(&self) -> Result<PhaseSpace, SceneError> {
+        if self.coords.is_empty() {
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
+                .at(self.span)
+                .hint("declare them first, for example `coordinates q`"));
+        }
+        PhaseSpace::new(self.coords.iter().map(|q| q.name())).map_err(|e| failed("phase space", e, self.span))
+    }
+
+    /// Resolves `src` with `names` accepted as free symbols (a small parameter, new coordinates).
+    fn resolved_with(&mut self, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
+        self.local_names = names.to_vec();
+        let r = self.resolved(src);
+        self.local_names.clear();
+        r
+    }
+
+    /// The symbol `src` names, as the scene parses it (a declared parameter carries its
+    /// assumptions, so `Symbol::new` would be a different symbol).
+    fn symbol_of(&mut self, src: &Src, names: &[String]) -> Result<Symbol, SceneError> {
+        let e = self.resolved_with(src, names)?;
+        e.as_sym()
+            .cloned()
+            .ok_or_else(|| SceneError::new(ErrorKind::Syntax, format!("`{}` is not a name", src.text)).at(src.span))
+    }
+
+    fn emit(&mut self, lines: Vec<String>) {
+        self.output.extend(lines);
+    }
+
+    fn count(&mut self, src: &Src, what: &str) -> Result<usize, SceneError> {
+        let e = self.resolved(src)?;
+        let x = self.number(&e, src.span)?;
+        if x < 0.0 || x.fract() != 0.0 || x > canonical::lie::MAX_ORDER as f64 {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("{what} must be a whole number 0..={}", canonical::lie::MAX_ORDER),
+            )
+            .at(src.span)
+            .hint("nested brackets grow quickly; orders up to about 6 are practical"));
+        }
+        Ok(x as usize)
+    }
+
+    /// `transform [L] with x = r cos(φ), … [to r, φ]`: `lagrangian transform L --map … --to …`.
+    pub(super) fn point_transform(
+        &mut self,
+        l: Option<&Src>,
+        map: &[(Src, Src)],
+        to: &[Src],
+        format: Option<Format>,
+    ) -> Result<(), SceneError> {
+        let known = |s: &Session, name: &str| {
+            s.coords.iter().any(|c| c.name() == name) || s.params.contains_key(name) || name == "t"
+        };
+        let new: Vec<String> = if to.is_empty() {
+            // The map's symbols that the scene does not know, in the order they are written.
+            let mut found: Vec<(usize, String)> = Vec::new();
+            for (_, rhs) in map {
+                let raw = crate::parse::parse_with(&rhs.text, &self.declarations())
+                    .map_err(|e| SceneError::new(ErrorKind::Syntax, e.message.clone()).at(rhs.span))?;
+                for s in raw.free_symbols() {
+                    let n = s.name().to_string();
+                    if s.primes() == 0 && !known(self, &n) && !found.iter().any(|(_, f)| *f == n) {
+                        let pos = rhs.span.0 + rhs.text.find(n.as_str()).unwrap_or(0);
+                        found.push((pos, n));
+                    }
+                }
+            }
+            found.sort();
+            found.into_iter().map(|(_, n)| n).collect()
+        } else {
+            to.iter().map(|s| s.text.clone()).collect()
+        };
+        if new.is_empty() {
+            return Err(SceneError::new(ErrorKind::Syntax, "the map names no new coordinates")
+                .at(self.span)
+                .hint("name them: `transform with x = r cos(φ), y = r sin(φ) to r, φ`"));
+        }
+        let l = match l {
+            Some(src) => self.resolved_with(src, &new)?,
+            None => self.lagrangian()?,
+        };
+        let mut pairs = Vec::new();
+        for (old, rhs) in map {
+            if !self.coords.iter().any(|c| c.name() == old.text) {
+                return Err(SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", old.text))
+                    .at(old.span)
+                    .hint("the map gives each old coordinate in terms of the new ones: `x = r cos(φ)`"));
+            }
+            let v = self.resolved_with(rhs, &new)?;
+            pairs.push((old.text.clone(), crate::print::plain(&v)));
+        }
+        let decls = self.declarations();
+        let coords: Vec<&str> = self.coords.iter().map(|q| q.name()).collect();
+        let system = crate::mechanics::System::from_lagrangian_with(&crate::print::plain(&l), &coords, &decls)
+            .map_err(|e| failed("point transformation", e, self.span))?;
+        let pairs: Vec<(&str, &str)> = pairs.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+        let to: Vec<&str> = new.iter().map(String::as_str).collect();
+        let out = system.transform(&pairs, &to).map_err(|e| failed("point transformation", e, self.span))?;
+        let f = format.unwrap_or(self.opts.format);
+        if let Some(l) = out.lagrangian() {
+            self.emit(vec![format!("L = {}", render(l, f))]);
+        }
+        Ok(())
+    }
+
+    /// `lie f with G [order N] [in ε]` / `lie f flow [H] [order N]`: `lagrangian lie`.
+    pub(super) fn lie(
+        &mut self,
+        f: &Src,
+        generator: &LieGenerator,
+        order: Option<&Src>,
+        epsilon: Option<&Src>,
+        format: Option<Format>,
+    ) -> Result<(), SceneError> {
+        let ps = self.phase_space()?;
+        let order = match order {
+            Some(src) => self.count(src, "the order")?,
+            None => 3,
+        };
+        let eps = epsilon.map_or_else(|| "ε".to_string(), |e| e.text.clone());
+        let eps_sym = match epsilon {
+            Some(src) => self.symbol_of(src, std::slice::from_ref(&eps))?,
+            None => Symbol::new(&eps),
+        };
+        let fe = self.resolved_with(f, std::slice::from_ref(&eps))?;
+        let series = match generator {
+            LieGenerator::With(g) => {
+                let ge = self.resolved_with(g, std::slice::from_ref(&eps))?;
+                canonical::lie_series(&fe, &ge, &eps_sym, order, &ps)
+            }
+            LieGenerator::Flow(h) => {
+                let he = match h {
+                    Some(src) => self.resolved(src)?,
+                    None => self.hamiltonian()?,
+                };
+                canonical::lie_flow(&fe, &he, order, &ps).map_err(|e| failed("lie", e, self.span))?
+            }
+        };
+        let fmt = format.unwrap_or(self.opts.format);
+        self.emit(vec![render(&series, fmt)]);
+        Ok(())
+    }
+
+    /// `integral f [with H]`: `lagrangian integral f --hamiltonian H`.
+    pub(super) fn integral(&mut self, f: &Src, h: Option<&Src>, format: Option<Format>) -> Result<(), SceneError> {
+        let ps = self.phase_space()?;
+        let fe = self.resolved(f)?;
+        let he = match h {
+            Some(src) => self.resolved(src)?,
+            None => self.hamiltonian()?,
+        };
+        let dfdt = canonical::time_derivative(&fe, &he, &ps);
+        let check = canonical::is_integral(&fe, &he, &ps);
+        let fmt = format.unwrap_or(self.opts.format);
+        self.emit(canonical::report::integral_lines(&dfdt, &check, fmt));
+        Ok(())
+    }
+
+    /// `action [H] at E = … [near q0]`: `lagrangian action`, librations and rotations.
+    pub(super) fn action(&mut self, h: Option<&Src>, energies: &[Src], near: Option<&Src>) -> Result<(), SceneError> {
+        let ps = self.phase_space()?;
+        if ps.dof() != 1 {
+            return Err(SceneError::new(
+                ErrorKind::Derivation,
+                format!("`action` needs one degree of freedom; the scene has {}", ps.dof()),
+            )
+            .at(self.span));
+        }
+        let he = match h {
+            Some(src) => self.resolved(src)?,
+            None => self.hamiltonian()?,
+        };
+        let inside = match near {
+            Some(src) => {
+                let e = self.resolved(src)?;
+                self.number(&e, src.span)?
+            }
+            None => 0.0,
+        };
+        let env: crate::eval::Env = self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect();
+        let mut rows = Vec::new();
+        for src in energies {
+            let e = self.resolved(src)?;
+            let energy = self.number(&e, src.span)?;
+            let r = canonical::action_frequency(&he, &ps.coords[0], &ps.momenta[0], energy, &env, inside).map_err(
+                |err| SceneError::new(ErrorKind::Derivation, format!("at E = {energy}: {err}")).at(src.span),
+            )?;
+            rows.push(r);
+        }
+        self.emit(canonical::report::action_table(&rows));
+        Ok(())
+    }
+
+    /// `average … small σ unperturbed ω0 [principal A]`: `lagrangian average … --small σ`,
+    /// the relations solved to first order.
+    pub(super) fn average_small(&mut self, st: &StmtKind) -> Result<(), SceneError> {
+        let StmtKind::Average { l, trials, phase, frequency, amplitudes, small: Some(small), format } = st else {
+            return Ok(());
+        };
+        let (l, format) = (l.as_ref(), *format);
+        let mut local: Vec<String> = [phase, frequency, &small.small]
+            .iter()
+            .map(|s| s.text.clone())
+            .chain(amplitudes.iter().map(|a| a.text.clone()))
+            .collect();
+        local.dedup();
+        let l = match l {
+            Some(src) => self.resolved_with(src, &local)?,
+            None => self.lagrangian()?,
+        };
+        let mut ts = Vec::new();
+        for (q, e) in trials {
+            if !self.coords.iter().any(|c| c.name() == q.text) {
+                return Err(SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", q.text))
+                    .at(q.span)
+                    .hint("a trial function replaces a coordinate: `x = A cos(θ)`"));
+            }
+            ts.push(Trial { coord: Symbol::new(&q.text), expr: self.resolved_with(e, &local)? });
+        }
+        let w = Symbol::new(&frequency.text);
+        let amps: Vec<Symbol> = amplitudes.iter().map(|a| Symbol::new(&a.text)).collect();
+        let avg = canonical::average_lagrangian(&l, &ts, &Symbol::new(&phase.text), &w, &amps)
+            .map_err(|e| failed("average", e, self.span))?;
+        let w0 = self.resolved_with(&small.unperturbed, &local)?;
+        let principal = match &small.principal {
+            Some(a) => Symbol::new(&a.text),
+            None => amps
+                .first()
+                .cloned()
+                .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "no amplitudes to solve for").at(self.span))?,
+        };
+        let sigma = self.symbol_of(&small.small, &local)?;
+        let lo =
+            canonical::leading_order(&avg, &w, &w0, &sigma, &principal).map_err(|e| failed("average", e, self.span))?;
+        let fmt = format.unwrap_or(self.opts.format);
+        self.emit(canonical::report::average_lines(&avg, &w, Some((&small.small.text, &lo)), fmt));
+        Ok(())
+    }
+}
