@@ -254,6 +254,26 @@ fn pratt() -> &'static PrattParser<Rule> {
     })
 }
 
+/// What a character that only looks like a Latin or Greek letter is (Cyrillic `х`, full-width
+/// `ｘ`), or a combining mark; `None` for every other character. Names are ASCII or Greek
+/// (README): a look-alike would make a second symbol that prints like the first, so `x + х`
+/// would not simplify and nothing would say why. The command line and scenes refuse them.
+pub fn lookalike_kind(c: char) -> Option<&'static str> {
+    let u = u32::from(c);
+    if (0x0400..=0x052F).contains(&u) {
+        Some("a Cyrillic letter")
+    } else if (0xFF01..=0xFF5E).contains(&u) {
+        Some("a full-width character")
+    } else if [0x0300..=0x036F, 0x1AB0..=0x1AFF, 0x1DC0..=0x1DFF, 0x20D0..=0x20FF, 0xFE20..=0xFE2F]
+        .iter()
+        .any(|r| r.contains(&u))
+    {
+        Some("a combining mark")
+    } else {
+        None
+    }
+}
+
 /// Parses an expression with no declared functions or assumptions.
 pub fn parse(input: &str) -> Result<Expr, ParseError> {
     parse_with(input, &Declarations::default())

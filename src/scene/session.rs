@@ -299,7 +299,7 @@ impl Session {
         let saved = self.source.clone();
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
-        let result = parser::parse_scene(text).and_then(|stmts| {
+        let result = refuse_lookalikes(text).and_then(|()| parser::parse_scene(text)).and_then(|stmts| {
             self.claim_outputs(&stmts)?;
             // Line numbers by one forward pass: counting from the start for every statement
             // made a scene of 10⁵ definitions quadratic (44 s; issue 16 item 4).
@@ -1181,4 +1181,33 @@ pub fn read_scene(path: &Path) -> Result<String, SceneError> {
         )
         .hint("save the scene as UTF-8 (Greek letters such as θ must be UTF-8 encoded)")
     })
+}
+
+/// Refuses a look-alike character (Cyrillic, full-width, combining mark) anywhere in a scene
+/// but comments and quoted paths, at its location (issue 16 item 7; the command line does the
+/// same for its arguments).
+fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
+    let (mut in_comment, mut in_quote) = (false, false);
+    for (i, c) in text.char_indices() {
+        match c {
+            '\n' => (in_comment, in_quote) = (false, false),
+            '#' if !in_quote => in_comment = true,
+            '"' if !in_comment => in_quote = !in_quote,
+            _ if in_comment || in_quote => {}
+            _ => {
+                if let Some(what) = crate::parse::lookalike_kind(c) {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!(
+                            "`{c}` (U+{:04X}) is {what} that looks like another; names are ASCII or Greek",
+                            u32::from(c)
+                        ),
+                    )
+                    .at((i, i + c.len_utf8()))
+                    .hint("retype the name with a Latin or Greek keyboard layout"));
+                }
+            }
+        }
+    }
+    Ok(())
 }
