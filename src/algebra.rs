@@ -114,7 +114,12 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 let base_bits = ts.iter().map(numeric_bits).max().unwrap_or(0);
                 let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
                 let words = 1 + u128::from(bits / 64);
-                let work = estimate.saturating_mul(ts.len() as u128).saturating_mul(steps).saturating_mul(words);
+                // A binomial is written out term by term (`binomial_power`), so its work is
+                // its k + 1 terms at the squared coefficient size that the rest of `simplify`
+                // pays for them ((x+1)^400 passes; (x+1)^1999, 2000 terms of 2000 bits, does
+                // not); other sums are multiplied out k times.
+                let rounds = if ts.len() == 2 { words } else { (ts.len() as u128).saturating_mul(steps) };
+                let work = estimate.saturating_mul(rounds).saturating_mul(words);
                 if estimate > limit as u128 || work > 64 * limit as u128 {
                     return Err(AlgebraError::TooManyTerms { what: short(&rebuilt), estimate, limit });
                 }
@@ -122,7 +127,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                     return Err(AlgebraError::HugeCoefficients { what: short(&rebuilt), bits, limit: MAX_FOLD_BITS });
                 }
                 let k = k.to_u32().unwrap_or(u32::MAX);
-                let p = power_of_sum(b, k, limit)?;
+                let p = if let [a, c] = &ts[..] { binomial_power(a, c, k) } else { power_of_sum(b, k, limit)? };
                 if n.is_negative() {
                     Expr::pow(p, Expr::int(-1))
                 } else {
@@ -167,6 +172,30 @@ fn multinomial_terms(m: usize, k: &BigInt) -> u128 {
         };
     }
     acc
+}
+
+/// `(a + b)^k` by the binomial theorem, `Σ C(k, j) a^j b^(k−j)`, in O(k) monomial products
+/// (repeated multiplication would form k partial sums, O(k²) products: `(x+1)^400` was refused
+/// by the work estimate). The binomial coefficients come from `C(k, j+1) = C(k, j)(k−j)/(j+1)`.
+/// `a` and `b` are terms of a canonical sum, so no product here is a sum.
+fn binomial_power(a: &Expr, b: &Expr, k: u32) -> Expr {
+    let powers = |x: &Expr| {
+        let mut out = vec![Expr::one()];
+        for _ in 0..k {
+            let next = out[out.len() - 1].times(x);
+            out.push(next);
+        }
+        out
+    };
+    let (pa, pb) = (powers(a), powers(b));
+    let mut c = BigInt::from(1);
+    let mut terms = Vec::with_capacity(k as usize + 1);
+    for j in 0..=k {
+        let coeff = Expr::num(Rational::from_integer(c.clone()));
+        terms.push(coeff.times(&pa[j as usize]).times(&pb[(k - j) as usize]));
+        c = c * BigInt::from(k - j) / BigInt::from(j + 1);
+    }
+    Expr::add(terms)
 }
 
 /// `base^k` for a sum `base`, by repeated multiplication.

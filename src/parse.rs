@@ -5,7 +5,11 @@
 //!
 //! Nesting depth is guarded here, before pest or the Pratt parser recurse: pest's own call
 //! limit is process-global and counts calls rather than depth, and both parsers recurse on
-//! deeply nested input.
+//! deeply nested input. Up to [`MAX_DEPTH`] levels are accepted on any thread: the parse runs
+//! on a stack segment sized from the measured depth ([`with_stack_for_depth`], `stacker`), so
+//! the limit is the same on an 8 MB main thread and a 2 MB worker. The limit is the one the
+//! printer is held to: every expression the engine's own stages produce from parsed input
+//! prints with less nesting than this (issue 16, `tests/robust_roundtrip.rs`).
 
 use std::collections::BTreeSet;
 use std::fmt;
@@ -23,8 +27,23 @@ use crate::expr::{Expr, Func, Node, Rational, Symbol};
 #[grammar = "../grammar/expr.pest"]
 struct ExprGrammar;
 
-/// The deepest nesting of parentheses, calls, unary signs or `^` chains accepted.
-pub const MAX_DEPTH: usize = 200;
+/// The deepest nesting of parentheses, calls, unary signs or `^` chains accepted. The same
+/// figure bounds the compiled tape's recursion (`compile::tape`), so anything that parses
+/// also compiles. It is well above what printing produces for the engine's own output (a
+/// 300-deep tower of calls prints with 300 levels; the simplifier keeps Horner forms at most
+/// 64 deep), so printed text always re-parses.
+pub const MAX_DEPTH: usize = 1000;
+
+/// Stack reserved per level of nesting for pest's recursive descent and the Pratt parser,
+/// with room to spare (measured in the dev profile: well under 4 KiB a level).
+const STACK_PER_LEVEL: usize = 16 << 10;
+
+/// Runs `f` (a parse of text nested `depth` levels deep) with enough stack for that depth,
+/// growing onto a heap-allocated segment only when the current thread has too little left.
+pub fn with_stack_for_depth<R>(depth: usize, f: impl FnOnce() -> R) -> R {
+    let need = (64 << 10) + depth.saturating_mul(STACK_PER_LEVEL);
+    stacker::maybe_grow(need, need.max(1 << 20), f)
+}
 
 /// The longest input accepted, in bytes.
 pub const MAX_INPUT: usize = 4 << 20;
@@ -235,6 +254,26 @@ fn pratt() -> &'static PrattParser<Rule> {
     })
 }
 
+/// What a character that only looks like a Latin or Greek letter is (Cyrillic `х`, full-width
+/// `ｘ`), or a combining mark; `None` for every other character. Names are ASCII or Greek
+/// (README): a look-alike would make a second symbol that prints like the first, so `x + х`
+/// would not simplify and nothing would say why. The command line and scenes refuse them.
+pub fn lookalike_kind(c: char) -> Option<&'static str> {
+    let u = u32::from(c);
+    if (0x0400..=0x052F).contains(&u) {
+        Some("a Cyrillic letter")
+    } else if (0xFF01..=0xFF5E).contains(&u) {
+        Some("a full-width character")
+    } else if [0x0300..=0x036F, 0x1AB0..=0x1AFF, 0x1DC0..=0x1DFF, 0x20D0..=0x20FF, 0xFE20..=0xFE2F]
+        .iter()
+        .any(|r| r.contains(&u))
+    {
+        Some("a combining mark")
+    } else {
+        None
+    }
+}
+
 /// Parses an expression with no declared functions or assumptions.
 pub fn parse(input: &str) -> Result<Expr, ParseError> {
     parse_with(input, &Declarations::default())
@@ -252,7 +291,12 @@ pub fn parse_with(input: &str, decls: &Declarations) -> Result<Expr, ParseError>
     if input.trim().is_empty() {
         return Err(ParseError::new(input, (0, input.len()), "empty input: expected an expression"));
     }
-    check_paren_depth(input)?;
+    let depth = check_paren_depth(input)?;
+    with_stack_for_depth(depth, || parse_checked(input, decls))
+}
+
+/// [`parse_with`] after the size and depth checks, on a stack deep enough for the input.
+fn parse_checked(input: &str, decls: &Declarations) -> Result<Expr, ParseError> {
     let pairs = ExprGrammar::parse(Rule::input, input).map_err(|e| from_pest(input, e))?;
     let mut ctx = Ctx { input, decls };
     let mut exprs = pairs.filter(|p| p.as_rule() == Rule::expr);
@@ -271,13 +315,16 @@ pub fn parse_with(input: &str, decls: &Declarations) -> Result<Expr, ParseError>
     Ok(e)
 }
 
-/// Rejects nesting deeper than [`MAX_DEPTH`] before any recursive parser sees it.
-fn check_paren_depth(input: &str) -> Result<(), ParseError> {
+/// Rejects nesting deeper than [`MAX_DEPTH`] before any recursive parser sees it; returns the
+/// deepest nesting found.
+fn check_paren_depth(input: &str) -> Result<usize, ParseError> {
     let mut depth = 0usize;
+    let mut deepest = 0usize;
     for (i, c) in input.char_indices() {
         match c {
             '(' => {
                 depth += 1;
+                deepest = deepest.max(depth);
                 if depth > MAX_DEPTH {
                     return Err(ParseError::new(input, (i, i + 1), format!("nesting deeper than {MAX_DEPTH} levels"))
                         .with_hint("split the expression into named parts"));
@@ -287,7 +334,7 @@ fn check_paren_depth(input: &str) -> Result<(), ParseError> {
             _ => {}
         }
     }
-    Ok(())
+    Ok(deepest)
 }
 
 fn friendly(rule: &Rule) -> &'static str {
@@ -359,52 +406,57 @@ impl Ctx<'_> {
     /// sign is therefore carried as a flag through `*`, `/` and juxtaposition, and applied at
     /// the enclosing sum, power or parenthesis.
     fn expr(&mut self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
-        self.check_chains(pair.clone().into_inner())?;
+        let chain = self.check_chains(pair.clone().into_inner())?;
         let input = self.input;
         let ctx = &*self;
-        pratt()
-            .map_primary(|p| ctx.primary(p).map(|e| Operand::Done(e, false)))
-            .map_prefix(|op, rhs| {
-                let (e, negated) = rhs?.finish();
-                Ok(match op.as_rule() {
-                    Rule::neg => Operand::Done(e, !negated),
-                    _ => Operand::Done(e, negated),
+        with_stack_for_depth(chain, || {
+            pratt()
+                .map_primary(|p| ctx.primary(p).map(|e| Operand::Done(e, false)))
+                .map_prefix(|op, rhs| {
+                    let (e, negated) = rhs?.finish();
+                    Ok(match op.as_rule() {
+                        Rule::neg => Operand::Done(e, !negated),
+                        _ => Operand::Done(e, negated),
+                    })
                 })
-            })
-            .map_infix(|lhs, op, rhs| {
-                let (lhs, rhs) = (lhs?, rhs?);
-                Ok(match op.as_rule() {
-                    Rule::add => lhs.push_term(rhs, false),
-                    Rule::sub => lhs.push_term(rhs, true),
-                    Rule::mul | Rule::implicit => {
-                        let (r, rn) = rhs.finish();
-                        lhs.push_factor(r, rn)
-                    }
-                    Rule::div => {
-                        let (r, rn) = rhs.finish();
-                        if r.is_zero() {
-                            let s = op.as_span();
-                            return Err(ParseError::new(input, (s.start(), s.end()), "division by zero"));
+                .map_infix(|lhs, op, rhs| {
+                    let (lhs, rhs) = (lhs?, rhs?);
+                    Ok(match op.as_rule() {
+                        Rule::add => lhs.push_term(rhs, false),
+                        Rule::sub => lhs.push_term(rhs, true),
+                        Rule::mul | Rule::implicit => {
+                            let (r, rn) = rhs.finish();
+                            lhs.push_factor(r, rn)
                         }
-                        lhs.push_factor(Expr::pow(r, Expr::int(-1)), rn)
-                    }
-                    _ => {
-                        let (l, r) = (resolve(lhs.finish()), resolve(rhs.finish()));
-                        Operand::Done(Expr::pow(l, r), false)
-                    }
+                        Rule::div => {
+                            let (r, rn) = rhs.finish();
+                            if r.is_zero() {
+                                let s = op.as_span();
+                                return Err(ParseError::new(input, (s.start(), s.end()), "division by zero"));
+                            }
+                            lhs.push_factor(Expr::pow(r, Expr::int(-1)), rn)
+                        }
+                        _ => {
+                            let (l, r) = (resolve(lhs.finish()), resolve(rhs.finish()));
+                            Operand::Done(Expr::pow(l, r), false)
+                        }
+                    })
                 })
-            })
-            .parse(pair.into_inner())
-            .map(|operand| resolve(operand.finish()))
+                .parse(pair.into_inner())
+                .map(|operand| resolve(operand.finish()))
+        })
     }
 
-    /// Guards the Pratt parser's recursion: runs of unary signs and chains of `^`.
-    fn check_chains(&self, pairs: Pairs<Rule>) -> Result<(), ParseError> {
+    /// Guards the Pratt parser's recursion: runs of unary signs and chains of `^`. Returns the
+    /// longest run, which sizes the stack for the Pratt parse of this level.
+    fn check_chains(&self, pairs: Pairs<Rule>) -> Result<usize, ParseError> {
         let mut run = 0usize;
+        let mut longest = 0usize;
         for p in pairs {
             match p.as_rule() {
                 Rule::neg | Rule::plus | Rule::pow => {
                     run += 1;
+                    longest = longest.max(run);
                     if run > MAX_DEPTH {
                         return Err(self
                             .err(&p, format!("more than {MAX_DEPTH} chained signs or powers"))
@@ -415,7 +467,7 @@ impl Ctx<'_> {
                 _ => {}
             }
         }
-        Ok(())
+        Ok(longest)
     }
 
     fn primary(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {

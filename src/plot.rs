@@ -270,6 +270,7 @@ impl Figure {
             series: Vec::new(),
             style: Style::Heat(HeatMap { x, y, side, values }),
             periodic: false,
+            equal_aspect: false,
         }
     }
 

@@ -65,7 +65,13 @@ struct Printer {
 }
 
 impl Printer {
+    /// Recurses once per level of the expression; deep ones (a 300-deep tower of calls, a
+    /// library-built chain) continue on a heap-allocated stack segment instead of overflowing.
     fn expr(&self, e: &Expr) -> Piece {
+        stacker::maybe_grow(64 << 10, 1 << 20, || self.expr_here(e))
+    }
+
+    fn expr_here(&self, e: &Expr) -> Piece {
         match e.node() {
             Node::Num(r) => self.number(r),
             Node::Sym(s) => Piece { text: self.symbol(s), prec: ATOM },

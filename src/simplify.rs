@@ -180,7 +180,7 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
             break;
         }
     }
-    if !same_values(&e, &best) {
+    if !same_values(&e, &best) || nesting(&best) > nesting(&e).max(MAX_NESTING) {
         best = e;
     }
     if timed_out && stop != StopReason::Interrupted {
@@ -230,13 +230,36 @@ fn candidates(e: &Expr, budget: &Budget) -> Vec<Expr> {
         out.push(algebra::trig_normalize(&c));
         out.push(c);
     }
+    // Horner forms of high-degree polynomials are the cheapest by operation count but nest
+    // one level per degree; past `MAX_NESTING` they would print deeper than is readable (and,
+    // for degree > 1000, deeper than the parser accepts). A candidate deeper than both that
+    // bound and the input is dropped, so simplifying never makes an expression much deeper.
+    let limit = nesting(e).max(MAX_NESTING);
     let mut unique: Vec<Expr> = Vec::new();
     for c in out {
-        if !c.is_undefined() && !unique.contains(&c) {
+        if !c.is_undefined() && !unique.contains(&c) && (unique.is_empty() || nesting(&c) <= limit) {
             unique.push(c);
         }
     }
     unique
+}
+
+/// The deepest nesting the simplifier creates on its own: a Horner form keeps at most this
+/// many levels (`algebra::collect_common` stops at 64 per call; repeated rounds could stack).
+const MAX_NESTING: usize = 64;
+
+/// The depth of `e` as a tree (a leaf is 1), counted once per shared node.
+fn nesting(e: &Expr) -> usize {
+    fn walk(e: &Expr, memo: &mut HashMap<Expr, usize>) -> usize {
+        if let Some(&d) = memo.get(e) {
+            return d;
+        }
+        let mut deepest = 0;
+        e.for_each_child(|c| deepest = deepest.max(walk(c, memo)));
+        memo.insert(e.clone(), deepest + 1);
+        deepest + 1
+    }
+    walk(e, &mut HashMap::new())
 }
 
 /// Whether a power with a negative exponent of something other than a lone symbol occurs,
@@ -300,7 +323,14 @@ fn same_values(a: &Expr, b: &Expr) -> bool {
             continue;
         }
         let Ok(vb) = eval_with(b, &look) else { return false };
-        let close = (va - vb).abs() <= 1e-6 * (1.0 + va.abs());
+        // A sum's value carries the rounding of its largest terms: `(x + 1)^400` minus its
+        // expansion is 0 exactly but ~1e160 · ε in f64, so the scale is the sum of |terms|.
+        let scale = match a.node() {
+            Node::Add(ts) => ts.iter().map(|t| eval_with(t, &look).map_or(0.0, f64::abs)).sum::<f64>(),
+            _ => 0.0,
+        };
+        let scale = if scale.is_finite() { scale } else { 0.0 };
+        let close = (va - vb).abs() <= 1e-6 * (1.0 + va.abs().max(scale));
         if !close {
             return false;
         }

@@ -100,7 +100,7 @@ fn malformed_expressions_are_exit_code_2_with_a_location() {
 fn deep_nesting_is_refused_without_recursion() {
     let deep = format!("{}x{}", "(".repeat(100_000), ")".repeat(100_000));
     // Through standard input (an argument this long is fine too, but stdin is the usual route).
-    check_bad(&["simplify", "-"], Some(deep.as_bytes()), &["nesting deeper than", "line 1, column 201"]);
+    check_bad(&["simplify", "-"], Some(deep.as_bytes()), &["nesting deeper than", "line 1, column 1001"]);
     // Chains without parentheses: signs and powers.
     let signs = format!("{}x", "-".repeat(100_000));
     check_bad(&["simplify", "-"], Some(signs.as_bytes()), &["chained signs or powers"]);
@@ -181,4 +181,21 @@ fn issue_16_unclear_errors_are_clear() {
             &["is not a finite number"],
         );
     }
+}
+
+/// Issue 16 item 7, the messages finished last: a constant constraint, the is-canonical
+/// detail of a constant residual, and LaTeX braces of a bracket's label in the REPL.
+#[test]
+fn issue_16_constant_constraints_canonical_detail_and_latex_braces() {
+    check_bad(&["el", "1/2 x'^2", "--coords", "x", "--constraint", "1 = 0"], None, &["contradictory", "never holds"]);
+    let same = run(&["el", "1/2 x'^2", "--coords", "x", "--constraint", "x = x"], None);
+    assert_eq!(same.code, Some(2), "{}", same.stderr);
+    assert!(same.stderr.contains("constrains nothing") && !same.stderr.contains("holonomic"), "{}", same.stderr);
+
+    let out = run(&["is-canonical", "Q = -q, P = p", "--coords", "q"], None);
+    assert!(out.stdout.contains("it is the constant -1"), "{}", out.stdout);
+    assert!(!out.stdout.contains("at )") && !out.stdout.contains("e0"), "garbled detail: {}", out.stdout);
+
+    let repl = run(&["repl"], Some(b"coordinates x\npb x^2, p_x\nlatex\n"));
+    assert!(repl.stdout.contains(r"\{x^2, p_x\} = 2 x"), "{}", repl.stdout);
 }

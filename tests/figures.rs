@@ -341,6 +341,7 @@ fn parallel_ensemble_runs_equal_single_runs_and_report_progress() {
             tol: None,
             events: vec![],
             every: None,
+            energy: None,
         })
         .collect();
     let mut seen = Vec::new();

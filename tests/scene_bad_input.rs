@@ -97,11 +97,23 @@ fn ten_megabyte_scene() {
 #[test]
 fn deeply_nested_expression() {
     let deep = format!("print {}1{}\n", "(".repeat(5000), ")".repeat(5000));
-    check(&with(&deep), &["nesting deeper than 200 levels"]);
+    check(&with(&deep), &["nesting deeper than 1000 levels"]);
 }
 
 #[test]
 fn velocity_of_a_parameter_and_bad_load() {
     check(&with("print m'\n"), &["`m` is a parameter", "declare it with `coordinates m`"]);
     check(&with("load nowhere.scene\n"), &["cannot read", "nowhere.scene"]);
+}
+
+#[test]
+fn lookalike_identifiers() {
+    // Cyrillic `х`, full-width `ｘ` and a combining acute accent, each refused at its place.
+    check(&with("print x + \u{445}\n"), &["U+0445", "Cyrillic letter", "names are ASCII or Greek"]);
+    check(&with("print \u{ff58}\n"), &["U+FF58", "full-width character"]);
+    check(&with("print x\u{301}\n"), &["U+0301", "combining mark"]);
+    // In a comment they are fine.
+    let dir = tempfile::tempdir().unwrap();
+    let (code, err) = run_bytes(dir.path(), &with("# комментарий ｘ\nprint 1\n"));
+    assert_eq!(code, 0, "{err}");
 }

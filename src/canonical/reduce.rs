@@ -345,8 +345,12 @@ impl ZeroCheck {
                 "zero numerically only: simplification could not decide; |value| ≤ {max_residual:.1e} at {points} random points (not a proof)"
             ),
             ZeroCheck::NonZero { at, value } => {
+                // A constant residual has no point to name ("value -1.000000e0 at )" before).
+                if at.is_empty() {
+                    return format!("not zero: it is the constant {value}");
+                }
                 let pt: Vec<String> = at.iter().map(|(s, v)| format!("{s} = {v:.4}")).collect();
-                format!("not zero: value {value:.6e} at {}", pt.join(", "))
+                format!("not zero: value {value:.6} at {}", pt.join(", "))
             }
             ZeroCheck::Undecided => "undecided: no point where the expression evaluates".to_string(),
         }

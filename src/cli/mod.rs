@@ -104,24 +104,9 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
 /// position. Names are ASCII or Greek (README); a look-alike would make a second symbol that
 /// prints like the first, so `x + х` would not simplify and nothing would say why.
 pub fn lookalike(text: &str) -> Option<String> {
-    let (col, c) = text.chars().enumerate().find(|(_, c)| {
-        let u = u32::from(*c);
-        (0x0400..=0x052F).contains(&u) // Cyrillic and its supplement
-            || (0xFF01..=0xFF5E).contains(&u) // full-width ASCII
-            || (0x0300..=0x036F).contains(&u) // combining diacritical marks
-            || (0x1AB0..=0x1AFF).contains(&u)
-            || (0x1DC0..=0x1DFF).contains(&u)
-            || (0x20D0..=0x20FF).contains(&u)
-            || (0xFE20..=0xFE2F).contains(&u)
-    })?;
+    let (col, c, what) =
+        text.chars().enumerate().find_map(|(i, c)| lagrangian::parse::lookalike_kind(c).map(|w| (i, c, w)))?;
     let u = u32::from(c);
-    let what = if (0x0400..=0x052F).contains(&u) {
-        "a Cyrillic letter"
-    } else if (0xFF01..=0xFF5E).contains(&u) {
-        "a full-width character"
-    } else {
-        "a combining mark"
-    };
     Some(format!("`{c}` (U+{u:04X}, column {}) is {what} that looks like another; names are ASCII or Greek", col + 1))
 }
 

@@ -4,6 +4,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
+use num_traits::Zero;
 
 use super::MechanicsError;
 
@@ -298,6 +299,9 @@ impl System {
                 why: format!("it contains the time derivative `{v}`; a holonomic constraint is f(q, t) = 0"),
             });
         }
+        if let Some(e) = constant_constraint(&f, text.trim()) {
+            return Err(e);
+        }
         if !free.iter().any(|s| names.contains(s.name())) {
             return Err(MechanicsError::NotHolonomic {
                 constraint: text.trim().to_string(),
@@ -342,6 +346,9 @@ impl System {
                 constraint: shown,
                 why: format!("it contains the time derivative `{v}`; a holonomic constraint is f(q, t) = 0"),
             });
+        }
+        if let Some(e) = constant_constraint(&f, &shown) {
+            return Err(e);
         }
         if !free.iter().any(|s| names.contains(s.name())) {
             return Err(MechanicsError::NotHolonomic {
@@ -537,4 +544,15 @@ pub(crate) fn contains_any(e: &Expr, syms: &[Symbol]) -> bool {
 pub(crate) fn zero_out(e: &Expr, syms: &[Symbol]) -> Expr {
     let map: HashMap<Symbol, Expr> = syms.iter().map(|s| (s.clone(), Expr::zero())).collect();
     e.subs(&map)
+}
+
+/// A constraint `f = 0` whose `f` is a number is not a constraint on the motion at all:
+/// `1 = 0` can never hold and `x = x` always does. Both used to be called "not holonomic".
+fn constant_constraint(f: &Expr, shown: &str) -> Option<MechanicsError> {
+    let value = f.as_num()?;
+    Some(MechanicsError::WrongKind(if value.is_zero() {
+        format!("constraint `{shown}` holds identically (it reduces to 0 = 0) and constrains nothing; remove it")
+    } else {
+        format!("constraint `{shown}` is contradictory: it reduces to {value} = 0, which never holds")
+    }))
 }

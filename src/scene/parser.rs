@@ -170,8 +170,12 @@ pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option
         .at((start, start + 1))
         .hint("split it into named parts: `T = …`, `V = …`, `L = T - V`"));
     }
-    let depth_err = super::parser::check_depth(src, start);
-    depth_err?;
+    let depth = check_depth(src, start)?;
+    crate::parse::with_stack_for_depth(depth, || parse_checked(src, start, end))
+}
+
+/// [`parse_statement_at`] after the size and depth checks, on a stack deep enough for it.
+fn parse_checked(src: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
     let pairs = match SceneGrammar::parse(Rule::statement, src) {
         Ok(p) => p,
         Err(e) => return Err(syntax_error(src, start, e)),
@@ -187,13 +191,16 @@ pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option
     Ok(None)
 }
 
-/// Guards pest's recursion on deeply nested parentheses (pest recurses per level).
-fn check_depth(src: &str, base: usize) -> Result<(), SceneError> {
+/// Guards pest's recursion on deeply nested parentheses (pest recurses per level); returns
+/// the deepest nesting, which sizes the parser's stack.
+fn check_depth(src: &str, base: usize) -> Result<usize, SceneError> {
     let mut depth = 0usize;
+    let mut deepest = 0usize;
     for (i, c) in src.char_indices() {
         match c {
             '(' => {
                 depth += 1;
+                deepest = deepest.max(depth);
                 if depth > crate::parse::MAX_DEPTH {
                     return Err(SceneError::new(
                         ErrorKind::Syntax,
@@ -207,7 +214,7 @@ fn check_depth(src: &str, base: usize) -> Result<(), SceneError> {
             _ => {}
         }
     }
-    Ok(())
+    Ok(deepest)
 }
 
 fn friendly(rule: &Rule) -> Option<&'static str> {

@@ -189,11 +189,6 @@ pub(super) const MAX_LOAD_DEPTH: usize = 8;
 /// The largest scene file read, in bytes.
 pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 
-pub(super) fn line_of(text: &str, pos: usize) -> usize {
-    let pos = pos.min(text.len());
-    text.as_bytes()[..pos].iter().filter(|&&b| b == b'\n').count() + 1
-}
-
 /// `Err(Interrupted)` at `span` once Ctrl-C was pressed (the process-wide token).
 pub(super) fn interruption(span: Span) -> Result<(), SceneError> {
     crate::cancel::check().map_err(|_| {
@@ -344,13 +339,19 @@ impl Session {
         let saved = self.source.clone();
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
-        let result = parser::parse_scene(text).and_then(|stmts| {
+        let result = refuse_lookalikes(text).and_then(|()| parser::parse_scene(text)).and_then(|stmts| {
             self.claim_outputs(&stmts)?;
+            // Line numbers by one forward pass: counting from the start for every statement
+            // made a scene of 10⁵ definitions quadratic (44 s; issue 16 item 4).
+            let (mut line, mut at) = (1, 0);
             for st in &stmts {
+                let pos = st.span.0.min(text.len()).max(at);
+                line += text.as_bytes()[at..pos].iter().filter(|&&b| b == b'\n').count();
+                at = pos;
                 // Ctrl-C: stop before the next statement, and report a statement whose work
                 // was cut short as interrupted whatever error the cut produced.
                 interruption(st.span)?;
-                let r = self.exec(st, text);
+                let r = self.exec(st, line);
                 interruption(st.span)?;
                 r?;
             }
@@ -360,8 +361,8 @@ impl Session {
         result.map_err(|e| e.with_source(&src))
     }
 
-    pub(super) fn exec(&mut self, st: &Statement, text: &str) -> Result<(), SceneError> {
-        self.line = line_of(text, st.span.0);
+    pub(super) fn exec(&mut self, st: &Statement, line: usize) -> Result<(), SceneError> {
+        self.line = line;
         self.span = st.span;
         match &st.kind {
             StmtKind::Coordinates(names) => self.declare_coordinates(names),
@@ -1053,6 +1054,8 @@ impl Session {
             match p {
                 Printed::Named(n, e) => {
                     let name = match f {
+                        // A bracket's label `{f, g}` is not a name: its braces are escaped.
+                        Format::Latex if n.starts_with('{') => n.replace('{', "\\{").replace('}', "\\}"),
                         Format::Latex => render(&Expr::var(n), f),
                         _ => n.clone(),
                     };
@@ -1228,4 +1231,33 @@ pub fn read_scene(path: &Path) -> Result<String, SceneError> {
         )
         .hint("save the scene as UTF-8 (Greek letters such as θ must be UTF-8 encoded)")
     })
+}
+
+/// Refuses a look-alike character (Cyrillic, full-width, combining mark) anywhere in a scene
+/// but comments and quoted paths, at its location (issue 16 item 7; the command line does the
+/// same for its arguments).
+fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
+    let (mut in_comment, mut in_quote) = (false, false);
+    for (i, c) in text.char_indices() {
+        match c {
+            '\n' => (in_comment, in_quote) = (false, false),
+            '#' if !in_quote => in_comment = true,
+            '"' if !in_comment => in_quote = !in_quote,
+            _ if in_comment || in_quote => {}
+            _ => {
+                if let Some(what) = crate::parse::lookalike_kind(c) {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!(
+                            "`{c}` (U+{:04X}) is {what} that looks like another; names are ASCII or Greek",
+                            u32::from(c)
+                        ),
+                    )
+                    .at((i, i + c.len_utf8()))
+                    .hint("retype the name with a Latin or Greek keyboard layout"));
+                }
+            }
+        }
+    }
+    Ok(())
 }
