@@ -9,8 +9,8 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind, PlotSpec,
-    SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
+    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind,
+    PlotSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
