@@ -110,7 +110,12 @@ fn split(line: &str) -> Option<(String, String)> {
 /// Lines that report files, notes or structure rather than a derived expression.
 fn not_a_derivation(line: &str) -> bool {
     line.trim().is_empty()
-        || ["wrote ", "note: ", "# ", "$ ", "branch: "].iter().any(|p| line.starts_with(p))
+        // `separation of a and b: …` is a measured rate, checked against the tangent flow
+        // in tests/figures.rs.
+        || ["wrote ", "note: ", "# ", "$ ", "branch: ", "separation of ", "animation of "].iter().any(|p| line.starts_with(p))
+        // An ensemble's summary (`low: 21 runs (low_1 … low_21) …`): its members' energies
+        // are checked against the level in tests/figures.rs.
+        || line.split_once(": ").is_some_and(|(_, r)| r.contains(" runs (") && r.contains(" at the start "))
         || line.ends_with(':')
 }
 
@@ -326,6 +331,18 @@ fn hamiltonian_example(example: &str, h_text: &str, coords: &[&str], params: &[&
                 -partial(&h, &env, q)
             } else if let Some(q) = lhs.strip_suffix('\'') {
                 partial(&h, &env, &format!("p_{q}"))
+            } else if lhs.strip_prefix('Q').is_some_and(|k| k.parse::<u32>().is_ok()) {
+                // A charge of the symmetry search: conserved, {Q, H} = 0, with both
+                // brackets' derivatives by finite differences.
+                let bracket: f64 = coords
+                    .iter()
+                    .map(|q| {
+                        let p = format!("p_{q}");
+                        partial(rhs, &env, q) * partial(&h, &env, &p) - partial(rhs, &env, &p) * partial(&h, &env, q)
+                    })
+                    .sum();
+                close(bracket, 0.0, &format!("{example}: {{{lhs}, H}}"));
+                return true;
             } else {
                 return false;
             };
@@ -366,6 +383,8 @@ fn scene_example_lagrangian_lines() {
         &[],
         16,
     );
+    lagrangian_example("geodesic_sphere", "L = 1/2 (θ'^2 + sin(θ)^2 φ'^2)", &["θ", "φ"], &[], &[], 18);
+    lagrangian_example("variational_integrator", "L = (x'^2 + y'^2)/2 + k/sqrt(x^2 + y^2)", &["x", "y"], &["k"], &[], 19);
     lagrangian_example(
         "anharmonic_oscillator",
         "L = 1/2 m x'^2 - 1/2 m ω0^2 (x^2 + σ x^4/l0^2)",
@@ -844,6 +863,12 @@ fn notes_geodesic_lines() {
                 "geodesic_φ" => euler_lagrange_fd(&l, &coords, &env, 1) / s2,
                 "p_φ" => partial(&l, &env, "φ'"),
                 "h" => energy_function_fd(&l, &coords, &env),
+                // Gauss curvature of an orthogonal metric dθ² + G dφ²: K = −(√G)_θθ/√G, here
+                // by a second difference of √G = |sin θ|; then R_θφθφ = K det g and the scalar
+                // curvature is 2K.
+                "K" => gauss_curvature_fd(env["θ"]),
+                "R_θφθφ" => gauss_curvature_fd(env["θ"]) * s2,
+                "scalar_curvature" => 2.0 * gauss_curvature_fd(env["θ"]),
                 _ if lhs.starts_with("Γ^") => {
                     gamma.insert(lhs.clone(), got);
                     got
@@ -853,7 +878,7 @@ fn notes_geodesic_lines() {
             close(got, want, &format!("geodesic: {lhs}"));
             checked += 1;
         }
-        assert_eq!(checked, 9);
+        assert_eq!(checked, 12);
         let (t1, p1) = (env["θ'"], env["φ'"]);
         close(env["θ''"] + gamma["Γ^θ_φφ"] * p1 * p1, euler_lagrange_fd(&l, &coords, &env, 0), "θ'' + Γ^θ_φφ φ'²");
         close(
@@ -862,6 +887,13 @@ fn notes_geodesic_lines() {
             "φ'' + 2 Γ^φ_θφ θ' φ'",
         );
     }
+}
+
+/// `K = −(√G)_θθ/√G` for the unit sphere's `G = sin²θ`, by a central second difference.
+fn gauss_curvature_fd(theta: f64) -> f64 {
+    let root_g = |x: f64| x.sin().abs();
+    let second = (root_g(theta + H) - 2.0 * root_g(theta) + root_g(theta - H)) / (H * H);
+    -second / root_g(theta)
 }
 
 /// `lagrangian discretize` for the pendulum: `L_d` against the rule it names (midpoint
