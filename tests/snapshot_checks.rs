@@ -384,7 +384,14 @@ fn scene_example_lagrangian_lines() {
         16,
     );
     lagrangian_example("geodesic_sphere", "L = 1/2 (θ'^2 + sin(θ)^2 φ'^2)", &["θ", "φ"], &[], &[], 18);
-    lagrangian_example("variational_integrator", "L = (x'^2 + y'^2)/2 + k/sqrt(x^2 + y^2)", &["x", "y"], &["k"], &[], 19);
+    lagrangian_example(
+        "variational_integrator",
+        "L = (x'^2 + y'^2)/2 + k/sqrt(x^2 + y^2)",
+        &["x", "y"],
+        &["k"],
+        &[],
+        19,
+    );
     lagrangian_example(
         "anharmonic_oscillator",
         "L = 1/2 m x'^2 - 1/2 m ω0^2 (x^2 + σ x^4/l0^2)",
