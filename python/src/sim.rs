@@ -161,12 +161,25 @@ pub fn compiled(py: Python<'_>, s: &PySystem, f: Formulation) -> PyResult<Arc<Co
     Ok(c)
 }
 
+/// The methods the binding runs. The discrete variational maps (`variational`, …) integrate
+/// the discrete Lagrangian's map with its own state `(q, p)` and are offered by scenes and
+/// `lagrangian discretize`, not here yet.
+pub fn binding_methods() -> impl Iterator<Item = &'static methods::Method> {
+    methods::METHODS.iter().filter(|m| !matches!(m.family, Family::Variational))
+}
+
 /// The method called `name`, or a `ValueError` listing them.
 pub fn method(name: &str) -> PyResult<methods::Method> {
-    methods::method(name).ok_or_else(|| {
-        let names: Vec<&str> = methods::METHODS.iter().map(|m| m.name).collect();
-        PyValueError::new_err(format!("unknown method `{name}`; the methods are {}", names.join(", ")))
-    })
+    let names = || binding_methods().map(|m| m.name).collect::<Vec<_>>().join(", ");
+    match methods::method(name) {
+        Some(m) if matches!(m.family, Family::Variational) => Err(PyValueError::new_err(format!(
+            "`{name}` (a discrete variational map) runs in scenes and `lagrangian discretize`, not in the \
+             Python binding; the methods here are {}",
+            names()
+        ))),
+        Some(m) => Ok(m),
+        None => Err(PyValueError::new_err(format!("unknown method `{name}`; the methods are {}", names()))),
+    }
 }
 
 /// The elements of an array as float64 in C order. (An empty array is handled apart: its
@@ -597,6 +610,15 @@ pub fn run(c: &Compiled, y0: &[f64], p: &RunSpec, ctl: &Control) -> Result<Out, 
             })?;
             drive(&t, ode, y0, p, ctl)
         }
+        Family::Variational => Err(RunError::Failed(IntegrateError {
+            t: p.t0,
+            state: y0.to_vec(),
+            reason: lagrangian::integrate::FailureReason::InvalidInput(format!(
+                "`{}` runs in scenes, not in the Python binding",
+                m.name
+            )),
+            steps: 0,
+        })),
         Family::Adaptive => {
             let mut d = Dop853::new(p.rtol, p.atol);
             if p.compensated {
