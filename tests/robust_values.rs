@@ -101,3 +101,30 @@ fn exports_refuse_non_finite_values_naming_column_row_and_time() {
     assert!(err.contains("column `H` is inf at t = 0 (row 1)"), "{err}");
     assert!(!dir.path().join("a.csv").exists());
 }
+
+/// `allow nonfinite` keeps them in a CSV, with a note counting them; JSON, which cannot spell
+/// them, still refuses and says to use CSV.
+#[test]
+fn allow_nonfinite_keeps_them_in_csv_and_json_still_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "coordinates x\nH = p_x^2/2 + x^2/2\nsimulate x = 1e200, p_x = 0 for t in 0..1 with rk4 dt = 0.5\n\
+                 allow nonfinite\nexport t, x, H to a.csv\n";
+    std::fs::write(dir.path().join("s.scene"), scene).unwrap();
+    let out = bin().args(["run", "s.scene"]).current_dir(dir.path()).output().unwrap();
+    let (stdout, err) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(stdout.contains("non-finite value") && stdout.contains("column `H` at row 1"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.path().join("a.csv")).unwrap();
+    let first: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    // t = 0, x = 1e200 (finite, kept exactly), H = x²/2 overflows.
+    assert_eq!(first[0].parse::<f64>().unwrap(), 0.0);
+    assert_eq!(first[1].parse::<f64>().unwrap(), 1e200);
+    assert_eq!(first[2], "inf", "{csv}");
+
+    std::fs::write(dir.path().join("j.scene"), scene.replace("a.csv", "a.json")).unwrap();
+    let out = bin().args(["run", "j.scene"]).current_dir(dir.path()).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("column `H` is inf") && err.contains("export to `.csv`"), "{err}");
+    assert!(!dir.path().join("a.json").exists());
+}

@@ -427,6 +427,8 @@ pub enum StmtKind {
     Help(Option<Src>),
     /// `history`
     History,
+    /// `allow nonfinite`: later exports keep inf and NaN.
+    AllowNonfinite,
     /// `latex` (reprint the last result) or `format unicode` (set the default).
     Format {
         /// The format.

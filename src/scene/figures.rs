@@ -606,9 +606,20 @@ impl Session {
                 }
             }
             // inf and NaN would land in the file silently (NaN as `null` in JSON): refused,
-            // naming the column, the row and the time.
+            // naming the column, the row and the time, unless `allow nonfinite` asked to keep
+            // them in a CSV (JSON has no spelling for them).
             for (name, values) in &columns {
                 if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                    if self.allow_nonfinite && ext == "csv" {
+                        let count: usize = columns.iter().map(|c| c.1.iter().filter(|v| !v.is_finite()).count()).sum();
+                        self.output.push(format!(
+                            "note: {} keeps {count} non-finite value{} (`allow nonfinite`); the first is column `{name}` at row {}",
+                            file.display(),
+                            if count == 1 { "" } else { "s" },
+                            i + 1
+                        ));
+                        break;
+                    }
                     return Err(SceneError::new(
                         ErrorKind::Numeric,
                         format!(
@@ -619,7 +630,11 @@ impl Session {
                         ),
                     )
                     .at(pspan)
-                    .hint("the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column"));
+                    .hint(if self.allow_nonfinite {
+                        "JSON has no spelling for inf or NaN: export to `.csv` to keep them".to_string()
+                    } else {
+                        "the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column, or write `allow nonfinite` before the export to keep it".to_string()
+                    }));
                 }
             }
             columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name)

@@ -51,6 +51,7 @@ pub const STATEMENTS: &[&str] = &[
     "load",
     "help",
     "history",
+    "allow",
     "format",
     "latex",
     "unicode",
@@ -687,6 +688,7 @@ impl Builder {
             }
             Rule::help => StmtKind::Help(inner.into_iter().next().map(|q| self.src(&q))),
             Rule::history => StmtKind::History,
+            Rule::allow => StmtKind::AllowNonfinite,
             Rule::format_stmt => {
                 let set_default = p.as_str().trim_start().starts_with("format");
                 let f = inner.iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);

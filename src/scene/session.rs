@@ -181,6 +181,8 @@ pub struct Session {
     pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
     /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
     pub(super) chaos_runs: Vec<super::chaos::ChaosRun>,
+    /// `allow nonfinite` was given: exports keep inf and NaN.
+    pub(super) allow_nonfinite: bool,
 }
 
 /// The deepest chain of `load` statements.
@@ -246,6 +248,7 @@ impl Session {
             groups: Vec::new(),
             figures: Vec::new(),
             chaos_runs: Vec::new(),
+            allow_nonfinite: false,
         }
     }
 
@@ -441,6 +444,10 @@ impl Session {
             }
             StmtKind::History => {
                 self.output.push("(history is kept by the REPL)".to_string());
+                Ok(())
+            }
+            StmtKind::AllowNonfinite => {
+                self.allow_nonfinite = true;
                 Ok(())
             }
             StmtKind::Format { format, set_default } => {
