@@ -57,22 +57,10 @@ pub(super) fn rotation(
         let h = TAU / n as f64;
         (t_sum * h, j_sum * h / TAU)
     };
-    let mut n = 16;
-    let (mut t_prev, mut j_prev) = pass(n);
-    let mut change = f64::INFINITY;
-    while n < 1 << 17 {
-        n *= 2;
-        let (t, j) = pass(n);
-        change = ((t - t_prev) / t).abs().max(((j - j_prev) / j).abs());
-        t_prev = t;
-        j_prev = j;
-        if change < 1e-13 {
-            break;
-        }
-    }
-    if change.is_nan() || change >= 1e-6 {
-        return Some(Err(super::ActionAngleError::NoConvergence { change, points: n }));
-    }
+    let (t_prev, j_prev, n, change) = match super::action_angle::converged_quadrature(pass) {
+        Ok(v) => v,
+        Err(e) => return Some(Err(e)),
+    };
     Some(Ok(ActionFrequency {
         energy,
         action: j_prev,
