@@ -120,14 +120,20 @@ fn build(text: &str, args: &SystemArgs, hamiltonian: bool) -> Result<System, Fai
     Ok(s)
 }
 
-/// Printed output: named expressions, in order, plus the JSON object.
-struct Report {
-    format: OutFormat,
-    lines: Vec<String>,
-    json: serde_json::Map<String, Value>,
+/// Printed output: named expressions, in order, plus the JSON object (also the notes
+/// commands' output, `cli/notes.rs`).
+pub(super) struct Report {
+    pub(super) format: OutFormat,
+    pub(super) lines: Vec<String>,
+    pub(super) json: serde_json::Map<String, Value>,
 }
 
 impl Report {
+    /// No lines and an empty JSON object.
+    pub(super) fn empty(format: OutFormat) -> Report {
+        Report { format, lines: Vec::new(), json: serde_json::Map::new() }
+    }
+
     fn new(format: OutFormat, system: &System, input: &str) -> Report {
         let mut json = serde_json::Map::new();
         json.insert("input".into(), json!(input.trim()));
@@ -136,15 +142,15 @@ impl Report {
         Report { format, lines: Vec::new(), json }
     }
 
-    fn r(&self, e: &Expr) -> String {
+    pub(super) fn r(&self, e: &Expr) -> String {
         render(e, self.format.expr_format())
     }
 
-    fn s(&self, q: &Symbol) -> String {
+    pub(super) fn s(&self, q: &Symbol) -> String {
         symbol(q, self.format.expr_format())
     }
 
-    fn line(&mut self, name: String, e: &Expr) {
+    pub(super) fn line(&mut self, name: String, e: &Expr) {
         self.lines.push(format!("{name} = {}", self.r(e)));
     }
 
@@ -177,7 +183,7 @@ impl Report {
         self.json.insert(key.into(), json!(lagrangian::print::plain(e)));
     }
 
-    fn print(self) {
+    pub(super) fn print(self) {
         if self.format == OutFormat::Json {
             println!("{}", Value::Object(self.json));
         } else {

@@ -2,12 +2,13 @@
 //! `W q'' = F` (first-order Lagrangians, §3.4; discrete mechanics, §4.7.2). They parse, call the library, and print.
 
 use clap::Subcommand;
-use lagrangian::expr::{Expr, Symbol};
+use lagrangian::expr::Expr;
 use lagrangian::mechanics::{MechanicsError, Rule, System};
-use lagrangian::print::{plain, render, symbol};
+use lagrangian::print::plain;
 use serde_json::{json, Value};
 
-use super::{bad_input, parse_arg, read_expr_arg, Common, Failure, OutFormat};
+use super::mechanics::Report as Out;
+use super::{bad_input, parse_arg, read_expr_arg, Common, Failure};
 
 #[derive(Subcommand)]
 pub enum NotesCommand {
@@ -108,34 +109,6 @@ fn fail(e: MechanicsError) -> Failure {
     bad_input(e.to_string())
 }
 
-/// Lines and the JSON object, printed only once everything succeeded.
-struct Out {
-    format: OutFormat,
-    lines: Vec<String>,
-    json: serde_json::Map<String, Value>,
-}
-
-impl Out {
-    fn r(&self, e: &Expr) -> String {
-        render(e, self.format.expr_format())
-    }
-    fn s(&self, q: &Symbol) -> String {
-        symbol(q, self.format.expr_format())
-    }
-    fn line(&mut self, name: String, e: &Expr) {
-        self.lines.push(format!("{name} = {}", self.r(e)));
-    }
-    fn print(self) {
-        if self.format == OutFormat::Json {
-            println!("{}", Value::Object(self.json));
-        } else {
-            for l in self.lines {
-                println!("{l}");
-            }
-        }
-    }
-}
-
 pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
     match cmd {
         NotesCommand::PhaseSpace { lagrangian, coords, bracket, common } => {
@@ -151,7 +124,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
             let f = s.first_order().map_err(fail)?;
             let z = s.coordinates().to_vec();
-            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            let mut out = Out::empty(common.format);
             out.json.insert("input".into(), json!(text.trim()));
             out.json.insert("coordinates".into(), json!(z.iter().map(|q| q.to_string()).collect::<Vec<_>>()));
             for (q, a) in z.iter().zip(&f.a) {
@@ -226,7 +199,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
                 }
             }
             let g = lagrangian::mechanics::geodesic(&ds2, &z).map_err(fail)?;
-            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            let mut out = Out::empty(common.format);
             out.json.insert("input".into(), json!(text.trim()));
             for i in 0..z.len() {
                 for j in i..z.len() {
@@ -303,7 +276,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
             let (_, h) = parse_arg(&step, &decls)?;
             let d = s.discretize(r, &h).map_err(fail)?;
-            let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+            let mut out = Out::empty(common.format);
             out.json.insert("input".into(), json!(text.trim()));
             out.json.insert("rule".into(), json!(r.name()));
             out.line("L_d".into(), &d.ld);
@@ -386,7 +359,7 @@ fn ritz(
         values.push((k.trim().to_string(), v));
     }
     let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
-    let mut out = Out { format: common.format, lines: Vec::new(), json: serde_json::Map::new() };
+    let mut out = Out::empty(common.format);
     out.json.insert("input".into(), json!(text.trim()));
     out.line("L(trial)".into(), &r.integrand);
     match &r.action {
