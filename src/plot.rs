@@ -781,17 +781,16 @@ pub fn is_angle(f: &dyn Fn(f64, f64) -> f64) -> bool {
 
 /// Splits a path whose `x` was wrapped to `(−π, π]` where it jumps across the seam.
 fn split_at_seam(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
-    let mut out: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
     for &(x, y) in points {
         let w = wrap_angle(x);
-        if let Some(&(px, _)) = out.last().and_then(|l| l.last()) {
-            if (w - px).abs() > std::f64::consts::PI {
-                out.push(Vec::new());
+        match out.last_mut() {
+            Some(line) if !line.last().is_some_and(|&(px, _)| (w - px).abs() > std::f64::consts::PI) => {
+                line.push((w, y))
             }
+            _ => out.push(vec![(w, y)]),
         }
-        out.last_mut().expect("one line at least").push((w, y));
     }
-    out.retain(|l| !l.is_empty());
     out
 }
 
