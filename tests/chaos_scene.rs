@@ -435,3 +435,41 @@ chaos_map megno x = -1..1, p_x = -1..1 for t in 0..5 points 2 to m.csv
     third.run_scene("a", &scene.replace("k = 2", "k = 3")).unwrap();
     assert_eq!(get("compile_variational"), 2);
 }
+
+#[test]
+fn taylor_runs_stop_at_kinks_singular_mass_matrices_and_bad_tolerances_with_located_errors() {
+    // The same bad-input list for `simulate … with taylor` (issue 10): each a located, typed
+    // error and no file written, never a hang.
+    let dir = tempfile::tempdir().unwrap();
+    let export = "export t, x to a.csv\n";
+    for (scene, says) in [
+        // V = |x|: a kink at x = 0, started on it and reached from x = 1.
+        ("coordinates x\nH = 1/2 p_x^2 + abs(x)\nsimulate x = 0, p_x = 1 for t in 0..5 with taylor\n", "kink"),
+        ("coordinates x\nH = 1/2 p_x^2 + abs(x)\nsimulate x = 1, p_x = 0 for t in 0..5 with taylor\n", "kink"),
+        ("coordinates x\nH = 1/2 p_x^2 + x^2\nsimulate x = 1, p_x = 0 for t in 0..5 with taylor tol = 0\n", "positive"),
+        (
+            "coordinates x\nH = 1/2 p_x^2 + x^2\nsimulate x = 1, p_x = 0 for t in 0..5 with taylor tol = -1e-3\n",
+            "positive",
+        ),
+        (
+            "coordinates x\nH = 1/2 p_x^2 + x^2\nsimulate x = 1, p_x = 0 for t in 0..5 with taylor tol = 1e-30\n",
+            "below what f64",
+        ),
+    ] {
+        let (code, _, err) = run_in(dir.path(), &format!("{scene}{export}"));
+        assert_eq!(code, 2, "{scene}: {err}");
+        assert!(err.contains(says) && err.contains("test.scene:3:"), "{scene}: {err}");
+        assert!(!dir.path().join("a.csv").exists(), "{scene}");
+    }
+    // W = x² (L = x² x'²/2 − x) is singular at x = 0, reached from rest at x = 1 at
+    // t = ∫₀¹ x dx/√(2(1 − x)) = 2√2/3 (energy x² x'²/2 + x = 1): the run stops there.
+    let (code, _, err) = run_in(
+        dir.path(),
+        &format!("coordinates x\nL = 1/2 x^2 x'^2 - x\nsimulate x = 1, x' = 0 for t in 0..5 with taylor\n{export}"),
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("test.scene:3:"), "{err}");
+    let at = err.find("stopped at t = ").map(|i| &err[i + 15..]).unwrap_or_else(|| panic!("{err}"));
+    let t: f64 = at.split([' ', '(']).next().unwrap().parse().unwrap();
+    assert!((t - 2.0 * 2f64.sqrt() / 3.0).abs() < 1e-6, "stopped at {t}: {err}");
+}
