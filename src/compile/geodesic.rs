@@ -36,6 +36,15 @@ pub struct Shot {
     pub iterations: usize,
 }
 
+impl Shot {
+    /// The printed line of `lagrangian geodesic --from … --to …` and of the scene statement
+    /// `geodesic … from (…) to (…)`: the initial velocity to 12 decimals.
+    pub fn report_line(&self) -> String {
+        let v: Vec<String> = self.velocity.iter().map(|x| format!("{x:.12}")).collect();
+        format!("shooting: q'(0) = ({}) after {} Newton steps", v.join(", "), self.iterations)
+    }
+}
+
 /// Shoots from `from` to `to`; `params` binds the metric's parameters.
 pub fn shoot(
     g: &Geodesic,
