@@ -327,3 +327,27 @@ fn geodesic_and_ritz_statements_refuse_bad_input() {
         assert!(!written, "{stmt}: a file was written");
     }
 }
+
+#[test]
+fn variational_newton_failures_are_located_errors() {
+    // The discrete Legendre map's Newton iteration fails: with the mass x² vanishing at the
+    // origin, a fast start towards it has no convergent step at dt = 0.1; with the mass
+    // e^{−x²}, p_0 = e^{−x₁²/4}(x₁/h + x₁³/(4h)) (midpoint, x₀ = 0, h = 1) never exceeds about
+    // 1.5, so p_x = 5 has no next point at all.
+    for (l, init, needle) in [
+        ("x^2 x'^2/2 - x^2/2", "x = 1, x' = -50", "did not converge"),
+        ("exp(-x^2) x'^2/2", "x = 0, p_x = 5", "singular"),
+    ] {
+        let text = format!(
+            "coordinates x\nL = {l}\nsimulate {init} for t in 0..4 with variational dt = {}\nexport to run.csv\n",
+            if l.starts_with("exp") { "1" } else { "0.1" }
+        );
+        let (code, out, err, written) = run_text(&text);
+        assert_eq!(code, 2, "{l}: {out}{err}");
+        // The report wraps its message over lines framed by `│`.
+        let flat = err.replace('│', " ").split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(flat.contains(needle) && flat.contains("t = 0"), "{l}: {err}");
+        assert!(err.contains("s.scene:3:"), "{l}: no source location in\n{err}");
+        assert!(!written, "{l}: a file was written");
+    }
+}
