@@ -71,6 +71,14 @@ fn bad_metrics_are_refused() {
     let (code, _, err) = run(&["geodesic", "dθ^2 + dθ", "--coords", "θ"]);
     assert_eq!(code, 2);
     assert!(err.contains("not quadratic"), "{err}");
+    // A parameter without a value cannot be shot through: named, not a NaN determinant.
+    let radius = ["geodesic", "R^2 dθ^2 + R^2 sin(θ)^2 dφ^2", "--coords", "θ,φ", "--from", "1,0", "--to", "2,1.5"];
+    let (code, out, err) = run(&radius);
+    assert_eq!((code, out.as_str()), (2, ""), "{err}");
+    assert!(err.contains("needs a value for `R`"), "{err}");
+    let (code, out, err) = run(&[&radius[..], &["--set", "R=2"]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert!(line(&out, "shooting: ").starts_with("q'(0) = ("), "{out}");
 }
 
 /// `K` printed by `lagrangian geodesic`, evaluated at `point`.

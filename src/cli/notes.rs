@@ -55,6 +55,9 @@ pub enum NotesCommand {
         /// End point.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         to: Vec<f64>,
+        /// Parameter values for the shooting (`R=2`).
+        #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
+        set: Vec<String>,
         #[command(flatten)]
         common: Common,
     },
@@ -197,8 +200,9 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
-        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, common } => {
-            geodesic(line_element, metric, embedding, coords, from, to, common)?
+        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, common } => {
+            let values = set_values(&set)?;
+            geodesic(line_element, metric, embedding, coords, (from, to), &values, common)?
         }
         NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
@@ -276,13 +280,26 @@ fn split_top(text: &str, sep: char) -> Vec<String> {
     out
 }
 
+/// `--set name=value,…` as pairs.
+fn set_values(set: &[String]) -> Result<Vec<(String, f64)>, Failure> {
+    let mut values = Vec::new();
+    for kv in set {
+        let Some((k, v)) = kv.split_once('=') else {
+            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
+        };
+        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
+        values.push((k.trim().to_string(), v));
+    }
+    Ok(values)
+}
+
 fn geodesic(
     line_element: Option<String>,
     metric: Option<String>,
     embedding: Option<String>,
     coords: Vec<String>,
-    from: Vec<f64>,
-    to: Vec<f64>,
+    (from, to): (Vec<f64>, Vec<f64>),
+    values: &[(String, f64)],
     common: Common,
 ) -> Result<(), Failure> {
     use lagrangian::mechanics::{embedded, geodesic, geodesic_from_metric};
@@ -339,7 +356,9 @@ fn geodesic(
         if from.len() != z.len() || to.len() != z.len() {
             return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
         }
-        let shot = lagrangian::compile::shoot(&g, &from, &to, &[], 1).map_err(|e| bad_input(format!("error: {e}")))?;
+        let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let shot =
+            lagrangian::compile::shoot(&g, &from, &to, &bound, 1).map_err(|e| bad_input(format!("error: {e}")))?;
         out.lines.push(shot.report_line());
         out.json.insert("initial_velocity".into(), json!(shot.velocity));
     }
@@ -379,14 +398,7 @@ fn ritz(
             _ => return Err(bad_input(format!("error: the unknown `{u}` must be a plain name"))),
         }
     }
-    let mut values: Vec<(String, f64)> = Vec::new();
-    for kv in &set {
-        let Some((k, v)) = kv.split_once('=') else {
-            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
-        };
-        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
-        values.push((k.trim().to_string(), v));
-    }
+    let values = set_values(&set)?;
     let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
     let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let sol = r.solve(&guess, &bound).map_err(fail)?;

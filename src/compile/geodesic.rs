@@ -65,7 +65,15 @@ pub fn shoot(
     let mut scale = 0.0f64;
     for i in 0..n {
         for j in 0..n {
-            m[i * n + j] = eval_with(&g.metric[i][j], &lookup).unwrap_or(f64::NAN);
+            m[i * n + j] = match eval_with(&g.metric[i][j], &lookup) {
+                Ok(v) => v,
+                Err(crate::eval::EvalError::Unbound(name)) => {
+                    return Err(ShootError::Numeric(format!(
+                        "the metric needs a value for `{name}` to shoot (give the parameter a value)"
+                    )))
+                }
+                Err(_) => f64::NAN,
+            };
             scale = scale.max(m[i * n + j].abs());
         }
     }
