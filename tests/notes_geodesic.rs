@@ -192,6 +192,16 @@ fn geodesic_curvature_vector_is_normal_to_an_embedded_surface() {
         .iter()
         .map(|(k, v)| (k.to_string(), *v))
         .collect();
+        if coords == "x,y" {
+            // Monge patch z = f: K = (f_xx f_yy − f_xy²)/(1 + f_x² + f_y²)², and R = 2K.
+            let (x, y) = (env["x"], env["y"]);
+            let (fx, fy) = (x.cos() * y.cos(), -x.sin() * y.sin());
+            let (fxx, fyy, fxy) = (-x.sin() * y.cos(), -x.sin() * y.cos(), -x.cos() * y.sin());
+            let monge = (fxx * fyy - fxy * fxy) / (1.0 + fx * fx + fy * fy).powi(2);
+            let at = |name: &str| lagrangian::eval::eval(&parse(line(&out, name)).unwrap(), &env).unwrap();
+            assert!((at("K = ") - monge).abs() < 1e-14, "{surface}: K = {}, Monge {monge}", at("K = "));
+            assert!((at("scalar_curvature = ") - 2.0 * monge).abs() < 1e-14, "{surface}: R ≠ 2K");
+        }
         for (k, (i, j)) in [(0, 0), (0, 1), (1, 1)].into_iter().enumerate() {
             let (got, want) = (
                 lagrangian::eval::eval(&g(i, j), &env).unwrap(),

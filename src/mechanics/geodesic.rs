@@ -366,8 +366,16 @@ impl Geodesic {
                 }
             }
         }
-        let scalar = curvature_form(&Expr::add(terms).over(&det));
+        let mut scalar = curvature_form(&Expr::add(terms).over(&det));
         let gauss = (n == 2).then(|| curvature_form(&lowered[0][1][0][1].over(&det)));
+        // On a surface R = 2K identically; print whichever form of the two is shorter (the
+        // contraction can leave a long sum that K's single component does not).
+        if let Some(k) = &gauss {
+            let twice = tidy(&k.times(&Expr::int(2)));
+            if twice.op_count() < scalar.op_count() {
+                scalar = twice;
+            }
+        }
         Curvature { riemann, lowered, scalar, gauss }
     }
 }
