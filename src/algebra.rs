@@ -786,10 +786,14 @@ fn factor_sum(ts: &[Expr]) -> Option<Expr> {
 /// `a (x + y) + z`, recursively on both parts. A factor is a base with a positive numeric
 /// exponent, pulled out to its smallest power among the terms that have it. This is how an
 /// expanded Lagrangian or Hamiltonian gets its compact, cheap-to-evaluate shape back.
+///
+/// Each sum has a work budget ([`COLLECT_WORK`]); a sum whose collection would exceed it is
+/// left (from that point) uncollected, which is still an equal form.
 pub fn collect_common(e: &Expr) -> Expr {
     e.map_bottom_up(&mut |x| match x.node() {
         Node::Add(ts) => {
-            let out = collect_terms(ts.clone(), 0);
+            let mut work = 0;
+            let out = collect_terms(ts.clone(), 0, &mut work);
             (out != *x).then_some(out)
         }
         _ => None,
@@ -811,8 +815,34 @@ fn positive_powers(t: &Expr) -> Vec<(Expr, Rational)> {
         .collect()
 }
 
-fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
+/// The work [`collect_common`] may spend on one sum, in squared machine words of exact number
+/// per term visited: a term with small numbers costs 1 at each level of the greedy recursion,
+/// so a 2,000-term sum collected 64 levels deep costs about 1.3·10⁵. Dividing a term by the
+/// pulled factor reduces rationals by gcd, whose cost grows with the square of their size, so
+/// terms with 60,000-bit coefficients (within [`crate::expr::MAX_FOLD_BITS`]) cost about 10⁶
+/// each: the 10⁶ fuzz run stalled for seconds at a time in that gcd, eight levels deep.
+pub const COLLECT_WORK: u64 = 1 << 21;
+
+/// Machine words of exact number in a term: its coefficient, surds and numeric exponents.
+fn term_words(t: &Expr) -> u64 {
+    let exponent_bits: u64 = t
+        .factors()
+        .iter()
+        .filter_map(|f| match f.node() {
+            Node::Pow(_, x) => x.as_num().map(rational_bits),
+            _ => None,
+        })
+        .fold(0, u64::saturating_add);
+    1 + numeric_bits(t).saturating_add(exponent_bits) / 64
+}
+
+fn collect_terms(terms: Vec<Expr>, depth: usize, work: &mut u64) -> Expr {
     if terms.len() < 2 || depth > 64 {
+        return Expr::add(terms);
+    }
+    let level: u64 = terms.iter().map(|t| term_words(t).saturating_pow(2)).fold(0, u64::saturating_add);
+    *work = work.saturating_add(level);
+    if *work > COLLECT_WORK {
         return Expr::add(terms);
     }
     // (base, number of terms, smallest exponent), in order of first appearance.
@@ -844,9 +874,9 @@ fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
     let (with, without): (Vec<Expr>, Vec<Expr>) =
         terms.into_iter().partition(|t| positive_powers(t).iter().any(|(b, _)| *b == base));
     let inner: Vec<Expr> = with.iter().map(|t| t.over(&factor)).collect();
-    let inner = collect_terms(inner, depth + 1);
+    let inner = collect_terms(inner, depth + 1, work);
     let pulled = Expr::mul([factor, inner]);
-    let mut rest = collect_terms(without, depth + 1).terms();
+    let mut rest = collect_terms(without, depth + 1, work).terms();
     rest.push(pulled);
     Expr::add(rest)
 }

@@ -331,7 +331,12 @@ fn under_watchdog(
             .stack_size(8 << 20)
             .spawn(move || {
                 let mut slowest = (Duration::ZERO, 0u64);
-                for case in 0..cases {
+                // Diagnostics for a long run: `FUZZ_FROM=K` starts at case K (every case has its
+                // own seed, so a range reproduces alone), `FUZZ_SLOW_MS=T` prints each case that
+                // takes longer than T ms with its input.
+                let from = std::env::var("FUZZ_FROM").ok().and_then(|v| v.parse().ok()).unwrap_or(0u64);
+                let slow_ms = std::env::var("FUZZ_SLOW_MS").ok().and_then(|v| v.parse::<u64>().ok());
+                for case in from..cases {
                     started_ms.store(origin.elapsed().as_millis() as u64, Ordering::SeqCst);
                     let t = Instant::now();
                     if let Err(e) = work(case, &current) {
@@ -340,6 +345,10 @@ fn under_watchdog(
                     }
                     if t.elapsed() > slowest.0 {
                         slowest = (t.elapsed(), case);
+                    }
+                    if slow_ms.is_some_and(|ms| t.elapsed() > Duration::from_millis(ms)) {
+                        let input = current.lock().map(|s| s.clone()).unwrap_or_default();
+                        eprintln!("{name} case {case}: {:.1?} on {input:?}", t.elapsed());
                     }
                 }
                 done.store(true, Ordering::SeqCst);
