@@ -30,7 +30,7 @@ use num_integer::Integer;
 use num_traits::{One, Signed, ToPrimitive, Zero};
 use thiserror::Error;
 
-use crate::expr::{Expr, Func, Node, Rational, MAX_FOLD_BITS};
+use crate::expr::{rat_add, rat_mul, Expr, Func, Node, Rational, MAX_FOLD_BITS};
 
 /// The default largest number of terms [`expand`] produces (or multiplies through).
 pub const MAX_EXPAND_TERMS: usize = 20_000;
@@ -442,7 +442,7 @@ impl Poly {
         for (m, c) in &other.terms {
             let mm: Vec<u32> = m.iter().zip(shift).map(|(a, b)| a + b).collect();
             let entry = self.terms.entry(mm.clone()).or_insert_with(Rational::zero);
-            *entry -= c * coeff;
+            *entry = rat_add(entry, &-rat_mul(c, coeff));
             if entry.is_zero() {
                 self.terms.remove(&mm);
             }
@@ -462,8 +462,11 @@ impl Poly {
     /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
     /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
     fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
-        /// About 0.2 s of gcd work; exact divisions met in practice use well under 1% of it.
-        const MAX_WORK: u128 = 200_000_000;
+        /// About 0.02–0.05 s of gcd work; exact divisions met in practice use well under 10%
+        /// of it. (It was 10× more until the 10⁶ fuzz run, under load, met divisions that spent
+        /// the whole budget several times in one `simplify`: 1.4 s CPU for
+        /// `(x^100 − 10^-3201)/(10^308 x − 1)`.)
+        const MAX_WORK: u128 = 20_000_000;
         let (ld, lc) = d.lead()?;
         let max_bits = self.coefficient_bits_bound(d);
         let d_bits = u128::from(d.terms.values().map(rational_bits).max().unwrap_or(0));
@@ -569,6 +572,12 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
     // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
     let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
     let max_bits = 4 * (bits(a) + bits(b)) + 64 * (degree(a) + degree(b)) as u64 + 256;
+    // And a budget for the arithmetic, as in `Poly::div_exact` (b²/64 word operations per
+    // gcd-normalised product of b-bit numbers): under the bit guard, (x^100 − 10^-3201) mod
+    // (10^308 x − 1) still ran fifty steps of 50,000-bit gcds, 1.3 s per `simplify` (found by
+    // the 10⁶ fuzz run).
+    const MAX_WORK: u128 = 20_000_000;
+    let mut work: u128 = 0;
     for _ in 0..10_000 {
         if x.iter().chain(&y).any(|c| rational_bits(c) > max_bits) {
             return None;
@@ -594,11 +603,17 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
         while x.len() >= y.len() && !is_zero(&x) {
             let shift = x.len() - y.len();
             let q = x.last()?.clone() / &ly;
-            if rational_bits(&q) > max_bits {
+            let q_bits = rational_bits(&q);
+            if q_bits > max_bits {
+                return None;
+            }
+            let b = u128::from(q_bits + y.iter().map(rational_bits).max().unwrap_or(0));
+            work += (y.len() as u128 + 1) * b * b / 64;
+            if work > MAX_WORK {
                 return None;
             }
             for (i, c) in y.iter().enumerate() {
-                x[i + shift] -= c * &q;
+                x[i + shift] = rat_add(&x[i + shift], &-rat_mul(c, &q));
             }
             x.pop();
             trim(&mut x);
