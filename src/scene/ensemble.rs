@@ -263,7 +263,10 @@ pub(super) fn solve_level(
     positive: bool,
 ) -> Result<bool, SceneError> {
     let sign = if positive { 1.0 } else { -1.0 };
+    // Ctrl-C is checked at every evaluation of H (each a few microseconds; the session
+    // reports the statement as interrupted).
     let g = |u: f64, y: &mut [f64]| -> Result<f64, SceneError> {
+        crate::cancel::check().map_err(|_| SceneError::new(ErrorKind::Interrupted, "interrupted"))?;
         y[i] = sign * u;
         Ok(f(y)? - level)
     };
