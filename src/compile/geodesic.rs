@@ -22,9 +22,9 @@ pub enum ShootError {
     /// The equations could not be compiled or integrated.
     #[error("{0}")]
     Numeric(String),
-    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the Newton iteration.
-    #[error("interrupted (Ctrl-C)")]
-    Interrupted,
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the shooting.
+    #[error("interrupted after {iterations} Newton steps")]
+    Interrupted { iterations: usize },
 }
 
 /// A geodesic from `from` to `to` in unit time: the initial velocity and the path sampled at
@@ -98,7 +98,9 @@ pub fn shoot(
     let mut v: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
     let mut miss = f64::INFINITY;
     for it in 1..=30 {
-        crate::cancel::check().map_err(|_| ShootError::Interrupted)?;
+        if crate::cancel::interrupted() {
+            return Err(ShootError::Interrupted { iterations: it - 1 });
+        }
         let q1 = end(&v)?;
         let mut r: Vec<f64> = (0..n).map(|i| to[i] - q1[i]).collect();
         miss = r.iter().fold(0.0f64, |s, x| s.max(x.abs()));

@@ -224,6 +224,7 @@ impl Ritz {
         let mut a = guess.to_vec();
         a.resize(k, 0.0);
         for it in 1..=50 {
+            crate::cancel::check().map_err(|_| bad(format!("interrupted after {} Newton steps", it - 1)))?;
             let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
             let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));

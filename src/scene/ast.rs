@@ -212,6 +212,24 @@ pub struct ChaosSpec {
     pub ranges: Vec<(Src, Src, Src)>,
     /// The map's `to FILE`.
     pub path: Option<Src>,
+    /// The map's `on H = 1/6 solve p_x > 0`: every start on that level set.
+    pub level: Option<LevelSpec>,
+}
+
+/// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
+/// variable solved for (on the given side of zero).
+#[derive(Clone, Debug)]
+pub struct LevelSpec {
+    /// The named expression held fixed (`H`).
+    pub on: Src,
+    /// Its value.
+    pub value: Src,
+    /// The state variable solved for.
+    pub solve: Src,
+    /// Solve on the positive (`> 0`) or negative side.
+    pub positive: bool,
+    /// The whole clause.
+    pub span: Span,
 }
 
 /// `small σ unperturbed ω0 [principal A]` of an `average` statement.

@@ -233,7 +233,7 @@ impl Session {
             let params: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
             let shot = crate::compile::shoot(&g, &a, &b, &params, 1).map_err(|e| {
                 let kind = match e {
-                    crate::compile::ShootError::Interrupted => ErrorKind::Interrupted,
+                    crate::compile::ShootError::Interrupted { .. } => ErrorKind::Interrupted,
                     _ => ErrorKind::Numeric,
                 };
                 SceneError::new(kind, e.to_string()).at((from[0].span.0, to[to.len() - 1].span.1))

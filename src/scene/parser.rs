@@ -10,7 +10,7 @@ use pest::Parser as _;
 
 use super::ast::{
     AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec, Geometry, Item,
-    LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
+    LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -475,6 +475,7 @@ impl Builder {
                 let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
                 let mut ranges = Vec::new();
                 let mut path = None;
+                let mut level = None;
                 for q in &inner {
                     match q.as_rule() {
                         Rule::map_range => {
@@ -487,13 +488,27 @@ impl Builder {
                             }
                         }
                         Rule::path => path = Some(self.path(q.clone())),
+                        Rule::map_level => {
+                            let lspan = self.span(q);
+                            let parts: Vec<Pair<Rule>> =
+                                q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
+                            if let [on, value, solve, sign] = &parts[..] {
+                                level = Some(LevelSpec {
+                                    on: self.src(on),
+                                    value: self.src(value),
+                                    solve: self.src(solve),
+                                    positive: sign.as_str() == ">",
+                                    span: lspan,
+                                });
+                            }
+                        }
                         _ => {}
                     }
                 }
                 let indicator =
                     indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
                 let sim = self.simulate(inner, span)?;
-                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path }))
+                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path, level }))
             }
             Rule::plot => {
                 let mut kind = None;
