@@ -39,6 +39,15 @@ pub struct Shot {
     pub iterations: usize,
 }
 
+impl Shot {
+    /// The printed line of `lagrangian geodesic --from … --to …` and of the scene statement
+    /// `geodesic … from (…) to (…)`: the initial velocity to 12 decimals.
+    pub fn report_line(&self) -> String {
+        let v: Vec<String> = self.velocity.iter().map(|x| format!("{x:.12}")).collect();
+        format!("shooting: q'(0) = ({}) after {} Newton steps", v.join(", "), self.iterations)
+    }
+}
+
 /// Shoots from `from` to `to`; `params` binds the metric's parameters.
 pub fn shoot(
     g: &Geodesic,
@@ -59,7 +68,15 @@ pub fn shoot(
     let mut scale = 0.0f64;
     for i in 0..n {
         for j in 0..n {
-            m[i * n + j] = eval_with(&g.metric[i][j], &lookup).unwrap_or(f64::NAN);
+            m[i * n + j] = match eval_with(&g.metric[i][j], &lookup) {
+                Ok(v) => v,
+                Err(crate::eval::EvalError::Unbound(name)) => {
+                    return Err(ShootError::Numeric(format!(
+                        "the metric needs a value for `{name}` to shoot (give the parameter a value)"
+                    )))
+                }
+                Err(_) => f64::NAN,
+            };
             scale = scale.max(m[i * n + j].abs());
         }
     }
