@@ -55,13 +55,24 @@ fn kepler() {
     let rhs = sys.compile_hamiltonian().expect("compiles");
     println!("| method | time | max rel. energy error | steps |");
     println!("|---|---|---|---|");
+    let interp = ode.clone().with_native(false);
     for (name, m) in [
         ("Taylor tol 1e-15", Taylor::new(1e-15)),
         ("Taylor tol 1e-15 compensated", Taylor::new(1e-15).compensated()),
         ("Taylor tol 1e-13", Taylor::new(1e-13)),
     ] {
+        let p = m.taylor_order();
+        let t0 = Instant::now();
+        let native = ode.native_for(p).is_some();
+        let compile = t0.elapsed().as_secs_f64();
         let (t, (err, steps)) = best(3, || kepler_orbits(&m, &ode));
-        println!("| {name} (order {}) | {:.1} ms | {err:.2e} | {steps} |", m.taylor_order(), t * 1e3);
+        println!(
+            "| {name} (order {p}), {} | {:.1} ms | {err:.2e} | {steps} |",
+            if native { format!("native ({:.1} ms to compile)", compile * 1e3) } else { "interpreted".into() },
+            t * 1e3
+        );
+        let (t, (err, steps)) = best(3, || kepler_orbits(&m, &interp));
+        println!("| {name} (order {p}), interpreted | {:.1} ms | {err:.2e} | {steps} |", t * 1e3);
     }
     // DOP853 refuses tolerances below Hairer's floor 10·ε; it runs at the floor.
     let m = Dop853::new(Dop853::MIN_RTOL, Dop853::MIN_RTOL).compensated();
@@ -79,22 +90,35 @@ fn double_pendulum() {
     let ode = sys.compile_taylor().expect("compiles");
     let rhs = sys.compile_rhs().expect("compiles");
     let err = |y: &[f64]| (0..4).map(|i| (y[i] - DoublePendulum::REFERENCE_T10[i]).abs()).fold(0.0, f64::max);
-    println!("| tol | Taylor time | Taylor error | Taylor steps | DOP853 (compensated) time | DOP853 error |");
-    println!("|---|---|---|---|---|---|");
+    let interp = ode.clone().with_native(false);
+    println!(
+        "| tol | Taylor time | Taylor error | Taylor steps | interpreted Taylor time | DOP853 (compensated) time | DOP853 error |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15, 1e-16] {
-        let run_t = |m: &Taylor| m.integrate_with(&ode, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+        let run_t = |m: &Taylor, o: &TaylorOde| {
+            m.integrate_with(o, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only())
+        };
         let tm = Taylor::new(tol).compensated();
-        let (tt, tr) = best(5, || run_t(&tm).expect("integrates"));
+        // Compiled before timing (a run this short would otherwise pay for it in its first
+        // repeat); the compile time is printed.
+        let t0 = Instant::now();
+        let native = ode.native_for(tm.taylor_order()).is_some();
+        let compile = t0.elapsed().as_secs_f64();
+        let (tt, tr) = best(5, || run_t(&tm, &ode).expect("integrates"));
+        let (ti, _) = best(5, || run_t(&tm, &interp).expect("integrates"));
         let dtol = tol.max(Dop853::MIN_RTOL);
         let dm = Dop853::new(dtol, dtol).compensated();
         let (td, dr) = best(5, || {
             dm.integrate_with(&rhs, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only()).expect("integrates")
         });
         println!(
-            "| {tol:.0e} | {:.3} ms | {:.1e} | {} | {:.3} ms | {:.1e} |",
+            "| {tol:.0e} | {:.3} ms{} | {:.1e} | {} | {:.3} ms | {:.3} ms | {:.1e} |",
             tt * 1e3,
+            if native { format!(" (native, {:.1} ms to compile)", compile * 1e3) } else { " (interpreted)".into() },
             err(tr.last_state()),
             tr.stats.steps,
+            ti * 1e3,
             td * 1e3,
             err(dr.last_state())
         );
@@ -103,8 +127,10 @@ fn double_pendulum() {
 
 fn cold_start() {
     println!("## Cold start: text → W, F → Taylor tape → trajectory to t = 1 (tol 1e-12), n-link pendulum");
-    println!("| n | derive + compile | integrate | total | Taylor rows | steps |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| n | text → Taylor form | of which W, F (timed again separately) | integrate | total | Taylor rows | steps |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for n in [2, 10, 20] {
         let t0 = Instant::now();
         let (l, coords, positive) = n_link::n_link(n);
@@ -121,9 +147,11 @@ fn cold_start() {
         y0[..n].iter_mut().enumerate().for_each(|(i, q)| *q = 0.5 + 0.1 * i as f64);
         let tr = Taylor::new(1e-12).integrate_with(&ode, 0.0..1.0, &y0, Options::new().final_only()).expect("runs");
         let t2 = Instant::now();
+        let (wf, _) = best(1, || sys.mass_matrix_split().expect("derives"));
         println!(
-            "| {n} | {:.1} ms | {:.1} ms | {:.1} ms | {} | {} |",
+            "| {n} | {:.1} ms | {:.1} ms | {:.1} ms | {:.1} ms | {} | {} |",
             (t1 - t0).as_secs_f64() * 1e3,
+            wf * 1e3,
             (t2 - t1).as_secs_f64() * 1e3,
             (t2 - t0).as_secs_f64() * 1e3,
             ode.taylor_tape().n_rows(),

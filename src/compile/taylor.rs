@@ -22,18 +22,21 @@
 //! systems (`W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`, one factorisation of `W₀` per expansion).
 
 use std::fmt;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
+use super::native::NativeTaylor;
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
 
 /// One instruction of a [`TaylorTape`]. Operands and destinations are rows.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Op {
+pub(super) enum Op {
     Add {
         d: u32,
         a: u32,
@@ -285,6 +288,27 @@ impl TaylorTape {
         })
     }
 
+    /// The recurrences, in order (for the native back end).
+    pub(super) fn ops(&self) -> &[Op] {
+        &self.ops
+    }
+
+    /// The value of a constant row (`None` for any other row).
+    pub(super) fn row_constant(&self, r: u32) -> Option<f64> {
+        (r as usize).checked_sub(self.n_inputs).and_then(|i| self.consts.get(i)).copied()
+    }
+
+    /// Machine code for orders `1..=max_order` of this tape's recurrences, for coefficient
+    /// buffers of `stride` (`max_order < stride`): `None` when the tape is too large to unroll
+    /// (see `native.rs`), when [`crate::compile::NO_JIT_ENV`] is set, or when the host has no
+    /// JIT. Its coefficients equal [`TaylorTape::run_order`]'s bit for bit.
+    pub fn compile_native(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
+        if super::native::jit_disabled_by_env() {
+            return None;
+        }
+        NativeTaylor::compile(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
+    }
+
     /// The number of coefficient rows (inputs, constants, values and auxiliaries).
     pub fn n_rows(&self) -> usize {
         self.n_rows
@@ -502,16 +526,87 @@ impl TaylorTape {
         c: &mut [f64],
         stride: usize,
         order: usize,
+        inputs: impl FnMut(usize, &mut [f64]),
+    ) -> Result<(), KinkAt> {
+        self.expand_with(None, c, stride, order, inputs)
+    }
+
+    /// [`TaylorTape::expand`] with orders `1..` run by `native` where it has them (compiled
+    /// by [`TaylorTape::compile_native`] of this tape for this `stride`).
+    pub fn expand_with(
+        &self,
+        native: Option<&TaylorNative>,
+        c: &mut [f64],
+        stride: usize,
+        order: usize,
         mut inputs: impl FnMut(usize, &mut [f64]),
     ) -> Result<(), KinkAt> {
         self.init(c, stride);
+        let native = native.filter(|n| n.stride() == stride);
         for k in 0..=order {
             inputs(k, c);
-            self.run_order(c, stride, k)?;
+            match native {
+                Some(n) if k >= 1 && k <= n.max_order() => n.run_order(c, k)?,
+                _ => self.run_order(c, stride, k)?,
+            }
         }
         Ok(())
     }
 }
+
+/// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
+/// ([`TaylorTape::compile_native`]); clones share the code.
+#[derive(Clone, Debug)]
+pub struct TaylorNative(Arc<NativeTaylor>);
+
+impl TaylorNative {
+    /// The stride of the coefficient buffers the code was compiled for.
+    pub fn stride(&self) -> usize {
+        self.0.stride()
+    }
+
+    /// The highest order compiled (orders `1..=max_order`; order 0 is always interpreted).
+    pub fn max_order(&self) -> usize {
+        self.0.max_order()
+    }
+
+    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride.
+    pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
+        if self.0.run_order(c, k) {
+            Ok(())
+        } else {
+            Err(KinkAt)
+        }
+    }
+}
+
+/// How many expansions at one order [`TaylorOde`] runs in the interpreter before compiling
+/// that order's recurrences: a run this short does not repay Cranelift's compile time (a few
+/// milliseconds to tens of milliseconds), and a cold start stays a cold start.
+pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
+
+/// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
+#[derive(Debug)]
+struct NativeCache {
+    allowed: bool,
+    /// Interpreted expansions so far (counted only until the code exists).
+    uses: AtomicUsize,
+    /// `by_order[p]`: the code for expansions of order `p` (stride `p + 1`, orders `1..p`).
+    by_order: Vec<OnceLock<Option<TaylorNative>>>,
+}
+
+impl NativeCache {
+    fn new(allowed: bool) -> Arc<NativeCache> {
+        Arc::new(NativeCache {
+            allowed,
+            uses: AtomicUsize::new(0),
+            by_order: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
+        })
+    }
+}
+
+/// Orders above this are always interpreted (the integrator's own limit is 100).
+const MAX_NATIVE_ORDER: usize = 100;
 
 /// An `abs` met its kink (see [`TaylorTape::run_order`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -589,6 +684,7 @@ pub struct TaylorOde {
     time: Option<usize>,
     derivs: Vec<Derivative>,
     solve: Option<MassSolve>,
+    native: Arc<NativeCache>,
 }
 
 impl TaylorOde {
@@ -604,6 +700,7 @@ impl TaylorOde {
             time,
             derivs: (0..dim).map(Derivative::Output).collect(),
             solve: None,
+            native: NativeCache::new(tape.is_native()),
         }
     }
 
@@ -621,12 +718,46 @@ impl TaylorOde {
             time: (tape.n_inputs() > 2 * n).then_some(2 * n),
             derivs,
             solve: Some(MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric }),
+            native: NativeCache::new(tape.is_native()),
         }
     }
 
     /// The dimension of the state.
     pub fn dim(&self) -> usize {
         self.dim
+    }
+
+    /// Turns the native Taylor code on or off (it is on when the tape itself runs natively;
+    /// off, every order is interpreted: the reference the native code is tested against).
+    pub fn with_native(mut self, on: bool) -> TaylorOde {
+        self.native = NativeCache::new(on);
+        self
+    }
+
+    /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
+    /// native code is off, or the tape is too large to unroll at this order).
+    pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
+        if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        self.native.by_order[order].get_or_init(|| self.tape.compile_native(order + 1, order - 1)).clone()
+    }
+
+    /// The code an expansion of `order` runs on: the native code once it exists, compiled
+    /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions.
+    fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
+        let cache = &*self.native;
+        if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        let slot = &cache.by_order[order];
+        if let Some(code) = slot.get() {
+            return code.as_ref();
+        }
+        if cache.uses.fetch_add(1, Ordering::Relaxed) < NATIVE_AFTER_EXPANSIONS {
+            return None;
+        }
+        slot.get_or_init(|| self.tape.compile_native(order + 1, order - 1)).as_ref()
     }
 
     /// The Taylor form of the tape.
@@ -677,8 +808,12 @@ impl TaylorOde {
         }
         let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
         let mut kind = Factor::Cholesky;
+        let native = self.native_tiered(order);
         for k in 0..order {
-            self.tape.run_order(c, s, k).map_err(kink)?;
+            match native {
+                Some(code) if k >= 1 => code.run_order(c, k).map_err(kink)?,
+                _ => self.tape.run_order(c, s, k).map_err(kink)?,
+            }
             if let Some(m) = &self.solve {
                 let n = m.n;
                 let (acc, rest) = rest.split_at_mut(n * s);
@@ -814,10 +949,36 @@ impl TaylorOde {
 impl System {
     /// The Taylor form of the system's equations of motion: `W q'' = F` in `(q, q')` for a
     /// Lagrangian system, Hamilton's equations in `(q, p)` for a Hamiltonian one.
+    ///
+    /// For a Lagrangian system only the tape of `W` and `F` is built, and left interpreted:
+    /// the Taylor tape evaluates every order itself (its own native code is compiled later, on
+    /// demand), so the right-hand side's native code and unrolled Cholesky solve, which
+    /// [`System::compile_rhs`] builds for the other methods, would be compiled for nothing —
+    /// for the 10-link pendulum that was most of the cold start.
     pub fn compile_taylor(&self) -> Result<TaylorOde, CompileError> {
         match self.kind() {
             Kind::Hamiltonian(_) => Ok(TaylorOde::from_hamiltonian(&self.compile_hamiltonian()?)),
-            _ => Ok(TaylorOde::from_lagrangian(&self.compile_rhs()?)),
+            _ => {
+                if !self.constraints().is_empty() {
+                    return Err(CompileError::Unsupported {
+                        what: "holonomic constraints in the Taylor method (use the augmented system of compile_constrained with another method)",
+                    });
+                }
+                let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e.to_string()))?;
+                let n = w.len();
+                let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
+                outputs.extend(f.iter().cloned());
+                let coords: Vec<String> = self.coordinates().iter().map(|s| s.to_string()).collect();
+                let inputs = super::rhs::state_inputs(&coords);
+                let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+                let params: Vec<(String, f64)> = self.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
+                let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                let options = super::CompileOptions::default();
+                let native = options.native;
+                let tape = Tape::compile_with_options(&outputs, &inputs, &params, &options.with_native(false))?;
+                let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
+                Ok(TaylorOde::second_order(&tape, n, symmetric).with_native(native))
+            }
         }
     }
 }
