@@ -63,7 +63,7 @@ fn kepler_orbits<S: ?Sized, M: Method<S>>(method: &M, sys: &S) -> (f64, usize) {
 fn kepler() {
     println!("## Kepler e = 0.9, 1000 orbits, sampled once per orbit (H = |p|²/2 − 1/|q|, compiled)");
     let sys = System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).expect("valid H");
-    let ode = sys.compile_taylor().expect("compiles");
+    let ode = sys.compile_taylor().expect("compiles").with_native(true);
     let rhs = sys.compile_hamiltonian().expect("compiles");
     println!("| method | time | max rel. energy error | steps |");
     println!("|---|---|---|---|");
@@ -99,7 +99,7 @@ fn double_pendulum() {
     let sys = System::from_lagrangian(l, &["θ1", "θ2"])
         .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
         .expect("valid L");
-    let ode = sys.compile_taylor().expect("compiles");
+    let ode = sys.compile_taylor().expect("compiles").with_native(true);
     let rhs = sys.compile_rhs().expect("compiles");
     let err = |y: &[f64]| (0..4).map(|i| (y[i] - DoublePendulum::REFERENCE_T10[i]).abs()).fold(0.0, f64::max);
     let interp = ode.clone().with_native(false);
@@ -143,6 +143,7 @@ fn double_pendulum() {
 /// the Horner sums of the update and the solver's bookkeeping.
 fn profile_one(name: &str, ode: &TaylorOde, y: &[f64], p: usize, step_ns: &dyn Fn(&TaylorOde) -> f64) {
     let interp = ode.clone().with_native(false);
+    let ode = &ode.clone().with_native(true);
     let native = ode.native_for(p).is_some();
     let per_call = |o: &TaylorOde, order: usize| {
         let mut scratch = vec![0.0; o.scratch_len(order)];

@@ -674,25 +674,48 @@ impl TaylorEmitter<'_, '_> {
         self.b.ins().f64const(x)
     }
 
-    /// `Σ_i w_i · a[a0 + i] · b[b0 − i]`, `i = 0..len`, added from `i = 0` onto `0.0`, with
-    /// `w_i · a · b` evaluated as `(w_i · a) · b` and skipped multiplications by a weight of
-    /// exactly 1 (`1 · x = x` in IEEE arithmetic): the interpreter's folds.
+    /// `w_i · a[a0 + i] · b[b0 − i]`, evaluated as `(w_i · a) · b`, with the multiplication
+    /// by a weight of exactly 1 left out (`1 · x = x` in IEEE arithmetic).
+    fn term(&mut self, a: u32, a0: usize, b: u32, b0: usize, i: usize, w: &impl Fn(usize) -> f64) -> Value {
+        let x = self.at(a, a0 + i);
+        let y = self.at(b, b0 - i);
+        let wi = w(i);
+        let x = if wi == 1.0 {
+            x
+        } else {
+            let wv = self.c(wi);
+            self.b.ins().fmul(wv, x)
+        };
+        self.b.ins().fmul(x, y)
+    }
+
+    /// `Σ_i w_i · a[a0 + i] · b[b0 − i]`, `i = 0..len`, in the interpreter's order (`sum4` in
+    /// `taylor.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
+    /// added at the end, the others round-robin into four partial sums from `0.0`, combined
+    /// as `(s₀ + s₁) + (s₂ + s₃)`.
     fn sum(&mut self, a: u32, a0: usize, b: u32, b0: usize, len: usize, w: impl Fn(usize) -> f64) -> Value {
-        let mut acc = self.c(0.0);
-        for i in 0..len {
-            let x = self.at(a, a0 + i);
-            let y = self.at(b, b0 - i);
-            let wi = w(i);
-            let x = if wi == 1.0 {
-                x
-            } else {
-                let wv = self.c(wi);
-                self.b.ins().fmul(wv, x)
-            };
-            let p = self.b.ins().fmul(x, y);
-            acc = self.b.ins().fadd(acc, p);
+        let k = self.k;
+        let lo = usize::from(len > 0 && b0 == k);
+        let hi = if len > lo && a0 + len - 1 == k { len - 1 } else { len };
+        let zero = self.c(0.0);
+        let mut acc = [zero; 4];
+        for i in lo..hi {
+            let t = self.term(a, a0, b, b0, i, &w);
+            let r = (i - lo) % 4;
+            acc[r] = self.b.ins().fadd(acc[r], t);
         }
-        acc
+        let s01 = self.b.ins().fadd(acc[0], acc[1]);
+        let s23 = self.b.ins().fadd(acc[2], acc[3]);
+        let mut s = self.b.ins().fadd(s01, s23);
+        if lo == 1 {
+            let t = self.term(a, a0, b, b0, 0, &w);
+            s = self.b.ins().fadd(s, t);
+        }
+        if hi < len {
+            let t = self.term(a, a0, b, b0, len - 1, &w);
+            s = self.b.ins().fadd(s, t);
+        }
+        s
     }
 
     /// `Σ_{j=lo}^{k−lo} a_j b_{k−j}` (`cauchy`).
