@@ -24,13 +24,15 @@
 //! evaluation at random points.
 
 use std::collections::{BTreeMap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use num_bigint::BigInt;
 use num_integer::Integer;
-use num_traits::{One, Signed, ToPrimitive, Zero};
+use num_rational::Rational64;
+use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
 use thiserror::Error;
 
-use crate::expr::{Expr, Func, Node, Rational, MAX_FOLD_BITS};
+use crate::expr::{rat_add, rat_mul, Expr, Func, Node, Rational, MAX_FOLD_BITS};
 
 /// The default largest number of terms [`expand`] produces (or multiplies through).
 pub const MAX_EXPAND_TERMS: usize = 20_000;
@@ -207,8 +209,10 @@ fn power_of_sum(base: &Expr, k: u32, limit: usize) -> Result<Expr, AlgebraError>
     Ok(acc)
 }
 
-/// Multiplies a list of (already expanded) factors out into one sum.
-fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraError> {
+/// Multiplies a list of (already expanded) factors out into one sum, collecting like terms
+/// after each factor; refuses (before the work) a product of more than `limit` terms. Also
+/// `canonical::reduce`'s expansion.
+pub(crate) fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraError> {
     let mut plain = Vec::new();
     let mut sums = Vec::new();
     for f in fs {
@@ -442,7 +446,7 @@ impl Poly {
         for (m, c) in &other.terms {
             let mm: Vec<u32> = m.iter().zip(shift).map(|(a, b)| a + b).collect();
             let entry = self.terms.entry(mm.clone()).or_insert_with(Rational::zero);
-            *entry -= c * coeff;
+            *entry = rat_add(entry, &-rat_mul(c, coeff));
             if entry.is_zero() {
                 self.terms.remove(&mm);
             }
@@ -462,8 +466,11 @@ impl Poly {
     /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
     /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
     fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
-        /// About 0.2 s of gcd work; exact divisions met in practice use well under 1% of it.
-        const MAX_WORK: u128 = 200_000_000;
+        /// About 0.02–0.05 s of gcd work; exact divisions met in practice use well under 10%
+        /// of it. (It was 10× more until the 10⁶ fuzz run, under load, met divisions that spent
+        /// the whole budget several times in one `simplify`: 1.4 s CPU for
+        /// `(x^100 − 10^-3201)/(10^308 x − 1)`.)
+        const MAX_WORK: u128 = 20_000_000;
         let (ld, lc) = d.lead()?;
         let max_bits = self.coefficient_bits_bound(d);
         let d_bits = u128::from(d.terms.values().map(rational_bits).max().unwrap_or(0));
@@ -569,6 +576,12 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
     // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
     let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
     let max_bits = 4 * (bits(a) + bits(b)) + 64 * (degree(a) + degree(b)) as u64 + 256;
+    // And a budget for the arithmetic, as in `Poly::div_exact` (b²/64 word operations per
+    // gcd-normalised product of b-bit numbers): under the bit guard, (x^100 − 10^-3201) mod
+    // (10^308 x − 1) still ran fifty steps of 50,000-bit gcds, 1.3 s per `simplify` (found by
+    // the 10⁶ fuzz run).
+    const MAX_WORK: u128 = 20_000_000;
+    let mut work: u128 = 0;
     for _ in 0..10_000 {
         if x.iter().chain(&y).any(|c| rational_bits(c) > max_bits) {
             return None;
@@ -594,11 +607,17 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
         while x.len() >= y.len() && !is_zero(&x) {
             let shift = x.len() - y.len();
             let q = x.last()?.clone() / &ly;
-            if rational_bits(&q) > max_bits {
+            let q_bits = rational_bits(&q);
+            if q_bits > max_bits {
+                return None;
+            }
+            let b = u128::from(q_bits + y.iter().map(rational_bits).max().unwrap_or(0));
+            work += (y.len() as u128 + 1) * b * b / 64;
+            if work > MAX_WORK {
                 return None;
             }
             for (i, c) in y.iter().enumerate() {
-                x[i + shift] -= c * &q;
+                x[i + shift] = rat_add(&x[i + shift], &-rat_mul(c, &q));
             }
             x.pop();
             trim(&mut x);
@@ -786,10 +805,14 @@ fn factor_sum(ts: &[Expr]) -> Option<Expr> {
 /// `a (x + y) + z`, recursively on both parts. A factor is a base with a positive numeric
 /// exponent, pulled out to its smallest power among the terms that have it. This is how an
 /// expanded Lagrangian or Hamiltonian gets its compact, cheap-to-evaluate shape back.
+///
+/// Each sum has a work budget ([`COLLECT_WORK`]); a sum whose collection would exceed it is
+/// left (from that point) uncollected, which is still an equal form.
 pub fn collect_common(e: &Expr) -> Expr {
     e.map_bottom_up(&mut |x| match x.node() {
         Node::Add(ts) => {
-            let out = collect_terms(ts.clone(), 0);
+            let mut work = 0;
+            let out = collect_terms(ts.clone(), 0, &mut work);
             (out != *x).then_some(out)
         }
         _ => None,
@@ -811,8 +834,34 @@ fn positive_powers(t: &Expr) -> Vec<(Expr, Rational)> {
         .collect()
 }
 
-fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
+/// The work [`collect_common`] may spend on one sum, in squared machine words of exact number
+/// per term visited: a term with small numbers costs 1 at each level of the greedy recursion,
+/// so a 2,000-term sum collected 64 levels deep costs about 1.3·10⁵. Dividing a term by the
+/// pulled factor reduces rationals by gcd, whose cost grows with the square of their size, so
+/// terms with 60,000-bit coefficients (within [`crate::expr::MAX_FOLD_BITS`]) cost about 10⁶
+/// each: the 10⁶ fuzz run stalled for seconds at a time in that gcd, eight levels deep.
+pub const COLLECT_WORK: u64 = 1 << 21;
+
+/// Machine words of exact number in a term: its coefficient, surds and numeric exponents.
+fn term_words(t: &Expr) -> u64 {
+    let exponent_bits: u64 = t
+        .factors()
+        .iter()
+        .filter_map(|f| match f.node() {
+            Node::Pow(_, x) => x.as_num().map(rational_bits),
+            _ => None,
+        })
+        .fold(0, u64::saturating_add);
+    1 + numeric_bits(t).saturating_add(exponent_bits) / 64
+}
+
+fn collect_terms(terms: Vec<Expr>, depth: usize, work: &mut u64) -> Expr {
     if terms.len() < 2 || depth > 64 {
+        return Expr::add(terms);
+    }
+    let level: u64 = terms.iter().map(|t| term_words(t).saturating_pow(2)).fold(0, u64::saturating_add);
+    *work = work.saturating_add(level);
+    if *work > COLLECT_WORK {
         return Expr::add(terms);
     }
     // (base, number of terms, smallest exponent), in order of first appearance.
@@ -844,9 +893,9 @@ fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
     let (with, without): (Vec<Expr>, Vec<Expr>) =
         terms.into_iter().partition(|t| positive_powers(t).iter().any(|(b, _)| *b == base));
     let inner: Vec<Expr> = with.iter().map(|t| t.over(&factor)).collect();
-    let inner = collect_terms(inner, depth + 1);
+    let inner = collect_terms(inner, depth + 1, work);
     let pulled = Expr::mul([factor, inner]);
-    let mut rest = collect_terms(without, depth + 1).terms();
+    let mut rest = collect_terms(without, depth + 1, work).terms();
     rest.push(pulled);
     Expr::add(rest)
 }
@@ -1060,6 +1109,266 @@ fn rewrite_squares(sum: &Expr, u: &Expr, sq: Square) -> Expr {
         }
     }
     Expr::add(out)
+}
+
+// ----- the sparse polynomial form ----------------------------------------------------------------
+
+// The polynomial form shared by the derivation stages: `mechanics::tidy` expands, contracts
+// and collects in it, and `mechanics::euler_lagrange` splits Lagrangians by velocity degree in
+// it. Atoms are numbered by the caller (an atom table per run), a monomial is a sorted list of
+// `(atom, exponent)` with non-zero rational exponents, and coefficients are exact. It is
+// built for speed on the large expansions of mechanics (the 30-link pendulum's forcing has
+// tens of thousands of monomials): machine-word rationals while they fit, an integer hasher,
+// no interning per monomial. The dense, lexicographically ordered form above (`Poly`) is the
+// working form of exact division and the univariate gcd only.
+
+/// A fast, deterministic hasher for small integer keys (FxHash's multiply-rotate).
+#[derive(Default, Clone, Copy)]
+pub(crate) struct Fx(u64);
+impl Hasher for Fx {
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    #[inline]
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+    #[inline]
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    #[inline]
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
+pub(crate) type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
+
+/// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
+///
+/// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
+/// continued fraction with a division per step, which was a tenth of the mechanics run.
+#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct Key(pub(crate) Vec<(u32, Rational64)>);
+
+impl std::hash::Hash for Key {
+    #[inline]
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        h.write_usize(self.0.len());
+        for (a, r) in &self.0 {
+            // `Rational64` is always stored reduced with a positive denominator.
+            h.write_u32(*a);
+            h.write_i64(*r.numer());
+            h.write_i64(*r.denom());
+        }
+    }
+}
+
+impl std::ops::Deref for Key {
+    type Target = Vec<(u32, Rational64)>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Key {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl FromIterator<(u32, Rational64)> for Key {
+    fn from_iter<I: IntoIterator<Item = (u32, Rational64)>>(it: I) -> Key {
+        Key(it.into_iter().collect())
+    }
+}
+
+/// An exact coefficient: a machine-word rational while it fits, a big rational after.
+///
+/// Almost every coefficient in a derivation is small (`1/2`, `-2`); `BigRational` arithmetic
+/// allocates and takes a gcd of big integers for each product, which was a quarter of the
+/// mechanics run. The representation is unique (`Big` only when the value does not fit), so
+/// the derived equality is equality of values.
+#[derive(Clone, PartialEq, Eq)]
+pub(crate) enum Coef {
+    Small(Rational64),
+    Big(Rational),
+}
+
+impl Coef {
+    #[inline]
+    pub(crate) fn from_big(r: Rational) -> Coef {
+        match small_exp(&r) {
+            Some(x) => Coef::Small(x),
+            None => Coef::Big(r),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn to_big(&self) -> Rational {
+        match self {
+            Coef::Small(x) => big(*x),
+            Coef::Big(r) => r.clone(),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn is_zero(&self) -> bool {
+        match self {
+            Coef::Small(x) => x.is_zero(),
+            Coef::Big(r) => r.is_zero(),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn add(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_add(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() + other.to_big())
+    }
+
+    #[inline]
+    pub(crate) fn mul(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_mul(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() * other.to_big())
+    }
+}
+
+/// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
+#[derive(Clone, Default)]
+pub(crate) struct SparsePoly {
+    pub(crate) terms: FxMap<Key, Coef>,
+}
+
+impl SparsePoly {
+    pub(crate) fn constant(c: Rational) -> SparsePoly {
+        let mut terms = FxMap::default();
+        if !c.is_zero() {
+            terms.insert(Key::default(), Coef::from_big(c));
+        }
+        SparsePoly { terms }
+    }
+
+    pub(crate) fn atom(id: u32, exp: Rational64) -> SparsePoly {
+        let mut terms = FxMap::default();
+        terms.insert(Key(vec![(id, exp)]), Coef::Small(Rational64::one()));
+        SparsePoly { terms }
+    }
+
+    #[inline]
+    pub(crate) fn add_term(&mut self, key: Key, c: Coef) {
+        match self.terms.entry(key) {
+            std::collections::hash_map::Entry::Occupied(mut o) => {
+                let v = o.get().add(&c);
+                if v.is_zero() {
+                    o.remove();
+                } else {
+                    *o.get_mut() = v;
+                }
+            }
+            std::collections::hash_map::Entry::Vacant(v) => {
+                if !c.is_zero() {
+                    v.insert(c);
+                }
+            }
+        }
+    }
+
+    #[inline]
+    pub(crate) fn is_zero(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// `self · c` for a rational `c`.
+    pub(crate) fn scale(&self, c: &Rational) -> SparsePoly {
+        let c = Coef::from_big(c.clone());
+        let mut out = SparsePoly::default();
+        for (k, v) in &self.terms {
+            out.add_term(k.clone(), v.mul(&c));
+        }
+        out
+    }
+
+    #[inline]
+    pub(crate) fn add(&mut self, other: &SparsePoly) {
+        for (k, c) in &other.terms {
+            self.add_term(k.clone(), c.clone());
+        }
+    }
+
+    #[inline]
+    pub(crate) fn mul(&self, other: &SparsePoly) -> SparsePoly {
+        let mut out = SparsePoly::default();
+        for (k1, c1) in &self.terms {
+            for (k2, c2) in &other.terms {
+                out.add_term(merge_keys(k1, k2), c1.mul(c2));
+            }
+        }
+        out
+    }
+
+    /// Terms sorted by key, for deterministic processing.
+    pub(crate) fn sorted(&self) -> Vec<(Key, Rational)> {
+        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
+    }
+}
+
+#[inline]
+pub(crate) fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
+    let mut out = Key(Vec::with_capacity(a.len() + b.len()));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].0.cmp(&b[j].0) {
+            std::cmp::Ordering::Less => {
+                out.push(a[i]);
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                out.push(b[j]);
+                j += 1;
+            }
+            std::cmp::Ordering::Equal => {
+                let e = a[i].1 + b[j].1;
+                if !e.is_zero() {
+                    out.push((a[i].0, e));
+                }
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// `r` as a machine-word rational, when it fits.
+pub(crate) fn small_exp(r: &Rational) -> Option<Rational64> {
+    Some(Rational64::new(r.numer().to_i64()?, r.denom().to_i64()?))
+}
+
+/// A machine-word rational as an exact big one.
+pub(crate) fn big(r: Rational64) -> Rational {
+    Rational::new((*r.numer()).into(), (*r.denom()).into())
 }
 
 #[cfg(test)]
