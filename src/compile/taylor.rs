@@ -769,9 +769,9 @@ impl TaylorOde {
     }
 
     /// Turns the native Taylor code on or off. It is **off by default**: measured in
-    /// BENCHMARKS.md (issue 10), the unrolled code is 15–20 % faster per step than the
-    /// interpreter on the double pendulum but about 10 % slower on Kepler, and costs 30–170 ms
-    /// of Cranelift time per order, repaid only after ~10⁵ steps. On, each order is compiled
+    /// BENCHMARKS.md (issue 10), the unrolled code is 4–22 % faster than the interpreter
+    /// on the double pendulum but 4–14 % slower on Kepler, and costs 10–170 ms of Cranelift
+    /// time per order, repaid only after ~10⁵ steps. On, each order is compiled
     /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions (and never when
     /// [`crate::compile::NO_JIT_ENV`] is set); results are the same bits either way.
     pub fn with_native(mut self, on: bool) -> TaylorOde {
