@@ -2,26 +2,13 @@
 //! the example scene of the double pendulum separates regular from chaotic motion, the
 //! Lyapunov spectrum obeys Liouville's theorem, and bad statements get located errors.
 
+mod support;
+
 use std::collections::HashMap;
 use std::path::Path;
-use std::process::Command;
 
 fn run_in(dir: &Path, scene: &str) -> (i32, String, String) {
-    let path = dir.join("test.scene");
-    std::fs::write(&path, scene).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("run")
-        .arg(&path)
-        .arg("--out-dir")
-        .arg(dir)
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    support::run_scene_in(dir, scene, &["--out-dir", dir.to_str().expect("a UTF-8 path")])
 }
 
 /// The number after `key` on the line starting with `prefix`.
