@@ -24,10 +24,12 @@
 //! evaluation at random points.
 
 use std::collections::{BTreeMap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use num_bigint::BigInt;
 use num_integer::Integer;
-use num_traits::{One, Signed, ToPrimitive, Zero};
+use num_rational::Rational64;
+use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
 use thiserror::Error;
 
 use crate::expr::{Expr, Func, Node, Rational, MAX_FOLD_BITS};
@@ -207,8 +209,10 @@ fn power_of_sum(base: &Expr, k: u32, limit: usize) -> Result<Expr, AlgebraError>
     Ok(acc)
 }
 
-/// Multiplies a list of (already expanded) factors out into one sum.
-fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraError> {
+/// Multiplies a list of (already expanded) factors out into one sum, collecting like terms
+/// after each factor; refuses (before the work) a product of more than `limit` terms. Also
+/// `canonical::reduce`'s expansion.
+pub(crate) fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraError> {
     let mut plain = Vec::new();
     let mut sums = Vec::new();
     for f in fs {
@@ -1060,6 +1064,266 @@ fn rewrite_squares(sum: &Expr, u: &Expr, sq: Square) -> Expr {
         }
     }
     Expr::add(out)
+}
+
+// ----- the sparse polynomial form ----------------------------------------------------------------
+
+// The polynomial form shared by the derivation stages: `mechanics::tidy` expands, contracts
+// and collects in it, and `mechanics::euler_lagrange` splits Lagrangians by velocity degree in
+// it. Atoms are numbered by the caller (an atom table per run), a monomial is a sorted list of
+// `(atom, exponent)` with non-zero rational exponents, and coefficients are exact. It is
+// built for speed on the large expansions of mechanics (the 30-link pendulum's forcing has
+// tens of thousands of monomials): machine-word rationals while they fit, an integer hasher,
+// no interning per monomial. The dense, lexicographically ordered form above (`Poly`) is the
+// working form of exact division and the univariate gcd only.
+
+/// A fast, deterministic hasher for small integer keys (FxHash's multiply-rotate).
+#[derive(Default, Clone, Copy)]
+pub(crate) struct Fx(u64);
+impl Hasher for Fx {
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    #[inline]
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+    #[inline]
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    #[inline]
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
+pub(crate) type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
+
+/// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
+///
+/// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
+/// continued fraction with a division per step, which was a tenth of the mechanics run.
+#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct Key(pub(crate) Vec<(u32, Rational64)>);
+
+impl std::hash::Hash for Key {
+    #[inline]
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        h.write_usize(self.0.len());
+        for (a, r) in &self.0 {
+            // `Rational64` is always stored reduced with a positive denominator.
+            h.write_u32(*a);
+            h.write_i64(*r.numer());
+            h.write_i64(*r.denom());
+        }
+    }
+}
+
+impl std::ops::Deref for Key {
+    type Target = Vec<(u32, Rational64)>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Key {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl FromIterator<(u32, Rational64)> for Key {
+    fn from_iter<I: IntoIterator<Item = (u32, Rational64)>>(it: I) -> Key {
+        Key(it.into_iter().collect())
+    }
+}
+
+/// An exact coefficient: a machine-word rational while it fits, a big rational after.
+///
+/// Almost every coefficient in a derivation is small (`1/2`, `-2`); `BigRational` arithmetic
+/// allocates and takes a gcd of big integers for each product, which was a quarter of the
+/// mechanics run. The representation is unique (`Big` only when the value does not fit), so
+/// the derived equality is equality of values.
+#[derive(Clone, PartialEq, Eq)]
+pub(crate) enum Coef {
+    Small(Rational64),
+    Big(Rational),
+}
+
+impl Coef {
+    #[inline]
+    pub(crate) fn from_big(r: Rational) -> Coef {
+        match small_exp(&r) {
+            Some(x) => Coef::Small(x),
+            None => Coef::Big(r),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn to_big(&self) -> Rational {
+        match self {
+            Coef::Small(x) => big(*x),
+            Coef::Big(r) => r.clone(),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn is_zero(&self) -> bool {
+        match self {
+            Coef::Small(x) => x.is_zero(),
+            Coef::Big(r) => r.is_zero(),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn add(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_add(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() + other.to_big())
+    }
+
+    #[inline]
+    pub(crate) fn mul(&self, other: &Coef) -> Coef {
+        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
+            if let Some(c) = a.checked_mul(b) {
+                return Coef::Small(c);
+            }
+        }
+        Coef::from_big(self.to_big() * other.to_big())
+    }
+}
+
+/// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
+#[derive(Clone, Default)]
+pub(crate) struct SparsePoly {
+    pub(crate) terms: FxMap<Key, Coef>,
+}
+
+impl SparsePoly {
+    pub(crate) fn constant(c: Rational) -> SparsePoly {
+        let mut terms = FxMap::default();
+        if !c.is_zero() {
+            terms.insert(Key::default(), Coef::from_big(c));
+        }
+        SparsePoly { terms }
+    }
+
+    pub(crate) fn atom(id: u32, exp: Rational64) -> SparsePoly {
+        let mut terms = FxMap::default();
+        terms.insert(Key(vec![(id, exp)]), Coef::Small(Rational64::one()));
+        SparsePoly { terms }
+    }
+
+    #[inline]
+    pub(crate) fn add_term(&mut self, key: Key, c: Coef) {
+        match self.terms.entry(key) {
+            std::collections::hash_map::Entry::Occupied(mut o) => {
+                let v = o.get().add(&c);
+                if v.is_zero() {
+                    o.remove();
+                } else {
+                    *o.get_mut() = v;
+                }
+            }
+            std::collections::hash_map::Entry::Vacant(v) => {
+                if !c.is_zero() {
+                    v.insert(c);
+                }
+            }
+        }
+    }
+
+    #[inline]
+    pub(crate) fn is_zero(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// `self · c` for a rational `c`.
+    pub(crate) fn scale(&self, c: &Rational) -> SparsePoly {
+        let c = Coef::from_big(c.clone());
+        let mut out = SparsePoly::default();
+        for (k, v) in &self.terms {
+            out.add_term(k.clone(), v.mul(&c));
+        }
+        out
+    }
+
+    #[inline]
+    pub(crate) fn add(&mut self, other: &SparsePoly) {
+        for (k, c) in &other.terms {
+            self.add_term(k.clone(), c.clone());
+        }
+    }
+
+    #[inline]
+    pub(crate) fn mul(&self, other: &SparsePoly) -> SparsePoly {
+        let mut out = SparsePoly::default();
+        for (k1, c1) in &self.terms {
+            for (k2, c2) in &other.terms {
+                out.add_term(merge_keys(k1, k2), c1.mul(c2));
+            }
+        }
+        out
+    }
+
+    /// Terms sorted by key, for deterministic processing.
+    pub(crate) fn sorted(&self) -> Vec<(Key, Rational)> {
+        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
+    }
+}
+
+#[inline]
+pub(crate) fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
+    let mut out = Key(Vec::with_capacity(a.len() + b.len()));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].0.cmp(&b[j].0) {
+            std::cmp::Ordering::Less => {
+                out.push(a[i]);
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                out.push(b[j]);
+                j += 1;
+            }
+            std::cmp::Ordering::Equal => {
+                let e = a[i].1 + b[j].1;
+                if !e.is_zero() {
+                    out.push((a[i].0, e));
+                }
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// `r` as a machine-word rational, when it fits.
+pub(crate) fn small_exp(r: &Rational) -> Option<Rational64> {
+    Some(Rational64::new(r.numer().to_i64()?, r.denom().to_i64()?))
+}
+
+/// A machine-word rational as an exact big one.
+pub(crate) fn big(r: Rational64) -> Rational {
+    Rational::new((*r.numer()).into(), (*r.denom()).into())
 }
 
 #[cfg(test)]

@@ -108,3 +108,27 @@ proptest! {
         }
     }
 }
+
+/// One expansion for the canonical zero tests and `algebra` (issue 13 item 8): `reduce::expand`
+/// multiplies products and powers of sums out through `algebra::multiply_out`, so on inputs
+/// without function arguments or denominators (where only `reduce` descends) both give the same
+/// canonical expression, of unchanged value; past the term budget `reduce` keeps the product.
+#[test]
+fn reduce_expands_through_the_algebra_expansion() {
+    use lagrangian::canonical::reduce::expand as reduce_expand;
+    for text in ["(a + b) (a - b) c", "(x + 1)^3 - x^3", "(p - m w q)^2/2 + k (q + 1) (q - 1)", "(a + b + c)^4"] {
+        let input = e(text);
+        let ours = lagrangian::algebra::expand(&input).expect("small");
+        assert_eq!(reduce_expand(&input), ours, "{text}");
+        for k in 0..5 {
+            let v = |s: &lagrangian::Symbol| Some(0.3 + 0.37 * (k as f64) + 0.11 * s.name().len() as f64);
+            let (a, b) = (
+                lagrangian::eval::eval_with(&input, &v).expect("finite"),
+                lagrangian::eval::eval_with(&ours, &v).expect("finite"),
+            );
+            assert!((a - b).abs() <= 1e-12 * (1.0 + a.abs()), "{text}: {a} vs {b}");
+        }
+    }
+    let big = e("(a1 + a2 + a3 + a4 + a5 + a6 + a7 + a8 + a9 + a10)^16");
+    assert_eq!(reduce_expand(&big), big);
+}

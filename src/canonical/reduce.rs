@@ -43,22 +43,10 @@ pub fn expand(e: &Expr) -> Expr {
     })
 }
 
+/// The product multiplied out by [`crate::algebra`]'s expansion, or left whole beyond
+/// [`MAX_TERMS`] terms.
 fn distribute(fs: &[Expr]) -> Expr {
-    let mut acc: Vec<Expr> = vec![Expr::one()];
-    for f in fs {
-        let ts = f.terms();
-        if acc.len() * ts.len() > MAX_TERMS {
-            return Expr::mul(fs.iter().cloned());
-        }
-        let mut next = Vec::with_capacity(acc.len() * ts.len());
-        for a in &acc {
-            for t in &ts {
-                next.push(a.times(t));
-            }
-        }
-        acc = next;
-    }
-    Expr::add(acc)
+    crate::algebra::multiply_out(fs, MAX_TERMS).unwrap_or_else(|_| Expr::mul(fs.iter().cloned()))
 }
 
 /// The integer `n` when `e` is `n·x` with `|n| ≥ 2`, and `x`.

@@ -15,8 +15,9 @@
 //!    greedily factor the most frequent factor (a multivariate Horner scheme), merging terms
 //!    that end up with the same sum as a cofactor (`c·S + s·S = (c + s)·S`).
 //!
-//! Steps 1–3 work on a private sparse-polynomial form (atoms numbered in a local table,
-//! monomials as sorted `(atom, exponent)` lists, exact coefficients), not on interned
+//! Steps 1–3 work on the sparse-polynomial form of [`crate::algebra::SparsePoly`] (atoms
+//! numbered in a local table, monomials as sorted `(atom, exponent)` lists, exact
+//! coefficients), not on interned
 //! expressions: expanding the 30-link pendulum's forcing produces tens of thousands of
 //! monomials, and building each as a canonical, interned [`Expr`] would dominate the run.
 //!
@@ -24,14 +25,13 @@
 //! collected form and the input (by [`Expr::op_count`]) is returned: tidying never lengthens
 //! an expression.
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 use std::rc::Rc;
 
 use num_integer::Integer;
 use num_rational::Rational64;
-use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
+use num_traits::{One, Signed, Zero};
 
+use crate::algebra::{big, merge_keys, small_exp, Coef, FxMap, Key};
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
@@ -75,231 +75,12 @@ pub fn tidy(e: &Expr) -> Expr {
 
 // ----- the polynomial form ----------------------------------------------------------------
 
-/// A fast, deterministic hasher for small integer keys (FxHash's multiply-rotate).
-#[derive(Default, Clone, Copy)]
-struct Fx(u64);
-impl Hasher for Fx {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.write_u64(u64::from(*b));
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_u32(&mut self, x: u32) {
-        self.write_u64(u64::from(x));
-    }
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
-    fn write_usize(&mut self, x: usize) {
-        self.write_u64(x as u64);
-    }
-}
-type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
-
-/// A monomial without its coefficient: `(atom, exponent)` sorted by atom, exponents non-zero.
-///
-/// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
-/// continued fraction with a division per step, which was a tenth of the mechanics run.
-#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
-struct Key(Vec<(u32, Rational64)>);
-
-impl std::hash::Hash for Key {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        h.write_usize(self.0.len());
-        for (a, r) in &self.0 {
-            // `Rational64` is always stored reduced with a positive denominator.
-            h.write_u32(*a);
-            h.write_i64(*r.numer());
-            h.write_i64(*r.denom());
-        }
-    }
-}
-
-impl std::ops::Deref for Key {
-    type Target = Vec<(u32, Rational64)>;
-    fn deref(&self) -> &Self::Target {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for Key {
-    fn deref_mut(&mut self) -> &mut Self::Target {
-        &mut self.0
-    }
-}
-
-impl FromIterator<(u32, Rational64)> for Key {
-    fn from_iter<I: IntoIterator<Item = (u32, Rational64)>>(it: I) -> Key {
-        Key(it.into_iter().collect())
-    }
-}
+/// The sparse polynomial form is [`crate::algebra`]'s, shared with the rest of the engine;
+/// [`QuadraticParts`] and the mechanics routes hold it under this name.
+pub(crate) use crate::algebra::SparsePoly as Poly;
 
 /// Monomials with their coefficients.
 type Terms = Vec<(Key, Rational)>;
-
-/// An exact coefficient: a machine-word rational while it fits, a big rational after.
-///
-/// Almost every coefficient in a derivation is small (`1/2`, `-2`); `BigRational` arithmetic
-/// allocates and takes a gcd of big integers for each product, which was a quarter of the
-/// mechanics run. The representation is unique (`Big` only when the value does not fit), so
-/// the derived equality is equality of values.
-#[derive(Clone, PartialEq, Eq)]
-enum Coef {
-    Small(Rational64),
-    Big(Rational),
-}
-
-impl Coef {
-    fn from_big(r: Rational) -> Coef {
-        match small_exp(&r) {
-            Some(x) => Coef::Small(x),
-            None => Coef::Big(r),
-        }
-    }
-
-    fn to_big(&self) -> Rational {
-        match self {
-            Coef::Small(x) => big(*x),
-            Coef::Big(r) => r.clone(),
-        }
-    }
-
-    fn is_zero(&self) -> bool {
-        match self {
-            Coef::Small(x) => x.is_zero(),
-            Coef::Big(r) => r.is_zero(),
-        }
-    }
-
-    fn add(&self, other: &Coef) -> Coef {
-        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
-            if let Some(c) = a.checked_add(b) {
-                return Coef::Small(c);
-            }
-        }
-        Coef::from_big(self.to_big() + other.to_big())
-    }
-
-    fn mul(&self, other: &Coef) -> Coef {
-        if let (Coef::Small(a), Coef::Small(b)) = (self, other) {
-            if let Some(c) = a.checked_mul(b) {
-                return Coef::Small(c);
-            }
-        }
-        Coef::from_big(self.to_big() * other.to_big())
-    }
-}
-
-/// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
-#[derive(Clone, Default)]
-pub(crate) struct Poly {
-    terms: FxMap<Key, Coef>,
-}
-
-impl Poly {
-    fn constant(c: Rational) -> Poly {
-        let mut terms = FxMap::default();
-        if !c.is_zero() {
-            terms.insert(Key::default(), Coef::from_big(c));
-        }
-        Poly { terms }
-    }
-
-    fn atom(id: u32, exp: Rational64) -> Poly {
-        let mut terms = FxMap::default();
-        terms.insert(Key(vec![(id, exp)]), Coef::Small(Rational64::one()));
-        Poly { terms }
-    }
-
-    fn add_term(&mut self, key: Key, c: Coef) {
-        match self.terms.entry(key) {
-            std::collections::hash_map::Entry::Occupied(mut o) => {
-                let v = o.get().add(&c);
-                if v.is_zero() {
-                    o.remove();
-                } else {
-                    *o.get_mut() = v;
-                }
-            }
-            std::collections::hash_map::Entry::Vacant(v) => {
-                if !c.is_zero() {
-                    v.insert(c);
-                }
-            }
-        }
-    }
-
-    pub(crate) fn is_zero(&self) -> bool {
-        self.terms.is_empty()
-    }
-
-    /// `self · c` for a rational `c`.
-    pub(crate) fn scale(&self, c: &Rational) -> Poly {
-        let c = Coef::from_big(c.clone());
-        let mut out = Poly::default();
-        for (k, v) in &self.terms {
-            out.add_term(k.clone(), v.mul(&c));
-        }
-        out
-    }
-
-    pub(crate) fn add(&mut self, other: &Poly) {
-        for (k, c) in &other.terms {
-            self.add_term(k.clone(), c.clone());
-        }
-    }
-
-    pub(crate) fn mul(&self, other: &Poly) -> Poly {
-        let mut out = Poly::default();
-        for (k1, c1) in &self.terms {
-            for (k2, c2) in &other.terms {
-                out.add_term(merge_keys(k1, k2), c1.mul(c2));
-            }
-        }
-        out
-    }
-
-    /// Terms sorted by key, for deterministic processing.
-    fn sorted(&self) -> Vec<(Key, Rational)> {
-        let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
-        v.sort_by(|a, b| a.0.cmp(&b.0));
-        v
-    }
-}
-
-fn merge_keys(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
-    let mut out = Key(Vec::with_capacity(a.len() + b.len()));
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].0.cmp(&b[j].0) {
-            std::cmp::Ordering::Less => {
-                out.push(a[i]);
-                i += 1;
-            }
-            std::cmp::Ordering::Greater => {
-                out.push(b[j]);
-                j += 1;
-            }
-            std::cmp::Ordering::Equal => {
-                let e = a[i].1 + b[j].1;
-                if !e.is_zero() {
-                    out.push((a[i].0, e));
-                }
-                i += 1;
-                j += 1;
-            }
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
-}
 
 /// A Lagrangian at most quadratic in the velocities, by degree:
 /// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`.
@@ -345,14 +126,6 @@ pub(crate) struct Ctx {
     memo: FxMap<Expr, Rc<Poly>>,
     /// Tidied function arguments.
     args: FxMap<Expr, Expr>,
-}
-
-fn small_exp(r: &Rational) -> Option<Rational64> {
-    Some(Rational64::new(r.numer().to_i64()?, r.denom().to_i64()?))
-}
-
-fn big(r: Rational64) -> Rational {
-    Rational::new((*r.numer()).into(), (*r.denom()).into())
 }
 
 impl Ctx {
