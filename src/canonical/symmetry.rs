@@ -334,6 +334,15 @@ fn term_degree(term: &Expr, vars: &[Symbol]) -> Option<u32> {
     Some(deg)
 }
 
+/// The printed form of a charge or gauge term: the shortest (in plain text, the first on a
+/// tie) of its tidied form, its expanded form and that form grouped over common factors, so
+/// `2 x' (m1/2 + m2/2)` from a derivative prints as `m1 x' + m2 x'`.
+fn shortest(e: &Expr) -> Expr {
+    let expanded = normalize(e);
+    let candidates = [tidy(e), tidy(&expanded), super::compact::compact(&expanded)];
+    candidates.into_iter().min_by_key(|c| crate::print::plain(c).chars().count()).unwrap_or_else(|| e.clone())
+}
+
 /// The exact symmetry behind one null vector's `ξ, τ` coefficients, if it is one.
 fn exact_symmetry(ctx: &Context, coeffs: &[f64]) -> Option<PointSymmetry> {
     let n = ctx.coords.len();
@@ -386,19 +395,19 @@ fn exact_symmetry(ctx: &Context, coeffs: &[f64]) -> Option<PointSymmetry> {
         let deg = term_degree(&term, &vars).filter(|&k| k > 0)?;
         f_terms.push(term.over(&Expr::int(deg as i64)));
     }
-    let gauge = tidy(&normalize(&Expr::add(f_terms)));
+    let gauge = shortest(&Expr::add(f_terms));
     let df_dt = Expr::add(vars.iter().zip(&ctx.xdot).map(|(v, vd)| d.diff(&gauge, v).times(vd)).collect::<Vec<_>>());
     if decide_zero(&df_dt.minus(&delta)) != ZeroCheck::Proven {
         return None;
     }
     let ps = PhaseSpace::new(ctx.coords.iter().map(|q| q.name())).ok()?;
-    let charge = tidy(
+    let charge = shortest(
         &Expr::add(ps.momenta.iter().zip(&xi).map(|(p, x)| Expr::sym(p.clone()).times(x)))
             .minus(&ctx.h.times(&tau))
             .minus(&gauge),
     );
     let check = is_integral(&charge, ctx.h, &ps);
-    let charge_velocities = tidy(
+    let charge_velocities = shortest(
         &Expr::add(ctx.dl_dv.iter().zip(&xi).map(|(p, x)| p.times(x))).minus(&ctx.energy.times(&tau)).minus(&gauge),
     );
     let kind = describe(&u, &ctx.basis, ctx.coords, &gauge, &tau);
