@@ -23,6 +23,11 @@
 //!
 //! Every result is checked by evaluation at a few fixed pseudo-random points against the
 //! input; a disagreement (which would be a bug) falls back to the input.
+//!
+//! A sum of more than 64 terms is first split into parts whose terms share nothing with other
+//! parts (no symbol, application or compound subexpression), and the parts are simplified
+//! one by one: nothing above can join terms that share nothing, and whole-sum tools on a sum
+//! of N unrelated terms cost about N^1.5.
 
 use std::collections::HashMap;
 use std::fmt;

@@ -136,12 +136,12 @@ fn interrupt_and_check(mut child: Child, out: &std::path::Path) {
     assert!(!stdout.contains("wrote"), "no file is announced: {stdout}");
 }
 
-#[test]
-fn ctrl_c_during_an_animation_stops_it_mid_draw_with_no_file() {
-    // 1500 frames of 512² pixels: about 100 s of GIF encoding uninterrupted in the dev
-    // profile, 65 ms a frame (RELIABILITY.md).
-    // (`_err` keeps the child's stderr read: a closed pipe would end it by SIGPIPE.)
-    let (_dir, mut child, _err, out) = start_run(
+/// Starts a scene whose animation takes about 100 s uninterrupted (1500 frames of 512²
+/// pixels, 65 ms a frame in the dev profile; RELIABILITY.md) and returns once the GIF back
+/// end has created its staged file, that is once drawing has started.
+fn start_long_animation() -> (tempfile::TempDir, Child, mpsc::Receiver<String>, std::path::PathBuf) {
+    // (The stderr receiver is kept: a closed pipe would end the child by SIGPIPE.)
+    let (dir, mut child, err, out) = start_run(
         "coordinates x\nH = p_x^2/2 + x^2/2\n\
          simulate x = 1, p_x = 0 for t in 0..10 with leapfrog dt = 0.01 as a\n\
          animate path (0, 0), (x, p_x) from a to motion.gif fps 50 duration 30 size 512\n",
@@ -161,6 +161,43 @@ fn ctrl_c_during_an_animation_stops_it_mid_draw_with_no_file() {
         std::thread::sleep(Duration::from_millis(5));
     };
     assert!(staged.ends_with(".gif"), "{staged}");
+    (dir, child, err, out)
+}
+
+#[test]
+fn ctrl_c_during_an_animation_stops_it_mid_draw_with_no_file() {
+    let (_dir, child, _err, out) = start_long_animation();
+    interrupt_and_check(child, &out);
+}
+
+/// Waits until no SIGINT is pending for `child` (read from `/proc`), so that a second signal
+/// is a second press and not merged with the first by the kernel.
+#[cfg(target_os = "linux")]
+fn wait_delivered(child: &Child) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let status = format!("/proc/{}/status", child.id());
+    loop {
+        let text = std::fs::read_to_string(&status).unwrap_or_default();
+        let pending = text
+            .lines()
+            .filter(|l| l.starts_with("SigPnd:") || l.starts_with("ShdPnd:"))
+            .any(|l| u64::from_str_radix(l[7..].trim(), 16).unwrap_or(0) & (1 << (libc::SIGINT - 1)) != 0);
+        if !pending {
+            return;
+        }
+        assert!(Instant::now() < deadline, "SIGINT still pending after 20 s");
+        std::thread::yield_now();
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_second_ctrl_c_exits_at_once_and_still_removes_the_staged_file() {
+    // The second press ends the process from the handler's thread while the main thread is
+    // still inside a frame (65 ms each): the staged GIF is removed there, before the exit.
+    let (_dir, child, _err, out) = start_long_animation();
+    sigint(&child);
+    wait_delivered(&child);
     interrupt_and_check(child, &out);
 }
 

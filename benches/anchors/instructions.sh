@@ -3,10 +3,14 @@
 # that does not depend on the machine's load.
 #
 #   benches/anchors/instructions.sh BEFORE AFTER [FILTER…]
+#   REPEAT=5 benches/anchors/instructions.sh …     (runs per count; default 3)
+#   BEFORE_BIN=… AFTER_BIN=… benches/anchors/instructions.sh …   (binaries already built)
 #
 # Wall time on a shared 2-core machine measures the queue as much as the code (the same
 # binary varies by ±30 % between runs at load 5–15). Valgrind's instruction count (`I refs`)
-# does not: it is the same on every run of the same binary and input. It does not see cache
+# barely does: it varies by a few per cent between runs of the same binary (hash seeds and
+# the addresses the interner hashes change the order of the work), so each count is the median
+# of REPEAT runs and the spread is printed with it. It does not see cache
 # misses or allocator contention, so it complements a quiet-machine criterion run rather than
 # replacing it; a change in memory layout can cost time at an equal count.
 #
@@ -52,19 +56,33 @@ for l in sys.stdin:
     echo "$work/bench-$rev"
 }
 
-count() { # binary filter -> instructions
+once() { # binary filter -> instructions of one run
     valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file=/dev/null \
         "$1" --bench --test "$2" 2>&1 | grep 'I *refs' | tail -1 | awk '{gsub(",", "", $NF); print $NF}'
 }
 
-b=$(build "$before")
-a=$(build "$after")
-base_b=$(count "$b" 'select_nothing$')
-base_a=$(count "$a" 'select_nothing$')
-echo "| benchmark | $before (M instr.) | $after (M instr.) | change |"
+counts() { # binary filter -> REPEAT counts, space-separated
+    local out=()
+    for _ in $(seq "${REPEAT:-3}"); do out+=("$(once "$1" "$2")"); done
+    echo "${out[*]}"
+}
+
+# BEFORE_BIN / AFTER_BIN: bench binaries already built (skips the two release builds).
+b=${BEFORE_BIN:-$(build "$before")}
+a=${AFTER_BIN:-$(build "$after")}
+base_b=$(counts "$b" 'select_nothing$')
+base_a=$(counts "$a" 'select_nothing$')
+echo "| benchmark | $before (M instr., median [min, max]) | $after | change of medians |"
 echo "|---|---|---|---|"
 for f in "${filters[@]}"; do
-    nb=$(( $(count "$b" "$f") - base_b ))
-    na=$(( $(count "$a" "$f") - base_a ))
-    python3 -c "print(f'| \`$f\` | {$nb/1e6:.1f} | {$na/1e6:.1f} | {($na-$nb)/$nb*100:+.1f} % |')"
+    python3 - "$f" "$base_b" "$(counts "$b" "$f")" "$base_a" "$(counts "$a" "$f")" <<'PY'
+import statistics, sys
+f, bb, xb, ba, xa = sys.argv[1:]
+def net(base, xs):
+    base = statistics.median(map(int, base.split()))
+    return [(int(x) - base) / 1e6 for x in xs.split()]
+b, a = net(bb, xb), net(ba, xa)
+mb, ma = statistics.median(b), statistics.median(a)
+print(f"| `{f}` | {mb:.1f} [{min(b):.1f}, {max(b):.1f}] | {ma:.1f} [{min(a):.1f}, {max(a):.1f}] | {(ma - mb) / mb * 100:+.1f} % |")
+PY
 done

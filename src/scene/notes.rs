@@ -232,7 +232,11 @@ impl Session {
             let values = self.param_values();
             let params: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
             let shot = crate::compile::shoot(&g, &a, &b, &params, 1).map_err(|e| {
-                SceneError::new(ErrorKind::Numeric, e.to_string()).at((from[0].span.0, to[to.len() - 1].span.1))
+                let kind = match e {
+                    crate::compile::ShootError::Interrupted { .. } => ErrorKind::Interrupted,
+                    _ => ErrorKind::Numeric,
+                };
+                SceneError::new(kind, e.to_string()).at((from[0].span.0, to[to.len() - 1].span.1))
             })?;
             lines.push(shot.report_line());
         }
