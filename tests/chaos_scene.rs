@@ -4,31 +4,19 @@
 //! surface with the cells off it blank, the statements go through the backend (compiled once,
 //! listed by `--explain`), and bad statements get located errors.
 
+mod support;
+
 use std::collections::HashMap;
 use std::path::Path;
-use std::process::Command;
 
 fn run_in(dir: &Path, scene: &str) -> (i32, String, String) {
     run_with(dir, scene, &[])
 }
 
 fn run_with(dir: &Path, scene: &str, args: &[&str]) -> (i32, String, String) {
-    let path = dir.join("test.scene");
-    std::fs::write(&path, scene).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("run")
-        .arg(&path)
-        .arg("--out-dir")
-        .arg(dir)
-        .args(args)
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    let mut all = vec!["--out-dir", dir.to_str().expect("a UTF-8 path")];
+    all.extend_from_slice(args);
+    support::run_scene_in(dir, scene, &all)
 }
 
 /// The number after `key` on the line starting with `prefix`.
@@ -326,7 +314,6 @@ mod counting {
     use lagrangian::expr::Expr;
     use lagrangian::scene::backend::{CompileRequest, Compiled, RunRequest, SystemRef, VariationalRequest};
     use lagrangian::scene::{Backend, BackendError, Line, NativeBackend, Trajectory};
-    use lagrangian::Symbol;
 
     impl Backend for Counting {
         fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
@@ -346,27 +333,6 @@ mod counting {
         }
         fn bracket(&self, sys: &SystemRef, f: &Expr, g: &Expr) -> Result<Expr, BackendError> {
             NativeBackend.bracket(sys, f, g)
-        }
-        fn average(
-            &self,
-            l: &Expr,
-            trials: &[(Symbol, Expr)],
-            phase: &Symbol,
-            frequency: &Symbol,
-            amplitudes: &[Symbol],
-        ) -> Result<Vec<Line>, BackendError> {
-            NativeBackend.average(l, trials, phase, frequency, amplitudes)
-        }
-        fn transform(
-            &self,
-            sys: &SystemRef,
-            h: &Expr,
-            kind: &str,
-            f: &Expr,
-            q: &[Symbol],
-            p: &[Symbol],
-        ) -> Result<Vec<Line>, BackendError> {
-            NativeBackend.transform(sys, h, kind, f, q, p)
         }
         fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
             NativeBackend.compile(req)

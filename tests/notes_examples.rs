@@ -5,43 +5,9 @@
 // The checks read several CSV columns at one row index.
 #![allow(clippy::needless_range_loop)]
 
-mod notes_support;
+mod support;
 
-use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-
-use notes_support::{run, snapshot};
-
-struct Scene {
-    out: PathBuf,
-    stdout: String,
-    _dir: tempfile::TempDir,
-}
-
-fn scene(example: &str) -> Scene {
-    let dir = tempfile::tempdir().unwrap();
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{example}.scene"));
-    let (code, stdout, err) = run(&["run", file.to_str().unwrap(), "--out-dir", dir.path().to_str().unwrap()]);
-    assert_eq!(code, 0, "{example}: {err}\n{stdout}");
-    let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
-    snapshot(&format!("scene_example_{example}"), &stdout);
-    Scene { out: dir.path().to_path_buf(), stdout, _dir: dir }
-}
-
-impl Scene {
-    fn csv(&self, file: &str) -> HashMap<String, Vec<f64>> {
-        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-        let mut cols: HashMap<String, Vec<f64>> = header.iter().map(|h| (h.clone(), Vec::new())).collect();
-        for line in lines {
-            for (h, v) in header.iter().zip(line.split(',')) {
-                cols.get_mut(h).unwrap().push(v.parse().unwrap());
-            }
-        }
-        cols
-    }
-}
+use support::{example as scene, run};
 
 #[test]
 fn phase_space_oscillator() {

@@ -3,66 +3,14 @@
 //! closed forms or conserved quantities computed here independently; plot files are valid
 //! SVG.
 
+mod support;
+
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use lagrangian::algebra::expand;
 use lagrangian::{parse_with, Declarations, Expr};
-
-struct Run {
-    out: PathBuf,
-    _dir: tempfile::TempDir,
-    stdout: String,
-}
-
-fn run(example: &str) -> Run {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{example}.scene"));
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("run")
-        .arg(&scene)
-        .arg("--out-dir")
-        .arg(dir.path())
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(out.status.success(), "{example}: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
-    let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
-    insta::with_settings!({snapshot_path => "../snapshots", prepend_module_to_snapshot => false}, {
-        insta::assert_snapshot!(format!("scene_example_{example}"), stdout);
-    });
-    Run { out: dir.path().to_path_buf(), _dir: dir, stdout }
-}
-
-impl Run {
-    /// The columns of a CSV output, by header name.
-    fn csv(&self, file: &str) -> HashMap<String, Vec<f64>> {
-        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-        let mut cols: HashMap<String, Vec<f64>> = header.iter().map(|h| (h.clone(), Vec::new())).collect();
-        for line in lines {
-            for (h, v) in header.iter().zip(line.split(',')) {
-                cols.get_mut(h).unwrap().push(v.parse().unwrap());
-            }
-        }
-        cols
-    }
-
-    fn svg(&self, file: &str) -> String {
-        let text = std::fs::read_to_string(self.out.join(file)).unwrap();
-        assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"), "{file} is not SVG");
-        assert!(self.stdout.contains(&format!("wrote OUT/{file}")));
-        text
-    }
-
-    /// The printed line starting with `prefix`, without it.
-    fn line(&self, prefix: &str) -> String {
-        self.stdout.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}`")).to_string()
-    }
-}
+use support::example as run;
 
 /// `a − b` expands to zero: the printed form equals the hand form.
 fn same(printed: &Expr, hand: &str, decls: &Declarations) {
@@ -251,8 +199,10 @@ fn oscillator_action_angle() {
         })
         .unwrap()
     };
-    assert!((at(&r.line("q = ")) - at("sqrt(2 P/(m ω)) sin(Q)")).abs() < 1e-14);
-    assert!((at(&r.line("p_q = ")) - at("sqrt(2 m ω P) cos(Q)")).abs() < 1e-14);
+    // The inverse map is the second `p_q` line (after the relation p = ∂F1/∂q).
+    let inverse_p = r.stdout.lines().filter_map(|l| l.strip_prefix("  p_q = ")).nth(1).expect("the inverse p_q");
+    assert!((at(&r.line("  q = ")) - at("sqrt(2 P/(m ω)) sin(Q)")).abs() < 1e-14);
+    assert!((at(inverse_p) - at("sqrt(2 m ω P) cos(Q)")).abs() < 1e-14);
     assert_eq!(parse_with(&r.line("K = "), &d).unwrap(), parse_with("ω P", &d).unwrap());
     let c = r.csv("oscillator.csv");
     // J = E/ω = (½ m ω² q0²)/ω = ½·2·3·1 = 3.
@@ -282,7 +232,7 @@ fn anharmonic_oscillator() {
     // B = C = 0, ∂⟨L⟩/∂A = 0 holds at ω² = ω0² (1 + 3/2 σ A²) (by hand from ⟨L⟩ =
     // m l0² A² (ω² − ω0²)/4 − 3 m l0² ω0² σ A⁴/16). Checked at arbitrary values.
     let d = Declarations::new().with_positive(["m", "ω0", "σ", "l0"]);
-    let rel = |a: &str| parse_with(r.line(&format!("∂⟨L⟩/∂{a}: ")).trim_end_matches(" = 0"), &d).unwrap();
+    let rel = |a: &str| parse_with(r.line(&format!("∂⟨L⟩/∂{a} = ")).trim_end_matches(" = 0"), &d).unwrap();
     let (ra, rc) = (rel("A"), rel("C"));
     let values = |amp: f64, b: f64, c: f64, w: f64| {
         move |s: &lagrangian::Symbol| -> Option<f64> {

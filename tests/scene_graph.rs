@@ -56,29 +56,6 @@ impl Backend for Counting {
         self.0.bump("bracket");
         Ok(Expr::zero())
     }
-    fn average(
-        &self,
-        _l: &Expr,
-        _trials: &[(lagrangian::Symbol, Expr)],
-        _phase: &lagrangian::Symbol,
-        _frequency: &lagrangian::Symbol,
-        _amplitudes: &[lagrangian::Symbol],
-    ) -> Result<Vec<Line>, BackendError> {
-        self.0.bump("average");
-        Ok(vec![])
-    }
-    fn transform(
-        &self,
-        _sys: &SystemRef,
-        _h: &Expr,
-        _kind: &str,
-        _f: &Expr,
-        _q: &[lagrangian::Symbol],
-        _p: &[lagrangian::Symbol],
-    ) -> Result<Vec<Line>, BackendError> {
-        self.0.bump("transform");
-        Ok(vec![])
-    }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         self.0.bump(match req.formulation {
             Formulation::Lagrangian(_) | Formulation::Extended(_) => "compile_lagrangian",

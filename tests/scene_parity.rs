@@ -174,6 +174,88 @@ fn average_solved_to_first_order_in_a_small_parameter() {
     assert_eq!(find("  C = "), "0");
 }
 
+/// `conserved` prints the same lines in a scene and on the command line, the symmetry search
+/// included: Kepler in Cartesian coordinates (given by its Hamiltonian, so the charge is in
+/// momenta) gives H and L_z = x p_y − y p_x with its generator and the search's bound.
+#[test]
+fn conserved_with_the_symmetry_search() {
+    let h = "(p_x^2 + p_y^2)/(2 m) - k/sqrt(x^2 + y^2)";
+    let out = same(
+        &format!("coordinates x, y\nparameters m, k positive\nH = {h}\nconserved as plain"),
+        &["conserved", h, "--hamiltonian", "--coords", "x,y", "--positive", "m,k"],
+    );
+    assert_eq!(out.len(), 2, "{out:#?}");
+    let d = Declarations::new().with_positive(["m", "k"]);
+    let value = |line: &str| {
+        let rhs = line.split_once(" = ").expect("name = value").1;
+        parse_with(rhs.split("   (").next().expect("a value"), &d).expect("re-parses")
+    };
+    assert!(out[0].starts_with("H = "));
+    assert_eq!(decide_zero(&value(&out[0]).minus(&parse_with(h, &d).unwrap())), ZeroCheck::Proven, "{}", out[0]);
+    assert!(out[1].starts_with("Q1 = ") && out[1].contains("rotation in (x, y)"), "{}", out[1]);
+    let lz = parse_with("x p_y - y p_x", &d).unwrap();
+    let q = value(&out[1]);
+    assert!(
+        decide_zero(&q.minus(&lz)) == ZeroCheck::Proven || decide_zero(&q.plus(&lz)) == ZeroCheck::Proven,
+        "{}",
+        out[1]
+    );
+    assert!(out[1].contains("point symmetries searched: "), "{}", out[1]);
+}
+
+/// `transform with F1 = …` prints `lagrangian canonical --f1 …`'s lines: the relations, both
+/// maps, the branches and K. The oscillator's action–angle map (PHYSICS.md §4): q =
+/// √(2P/(mω)) sin Q, p = √(2mωP) cos Q, K = ωP, checked at a point.
+#[test]
+fn generating_function_transform() {
+    let h = "p_q^2/(2 m) + 1/2 m ω^2 q^2";
+    let out = same(
+        &format!("coordinates q\nparameters m, ω positive\nH = {h}\ntransform with F1 = 1/2 m ω q^2 cot(Q) new Q, P as plain"),
+        &["canonical", "--hamiltonian", h, "--coords", "q", "--f1", "1/2 m ω q^2 cot(Q)", "--new", "Q,P", "--positive", "m,ω"],
+    );
+    assert_eq!(out[0], "relations (F1):");
+    assert!(out.iter().any(|l| l == "old variables (inverse map):") && out.iter().any(|l| l.starts_with("branch: ")));
+    let d = Declarations::new().with_positive(["m", "ω"]);
+    let at = |prefix: &str, hand: &str| {
+        // The last such line: the inverse map comes after the relations.
+        let line =
+            out.iter().rev().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` in {out:?}"));
+        let env: lagrangian::eval::Env =
+            [("m", 2.0), ("ω", 3.0), ("P", 0.7), ("Q", 2.4)].into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+        let got = lagrangian::eval::eval(&parse_with(line, &d).expect("re-parses"), &env).unwrap();
+        let want = lagrangian::eval::eval(&parse_with(hand, &d).unwrap(), &env).unwrap();
+        assert!((got - want).abs() < 1e-14, "{prefix}{line}: {got} vs {want}");
+    };
+    at("  q = ", "sqrt(2 P/(m ω)) sin(Q)");
+    at("  p_q = ", "sqrt(2 m ω P) cos(Q)");
+    at("K = ", "ω P");
+}
+
+/// `average` without `small` prints `lagrangian average`'s lines. The oscillator with
+/// x = A cos θ (PHYSICS.md §2.5.1): ⟨L⟩ = ¼ m A² (ω² − ω0²), ∂⟨L⟩/∂A = ½ m A (ω² − ω0²),
+/// J = ½ m A² ω.
+#[test]
+fn average_without_a_small_parameter() {
+    let l = "1/2 m (x'^2 - ω0^2 x^2)";
+    let out = same(
+        &format!(
+            "coordinates x\nparameters m, ω0 positive\nL = {l}\naverage L with x = A cos(θ) phase θ frequency ω amplitudes A as plain"
+        ),
+        &["average", l, "--trial", "x = A cos(θ)", "--phase", "θ", "--frequency", "ω", "--positive", "m,ω0"],
+    );
+    assert_eq!(out.len(), 3, "{out:?}");
+    let d = Declarations::new().with_positive(["m", "ω0"]);
+    let check = |line: &str, prefix: &str, hand: &str| {
+        let rhs = line.strip_prefix(prefix).unwrap_or_else(|| panic!("`{line}` does not start with `{prefix}`"));
+        let got = parse_with(rhs.trim_end_matches(" = 0"), &d).expect("re-parses");
+        let hand = parse_with(hand, &d).unwrap();
+        assert_eq!(decide_zero(&got.minus(&hand)), ZeroCheck::Proven, "{line}");
+    };
+    check(&out[0], "⟨L⟩ = ", "1/4 m A^2 (ω^2 - ω0^2)");
+    check(&out[1], "∂⟨L⟩/∂A = ", "1/2 m A (ω^2 - ω0^2)");
+    check(&out[2], "J = ∂⟨L⟩/∂ω = ", "1/2 m A^2 ω");
+}
+
 /// The help examples of the new statements parse as one statement each (the REPL's `help`
 /// shows them).
 #[test]

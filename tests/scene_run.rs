@@ -1,26 +1,11 @@
 //! `lagrangian run SCENE`: statements, printed results, diagnostics and the rule that a
 //! failing scene writes no output file.
 
-use std::path::Path;
-use std::process::Command;
+mod support;
 
-fn run_in(dir: &Path, scene: &str, args: &[&str]) -> (i32, String, String) {
-    let path = dir.join("test.scene");
-    std::fs::write(&path, scene).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("run")
-        .arg(&path)
-        .args(args)
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use std::path::Path;
+
+use support::run_scene_in as run_in;
 
 fn files(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> =

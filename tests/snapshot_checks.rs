@@ -95,7 +95,8 @@ fn plain(s: &str) -> String {
 }
 
 /// A snapshot line split into its left side and the expression on its right, with the
-/// explanation in parentheses (`   (…)`), a `    # …` comment and a trailing ` = 0` removed.
+/// explanation in parentheses (`   (…)`), a `    # …` comment, a trailing ` = 0` and a restated
+/// left side (`J = ∂⟨L⟩/∂ω = …`) removed.
 /// `None` for lines that are not `lhs = rhs` or `lhs: rhs = 0`.
 fn split(line: &str) -> Option<(String, String)> {
     let line = plain(line.trim());
@@ -104,6 +105,10 @@ fn split(line: &str) -> Option<(String, String)> {
         Some((l, r)) if !l.contains(" = ") => (l, r.trim_end_matches(" = 0")),
         _ => line.split_once(" = ")?,
     };
+    // `∂⟨L⟩/∂A = … = 0` and `J = ∂⟨L⟩/∂ω = …` (the averaging lines): the expression is the
+    // part between the restated name and the ` = 0`.
+    let rhs = rhs.trim_end_matches(" = 0");
+    let rhs = rhs.rsplit_once(" = ").map_or(rhs, |(_, r)| r);
     Some((lhs.trim().to_string(), rhs.trim().to_string()))
 }
 
@@ -686,9 +691,12 @@ fn canonical_explicit_numeric_only_bracket() {
 }
 
 /// The oscillator scene's action–angle lines: brackets `{Q, J}`, `{J, H}`, `{Q, H}` by finite
-/// differences of `Q = atan(m ω q/p)`, `J = H/ω`; `q`, `p_q`, `K` through the F1 checks above.
+/// differences of `Q = atan(m ω q/p)`, `J = H/ω`; then the transformation from `F1`, printed as
+/// `lagrangian canonical` prints it: the relations against derivatives of `F1`, the inverse
+/// map through `p = ∂F1/∂q`, `P = −∂F1/∂Q`, the forward map back to `(Q, P)`, and `K = H`.
 #[test]
 fn scene_example_oscillator_action_angle_lines() {
+    let name = "scene_example_oscillator_action_angle";
     let h = scene_input("oscillator_action_angle", "H = p_q^2/(2 m) + 1/2 m ω^2 q^2");
     let q_new = scene_input("oscillator_action_angle", "Q = atan(m ω q/p_q)");
     let j = parse(&format!("({h})/ω"));
@@ -696,57 +704,68 @@ fn scene_example_oscillator_action_angle_lines() {
     let pb = |a: &Expr, b: &Expr, env: &Env| {
         partial(a, env, "q") * partial(b, env, "p_q") - partial(a, env, "p_q") * partial(b, env, "q")
     };
+    // The printed lines by section (the title's first word; top-level lines under "").
+    let mut lines: Vec<(String, String, Expr)> = Vec::new();
+    let mut section = String::new();
+    for line in snapshot(name) {
+        if let Some(title) = line.strip_suffix(':') {
+            section = title.split(' ').next().unwrap().to_string();
+            continue;
+        }
+        if not_a_derivation(&line) {
+            continue;
+        }
+        let (lhs, rhs) = split(&line).unwrap();
+        let sec = if line.starts_with("  ") { section.clone() } else { String::new() };
+        lines.push((sec, lhs, parse(&rhs)));
+    }
+    let get = |sec: &str, lhs: &str| {
+        &lines.iter().find(|(s, l, _)| s == sec && l == lhs).unwrap_or_else(|| panic!("{name}: no {sec} {lhs}")).2
+    };
     let mut rng = Rng(61);
     for _ in 0..6 {
         let mut env = random_env(&mut rng, &["q"], &["m", "ω"]);
         env.insert("p_q".into(), rng.uniform(0.3, 1.5)); // away from the pole of atan's argument
         env.insert("Q".into(), rng.uniform(0.1, 1.4));
         env.insert("P".into(), rng.uniform(0.2, 2.0));
-        let mut checked = 0;
-        for line in snapshot("scene_example_oscillator_action_angle") {
-            if not_a_derivation(&line) {
-                continue;
-            }
-            let (lhs, rhs) = split(&line).unwrap();
-            let got = at(&parse(&rhs), &env);
-            let want = match lhs.as_str() {
-                "{Q, J}" => pb(&q_new, &j, &env),
-                "{J, H}" => pb(&j, &h, &env),
-                "{Q, H}" => pb(&q_new, &h, &env),
-                // The printed inverse (q, p) at (Q, P) satisfies p = ∂F1/∂q and P = −∂F1/∂Q.
-                "q" | "p_q" => {
-                    let inv = |name: &str| {
-                        let line = snapshot("scene_example_oscillator_action_angle")
-                            .into_iter()
-                            .find(|l| l.starts_with(&format!("{name} = ")))
-                            .unwrap();
-                        at(&parse(&split(&line).unwrap().1), &env)
-                    };
-                    let mut old = env.clone();
-                    old.insert("q".into(), inv("q"));
-                    close(inv("p_q"), partial(&generator, &old, "q"), "p_q = ∂F1/∂q");
+        // The old variables at (Q, P) through the printed inverse.
+        let mut old = env.clone();
+        for v in ["q", "p_q"] {
+            old.insert(v.into(), at(get("old", v), &env));
+        }
+        for (sec, lhs, e) in &lines {
+            let got = at(e, &env);
+            let want = match (sec.as_str(), lhs.as_str()) {
+                ("", "{Q, J}") => pb(&q_new, &j, &env),
+                ("", "{J, H}") => pb(&j, &h, &env),
+                ("", "{Q, H}") => pb(&q_new, &h, &env),
+                // The relations at (q, Q): p = ∂F1/∂q, P = −∂F1/∂Q.
+                ("relations", "p_q") => partial(&generator, &env, "q"),
+                ("relations", "P") => -partial(&generator, &env, "Q"),
+                // The inverse satisfies the relations at (Q, P).
+                ("old", "q") => {
+                    close(old["p_q"], partial(&generator, &old, "q"), "p_q = ∂F1/∂q");
                     close(env["P"], -partial(&generator, &old, "Q"), "P = −∂F1/∂Q");
                     got
                 }
-                "K" => {
-                    // K = H at the inverse point (F1 has no t): ω P.
-                    let mut old = env.clone();
-                    for name in ["q", "p_q"] {
-                        let line = snapshot("scene_example_oscillator_action_angle")
-                            .into_iter()
-                            .find(|l| l.starts_with(&format!("{name} = ")))
-                            .unwrap();
-                        let v = at(&parse(&split(&line).unwrap().1), &env);
-                        old.insert(name.into(), v);
-                    }
-                    at(&h, &old)
+                ("old", "p_q") => got,
+                // The forward map at the inverse point returns (Q, P).
+                ("new", v @ ("Q" | "P")) => {
+                    close(at(e, &old), env[v], &format!("forward {v}"));
+                    got
                 }
-                _ => panic!("oscillator_action_angle: no independent check for `{line}`"),
+                // K = H at the inverse point (F1 has no t).
+                ("", "K") => at(&h, &old),
+                _ => panic!("{name}: no independent check for `{sec} {lhs}`"),
             };
-            close(got, want, &format!("oscillator_action_angle: {lhs}"));
-            checked += 1;
+            close(got, want, &format!("{name}: {sec} {lhs}"));
         }
-        assert_eq!(checked, 6);
+        assert_eq!(
+            lines.len(),
+            10,
+            "{name}: {:?}",
+            lines.iter().map(|(s, l, _)| format!("{s} {l}")).collect::<Vec<_>>()
+        );
     }
 }
 

@@ -1,23 +1,11 @@
 //! `simulate … with taylor` in a scene: the method, its default tolerance and its errors.
 
+mod support;
+
 use std::path::Path;
-use std::process::Command;
 
 fn run_in(dir: &Path, scene: &str) -> (i32, String, String) {
-    let path = dir.join("test.scene");
-    std::fs::write(&path, scene).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("run")
-        .arg(&path)
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    support::run_scene_in(dir, scene, &[])
 }
 
 /// The last row of a CSV export as numbers.

@@ -506,7 +506,6 @@ fn parse_map(text: &str, decls: &Declarations) -> Result<Vec<(Symbol, Expr)>, Fa
 }
 
 fn print_transform(t: &canonical::GeneratedTransform, format: OutFormat) {
-    let out = Out { format };
     if format == OutFormat::Json {
         let map = |r: &Result<Vec<(Symbol, Expr)>, canonical::SolveError>| match r {
             Ok(v) => json!({"closed_form": true, "relations": json_pairs(v)}),
@@ -524,32 +523,8 @@ fn print_transform(t: &canonical::GeneratedTransform, format: OutFormat) {
         );
         return;
     }
-    println!("relations ({}):", t.kind);
-    for (s, e) in &t.relations {
-        println!("  {}", out.eq(s, e));
-    }
-    let show = |title: &str, r: &Result<Vec<(Symbol, Expr)>, canonical::SolveError>| match r {
-        Ok(v) => {
-            println!("{title}:");
-            for (s, e) in v {
-                println!("  {}", out.eq(s, e));
-            }
-        }
-        Err(e) => println!("{title}: no closed form ({e}); the relations above stay implicit"),
-    };
-    show("old variables (inverse map)", &t.inverse);
-    show("new variables (forward map)", &t.forward);
-    for b in &t.branches {
-        println!("branch: {b}");
-    }
-    match &t.hamiltonian {
-        None => {}
-        Some(Ok(k)) => println!("K = {}", out.e(k)),
-        Some(Err(e)) => {
-            if let Some(m) = &t.k_mixed {
-                println!("K = H + ∂F/∂t = {} (in the generator's variables; {e})", out.e(m));
-            }
-        }
+    for l in canonical::report::transform_lines(t, format.expr_format()) {
+        println!("{l}");
     }
 }
 

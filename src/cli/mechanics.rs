@@ -1,6 +1,7 @@
 //! `el`, `legendre`, `hamilton`, `conserved`, `transform`: the mechanics commands.
 
 use clap::{Args, Subcommand};
+use lagrangian::canonical::report::{conserved_lines, noted_line, ConservedLine, SymmetryInput};
 use lagrangian::expr::{Expr, Symbol};
 use lagrangian::mechanics::{MechanicsError, System};
 use lagrangian::print::{render, symbol};
@@ -118,6 +119,28 @@ fn build(text: &str, args: &SystemArgs, hamiltonian: bool) -> Result<System, Fai
         s = s.with_constraint(c).map_err(fail)?;
     }
     Ok(s)
+}
+
+/// `conserved`'s lines, through the function that prints scene `conserved` too: the Noether
+/// quantities of the mechanics stage, then the point symmetries the search finds (each
+/// verified by its bracket with `H`), and the search's bound; the bound is returned apart
+/// when there is no line to carry it.
+fn conserved_report(s: &System) -> (Vec<ConservedLine>, Option<String>) {
+    let known: Vec<ConservedLine> = s
+        .conserved()
+        .into_iter()
+        .map(|c| ConservedLine { name: c.name, value: c.expr, note: c.reason.to_string() })
+        .collect();
+    let h = s.hamiltonian().ok();
+    let l = s.inverse_legendre().ok().and_then(|s| s.lagrangian().cloned());
+    let input = SymmetryInput {
+        lagrangian_hamiltonian: l.as_ref().zip(h.as_ref()),
+        coords: s.coordinates(),
+        in_momenta: s.hamiltonian_expr().is_some(),
+        constraints: s.constraints(),
+        dissipative: s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some(),
+    };
+    conserved_lines(known, &input)
 }
 
 /// Printed output: named expressions, in order, plus the JSON object (also the notes
@@ -297,17 +320,21 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
             let text = read_expr_arg(&lagrangian)?;
             let s = build(&text, &system, hamiltonian)?;
             let mut out = Report::new(system.common.format, &s, &text);
+            let (lines, unattached) = conserved_report(&s);
             let mut arr = Vec::new();
-            for c in s.conserved() {
-                out.lines.push(format!("{} = {}    # {}", c.name, out.r(&c.expr), c.reason));
+            for c in &lines {
+                // The name rendered as the scene renders it, so both print the same line.
+                let name = out.r(&Expr::var(&c.name));
+                out.lines.push(noted_line(&name, &out.r(&c.value), Some(&c.note)));
                 arr.push(json!({
                     "name": c.name,
-                    "expr": lagrangian::print::plain(&c.expr),
-                    "reason": c.reason.to_string(),
+                    "expr": lagrangian::print::plain(&c.value),
+                    "reason": c.note,
                 }));
             }
-            if arr.is_empty() {
-                out.lines.push("(no conserved quantity found by Noether's theorem)".into());
+            if lines.is_empty() {
+                let bound = unattached.map(|b| format!("; {b}")).unwrap_or_default();
+                out.lines.push(format!("(no conserved quantity found by Noether's theorem{bound})"));
             }
             out.json.insert("conserved".into(), Value::Array(arr));
             out.print();

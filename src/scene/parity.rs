@@ -216,15 +216,16 @@ impl Session {
         Ok(())
     }
 
-    /// `average … small σ unperturbed ω0 [principal A]`: `lagrangian average … --small σ`,
-    /// the relations solved to first order.
-    pub(super) fn average_small(&mut self, st: &StmtKind) -> Result<(), SceneError> {
-        let StmtKind::Average { l, trials, phase, frequency, amplitudes, small: Some(small), format } = st else {
+    /// `average [L] with x = … phase θ frequency ω amplitudes A… [small σ unperturbed ω0
+    /// [principal A]]`: `lagrangian average`, with `--small` the relations solved to first order.
+    pub(super) fn average_statement(&mut self, st: &StmtKind) -> Result<(), SceneError> {
+        let StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format } = st else {
             return Ok(());
         };
         let (l, format) = (l.as_ref(), *format);
-        let mut local: Vec<String> = [phase, frequency, &small.small]
-            .iter()
+        let mut local: Vec<String> = [Some(phase), Some(frequency), small.as_ref().map(|s| &s.small)]
+            .into_iter()
+            .flatten()
             .map(|s| s.text.clone())
             .chain(amplitudes.iter().map(|a| a.text.clone()))
             .collect();
@@ -246,6 +247,11 @@ impl Session {
         let amps: Vec<Symbol> = amplitudes.iter().map(|a| Symbol::new(&a.text)).collect();
         let avg = canonical::average_lagrangian(&l, &ts, &Symbol::new(&phase.text), &w, &amps)
             .map_err(|e| failed("average", e, self.span))?;
+        let fmt = format.unwrap_or(self.opts.format);
+        let Some(small) = small else {
+            self.emit(canonical::report::average_lines(&avg, &w, None, fmt));
+            return Ok(());
+        };
         let w0 = self.resolved_with(&small.unperturbed, &local)?;
         let principal = match &small.principal {
             Some(a) => Symbol::new(&a.text),
@@ -257,8 +263,52 @@ impl Session {
         let sigma = self.symbol_of(&small.small, &local)?;
         let lo =
             canonical::leading_order(&avg, &w, &w0, &sigma, &principal).map_err(|e| failed("average", e, self.span))?;
-        let fmt = format.unwrap_or(self.opts.format);
         self.emit(canonical::report::average_lines(&avg, &w, Some((&small.small.text, &lo)), fmt));
+        Ok(())
+    }
+
+    /// `transform [H] with F1 = … new Q, P`: `lagrangian canonical --f1 … --new Q,P
+    /// --hamiltonian H`, the same lines (relations, inverse and forward maps, branches, `K`).
+    pub(super) fn generating_transform(
+        &mut self,
+        h: Option<&Src>,
+        kind: &str,
+        f: &Src,
+        new: &[Src],
+        format: Option<Format>,
+    ) -> Result<(), SceneError> {
+        let old = self.phase_space()?;
+        let n = old.dof();
+        if new.len() != 2 * n {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!(
+                    "{} new names for {n} coordinate(s): give {n} new coordinates, then {n} new momenta",
+                    new.len()
+                ),
+            )
+            .at(new.first().map_or(self.span, |s| (s.span.0, new[new.len() - 1].span.1)))
+            .hint("for one coordinate: `new Q, P`"));
+        }
+        let names: Vec<String> = new.iter().map(|s| s.text.clone()).collect();
+        let h = match h {
+            Some(src) => self.resolved_with(src, &names)?,
+            None => self.hamiltonian()?,
+        };
+        let f_expr = self.resolved_with(f, &names)?;
+        let kind = match kind {
+            "F1" => canonical::GeneratorKind::F1,
+            "F2" => canonical::GeneratorKind::F2,
+            "F3" => canonical::GeneratorKind::F3,
+            _ => canonical::GeneratorKind::F4,
+        };
+        let new_space = PhaseSpace::with_momenta(names[..n].iter(), names[n..].iter())
+            .map_err(|e| failed("canonical transformation", e, self.span))?;
+        let g = canonical::Generator::new(kind, f_expr, old, new_space)
+            .map_err(|e| failed("canonical transformation", e, self.span))?;
+        let t = g.transform(Some(&h)).map_err(|e| failed("canonical transformation", e, self.span))?;
+        let fmt = format.unwrap_or(self.opts.format);
+        self.emit(canonical::report::transform_lines(&t, fmt));
         Ok(())
     }
 }

@@ -17,10 +17,6 @@ pub enum Step {
     Conserved,
     /// A Poisson bracket.
     Bracket,
-    /// An averaged Lagrangian.
-    Average,
-    /// A canonical transformation.
-    Transform,
     /// The energy function.
     Energy,
     /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
@@ -42,8 +38,6 @@ impl Step {
             Step::Hamilton => "Hamilton's equations",
             Step::Conserved => "conserved quantities",
             Step::Bracket => "Poisson bracket",
-            Step::Average => "averaged Lagrangian",
-            Step::Transform => "canonical transformation",
             Step::Energy => "energy function",
             Step::Momenta => "canonical momenta",
             Step::Split => "separable split H = T(p) + V(q)",

@@ -405,26 +405,9 @@ impl Session {
             StmtKind::Plot(spec) => self.plot(spec),
             StmtKind::Animate(spec) => self.animate(spec),
             StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
-            StmtKind::Average { small: Some(_), .. } => self.average_small(&st.kind),
-            StmtKind::Average { l, trials, phase, frequency, amplitudes, small: None, format } => {
-                self.local_names = std::iter::once(phase)
-                    .chain(std::iter::once(frequency))
-                    .chain(amplitudes)
-                    .map(|n| n.text.clone())
-                    .collect();
-                let r = self.average(l.as_ref(), trials, phase, frequency, amplitudes);
-                self.local_names.clear();
-                let lines = r?;
-                self.print_all(vec![Printed::Lines(lines)], *format);
-                Ok(())
-            }
+            StmtKind::Average { .. } => self.average_statement(&st.kind),
             StmtKind::Transform { h, kind, f, new, format } => {
-                self.local_names = new.iter().map(|n| n.text.clone()).collect();
-                let r = self.transform(h.as_ref(), kind, f, new);
-                self.local_names.clear();
-                let lines = r?;
-                self.print_all(vec![Printed::Lines(lines)], *format);
-                Ok(())
+                self.generating_transform(h.as_ref(), kind, f, new, *format)
             }
             StmtKind::PointTransform { l, map, to, format } => self.point_transform(l.as_ref(), map, to, *format),
             StmtKind::Lie { f, generator, order, epsilon, format } => {
@@ -935,104 +918,6 @@ impl Session {
         }
     }
 
-    pub(super) fn average(
-        &mut self,
-        l: Option<&Src>,
-        trials: &[(Src, Src)],
-        phase: &Src,
-        frequency: &Src,
-        amplitudes: &[Src],
-    ) -> Result<Vec<Line>, SceneError> {
-        let l = match l {
-            Some(src) => self.resolved(src)?,
-            None => self.lagrangian()?,
-        };
-        let mut pairs = Vec::new();
-        for (q, e) in trials {
-            if !self.coords.iter().any(|c| c.name() == q.text) {
-                return Err(SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", q.text))
-                    .at(q.span)
-                    .hint("a trial function replaces a coordinate: `x = A cos(θ)`"));
-            }
-            pairs.push((Symbol::new(&q.text), self.resolved(e)?));
-        }
-        let phase = Symbol::new(&phase.text);
-        let frequency = Symbol::new(&frequency.text);
-        let amps: Vec<Symbol> = amplitudes.iter().map(|a| Symbol::new(&a.text)).collect();
-        let mut inputs = vec![l.clone(), Expr::sym(phase.clone()), Expr::sym(frequency.clone())];
-        for (q, e) in &pairs {
-            inputs.push(Expr::sym(q.clone()));
-            inputs.push(e.clone());
-        }
-        inputs.extend(amps.iter().cloned().map(Expr::sym));
-        let key = CacheKey::symbolic(Step::Average, &self.coords, inputs);
-        let what = format!("of {}", short(&l));
-        if let Some(Value::Lines(v)) = self.lookup(&key, Step::Average, &what) {
-            return Ok(v);
-        }
-        let built = self
-            .backend
-            .average(&l, &pairs, &phase, &frequency, &amps)
-            .map(Value::Lines)
-            .map_err(|e| backend_error(e, self.span));
-        match self.record(Step::Average, what, key, built)? {
-            Value::Lines(v) => Ok(v),
-            _ => Ok(vec![]),
-        }
-    }
-
-    pub(super) fn transform(
-        &mut self,
-        h: Option<&Src>,
-        kind: &str,
-        f: &Src,
-        new: &[Src],
-    ) -> Result<Vec<Line>, SceneError> {
-        let n = self.coords.len();
-        if n == 0 {
-            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
-                .at(self.span)
-                .hint("declare them first, for example `coordinates q`"));
-        }
-        if new.len() != 2 * n {
-            return Err(SceneError::new(
-                ErrorKind::Syntax,
-                format!(
-                    "{} new names for {n} coordinate(s): give {n} new coordinates, then {n} new momenta",
-                    new.len()
-                ),
-            )
-            .at(new.first().map_or(self.span, |s| (s.span.0, new[new.len() - 1].span.1)))
-            .hint("for one coordinate: `new Q, P`"));
-        }
-        let h = match h {
-            Some(src) => self.resolved(src)?,
-            None => self.hamiltonian()?,
-        };
-        let f_expr = self.resolved(f)?;
-        let new_q: Vec<Symbol> = new[..n].iter().map(|s| Symbol::new(&s.text)).collect();
-        let new_p: Vec<Symbol> = new[n..].iter().map(|s| Symbol::new(&s.text)).collect();
-        let mut inputs = vec![h.clone(), f_expr.clone()];
-        inputs.extend(new_q.iter().chain(&new_p).cloned().map(Expr::sym));
-        let key = CacheKey { extra: kind.to_string(), ..CacheKey::symbolic(Step::Transform, &self.coords, inputs) };
-        let what = format!("by {kind} = {}", short(&f_expr));
-        if let Some(Value::Lines(v)) = self.lookup(&key, Step::Transform, &what) {
-            return Ok(v);
-        }
-        let decls = self.declarations();
-        let coords = self.coords.clone();
-        let sys = SystemRef { coords: &coords, decls: &decls };
-        let built = self
-            .backend
-            .transform(&sys, &h, kind, &f_expr, &new_q, &new_p)
-            .map(Value::Lines)
-            .map_err(|e| backend_error(e, self.span));
-        match self.record(Step::Transform, what, key, built)? {
-            Value::Lines(v) => Ok(v),
-            _ => Ok(vec![]),
-        }
-    }
-
     // ----- printing ------------------------------------------------------------------------
 
     pub(super) fn printed_item(&mut self, item: &Item) -> Result<Printed, SceneError> {
@@ -1160,14 +1045,7 @@ pub(super) fn render_line(l: &Line, f: Format) -> String {
         s.push_str(label);
         s.push_str(": ");
     }
-    s.push_str(&render(&l.lhs, f));
-    s.push_str(" = ");
-    s.push_str(&render(&l.rhs, f));
-    if let Some(n) = &l.note {
-        s.push_str("   (");
-        s.push_str(n);
-        s.push(')');
-    }
+    s.push_str(&crate::canonical::report::noted_line(&render(&l.lhs, f), &render(&l.rhs, f), l.note.as_deref()));
     s
 }
 

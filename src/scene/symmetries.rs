@@ -1,12 +1,11 @@
-//! `conserved` beyond ignorable coordinates: the point symmetries that
-//! [`crate::canonical::symmetry::point_symmetries`] finds (rotations in Cartesian
-//! coordinates, Galilean boosts with their total-derivative term), added after the
-//! mechanics stage's ignorable momenta and energy, each with the symmetry that gives it and
-//! how its bracket with `H` was decided.
+//! `conserved` beyond ignorable coordinates: the scene side of
+//! [`crate::canonical::report::conserved_lines`], which adds the point symmetries (rotations in
+//! Cartesian coordinates, Galilean boosts with their total-derivative term, time changes) after
+//! the mechanics stage's ignorable momenta and energy and states the search's bound. The same
+//! function prints `lagrangian conserved`, so scene and command line give the same lines.
 
-use crate::canonical::symmetry::point_symmetries;
-use crate::canonical::{decide_zero, ZeroCheck};
-use crate::expr::{Expr, Symbol};
+use crate::canonical::report::{conserved_lines, ConservedLine, SymmetryInput};
+use crate::expr::Expr;
 
 use crate::mechanics::System;
 
@@ -15,58 +14,28 @@ use super::backend::Line;
 use super::error::{ErrorKind, SceneError};
 use super::session::Session;
 
-/// One line per symmetry found that is not already an ignorable momentum in `known`, each
-/// verified by `{Q, H} + ∂Q/∂t = 0`; the last line's note states the search's bound. A
-/// Hamiltonian system is searched through its Lagrangian (the inverse Legendre transform) and
-/// its charges are printed in momenta. Nothing when either transform does not exist.
-pub(super) fn symmetry_lines(
-    system: &System,
-    coords: &[Symbol],
-    known: &[Line],
-    is_hamiltonian: bool,
-    constraints: &[Expr],
-) -> Vec<Line> {
-    let Ok(h) = system.hamiltonian() else { return Vec::new() };
-    let Ok(lsys) = system.inverse_legendre() else { return Vec::new() };
-    let Some(l) = lsys.lagrangian() else { return Vec::new() };
-    let search = point_symmetries(l, coords, &h);
-    let mut out = Vec::new();
-    for s in search.found {
-        // A translation of one coordinate is its ignorable momentum, already listed.
-        let moved: Vec<usize> = (0..coords.len()).filter(|&i| !s.generator[i].is_zero()).collect();
-        if s.kind == "translation" && moved.len() == 1 {
-            let p = format!("p_{}", coords[moved[0]].name());
-            if known.iter().any(|k| k.lhs == Expr::var(&p)) {
-                continue;
-            }
-        }
-        if !s.check.is_zero() {
-            continue;
-        }
-        // A constrained system keeps only generators along its constraints: δf = Σ ∂f/∂q ξ = 0.
-        let along = constraints.iter().all(|f| {
-            let df = Expr::add(coords.iter().zip(&s.generator).map(|(q, x)| crate::diff::diff(f, q).times(x)));
-            decide_zero(&df) == ZeroCheck::Proven
-        });
-        if !along {
-            continue;
-        }
-        let xi: Vec<String> = s.generator.iter().map(crate::print::plain).collect();
-        let gauge = if s.gauge.is_zero() { String::new() } else { format!(", F = {}", crate::print::plain(&s.gauge)) };
-        let note = format!("{}: ξ = ({}){gauge}; {{Q, H}} + ∂Q/∂t is {}", s.kind, xi.join(", "), s.check.describe());
-        out.push(Line {
-            label: None,
-            lhs: Expr::var(&format!("Q{}", out.len() + 1)),
-            rhs: if is_hamiltonian { s.charge } else { s.charge_velocities },
-            note: Some(note),
-        });
-    }
-    if let Some(last) = out.last_mut() {
-        if let Some(n) = &mut last.note {
-            n.push_str(&format!(" (searched: {})", search.bound));
-        }
-    }
-    out
+/// `conserved` of `system` as lines: its Noether quantities, then the point symmetries that
+/// preserve every constraint (none searched with forces or dissipation). A Hamiltonian system
+/// is searched through its Lagrangian (the inverse Legendre transform) and its charges are
+/// printed in momenta; nothing is searched when either transform does not exist.
+pub(super) fn conserved_of(system: &System) -> Vec<Line> {
+    let known: Vec<ConservedLine> = system
+        .conserved()
+        .into_iter()
+        .map(|c| ConservedLine { name: c.name, value: c.expr, note: c.reason.to_string() })
+        .collect();
+    let h = system.hamiltonian().ok();
+    let l = system.inverse_legendre().ok().and_then(|s| s.lagrangian().cloned());
+    let input = SymmetryInput {
+        lagrangian_hamiltonian: l.as_ref().zip(h.as_ref()),
+        coords: system.coordinates(),
+        in_momenta: system.hamiltonian_expr().is_some(),
+        constraints: system.constraints(),
+        dissipative: system.forces().iter().any(|f| !f.is_zero()) || system.rayleigh().is_some(),
+    };
+    // A scene prints nothing for an empty list, so an unattached bound has no line to go to.
+    let (lines, _bound) = conserved_lines(known, &input);
+    lines.into_iter().map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.value, note: Some(c.note) }).collect()
 }
 
 impl Session {
@@ -74,8 +43,8 @@ impl Session {
     /// the mechanics stage's quantities with those taken into account (a coordinate a force,
     /// dissipation or constraint acts on is not ignorable), and the point symmetries that
     /// preserve every constraint; with forces or dissipation no symmetry is searched (Noether's
-    /// theorem needs `δL = dF/dt` of the whole dynamics), and the last line's note says so. Not cached: the
-    /// derivation cache is keyed by `L` alone.
+    /// theorem needs `δL = dF/dt` of the whole dynamics), and the last line's note says so.
+    /// Not cached: the derivation cache is keyed by `L` alone.
     pub(super) fn conserved_with_dynamics(&mut self, l: &Expr, span: Span) -> Result<Vec<Line>, SceneError> {
         let (forces, rayleigh, constraints) = self.resolved_dynamics()?;
         let failed =
@@ -92,19 +61,6 @@ impl Session {
         for f in &constraints {
             system = system.with_constraint_expr(f.clone()).map_err(failed)?;
         }
-        let mut lines: Vec<Line> = system
-            .conserved()
-            .into_iter()
-            .map(|c| Line { label: None, lhs: Expr::var(&c.name), rhs: c.expr, note: Some(c.reason.to_string()) })
-            .collect();
-        if forces.iter().all(Expr::is_zero) && rayleigh.is_none() {
-            let free = System::from_lagrangian_expr(l.clone(), &self.coords).map_err(failed)?;
-            let more = symmetry_lines(&free, &self.coords, &lines, false, &constraints);
-            lines.extend(more);
-        } else if let Some(last) = lines.last_mut() {
-            let n = last.note.get_or_insert_with(String::new);
-            n.push_str("; no symmetry search: with forces or dissipation δL = dF/dt gives no conserved charge");
-        }
-        Ok(lines)
+        Ok(conserved_of(&system))
     }
 }

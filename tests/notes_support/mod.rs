@@ -4,31 +4,14 @@
 #![allow(dead_code)]
 
 use std::collections::HashMap;
-use std::process::Command;
 
 use lagrangian::eval::eval;
 use lagrangian::Expr;
 
-/// Runs the binary: exit code, stdout, stderr.
-pub fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .args(args)
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .output()
-        .expect("binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-/// Snapshot under `snapshots/` with the project's naming.
-pub fn snapshot(name: &str, text: &str) {
-    insta::with_settings!({snapshot_path => "../../snapshots", prepend_module_to_snapshot => false}, {
-        insta::assert_snapshot!(name, text);
-    });
-}
+// Running the binary and snapshots are the scene tests' helpers (`tests/support`).
+#[path = "../support/mod.rs"]
+mod support;
+pub use support::{run, snapshot};
 
 /// A smooth test path `q_i(s) = c0 + c1 s + c2 s² + c3 sin(s)` with its first two derivatives.
 pub struct Path {
