@@ -1,10 +1,12 @@
 //! The Taylor method and the chaos indicators (`harness = false`: prints the tables behind
 //! the Taylor section of BENCHMARKS.md). Run next to heyoka by `scripts/bench_taylor.sh`.
+//! Times are this thread's CPU time, best of several runs (see `cpu_now`), except the chaos
+//! map's, which runs on every thread and is wall time.
 //!
 //! ```text
 //! cargo bench --bench taylor                    # everything (~1 minute on 2 cores)
 //! cargo bench --bench taylor -- kepler          # one section: kepler, double-pendulum,
-//!                                               #   cold-start, chaos-map
+//!                                               #   step-profile, cold-start, chaos-map
 //! ```
 //!
 //! Every system is compiled from text (the library's own path), not hand-written.
@@ -22,14 +24,24 @@ use lagrangian::Declarations;
 #[path = "../tests/mechanics_support/n_link.rs"]
 mod n_link;
 
-/// The minimum wall time of `reps` runs of `f`, and its last result.
-fn best<R>(reps: usize, f: impl Fn() -> R) -> (f64, R) {
+/// This thread's CPU time in seconds. On the shared 2-core machine (load 10–18 while six
+/// engineers build) wall time counts other processes' time slices, and a long loop is
+/// preempted more often than a short one; the thread's CPU time counts only its own work.
+fn cpu_now() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant Linux knows.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// The minimum CPU time (see [`cpu_now`]) of `reps` runs of `f`, and its last result.
+fn best<R>(reps: usize, mut f: impl FnMut() -> R) -> (f64, R) {
     let mut t = f64::INFINITY;
     let mut r = None;
     for _ in 0..reps {
-        let t0 = Instant::now();
+        let t0 = cpu_now();
         r = Some(f());
-        t = t.min(t0.elapsed().as_secs_f64());
+        t = t.min(cpu_now() - t0);
     }
     (t, r.expect("at least one repeat"))
 }
@@ -51,17 +63,28 @@ fn kepler_orbits<S: ?Sized, M: Method<S>>(method: &M, sys: &S) -> (f64, usize) {
 fn kepler() {
     println!("## Kepler e = 0.9, 1000 orbits, sampled once per orbit (H = |p|²/2 − 1/|q|, compiled)");
     let sys = System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).expect("valid H");
-    let ode = sys.compile_taylor().expect("compiles");
+    let ode = sys.compile_taylor().expect("compiles").with_native(true);
     let rhs = sys.compile_hamiltonian().expect("compiles");
     println!("| method | time | max rel. energy error | steps |");
     println!("|---|---|---|---|");
+    let interp = ode.clone().with_native(false);
     for (name, m) in [
         ("Taylor tol 1e-15", Taylor::new(1e-15)),
         ("Taylor tol 1e-15 compensated", Taylor::new(1e-15).compensated()),
         ("Taylor tol 1e-13", Taylor::new(1e-13)),
     ] {
+        let p = m.taylor_order();
+        let t0 = Instant::now();
+        let native = ode.native_for(p).is_some();
+        let compile = t0.elapsed().as_secs_f64();
         let (t, (err, steps)) = best(3, || kepler_orbits(&m, &ode));
-        println!("| {name} (order {}) | {:.1} ms | {err:.2e} | {steps} |", m.taylor_order(), t * 1e3);
+        println!(
+            "| {name} (order {p}), {} | {:.1} ms | {err:.2e} | {steps} |",
+            if native { format!("native ({:.1} ms to compile)", compile * 1e3) } else { "interpreted".into() },
+            t * 1e3
+        );
+        let (t, (err, steps)) = best(3, || kepler_orbits(&m, &interp));
+        println!("| {name} (order {p}), interpreted | {:.1} ms | {err:.2e} | {steps} |", t * 1e3);
     }
     // DOP853 refuses tolerances below Hairer's floor 10·ε; it runs at the floor.
     let m = Dop853::new(Dop853::MIN_RTOL, Dop853::MIN_RTOL).compensated();
@@ -76,37 +99,110 @@ fn double_pendulum() {
     let sys = System::from_lagrangian(l, &["θ1", "θ2"])
         .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
         .expect("valid L");
-    let ode = sys.compile_taylor().expect("compiles");
+    let ode = sys.compile_taylor().expect("compiles").with_native(true);
     let rhs = sys.compile_rhs().expect("compiles");
     let err = |y: &[f64]| (0..4).map(|i| (y[i] - DoublePendulum::REFERENCE_T10[i]).abs()).fold(0.0, f64::max);
-    println!("| tol | Taylor time | Taylor error | Taylor steps | DOP853 (compensated) time | DOP853 error |");
-    println!("|---|---|---|---|---|---|");
+    let interp = ode.clone().with_native(false);
+    println!(
+        "| tol | Taylor time | Taylor error | Taylor steps | interpreted Taylor time | DOP853 (compensated) time | DOP853 error |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 1e-15, 1e-16] {
-        let run_t = |m: &Taylor| m.integrate_with(&ode, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+        let run_t = |m: &Taylor, o: &TaylorOde| {
+            m.integrate_with(o, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only())
+        };
         let tm = Taylor::new(tol).compensated();
-        let (tt, tr) = best(5, || run_t(&tm).expect("integrates"));
+        // Compiled before timing (a run this short would otherwise pay for it in its first
+        // repeat); the compile time is printed.
+        let t0 = Instant::now();
+        let native = ode.native_for(tm.taylor_order()).is_some();
+        let compile = t0.elapsed().as_secs_f64();
+        let (tt, tr) = best(5, || run_t(&tm, &ode).expect("integrates"));
+        let (ti, _) = best(5, || run_t(&tm, &interp).expect("integrates"));
         let dtol = tol.max(Dop853::MIN_RTOL);
         let dm = Dop853::new(dtol, dtol).compensated();
         let (td, dr) = best(5, || {
             dm.integrate_with(&rhs, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only()).expect("integrates")
         });
         println!(
-            "| {tol:.0e} | {:.3} ms | {:.1e} | {} | {:.3} ms | {:.1e} |",
+            "| {tol:.0e} | {:.3} ms{} | {:.1e} | {} | {:.3} ms | {:.3} ms | {:.1e} |",
             tt * 1e3,
+            if native { format!(" (native, {:.1} ms to compile)", compile * 1e3) } else { " (interpreted)".into() },
             err(tr.last_state()),
             tr.stats.steps,
+            ti * 1e3,
             td * 1e3,
             err(dr.last_state())
         );
     }
 }
 
+/// Where one step's time goes: the whole step (from a run), the expansion alone (the
+/// recurrences, order 0 and the glue), and order 0 alone (an order-1 expansion), for the
+/// native and the interpreted recurrences. The rest of a step is the Jorba–Zou step size,
+/// the Horner sums of the update and the solver's bookkeeping.
+fn profile_one(name: &str, ode: &TaylorOde, y: &[f64], p: usize, step_ns: &dyn Fn(&TaylorOde) -> f64) {
+    let interp = ode.clone().with_native(false);
+    let ode = &ode.clone().with_native(true);
+    let native = ode.native_for(p).is_some();
+    let per_call = |o: &TaylorOde, order: usize| {
+        let mut scratch = vec![0.0; o.scratch_len(order)];
+        let mut coeffs = vec![0.0; o.dim() * (order + 1)];
+        let reps = 20_000;
+        let (t, _) = best(3, || {
+            for _ in 0..reps {
+                o.expand(0.0, std::hint::black_box(y), order, &mut scratch, &mut coeffs).expect("expands");
+            }
+        });
+        t / reps as f64 * 1e9
+    };
+    let (sn, si) = (step_ns(ode), step_ns(&interp));
+    let (en, ei) = (per_call(ode, p), per_call(&interp, p));
+    let o0 = per_call(&interp, 1);
+    println!(
+        "| {name}, order {p} | {sn:.0} ns | {en:.0} ns ({:.0} %) | {:.0} ns | {si:.0} ns | {ei:.0} ns ({:.0} %) | {o0:.0} ns |{}",
+        100.0 * en / sn,
+        sn - en,
+        100.0 * ei / si,
+        if native { "" } else { " (no native code)" }
+    );
+}
+
+fn step_profile() {
+    println!("## Where a Taylor step goes (ns per step; expansion = all coefficients of one step)");
+    println!("| system | native: step | native: expansion (share) | native: rest of the step | interpreted: step | interpreted: expansion (share) | order 0 + glue |");
+    println!("|---|---|---|---|---|---|---|");
+    let sys = System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).expect("valid H");
+    let ode = sys.compile_taylor().expect("compiles");
+    let m = Taylor::new(1e-15);
+    let kepler_step = |o: &TaylorOde| {
+        let (t, (_, steps)) = best(3, || kepler_orbits(&m, o));
+        t / steps as f64 * 1e9
+    };
+    profile_one("Kepler e = 0.9, tol 1e-15", &ode, &Kepler::pericentre(0.9), m.taylor_order(), &kepler_step);
+    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
+        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
+        .expect("valid L");
+    let ode = sys.compile_taylor().expect("compiles");
+    let m = Taylor::new(1e-12).compensated();
+    let dp_step = |o: &TaylorOde| {
+        let run = || m.integrate_with(o, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+        let (t, r) = best(20, || run().expect("integrates"));
+        t / r.stats.steps as f64 * 1e9
+    };
+    profile_one("double pendulum, tol 1e-12", &ode, &DoublePendulum::Y0, m.taylor_order(), &dp_step);
+}
+
 fn cold_start() {
-    println!("## Cold start: text → W, F → Taylor tape → trajectory to t = 1 (tol 1e-12), n-link pendulum");
-    println!("| n | derive + compile | integrate | total | Taylor rows | steps |");
-    println!("|---|---|---|---|---|---|");
+    println!("## Cold start: text → W, F → Taylor tape → trajectory to t = 1 (tol 1e-12), n-link pendulum, CPU time");
+    println!(
+        "| n | text → Taylor form | of which W, F (timed again separately) | integrate | total | Taylor rows | steps |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for n in [2, 10, 20] {
-        let t0 = Instant::now();
+        let (w0, t0) = (Instant::now(), cpu_now());
         let (l, coords, positive) = n_link::n_link(n);
         let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
         let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
@@ -116,16 +212,19 @@ fn cold_start() {
         let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let sys = System::from_lagrangian_with(&l, &coords, &d).and_then(|s| s.with_params(&refs)).expect("valid");
         let ode: TaylorOde = sys.compile_taylor().expect("compiles");
-        let t1 = Instant::now();
+        let t1 = cpu_now();
         let mut y0 = vec![0.0; 2 * n];
         y0[..n].iter_mut().enumerate().for_each(|(i, q)| *q = 0.5 + 0.1 * i as f64);
         let tr = Taylor::new(1e-12).integrate_with(&ode, 0.0..1.0, &y0, Options::new().final_only()).expect("runs");
-        let t2 = Instant::now();
+        let (t2, w2) = (cpu_now(), Instant::now());
+        let (wf, _) = best(1, || sys.mass_matrix_split().expect("derives"));
         println!(
-            "| {n} | {:.1} ms | {:.1} ms | {:.1} ms | {} | {} |",
-            (t1 - t0).as_secs_f64() * 1e3,
-            (t2 - t1).as_secs_f64() * 1e3,
-            (t2 - t0).as_secs_f64() * 1e3,
+            "| {n} | {:.1} ms | {:.1} ms | {:.1} ms | {:.1} ms ({:.1} ms wall) | {} | {} |",
+            (t1 - t0) * 1e3,
+            wf * 1e3,
+            (t2 - t1) * 1e3,
+            (t2 - t0) * 1e3,
+            (w2 - w0).as_secs_f64() * 1e3,
             ode.taylor_tape().n_rows(),
             tr.stats.steps
         );
@@ -178,6 +277,9 @@ fn main() {
     }
     if want("double-pendulum") {
         double_pendulum();
+    }
+    if want("step-profile") {
+        step_profile();
     }
     if want("cold-start") {
         cold_start();

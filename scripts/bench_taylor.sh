@@ -3,7 +3,8 @@
 # heyoka is installed with pip into a throwaway virtual environment (default
 # /tmp/lagrangian-heyoka-venv); if that fails, only our side runs and a note says so.
 #   scripts/bench_taylor.sh                 # every section
-#   scripts/bench_taylor.sh kepler          # one of: kepler, double-pendulum, cold-start, chaos-map
+#   scripts/bench_taylor.sh kepler          # one of: kepler, double-pendulum, step-profile, cold-start, chaos-map
+#   HEYOKA_COLD_MAX_N=2 scripts/bench_taylor.sh cold-start   # skip heyoka's 10-link compile (minutes)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 VENV="${HEYOKA_VENV:-/tmp/lagrangian-heyoka-venv}"

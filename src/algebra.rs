@@ -33,7 +33,7 @@ use num_rational::Rational64;
 use num_traits::{CheckedAdd, CheckedMul, One, Signed, ToPrimitive, Zero};
 use thiserror::Error;
 
-use crate::expr::{Expr, Func, Node, Rational, MAX_FOLD_BITS};
+use crate::expr::{rat_add, rat_mul, Expr, Func, Node, Rational, MAX_FOLD_BITS};
 
 /// The default largest number of terms [`expand`] produces (or multiplies through).
 pub const MAX_EXPAND_TERMS: usize = 20_000;
@@ -455,6 +455,12 @@ fn univariate_gcd(a: &SparsePoly, b: &SparsePoly, var: u32) -> Option<SparsePoly
     // with huge coefficients: (x^100 − 1) mod (10^308 x − 1) forms 10^30800 (found by
     // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
     let max_bits = 4 * (a.coefficient_bits() + b.coefficient_bits()) + 64 * (degree(a) + degree(b)) as u64 + 256;
+    // And a budget for the arithmetic, as in `SparsePoly::div_exact` (b²/64 word operations per
+    // gcd-normalised product of b-bit numbers): under the bit guard, (x^100 − 10^-3201) mod
+    // (10^308 x − 1) still ran fifty steps of 50,000-bit gcds, 1.3 s per `simplify` (found by
+    // the 10⁶ fuzz run).
+    const MAX_WORK: u128 = 20_000_000;
+    let mut work: u128 = 0;
     for _ in 0..10_000 {
         if x.iter().chain(&y).any(|c| rational_bits(c) > max_bits) {
             return None;
@@ -478,11 +484,17 @@ fn univariate_gcd(a: &SparsePoly, b: &SparsePoly, var: u32) -> Option<SparsePoly
         while x.len() >= y.len() && !is_zero(&x) {
             let shift = x.len() - y.len();
             let q = x.last()?.clone() / &ly;
-            if rational_bits(&q) > max_bits {
+            let q_bits = rational_bits(&q);
+            if q_bits > max_bits {
+                return None;
+            }
+            let b = u128::from(q_bits + y.iter().map(rational_bits).max().unwrap_or(0));
+            work += (y.len() as u128 + 1) * b * b / 64;
+            if work > MAX_WORK {
                 return None;
             }
             for (i, c) in y.iter().enumerate() {
-                x[i + shift] -= c * &q;
+                x[i + shift] = rat_add(&x[i + shift], &-rat_mul(c, &q));
             }
             x.pop();
             trim(&mut x);
@@ -663,10 +675,14 @@ fn factor_sum(ts: &[Expr]) -> Option<Expr> {
 /// `a (x + y) + z`, recursively on both parts. A factor is a base with a positive numeric
 /// exponent, pulled out to its smallest power among the terms that have it. This is how an
 /// expanded Lagrangian or Hamiltonian gets its compact, cheap-to-evaluate shape back.
+///
+/// Each sum has a work budget ([`COLLECT_WORK`]); a sum whose collection would exceed it is
+/// left (from that point) uncollected, which is still an equal form.
 pub fn collect_common(e: &Expr) -> Expr {
     e.map_bottom_up(&mut |x| match x.node() {
         Node::Add(ts) => {
-            let out = collect_terms(ts.clone(), 0);
+            let mut work = 0;
+            let out = collect_terms(ts.clone(), 0, &mut work);
             (out != *x).then_some(out)
         }
         _ => None,
@@ -688,8 +704,34 @@ fn positive_powers(t: &Expr) -> Vec<(Expr, Rational)> {
         .collect()
 }
 
-fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
+/// The work [`collect_common`] may spend on one sum, in squared machine words of exact number
+/// per term visited: a term with small numbers costs 1 at each level of the greedy recursion,
+/// so a 2,000-term sum collected 64 levels deep costs about 1.3·10⁵. Dividing a term by the
+/// pulled factor reduces rationals by gcd, whose cost grows with the square of their size, so
+/// terms with 60,000-bit coefficients (within [`crate::expr::MAX_FOLD_BITS`]) cost about 10⁶
+/// each: the 10⁶ fuzz run stalled for seconds at a time in that gcd, eight levels deep.
+pub const COLLECT_WORK: u64 = 1 << 21;
+
+/// Machine words of exact number in a term: its coefficient, surds and numeric exponents.
+fn term_words(t: &Expr) -> u64 {
+    let exponent_bits: u64 = t
+        .factors()
+        .iter()
+        .filter_map(|f| match f.node() {
+            Node::Pow(_, x) => x.as_num().map(rational_bits),
+            _ => None,
+        })
+        .fold(0, u64::saturating_add);
+    1 + numeric_bits(t).saturating_add(exponent_bits) / 64
+}
+
+fn collect_terms(terms: Vec<Expr>, depth: usize, work: &mut u64) -> Expr {
     if terms.len() < 2 || depth > 64 {
+        return Expr::add(terms);
+    }
+    let level: u64 = terms.iter().map(|t| term_words(t).saturating_pow(2)).fold(0, u64::saturating_add);
+    *work = work.saturating_add(level);
+    if *work > COLLECT_WORK {
         return Expr::add(terms);
     }
     // (base, number of terms, smallest exponent), in order of first appearance.
@@ -721,9 +763,9 @@ fn collect_terms(terms: Vec<Expr>, depth: usize) -> Expr {
     let (with, without): (Vec<Expr>, Vec<Expr>) =
         terms.into_iter().partition(|t| positive_powers(t).iter().any(|(b, _)| *b == base));
     let inner: Vec<Expr> = with.iter().map(|t| t.over(&factor)).collect();
-    let inner = collect_terms(inner, depth + 1);
+    let inner = collect_terms(inner, depth + 1, work);
     let pulled = Expr::mul([factor, inner]);
-    let mut rest = collect_terms(without, depth + 1).terms();
+    let mut rest = collect_terms(without, depth + 1, work).terms();
     rest.push(pulled);
     Expr::add(rest)
 }
@@ -1357,8 +1399,11 @@ impl SparsePoly {
     /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
     /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
     pub(crate) fn div_exact(&self, d: &SparsePoly, steps: usize) -> Option<SparsePoly> {
-        /// About 0.2 s of gcd work; exact divisions met in practice use well under 1% of it.
-        const MAX_WORK: u128 = 200_000_000;
+        /// About 0.02–0.05 s of gcd work; exact divisions met in practice use well under 10%
+        /// of it. (It was 10× more until the 10⁶ fuzz run, under load, met divisions that spent
+        /// the whole budget several times in one `simplify`: 1.4 s CPU for
+        /// `(x^100 − 10^-3201)/(10^308 x − 1)`.)
+        const MAX_WORK: u128 = 20_000_000;
         let (ld, lc) = d.lead()?;
         let max_bits = self.coefficient_bits_bound(d);
         let d_bits = u128::from(d.coefficient_bits());
@@ -1774,6 +1819,26 @@ mod tests {
         let c = collect_common(&e);
         assert!(c.op_count() * 4 < e.op_count() * 3, "{} vs {}: {c}", c.op_count(), e.op_count());
         same_value(&e, &c);
+    }
+
+    /// The work budget: twenty terms `c_i a b_i` with 58,000-bit coefficients would cost about
+    /// 20 · 900² squared words at the first level alone, past `COLLECT_WORK`, so the sum is
+    /// left as it is; the same sum with small coefficients has `a` pulled out (by hand).
+    #[test]
+    fn collect_common_leaves_a_sum_of_huge_coefficients_uncollected() {
+        let big = BigInt::from(3).pow(37_000u32);
+        let sum = |c: &dyn Fn(i64) -> BigInt| {
+            Expr::add(
+                (1..=20)
+                    .map(|i| Expr::mul([Expr::num(Rational::from_integer(c(i))), p("a"), Expr::var(&format!("b{i}"))])),
+            )
+        };
+        let huge = sum(&|i| &big + i);
+        assert!(term_words(&huge.terms()[0]).pow(2) * 20 > COLLECT_WORK);
+        assert_eq!(collect_common(&huge), huge);
+        let small = sum(&BigInt::from);
+        let goal = p(&(1..=20).map(|i| format!("{i} b{i}")).collect::<Vec<_>>().join(" + ")).times(&p("a"));
+        assert_eq!(collect_common(&small), goal);
     }
 
     #[test]

@@ -22,8 +22,9 @@
 //! with the GIL held); it stops the library's integrators through the same
 //! [`crate::integrate::Options`] path.
 
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// A cancellation flag shared between the work and whoever may stop it. Cloning shares it.
 #[derive(Clone, Debug, Default)]
@@ -105,9 +106,24 @@ pub enum SecondPress {
     /// Nothing more: the REPL waits for the work to reach a check.
     Ignore,
     /// Exit at once with status 130 (`lagrangian run`: the user insists; some stage between
-    /// checks is taking too long). Staged output files carry a `.partial` name, so an
-    /// abandoned one is never mistaken for a finished output.
+    /// checks is taking too long), after removing the files registered with
+    /// [`remove_at_exit`] (the staged outputs), so even then no partial file is left.
     Exit,
+}
+
+/// Temporary files to delete if a second Ctrl-C ends the process before the work returns.
+static DOOMED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Registers `path` (a staged output) for removal if the process is ended by a second Ctrl-C.
+pub fn remove_at_exit(path: &Path) {
+    let mut v = DOOMED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    v.push(path.to_path_buf());
+}
+
+/// Withdraws `path` from [`remove_at_exit`] (it was moved into place or removed).
+pub fn keep_at_exit(path: &Path) {
+    let mut v = DOOMED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    v.retain(|p| p != path);
 }
 
 /// Connects SIGINT (Ctrl-C) to the process-wide token, once per process (later calls return
@@ -123,6 +139,12 @@ pub fn install_ctrlc(second: SecondPress) -> Result<(), String> {
                 flag.store(true, Ordering::Relaxed);
                 let n = PRESSES.fetch_add(1, Ordering::Relaxed) + 1;
                 if n >= 2 && second == SecondPress::Exit {
+                    // The handler runs on ctrlc's own thread, not in signal context, so it
+                    // may lock and remove files.
+                    let v = DOOMED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    for p in v.iter() {
+                        let _ = std::fs::remove_file(p);
+                    }
                     std::process::exit(130);
                 }
             })

@@ -127,6 +127,17 @@ pub fn indicators(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result
     })
 }
 
+impl Indicators {
+    /// The number a chaos map shows for this orbit.
+    pub fn value(&self, which: Indicator) -> f64 {
+        match which {
+            Indicator::Lyapunov => self.lyapunov[0],
+            Indicator::Fli => self.fli,
+            Indicator::Megno => self.megno,
+        }
+    }
+}
+
 /// Which number a chaos map shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Indicator {
@@ -141,17 +152,7 @@ pub enum Indicator {
 /// An indicator over many initial conditions, in parallel (rayon). A start whose
 /// integration fails (escapes to infinity, hits a singularity) gets NaN.
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
-    starts
-        .par_iter()
-        .map(|x0| match indicators(sys, x0, t_end, tol) {
-            Ok(r) => match which {
-                Indicator::Lyapunov => r.lyapunov[0],
-                Indicator::Fli => r.fli,
-                Indicator::Megno => r.megno,
-            },
-            Err(_) => f64::NAN,
-        })
-        .collect()
+    starts.par_iter().map(|x0| indicators(sys, x0, t_end, tol).map_or(f64::NAN, |r| r.value(which))).collect()
 }
 
 /// The state transition matrix `Φ(t_end)` (row-major, `n × n`) and the state at `t_end`, by

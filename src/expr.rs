@@ -414,6 +414,37 @@ fn small_nums() -> &'static [Expr] {
     })
 }
 
+/// `a · b`. `Ratio`'s own product reduces by two gcds even when a side is 1 or both are
+/// integers, and num-bigint's gcd (Stein's) costs bits × words even against 1: multiplying a
+/// 60,000-bit coefficient by 1 took ~20 ms, and collecting a sum's terms does that for every
+/// term at every level (the 10⁶ fuzz run stalled there). These cases need no gcd.
+pub(crate) fn rat_mul(a: &Rational, b: &Rational) -> Rational {
+    if a.is_one() {
+        return b.clone();
+    }
+    if b.is_one() {
+        return a.clone();
+    }
+    if a.is_integer() && b.is_integer() {
+        return Rational::from_integer(a.numer() * b.numer());
+    }
+    a * b
+}
+
+/// `a + b`, without `Ratio`'s gcd when a side is 0 or both are integers (see [`rat_mul`]).
+pub(crate) fn rat_add(a: &Rational, b: &Rational) -> Rational {
+    if a.is_zero() {
+        return b.clone();
+    }
+    if b.is_zero() {
+        return a.clone();
+    }
+    if a.is_integer() && b.is_integer() {
+        return Rational::from_integer(a.numer() + b.numer());
+    }
+    a + b
+}
+
 /// Integer part and sign helpers on rationals.
 fn is_integer(r: &Rational) -> bool {
     r.is_integer()
@@ -577,7 +608,7 @@ impl Expr {
         let mut constant = Rational::zero();
         let mut collected: Vec<(Expr, Rational)> = Vec::new();
         let push = |t: &Expr, constant: &mut Rational, collected: &mut Vec<(Expr, Rational)>| match t.node() {
-            Node::Num(r) => *constant += r,
+            Node::Num(r) => *constant = rat_add(constant, r),
             _ => {
                 let (c, rest) = t.coeff_rest();
                 collected.push((rest, c));
@@ -603,7 +634,7 @@ impl Expr {
         while let Some((rest, mut c)) = iter.next() {
             while let Some((next, c2)) = iter.peek() {
                 if *next == rest {
-                    c += c2;
+                    c = rat_add(&c, c2);
                     iter.next();
                 } else {
                     break;
@@ -676,7 +707,7 @@ impl Expr {
         let mut coeff = Rational::one();
         let mut collected: Vec<(Expr, Expr)> = Vec::new();
         let push = |f: &Expr, coeff: &mut Rational, collected: &mut Vec<(Expr, Expr)>| match f.node() {
-            Node::Num(r) => *coeff *= r,
+            Node::Num(r) => *coeff = rat_mul(coeff, r),
             _ => collected.push(f.base_exp()),
         };
         for f in factors {
@@ -710,13 +741,13 @@ impl Expr {
             let exp = if exps.len() == 1 { exps.pop().unwrap_or_else(Expr::one) } else { Expr::add(exps) };
             let factor = Expr::pow(base, exp);
             match factor.node() {
-                Node::Num(r) => extra_coeff *= r,
+                Node::Num(r) => extra_coeff = rat_mul(&extra_coeff, r),
                 Node::Undefined => return Expr::undefined(),
                 Node::Mul(fs) => {
                     // A power that split (e.g. 2^(3/2) = 2·2^(1/2)): fold its pieces in.
                     for f in fs {
                         match f.node() {
-                            Node::Num(r) => extra_coeff *= r,
+                            Node::Num(r) => extra_coeff = rat_mul(&extra_coeff, r),
                             _ => out.push(f.clone()),
                         }
                     }
@@ -724,7 +755,7 @@ impl Expr {
                 _ => out.push(factor),
             }
         }
-        coeff *= extra_coeff;
+        coeff = rat_mul(&coeff, &extra_coeff);
         if coeff.is_zero() {
             return Expr::zero();
         }

@@ -15,6 +15,12 @@
 //! font is embedded (`assets/fonts/`, Bitstream Vera licence, which allows redistribution
 //! with its notice, in `assets/fonts/LICENSE-DejaVu.txt`), so output does not depend on the
 //! fonts of the machine.
+//!
+//! Drawing stops at Ctrl-C (the process-wide [`crate::cancel`] token): every series, contour
+//! level and frame of points is drawn through an iterator that ends once the token is set,
+//! and [`draw`] then fails with "interrupted" before the file is finished, so the caller
+//! (the scene session, which staged the file) removes it. A check is one relaxed atomic
+//! load per point, nothing beside plotters' own work per point.
 
 use std::path::Path;
 use std::sync::Once;
@@ -710,7 +716,7 @@ fn chain_segments(segs: Vec<((f64, f64), (f64, f64))>) -> Vec<Vec<(f64, f64)>> {
 /// is kept when it moves to another cell of a grid `cell` wide (in data units, about a pixel),
 /// and stretches that only retrace cells this path has already drawn are cut out, so an orbit
 /// that goes round the same curve a hundred times is drawn about once. The result is the
-/// pieces to draw as polylines, in order.
+/// pieces to draw as polylines, in order (cut short at Ctrl-C, when nothing is drawn).
 pub fn decimate(points: &[(f64, f64)], cell: (f64, f64)) -> Vec<Vec<(f64, f64)>> {
     use std::collections::HashSet;
     let (cx, cy) = (cell.0.max(f64::MIN_POSITIVE), cell.1.max(f64::MIN_POSITIVE));
@@ -720,7 +726,8 @@ pub fn decimate(points: &[(f64, f64)], cell: (f64, f64)) -> Vec<Vec<(f64, f64)>>
     let mut current: Vec<(f64, f64)> = Vec::new();
     let mut last_cell = None;
     let mut prev: Option<(f64, f64)> = None;
-    for &p in points {
+    // At Ctrl-C the pass ends early (its caller stops drawing at the same check).
+    for &p in points.iter().take_while(go_on) {
         if !(p.0.is_finite() && p.1.is_finite()) {
             if current.len() > 1 {
                 pieces.push(std::mem::take(&mut current));
@@ -794,19 +801,32 @@ fn split_at_seam(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-/// Draws `fig` into `path` (SVG or PNG by extension).
+/// Draws `fig` into `path` (SVG or PNG by extension). Fails with "interrupted" at Ctrl-C,
+/// leaving whatever the back end wrote at `path` for the caller to remove.
 pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
     ensure_font();
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext == "png" {
         let root = BitMapBackend::new(path, SIZE).into_drawing_area();
         render(fig, &root)?;
+        stop_if_interrupted()?;
         root.present().map_err(|e| e.to_string())
     } else {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         render(fig, &root)?;
+        stop_if_interrupted()?;
         root.present().map_err(|e| e.to_string())
     }
+}
+
+/// `Err("interrupted")` once Ctrl-C was pressed.
+pub(crate) fn stop_if_interrupted() -> Result<(), String> {
+    crate::cancel::check().map_err(|e| e.to_string())
+}
+
+/// Whether drawing may go on: the condition of the `take_while` on every drawn sequence.
+pub(crate) fn go_on<T>(_: &T) -> bool {
+    !crate::cancel::interrupted()
 }
 
 /// Draws `fig` as [`Figure::describe`] lays it out: the title in a strip above the chart,
@@ -850,12 +870,15 @@ where
                 let color = Palette99::pick(i).to_rgba();
                 let pts: Vec<(f64, f64)> =
                     s.points.iter().copied().filter(|(x, y)| *y > 0.0 && y.is_finite() && x.is_finite()).collect();
-                let drawn = chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?;
+                let drawn = chart
+                    .draw_series(LineSeries::new(pts.into_iter().take_while(go_on), color.stroke_width(2)))
+                    .map_err(err)?;
                 if d.legend.is_some() {
                     drawn
                         .label(s.label.clone())
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
                 }
+                stop_if_interrupted()?;
             }
             draw_legend(&mut chart, &d).map_err(err)
         }
@@ -883,13 +906,18 @@ where
                     .copied()
                     .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
                     .collect();
-                chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled()))).map_err(err)?;
-                let drawn = chart.draw_series(LineSeries::new(pts, color.stroke_width(2))).map_err(err)?;
+                chart
+                    .draw_series(pts.iter().take_while(go_on).map(|p| Circle::new(*p, 4, color.filled())))
+                    .map_err(err)?;
+                let drawn = chart
+                    .draw_series(LineSeries::new(pts.into_iter().take_while(go_on), color.stroke_width(2)))
+                    .map_err(err)?;
                 if d.legend.is_some() {
                     drawn
                         .label(s.label.clone())
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
                 }
+                stop_if_interrupted()?;
             }
             draw_legend(&mut chart, &d).map_err(err)
         }
@@ -898,18 +926,22 @@ where
             chart.configure_mesh().x_desc(&d.xlabel).y_desc(&d.ylabel).label_style((FAMILY, 15)).draw().map_err(err)?;
             if let Style::Phase(Some(c)) = &fig.style {
                 draw_contours(&mut chart, fig, c, (x0, x1, y0, y1), d.legend.is_some()).map_err(err)?;
+                stop_if_interrupted()?;
             }
             let scatter = matches!(fig.style, Style::Scatter);
             let pieces = fig.drawn_pieces((x0, x1, y0, y1));
+            stop_if_interrupted()?;
             for (i, (s, lines)) in fig.series.iter().zip(pieces).enumerate() {
                 let color = Palette99::pick(i + 1).to_rgba();
                 let drawn = if scatter {
-                    let pts = lines.into_iter().flatten();
+                    let pts = lines.into_iter().flatten().take_while(go_on);
                     chart.draw_series(pts.map(|p| Circle::new(p, 2, color.filled()))).map_err(err)?
                 } else {
                     // One polyline per piece (a single element when nothing was cut).
                     chart
-                        .draw_series(lines.into_iter().map(|l| PathElement::new(l, color.stroke_width(2))))
+                        .draw_series(
+                            lines.into_iter().take_while(go_on).map(|l| PathElement::new(l, color.stroke_width(2))),
+                        )
                         .map_err(err)?
                 };
                 if d.legend.is_some() {
@@ -917,6 +949,7 @@ where
                         .label(s.label.clone())
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
                 }
+                stop_if_interrupted()?;
             }
             draw_legend(&mut chart, &d).map_err(err)
         }
@@ -967,7 +1000,7 @@ fn draw_contours<'a, DB: DrawingBackend + 'a>(
     }
     let grey = RGBColor(150, 150, 170);
     let levels = 14;
-    for k in 1..levels {
+    for k in (1..levels).take_while(go_on) {
         let level = lo + (hi - lo) * k as f64 / levels as f64;
         let lines = chain_segments(contour_segments(&values, &xs, &ys, level));
         chart.draw_series(lines.into_iter().map(|l| PathElement::new(l, grey.stroke_width(1))))?;
@@ -1039,12 +1072,13 @@ where
     let (dx, dy) = ((x1 - x0) / n as f64, (y1 - y0) / n as f64);
     let grey = RGBColor(190, 190, 190);
     chart
-        .draw_series(h.values.iter().enumerate().map(|(k, &v)| {
+        .draw_series(h.values.iter().enumerate().take_while(go_on).map(|(k, &v)| {
             let (i, j) = ((k % n) as f64, (k / n) as f64);
             let color = if v.is_finite() { viridis((v - lo) / (hi - lo)) } else { grey };
             Rectangle::new([(x0 + i * dx, y0 + j * dy), (x0 + (i + 1.0) * dx, y0 + (j + 1.0) * dy)], color.filled())
         }))
         .map_err(err)?;
+    stop_if_interrupted()?;
     // The colour scale as a legend of five levels.
     for k in 0..5 {
         let s = k as f64 / 4.0;

@@ -23,6 +23,11 @@
 //!
 //! Every result is checked by evaluation at a few fixed pseudo-random points against the
 //! input; a disagreement (which would be a bug) falls back to the input.
+//!
+//! A sum of more than 64 terms is first split into parts whose terms share nothing with other
+//! parts (no symbol, application or compound subexpression), and the parts are simplified
+//! one by one: nothing above can join terms that share nothing, and whole-sum tools on a sum
+//! of N unrelated terms cost about N^1.5.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -148,6 +153,9 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     if matches!(e.node(), Node::Num(_) | Node::Sym(_) | Node::Undefined) {
         return Simplified { expr: e.clone(), stop: StopReason::Saturated };
     }
+    if let Some(parts) = independent_parts(e) {
+        return simplify_parts(parts, budget);
+    }
     let mut timed_out = false;
     // Arguments of declared functions are opaque to the e-graph; simplify them first.
     let e = e.map_bottom_up(&mut |x| match x.node() {
@@ -189,6 +197,142 @@ pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
     Simplified { expr: best, stop }
 }
 
+/// Sums with more terms than this are split into independent parts before anything else
+/// looks at them (see [`independent_parts`]); up to this width a sum is simplified whole.
+const WIDE: usize = 64;
+
+/// The terms of a wide sum, split into parts that no candidate tool or rule can join, each
+/// part small, or `None` when `e` is not a sum wider than [`WIDE`] or its terms are all
+/// connected.
+///
+/// Why: every candidate tool and the e-graph look at a whole sum, and their cost on a sum of
+/// N unrelated terms grew as N^1.5 (BENCHMARKS.md, "Large inputs"). Two terms can only
+/// combine (a Pythagorean pair, a common factor, an angle sum, a rule's two-term pattern) if
+/// they share a node other than a number: a symbol, a declared function's application, or a
+/// compound such as `sqrt(2)`. So the terms are grouped by shared nodes (union–find, linear in
+/// the size of the sum); terms with no symbol or application at all (numbers, `sin(1)`) form
+/// one group, since constants can combine with each other.
+/// Groups are then packed, in order of their first term, into parts of about [`WIDE`] terms
+/// (a group wider than that is one part of its own), and each part is simplified as a sum:
+/// the cost is linear in the number of parts, each bounded by the budget.
+fn independent_parts(e: &Expr) -> Option<Vec<Expr>> {
+    let Node::Add(ts) = e.node() else { return None };
+    if ts.len() <= WIDE {
+        return None;
+    }
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut parent: Vec<usize> = (0..ts.len()).collect();
+    let mut owner: HashMap<Expr, usize> = HashMap::new();
+    // The first constant term (no symbol or application); later ones join it.
+    let mut constant: Option<usize> = None;
+    for (i, t) in ts.iter().enumerate() {
+        let mut atoms: Vec<Expr> = Vec::new();
+        let mut seen: std::collections::HashSet<Expr> = std::collections::HashSet::new();
+        let mut stack = vec![t.clone()];
+        let mut constant_term = true;
+        while let Some(x) = stack.pop() {
+            if !seen.insert(x.clone()) {
+                continue;
+            }
+            match x.node() {
+                Node::Num(_) => {}
+                Node::Sym(_) | Node::Apply { .. } | Node::Undefined => {
+                    constant_term = false;
+                    atoms.push(x.clone());
+                }
+                _ => {
+                    // A compound node is a key too: `sqrt(2) x + sqrt(2) y` shares no symbol,
+                    // but `factor_content` pulls out `sqrt(2)`.
+                    atoms.push(x.clone());
+                    x.for_each_child(|c| stack.push(c.clone()));
+                }
+            }
+        }
+        if constant_term {
+            match constant {
+                Some(j) => {
+                    let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                    parent[a] = b;
+                }
+                None => constant = Some(i),
+            }
+        }
+        for a in atoms {
+            match owner.get(&a) {
+                Some(&j) => {
+                    let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                    parent[a] = b;
+                }
+                None => {
+                    owner.insert(a, i);
+                }
+            }
+        }
+    }
+    // Groups in order of their first term; terms keep their order within a group.
+    let mut group_of: HashMap<usize, usize> = HashMap::new();
+    let mut groups: Vec<Vec<Expr>> = Vec::new();
+    for (i, t) in ts.iter().enumerate() {
+        let r = root(&mut parent, i);
+        let g = *group_of.entry(r).or_insert_with(|| {
+            groups.push(Vec::new());
+            groups.len() - 1
+        });
+        groups[g].push(t.clone());
+    }
+    if groups.len() < 2 {
+        return None;
+    }
+    let mut parts: Vec<Expr> = Vec::new();
+    let mut part: Vec<Expr> = Vec::new();
+    for g in groups {
+        if !part.is_empty() && part.len() + g.len() > WIDE {
+            parts.push(Expr::add(std::mem::take(&mut part)));
+        }
+        part.extend(g);
+    }
+    if !part.is_empty() {
+        parts.push(Expr::add(part));
+    }
+    Some(parts)
+}
+
+/// Simplifies the independent parts of a wide sum one by one and adds the results. Each part
+/// is checked against itself as any simplification is, so the sum is equal to the input.
+/// Ctrl-C between parts keeps the parts not yet simplified as they are.
+fn simplify_parts(parts: Vec<Expr>, budget: &Budget) -> Simplified {
+    let mut out = Vec::with_capacity(parts.len());
+    let mut stop = StopReason::Saturated;
+    for part in parts {
+        if stop == StopReason::Interrupted || crate::cancel::interrupted() {
+            stop = StopReason::Interrupted;
+            out.push(part);
+            continue;
+        }
+        let s = simplify_with(&part, budget);
+        // The report is the most telling reason among the parts: an interrupt or the clock
+        // (the result may vary between runs), else a count limit that bound somewhere.
+        let rank = |r: StopReason| match r {
+            StopReason::Saturated => 0,
+            StopReason::IterationLimit => 1,
+            StopReason::NodeLimit => 2,
+            StopReason::TimeLimit => 3,
+            StopReason::Interrupted => 4,
+        };
+        if rank(s.stop) > rank(stop) {
+            stop = s.stop;
+        }
+        out.push(s.expr);
+    }
+    Simplified { expr: Expr::add(out), stop }
+}
+
 /// The extraction cost of a canonical expression: printed operations first; then the number
 /// of negated products of sums (`−a (c − 1)` reads worse than `a (1 − c)`, at the same count);
 /// then size, so that remaining ties go to the smaller form.
@@ -213,12 +357,21 @@ fn cheapest(cands: impl IntoIterator<Item = Expr>) -> Option<Expr> {
 
 /// Candidate forms of `e` from the algebra tools.
 fn candidates(e: &Expr, budget: &Budget) -> Vec<Expr> {
+    let expanded = algebra::expand_with_limit(e, budget.expand_terms);
+    // An expansion to a number is the cheapest form there is (nothing costs less than a
+    // number, and a different number would fail the value check), so the other tools are
+    // not run on the input (`(x+1)^400 −` its expansion: 402 terms with 400-bit coefficients).
+    if let Ok(x) = &expanded {
+        if x.as_num().is_some() {
+            return vec![e.clone(), x.clone()];
+        }
+    }
     let mut out = vec![e.clone(), algebra::trig_normalize(e)];
     let local = local_best(e, budget);
     out.push(local.clone());
     out.push(algebra::factor_content(&local));
     out.push(algebra::collect_common(&local));
-    if let Ok(x) = algebra::expand_with_limit(e, budget.expand_terms) {
+    if let Ok(x) = expanded {
         let t = algebra::trig_normalize(&x);
         out.push(algebra::factor_content(&t));
         out.push(algebra::collect_common(&t));

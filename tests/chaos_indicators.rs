@@ -3,7 +3,7 @@
 
 use lagrangian::chaos::{chaos_map, floquet, indicators, transition_matrix, Indicator};
 use lagrangian::compile::{TaylorOde, Variational};
-use lagrangian::integrate::{Dop853, Integrate, Options, Taylor};
+use lagrangian::integrate::{Dop853, Gauss6, Integrate, Options, Taylor};
 use lagrangian::parse;
 
 const HH: &str = "1/2 (p_x^2 + p_y^2) + 1/2 (x^2 + y^2) + x^2 y - y^3/3";
@@ -231,4 +231,62 @@ fn mathieu_first_instability_tongue_matches_the_series_boundaries() {
     // The next series terms are O(q⁶) ≈ 1e-6 here.
     assert!((fa - a1).abs() < 1e-5, "a1: {fa} vs series {a1}");
     assert!((fb - b1).abs() < 1e-5, "b1: {fb} vs series {b1}");
+}
+
+#[test]
+fn bad_tolerances_kinks_and_singularities_are_typed_errors() {
+    use lagrangian::integrate::FailureReason;
+    let osc = Variational::hamiltonian(&parse("1/2 p^2 + 1/2 x^2").unwrap(), &["x"], &["p"], &[], 1, true).unwrap();
+    // A tolerance that is not positive, not a number, or below what f64 can meet: refused
+    // before the first step.
+    for tol in [0.0, -1e-8, f64::NAN, f64::INFINITY, 1e-25] {
+        let err = indicators(&osc, &[1.0, 0.0], 10.0, tol).unwrap_err();
+        assert!(matches!(err.reason, FailureReason::InvalidInput(_)), "tol {tol}: {err}");
+        assert_eq!(err.steps, 0, "tol {tol}");
+        // The map leaves such a start blank rather than failing the others.
+        assert!(chaos_map(&osc, &[vec![1.0, 0.0]], 10.0, tol, Indicator::Megno)[0].is_nan());
+    }
+    // V = |x|: its force has a kink at x = 0, where no Taylor series exists. Started on the
+    // kink, or crossing it inside a step, the run stops with an error naming it.
+    let vee = Variational::hamiltonian(&parse("1/2 p^2 + abs(x)").unwrap(), &["x"], &["p"], &[], 1, true).unwrap();
+    let err = indicators(&vee, &[0.0, 1.0], 10.0, 1e-12).unwrap_err();
+    assert!(err.to_string().contains("abs"), "{err}");
+    let err = indicators(&vee, &[1.0, 0.0], 10.0, 1e-12).unwrap_err();
+    assert!(err.to_string().contains("kink"), "{err}");
+    assert!(err.t < 1.5, "{err}");
+    // L = x² x'²/2 − x has the mass matrix W = x², singular at x = 0; its H = p²/(2x²) + x
+    // falls into x = 0 from rest at x = 1 (with E = 1, x' = √(2(1 − x))/x blows up there).
+    // The run ends with a typed error before t = 1, in a bounded number of steps.
+    let w = Variational::hamiltonian(&parse("p^2/(2 x^2) + x").unwrap(), &["x"], &["p"], &[], 2, false).unwrap();
+    let err = indicators(&w, &[1.0, 0.0], 5.0, 1e-12).unwrap_err();
+    assert!(
+        matches!(
+            err.reason,
+            FailureReason::StepSizeCollapse { .. } | FailureReason::NonFinite { .. } | FailureReason::Rhs(_)
+        ),
+        "{err}"
+    );
+    assert!(err.t < 1.0 && err.steps < 100_000, "{err}");
+}
+
+#[test]
+fn gauss_tangent_flow_matches_taylor_and_stays_symplectic() {
+    // The variational system is an `Rhs`, so the Gauss methods integrate it too. Gauss–Legendre
+    // collocation is symplectic and commutes with linearisation, so its Φ is symplectic up to
+    // the stage solve, whatever the step; and it converges to the Taylor Φ at order 6.
+    let sys = henon_heiles(4, false);
+    let x0 = hh_start(0.1, 0.1, 0.05);
+    let (want, _) = transition_matrix(&sys, &x0, 5.0, 1e-15).unwrap();
+    let y0 = sys.initial_state(&x0);
+    let mut errors = Vec::new();
+    for h in [0.25, 0.125] {
+        let y = Gauss6::new(h).integrate_with(&sys, 0.0..5.0, &y0, Options::new().final_only()).unwrap();
+        let y = y.last_state();
+        // Column j of Φ is tangent vector j: y[4 + 4 j + i] = Φ[i][j].
+        let phi: Vec<f64> = (0..16).map(|k| y[4 + 4 * (k % 4) + k / 4]).collect();
+        errors.push(phi.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max));
+        assert!((det(&phi, 4) - 1.0).abs() < 1e-11, "h = {h}: det Φ = {}", det(&phi, 4));
+    }
+    // Halving h divides the error by about 2⁶ = 64.
+    assert!(errors[0] < 1e-5 && errors[0] / errors[1] > 40.0, "{errors:?}");
 }

@@ -13,6 +13,7 @@
 //! The default run is small, for CI. The recorded long run (RELIABILITY.md) is
 //! `FUZZ_CASES=1000000 cargo test --test fuzz -- --ignored --nocapture`.
 
+use std::os::unix::thread::JoinHandleExt;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -313,8 +314,29 @@ fn round_trip(input: &str, e: &Expr, decls: &Declarations, stage: &str) -> Resul
     }
 }
 
+/// The CPU time of a thread (its `pthread_t`) so far, in nanoseconds, or `None` if the clock
+/// cannot be read.
+fn thread_cpu_ns(thread: libc::pthread_t) -> Option<u64> {
+    let mut clock: libc::clockid_t = 0;
+    // SAFETY: `thread` is a thread that has not been joined yet (its id stays valid), and both
+    // out-parameters point to valid, writable locals.
+    unsafe {
+        if libc::pthread_getcpuclockid(thread, &mut clock) != 0 {
+            return None;
+        }
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        if libc::clock_gettime(clock, &mut ts) != 0 {
+            return None;
+        }
+        Some(ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
+    }
+}
+
 /// Runs `cases` on a worker thread with the main thread's usual 8 MB stack, under a watchdog:
-/// a single case that runs longer than `limit` fails the test with its input.
+/// a single case that uses more than `limit` of CPU time fails the test with its input (a
+/// hang). CPU time, not wall time: the long run shares two cores with other builds (load 12
+/// and more), where a case of 1 s CPU could take 20 s of wall time. A case that is still
+/// running after ten times `limit` of wall time fails too, whatever its CPU time.
 fn under_watchdog(
     name: &'static str,
     cases: u64,
@@ -323,23 +345,39 @@ fn under_watchdog(
 ) {
     let current = Arc::new(Mutex::new(String::new()));
     let started_ms = Arc::new(AtomicU64::new(0));
+    let started_cpu = Arc::new(AtomicU64::new(0));
     let done = Arc::new(AtomicBool::new(false));
     let origin = Instant::now();
     let worker = {
-        let (current, started_ms, done) = (current.clone(), started_ms.clone(), done.clone());
+        let (current, started_ms, started_cpu, done) =
+            (current.clone(), started_ms.clone(), started_cpu.clone(), done.clone());
         std::thread::Builder::new()
             .stack_size(8 << 20)
             .spawn(move || {
+                // SAFETY: pthread_self has no preconditions.
+                let me = unsafe { libc::pthread_self() };
+                let cpu = || thread_cpu_ns(me).unwrap_or(0);
                 let mut slowest = (Duration::ZERO, 0u64);
-                for case in 0..cases {
+                // Diagnostics for a long run: `FUZZ_FROM=K` starts at case K (every case has its
+                // own seed, so a range reproduces alone), `FUZZ_SLOW_MS=T` prints each case that
+                // takes more than T ms of CPU time, with its input.
+                let from = std::env::var("FUZZ_FROM").ok().and_then(|v| v.parse().ok()).unwrap_or(0u64);
+                let slow_ms = std::env::var("FUZZ_SLOW_MS").ok().and_then(|v| v.parse::<u64>().ok());
+                for case in from..cases {
+                    let before = cpu();
+                    started_cpu.store(before, Ordering::SeqCst);
                     started_ms.store(origin.elapsed().as_millis() as u64, Ordering::SeqCst);
-                    let t = Instant::now();
                     if let Err(e) = work(case, &current) {
                         done.store(true, Ordering::SeqCst);
                         return Err(format!("{name} case {case}: {e}"));
                     }
-                    if t.elapsed() > slowest.0 {
-                        slowest = (t.elapsed(), case);
+                    let took = Duration::from_nanos(cpu().saturating_sub(before));
+                    if took > slowest.0 {
+                        slowest = (took, case);
+                    }
+                    if slow_ms.is_some_and(|ms| took > Duration::from_millis(ms)) {
+                        let input = current.lock().map(|s| s.clone()).unwrap_or_default();
+                        eprintln!("{name} case {case}: {took:.1?} CPU on {input:?}");
                     }
                 }
                 done.store(true, Ordering::SeqCst);
@@ -347,17 +385,20 @@ fn under_watchdog(
             })
             .expect("spawn the fuzz worker")
     };
+    let thread = worker.as_pthread_t();
     while !done.load(Ordering::SeqCst) && !worker.is_finished() {
         std::thread::sleep(Duration::from_millis(50));
-        let since = origin.elapsed().as_millis() as u64 - started_ms.load(Ordering::SeqCst);
-        if !done.load(Ordering::SeqCst) && since > limit.as_millis() as u64 {
+        let wall = (origin.elapsed().as_millis() as u64).saturating_sub(started_ms.load(Ordering::SeqCst));
+        let cpu = thread_cpu_ns(thread).unwrap_or(0).saturating_sub(started_cpu.load(Ordering::SeqCst));
+        let over = cpu > limit.as_nanos() as u64 || wall > 10 * limit.as_millis() as u64;
+        if !done.load(Ordering::SeqCst) && over {
             let input = current.lock().map(|s| s.clone()).unwrap_or_default();
-            panic!("{name}: a case ran longer than {limit:?} (a hang): {input:?}");
+            panic!("{name}: a case used more than {limit:?} of CPU time (a hang): {input:?}");
         }
     }
     match worker.join() {
         Ok(Ok((slowest, case))) => {
-            println!("{name}: {cases} cases in {:.1?}; slowest case {case} took {slowest:.1?}", origin.elapsed())
+            println!("{name}: {cases} cases in {:.1?}; slowest case {case} took {slowest:.1?} CPU", origin.elapsed())
         }
         Ok(Err(e)) => panic!("{e}"),
         Err(_) => {

@@ -1,6 +1,7 @@
 //! Interruptible work (issue 13, item 2): a real SIGINT to a child `lagrangian run` ends it
-//! within a second with status 130 and no output file; the piped REPL survives one with its
-//! definitions; and the library's token stops an integration and the simplifier.
+//! within a second with status 130 and no output file — during a simulation, an animation
+//! being encoded and a long plot; the piped REPL survives one with its definitions; and the
+//! library's token stops an integration and the simplifier.
 //!
 //! The child-process tests start a simulation of ~10⁸ steps (minutes if nothing stopped it),
 //! wait until its progress line appears on stderr (`LAGRANGIAN_PROGRESS=always`), then send
@@ -97,6 +98,122 @@ fn ctrl_c_ends_a_scene_run_with_status_130_and_no_output_file() {
     let mut stdout = String::new();
     child.stdout.take().unwrap().read_to_string(&mut stdout).unwrap();
     assert!(!stdout.contains("wrote"), "no file is announced: {stdout}");
+}
+
+/// `lagrangian run` of `scene` in a fresh directory with an empty `out/`, progress lines
+/// forced on stderr: the child, its stderr lines and the output directory.
+fn start_run(scene: &str) -> (tempfile::TempDir, Child, mpsc::Receiver<String>, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.scene");
+    std::fs::write(&path, scene).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .args(["run", path.to_str().unwrap(), "--no-cache", "--out-dir", out.to_str().unwrap()])
+        .env("LAGRANGIAN_PROGRESS", "always")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = lines(child.stderr.take().unwrap());
+    (dir, child, err, out)
+}
+
+/// SIGINT to `child`; asserts it exits 130 within a second, leaving `out` empty and
+/// announcing no file.
+fn interrupt_and_check(mut child: Child, out: &std::path::Path) {
+    let sent = Instant::now();
+    sigint(&child);
+    let status = wait_exit(&mut child, Duration::from_secs(20)).expect("the run did not stop within 20 s");
+    let took = sent.elapsed();
+    assert_eq!(status.code(), Some(130), "exit status");
+    assert!(took < Duration::from_secs(1), "took {took:?} to exit after SIGINT");
+    let left: Vec<_> = std::fs::read_dir(out).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "files left behind: {left:?}");
+    let mut stdout = String::new();
+    child.stdout.take().unwrap().read_to_string(&mut stdout).unwrap();
+    assert!(!stdout.contains("wrote"), "no file is announced: {stdout}");
+}
+
+/// Starts a scene whose animation takes about 100 s uninterrupted (1500 frames of 512²
+/// pixels, 65 ms a frame in the dev profile; RELIABILITY.md) and returns once the GIF back
+/// end has created its staged file, that is once drawing has started.
+fn start_long_animation() -> (tempfile::TempDir, Child, mpsc::Receiver<String>, std::path::PathBuf) {
+    // (The stderr receiver is kept: a closed pipe would end the child by SIGPIPE.)
+    let (dir, mut child, err, out) = start_run(
+        "coordinates x\nH = p_x^2/2 + x^2/2\n\
+         simulate x = 1, p_x = 0 for t in 0..10 with leapfrog dt = 0.01 as a\n\
+         animate path (0, 0), (x, p_x) from a to motion.gif fps 50 duration 30 size 512\n",
+    );
+    // The GIF back end creates its (staged) file when drawing starts: wait for it.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let staged = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the run ended before the animation started: {status}");
+        }
+        let names: Vec<String> =
+            std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        if let Some(n) = names.into_iter().find(|n| n.contains("partial")) {
+            break n;
+        }
+        assert!(Instant::now() < deadline, "the animation was not started within 60 s");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert!(staged.ends_with(".gif"), "{staged}");
+    (dir, child, err, out)
+}
+
+#[test]
+fn ctrl_c_during_an_animation_stops_it_mid_draw_with_no_file() {
+    let (_dir, child, _err, out) = start_long_animation();
+    interrupt_and_check(child, &out);
+}
+
+/// Waits until no SIGINT is pending for `child` (read from `/proc`), so that a second signal
+/// is a second press and not merged with the first by the kernel.
+#[cfg(target_os = "linux")]
+fn wait_delivered(child: &Child) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let status = format!("/proc/{}/status", child.id());
+    loop {
+        let text = std::fs::read_to_string(&status).unwrap_or_default();
+        let pending = text
+            .lines()
+            .filter(|l| l.starts_with("SigPnd:") || l.starts_with("ShdPnd:"))
+            .any(|l| u64::from_str_radix(l[7..].trim(), 16).unwrap_or(0) & (1 << (libc::SIGINT - 1)) != 0);
+        if !pending {
+            return;
+        }
+        assert!(Instant::now() < deadline, "SIGINT still pending after 20 s");
+        std::thread::yield_now();
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_second_ctrl_c_exits_at_once_and_still_removes_the_staged_file() {
+    // The second press ends the process from the handler's thread while the main thread is
+    // still inside a frame (65 ms each): the staged GIF is removed there, before the exit.
+    let (_dir, child, _err, out) = start_long_animation();
+    sigint(&child);
+    wait_delivered(&child);
+    interrupt_and_check(child, &out);
+}
+
+#[test]
+fn ctrl_c_during_a_long_plot_stops_it_with_no_file() {
+    // A run of 10⁶ stored states (`every 1`), then a plot of five expressions along it: about
+    // 10 s of evaluation and drawing uninterrupted in the dev profile (RELIABILITY.md), against
+    // 0.3 s for the run. The signal goes when the run's progress line reaches 100 %, that is
+    // as the plot starts.
+    let (_dir, child, err, out) = start_run(
+        "coordinates x\nH = p_x^2/2 + x^2/2\n\
+         simulate x = 1, p_x = 0 for t in 0..10000 with leapfrog dt = 0.01 every 1 as long\n\
+         plot x, p_x, x^2 - p_x^2, x p_x, sin(x) cos(p_x) vs t from long to long.png\n",
+    );
+    wait_for(&err, "100%");
+    interrupt_and_check(child, &out);
 }
 
 #[test]

@@ -14,6 +14,7 @@ use notes_support::{run, snapshot};
 
 struct Scene {
     out: PathBuf,
+    stdout: String,
     _dir: tempfile::TempDir,
 }
 
@@ -24,7 +25,7 @@ fn scene(example: &str) -> Scene {
     assert_eq!(code, 0, "{example}: {err}\n{stdout}");
     let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
     snapshot(&format!("scene_example_{example}"), &stdout);
-    Scene { out: dir.path().to_path_buf(), _dir: dir }
+    Scene { out: dir.path().to_path_buf(), stdout, _dir: dir }
 }
 
 impl Scene {
@@ -180,9 +181,55 @@ fn variational_method_refuses_events_and_forces() {
     }
 }
 
+/// The rest of the line that starts with `prefix` (the first such line).
+fn line<'a>(out: &'a str, prefix: &str) -> &'a str {
+    out.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` in\n{out}"))
+}
+
+/// Runs a scene text in a fresh directory: exit code, stdout, stderr, and whether the
+/// directory holds any file afterwards.
+fn run_text(text: &str) -> (i32, String, String, bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.scene");
+    std::fs::write(&file, text).unwrap();
+    let out = dir.path().join("out");
+    let (code, stdout, err) = run(&["run", file.to_str().unwrap(), "--out-dir", out.to_str().unwrap()]);
+    let written = out.read_dir().map(|mut d| d.next().is_some()).unwrap_or(false);
+    (code, stdout, err, written)
+}
+
 #[test]
 fn geodesic_sphere() {
     let s = scene("geodesic_sphere");
+    // The `geodesic` statement on the sphere of radius R: K = 1/R² (Gauss: the product of the
+    // principal curvatures 1/R · 1/R).
+    assert_eq!(line(&s.stdout, "K = "), "1/R²", "{}", s.stdout);
+    assert_eq!(line(&s.stdout, "Γ^θ_φφ = "), "-sin(θ) cos(θ)");
+    // The embedding gives the same metric as the line element, and no tangential curvature.
+    let metric: Vec<&str> = s.stdout.lines().filter(|l| l.starts_with("g[")).collect();
+    assert_eq!(metric.len(), 6, "{}", s.stdout);
+    assert_eq!(metric[..3], metric[3..], "induced metric X_i · X_j against the line element");
+    assert_eq!(line(&s.stdout, "X_θ · d²x/ds² = ").split("    #").next(), Some("0"));
+    assert_eq!(line(&s.stdout, "X_φ · d²x/ds² = ").split("    #").next(), Some("0"));
+    // Shooting from (1, 0) to (2, 1.5) in unit time: the great circle at constant speed,
+    // u(t) = slerp(u0, u1, t), so u'(0) = Ω (u1 − cos Ω u0)/sin Ω, read in the coordinate
+    // basis: θ' = u'·u_θ, φ' = u'·u_φ / sin²θ.
+    let v = line(&s.stdout, "shooting: q'(0) = (");
+    let v: Vec<f64> = v.split(')').next().unwrap().split(", ").map(|x| x.parse().unwrap()).collect();
+    let unit = |th: f64, ph: f64| [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+    let (u0, u1) = (unit(1.0, 0.0), unit(2.0, 1.5));
+    let omega = (u0.iter().zip(&u1).map(|(a, b)| a * b).sum::<f64>()).acos();
+    let du: Vec<f64> = (0..3).map(|k| omega * (u1[k] - omega.cos() * u0[k]) / omega.sin()).collect();
+    let (th, ph) = (1.0f64, 0.0f64);
+    let u_th = [th.cos() * ph.cos(), th.cos() * ph.sin(), -th.sin()];
+    let u_ph = [-th.sin() * ph.sin(), th.sin() * ph.cos(), 0.0];
+    let exact = [
+        du.iter().zip(&u_th).map(|(a, b)| a * b).sum::<f64>(),
+        du.iter().zip(&u_ph).map(|(a, b)| a * b).sum::<f64>() / th.sin().powi(2),
+    ];
+    for k in 0..2 {
+        assert!((v[k] - exact[k]).abs() < 1e-10, "q'(0)[{k}] = {} against the great circle's {}", v[k], exact[k]);
+    }
     let c = s.csv("geodesic_sphere.csv");
     let u = |th: f64, ph: f64| [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
     let du = |th: f64, ph: f64, dth: f64, dph: f64| {
@@ -216,5 +263,105 @@ fn geodesic_sphere() {
         let v = &c[col];
         let drift = v.iter().map(|x| (x - v[0]).abs()).fold(0.0, f64::max);
         assert!(drift < 1e-11, "{col} drifts by {drift:e}");
+    }
+}
+
+#[test]
+fn ritz_oscillator() {
+    let s = scene("ritz_oscillator");
+    // m = 1, k = 4: the exact path between x(0) = 0 and x(1) = 1 is sin(ω t)/sin ω, ω = 2, and
+    // the exact action ½ [x x'] at the ends = ½ ω cot ω.
+    let w = 2.0f64;
+    let exact_s = 0.5 * w / w.tan();
+    let blocks: Vec<&str> = s.stdout.split("L(trial) = ").skip(1).collect();
+    assert_eq!(blocks.len(), 4, "{}", s.stdout);
+    let value = |block: &str, name: &str| -> f64 {
+        line(block, &format!("{name} ≈ ")).split_whitespace().next().unwrap().parse().unwrap()
+    };
+    // One coefficient, by hand: ∂S/∂a = ∫ (1 + a(1 − 2t))(1 − 2t) − 4 (t + a t(1 − t)) t(1 − t) dt
+    // = a/3 − 4 (1/12 + a/30) = a/5 − 1/3, so a = 5/3.
+    assert!((value(blocks[0], "a") - 5.0 / 3.0).abs() < 1e-14, "{}", blocks[0]);
+    let paths: [(&[&str], usize); 3] = [(&["a"], 0), (&["a", "b"], 1), (&["a1", "a2", "a3", "a4"], 2)];
+    let mut last = (f64::INFINITY, f64::INFINITY);
+    for (names, b) in paths {
+        let a: Vec<f64> = names.iter().map(|n| value(blocks[b], n)).collect();
+        let x = |t: f64| t + t * (1.0 - t) * a.iter().enumerate().map(|(i, c)| c * t.powi(i as i32)).sum::<f64>();
+        let err =
+            (0..=100).map(|i| i as f64 / 100.0).map(|t| (x(t) - (w * t).sin() / w.sin()).abs()).fold(0.0, f64::max);
+        let gap = value(blocks[b], "S") - exact_s;
+        // ω < π: no conjugate point inside [0, 1], so S is a minimum and every trial path's
+        // action lies above the exact one, approaching it as functions are added.
+        eprintln!("{names:?}: max |x − exact| = {err:e}, S − S_exact = {gap:e}");
+        assert!(gap > -1e-14 && gap < last.1 && err < last.0, "{names:?}: max error {err:e}, S − S_exact {gap:e}");
+        last = (err, gap);
+    }
+    // Measured 6.1e-5 (and S − S_exact = 1.6e-7).
+    assert!(last.0 < 3e-4, "four trial functions: max |x − exact| = {:e}", last.0);
+    // The brachistochrone from (0, 0) to (1, 1): the cycloid x = r(θ − sin θ), y = r(1 − cos θ)
+    // through (1, 1) has (θ − sin θ)/(1 − cos θ) = 1 and S = θ sqrt(2 r), the least time; the
+    // two-coefficient trial path (quadrature, the integrand is not polynomial) lies above it.
+    let mut th: f64 = 2.0;
+    for _ in 0..50 {
+        let f = (th - th.sin()) / (1.0 - th.cos()) - 1.0;
+        let df = ((1.0 - th.cos()).powi(2) - (th - th.sin()) * th.sin()) / (1.0 - th.cos()).powi(2);
+        th -= f / df;
+    }
+    let cycloid = th * (2.0 / (1.0 - th.cos())).sqrt();
+    assert!(blocks[3].contains("integrated numerically"), "{}", blocks[3]);
+    let gap = value(blocks[3], "S") - cycloid;
+    // Measured 0.024 (S = 2.6065 against 2.5819).
+    assert!(gap > 0.0 && gap < 0.05, "brachistochrone: S − S_cycloid = {gap:e}");
+}
+
+#[test]
+fn geodesic_and_ritz_statements_refuse_bad_input() {
+    let sphere = "coordinates θ, φ\n";
+    let cases: [(&str, &str); 7] = [
+        // A metric that is not symmetric.
+        ("geodesic metric (1, θ), (0, sin(θ)^2)", "not symmetric"),
+        // Singular everywhere.
+        ("geodesic metric (1, 1), (1, 1)", "singular everywhere"),
+        // Singular at the start point of the shooting: the pole θ = 0.
+        ("geodesic ds^2 = dθ^2 + sin(θ)^2 dφ^2 from (0, 0) to (1, 1)", "singular at the start point"),
+        // Not quadratic in the differentials.
+        ("geodesic dθ^2 + sin(θ)^2 dφ^2 + dθ", "not quadratic"),
+        // A point with the wrong number of coordinates.
+        ("geodesic dθ^2 + sin(θ)^2 dφ^2 from (1) to (2, 1)", "2 coordinates"),
+        // An embedding with fewer components than coordinates.
+        ("geodesic embedding (θ)", "at least 2 components"),
+        // A trial path that misses an end condition (θ(1) = 2 is not met).
+        ("L = θ'^2/2 + φ'^2/2\nritz with θ = t + a t^2, φ = t for t in 0..1 from θ = 0, φ = 0 to θ = 2, φ = 1 solve a", "misses the end condition"),
+    ];
+    for (stmt, needle) in cases {
+        let text = format!("{sphere}{stmt}\n");
+        let (code, out, err, written) = run_text(&text);
+        assert_eq!(code, 2, "{stmt}: {out}{err}");
+        assert!(err.contains(needle), "{stmt}: expected `{needle}` in\n{err}");
+        assert!(err.contains("s.scene:2:") || err.contains("s.scene:3:"), "{stmt}: no source location in\n{err}");
+        assert!(!written, "{stmt}: a file was written");
+    }
+}
+
+#[test]
+fn variational_newton_failures_are_located_errors() {
+    // The discrete Legendre map's Newton iteration fails: with the mass x² vanishing at the
+    // origin, a fast start towards it has no convergent step at dt = 0.1; with the mass
+    // e^{−x²}, p_0 = e^{−x₁²/4}(x₁/h + x₁³/(4h)) (midpoint, x₀ = 0, h = 1) never exceeds about
+    // 1.5, so p_x = 5 has no next point at all.
+    for (l, init, needle) in [
+        ("x^2 x'^2/2 - x^2/2", "x = 1, x' = -50", "did not converge"),
+        ("exp(-x^2) x'^2/2", "x = 0, p_x = 5", "singular"),
+    ] {
+        let text = format!(
+            "coordinates x\nL = {l}\nsimulate {init} for t in 0..4 with variational dt = {}\nexport to run.csv\n",
+            if l.starts_with("exp") { "1" } else { "0.1" }
+        );
+        let (code, out, err, written) = run_text(&text);
+        assert_eq!(code, 2, "{l}: {out}{err}");
+        // The report wraps its message over lines framed by `│`.
+        let flat = err.replace('│', " ").split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(flat.contains(needle) && flat.contains("t = 0"), "{l}: {err}");
+        assert!(err.contains("s.scene:3:"), "{l}: no source location in\n{err}");
+        assert!(!written, "{l}: a file was written");
     }
 }

@@ -383,7 +383,6 @@ fn scene_example_lagrangian_lines() {
         &[],
         16,
     );
-    lagrangian_example("geodesic_sphere", "L = 1/2 (θ'^2 + sin(θ)^2 φ'^2)", &["θ", "φ"], &[], &[], 18);
     lagrangian_example(
         "variational_integrator",
         "L = (x'^2 + y'^2)/2 + k/sqrt(x^2 + y^2)",
@@ -841,56 +840,117 @@ fn notes_phase_space_lines() {
     }
 }
 
-/// `lagrangian geodesic` on the unit sphere: `g` against the metric's coefficients, the
-/// geodesic equations as `g⁻¹ E` with `E` by finite differences of `L = ½ g v v`, `p_φ` and
-/// `h` by finite differences; `Γ` lines are checked by hand in `tests/notes_geodesic.rs`, and
-/// here again through `q'' + Γ q' q'` (the geodesic equations must equal it).
+/// `lagrangian geodesic` on the unit sphere, and the `geodesic` statements of
+/// `examples/geodesic_sphere.scene` on a sphere of radius `R`: `g` against the metric's
+/// coefficients, the geodesic equations as `g⁻¹ E` with `E` by finite differences of
+/// `L = ½ g v v`, `p_φ` and `h` by finite differences; `Γ` lines are checked by hand in
+/// `tests/notes_geodesic.rs`, and here again through `q'' + Γ q' q'` (the geodesic equations
+/// must equal it).
 #[test]
 fn notes_geodesic_lines() {
-    let l = parse("(θ'^2 + sin(θ)^2 φ'^2)/2");
+    geodesic_lines("notes_geodesic_sphere", None, 12);
+    geodesic_lines("scene_example_geodesic_sphere", Some(2.0), 28);
+}
+
+/// The lines of a sphere's geodesic report; `radius` `None` is the unit sphere of the CLI
+/// snapshot, `Some(R)` the scene's sphere of radius `R` (its `X` and shooting lines too).
+fn geodesic_lines(snap: &str, radius: Option<f64>, expected: usize) {
+    let l = parse("R^2 (θ'^2 + sin(θ)^2 φ'^2)/2");
     let coords = ["θ", "φ"];
     let mut rng = Rng(81);
     for _ in 0..4 {
         let mut env = random_env(&mut rng, &coords, &[]);
         env.insert("θ".into(), rng.uniform(0.3, 2.8)); // away from the poles
+        let r = radius.unwrap_or(1.0);
+        env.insert("R".into(), r);
+        let r2 = r * r;
         let s2 = env["θ"].sin().powi(2);
         let mut gamma = HashMap::new();
         let mut checked = 0;
-        for line in snapshot("notes_geodesic_sphere") {
+        for line in snapshot(snap) {
             if not_a_derivation(&line) {
                 continue;
             }
+            if let Some(v) = line.strip_prefix("shooting: q'(0) = (") {
+                // The great circle from (1, 0) to (2, 1.5) in unit time (the scene's points):
+                // u'(0) = Ω (u1 − cos Ω u0)/sin Ω in the coordinate basis.
+                scene_text("geodesic_sphere", "geodesic ds^2 = R^2 dθ^2 + R^2 sin(θ)^2 dφ^2 from (1, 0) to (2, 1.5)");
+                let v: Vec<f64> = v.split(')').next().unwrap().split(", ").map(|x| x.parse().unwrap()).collect();
+                let unit = |t: f64, p: f64| [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
+                let (u0, u1) = (unit(1.0, 0.0), unit(2.0, 1.5));
+                let w = u0.iter().zip(&u1).map(|(a, b)| a * b).sum::<f64>().acos();
+                let du: Vec<f64> = (0..3).map(|k| w * (u1[k] - w.cos() * u0[k]) / w.sin()).collect();
+                let e_th = [1f64.cos(), 0.0, -1f64.sin()];
+                let e_ph = [0.0, 1f64.sin(), 0.0];
+                let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+                close(v[0], dot(&du, &e_th), "shooting θ'(0)");
+                close(v[1], dot(&du, &e_ph) / 1f64.sin().powi(2), "shooting φ'(0)");
+                checked += 1;
+                continue;
+            }
             let (lhs, rhs) = split(&line).unwrap();
+            if lhs == "X" {
+                let want = "(R sin(θ) cos(φ), R sin(θ) sin(φ), R cos(θ))";
+                let scene = std::fs::read_to_string(
+                    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join("geodesic_sphere.scene"),
+                )
+                .unwrap();
+                assert!(scene.contains(&format!("geodesic embedding {want}")), "the scene's embedding changed");
+                assert_eq!(rhs, want, "the embedding as given");
+                checked += 1;
+                continue;
+            }
             let got = at(&parse(&rhs), &env);
             let want = match lhs.as_str() {
-                "g[θ,θ]" => 1.0,
+                "g[θ,θ]" => r2,
                 "g[θ,φ]" => 0.0,
-                "g[φ,φ]" => s2,
-                "geodesic_θ" => euler_lagrange_fd(&l, &coords, &env, 0),
-                "geodesic_φ" => euler_lagrange_fd(&l, &coords, &env, 1) / s2,
+                "g[φ,φ]" => r2 * s2,
+                "geodesic_θ" => euler_lagrange_fd(&l, &coords, &env, 0) / r2,
+                "geodesic_φ" => euler_lagrange_fd(&l, &coords, &env, 1) / (r2 * s2),
                 "p_φ" => partial(&l, &env, "φ'"),
                 "h" => energy_function_fd(&l, &coords, &env),
-                // Gauss curvature of an orthogonal metric dθ² + G dφ²: K = −(√G)_θθ/√G, here
-                // by a second difference of √G = |sin θ|; then R_θφθφ = K det g and the scalar
-                // curvature is 2K.
-                "K" => gauss_curvature_fd(env["θ"]),
-                "R_θφθφ" => gauss_curvature_fd(env["θ"]) * s2,
-                "scalar_curvature" => 2.0 * gauss_curvature_fd(env["θ"]),
+                // Gauss curvature of an orthogonal metric R² (dθ² + G dφ²): K = −(√G)_θθ/(R² √G),
+                // here by a second difference of √G = |sin θ|; then R_θφθφ = K det g and the
+                // scalar curvature is 2K.
+                "K" => gauss_curvature_fd(env["θ"]) / r2,
+                "R_θφθφ" => gauss_curvature_fd(env["θ"]) / r2 * r2 * r2 * s2,
+                "scalar_curvature" => 2.0 * gauss_curvature_fd(env["θ"]) / r2,
                 _ if lhs.starts_with("Γ^") => {
                     gamma.insert(lhs.clone(), got);
                     got
                 }
-                _ => panic!("notes_geodesic_sphere: no independent check for `{line}`"),
+                // X_q · d²x/ds² with the geodesic equations substituted: here the geodesic's
+                // q'' solves E(q'') = 0 (E by finite differences, linear in q'' with
+                // W = R² diag(1, sin²θ)), and d²x/ds² = Σ X_ij q'_i q'_j + Σ X_k q''_k by hand.
+                _ if lhs.starts_with("X_") => {
+                    let (t, p, dt, dp) = (env["θ"], env["φ"], env["θ'"], env["φ'"]);
+                    let att = env["θ''"] - euler_lagrange_fd(&l, &coords, &env, 0) / r2;
+                    let app = env["φ''"] - euler_lagrange_fd(&l, &coords, &env, 1) / (r2 * s2);
+                    let (st, ct, sp, cp) = (t.sin(), t.cos(), p.sin(), p.cos());
+                    let xt = [r * ct * cp, r * ct * sp, -r * st];
+                    let xp = [-r * st * sp, r * st * cp, 0.0];
+                    let xtt = [-r * st * cp, -r * st * sp, -r * ct];
+                    let xtp = [-r * ct * sp, r * ct * cp, 0.0];
+                    let xpp = [-r * st * cp, -r * st * sp, 0.0];
+                    let kappa: Vec<f64> = (0..3)
+                        .map(|c| {
+                            xtt[c] * dt * dt + 2.0 * xtp[c] * dt * dp + xpp[c] * dp * dp + xt[c] * att + xp[c] * app
+                        })
+                        .collect();
+                    let tangent = if lhs.starts_with("X_θ") { xt } else { xp };
+                    tangent.iter().zip(&kappa).map(|(a, b)| a * b).sum::<f64>()
+                }
+                _ => panic!("{snap}: no independent check for `{line}`"),
             };
             close(got, want, &format!("geodesic: {lhs}"));
             checked += 1;
         }
-        assert_eq!(checked, 12);
+        assert_eq!(checked, expected, "{snap}");
         let (t1, p1) = (env["θ'"], env["φ'"]);
-        close(env["θ''"] + gamma["Γ^θ_φφ"] * p1 * p1, euler_lagrange_fd(&l, &coords, &env, 0), "θ'' + Γ^θ_φφ φ'²");
+        close(env["θ''"] + gamma["Γ^θ_φφ"] * p1 * p1, euler_lagrange_fd(&l, &coords, &env, 0) / r2, "θ'' + Γ^θ_φφ φ'²");
         close(
             env["φ''"] + 2.0 * gamma["Γ^φ_θφ"] * t1 * p1,
-            euler_lagrange_fd(&l, &coords, &env, 1) / s2,
+            euler_lagrange_fd(&l, &coords, &env, 1) / (r2 * s2),
             "φ'' + 2 Γ^φ_θφ θ' φ'",
         );
     }

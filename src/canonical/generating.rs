@@ -313,6 +313,9 @@ pub enum NumericMapError {
         /// Given count.
         got: usize,
     },
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the iteration.
+    #[error("interrupted after {0} Newton iterations")]
+    Interrupted(usize),
 }
 
 impl Generator {
@@ -351,6 +354,7 @@ impl Generator {
         };
         let mut residual = f64::INFINITY;
         for it in 0..100 {
+            crate::cancel::check().map_err(|_| NumericMapError::Interrupted(it))?;
             for (s, v) in x.iter().zip(&xs) {
                 env.insert(s.to_string(), *v);
             }

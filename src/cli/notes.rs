@@ -28,14 +28,24 @@ pub enum NotesCommand {
         #[command(flatten)]
         common: Common,
     },
-    /// Geodesics of a line element ds² = Σ g_ij dq_i dq_j (differentials `dx`): the metric,
+    /// Geodesics of a line element ds² = Σ g_ij dq_i dq_j (differentials `dx`), a metric
+    /// matrix or an embedded surface: the metric,
     /// the Christoffel symbols Γ^k_ij, the geodesic equations, the curvature (Riemann
     /// components R_abcd, scalar R, and for a surface the Gauss curvature K), the conserved
     /// quantities, and with --from/--to a shooting solution in unit time.
     Geodesic {
-        /// The line element, e.g. "dθ^2 + sin(θ)^2 dφ^2".
+        /// The line element, e.g. "dθ^2 + sin(θ)^2 dφ^2" (or give --metric or --embedding).
         #[arg(allow_hyphen_values = true)]
-        line_element: String,
+        line_element: Option<String>,
+        /// The metric as a matrix, rows separated by `;`, entries by `,`: "1, 0; 0, sin(θ)^2".
+        #[arg(long, allow_hyphen_values = true, conflicts_with = "line_element")]
+        metric: Option<String>,
+        /// A surface x = X(q) in Euclidean space, its components separated by `,`
+        /// ("sin(θ) cos(φ), sin(θ) sin(φ), cos(θ)"): the induced metric g_ij = X_i · X_j, and
+        /// the curvature vector d²x/ds² of a geodesic shown to have no tangential component
+        /// (§1.6.3).
+        #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["line_element", "metric"])]
+        embedding: Option<String>,
         /// The coordinates, in order.
         #[arg(long, value_delimiter = ',', required = true)]
         coords: Vec<String>,
@@ -45,6 +55,9 @@ pub enum NotesCommand {
         /// End point.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         to: Vec<f64>,
+        /// Parameter values for the shooting (`R=2`).
+        #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
+        set: Vec<String>,
         #[command(flatten)]
         common: Common,
     },
@@ -187,79 +200,9 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
-        NotesCommand::Geodesic { line_element, coords, from, to, common } => {
-            let decls = common.declarations();
-            let (text, ds2) = parse_arg(&line_element, &decls)?;
-            let mut z = Vec::new();
-            for c in &coords {
-                let e = lagrangian::parse_with(c.trim(), &decls).map_err(|e| bad_input(e.to_string()))?;
-                match e.as_sym() {
-                    Some(s) if s.primes() == 0 && !s.is_time() => z.push(s.clone()),
-                    _ => return Err(fail(MechanicsError::BadCoordinate(c.clone()))),
-                }
-            }
-            let g = lagrangian::mechanics::geodesic(&ds2, &z).map_err(fail)?;
-            let mut out = Out::empty(common.format);
-            out.json.insert("input".into(), json!(text.trim()));
-            for i in 0..z.len() {
-                for j in i..z.len() {
-                    let label = format!("g[{},{}]", out.s(&z[i]), out.s(&z[j]));
-                    out.line(label, &g.metric[i][j]);
-                }
-            }
-            for k in 0..z.len() {
-                for i in 0..z.len() {
-                    for j in i..z.len() {
-                        if !g.christoffel[k][i][j].is_zero() {
-                            let label = format!("Γ^{}_{}{}", out.s(&z[k]), out.s(&z[i]), out.s(&z[j]));
-                            out.line(label, &g.christoffel[k][i][j]);
-                        }
-                    }
-                }
-            }
-            for (q, e) in z.iter().zip(&g.equations) {
-                let label = format!("geodesic_{}", out.s(q));
-                out.lines.push(format!("{label}: {} = 0", out.r(e)));
-            }
-            out.json.insert("equations".into(), json!(g.equations.iter().map(plain).collect::<Vec<_>>()));
-            // The curvature (§1.6.3): independent components R_abcd (a < b, c < d,
-            // (a, b) ≤ (c, d)) that are not zero, the scalar R and, for a surface, K.
-            let curv = g.curvature();
-            let n = z.len();
-            for a in 0..n {
-                for b in a + 1..n {
-                    for c in a..n {
-                        for e in c + 1..n {
-                            if (c, e) < (a, b) || curv.lowered[a][b][c][e].is_zero() {
-                                continue;
-                            }
-                            let label = format!("R_{}{}{}{}", out.s(&z[a]), out.s(&z[b]), out.s(&z[c]), out.s(&z[e]));
-                            out.line(label, &curv.lowered[a][b][c][e]);
-                        }
-                    }
-                }
-            }
-            out.line("scalar_curvature".into(), &curv.scalar);
-            out.json.insert("scalar_curvature".into(), json!(plain(&curv.scalar)));
-            if let Some(k) = &curv.gauss {
-                out.line("K".into(), k);
-                out.json.insert("gauss_curvature".into(), json!(plain(k)));
-            }
-            let sys = g.system().map_err(fail)?;
-            for c in sys.conserved() {
-                out.lines.push(format!("{} = {}    # {}", c.name, out.r(&c.expr), c.reason));
-            }
-            if !from.is_empty() || !to.is_empty() {
-                if from.len() != z.len() || to.len() != z.len() {
-                    return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
-                }
-                let shot =
-                    lagrangian::compile::shoot(&g, &from, &to, &[], 1).map_err(|e| bad_input(format!("error: {e}")))?;
-                let v: Vec<String> = shot.velocity.iter().map(|x| format!("{x:.12}")).collect();
-                out.lines.push(format!("shooting: q'(0) = ({}) after {} Newton steps", v.join(", "), shot.iterations));
-                out.json.insert("initial_velocity".into(), json!(shot.velocity));
-            }
-            out.print();
+        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, common } => {
+            let values = set_values(&set)?;
+            geodesic(line_element, metric, embedding, coords, (from, to), &values, common)?
         }
         NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
@@ -318,6 +261,111 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Splits `text` at `sep` outside brackets (`atan2(y, x), r` is two pieces).
+fn split_top(text: &str, sep: char) -> Vec<String> {
+    let mut out = vec![String::new()];
+    let mut depth = 0i32;
+    for c in text.chars() {
+        match c {
+            '(' | '[' | '{' => depth += 1,
+            ')' | ']' | '}' => depth -= 1,
+            _ => {}
+        }
+        if c == sep && depth == 0 {
+            out.push(String::new());
+        } else if let Some(last) = out.last_mut() {
+            last.push(c);
+        }
+    }
+    out
+}
+
+/// `--set name=value,…` as pairs.
+fn set_values(set: &[String]) -> Result<Vec<(String, f64)>, Failure> {
+    let mut values = Vec::new();
+    for kv in set {
+        let Some((k, v)) = kv.split_once('=') else {
+            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
+        };
+        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
+        values.push((k.trim().to_string(), v));
+    }
+    Ok(values)
+}
+
+fn geodesic(
+    line_element: Option<String>,
+    metric: Option<String>,
+    embedding: Option<String>,
+    coords: Vec<String>,
+    (from, to): (Vec<f64>, Vec<f64>),
+    values: &[(String, f64)],
+    common: Common,
+) -> Result<(), Failure> {
+    use lagrangian::mechanics::{embedded, geodesic, geodesic_from_metric};
+    let decls = common.declarations();
+    let mut z = Vec::new();
+    for c in &coords {
+        let e = lagrangian::parse_with(c.trim(), &decls).map_err(|e| bad_input(e.to_string()))?;
+        match e.as_sym() {
+            Some(s) if s.primes() == 0 && !s.is_time() => z.push(s.clone()),
+            _ => return Err(fail(MechanicsError::BadCoordinate(c.clone()))),
+        }
+    }
+    let exprs = |pieces: Vec<String>| -> Result<Vec<Expr>, Failure> {
+        pieces.iter().map(|p| parse_arg(p, &decls).map(|x| x.1)).collect()
+    };
+    let (input, g, surface) = match (line_element, metric, embedding) {
+        (Some(text), None, None) => {
+            let (text, ds2) = parse_arg(&text, &decls)?;
+            (text, geodesic(&ds2, &z).map_err(fail)?, None)
+        }
+        (None, Some(text), None) => {
+            let rows =
+                split_top(&text, ';').into_iter().map(|row| exprs(split_top(&row, ','))).collect::<Result<_, _>>()?;
+            (text, geodesic_from_metric(rows, &z).map_err(fail)?, None)
+        }
+        (None, None, Some(text)) => {
+            let x = exprs(split_top(&text, ','))?;
+            let emb = embedded(&x, &z).map_err(fail)?;
+            (text, emb.geodesic.clone(), Some(emb))
+        }
+        _ => {
+            return Err(bad_input("error: give the geometry once: a line element, --metric or --embedding".to_string()))
+        }
+    };
+    let mut out = Out::empty(common.format);
+    let fmt = common.format.expr_format();
+    out.json.insert("input".into(), json!(input.trim()));
+    let metric: Vec<Vec<String>> = g.metric.iter().map(|r| r.iter().map(plain).collect()).collect();
+    out.json.insert("metric".into(), json!(metric));
+    let curv = g.curvature();
+    let sys = g.system().map_err(fail)?;
+    out.lines.extend(g.report(&curv, &sys.conserved(), fmt));
+    out.json.insert("equations".into(), json!(g.equations.iter().map(plain).collect::<Vec<_>>()));
+    out.json.insert("scalar_curvature".into(), json!(plain(&curv.scalar)));
+    if let Some(k) = &curv.gauss {
+        out.json.insert("gauss_curvature".into(), json!(plain(k)));
+    }
+    if let Some(emb) = &surface {
+        out.lines.extend(emb.report(fmt));
+        out.json.insert("embedding".into(), json!(emb.surface.iter().map(plain).collect::<Vec<_>>()));
+        out.json.insert("tangential_curvature".into(), json!(emb.tangential.iter().map(plain).collect::<Vec<_>>()));
+    }
+    if !from.is_empty() || !to.is_empty() {
+        if from.len() != z.len() || to.len() != z.len() {
+            return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
+        }
+        let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let shot =
+            lagrangian::compile::shoot(&g, &from, &to, &bound, 1).map_err(|e| bad_input(format!("error: {e}")))?;
+        out.lines.push(shot.report_line());
+        out.json.insert("initial_velocity".into(), json!(shot.velocity));
+    }
+    out.print();
+    Ok(())
+}
+
 #[allow(clippy::too_many_arguments)]
 fn ritz(
     lagrangian: String,
@@ -350,48 +398,19 @@ fn ritz(
             _ => return Err(bad_input(format!("error: the unknown `{u}` must be a plain name"))),
         }
     }
-    let mut values: Vec<(String, f64)> = Vec::new();
-    for kv in &set {
-        let Some((k, v)) = kv.split_once('=') else {
-            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
-        };
-        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
-        values.push((k.trim().to_string(), v));
-    }
+    let values = set_values(&set)?;
     let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
-    let mut out = Out::empty(common.format);
-    out.json.insert("input".into(), json!(text.trim()));
-    out.line("L(trial)".into(), &r.integrand);
-    match &r.action {
-        Some(sa) => {
-            out.line("S".into(), sa);
-            out.json.insert("action".into(), json!(plain(sa)));
-            for (u, c) in a.iter().zip(&r.conditions) {
-                let label = format!("∂S/∂{}", out.s(u));
-                out.lines.push(format!("{label}: {} = 0", out.r(c)));
-            }
-        }
-        None => {
-            out.lines.push(format!(
-                "note: L(trial) is not a polynomial in t; S and ∂S/∂a are integrated numerically (Gauss–Legendre, {} points graded towards the ends)",
-                lagrangian::mechanics::ritz_quadrature_points()
-            ));
-            for (u, c) in a.iter().zip(&r.conditions) {
-                let label = format!("∂S/∂{}", out.s(u));
-                out.lines.push(format!("{label}: ∫ {} dt = 0", out.r(c)));
-            }
-        }
-    }
-    out.json.insert("conditions".into(), json!(r.conditions.iter().map(plain).collect::<Vec<_>>()));
     let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let sol = r.solve(&guess, &bound).map_err(fail)?;
-    for (u, v) in a.iter().zip(&sol.values) {
-        let label = out.s(u);
-        out.lines.push(format!("{label} ≈ {v:.15e}"));
+    let mut out = Out::empty(common.format);
+    out.json.insert("input".into(), json!(text.trim()));
+    if let Some(sa) = &r.action {
+        out.json.insert("action".into(), json!(plain(sa)));
     }
-    out.lines.push(format!("S ≈ {:.15e}    # at the stationary point, {} Newton steps", sol.action, sol.iterations));
+    out.json.insert("conditions".into(), json!(r.conditions.iter().map(plain).collect::<Vec<_>>()));
     out.json.insert("solution".into(), json!(sol.values));
     out.json.insert("stationary_action".into(), json!(sol.action));
+    out.lines = r.report(&sol, common.format.expr_format());
     out.print();
     Ok(())
 }

@@ -205,6 +205,9 @@ impl VariationalMap {
         x[n + u] = h;
         let mut residual = f64::INFINITY;
         for it in 1..=MAX_NEWTON {
+            if crate::cancel::interrupted() {
+                return Err(VariationalError::Interrupted { t, q: q[..n].to_vec() });
+            }
             self.residual.eval_split(&x[..n + u + 1], t, &mut out[..u + u * u]);
             self.evaluations.fetch_add(1, Ordering::Relaxed);
             let (r, jac) = out.split_at_mut(u);

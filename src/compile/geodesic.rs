@@ -22,6 +22,9 @@ pub enum ShootError {
     /// The equations could not be compiled or integrated.
     #[error("{0}")]
     Numeric(String),
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the shooting.
+    #[error("interrupted after {iterations} Newton steps")]
+    Interrupted { iterations: usize },
 }
 
 /// A geodesic from `from` to `to` in unit time: the initial velocity and the path sampled at
@@ -34,6 +37,15 @@ pub struct Shot {
     pub path: Vec<(f64, Vec<f64>)>,
     /// Newton steps used.
     pub iterations: usize,
+}
+
+impl Shot {
+    /// The printed line of `lagrangian geodesic --from … --to …` and of the scene statement
+    /// `geodesic … from (…) to (…)`: the initial velocity to 12 decimals.
+    pub fn report_line(&self) -> String {
+        let v: Vec<String> = self.velocity.iter().map(|x| format!("{x:.12}")).collect();
+        format!("shooting: q'(0) = ({}) after {} Newton steps", v.join(", "), self.iterations)
+    }
 }
 
 /// Shoots from `from` to `to`; `params` binds the metric's parameters.
@@ -56,7 +68,15 @@ pub fn shoot(
     let mut scale = 0.0f64;
     for i in 0..n {
         for j in 0..n {
-            m[i * n + j] = eval_with(&g.metric[i][j], &lookup).unwrap_or(f64::NAN);
+            m[i * n + j] = match eval_with(&g.metric[i][j], &lookup) {
+                Ok(v) => v,
+                Err(crate::eval::EvalError::Unbound(name)) => {
+                    return Err(ShootError::Numeric(format!(
+                        "the metric needs a value for `{name}` to shoot (give the parameter a value)"
+                    )))
+                }
+                Err(_) => f64::NAN,
+            };
             scale = scale.max(m[i * n + j].abs());
         }
     }
@@ -78,6 +98,9 @@ pub fn shoot(
     let mut v: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
     let mut miss = f64::INFINITY;
     for it in 1..=30 {
+        if crate::cancel::interrupted() {
+            return Err(ShootError::Interrupted { iterations: it - 1 });
+        }
         let q1 = end(&v)?;
         let mut r: Vec<f64> = (0..n).map(|i| to[i] - q1[i]).collect();
         miss = r.iter().fold(0.0f64, |s, x| s.max(x.abs()));

@@ -47,7 +47,7 @@ pub use rhs::{
     SeparableHamiltonian,
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
-pub use taylor::{Derivative, KinkAt, TaylorError, TaylorOde, TaylorTape};
+pub use taylor::{Derivative, KinkAt, TaylorError, TaylorNative, TaylorOde, TaylorTape, NATIVE_AFTER_EXPANSIONS};
 pub use variational::Variational;
 
 /// Why a set of expressions could not be compiled.

@@ -43,6 +43,7 @@ use cranelift_module::{default_libcall_names, Linkage, Module};
 use crate::expr::Func;
 
 use super::tape::{Instr, Tape};
+use super::taylor::Op;
 
 /// The signature of a plain generated function (see the module documentation).
 type NativeFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize);
@@ -491,5 +492,444 @@ extern "C" fn sin_cos(x: f64, out: *mut f64) {
     unsafe {
         *out = s;
         *out.add(1) = c;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Taylor recurrences
+// ---------------------------------------------------------------------------------------------
+
+/// The signature of one generated Taylor order: `fn(c: *mut f64) -> i32`, computing order `k`
+/// of every row of the coefficient buffer `c` in place; returns 1 when an `abs` met its kink.
+type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
+
+/// Machine code for the Taylor recurrences of one [`TaylorTape`](super::TaylorTape) at a fixed
+/// stride: one straight-line function per order `k = 1..=max_order` (order 0, which calls the
+/// transcendental functions, stays in the interpreter).
+///
+/// Why unrolled: at a fixed order every index of every Cauchy sum is a constant, so each
+/// term is two loads at constant offsets, a multiply and an add, with no loop counter, no
+/// bounds check and no instruction dispatch; and because the code is one basic block, the
+/// processor overlaps the dependency chains of independent instructions (the interpreter runs
+/// one sum after the other, each a chain of dependent additions). Each sum adds its terms
+/// in the interpreter's order with the interpreter's operations (Cranelift does not
+/// reassociate or fuse), so the coefficients are the interpreter's, bit for bit.
+pub(crate) struct NativeTaylor {
+    /// `funcs[k − 1]` computes order `k`.
+    funcs: Vec<*const u8>,
+    module: ManuallyDrop<JITModule>,
+    stride: usize,
+    n_rows: usize,
+}
+
+// SAFETY: as for `NativeCode`: the module is touched only by `Drop`, and each generated
+// function reads and writes only the buffer its caller passes (exclusively, `&mut`).
+unsafe impl Send for NativeTaylor {}
+// SAFETY: see `Send`.
+unsafe impl Sync for NativeTaylor {}
+
+impl Drop for NativeTaylor {
+    fn drop(&mut self) {
+        // SAFETY: no `&self` exists any more, so no generated function is running.
+        unsafe { ManuallyDrop::take(&mut self.module).free_memory() }
+    }
+}
+
+impl std::fmt::Debug for NativeTaylor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "NativeTaylor({} rows, stride {}, orders 1..={})", self.n_rows, self.stride, self.funcs.len())
+    }
+}
+
+/// Taylor tapes whose unrolled recurrences would have more terms than this (about
+/// `recurrences · order² / 2`) stay interpreted: Cranelift's compile time grows with the code,
+/// and the interpreter's per-term overhead matters least where sums are long.
+pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
+
+impl NativeTaylor {
+    /// Compiles orders `1..=max_order` of `tape` for coefficient buffers of `stride`
+    /// (`max_order < stride`), or `None` (too large, or no JIT on this host).
+    pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+        if max_order == 0 || max_order >= stride {
+            return None;
+        }
+        let terms = tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2;
+        // Every offset must fit Cranelift's 32-bit immediate.
+        if terms > MAX_NATIVE_TAYLOR_TERMS || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
+            return None;
+        }
+        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order))).ok().flatten()
+    }
+
+    /// The stride the code was compiled for.
+    pub(crate) fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The highest order compiled.
+    pub(crate) fn max_order(&self) -> usize {
+        self.funcs.len()
+    }
+
+    /// Computes order `k` of every row of `c` (orders `0..k` and order `k` of the inputs
+    /// given); `false` when an `abs` met its kink.
+    pub(crate) fn run_order(&self, c: &mut [f64], k: usize) -> bool {
+        assert!((1..=self.funcs.len()).contains(&k), "order {k} not compiled");
+        assert!(c.len() >= self.n_rows * self.stride, "Taylor buffer too short");
+        // SAFETY: the function for order `k` has type `TaylorOrderFn` (see `compile_taylor_code`)
+        // and touches only `c[0 .. n_rows · stride]`, which the assertion guarantees.
+        unsafe {
+            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[k - 1]);
+            f(c.as_mut_ptr()) == 0
+        }
+    }
+}
+
+fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+    let mut flags = settings::builder();
+    flags.set("opt_level", "speed").ok()?;
+    flags.set("is_pic", "false").ok()?;
+    flags.set("enable_verifier", if cfg!(debug_assertions) { "true" } else { "false" }).ok()?;
+    let isa = cranelift_native::builder().ok()?.finish(settings::Flags::new(flags)).ok()?;
+    let call_conv = isa.default_call_conv();
+    let ptr = isa.pointer_type();
+    let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
+    let mut ctx = module.make_context();
+    let mut fbc = FunctionBuilderContext::new();
+    let mut ids = Vec::with_capacity(max_order);
+    let mut ok = true;
+    for k in 1..=max_order {
+        ctx.func.signature.call_conv = call_conv;
+        ctx.func.signature.params.push(AbiParam::new(ptr));
+        ctx.func.signature.returns.push(AbiParam::new(types::I32));
+        let emitted = {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fbc);
+            let block = b.create_block();
+            b.append_block_params_for_function_params(block);
+            b.switch_to_block(block);
+            b.seal_block(block);
+            let base = b.block_params(block)[0];
+            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k, cur: vec![None; tape.n_rows()] };
+            let kink = em.order(tape);
+            if let Some(kink) = kink {
+                let r = em.b.ins().uextend(types::I32, kink);
+                em.b.ins().return_(&[r]);
+                b.finalize();
+            }
+            kink.is_some()
+        };
+        let id = emitted
+            .then(|| module.declare_function(&format!("taylor_order_{k}"), Linkage::Export, &ctx.func.signature).ok())
+            .flatten();
+        let defined = id.and_then(|id| module.define_function(id, &mut ctx).ok().map(|_| id));
+        module.clear_context(&mut ctx);
+        match defined {
+            Some(id) => ids.push(id),
+            None => {
+                ok = false;
+                break;
+            }
+        }
+    }
+    if !ok || module.finalize_definitions().is_err() {
+        // SAFETY: no pointer into this module was ever handed out.
+        unsafe { module.free_memory() };
+        return None;
+    }
+    let funcs = ids.into_iter().map(|id| module.get_finalized_function(id)).collect();
+    Some(NativeTaylor { funcs, module: ManuallyDrop::new(module), stride, n_rows: tape.n_rows() })
+}
+
+/// Emits order `k` of every recurrence of a Taylor tape, mirroring
+/// `TaylorTape::run_order` operation for operation.
+struct TaylorEmitter<'a, 'b> {
+    b: &'a mut FunctionBuilder<'b>,
+    base: Value,
+    s: usize,
+    k: usize,
+    /// Order `k` of each row written so far in this function (kept in SSA values, and stored).
+    cur: Vec<Option<Value>>,
+}
+
+impl TaylorEmitter<'_, '_> {
+    /// Coefficient `j` of row `r`.
+    fn at(&mut self, r: u32, j: usize) -> Value {
+        if j == self.k {
+            if let Some(v) = self.cur[r as usize] {
+                return v;
+            }
+        }
+        let off = ((r as usize * self.s + j) * 8) as i32;
+        self.b.ins().load(types::F64, MemFlags::trusted(), self.base, off)
+    }
+
+    /// Writes order `k` of row `r`.
+    fn put(&mut self, r: u32, v: Value) {
+        let off = ((r as usize * self.s + self.k) * 8) as i32;
+        self.b.ins().store(MemFlags::trusted(), v, self.base, off);
+        self.cur[r as usize] = Some(v);
+    }
+
+    fn c(&mut self, x: f64) -> Value {
+        self.b.ins().f64const(x)
+    }
+
+    /// `w_i · a[a0 + i] · b[b0 − i]`, evaluated as `(w_i · a) · b`, with the multiplication
+    /// by a weight of exactly 1 left out (`1 · x = x` in IEEE arithmetic).
+    fn term(&mut self, a: u32, a0: usize, b: u32, b0: usize, i: usize, w: &impl Fn(usize) -> f64) -> Value {
+        let x = self.at(a, a0 + i);
+        let y = self.at(b, b0 - i);
+        let wi = w(i);
+        let x = if wi == 1.0 {
+            x
+        } else {
+            let wv = self.c(wi);
+            self.b.ins().fmul(wv, x)
+        };
+        self.b.ins().fmul(x, y)
+    }
+
+    /// `Σ_i w_i · a[a0 + i] · b[b0 − i]`, `i = 0..len`, in the interpreter's order (`sum4` in
+    /// `taylor.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
+    /// added at the end, the others round-robin into four partial sums from `0.0`, combined
+    /// as `(s₀ + s₁) + (s₂ + s₃)`.
+    fn sum(&mut self, a: u32, a0: usize, b: u32, b0: usize, len: usize, w: impl Fn(usize) -> f64) -> Value {
+        let k = self.k;
+        let lo = usize::from(len > 0 && b0 == k);
+        let hi = if len > lo && a0 + len - 1 == k { len - 1 } else { len };
+        let zero = self.c(0.0);
+        let mut acc = [zero; 4];
+        for i in lo..hi {
+            let t = self.term(a, a0, b, b0, i, &w);
+            let r = (i - lo) % 4;
+            acc[r] = self.b.ins().fadd(acc[r], t);
+        }
+        let s01 = self.b.ins().fadd(acc[0], acc[1]);
+        let s23 = self.b.ins().fadd(acc[2], acc[3]);
+        let mut s = self.b.ins().fadd(s01, s23);
+        if lo == 1 {
+            let t = self.term(a, a0, b, b0, 0, &w);
+            s = self.b.ins().fadd(s, t);
+        }
+        if hi < len {
+            let t = self.term(a, a0, b, b0, len - 1, &w);
+            s = self.b.ins().fadd(s, t);
+        }
+        s
+    }
+
+    /// `Σ_{j=lo}^{k−lo} a_j b_{k−j}` (`cauchy`).
+    fn cauchy(&mut self, a: u32, b: u32, lo: usize) -> Value {
+        let k = self.k;
+        self.sum(a, lo, b, k - lo, k + 1 - 2 * lo, |_| 1.0)
+    }
+
+    /// `Σ_{j=1}^{k} j a_j b_{k−j}` (`weighted`).
+    fn weighted(&mut self, a: u32, b: u32) -> Value {
+        let k = self.k;
+        self.sum(a, 1, b, k - 1, k, |i| (i + 1) as f64)
+    }
+
+    /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`).
+    fn weighted_short(&mut self, a: u32, b: u32) -> Value {
+        let k = self.k;
+        if k < 2 {
+            return self.c(0.0);
+        }
+        self.sum(a, 1, b, k - 1, k - 1, |i| (i + 1) as f64)
+    }
+
+    /// `Σ_{j=1}^{k−1} x_j x_{k−j}` over one row (`dot_rev(&r[1..k], &r[1..k])`).
+    fn inner_square(&mut self, r: u32) -> Value {
+        let k = self.k;
+        if k < 2 {
+            return self.c(0.0);
+        }
+        self.sum(r, 1, r, k - 1, k - 1, |_| 1.0)
+    }
+
+    fn fdiv_k(&mut self, x: Value) -> Value {
+        let kf = self.c(self.k as f64);
+        self.b.ins().fdiv(x, kf)
+    }
+
+    /// `(e j − (k − j)) a_j d_{k−j}` summed, over `k a₀` (`constant_power`).
+    fn constant_power(&mut self, a: u32, d: u32, e: f64) -> Value {
+        let k = self.k;
+        let acc = self.sum(a, 1, d, k - 1, k, |i| {
+            let j = i + 1;
+            e * j as f64 - (k - j) as f64
+        });
+        let a0 = self.at(a, 0);
+        let kf = self.c(k as f64);
+        let den = self.b.ins().fmul(kf, a0);
+        self.b.ins().fdiv(acc, den)
+    }
+
+    /// All recurrences at order `k`; the value is the kink flag (an `i8`).
+    fn order(&mut self, tape: &super::TaylorTape) -> Option<Value> {
+        let mut kink = self.b.ins().iconst(types::I8, 0);
+        let k = self.k;
+        for op in tape.ops() {
+            match *op {
+                Op::Add { d, a, b } => {
+                    let (x, y) = (self.at(a, k), self.at(b, k));
+                    let v = self.b.ins().fadd(x, y);
+                    self.put(d, v);
+                }
+                Op::Sub { d, a, b } => {
+                    let (x, y) = (self.at(a, k), self.at(b, k));
+                    let v = self.b.ins().fsub(x, y);
+                    self.put(d, v);
+                }
+                Op::Neg { d, a } => {
+                    let x = self.at(a, k);
+                    let v = self.b.ins().fneg(x);
+                    self.put(d, v);
+                }
+                Op::Mul { d, a, b } => {
+                    let v = self.cauchy(a, b, 0);
+                    self.put(d, v);
+                }
+                Op::Div { d, a, b } => {
+                    // (a_k − Σ_{i<k} b_{1+i} d_{k−1−i}) / b₀
+                    let acc = self.sum(b, 1, d, k - 1, k, |_| 1.0);
+                    let ak = self.at(a, k);
+                    let num = self.b.ins().fsub(ak, acc);
+                    let b0 = self.at(b, 0);
+                    let v = self.b.ins().fdiv(num, b0);
+                    self.put(d, v);
+                }
+                Op::Sqrt { d, a } => {
+                    let acc = self.inner_square(d);
+                    let ak = self.at(a, k);
+                    let num = self.b.ins().fsub(ak, acc);
+                    let two = self.c(2.0);
+                    let d0 = self.at(d, 0);
+                    let den = self.b.ins().fmul(two, d0);
+                    let v = self.b.ins().fdiv(num, den);
+                    self.put(d, v);
+                }
+                Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
+                    let w = self.weighted(a, c);
+                    let sv = self.fdiv_k(w);
+                    let w = self.weighted(a, s);
+                    let cv = self.fdiv_k(w);
+                    self.put(s, sv);
+                    let cv = if matches!(op, Op::SinCos { .. }) {
+                        let m = self.c(-1.0);
+                        self.b.ins().fmul(m, cv)
+                    } else {
+                        cv
+                    };
+                    self.put(c, cv);
+                }
+                Op::Exp { d, a } => {
+                    let w = self.weighted(a, d);
+                    let v = self.fdiv_k(w);
+                    self.put(d, v);
+                }
+                Op::Log { d, a } => {
+                    let acc = self.weighted_short(d, a);
+                    let q = self.fdiv_k(acc);
+                    let ak = self.at(a, k);
+                    let num = self.b.ins().fsub(ak, q);
+                    let a0 = self.at(a, 0);
+                    let v = self.b.ins().fdiv(num, a0);
+                    self.put(d, v);
+                }
+                Op::Tan { d, a, u, hyp } => {
+                    let w = self.weighted(a, u);
+                    let dv = self.fdiv_k(w);
+                    self.put(d, dv);
+                    let sq = self.cauchy(d, d, 0);
+                    let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
+                    self.put(u, uv);
+                }
+                Op::Asin { d, a, r, neg } => {
+                    let sq = self.cauchy(a, a, 0);
+                    let nsq = self.b.ins().fneg(sq);
+                    let inner = self.inner_square(r);
+                    let num = self.b.ins().fsub(nsq, inner);
+                    let two = self.c(2.0);
+                    let r0 = self.at(r, 0);
+                    let den = self.b.ins().fmul(two, r0);
+                    let rv = self.b.ins().fdiv(num, den);
+                    let ak = self.at(a, k);
+                    let ak = if neg { self.b.ins().fneg(ak) } else { ak };
+                    let w = self.weighted_short(d, r);
+                    let q = self.fdiv_k(w);
+                    let num = self.b.ins().fsub(ak, q);
+                    let dv = self.b.ins().fdiv(num, r0);
+                    self.put(r, rv);
+                    self.put(d, dv);
+                }
+                Op::Atan { d, a, u } => {
+                    let uv = self.cauchy(a, a, 0);
+                    let w = self.weighted_short(d, u);
+                    let q = self.fdiv_k(w);
+                    let ak = self.at(a, k);
+                    let num = self.b.ins().fsub(ak, q);
+                    let u0 = self.at(u, 0);
+                    let dv = self.b.ins().fdiv(num, u0);
+                    self.put(u, uv);
+                    self.put(d, dv);
+                }
+                Op::Atan2 { d, a, b, u } => {
+                    let x = self.cauchy(a, a, 0);
+                    let y = self.cauchy(b, b, 0);
+                    let uv = self.b.ins().fadd(x, y);
+                    let x = self.weighted(a, b);
+                    let y = self.weighted(b, a);
+                    let num = self.b.ins().fsub(x, y);
+                    let w = self.weighted_short(d, u);
+                    let num = self.b.ins().fsub(num, w);
+                    let kf = self.c(k as f64);
+                    let u0 = self.at(u, 0);
+                    let den = self.b.ins().fmul(kf, u0);
+                    let dv = self.b.ins().fdiv(num, den);
+                    self.put(u, uv);
+                    self.put(d, dv);
+                }
+                Op::Root { d, a, q } => {
+                    let v = self.constant_power(a, d, 1.0 / f64::from(q));
+                    self.put(d, v);
+                }
+                Op::PowConst { d, a, e } => {
+                    let v = self.constant_power(a, d, tape.row_constant(e)?);
+                    self.put(d, v);
+                }
+                Op::PowVar { d, a, b, l, m } => {
+                    let w = self.weighted_short(l, a);
+                    let q = self.fdiv_k(w);
+                    let ak = self.at(a, k);
+                    let num = self.b.ins().fsub(ak, q);
+                    let a0 = self.at(a, 0);
+                    let lv = self.b.ins().fdiv(num, a0);
+                    self.put(l, lv);
+                    let mv = self.cauchy(b, l, 0);
+                    self.put(m, mv);
+                    let w = self.weighted(m, d);
+                    let dv = self.fdiv_k(w);
+                    self.put(d, dv);
+                }
+                Op::Abs { d, a } => {
+                    // a₀ > 0: a_k; a₀ < 0: −a_k; otherwise (0 or NaN) 0 if a_k == 0, else a kink.
+                    let (a0, ak) = (self.at(a, 0), self.at(a, k));
+                    let zero = self.c(0.0);
+                    let pos = self.b.ins().fcmp(FloatCC::GreaterThan, a0, zero);
+                    let negc = self.b.ins().fcmp(FloatCC::LessThan, a0, zero);
+                    let nak = self.b.ins().fneg(ak);
+                    let inner = self.b.ins().select(negc, nak, zero);
+                    let v = self.b.ins().select(pos, ak, inner);
+                    let at_kink = self.b.ins().fcmp(FloatCC::UnorderedOrEqual, a0, zero);
+                    let moving = self.b.ins().fcmp(FloatCC::NotEqual, ak, zero);
+                    let here = self.b.ins().band(at_kink, moving);
+                    kink = self.b.ins().bor(kink, here);
+                    self.put(d, v);
+                }
+            }
+        }
+        Some(kink)
     }
 }

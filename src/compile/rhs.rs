@@ -36,6 +36,10 @@ pub enum RhsError {
     /// Newton's method for `p = ∂L/∂q'` did not converge.
     #[error("the Legendre map did not converge at t = {t} after {iterations} Newton steps (residual {residual:e}); state {state:?}")]
     LegendreNewton { t: f64, state: Vec<f64>, iterations: usize, residual: f64 },
+    /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the Legendre map's Newton
+    /// iteration.
+    #[error("interrupted in the Legendre map at t = {t}; state {state:?}")]
+    Interrupted { t: f64, state: Vec<f64> },
 }
 
 /// The integrators' error carries the reason as text (with `t` and the state in it).
@@ -1124,6 +1128,9 @@ impl ImplicitLegendreRhs {
             let pscale = 1.0 + p[..n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
             let mut norm = self.residual(slots, v, p, ra);
             for iter in 0..NEWTON_MAX_ITER {
+                if crate::cancel::interrupted() {
+                    return Err(RhsError::Interrupted { t, state: state() });
+                }
                 if !norm.is_finite() {
                     return Err(RhsError::NonFinite { t, state: state(), what: "momentum ∂L/∂q'" });
                 }

@@ -22,18 +22,21 @@
 //! systems (`W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`, one factorisation of `W₀` per expansion).
 
 use std::fmt;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
+use super::native::NativeTaylor;
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
 
 /// One instruction of a [`TaylorTape`]. Operands and destinations are rows.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Op {
+pub(super) enum Op {
     Add {
         d: u32,
         a: u32,
@@ -285,6 +288,27 @@ impl TaylorTape {
         })
     }
 
+    /// The recurrences, in order (for the native back end).
+    pub(super) fn ops(&self) -> &[Op] {
+        &self.ops
+    }
+
+    /// The value of a constant row (`None` for any other row).
+    pub(super) fn row_constant(&self, r: u32) -> Option<f64> {
+        (r as usize).checked_sub(self.n_inputs).and_then(|i| self.consts.get(i)).copied()
+    }
+
+    /// Machine code for orders `1..=max_order` of this tape's recurrences, for coefficient
+    /// buffers of `stride` (`max_order < stride`): `None` when the tape is too large to unroll
+    /// (see `native.rs`), when [`crate::compile::NO_JIT_ENV`] is set, or when the host has no
+    /// JIT. Its coefficients equal [`TaylorTape::run_order`]'s bit for bit.
+    pub fn compile_native(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
+        if super::native::jit_disabled_by_env() {
+            return None;
+        }
+        NativeTaylor::compile(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
+    }
+
     /// The number of coefficient rows (inputs, constants, values and auxiliaries).
     pub fn n_rows(&self) -> usize {
         self.n_rows
@@ -334,16 +358,16 @@ impl TaylorTape {
                 Op::Neg { d, a } => c[d as usize * s + k] = -at(c, a, k),
                 Op::Mul { d, a, b } => {
                     let (ra, rb) = (row(c, a, s), row(c, b, s));
-                    c[d as usize * s + k] = cauchy(ra, rb, 0, k);
+                    c[d as usize * s + k] = cauchy(ra, rb, k);
                 }
                 Op::Div { d, a, b } => {
                     let (rb, rd) = (row(c, b, s), row(c, d, s));
-                    let acc = dot_rev(&rb[1..=k], &rd[..k]);
+                    let acc = dot_rev(&rb[1..=k], &rd[..k], true);
                     c[d as usize * s + k] = (at(c, a, k) - acc) / rb[0];
                 }
                 Op::Sqrt { d, a } => {
                     let rd = row(c, d, s);
-                    let acc = dot_rev(&rd[1..k], &rd[1..k]);
+                    let acc = dot_rev(&rd[1..k], &rd[1..k], false);
                     c[d as usize * s + k] = (at(c, a, k) - acc) / (2.0 * rd[0]);
                 }
                 Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
@@ -369,13 +393,13 @@ impl TaylorTape {
                     let dv = weighted(ra, ru, k) / kf;
                     c[d as usize * s + k] = dv;
                     let rd = row(c, d, s);
-                    let sq = cauchy(rd, rd, 0, k);
+                    let sq = cauchy(rd, rd, k);
                     c[u as usize * s + k] = if hyp { -sq } else { sq };
                 }
                 Op::Asin { d, a, r, neg } => {
                     // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                     let (ra, rr) = (row(c, a, s), row(c, r, s));
-                    let rv = (-cauchy(ra, ra, 0, k) - dot_rev(&rr[1..k], &rr[1..k])) / (2.0 * rr[0]);
+                    let rv = (-cauchy(ra, ra, k) - dot_rev(&rr[1..k], &rr[1..k], false)) / (2.0 * rr[0]);
                     // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
                     let rd = row(c, d, s);
                     let ak = if neg { -ra[k] } else { ra[k] };
@@ -385,7 +409,7 @@ impl TaylorTape {
                 }
                 Op::Atan { d, a, u } => {
                     let (ra, ru) = (row(c, a, s), row(c, u, s));
-                    let uv = cauchy(ra, ra, 0, k);
+                    let uv = cauchy(ra, ra, k);
                     let rd = row(c, d, s);
                     let dv = (ra[k] - weighted_short(rd, ru, k) / kf) / ru[0];
                     c[u as usize * s + k] = uv;
@@ -393,7 +417,7 @@ impl TaylorTape {
                 }
                 Op::Atan2 { d, a, b, u } => {
                     let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
-                    let uv = cauchy(ra, ra, 0, k) + cauchy(rb, rb, 0, k);
+                    let uv = cauchy(ra, ra, k) + cauchy(rb, rb, k);
                     // u d' = b a' − a b'.
                     let num = weighted(ra, rb, k) - weighted(rb, ra, k);
                     let rd = row(c, d, s);
@@ -414,7 +438,7 @@ impl TaylorTape {
                     let lv = (ra[k] - weighted_short(rl, ra, k) / kf) / ra[0];
                     c[l as usize * s + k] = lv;
                     let (rb, rl) = (row(c, b, s), row(c, l, s));
-                    c[m as usize * s + k] = cauchy(rb, rl, 0, k);
+                    c[m as usize * s + k] = cauchy(rb, rl, k);
                     let (rm, rd) = (row(c, m, s), row(c, d, s));
                     c[d as usize * s + k] = weighted(rm, rd, k) / kf;
                 }
@@ -502,16 +526,87 @@ impl TaylorTape {
         c: &mut [f64],
         stride: usize,
         order: usize,
+        inputs: impl FnMut(usize, &mut [f64]),
+    ) -> Result<(), KinkAt> {
+        self.expand_with(None, c, stride, order, inputs)
+    }
+
+    /// [`TaylorTape::expand`] with orders `1..` run by `native` where it has them (compiled
+    /// by [`TaylorTape::compile_native`] of this tape for this `stride`).
+    pub fn expand_with(
+        &self,
+        native: Option<&TaylorNative>,
+        c: &mut [f64],
+        stride: usize,
+        order: usize,
         mut inputs: impl FnMut(usize, &mut [f64]),
     ) -> Result<(), KinkAt> {
         self.init(c, stride);
+        let native = native.filter(|n| n.stride() == stride);
         for k in 0..=order {
             inputs(k, c);
-            self.run_order(c, stride, k)?;
+            match native {
+                Some(n) if k >= 1 && k <= n.max_order() => n.run_order(c, k)?,
+                _ => self.run_order(c, stride, k)?,
+            }
         }
         Ok(())
     }
 }
+
+/// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
+/// ([`TaylorTape::compile_native`]); clones share the code.
+#[derive(Clone, Debug)]
+pub struct TaylorNative(Arc<NativeTaylor>);
+
+impl TaylorNative {
+    /// The stride of the coefficient buffers the code was compiled for.
+    pub fn stride(&self) -> usize {
+        self.0.stride()
+    }
+
+    /// The highest order compiled (orders `1..=max_order`; order 0 is always interpreted).
+    pub fn max_order(&self) -> usize {
+        self.0.max_order()
+    }
+
+    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride.
+    pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
+        if self.0.run_order(c, k) {
+            Ok(())
+        } else {
+            Err(KinkAt)
+        }
+    }
+}
+
+/// How many expansions at one order a [`TaylorOde`] with native code switched on
+/// ([`TaylorOde::with_native`]) runs in the interpreter before compiling that order's
+/// recurrences, so a cold start never waits for Cranelift.
+pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
+
+/// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
+#[derive(Debug)]
+struct NativeCache {
+    allowed: bool,
+    /// Interpreted expansions so far (counted only until the code exists).
+    uses: AtomicUsize,
+    /// `by_order[p]`: the code for expansions of order `p` (stride `p + 1`, orders `1..p`).
+    by_order: Vec<OnceLock<Option<TaylorNative>>>,
+}
+
+impl NativeCache {
+    fn new(allowed: bool) -> Arc<NativeCache> {
+        Arc::new(NativeCache {
+            allowed,
+            uses: AtomicUsize::new(0),
+            by_order: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
+        })
+    }
+}
+
+/// Orders above this are always interpreted (the integrator's own limit is 100).
+const MAX_NATIVE_ORDER: usize = 100;
 
 /// An `abs` met its kink (see [`TaylorTape::run_order`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -523,29 +618,71 @@ fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
 }
 
 // The sums below are the interpreter's inner loops (O(order²) per instruction and step).
-// They are written over zipped slices (the second one reversed) rather than by index, so
-// the compiler sees both lengths and drops the bounds check of every term; the terms are
-// added in the same order as the indexed form, so results are bit-for-bit unchanged.
+//
+// Every sum `Σ_i w_i x_i y_{n−1−i}` is added in one fixed order, which the native code
+// (`native.rs`) follows term for term so both give the same bits: the terms that read an
+// order-`k` coefficient (the first when `y`'s last element is order `k`, the last when `x`'s
+// is) are added last, and the others go round-robin into four partial sums, combined as
+// `(s₀ + s₁) + (s₂ + s₃)`. Why: four chains of additions instead of one cut the latency of a
+// long sum about fourfold, and leaving the order-`k` terms to the end lets the native code
+// compute everything else of an instruction before its operands' order `k` exists, so the
+// chain from one instruction to the next at the same order is two additions long instead of
+// `k` (the profile in BENCHMARKS.md: the sums are ~90 % of a step).
 
-/// `Σ_{j=lo}^{k−lo} a_j b_{k−j}`.
+/// `Σ_i w(i) x_i y_{n−1−i}` over `n = x.len()` terms in the order described above;
+/// `late_first` / `late_last` mark the first / last term as reading an order-`k` value.
 #[inline(always)]
-fn cauchy(a: &[f64], b: &[f64], lo: usize, k: usize) -> f64 {
-    let (x, y) = (&a[lo..=k - lo], &b[lo..=k - lo]);
-    x.iter().zip(y.iter().rev()).fold(0.0, |acc, (p, q)| acc + p * q)
+fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_last: bool) -> f64 {
+    let n = x.len();
+    let y = &y[..n];
+    let lo = usize::from(late_first && n > 0);
+    let hi = if late_last && n > lo { n - 1 } else { n };
+    let term = |i: usize| w(i) * x[i] * y[n - 1 - i];
+    let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
+    let mut i = lo;
+    while i + 4 <= hi {
+        s0 += term(i);
+        s1 += term(i + 1);
+        s2 += term(i + 2);
+        s3 += term(i + 3);
+        i += 4;
+    }
+    if i < hi {
+        s0 += term(i);
+    }
+    if i + 1 < hi {
+        s1 += term(i + 1);
+    }
+    if i + 2 < hi {
+        s2 += term(i + 2);
+    }
+    let mut s = (s0 + s1) + (s2 + s3);
+    if lo == 1 {
+        s += term(0);
+    }
+    if hi < n {
+        s += term(n - 1);
+    }
+    s
 }
 
-/// `Σ_{j} x_j y_{n−1−j}` for two slices of length `n` (the second read backwards).
+/// `Σ_{j=0}^{k} a_j b_{k−j}` (both end terms read order `k`).
 #[inline(always)]
-fn dot_rev(x: &[f64], y: &[f64]) -> f64 {
-    let y = &y[..x.len()];
-    x.iter().zip(y.iter().rev()).fold(0.0, |acc, (p, q)| acc + p * q)
+fn cauchy(a: &[f64], b: &[f64], k: usize) -> f64 {
+    sum4(&a[..=k], &b[..=k], |_| 1.0, true, true)
+}
+
+/// `Σ_{j} x_j y_{n−1−j}` for two slices of length `n` (the second read backwards); `late`:
+/// the last `x` is an order-`k` value.
+#[inline(always)]
+fn dot_rev(x: &[f64], y: &[f64], late: bool) -> f64 {
+    sum4(x, y, |_| 1.0, false, late)
 }
 
 /// `Σ_{j=1}^{k} j a_j b_{k−j}` (the coefficient of `t^{k−1}` in `a' b`).
 #[inline(always)]
 fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
-    let (x, y) = (&a[1..=k], &b[..k]);
-    x.iter().zip(y.iter().rev()).enumerate().fold(0.0, |acc, (j, (p, q))| acc + (j + 1) as f64 * p * q)
+    sum4(&a[1..=k], &b[..k], |i| (i + 1) as f64, false, true)
 }
 
 /// `Σ_{j=1}^{k−1} j a_j b_{k−j}`.
@@ -554,8 +691,7 @@ fn weighted_short(a: &[f64], b: &[f64], k: usize) -> f64 {
     if k < 2 {
         return 0.0;
     }
-    let (x, y) = (&a[1..k], &b[1..k]);
-    x.iter().zip(y.iter().rev()).enumerate().fold(0.0, |acc, (j, (p, q))| acc + (j + 1) as f64 * p * q)
+    sum4(&a[1..k], &b[1..k], |i| (i + 1) as f64, false, false)
 }
 
 /// Where the derivative of a state component comes from.
@@ -589,6 +725,7 @@ pub struct TaylorOde {
     time: Option<usize>,
     derivs: Vec<Derivative>,
     solve: Option<MassSolve>,
+    native: Arc<NativeCache>,
 }
 
 impl TaylorOde {
@@ -604,6 +741,7 @@ impl TaylorOde {
             time,
             derivs: (0..dim).map(Derivative::Output).collect(),
             solve: None,
+            native: NativeCache::new(false),
         }
     }
 
@@ -621,12 +759,50 @@ impl TaylorOde {
             time: (tape.n_inputs() > 2 * n).then_some(2 * n),
             derivs,
             solve: Some(MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric }),
+            native: NativeCache::new(false),
         }
     }
 
     /// The dimension of the state.
     pub fn dim(&self) -> usize {
         self.dim
+    }
+
+    /// Turns the native Taylor code on or off. It is **off by default**: measured in
+    /// BENCHMARKS.md (issue 10), the unrolled code is 4–22 % faster than the interpreter
+    /// on the double pendulum but 4–14 % slower on Kepler, and costs 10–170 ms of Cranelift
+    /// time per order, repaid only after ~10⁵ steps. On, each order is compiled
+    /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions (and never when
+    /// [`crate::compile::NO_JIT_ENV`] is set); results are the same bits either way.
+    pub fn with_native(mut self, on: bool) -> TaylorOde {
+        self.native = NativeCache::new(on);
+        self
+    }
+
+    /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
+    /// native code is off, or the tape is too large to unroll at this order).
+    pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
+        if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        self.native.by_order[order].get_or_init(|| self.tape.compile_native(order + 1, order - 1)).clone()
+    }
+
+    /// The code an expansion of `order` runs on: the native code once it exists, compiled
+    /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions.
+    fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
+        let cache = &*self.native;
+        if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        let slot = &cache.by_order[order];
+        if let Some(code) = slot.get() {
+            return code.as_ref();
+        }
+        if cache.uses.fetch_add(1, Ordering::Relaxed) < NATIVE_AFTER_EXPANSIONS {
+            return None;
+        }
+        slot.get_or_init(|| self.tape.compile_native(order + 1, order - 1)).as_ref()
     }
 
     /// The Taylor form of the tape.
@@ -677,8 +853,12 @@ impl TaylorOde {
         }
         let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
         let mut kind = Factor::Cholesky;
+        let native = self.native_tiered(order);
         for k in 0..order {
-            self.tape.run_order(c, s, k).map_err(kink)?;
+            match native {
+                Some(code) if k >= 1 => code.run_order(c, k).map_err(kink)?,
+                _ => self.tape.run_order(c, s, k).map_err(kink)?,
+            }
             if let Some(m) = &self.solve {
                 let n = m.n;
                 let (acc, rest) = rest.split_at_mut(n * s);
@@ -814,20 +994,41 @@ impl TaylorOde {
 impl System {
     /// The Taylor form of the system's equations of motion: `W q'' = F` in `(q, q')` for a
     /// Lagrangian system, Hamilton's equations in `(q, p)` for a Hamiltonian one.
+    ///
+    /// For a Lagrangian system only the tape of `W` and `F` is built, and left interpreted:
+    /// the Taylor tape evaluates every order itself, so the right-hand side's native code and
+    /// unrolled Cholesky solve, which
+    /// [`System::compile_rhs`] builds for the other methods, would be compiled for nothing —
+    /// for the 10-link pendulum that was most of the cold start.
     pub fn compile_taylor(&self) -> Result<TaylorOde, CompileError> {
         match self.kind() {
             Kind::Hamiltonian(_) => Ok(TaylorOde::from_hamiltonian(&self.compile_hamiltonian()?)),
-            _ => Ok(TaylorOde::from_lagrangian(&self.compile_rhs()?)),
+            _ => {
+                if !self.constraints().is_empty() {
+                    return Err(CompileError::Unsupported {
+                        what: "holonomic constraints in the Taylor method (use the augmented system of compile_constrained with another method)",
+                    });
+                }
+                let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e.to_string()))?;
+                let n = w.len();
+                let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
+                outputs.extend(f.iter().cloned());
+                let coords: Vec<String> = self.coordinates().iter().map(|s| s.to_string()).collect();
+                let inputs = super::rhs::state_inputs(&coords);
+                let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+                let params: Vec<(String, f64)> = self.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
+                let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                let options = super::CompileOptions::default().with_native(false);
+                let tape = Tape::compile_with_options(&outputs, &inputs, &params, &options)?;
+                let symmetric = (0..n).all(|i| (0..i).all(|j| w[i][j] == w[j][i]));
+                Ok(TaylorOde::second_order(&tape, n, symmetric))
+            }
         }
     }
 }
 /// Coefficient `k` of `d = a^e` for a constant `e` (also the real root, `e = 1/q`), from
 /// `a d' = e d a'`: `d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀)`.
 fn constant_power(ra: &[f64], rd: &[f64], e: f64, k: usize) -> f64 {
-    let (x, y) = (&ra[1..=k], &rd[..k]);
-    let acc = x.iter().zip(y.iter().rev()).enumerate().fold(0.0, |acc, (i, (p, q))| {
-        let j = i + 1;
-        acc + (e * j as f64 - (k - j) as f64) * p * q
-    });
+    let acc = sum4(&ra[1..=k], &rd[..k], |i| e * (i + 1) as f64 - (k - (i + 1)) as f64, false, true);
     acc / (k as f64 * ra[0])
 }

@@ -47,7 +47,7 @@ mod transform;
 pub use constraints::ConstrainedEquations;
 pub use discrete::{point_names, Discrete, Rule};
 pub use first_order::FirstOrder;
-pub use geodesic::{geodesic, Curvature, Geodesic};
+pub use geodesic::{embedded, geodesic, geodesic_from_metric, Curvature, Embedding, Geodesic};
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
@@ -141,8 +141,8 @@ pub enum MechanicsError {
     /// The two-form of a first-order Lagrangian is degenerate.
     #[error("error: the two-form ω = da of this first-order Lagrangian is degenerate along {direction}: a gauge freedom or a constraint, so ω z' = ∂H/∂z does not determine z' (remove that variable or add the missing momentum term)")]
     DegenerateTwoForm { direction: String },
-    /// A line element that does not define a metric.
-    #[error("error: bad line element: {0}")]
+    /// A line element, metric or embedding that does not define a (regular, symmetric) metric.
+    #[error("error: bad metric: {0}")]
     BadMetric(String),
     /// The system is too large for a closed-form symbolic inverse.
     #[error("error: {n} coupled velocities: the closed-form inverse of the mass matrix is not formed beyond n = {limit} (its size grows like n!); use the numeric solve of W q'' = F")]

@@ -224,6 +224,7 @@ impl Ritz {
         let mut a = guess.to_vec();
         a.resize(k, 0.0);
         for it in 1..=50 {
+            crate::cancel::check().map_err(|_| bad(format!("interrupted after {} Newton steps", it - 1)))?;
             let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
             let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -308,6 +309,38 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
             (x, 2.0 / ((1.0 - x * x) * dp * dp))
         })
         .collect()
+}
+
+impl Ritz {
+    /// The printed lines shared by `lagrangian ritz` and the scene statement `ritz`: the
+    /// integrand, `S` and the conditions `∂S/∂a_k = 0` (or, when the integrand is not a
+    /// polynomial in t, a note and the integrands of the conditions), then the solution.
+    pub fn report(&self, sol: &RitzSolution, format: crate::print::Format) -> Vec<String> {
+        use crate::print::{render, symbol};
+        let r = |e: &Expr| render(e, format);
+        let mut out = vec![format!("L(trial) = {}", r(&self.integrand))];
+        match &self.action {
+            Some(sa) => {
+                out.push(format!("S = {}", r(sa)));
+                for (u, c) in self.unknowns.iter().zip(&self.conditions) {
+                    out.push(format!("∂S/∂{}: {} = 0", symbol(u, format), r(c)));
+                }
+            }
+            None => {
+                out.push(format!(
+                    "note: L(trial) is not a polynomial in t; S and ∂S/∂a are integrated numerically (Gauss–Legendre, {QUADRATURE_POINTS} points graded towards the ends)"
+                ));
+                for (u, c) in self.unknowns.iter().zip(&self.conditions) {
+                    out.push(format!("∂S/∂{}: ∫ {} dt = 0", symbol(u, format), r(c)));
+                }
+            }
+        }
+        for (u, v) in self.unknowns.iter().zip(&sol.values) {
+            out.push(format!("{} ≈ {v:.15e}", symbol(u, format)));
+        }
+        out.push(format!("S ≈ {:.15e}    # at the stationary point, {} Newton steps", sol.action, sol.iterations));
+        out
+    }
 }
 
 /// The number of points of the Ritz quadrature (for the printed note).

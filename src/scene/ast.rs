@@ -212,6 +212,24 @@ pub struct ChaosSpec {
     pub ranges: Vec<(Src, Src, Src)>,
     /// The map's `to FILE`.
     pub path: Option<Src>,
+    /// The map's `on H = 1/6 solve p_x > 0`: every start on that level set.
+    pub level: Option<LevelSpec>,
+}
+
+/// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
+/// variable solved for (on the given side of zero).
+#[derive(Clone, Debug)]
+pub struct LevelSpec {
+    /// The named expression held fixed (`H`).
+    pub on: Src,
+    /// Its value.
+    pub value: Src,
+    /// The state variable solved for.
+    pub solve: Src,
+    /// Solve on the positive (`> 0`) or negative side.
+    pub positive: bool,
+    /// The whole clause.
+    pub span: Span,
 }
 
 /// `small σ unperturbed ω0 [principal A]` of an `average` statement.
@@ -232,6 +250,52 @@ pub enum LieGenerator {
     With(Src),
     /// `flow [H]`.
     Flow(Option<Src>),
+}
+
+/// The geometry of a `geodesic` statement.
+#[derive(Clone, Debug)]
+pub enum Geometry {
+    /// `ds^2 = dθ^2 + sin(θ)^2 dφ^2`
+    LineElement(Src),
+    /// `metric (1, 0), (0, sin(θ)^2)`: the rows.
+    Metric(Vec<Vec<Src>>),
+    /// `embedding (X, Y, Z)`: a surface in Euclidean space.
+    Embedding(Vec<Src>),
+}
+
+/// `geodesic …` (src/scene/notes.rs).
+#[derive(Clone, Debug)]
+pub struct GeodesicSpec {
+    /// The line element, metric or embedding.
+    pub geometry: Geometry,
+    /// `from (…) to (…)`: a shooting solution between two points.
+    pub ends: Option<(Vec<Src>, Vec<Src>)>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `ritz …` (src/scene/notes.rs).
+#[derive(Clone, Debug)]
+pub struct RitzSpec {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Each coordinate's trial path.
+    pub trials: Vec<(Src, Src)>,
+    /// The name after `for` (must be `t`).
+    pub time_var: Src,
+    /// The end times.
+    pub t0: Src,
+    pub t1: Src,
+    /// `from x = …`: the values at `t0`.
+    pub from: Vec<(Src, Src)>,
+    /// `to x = …`: the values at `t1`.
+    pub to: Vec<(Src, Src)>,
+    /// `solve a, b`: the unknown coefficients.
+    pub unknowns: Vec<Src>,
+    /// `near 0.1, 0`: Newton's starting values (default 0).
+    pub guess: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
 }
 
 /// What a `plot` draws.
@@ -378,6 +442,10 @@ pub enum StmtKind {
         /// `as latex`.
         format: Option<Format>,
     },
+    /// `geodesic …`
+    Geodesic(Box<GeodesicSpec>),
+    /// `ritz …`
+    Ritz(Box<RitzSpec>),
     /// `action [H] at E = … [near q0]`.
     Action {
         /// The Hamiltonian (default the session's).

@@ -133,6 +133,23 @@ pub struct CompileRequest {
     pub decls: Declarations,
 }
 
+/// What the chaos statements compile: the variational equations of `H` (Hamilton's
+/// equations, `tangents` tangent vectors under the exact Jacobian and, with `megno`, MEGNO's
+/// accumulator), in the canonical state `(q, p)`.
+#[derive(Clone, Debug)]
+pub struct VariationalRequest {
+    /// Coordinates in order (the momenta are `p_q`).
+    pub coords: Vec<Symbol>,
+    /// `H(q, p)`.
+    pub h: Expr,
+    /// Parameter values, by plain name.
+    pub params: Vec<(String, f64)>,
+    /// How many tangent vectors ride along (1 for MEGNO and FLI, `2n` for the spectrum).
+    pub tangents: usize,
+    /// Whether MEGNO's accumulator is part of the state.
+    pub megno: bool,
+}
+
 /// An event during integration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EventRequest {
@@ -253,6 +270,47 @@ pub trait Backend {
         run: &RunRequest,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Trajectory, BackendError>;
+    /// Compiles the variational equations for the chaos statements (`lyapunov`, `megno`,
+    /// `fli`, `chaos_map`).
+    fn compile_variational(&self, req: &VariationalRequest) -> Result<Compiled, BackendError> {
+        let _ = req;
+        Err(BackendError::NotYetAvailable { what: "the variational equations".into(), stage: "chaos" })
+    }
+    /// The chaos indicators of one orbit from the canonical start `x0` over `0..t_end`, by the
+    /// Taylor method at `tol`, on a system from [`Backend::compile_variational`].
+    fn indicators(
+        &self,
+        compiled: &Compiled,
+        x0: &[f64],
+        t_end: f64,
+        tol: f64,
+    ) -> Result<crate::chaos::Indicators, BackendError> {
+        let _ = (compiled, x0, t_end, tol);
+        Err(BackendError::NotYetAvailable { what: "chaos indicators".into(), stage: "chaos" })
+    }
+    /// One indicator from each of many starts (a chaos map); `progress` receives the fraction
+    /// of starts finished. Only the final value is kept per start (a 200 × 200 map would not
+    /// hold every start's samples). One at a time unless a backend does better.
+    fn chaos_map(
+        &self,
+        compiled: &Compiled,
+        starts: &[Vec<f64>],
+        t_end: f64,
+        tol: f64,
+        which: crate::chaos::Indicator,
+        progress: &mut dyn FnMut(f64),
+    ) -> Vec<Result<f64, BackendError>> {
+        let n = starts.len().max(1) as f64;
+        starts
+            .iter()
+            .enumerate()
+            .map(|(k, x0)| {
+                let out = self.indicators(compiled, x0, t_end, tol).map(|r| r.value(which));
+                progress((k + 1) as f64 / n);
+                out
+            })
+            .collect()
+    }
     /// Integrates one compiled system from several initial states (an ensemble); `progress`
     /// receives the fraction of runs finished. One at a time unless a backend does better.
     fn integrate_many(
@@ -588,6 +646,73 @@ impl Backend for NativeBackend {
         })
     }
 
+    fn compile_variational(&self, req: &VariationalRequest) -> Result<Compiled, BackendError> {
+        let q: Vec<&str> = req.coords.iter().map(|c| c.name()).collect();
+        let p_owned: Vec<String> = q.iter().map(|c| format!("p_{c}")).collect();
+        let p: Vec<&str> = p_owned.iter().map(String::as_str).collect();
+        let params: Vec<(&str, f64)> = req.params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let var = crate::compile::Variational::hamiltonian(&req.h, &q, &p, &params, req.tangents, req.megno)
+            .map_err(|e| BackendError::Failed(format!("cannot compile the variational equations: {e}")))?;
+        Ok(Arc::new(var))
+    }
+
+    fn indicators(
+        &self,
+        compiled: &Compiled,
+        x0: &[f64],
+        t_end: f64,
+        tol: f64,
+    ) -> Result<crate::chaos::Indicators, BackendError> {
+        let var = variational(compiled)?;
+        crate::chaos::indicators(var, x0, t_end, tol)
+            .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
+    }
+
+    /// The starts in parallel on rayon's pool (each start on one thread, so the values do not
+    /// depend on the number of threads); this thread reports progress every 50 ms.
+    fn chaos_map(
+        &self,
+        compiled: &Compiled,
+        starts: &[Vec<f64>],
+        t_end: f64,
+        tol: f64,
+        which: crate::chaos::Indicator,
+        progress: &mut dyn FnMut(f64),
+    ) -> Vec<Result<f64, BackendError>> {
+        use rayon::prelude::*;
+        let var = match variational(compiled) {
+            Ok(v) => v,
+            Err(e) => return starts.iter().map(|_| Err(e.clone())).collect(),
+        };
+        let done = AtomicUsize::new(0);
+        let n = starts.len().max(1) as f64;
+        std::thread::scope(|scope| {
+            let work = scope.spawn(|| {
+                starts
+                    .par_iter()
+                    .map(|x0| {
+                        let out = crate::chaos::indicators(var, x0, t_end, tol)
+                            .map(|r| r.value(which))
+                            .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")));
+                        done.fetch_add(1, Ordering::Relaxed);
+                        out
+                    })
+                    .collect::<Vec<_>>()
+            });
+            while !work.is_finished() {
+                progress(done.load(Ordering::Relaxed) as f64 / n);
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            progress(1.0);
+            work.join().unwrap_or_else(|_| {
+                starts
+                    .iter()
+                    .map(|_| Err(BackendError::Failed("internal: a chaos map worker panicked".into())))
+                    .collect()
+            })
+        })
+    }
+
     /// The runs in parallel on rayon's pool; this thread reports how many have finished
     /// (every 50 ms) while a scoped thread waits for the pool.
     fn integrate_many(
@@ -619,6 +744,13 @@ impl Backend for NativeBackend {
             })
         })
     }
+}
+
+/// The variational system inside a [`Compiled`] from [`NativeBackend::compile_variational`].
+fn variational(compiled: &Compiled) -> Result<&crate::compile::Variational, BackendError> {
+    compiled
+        .downcast_ref::<crate::compile::Variational>()
+        .ok_or_else(|| BackendError::Failed("internal: not a compiled variational system".into()))
 }
 
 /// A compiled system that counts its evaluations (see [`Trajectory::evaluations`]). One run

@@ -6,18 +6,27 @@
 //! (given, or `legendre(L)`), in canonical variables; velocities in the starts are turned
 //! into momenta through `p = ∂L/∂q'` like `simulate` does. The variational system is
 //! compiled here ([`crate::compile::Variational`]) and integrated by [`crate::chaos`] with the
-//! Taylor method: unlike a `simulate` run, nothing here goes through the backend's trajectory
-//! (a chaos run has no trajectory to export), so these statements call the two stages
-//! directly. They are outputs: in a scene file they run when reached, like `print`.
+//! Taylor method. Both go through the backend like a `simulate` run's stages
+//! ([`super::backend::Backend::compile_variational`], `indicators`, `chaos_map`): the compiled
+//! system is cached by the content of `H`, the parameter values and the tangent count, so a
+//! second statement on the same system reuses it, and `--explain` lists what was compiled
+//! and integrated. They are outputs: in a scene file they run when reached, like `print`.
+//!
+//! A map may put its starts on a level set, `on H = 1/6 solve p_x > 0` (Hénon–Heiles on its
+//! surface of section): each cell's missing variable is solved for by the ensemble's root
+//! finder ([`super::ensemble::solve_level`]); cells where the level set has no point on that
+//! side are left blank (no value drawn, an empty field in a CSV table), and counted.
 
 use std::collections::HashMap;
 
-use super::ast::{ChaosSpec, Src};
+use super::ast::{ChaosSpec, LevelSpec, Src};
+use super::backend::{Compiled, VariationalRequest};
+use super::cache::{CacheKey, Value};
 use super::error::{ErrorKind, SceneError, Span};
+use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
-use super::session::{fmt_num, Session};
+use super::session::{backend_error, fmt_num, Layout, Session};
 use crate::chaos::{Indicator, Indicators};
-use crate::compile::Variational;
 use crate::expr::{Expr, Symbol};
 
 /// A finished one-orbit chaos statement, for `plot megno` and its kin.
@@ -57,7 +66,8 @@ fn label(which: Indicator) -> &'static str {
 
 /// What a chaos statement integrates: the variational system and how to build a start.
 struct Setup {
-    var: Variational,
+    /// The variational system, compiled by the backend (cached).
+    var: Compiled,
     coords: Vec<Symbol>,
     /// `p = ∂L/∂q'` when the starts give velocities.
     momenta: Option<Vec<Expr>>,
@@ -95,7 +105,84 @@ impl Setup {
     }
 }
 
+/// A chaos map's `on H = E solve p_x > 0`: the level function in the canonical variables.
+struct Level {
+    /// The level function, in `(q, p)` and the parameters.
+    on: Expr,
+    /// Its value `E`.
+    value: f64,
+    /// The start's key solved for (`p_x`, or a velocity `x'`).
+    key: String,
+    /// Solve on the positive side of zero.
+    positive: bool,
+    /// Parameter values.
+    env: HashMap<String, f64>,
+    span: Span,
+}
+
+impl Level {
+    /// Puts `given` on the level set by solving for `self.key` with the ensemble's root
+    /// finder; `false` when the level set has no point on that side (the cell stays blank).
+    fn solve(&self, setup: &Setup, given: &mut HashMap<String, f64>) -> Result<bool, SceneError> {
+        let n = setup.coords.len();
+        let mut names: Vec<String> = setup.coords.iter().map(|q| q.name().to_string()).collect();
+        names.extend(setup.coords.iter().map(|q| format!("p_{}", q.name())));
+        let f = |y: &[f64]| -> Result<f64, SceneError> {
+            let mut g = given.clone();
+            g.insert(self.key.clone(), y[0]);
+            let x = setup.start(&g).map_err(|e| {
+                SceneError::new(ErrorKind::BadNumber, format!("cannot evaluate the start: {e}")).at(self.span)
+            })?;
+            crate::eval::eval_with(&self.on, &|s: &Symbol| {
+                if s.is_time() {
+                    return Some(0.0);
+                }
+                let spelled = s.to_string();
+                names[..2 * n]
+                    .iter()
+                    .position(|m| *m == spelled)
+                    .map(|i| x[i])
+                    .or_else(|| self.env.get(s.name()).copied())
+            })
+            .map_err(|e| {
+                SceneError::new(ErrorKind::BadNumber, format!("cannot evaluate the level function: {e}")).at(self.span)
+            })
+        };
+        let mut y = [0.0];
+        let found = super::ensemble::solve_level(&f, &mut y, 0, self.value, self.positive)?;
+        if found {
+            given.insert(self.key.clone(), y[0]);
+        }
+        Ok(found)
+    }
+}
+
 impl Session {
+    /// The level clause of a chaos map, checked, with its function in `(q, p)`.
+    fn chaos_level(&mut self, l: &LevelSpec, setup: &Setup) -> Result<Level, SceneError> {
+        let key = self.state_key(&l.solve)?;
+        let on = self.resolved(&l.on)?;
+        let on = self.in_layout(&on, Layout::Momenta, None, None, l.on.span)?;
+        let value = self.resolved(&l.value)?;
+        let value = self.number(&value, l.value.span)?;
+        // Every symbol of the level function must be a state variable or a parameter with a
+        // value (as the equations' own parameters are checked).
+        let env = self.param_values();
+        for s in on.free_symbols() {
+            let state = setup.coords.iter().any(|q| q.name() == s.name() || format!("p_{}", q.name()) == s.name());
+            if s.primes() == 0 && (state || env.contains_key(s.name()) || s.is_time()) {
+                continue;
+            }
+            return Err(SceneError::new(
+                ErrorKind::MissingValue,
+                format!("`{s}` in the level function `{}` has no value", l.on.text),
+            )
+            .at(l.on.span)
+            .hint("a level set of a chaos map is in the state variables and parameters with values"));
+        }
+        Ok(Level { on, value, key, positive: l.positive, env, span: l.span })
+    }
+
     /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
     pub(super) fn chaos(&mut self, spec: &ChaosSpec) -> Result<(), SceneError> {
         let which = indicator(&spec.indicator.text)
@@ -115,13 +202,21 @@ impl Session {
         let (tangents, megno) = if which == Indicator::Lyapunov { (2 * n, false) } else { (1, true) };
         let setup = self.chaos_setup(spec, tangents, megno)?;
         let x0 = setup.start(&given).map_err(|e| self.value_error(e, setup.span))?;
-        let r = crate::chaos::indicators(&setup.var, &x0, setup.t1, setup.tol).map_err(|e| {
-            SceneError::new(ErrorKind::Numeric, format!("the variational equations failed: {e}")).at(setup.span)
-        })?;
         let name = match &spec.sim.name {
             Some(n) => n.text.clone(),
             None => format!("{}{}", spec.indicator.text, self.chaos_runs.len() + 1),
         };
+        let r =
+            self.backend.indicators(&setup.var, &x0, setup.t1, setup.tol).map_err(|e| backend_error(e, setup.span))?;
+        self.plan.push(PlanEntry {
+            step: Step::Integrate,
+            what: format!(
+                "{} {name}: one orbit with taylor tol = {:e} ({} steps)",
+                spec.indicator.text, setup.tol, r.steps
+            ),
+            line: Some(self.line),
+            status: Status::Built,
+        });
         let t = fmt_num(setup.t1);
         let line = match which {
             Indicator::Lyapunov => format!(
@@ -177,9 +272,14 @@ impl Session {
             }
             axes.push((sym.clone(), a, b));
         }
-        let names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
+        let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
+        names.extend(spec.level.as_ref().map(|l| l.solve.clone()));
         let base = self.chaos_values(spec, &names)?;
         let setup = self.chaos_setup(spec, 1, which == Indicator::Megno)?;
+        let level = match &spec.level {
+            Some(l) => Some(self.chaos_level(l, &setup)?),
+            None => None,
+        };
         let (path, pspan, ext) = self.out_file(
             spec.path.as_ref(),
             "chaos_map",
@@ -190,24 +290,51 @@ impl Session {
         // Cell centres, row by row (the second axis outer).
         let centre = |k: usize, (_, a, b): &(Src, f64, f64)| a + (b - a) * (k as f64 + 0.5) / side as f64;
         let (kx, ky) = (self.state_key(&axes[0].0)?, self.state_key(&axes[1].0)?);
+        // The starts, and which cells have one (all of them without a level set).
         let mut starts = Vec::with_capacity(side * side);
+        let mut on_surface = Vec::with_capacity(side * side);
         for j in 0..side {
             for i in 0..side {
                 let mut given = base.clone();
                 given.insert(kx.clone(), centre(i, &axes[0]));
                 given.insert(ky.clone(), centre(j, &axes[1]));
+                if let Some(level) = &level {
+                    if !level.solve(&setup, &mut given)? {
+                        on_surface.push(false);
+                        continue;
+                    }
+                }
+                on_surface.push(true);
                 starts.push(setup.start(&given).map_err(|e| self.value_error(e, setup.span))?);
             }
         }
-        // Row by row, so the progress bar moves; each row is spread over the threads.
-        let mut bar = Progress::new("chaos map", self.opts.progress);
-        let mut values = Vec::with_capacity(starts.len());
-        for (j, row) in starts.chunks(side).enumerate() {
-            values.extend(crate::chaos::chaos_map(&setup.var, row, setup.t1, setup.tol, which));
-            bar.update((j + 1) as f64 / side as f64);
+        if starts.is_empty() {
+            let l = spec.level.as_ref().map_or(setup.span, |l| l.span);
+            return Err(SceneError::new(ErrorKind::BadNumber, "no cell of the grid has a point on the level set")
+                .at(l)
+                .hint("check the level's value against the energy over the grid"));
         }
+        let mut bar = Progress::new("chaos map", self.opts.progress);
+        let computed = self.backend.chaos_map(&setup.var, &starts, setup.t1, setup.tol, which, &mut |x| bar.update(x));
         bar.finish();
-        let failed = values.iter().filter(|v| !v.is_finite()).count();
+        // A start whose integration fails (escapes, meets a singularity) is blank too, but
+        // counted apart from the cells off the level set.
+        let mut computed = computed.into_iter().map(|r| r.unwrap_or(f64::NAN));
+        let values: Vec<f64> =
+            on_surface.iter().map(|&on| if on { computed.next().unwrap_or(f64::NAN) } else { f64::NAN }).collect();
+        let off = on_surface.iter().filter(|on| !**on).count();
+        let failed = values.iter().zip(&on_surface).filter(|(v, on)| **on && !v.is_finite()).count();
+        self.plan.push(PlanEntry {
+            step: Step::Integrate,
+            what: format!(
+                "chaos map {}: {} starts with taylor tol = {:e}",
+                spec.indicator.text,
+                starts.len(),
+                setup.tol
+            ),
+            line: Some(self.line),
+            status: Status::Built,
+        });
         let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
         finite.sort_by(f64::total_cmp);
         let median = finite.get(finite.len() / 2).copied().unwrap_or(f64::NAN);
@@ -222,8 +349,12 @@ impl Session {
             );
             for j in 0..side {
                 for i in 0..side {
-                    let v = values[j * side + i];
-                    s.push_str(&format!("{:e},{:e},{:e}\n", centre(i, &axes[0]), centre(j, &axes[1]), v));
+                    let (x, y) = (centre(i, &axes[0]), centre(j, &axes[1]));
+                    match (on_surface[j * side + i], values[j * side + i]) {
+                        // Off the level set: no value at all.
+                        (false, _) => s.push_str(&format!("{x:e},{y:e},\n")),
+                        (true, v) => s.push_str(&format!("{x:e},{y:e},{v:e}\n")),
+                    }
                 }
             }
             std::fs::write(&tmp, s).map_err(|e| {
@@ -252,7 +383,18 @@ impl Session {
             fmt_num(axes[1].1),
             fmt_num(axes[1].2),
             fmt_num(setup.t1),
-            if failed > 0 { format!(", {failed} starts failed (blank)") } else { String::new() }
+            match &spec.level {
+                Some(l) => format!(
+                    ", {} of {} cells on {} = {} ({off} blank: no {} {} 0 there)",
+                    side * side - off,
+                    side * side,
+                    l.on.text,
+                    l.value.text,
+                    l.solve.text,
+                    if l.positive { ">" } else { "<" }
+                ),
+                None => String::new(),
+            } + &if failed > 0 { format!(", {failed} starts failed (blank)") } else { String::new() }
         ));
         self.wrote(&path);
         Ok(())
@@ -404,7 +546,8 @@ impl Session {
         }
         let coords = self.coords.clone();
         let velocities = sim.inits.iter().any(|(s, _)| s.text.trim_end().ends_with('\''))
-            || spec.ranges.iter().any(|(s, _, _)| s.text.trim_end().ends_with('\''));
+            || spec.ranges.iter().any(|(s, _, _)| s.text.trim_end().ends_with('\''))
+            || spec.level.as_ref().is_some_and(|l| l.solve.text.trim_end().ends_with('\''));
         let momenta = if velocities {
             let l = self.lagrangian().map_err(|e| {
                 e.hint("velocities are turned into momenta through `L`: give the momenta `p_q` instead, or define `L`")
@@ -448,14 +591,35 @@ impl Session {
                 }
             }
         }
-        let q: Vec<String> = coords.iter().map(|c| c.name().to_string()).collect();
-        let p: Vec<String> = q.iter().map(|c| format!("p_{c}")).collect();
-        let qs: Vec<&str> = q.iter().map(String::as_str).collect();
-        let ps: Vec<&str> = p.iter().map(String::as_str).collect();
-        let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        let var = Variational::hamiltonian(&h, &qs, &ps, &refs, tangents, megno).map_err(|e| {
-            SceneError::new(ErrorKind::Derivation, format!("cannot compile the variational equations: {e}")).at(span)
-        })?;
+        // Compiled through the backend, cached like a run's right-hand side: by the content
+        // of H, the parameter values and what rides along.
+        let key = CacheKey {
+            step: Step::Compile,
+            coords: coords.clone(),
+            inputs: vec![h.clone()],
+            numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
+            extra: format!(
+                "variational:{tangents}:{megno}:{}",
+                params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
+            ),
+        };
+        let what = format!(
+            "variational equations of H, {tangents} tangent vector{}{}, for taylor",
+            if tangents == 1 { "" } else { "s" },
+            if megno { " and MEGNO's accumulator" } else { "" }
+        );
+        let var = match self.lookup(&key, Step::Compile, &what) {
+            Some(Value::Compiled(c)) => c,
+            _ => {
+                let req = VariationalRequest { coords: coords.clone(), h, params: params.clone(), tangents, megno };
+                let built =
+                    self.backend.compile_variational(&req).map(Value::Compiled).map_err(|e| backend_error(e, span));
+                match self.record(Step::Compile, what, key, built)? {
+                    Value::Compiled(c) => c,
+                    _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(span)),
+                }
+            }
+        };
         let env = params.into_iter().collect();
         Ok(Setup { var, coords, momenta, env, t1, tol, span })
     }

@@ -253,8 +253,9 @@ impl Session {
 /// Sets `y[i]` so that `f(y) = level`, searching outward from zero on the positive (or
 /// negative) side: doubling until `f − level` changes sign, then bisection down to adjacent
 /// floats, keeping the end with the smaller residual. `false` when no sign change is found
-/// up to |y[i]| = 10⁶ (the level set has no point there).
-fn solve_level(
+/// up to |y[i]| = 10⁶ (the level set has no point there). Also the level clause of a chaos
+/// map ([`super::chaos`]).
+pub(super) fn solve_level(
     f: &dyn Fn(&[f64]) -> Result<f64, SceneError>,
     y: &mut [f64],
     i: usize,
@@ -262,7 +263,10 @@ fn solve_level(
     positive: bool,
 ) -> Result<bool, SceneError> {
     let sign = if positive { 1.0 } else { -1.0 };
+    // Ctrl-C is checked at every evaluation of H (each a few microseconds; the session
+    // reports the statement as interrupted).
     let g = |u: f64, y: &mut [f64]| -> Result<f64, SceneError> {
+        crate::cancel::check().map_err(|_| SceneError::new(ErrorKind::Interrupted, "interrupted"))?;
         y[i] = sign * u;
         Ok(f(y)? - level)
     };

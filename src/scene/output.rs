@@ -44,6 +44,7 @@ impl Staging {
         let ext = target.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
         self.counter += 1;
         let tmp = dir.join(format!(".{file}.{}-{}.partial.{ext}", std::process::id(), self.counter));
+        crate::cancel::remove_at_exit(&tmp);
         std::fs::File::create(&tmp).map_err(|e| {
             SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", target.display()))
                 .label("cannot write here")
@@ -86,10 +87,13 @@ impl Staging {
         let staged = std::mem::take(&mut self.staged);
         let mut iter = staged.into_iter();
         while let Some((tmp, target)) = iter.next() {
-            if let Err(e) = std::fs::rename(&tmp, &target) {
+            let moved = std::fs::rename(&tmp, &target);
+            crate::cancel::keep_at_exit(&tmp);
+            if let Err(e) = moved {
                 let _ = std::fs::remove_file(&tmp);
                 for (t, _) in iter {
-                    let _ = std::fs::remove_file(t);
+                    let _ = std::fs::remove_file(&t);
+                    crate::cancel::keep_at_exit(&t);
                 }
                 return Err(SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", target.display())));
             }
@@ -102,7 +106,8 @@ impl Staging {
     pub fn abort(&mut self) {
         self.claimed.clear();
         for (tmp, _) in self.staged.drain(..) {
-            let _ = std::fs::remove_file(tmp);
+            let _ = std::fs::remove_file(&tmp);
+            crate::cancel::keep_at_exit(&tmp);
         }
     }
 }

@@ -9,8 +9,8 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, LieGenerator, PlotKind,
-    PlotSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
+    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec, Geometry, Item,
+    LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -36,6 +36,8 @@ pub const STATEMENTS: &[&str] = &[
     "lie",
     "integral",
     "action",
+    "geodesic",
+    "ritz",
     "force",
     "rayleigh",
     "constraint",
@@ -473,6 +475,7 @@ impl Builder {
                 let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
                 let mut ranges = Vec::new();
                 let mut path = None;
+                let mut level = None;
                 for q in &inner {
                     match q.as_rule() {
                         Rule::map_range => {
@@ -485,13 +488,27 @@ impl Builder {
                             }
                         }
                         Rule::path => path = Some(self.path(q.clone())),
+                        Rule::map_level => {
+                            let lspan = self.span(q);
+                            let parts: Vec<Pair<Rule>> =
+                                q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
+                            if let [on, value, solve, sign] = &parts[..] {
+                                level = Some(LevelSpec {
+                                    on: self.src(on),
+                                    value: self.src(value),
+                                    solve: self.src(solve),
+                                    positive: sign.as_str() == ">",
+                                    span: lspan,
+                                });
+                            }
+                        }
                         _ => {}
                     }
                 }
                 let indicator =
                     indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
                 let sim = self.simulate(inner, span)?;
-                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path }))
+                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path, level }))
             }
             Rule::plot => {
                 let mut kind = None;
@@ -656,6 +673,9 @@ impl Builder {
             Rule::lie => self.lie(inner, span)?,
             Rule::integral => self.integral(inner, span)?,
             Rule::action => self.action(inner),
+            Rule::geodesic => self.geodesic(inner),
+            // Unfiltered: the keywords `with`, `from`, `to` say which list an `x = …` is in.
+            Rule::ritz => self.ritz(p.clone().into_inner().collect(), span)?,
             Rule::force => {
                 let mut it = inner.into_iter();
                 match (it.next(), it.next()) {
@@ -896,6 +916,92 @@ impl Builder {
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
         Ok(StmtKind::Integral { f, h: it.next(), format })
+    }
+
+    fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
+        p.into_inner().filter(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)).collect()
+    }
+
+    fn geodesic(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+        let (mut geometry, mut tuples, mut format) = (None, Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::geo_line => {
+                    geometry =
+                        q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| Geometry::LineElement(self.src(&x)))
+                }
+                Rule::geo_metric => {
+                    let rows = q.into_inner().filter(|x| x.as_rule() == Rule::geo_tuple).map(|x| self.tuple(x));
+                    geometry = Some(Geometry::Metric(rows.collect()));
+                }
+                Rule::geo_embedding => {
+                    geometry = q
+                        .into_inner()
+                        .find(|x| x.as_rule() == Rule::geo_tuple)
+                        .map(|x| Geometry::Embedding(self.tuple(x)))
+                }
+                Rule::geo_tuple => tuples.push(self.tuple(q)),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = tuples.into_iter();
+        let ends = it.next().zip(it.next());
+        StmtKind::Geodesic(Box::new(GeodesicSpec {
+            geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())),
+            ends,
+            format,
+        }))
+    }
+
+    fn ritz(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let (mut l, mut time_var, mut t0, mut t1, mut format) = (None, None, None, None, None);
+        let (mut trials, mut from, mut to, mut unknowns, mut guess) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Which list an `x = …` belongs to: the keyword before it.
+        let mut group = Rule::kw_with;
+        for q in inner {
+            match q.as_rule() {
+                r @ (Rule::kw_with | Rule::kw_from | Rule::kw_to) => group = r,
+                Rule::sexpr => l = Some(self.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        let pair = (self.src(&s), self.src(&v));
+                        match group {
+                            Rule::kw_from => from.push(pair),
+                            Rule::kw_to => to.push(pair),
+                            _ => trials.push(pair),
+                        }
+                    }
+                }
+                Rule::name => time_var = Some(self.src(&q)),
+                Rule::time_span => {
+                    let mut it = q.into_inner();
+                    t0 = it.next().map(|b| self.src(&b));
+                    t1 = it.next().map(|b| self.src(&b));
+                }
+                Rule::name_list => unknowns = self.names(q),
+                Rule::ritz_near => guess = self.tuple(q),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        match (time_var, t0, t1) {
+            (Some(time_var), Some(t0), Some(t1)) => Ok(StmtKind::Ritz(Box::new(RitzSpec {
+                l,
+                trials,
+                time_var,
+                t0,
+                t1,
+                from,
+                to,
+                unknowns,
+                guess,
+                format,
+            }))),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `ritz`").at(span)),
+        }
     }
 
     fn action(&self, inner: Vec<Pair<Rule>>) -> StmtKind {

@@ -100,8 +100,17 @@ impl Highlighter for ReplHelper {}
 
 impl Validator for ReplHelper {
     fn validate(&self, ctx: &mut ValidationContext) -> rustyline::Result<ValidationResult> {
-        Ok(if is_incomplete(ctx.input()) { ValidationResult::Incomplete } else { ValidationResult::Valid(None) })
+        Ok(if wants_more(ctx.input()) { ValidationResult::Incomplete } else { ValidationResult::Valid(None) })
     }
+}
+
+/// Whether the line editor should ask for another line of `input`: the statement is
+/// unfinished and the user has not just entered a blank line. A blank line ends an unfinished
+/// statement, as in the piped REPL, so one unclosed `(` costs one error at the next Enter
+/// instead of an editor that keeps asking for more (issue 16 item 7).
+pub fn wants_more(input: &str) -> bool {
+    let gave_up = input.contains('\n') && input.rsplit('\n').next().is_some_and(|l| l.trim().is_empty());
+    is_incomplete(input) && !gave_up
 }
 
 impl Helper for ReplHelper {}
@@ -162,11 +171,6 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     opts.progress = super::progress::Draw::from_env();
     opts.stem = "repl".to_string();
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
-    // Ctrl-C while a statement runs stops it (at the integrator's next step, the simplifier's
-    // next iteration) and returns to the prompt; at the prompt rustyline reads it as a key.
-    if let Err(e) = crate::cancel::install_ctrlc(crate::cancel::SecondPress::Ignore) {
-        eprintln!("warning: {e}");
-    }
     let mut repl = Repl { session: Session::new(opts).with_cache(cache), history: Vec::new(), color: interactive };
     let mut file_history = FileHistory::new();
     if let Some(p) = &history {
@@ -189,6 +193,11 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
                 return 1;
             }
         };
+        // Only now: rustyline's `Editor::new` replaces the SIGINT handler with its own for
+        // the editor's lifetime (it keeps the previous one to restore on drop), which would
+        // leave Ctrl-C during a statement without effect. At the prompt the terminal is in raw
+        // mode and Ctrl-C stays a key for rustyline.
+        install_ctrlc();
         editor.set_helper(Some(ReplHelper { names: names.clone() }));
         if let Some(p) = &history {
             let _ = editor.load_history(p);
@@ -211,7 +220,16 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
                     }
                 }
                 Err(rustyline::error::ReadlineError::Interrupted) => continue,
-                Err(_) => break,
+                // Ctrl-D: end the prompt's line, so the shell's prompt starts on its own.
+                Err(rustyline::error::ReadlineError::Eof) => {
+                    println!();
+                    break;
+                }
+                Err(e) => {
+                    eprintln!("error: cannot read the terminal: {e}");
+                    errors += 1;
+                    break;
+                }
             }
         }
         return errors;
@@ -220,6 +238,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     // prompt so the transcript reads like a session. An unfinished statement ends at a blank
     // line (as a terminal user would give up on it), so one unclosed `(` costs one error,
     // not the rest of the input; lines and entries are bounded like scene files.
+    install_ctrlc();
     let stdin = std::io::stdin();
     let mut input = stdin.lock();
     let mut pending = String::new();
@@ -269,6 +288,15 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         let _ = repl.entry(&pending, &mut out);
     }
     errors
+}
+
+/// Connects Ctrl-C to the process-wide token: while a statement runs it stops the statement
+/// (at the integrator's next step, the simplifier's next iteration, the figure's next point)
+/// and the REPL returns to the prompt.
+fn install_ctrlc() {
+    if let Err(e) = crate::cancel::install_ctrlc(crate::cancel::SecondPress::Ignore) {
+        eprintln!("warning: {e}");
+    }
 }
 
 /// The longest input line the piped REPL reads (a statement longer than this is a scene file).
@@ -336,6 +364,17 @@ mod tests {
         assert_eq!(next(), Err(std::io::ErrorKind::InvalidData));
         assert_eq!(next(), Ok(Some("cd".to_string())));
         assert_eq!(next(), Ok(None));
+    }
+
+    #[test]
+    fn an_unfinished_statement_asks_for_more_until_a_blank_line() {
+        assert!(wants_more("print (x + 1"));
+        assert!(wants_more("print (x + 1\n  + 2"));
+        assert!(!wants_more("print (x + 1\n"));
+        assert!(!wants_more("print (x + 1\n  "));
+        assert!(!wants_more("print (x + 1)"));
+        // A blank first line is not a blank line after an unfinished one.
+        assert!(!wants_more(""));
     }
 
     #[test]

@@ -432,6 +432,8 @@ impl Session {
             }
             StmtKind::Integral { f, h, format } => self.integral(f, h.as_ref(), *format),
             StmtKind::Action { h, energies, near } => self.action(h.as_ref(), energies, near.as_ref()),
+            StmtKind::Geodesic(spec) => self.geodesic(spec),
+            StmtKind::Ritz(spec) => self.ritz(spec),
             StmtKind::ExportPoincare { items, run, path } => self.export_poincare(items, run.as_ref(), path),
             StmtKind::Force { coord, value } => self.declare_force(coord, value),
             StmtKind::Rayleigh { name, value } => self.declare_rayleigh(name.as_ref(), value),

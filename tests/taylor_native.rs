@@ -1,0 +1,204 @@
+//! The native (Cranelift) Taylor recurrences against the interpreter, which is their
+//! reference: for a tape using every instruction kind, every coefficient of every row up to
+//! order 24 must be the interpreter's bit for bit (the native code adds the same terms in the
+//! same order with the same IEEE operations), and so must whole Taylor integrations of
+//! `W q'' = F` and Hamiltonian systems.
+//!
+//! The interpreter itself is checked against Cauchy integrals in `taylor_recurrences.rs`.
+
+use std::collections::BTreeSet;
+
+use lagrangian::compile::{Instr, Tape, TaylorOde, TaylorTape, NO_JIT_ENV};
+use lagrangian::integrate::problems::Kepler;
+use lagrangian::integrate::{Integrate, Options, Taylor};
+use lagrangian::mechanics::System;
+use lagrangian::{parse, Func};
+
+const ORDER: usize = 24;
+
+/// Whether this run may expect native code (the JIT is on and the host is one Cranelift
+/// supports natively).
+fn jit_expected() -> bool {
+    let off = std::env::var_os(NO_JIT_ENV).is_some_and(|v| !v.is_empty() && v != "0");
+    !off && cfg!(any(target_arch = "x86_64", target_arch = "aarch64"))
+}
+
+/// The kind of an instruction, one name per `Instr` variant and per built-in called.
+fn kind(i: &Instr) -> String {
+    match i {
+        Instr::Call { f, .. } => format!("call {f:?}"),
+        other => format!("{other:?}").split(' ').next().unwrap_or("").to_string(),
+    }
+}
+
+/// Expands `src` (a function of `t`) at `t0` to `ORDER` in both back ends; returns the kinds
+/// of the tape's instructions after asserting that every row agrees bit for bit.
+fn same_bits(src: &str, t0: f64) -> BTreeSet<String> {
+    let tape = Tape::compile(&[parse(src).unwrap()], &["t"], &[]).unwrap();
+    let tt = TaylorTape::new(&tape);
+    let s = ORDER + 1;
+    let time = |k: usize, c: &mut [f64]| {
+        c[k] = match k {
+            0 => t0,
+            1 => 1.0,
+            _ => 0.0,
+        }
+    };
+    let mut interp = vec![0.0; tt.n_rows() * s];
+    tt.expand(&mut interp, s, ORDER, time).unwrap();
+    let native = tt.compile_native(s, ORDER);
+    if !jit_expected() {
+        return tape.instrs().iter().map(kind).collect();
+    }
+    let native = native.unwrap_or_else(|| panic!("{src}: no native Taylor code"));
+    assert_eq!((native.stride(), native.max_order()), (s, ORDER));
+    let mut nat = vec![f64::NAN; tt.n_rows() * s];
+    tt.expand_with(Some(&native), &mut nat, s, ORDER, time).unwrap();
+    for (i, (a, b)) in interp.iter().zip(&nat).enumerate() {
+        assert!(
+            a.to_bits() == b.to_bits(),
+            "{src}: row {}, order {}: interpreter {a:e}, native {b:e}\n{tape}",
+            i / s,
+            i % s
+        );
+    }
+    // The series are not trivial: the output's high orders are non-zero.
+    let out = tt.output_row(0);
+    assert!(interp[out * s + ORDER] != 0.0, "{src}: order {ORDER} vanishes");
+    tape.instrs().iter().map(kind).collect()
+}
+
+#[test]
+fn every_instruction_kind_agrees_with_the_interpreter_bit_for_bit() {
+    let cases = [
+        ("(t^3 - 2 t + 1) / (2 + t + t^2) - t / (3 - t)", 0.1),
+        ("-(t^2 + 1) * exp(t) + t", 0.5),
+        ("sqrt(2 + t + t^2/4)", 0.2),
+        ("(2 + t)^(1/3)", 0.2),
+        ("(t - 2)^(1/3)", 0.2),
+        ("(2 + t)^(1 + t/2)", 0.2),
+        ("(1 + t^2)^(-3/2) + (3 + t)^(0.7)", 0.3),
+        ("sin(t^2/3 + t)", 0.4),
+        ("cos(t^2/3 + t)", 0.4),
+        ("sin(t^2/3 + t) * cos(t^2/3 + t) + cos(t^2/3 + t)", 0.4),
+        ("exp(sin(t))", 0.3),
+        ("log(2 + t + t^2/2)", 0.2),
+        ("sinh(t^2 - t) + cosh(t^2 - t)", 0.3),
+        ("sinh(t^2 - t)", 0.3),
+        ("cosh(t^2 - t)", 0.3),
+        ("tanh(t/2 + 1/4)", 0.3),
+        ("tan(t/2 + 1/5)", 0.3),
+        ("asin(t/3 + 1/10)", 0.2),
+        ("acos(t/3 + 1/10)", 0.2),
+        ("atan(t^2 + t)", 0.3),
+        ("atan2(t + 1/2, 2 + t^2)", 0.2),
+        ("abs(t - 3) / abs(t + 2)", 0.5),
+    ];
+    let mut seen = BTreeSet::new();
+    for (src, t0) in cases {
+        seen.extend(same_bits(src, t0));
+    }
+    // Every instruction kind of the tape and every built-in but the one-operand `atan2`
+    // (which the lowering never emits) occurred.
+    let mut want: BTreeSet<String> =
+        ["Add", "Sub", "Mul", "Div", "Neg", "Sqrt", "SinCos", "Atan2", "Powf", "Root"].map(String::from).into();
+    for f in [
+        Func::Sin,
+        Func::Cos,
+        Func::Tan,
+        Func::Exp,
+        Func::Log,
+        Func::Sinh,
+        Func::Cosh,
+        Func::Tanh,
+        Func::Asin,
+        Func::Acos,
+        Func::Atan,
+        Func::Abs,
+    ] {
+        want.insert(format!("call {f:?}"));
+    }
+    let missing: Vec<_> = want.difference(&seen).collect();
+    assert!(missing.is_empty(), "instruction kinds not covered: {missing:?} (seen {seen:?})");
+}
+
+#[test]
+fn abs_kinks_are_reported_by_the_native_code_too() {
+    // |t − 1| at t = 1 (order 1 moves), |(t − 1)²| at t = 1 (order 2 moves), |t − t| + t
+    // (identically zero argument: smooth).
+    for (src, kink) in [("abs(t - 1)", true), ("abs((t - 1)^2) + t", true), ("abs(t - t) + t", false)] {
+        let tape = Tape::compile(&[parse(src).unwrap()], &["t"], &[]).unwrap();
+        let tt = TaylorTape::new(&tape);
+        let s = 6;
+        let time = |k: usize, c: &mut [f64]| c[k] = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0][k];
+        let mut c = vec![0.0; tt.n_rows() * s];
+        assert_eq!(tt.expand(&mut c, s, 5, time).is_err(), kink, "{src}: interpreter");
+        if let Some(native) = tt.compile_native(s, 5) {
+            let mut c = vec![0.0; tt.n_rows() * s];
+            assert_eq!(tt.expand_with(Some(&native), &mut c, s, 5, time).is_err(), kink, "{src}: native");
+        } else {
+            assert!(!jit_expected(), "{src}: no native code");
+        }
+    }
+}
+
+const DOUBLE_PENDULUM: &str = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+                               + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+
+fn double_pendulum() -> TaylorOde {
+    System::from_lagrangian(DOUBLE_PENDULUM, &["θ1", "θ2"])
+        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
+        .unwrap()
+        .compile_taylor()
+        .unwrap()
+}
+
+fn kepler() -> TaylorOde {
+    System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).unwrap().compile_taylor().unwrap()
+}
+
+#[test]
+fn ode_expansions_and_whole_runs_equal_the_interpreter() {
+    for (name, ode, y0, t1) in [
+        ("double pendulum (W q'' = F)", double_pendulum(), vec![2.0, 2.5, 0.3, -0.2], 10.0),
+        ("Kepler e = 0.6 (Hamiltonian)", kepler(), Kepler::pericentre(0.6).to_vec(), 20.0),
+    ] {
+        // Native code is opt-in (see `TaylorOde::with_native`).
+        assert!(ode.native_for(19).is_none(), "{name}: native code is on by default");
+        let reference = ode.clone().with_native(false);
+        let ode = ode.with_native(true);
+        let p = 19;
+        if jit_expected() {
+            assert!(ode.native_for(p).is_some(), "{name}: no native code at order {p}");
+        }
+        assert!(reference.native_for(p).is_none());
+        let mut a = vec![0.0; ode.scratch_len(p)];
+        let mut b = a.clone();
+        let (mut ca, mut cb) = (vec![0.0; ode.dim() * (p + 1)], vec![0.0; ode.dim() * (p + 1)]);
+        ode.expand(0.3, &y0, p, &mut a, &mut ca).unwrap();
+        reference.expand(0.3, &y0, p, &mut b, &mut cb).unwrap();
+        assert_eq!(
+            ca.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            cb.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            "{name}"
+        );
+        assert!((0..ode.dim()).any(|i| ca[i * (p + 1) + p] != 0.0), "{name}: order {p} vanishes");
+        // Whole runs: long enough to pass the interpreted warm-up, then native.
+        let m = Taylor::new(1e-15);
+        let run = |o: &TaylorOde| m.integrate_with(o, 0.0..t1, &y0, Options::new().final_only()).unwrap();
+        let (ra, rb) = (run(&ode), run(&reference));
+        assert!(ra.stats.steps > lagrangian::compile::NATIVE_AFTER_EXPANSIONS, "{name}: run too short to go native");
+        assert_eq!(ra.last_state(), rb.last_state(), "{name}");
+    }
+}
+
+#[test]
+fn tapes_too_large_to_unroll_stay_interpreted() {
+    // 40 chained products at order 100: far more terms than the native limit.
+    let src = (0..40).fold("t".to_string(), |acc, i| format!("({acc}) * (t + {i})"));
+    let tape = Tape::compile(&[parse(&src).unwrap()], &["t"], &[]).unwrap();
+    let tt = TaylorTape::new(&tape);
+    assert!(tt.compile_native(101, 100).is_none());
+    // A stride that cannot hold the orders asked for is refused, not a buffer overrun.
+    assert!(tt.compile_native(5, 5).is_none());
+}
