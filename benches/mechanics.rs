@@ -8,16 +8,22 @@
 //! `r_k = Σ_{i≤k} l_i (sin θ_i, −cos θ_i)`. Operation counts (`Expr::op_count`, the printed
 //! tree, W's upper triangle plus F) are printed to stderr.
 //!
-//! Run: `cargo bench --bench mechanics`
+//! The `cancel` group times `algebra::cancel` (the simplifier's and `canonical::compact`'s
+//! rational cancellation) on the shapes it meets: rational and monomial content, a sum factor
+//! of the denominator that divides the numerator, a multivariate factor, and the univariate
+//! gcd of two expanded polynomials.
+//!
+//! Run: `cargo bench --bench mechanics`; only the cancellation rows: `-- cancel`
 
 use std::collections::BTreeSet;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use lagrangian::algebra::{cancel, expand};
 use lagrangian::diff::Differentiator;
 use lagrangian::expr::Expr;
 use lagrangian::mechanics::System;
-use lagrangian::Declarations;
+use lagrangian::{parse_with, Declarations};
 
 #[path = "../tests/mechanics_support/n_link.rs"]
 mod n_link;
@@ -73,5 +79,31 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// `algebra::cancel` on the shapes it meets (see the module docs).
+fn cancel_cases(c: &mut Criterion) {
+    let d = Declarations::new().with_positive(["m1", "m2", "l1", "l2"]);
+    let p = |s: &str| parse_with(s, &d).expect("parses");
+    // Expanded numerator and denominator: only the univariate gcd finds (x + 1)^3.
+    let n = expand(&p("(x + 1)^10 (x - 2)^5")).expect("expands");
+    let den = expand(&p("(x + 1)^3 (x + 3)^4")).expect("expands");
+    let cases = [
+        ("content", p("(2 a x + 4 a y)/(6 a^2)")),
+        ("sum_factor", p("(x^2 - 1)/(x - 1)")),
+        ("multivariate_factor", p("(a^2 x - b^2 x)/((a + b) (a + y))")),
+        (
+            "double_pendulum_factor",
+            p("(l2 p1 - l1 p2 cos(a - b)) (m1 + m2 sin(a - b)^2) / (l1^2 l2 (m1 + m2 sin(a - b)^2)^2)"),
+        ),
+        ("gcd_deg2", p("(x^2 - 1)/(x^2 + 2x + 1)")),
+        ("gcd_deg15", n.over(&den)),
+    ];
+    let mut g = c.benchmark_group("cancel");
+    for (name, e) in &cases {
+        eprintln!("cancel {name}: {e} -> {}", cancel(e));
+        g.bench_with_input(BenchmarkId::from_parameter(name), e, |b, e| b.iter(|| black_box(cancel(e))));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, cancel_cases);
 criterion_main!(benches);

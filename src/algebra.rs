@@ -11,7 +11,8 @@
 //! * [`numer_denom`] and [`together`] put a rational expression over one common denominator;
 //! * [`cancel`] removes common factors between numerator and denominator: rational and
 //!   monomial content, factors that divide exactly (multivariate exact division), and the
-//!   greatest common divisor of univariate numerators and denominators (Euclid over ℚ);
+//!   greatest common divisor of univariate numerators and denominators (Euclid over ℚ), all
+//!   in the sparse polynomial form below, the one the derivation stages use;
 //! * [`factor_content`] pulls the common rational and monomial content out of every sum:
 //!   `2 a x + 4 a y` → `2 a (x + 2 y)`;
 //! * [`trig_normalize`] applies `sin²u + cos²u = 1` (and `cosh²u − sinh²u = 1`) inside sums
@@ -352,45 +353,51 @@ fn common_denominator<'a>(ds: impl Iterator<Item = &'a Expr>) -> Expr {
     Expr::mul(fs)
 }
 
-// ----- polynomials -----------------------------------------------------------------------------
-
-/// A polynomial in "atoms" (symbols, calls, non-integer powers: anything that is not a sum,
-/// a product or a positive integer power), with monomials as exponent vectors in
-/// lexicographic order (atom 0 most significant).
-#[derive(Clone, Debug, PartialEq)]
-struct Poly {
-    terms: BTreeMap<Vec<u32>, Rational>,
-}
+// ----- polynomials: reading, the univariate gcd, cancellation -----------------------------------
 
 /// The largest exponent read as a polynomial degree (larger powers are opaque atoms), and the
 /// largest degree the univariate gcd works on (it is quadratic in the degree).
 const MAX_POLY_DEGREE: u32 = 10_000;
 const MAX_GCD_DEGREE: usize = 200;
 
-/// The atoms of a family of polynomials.
+/// The atoms of a family of polynomials, numbered from 0 in order of first appearance.
+///
+/// One table serves every polynomial that takes part in one computation (a `cancel`, a tidy
+/// run), so that equal atoms get equal numbers; the numbering also fixes the lexicographic
+/// monomial order of exact division (atom 0 most significant).
 #[derive(Default)]
-struct Atoms {
+pub(crate) struct Atoms {
     list: Vec<Expr>,
+    index: FxMap<Expr, u32>,
 }
 
 impl Atoms {
-    fn index(&mut self, a: &Expr) -> usize {
-        match self.list.iter().position(|x| x == a) {
-            Some(i) => i,
-            None => {
-                self.list.push(a.clone());
-                self.list.len() - 1
-            }
+    /// The number of `a`, numbering it if it is new.
+    pub(crate) fn id(&mut self, a: &Expr) -> u32 {
+        if let Some(&i) = self.index.get(a) {
+            return i;
         }
+        let i = self.list.len() as u32;
+        self.list.push(a.clone());
+        self.index.insert(a.clone(), i);
+        i
     }
 }
 
-/// Reads an expanded expression as a polynomial. Exponent vectors are padded later.
-fn to_poly(e: &Expr, atoms: &mut Atoms) -> Poly {
-    let mut terms: BTreeMap<Vec<u32>, Rational> = BTreeMap::new();
+impl std::ops::Index<u32> for Atoms {
+    type Output = Expr;
+    fn index(&self, i: u32) -> &Expr {
+        &self.list[i as usize]
+    }
+}
+
+/// Reads an expanded expression as a polynomial in atoms (symbols, calls, non-integer or
+/// very large powers: anything that is not a sum, a product or a positive integer power).
+fn to_poly(e: &Expr, atoms: &mut Atoms) -> SparsePoly {
+    let mut p = SparsePoly::default();
     for t in e.terms() {
         let (c, rest) = t.coeff_rest();
-        let mut mono: Vec<u32> = Vec::new();
+        let mut mono: Vec<(u32, Rational64)> = Vec::new();
         if !rest.is_one() {
             for f in rest.factors() {
                 let (b, x) = f.base_exp();
@@ -400,162 +407,35 @@ fn to_poly(e: &Expr, atoms: &mut Atoms) -> Poly {
                         Some(k) if k > 0 && k <= MAX_POLY_DEGREE => (b, k),
                         _ => (f.clone(), 1),
                     };
-                let i = atoms.index(&atom);
-                if mono.len() <= i {
-                    mono.resize(i + 1, 0);
-                }
-                mono[i] += k;
+                mono.push((atoms.id(&atom), Rational64::from_integer(i64::from(k))));
             }
         }
-        *terms.entry(mono).or_insert_with(Rational::zero) += c;
+        mono.sort_by_key(|&(a, _)| a);
+        mono.dedup_by(|next, kept| {
+            let same = next.0 == kept.0;
+            if same {
+                kept.1 += next.1;
+            }
+            same
+        });
+        p.add_term(Key(mono), Coef::from_big(c));
     }
-    terms.retain(|_, c| !c.is_zero());
-    Poly { terms }
+    p
 }
 
-impl Poly {
-    fn pad(&mut self, n: usize) {
-        let old = std::mem::take(&mut self.terms);
-        for (mut m, c) in old {
-            m.resize(n, 0);
-            *self.terms.entry(m).or_insert_with(Rational::zero) += c;
-        }
-    }
-
-    fn is_zero(&self) -> bool {
-        self.terms.is_empty()
-    }
-
-    fn lead(&self) -> Option<(&Vec<u32>, &Rational)> {
-        self.terms.last_key_value()
-    }
-
-    fn to_expr(&self, atoms: &Atoms) -> Expr {
-        Expr::add(self.terms.iter().map(|(m, c)| {
-            let mut fs = vec![Expr::num(c.clone())];
-            for (i, &k) in m.iter().enumerate() {
-                if k > 0 {
-                    fs.push(Expr::pow(atoms.list[i].clone(), Expr::int(i64::from(k))));
-                }
-            }
-            Expr::mul(fs)
-        }))
-    }
-
-    fn sub_scaled(&mut self, shift: &[u32], coeff: &Rational, other: &Poly) {
-        for (m, c) in &other.terms {
-            let mm: Vec<u32> = m.iter().zip(shift).map(|(a, b)| a + b).collect();
-            let entry = self.terms.entry(mm.clone()).or_insert_with(Rational::zero);
-            *entry = rat_add(entry, &-rat_mul(c, coeff));
-            if entry.is_zero() {
-                self.terms.remove(&mm);
-            }
-        }
-    }
-
-    /// `self / d` if `d` divides `self` exactly (in the lexicographic monomial order the
-    /// leading term of a multiple is the product of leading terms, so a failed leading-term
-    /// division proves non-divisibility). Gives up after `steps` reduction steps.
-    ///
-    /// Also gives up when a quotient coefficient outgrows [`Poly::coefficient_bits_bound`]:
-    /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
-    /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
-    ///
-    /// And it gives up when the arithmetic itself grows too costly: each step normalises
-    /// rationals by a binary gcd, about b²/64 word operations for b-bit numbers, once per term
-    /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
-    /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
-    fn div_exact(&self, d: &Poly, steps: usize) -> Option<Poly> {
-        /// About 0.02–0.05 s of gcd work; exact divisions met in practice use well under 10%
-        /// of it. (It was 10× more until the 10⁶ fuzz run, under load, met divisions that spent
-        /// the whole budget several times in one `simplify`: 1.4 s CPU for
-        /// `(x^100 − 10^-3201)/(10^308 x − 1)`.)
-        const MAX_WORK: u128 = 20_000_000;
-        let (ld, lc) = d.lead()?;
-        let max_bits = self.coefficient_bits_bound(d);
-        let d_bits = u128::from(d.terms.values().map(rational_bits).max().unwrap_or(0));
-        let d_terms = d.terms.len() as u128;
-        let mut work: u128 = 0;
-        let mut r = self.clone();
-        let mut q = Poly { terms: BTreeMap::new() };
-        for _ in 0..steps {
-            let Some((lm, c)) = r.lead() else { return Some(q) };
-            if lm.iter().zip(ld).any(|(a, b)| a < b) {
-                return None;
-            }
-            let shift: Vec<u32> = lm.iter().zip(ld).map(|(a, b)| a - b).collect();
-            let coeff = c / lc;
-            let bits = rational_bits(&coeff);
-            if bits > max_bits {
-                return None;
-            }
-            let b = u128::from(bits) + d_bits;
-            work += (d_terms + 1) * b * b / 64;
-            if work > MAX_WORK {
-                return None;
-            }
-            q.terms.insert(shift.clone(), coeff.clone());
-            r.sub_scaled(&shift, &coeff, d);
-        }
-        None
-    }
-
-    /// The largest quotient coefficient, in bits, that an exact division of `self` by `d` is
-    /// allowed to form: twice the inputs' sizes plus a margin. Exact quotients met in practice
-    /// stay near their dividend's size (`(x+1)^400 / (x+1)`); a larger coefficient almost
-    /// always means the division is not exact and is only growing numbers. (Mignotte's bound
-    /// allows a factor of a degree-n polynomial 2ⁿ times its norm; such a rare division is not
-    /// attempted, and the expression stays uncancelled, which is still correct.)
-    fn coefficient_bits_bound(&self, d: &Poly) -> u64 {
-        let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
-        2 * (bits(self) + bits(d)) + 256
-    }
-
-    /// The variable indices that occur.
-    fn support(&self) -> Vec<usize> {
-        let n = self.terms.keys().next().map_or(0, Vec::len);
-        (0..n).filter(|&i| self.terms.keys().any(|m| m[i] > 0)).collect()
-    }
-
-    /// The common monomial (smallest exponent of each atom) and rational content (gcd of
-    /// numerators over lcm of denominators, with the sign of the leading term).
-    fn content(&self) -> (Vec<u32>, Rational) {
-        let mut mono: Option<Vec<u32>> = None;
-        let mut num = BigInt::zero();
-        let mut den = BigInt::one();
-        for (m, c) in &self.terms {
-            mono = Some(match mono {
-                None => m.clone(),
-                Some(prev) => prev.iter().zip(m).map(|(a, b)| *a.min(b)).collect(),
-            });
-            num = num.gcd(c.numer());
-            den = den.lcm(c.denom());
-        }
-        let mut r = Rational::new(num, den);
-        if self.lead().is_some_and(|(_, c)| c.is_negative()) {
-            r = -r;
-        }
-        (mono.unwrap_or_default(), r)
-    }
-}
-
-/// The size of a rational in bits (the larger of numerator and denominator).
-fn rational_bits(r: &Rational) -> u64 {
-    r.numer().bits().max(r.denom().bits())
-}
-
-/// Univariate GCD over ℚ by Euclid's algorithm, in variable `var` of polynomials whose other
-/// exponents are all zero. Monic result.
-fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
-    let degree = |p: &Poly| p.terms.keys().map(|m| m[var] as usize).max().unwrap_or(0);
-    if degree(a) > MAX_GCD_DEGREE || degree(b) > MAX_GCD_DEGREE {
+/// Univariate GCD over ℚ by Euclid's algorithm, of two polynomials in the single atom `var`.
+/// Monic result.
+fn univariate_gcd(a: &SparsePoly, b: &SparsePoly, var: u32) -> Option<SparsePoly> {
+    // Keys are `[]` or `[(var, k)]` with a positive integer `k`.
+    let exponent = |m: &Key| m.iter().find(|(v, _)| *v == var).map_or(0, |(_, k)| k.to_integer() as usize);
+    let degree = |p: &SparsePoly| p.terms.keys().map(exponent).max().unwrap_or(0);
+    if a.is_zero() || degree(a) > MAX_GCD_DEGREE || degree(b) > MAX_GCD_DEGREE {
         return None;
     }
-    let to_dense = |p: &Poly| -> Vec<Rational> {
-        let deg = degree(p);
-        let mut v = vec![Rational::zero(); deg + 1];
+    let to_dense = |p: &SparsePoly| -> Vec<Rational> {
+        let mut v = vec![Rational::zero(); degree(p) + 1];
         for (m, c) in &p.terms {
-            v[m[var] as usize] = c.clone();
+            v[exponent(m)] = c.to_big();
         }
         v
     };
@@ -574,9 +454,8 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
     // that for the small coefficients of mechanics and stops the runaway growth of a divisor
     // with huge coefficients: (x^100 − 1) mod (10^308 x − 1) forms 10^30800 (found by
     // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
-    let bits = |p: &Poly| p.terms.values().map(rational_bits).max().unwrap_or(0);
-    let max_bits = 4 * (bits(a) + bits(b)) + 64 * (degree(a) + degree(b)) as u64 + 256;
-    // And a budget for the arithmetic, as in `Poly::div_exact` (b²/64 word operations per
+    let max_bits = 4 * (a.coefficient_bits() + b.coefficient_bits()) + 64 * (degree(a) + degree(b)) as u64 + 256;
+    // And a budget for the arithmetic, as in `SparsePoly::div_exact` (b²/64 word operations per
     // gcd-normalised product of b-bit numbers): under the bit guard, (x^100 − 10^-3201) mod
     // (10^308 x − 1) still ran fifty steps of 50,000-bit gcds, 1.3 s per `simplify` (found by
     // the 10⁶ fuzz run).
@@ -591,13 +470,11 @@ fn univariate_gcd(a: &Poly, b: &Poly, var: usize) -> Option<Poly> {
             if lc.is_zero() {
                 return None;
             }
-            let n = a.terms.keys().next()?.len();
-            let mut out = Poly { terms: BTreeMap::new() };
+            let mut out = SparsePoly::default();
             for (k, c) in x.iter().enumerate() {
                 if !c.is_zero() {
-                    let mut m = vec![0; n];
-                    m[var] = k as u32;
-                    out.terms.insert(m, c / &lc);
+                    let m = if k == 0 { Key::default() } else { Key(vec![(var, Rational64::from_integer(k as i64))]) };
+                    out.add_term(m, Coef::from_big(c / &lc));
                 }
             }
             return Some(out);
@@ -661,9 +538,6 @@ fn cancel_parts(n: &Expr, d: &Expr) -> Option<Expr> {
             }
         }
     }
-    let width = atoms.list.len();
-    pn.pad(width);
-    pd.pad(width);
     if pn.is_zero() {
         return Some(Expr::zero());
     }
@@ -673,15 +547,12 @@ fn cancel_parts(n: &Expr, d: &Expr) -> Option<Expr> {
     // Monomial and rational content.
     let (mn, _) = pn.content();
     let (md, _) = pd.content();
-    let mono: Vec<u32> = mn.iter().zip(&md).map(|(a, b)| *a.min(b)).collect();
-    let mut g = Poly { terms: BTreeMap::new() };
-    g.terms.insert(mono, Rational::one());
+    let g = SparsePoly::monomial(key_min(&mn, &md), Rational::one());
     pn = pn.div_exact(&g, usize::MAX)?;
     pd = pd.div_exact(&g, usize::MAX)?;
     // Exact division by the sum factors of either side.
     let steps = 4 * LIMIT;
-    for (mut f, k) in factor_polys {
-        f.pad(width);
+    for (f, k) in factor_polys {
         for _ in 0..k {
             match (pn.div_exact(&f, steps), pd.div_exact(&f, steps)) {
                 (Some(a), Some(b)) => {
@@ -695,16 +566,16 @@ fn cancel_parts(n: &Expr, d: &Expr) -> Option<Expr> {
     // Whole numerator or denominator dividing the other.
     if let Some(q) = pn.div_exact(&pd, steps) {
         pn = q;
-        pd = Poly { terms: BTreeMap::from([(vec![0; width], Rational::one())]) };
+        pd = SparsePoly::constant(Rational::one());
     } else if let Some(q) = pd.div_exact(&pn, steps) {
         pd = q;
-        pn = Poly { terms: BTreeMap::from([(vec![0; width], Rational::one())]) };
+        pn = SparsePoly::constant(Rational::one());
     }
     // Univariate gcd when both sides live in the same single atom.
     let (sn, sd) = (pn.support(), pd.support());
     if sn.len() == 1 && sn == sd {
         if let Some(g) = univariate_gcd(&pn, &pd, sn[0]) {
-            if g.lead().is_some_and(|(m, _)| m.iter().any(|&k| k > 0)) {
+            if g.lead().is_some_and(|(m, _)| !m.is_empty()) {
                 pn = pn.div_exact(&g, steps)?;
                 pd = pd.div_exact(&g, steps)?;
             }
@@ -714,9 +585,8 @@ fn cancel_parts(n: &Expr, d: &Expr) -> Option<Expr> {
     // canonical form does not spread it over a sum.
     let (_, cn) = pn.content();
     let (_, cd) = pd.content();
-    let unit = |c: &Rational, w: usize| Poly { terms: BTreeMap::from([(vec![0; w], c.clone())]) };
-    pn = pn.div_exact(&unit(&cn, width), usize::MAX)?;
-    pd = pd.div_exact(&unit(&cd, width), usize::MAX)?;
+    pn = pn.div_exact(&SparsePoly::constant(cn.clone()), usize::MAX)?;
+    pd = pd.div_exact(&SparsePoly::constant(cd.clone()), usize::MAX)?;
     let num = factor_content(&pn.to_expr(&atoms));
     let den = factor_content(&pd.to_expr(&atoms));
     Some(Expr::mul([Expr::num(cn / cd), num, Expr::pow(den, Expr::int(-1))]))
@@ -1113,14 +983,16 @@ fn rewrite_squares(sum: &Expr, u: &Expr, sq: Square) -> Expr {
 
 // ----- the sparse polynomial form ----------------------------------------------------------------
 
-// The polynomial form shared by the derivation stages: `mechanics::tidy` expands, contracts
-// and collects in it, and `mechanics::euler_lagrange` splits Lagrangians by velocity degree in
-// it. Atoms are numbered by the caller (an atom table per run), a monomial is a sorted list of
-// `(atom, exponent)` with non-zero rational exponents, and coefficients are exact. It is
-// built for speed on the large expansions of mechanics (the 30-link pendulum's forcing has
-// tens of thousands of monomials): machine-word rationals while they fit, an integer hasher,
-// no interning per monomial. The dense, lexicographically ordered form above (`Poly`) is the
-// working form of exact division and the univariate gcd only.
+// The engine's one polynomial form, shared by the derivation stages and the rational tools:
+// `mechanics::tidy` expands, contracts and collects in it, `mechanics::euler_lagrange` splits
+// Lagrangians by velocity degree in it, and [`cancel`] divides exactly and takes content and
+// univariate gcds in it. Atoms are numbered by the caller ([`Atoms`], one table per run), a
+// monomial is a sorted list of `(atom, exponent)` with non-zero rational exponents, and
+// coefficients are exact. It is built for speed on the large expansions of mechanics (the
+// 30-link pendulum's forcing has tens of thousands of monomials): machine-word rationals while
+// they fit, an integer hasher, no interning per monomial. Exact division needs a monomial
+// order; it is the lexicographic order of [`lex_cmp`] on the same sparse keys, used by a
+// sorted working copy of the remainder only while a division runs.
 
 /// A fast, deterministic hasher for small integer keys (FxHash's multiply-rotate).
 #[derive(Default, Clone, Copy)]
@@ -1158,7 +1030,7 @@ pub(crate) type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<Fx>>;
 ///
 /// Hashed by the exponents' reduced numerator and denominator: `Ratio`'s own `Hash` expands a
 /// continued fraction with a division per step, which was a tenth of the mechanics run.
-#[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
 pub(crate) struct Key(pub(crate) Vec<(u32, Rational64)>);
 
 impl std::hash::Hash for Key {
@@ -1249,6 +1121,47 @@ impl Coef {
         }
         Coef::from_big(self.to_big() * other.to_big())
     }
+
+    /// `-self`.
+    #[inline]
+    fn neg(&self) -> Coef {
+        match self {
+            Coef::Small(x) if *x.numer() != i64::MIN => Coef::Small(-*x),
+            _ => Coef::from_big(-self.to_big()),
+        }
+    }
+
+    /// `self / other` for a non-zero `other`.
+    #[inline]
+    fn div(&self, other: &Coef) -> Coef {
+        if let Coef::Small(b) = other {
+            // The reciprocal as a machine-word rational (its sign moved to the numerator),
+            // unless negating the denominator would overflow.
+            let (n, d) = (*b.numer(), *b.denom());
+            if n != 0 && n != i64::MIN {
+                let inv = if n < 0 { Rational64::new_raw(-d, -n) } else { Rational64::new_raw(d, n) };
+                return self.mul(&Coef::Small(inv));
+            }
+        }
+        Coef::from_big(self.to_big() / other.to_big())
+    }
+
+    /// The size in bits (the larger of numerator and denominator), as [`rational_bits`].
+    #[inline]
+    fn bits(&self) -> u64 {
+        match self {
+            Coef::Small(x) => {
+                let b = |v: i64| u64::from(64 - v.unsigned_abs().leading_zeros());
+                b(*x.numer()).max(b(*x.denom()))
+            }
+            Coef::Big(r) => rational_bits(r),
+        }
+    }
+}
+
+/// The size of a rational in bits (the larger of numerator and denominator).
+fn rational_bits(r: &Rational) -> u64 {
+    r.numer().bits().max(r.denom().bits())
 }
 
 /// A polynomial in the atoms: monomials with exact coefficients, no zero coefficients.
@@ -1329,6 +1242,269 @@ impl SparsePoly {
         let mut v: Vec<(Key, Rational)> = self.terms.iter().map(|(k, c)| (k.clone(), c.to_big())).collect();
         v.sort_by(|a, b| a.0.cmp(&b.0));
         v
+    }
+}
+
+// ----- exact division, content, support ----------------------------------------------------------
+
+/// Compares monomials in the lexicographic order of their dense exponent vectors: the
+/// exponents of atom 0 first, then atom 1, …, a missing atom counting as exponent 0. In this
+/// order the leading monomial of a product is the product of the leading monomials, which
+/// makes a failed leading-term division a proof of non-divisibility.
+pub(crate) fn lex_cmp(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> std::cmp::Ordering {
+    use std::cmp::Ordering::{Equal, Greater, Less};
+    let zero = Rational64::zero();
+    let (mut i, mut j) = (0, 0);
+    loop {
+        let o = match (a.get(i), b.get(j)) {
+            (None, None) => return Equal,
+            (Some((_, e)), None) => e.cmp(&zero),
+            (None, Some((_, f))) => zero.cmp(f),
+            (Some((x, e)), Some((y, f))) => match x.cmp(y) {
+                Less => e.cmp(&zero),
+                Greater => zero.cmp(f),
+                Equal => {
+                    i += 1;
+                    j += 1;
+                    e.cmp(f)
+                }
+            },
+        };
+        if o != Equal {
+            return o;
+        }
+    }
+}
+
+/// A monomial ordered by [`lex_cmp`] (keys hold no zero exponents, so the order is total and
+/// agrees with equality).
+#[derive(Clone, PartialEq, Eq)]
+struct Lex(Key);
+
+impl Ord for Lex {
+    fn cmp(&self, other: &Lex) -> std::cmp::Ordering {
+        lex_cmp(&self.0, &other.0)
+    }
+}
+
+impl PartialOrd for Lex {
+    fn partial_cmp(&self, other: &Lex) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// `a / b` when `b` divides `a` (every exponent of `b` at most `a`'s, a missing atom
+/// counting as 0); `None` otherwise.
+fn key_quotient(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Option<Key> {
+    let mut out = Key(Vec::with_capacity(a.len()));
+    let (mut i, mut j) = (0, 0);
+    while j < b.len() {
+        let (y, f) = b[j];
+        match a.get(i) {
+            Some(&(x, e)) if x < y => {
+                if e.is_negative() {
+                    return None;
+                }
+                out.push((x, e));
+                i += 1;
+            }
+            Some(&(x, e)) if x == y => {
+                let d = e - f;
+                if d.is_negative() {
+                    return None;
+                }
+                if !d.is_zero() {
+                    out.push((x, d));
+                }
+                i += 1;
+                j += 1;
+            }
+            _ => {
+                if f.is_positive() {
+                    return None;
+                }
+                out.push((y, -f));
+                j += 1;
+            }
+        }
+    }
+    if a[i..].iter().any(|(_, e)| e.is_negative()) {
+        return None;
+    }
+    out.extend_from_slice(&a[i..]);
+    Some(out)
+}
+
+/// The exponent-wise minimum of two monomials (a missing atom counting as 0).
+fn key_min(a: &[(u32, Rational64)], b: &[(u32, Rational64)]) -> Key {
+    let mut out = Key(Vec::new());
+    let zero = Rational64::zero();
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        let (atom, e) = match (a.get(i), b.get(j)) {
+            (Some(&(x, e)), Some(&(y, f))) if x == y => {
+                i += 1;
+                j += 1;
+                (x, e.min(f))
+            }
+            (Some(&(x, e)), Some(&(y, _))) if x < y => {
+                i += 1;
+                (x, e.min(zero))
+            }
+            (Some(&(x, e)), None) => {
+                i += 1;
+                (x, e.min(zero))
+            }
+            (_, Some(&(y, f))) => {
+                j += 1;
+                (y, f.min(zero))
+            }
+            (None, None) => break,
+        };
+        if !e.is_zero() {
+            out.push((atom, e));
+        }
+    }
+    out
+}
+
+impl SparsePoly {
+    /// The single term `c · m`.
+    pub(crate) fn monomial(m: Key, c: Rational) -> SparsePoly {
+        let mut p = SparsePoly::default();
+        p.add_term(m, Coef::from_big(c));
+        p
+    }
+
+    /// The leading term in the lexicographic order ([`lex_cmp`]).
+    pub(crate) fn lead(&self) -> Option<(&Key, &Coef)> {
+        self.terms.iter().max_by(|a, b| lex_cmp(a.0, b.0))
+    }
+
+    /// The largest coefficient size in bits.
+    fn coefficient_bits(&self) -> u64 {
+        self.terms.values().map(Coef::bits).max().unwrap_or(0)
+    }
+
+    /// `self / d` if `d` divides `self` exactly (in the lexicographic monomial order the
+    /// leading term of a multiple is the product of leading terms, so a failed leading-term
+    /// division proves non-divisibility). Gives up after `steps` reduction steps.
+    ///
+    /// Also gives up when a quotient coefficient outgrows [`SparsePoly::coefficient_bits_bound`]:
+    /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
+    /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
+    ///
+    /// And it gives up when the arithmetic itself grows too costly: each step normalises
+    /// rationals by a binary gcd, about b²/64 word operations for b-bit numbers, once per term
+    /// of `d`. Dividing `x^10000 − 10^-3201` by `10/2308 x − 1` stays under the coefficient
+    /// bound for thousands of steps of 20,000-bit gcds (minutes; the fuzzer's sixth hang).
+    pub(crate) fn div_exact(&self, d: &SparsePoly, steps: usize) -> Option<SparsePoly> {
+        /// About 0.02–0.05 s of gcd work; exact divisions met in practice use well under 10%
+        /// of it. (It was 10× more until the 10⁶ fuzz run, under load, met divisions that spent
+        /// the whole budget several times in one `simplify`: 1.4 s CPU for
+        /// `(x^100 − 10^-3201)/(10^308 x − 1)`.)
+        const MAX_WORK: u128 = 20_000_000;
+        let (ld, lc) = d.lead()?;
+        let max_bits = self.coefficient_bits_bound(d);
+        let d_bits = u128::from(d.coefficient_bits());
+        let d_terms = d.terms.len() as u128;
+        let mut work: u128 = 0;
+        // The remainder, sorted so that its leading term is at hand after each step.
+        let mut r: BTreeMap<Lex, Coef> = self.terms.iter().map(|(k, c)| (Lex(k.clone()), c.clone())).collect();
+        let mut q = SparsePoly::default();
+        for _ in 0..steps {
+            let Some((lm, c)) = r.last_key_value() else { return Some(q) };
+            let shift = key_quotient(&lm.0, ld)?;
+            let coeff = c.div(lc);
+            let bits = coeff.bits();
+            if bits > max_bits {
+                return None;
+            }
+            let b = u128::from(bits) + d_bits;
+            work += (d_terms + 1) * b * b / 64;
+            if work > MAX_WORK {
+                return None;
+            }
+            // r −= coeff · shift · d
+            let minus = coeff.neg();
+            for (m, c) in &d.terms {
+                let v = c.mul(&minus);
+                match r.entry(Lex(merge_keys(m, &shift))) {
+                    std::collections::btree_map::Entry::Occupied(mut o) => {
+                        let s = o.get().add(&v);
+                        if s.is_zero() {
+                            o.remove();
+                        } else {
+                            *o.get_mut() = s;
+                        }
+                    }
+                    std::collections::btree_map::Entry::Vacant(e) => {
+                        e.insert(v);
+                    }
+                }
+            }
+            q.add_term(shift, coeff);
+        }
+        None
+    }
+
+    /// The largest quotient coefficient, in bits, that an exact division of `self` by `d` is
+    /// allowed to form: twice the inputs' sizes plus a margin. Exact quotients met in practice
+    /// stay near their dividend's size (`(x+1)^400 / (x+1)`); a larger coefficient almost
+    /// always means the division is not exact and is only growing numbers. (Mignotte's bound
+    /// allows a factor of a degree-n polynomial 2ⁿ times its norm; such a rare division is not
+    /// attempted, and the expression stays uncancelled, which is still correct.)
+    fn coefficient_bits_bound(&self, d: &SparsePoly) -> u64 {
+        2 * (self.coefficient_bits() + d.coefficient_bits()) + 256
+    }
+
+    /// The atoms that occur, in increasing order.
+    pub(crate) fn support(&self) -> Vec<u32> {
+        let mut s: Vec<u32> = self.terms.keys().flat_map(|m| m.iter().map(|&(a, _)| a)).collect();
+        s.sort_unstable();
+        s.dedup();
+        s
+    }
+
+    /// The common monomial (smallest exponent of each atom, a missing atom counting as 0) and
+    /// rational content (gcd of numerators over lcm of denominators, with the sign of the
+    /// leading term).
+    pub(crate) fn content(&self) -> (Key, Rational) {
+        let mut mono: Option<Key> = None;
+        let mut num = BigInt::zero();
+        let mut den = BigInt::one();
+        for (m, c) in &self.terms {
+            mono = Some(match mono {
+                None => m.clone(),
+                Some(prev) => key_min(&prev, m),
+            });
+            match c {
+                Coef::Small(x) => {
+                    num = num.gcd(&BigInt::from(*x.numer()));
+                    den = den.lcm(&BigInt::from(*x.denom()));
+                }
+                Coef::Big(r) => {
+                    num = num.gcd(r.numer());
+                    den = den.lcm(r.denom());
+                }
+            }
+        }
+        let mut r = Rational::new(num, den);
+        if self.lead().is_some_and(|(_, c)| c.to_big().is_negative()) {
+            r = -r;
+        }
+        (mono.unwrap_or_default(), r)
+    }
+
+    /// The polynomial as a canonical expression over the atoms of `atoms`.
+    pub(crate) fn to_expr(&self, atoms: &Atoms) -> Expr {
+        Expr::add(self.terms.iter().map(|(m, c)| {
+            let mut fs = vec![Expr::num(c.to_big())];
+            for &(a, k) in m.iter() {
+                fs.push(Expr::pow(atoms[a].clone(), Expr::num(big(k))));
+            }
+            Expr::mul(fs)
+        }))
     }
 }
 
@@ -1475,6 +1651,124 @@ mod tests {
         // Nothing to cancel: value kept.
         let e = p("(x + 1)/(x + 2)");
         same_value(&e, &cancel(&e));
+    }
+
+    /// A random polynomial in atoms 0..4 with exponents 0..3 and integer coefficients in
+    /// −4..4 (zero terms dropped), `n` draws.
+    fn random_poly(rng: &mut Rng, n: usize) -> SparsePoly {
+        let mut p = SparsePoly::default();
+        for _ in 0..n {
+            let key: Key = (0..4u32)
+                .filter_map(|a| {
+                    let e = (rng.next() * 3.0) as i64;
+                    (e > 0).then_some((a, Rational64::from_integer(e)))
+                })
+                .collect();
+            let c = (rng.next() * 9.0) as i64 - 4;
+            p.add_term(key, Coef::Small(Rational64::from_integer(c)));
+        }
+        p
+    }
+
+    #[test]
+    fn lex_order_is_the_order_of_dense_exponent_vectors() {
+        // The oracle: the exponents written out densely (atom 0 first, missing = 0) and
+        // compared as vectors, the order the former dense form used.
+        let dense = |k: &Key| -> Vec<Rational64> {
+            let mut v = vec![Rational64::zero(); 5];
+            for &(a, e) in k.iter() {
+                v[a as usize] = e;
+            }
+            v
+        };
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let keys: Vec<Key> = (0..60)
+            .map(|_| {
+                (0..5u32)
+                    .filter_map(|a| {
+                        // Exponents −1, 0, 1/2, 1, 2: signs and fractions as tidy's keys have.
+                        let e = [
+                            Rational64::new(-1, 1),
+                            Rational64::zero(),
+                            Rational64::new(1, 2),
+                            Rational64::one(),
+                            Rational64::new(2, 1),
+                        ][(rng.next() * 5.0) as usize];
+                        (!e.is_zero()).then_some((a, e))
+                    })
+                    .collect()
+            })
+            .collect();
+        for a in &keys {
+            for b in &keys {
+                assert_eq!(lex_cmp(a, b), dense(a).cmp(&dense(b)), "{:?} vs {:?}", a.0, b.0);
+            }
+        }
+    }
+
+    #[test]
+    fn exact_division_recovers_factors_and_refuses_non_multiples() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut refused = 0;
+        for _ in 0..40 {
+            let a = random_poly(&mut rng, 6);
+            let b = random_poly(&mut rng, 4);
+            if b.is_zero() {
+                continue;
+            }
+            // The product comes from `mul`, a route independent of the division.
+            let ab = a.mul(&b);
+            let q = ab.div_exact(&b, usize::MAX).expect("a product divides exactly");
+            assert_eq!(q.sorted(), a.sorted());
+            // Adding a monomial of higher degree than b's leading one in atom 4 (which b
+            // lacks) breaks divisibility unless b is a constant.
+            let mut c = ab.clone();
+            c.add_term(Key(vec![(4, Rational64::one())]), Coef::Small(Rational64::one()));
+            if b.terms.len() > 1 || !b.lead().is_some_and(|(k, _)| k.is_empty()) {
+                assert!(c.div_exact(&b, usize::MAX).is_none());
+                refused += 1;
+            }
+        }
+        assert!(refused > 20, "{refused}");
+    }
+
+    #[test]
+    fn exact_division_gives_up_on_runaway_coefficients_and_work() {
+        let mut atoms = Atoms::default();
+        let mut poly = |s: &str| to_poly(&expand(&p(s)).unwrap(), &mut atoms);
+        // Quotient coefficients grow by a factor of 1000 per step (the coefficient bound).
+        let (n, d) = (poly("x^10000 - 1"), poly("1000 x - 1"));
+        assert!(n.div_exact(&d, usize::MAX).is_none());
+        // Under the coefficient bound for thousands of steps of 20,000-bit arithmetic (the
+        // work bound).
+        let n = poly(&format!("x^10000 - 1/1{}", "0".repeat(3201)));
+        let d = poly("5 x/1154 - 1");
+        assert!(n.div_exact(&d, usize::MAX).is_none());
+        // An exact division of the same length is not refused: x^200 − 1 = (x − 1) Σ x^k.
+        let q = poly("x^200 - 1").div_exact(&poly("x - 1"), usize::MAX).expect("exact");
+        assert_eq!(q.terms.len(), 200);
+    }
+
+    #[test]
+    fn univariate_gcd_is_the_monic_common_factor() {
+        let mut atoms = Atoms::default();
+        let mut poly = |s: &str| to_poly(&expand(&p(s)).unwrap(), &mut atoms);
+        // By construction the common factor is (x + 1)^2 = x^2 + 2x + 1.
+        let a = poly("(x + 1)^3 (x - 2)");
+        let b = poly("3 (x + 1)^2 (x + 3)");
+        let g = poly("x^2 + 2 x + 1");
+        let x = a.support();
+        assert_eq!(x, b.support());
+        assert_eq!(univariate_gcd(&a, &b, x[0]).expect("gcd").sorted(), g.sorted());
+        // Coprime: the gcd is 1.
+        let c = poly("x^2 + 1");
+        assert_eq!(univariate_gcd(&a, &c, x[0]).expect("gcd").sorted(), SparsePoly::constant(Rational::one()).sorted());
+        // Content: the common monomial and the rational content with the leading sign.
+        let (m, r) = poly("-6 x^2 y + 4 x^3").content();
+        let (mx, _) = poly("x^2").content();
+        assert_eq!((m, r), (mx, Rational::new(2.into(), 1.into())));
+        let (_, r) = poly("-6 x^3 y + 4 x^2").content();
+        assert_eq!(r, Rational::new((-2).into(), 1.into()));
     }
 
     #[test]

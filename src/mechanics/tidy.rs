@@ -16,8 +16,8 @@
 //!    that end up with the same sum as a cofactor (`c·S + s·S = (c + s)·S`).
 //!
 //! Steps 1–3 work on the sparse-polynomial form of [`crate::algebra::SparsePoly`] (atoms
-//! numbered in a local table, monomials as sorted `(atom, exponent)` lists, exact
-//! coefficients), not on interned
+//! numbered in an [`crate::algebra::Atoms`] table per run, monomials as sorted
+//! `(atom, exponent)` lists, exact coefficients), not on interned
 //! expressions: expanding the 30-link pendulum's forcing produces tens of thousands of
 //! monomials, and building each as a canonical, interned [`Expr`] would dominate the run.
 //!
@@ -31,7 +31,7 @@ use num_integer::Integer;
 use num_rational::Rational64;
 use num_traits::{One, Signed, Zero};
 
-use crate::algebra::{big, merge_keys, small_exp, Coef, FxMap, Key};
+use crate::algebra::{big, merge_keys, small_exp, Atoms, Coef, FxMap, Key};
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
@@ -112,9 +112,9 @@ pub(crate) struct Ctx {
     /// a velocity or a sin/cos (where cancellations and contractions happen), so that
     /// `(a − u t)²` and `(p − m ω x)²` keep their shape.
     expand_all: bool,
-    atoms: Vec<Expr>,
-    index: FxMap<Expr, u32>,
-    /// `Some((sin or cos, argument))` for atoms that are `sin(a)` / `cos(a)`.
+    /// The atom table, `algebra`'s (the numbering the shared polynomial form is read in).
+    atoms: Atoms,
+    /// `Some((sin or cos, argument))` for atoms that are `sin(a)` / `cos(a)`, by atom number.
     trig: Vec<Option<(Func, Expr)>>,
     /// `∂atom/∂x` as polynomials.
     dmemo: FxMap<(u32, u32), Rc<Poly>>,
@@ -204,7 +204,7 @@ impl Ctx {
         if let Some(p) = self.dmemo.get(&(a, xid)) {
             return p.clone();
         }
-        let atom = self.atoms[a as usize].clone();
+        let atom = self.atoms[a].clone();
         let d = self.diff.diff(&atom, x);
         let p = Rc::new(if d.is_zero() { Poly::default() } else { self.expand(&d) });
         self.dmemo.insert((a, xid), p.clone());
@@ -233,7 +233,7 @@ impl Ctx {
                     continue;
                 }
                 // Any other atom must be free of time derivatives (velocities, accelerations).
-                let atom = &self.atoms[a as usize];
+                let atom = &self.atoms[a];
                 if *has_rate.entry(a).or_insert_with(|| atom.free_symbols().iter().any(|s| s.primes() > 0)) {
                     return None;
                 }
@@ -293,17 +293,14 @@ impl Ctx {
     }
 
     fn atom_id(&mut self, e: &Expr) -> u32 {
-        if let Some(&id) = self.index.get(e) {
-            return id;
+        let id = self.atoms.id(e);
+        if id as usize == self.trig.len() {
+            // A new atom.
+            self.trig.push(match e.node() {
+                Node::Call(f @ (Func::Sin | Func::Cos), args) => Some((*f, args[0].clone())),
+                _ => None,
+            });
         }
-        let id = self.atoms.len() as u32;
-        let trig = match e.node() {
-            Node::Call(f @ (Func::Sin | Func::Cos), args) => Some((*f, args[0].clone())),
-            _ => None,
-        };
-        self.atoms.push(e.clone());
-        self.trig.push(trig);
-        self.index.insert(e.clone(), id);
         id
     }
 
@@ -421,7 +418,7 @@ impl Ctx {
     }
 
     fn to_expr_key(&self, key: &[(u32, Rational64)]) -> Vec<Expr> {
-        key.iter().map(|(a, r)| Expr::pow(self.atoms[*a as usize].clone(), Expr::num(big(*r)))).collect()
+        key.iter().map(|(a, r)| Expr::pow(self.atoms[*a].clone(), Expr::num(big(*r)))).collect()
     }
 
     // ----- contraction ----------------------------------------------------------------------
@@ -616,7 +613,7 @@ impl Ctx {
                 for t in terms.iter_mut() {
                     t.0 = merge_keys(&t.0, &[(a, -c)]);
                 }
-                content.push(Expr::pow(self.atoms[a as usize].clone(), Expr::num(big(c))));
+                content.push(Expr::pow(self.atoms[a].clone(), Expr::num(big(c))));
             }
         }
         // Sign: more positive than negative terms inside, and on a tie a positive constant
@@ -647,9 +644,7 @@ impl Ctx {
             }
         }
         let best = counts.into_iter().filter(|(_, n)| *n >= 2).max_by(|(ka, na), (kb, nb)| {
-            na.cmp(nb)
-                .then_with(|| self.atoms[kb.0 as usize].canonical_cmp(&self.atoms[ka.0 as usize]))
-                .then(kb.1.cmp(&ka.1))
+            na.cmp(nb).then_with(|| self.atoms[kb.0].canonical_cmp(&self.atoms[ka.0])).then(kb.1.cmp(&ka.1))
         });
         let Some(((a, positive), _)) = best else {
             return merge_cofactors(terms.iter().map(|(k, c)| self.mono(k, c)).collect());
@@ -663,7 +658,7 @@ impl Ctx {
             t.0 = merge_keys(&t.0, &[(a, -e)]);
         }
         let mut inner = self.collect_factors(with);
-        inner.push(Expr::pow(self.atoms[a as usize].clone(), Expr::num(big(e))));
+        inner.push(Expr::pow(self.atoms[a].clone(), Expr::num(big(e))));
         let mut parts = Expr::mul(inner).terms();
         if !without.is_empty() {
             parts.extend(self.horner(without).terms());
