@@ -583,37 +583,14 @@ impl Backend for NativeBackend {
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<f64, BackendError>> {
-        use rayon::prelude::*;
         let var = match variational(compiled) {
             Ok(v) => v,
             Err(e) => return starts.iter().map(|_| Err(e.clone())).collect(),
         };
-        let done = AtomicUsize::new(0);
-        let n = starts.len().max(1) as f64;
-        std::thread::scope(|scope| {
-            let work = scope.spawn(|| {
-                starts
-                    .par_iter()
-                    .map(|x0| {
-                        let out = crate::chaos::indicators(var, x0, t_end, tol)
-                            .map(|r| r.value(which))
-                            .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")));
-                        done.fetch_add(1, Ordering::Relaxed);
-                        out
-                    })
-                    .collect::<Vec<_>>()
-            });
-            while !work.is_finished() {
-                progress(done.load(Ordering::Relaxed) as f64 / n);
-                std::thread::sleep(std::time::Duration::from_millis(50));
-            }
-            progress(1.0);
-            work.join().unwrap_or_else(|_| {
-                starts
-                    .iter()
-                    .map(|_| Err(BackendError::Failed("internal: a chaos map worker panicked".into())))
-                    .collect()
-            })
+        par_map_with_progress(starts, "a chaos map worker", progress, |x0| {
+            crate::chaos::indicators(var, x0, t_end, tol)
+                .map(|r| r.value(which))
+                .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
         })
     }
 
@@ -625,27 +602,8 @@ impl Backend for NativeBackend {
         runs: &[RunRequest],
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<Trajectory, BackendError>> {
-        use rayon::prelude::*;
-        let done = AtomicUsize::new(0);
-        let n = runs.len().max(1) as f64;
-        std::thread::scope(|scope| {
-            let work = scope.spawn(|| {
-                runs.par_iter()
-                    .map(|r| {
-                        let out = NativeBackend.integrate(compiled, r, &mut |_| {});
-                        done.fetch_add(1, Ordering::Relaxed);
-                        out
-                    })
-                    .collect::<Vec<_>>()
-            });
-            while !work.is_finished() {
-                progress(done.load(Ordering::Relaxed) as f64 / n);
-                std::thread::sleep(std::time::Duration::from_millis(50));
-            }
-            progress(1.0);
-            work.join().unwrap_or_else(|_| {
-                runs.iter().map(|_| Err(BackendError::Failed("internal: an ensemble worker panicked".into()))).collect()
-            })
+        par_map_with_progress(runs, "an ensemble worker", progress, |r| {
+            NativeBackend.integrate(compiled, r, &mut |_| {})
         })
     }
 }
@@ -968,5 +926,39 @@ fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
             Some(report) => super::drift::Ledger::Checked { symbol: "", report },
             None => super::drift::Ledger::Unchecked,
         },
+    })
+}
+
+/// `f` over `items` in parallel on rayon's pool, while this thread reports the fraction
+/// finished every 50 ms. A worker that panics turns every result into an internal error
+/// naming `worker` (the panic has already been printed by the hook).
+fn par_map_with_progress<T: Sync, R: Send>(
+    items: &[T],
+    worker: &str,
+    progress: &mut dyn FnMut(f64),
+    f: impl Fn(&T) -> Result<R, BackendError> + Sync,
+) -> Vec<Result<R, BackendError>> {
+    use rayon::prelude::*;
+    let done = AtomicUsize::new(0);
+    let n = items.len().max(1) as f64;
+    std::thread::scope(|scope| {
+        let work = scope.spawn(|| {
+            items
+                .par_iter()
+                .map(|x| {
+                    let out = f(x);
+                    done.fetch_add(1, Ordering::Relaxed);
+                    out
+                })
+                .collect::<Vec<_>>()
+        });
+        while !work.is_finished() {
+            progress(done.load(Ordering::Relaxed) as f64 / n);
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        progress(1.0);
+        work.join().unwrap_or_else(|_| {
+            items.iter().map(|_| Err(BackendError::Failed(format!("internal: {worker} panicked")))).collect()
+        })
     })
 }
