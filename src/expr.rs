@@ -1108,7 +1108,13 @@ impl Expr {
         rank(self).cmp(&rank(other)).then_with(|| match (self.node(), other.node()) {
             (Node::Num(a), Node::Num(b)) => a.cmp(b),
             (Node::Sym(a), Node::Sym(b)) => a.cmp(b),
-            (Node::Mul(a), Node::Mul(b)) => cmp_lists(skip_coeff(a), skip_coeff(b)),
+            // Products that differ only in their coefficient (`x/200`, `10^3008 x`) are
+            // ordered by it: without this tie-break `(x/200 - 1)` and `(10^3008 x - 1)`
+            // compared equal as factors, and their product kept whichever order it was
+            // built in (found by the 10⁶ fuzz run: print → parse gave another node).
+            (Node::Mul(a), Node::Mul(b)) => {
+                cmp_lists(skip_coeff(a), skip_coeff(b)).then_with(|| coeff_of(a).cmp(&coeff_of(b)))
+            }
             (Node::Add(a), Node::Add(b)) => cmp_lists(a, b),
             (Node::Call(f, a), Node::Call(g, b)) => cmp_lists(a, b).then(f.cmp(g)),
             (Node::Apply { name: n1, orders: o1, args: a1 }, Node::Apply { name: n2, orders: o2, args: a2 }) => {
@@ -1124,6 +1130,11 @@ fn skip_coeff(fs: &[Expr]) -> &[Expr] {
         Some(f) if f.as_num().is_some() => &fs[1..],
         _ => fs,
     }
+}
+
+/// The numeric coefficient of a product's factor list (1 when it has none).
+fn coeff_of(fs: &[Expr]) -> Rational {
+    fs.first().and_then(Expr::as_num).cloned().unwrap_or_else(Rational::one)
 }
 
 fn cmp_lists(a: &[Expr], b: &[Expr]) -> Ordering {
@@ -1216,6 +1227,20 @@ mod tests {
         assert_eq!(x().plus(&y()), y().plus(&x()));
         assert_eq!(x().plus(&x()), Expr::int(2).times(&x()));
         assert_eq!(x().plus(&y()).minus(&x().plus(&y())), Expr::zero());
+    }
+
+    #[test]
+    fn products_of_sums_that_differ_only_in_coefficients_are_order_independent() {
+        // x + 1 and 2x + 1 (and x/200 − 1 against 10^3008 x − 1, the fuzz case) have the same
+        // terms but for a coefficient; the product must not depend on the order it is built in.
+        let a = x().plus(&Expr::one());
+        let b = Expr::int(2).times(&x()).plus(&Expr::one());
+        assert_eq!(a.times(&b), b.times(&a));
+        let c = x().over(&Expr::int(200)).minus(&Expr::one());
+        let big = Expr::num(Rational::from_integer(BigInt::from(10).pow(3008u32)));
+        let d = big.times(&x()).minus(&Expr::one());
+        assert_eq!(c.times(&d.powi(-1)), d.powi(-1).times(&c));
+        assert_ne!(a.canonical_cmp(&b), Ordering::Equal);
     }
 
     #[test]
