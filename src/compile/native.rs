@@ -91,8 +91,8 @@ pub(crate) struct NativeCode {
     /// Entry point, of type [`NativeFn`] or [`NativeSolveFn`] according to `epilogue`.
     func: *const u8,
     epilogue: Epilogue,
-    /// Taken out and freed in `Drop`; never touched otherwise after construction.
-    module: ManuallyDrop<JITModule>,
+    /// Never touched after construction; frees the code when dropped.
+    _module: OwnedModule,
     n_inputs: usize,
     n_outputs: usize,
 }
@@ -108,11 +108,16 @@ unsafe impl Send for NativeCode {}
 // SAFETY: see `Send`; `&NativeCode` allows only `call`, which shares nothing mutable.
 unsafe impl Sync for NativeCode {}
 
-impl Drop for NativeCode {
+/// A finished JIT module, owned by the compiled code it holds: dropping it frees the code.
+/// Only the owner of a generated function's pointer holds one, so when it drops no `&owner`
+/// exists and no call through that pointer is running or can start.
+struct OwnedModule(ManuallyDrop<JITModule>);
+
+impl Drop for OwnedModule {
     fn drop(&mut self) {
-        // SAFETY: `self` is being dropped, so no `&self` exists and no call through `func` is
-        // running or can start; the module is taken exactly once.
-        unsafe { ManuallyDrop::take(&mut self.module).free_memory() }
+        // SAFETY: see the type's comment: the owner is being dropped, so no generated function
+        // of this module is running; the module is taken exactly once.
+        unsafe { ManuallyDrop::take(&mut self.0).free_memory() }
     }
 }
 
@@ -221,7 +226,7 @@ fn compile_inner(tape: &Tape, epilogue: Epilogue) -> Option<NativeCode> {
     Some(NativeCode {
         func,
         epilogue,
-        module: ManuallyDrop::new(module),
+        _module: OwnedModule(ManuallyDrop::new(module)),
         n_inputs: tape.n_inputs(),
         n_outputs: tape.n_outputs(),
     })
@@ -517,7 +522,7 @@ type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
 pub(crate) struct NativeTaylor {
     /// `funcs[k − 1]` computes order `k`.
     funcs: Vec<*const u8>,
-    module: ManuallyDrop<JITModule>,
+    _module: OwnedModule,
     stride: usize,
     n_rows: usize,
 }
@@ -527,13 +532,6 @@ pub(crate) struct NativeTaylor {
 unsafe impl Send for NativeTaylor {}
 // SAFETY: see `Send`.
 unsafe impl Sync for NativeTaylor {}
-
-impl Drop for NativeTaylor {
-    fn drop(&mut self) {
-        // SAFETY: no `&self` exists any more, so no generated function is running.
-        unsafe { ManuallyDrop::take(&mut self.module).free_memory() }
-    }
-}
 
 impl std::fmt::Debug for NativeTaylor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -637,7 +635,7 @@ fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize
         return None;
     }
     let funcs = ids.into_iter().map(|id| module.get_finalized_function(id)).collect();
-    Some(NativeTaylor { funcs, module: ManuallyDrop::new(module), stride, n_rows: tape.n_rows() })
+    Some(NativeTaylor { funcs, _module: OwnedModule(ManuallyDrop::new(module)), stride, n_rows: tape.n_rows() })
 }
 
 /// Emits order `k` of every recurrence of a Taylor tape, mirroring
