@@ -73,31 +73,9 @@ fn wait_exit(child: &mut Child, limit: Duration) -> Option<std::process::ExitSta
 
 #[test]
 fn ctrl_c_ends_a_scene_run_with_status_130_and_no_output_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("long.scene");
-    std::fs::write(&scene, format!("{LONG}export t, x from spin to spin.csv\n")).unwrap();
-    let out = dir.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .args(["run", scene.to_str().unwrap(), "--no-cache", "--out-dir", out.to_str().unwrap()])
-        .env("LAGRANGIAN_PROGRESS", "always")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let err = lines(child.stderr.take().unwrap());
+    let (_dir, child, err, out) = start_run(&format!("{LONG}export t, x from spin to spin.csv\n"));
     wait_for(&err, "spin");
-    let sent = Instant::now();
-    sigint(&child);
-    let status = wait_exit(&mut child, Duration::from_secs(20)).expect("the run did not stop within 20 s");
-    let took = sent.elapsed();
-    assert_eq!(status.code(), Some(130), "exit status");
-    assert!(took < Duration::from_secs(1), "took {took:?} to exit after SIGINT");
-    let left: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
-    assert!(left.is_empty(), "files left behind: {left:?}");
-    let mut stdout = String::new();
-    child.stdout.take().unwrap().read_to_string(&mut stdout).unwrap();
-    assert!(!stdout.contains("wrote"), "no file is announced: {stdout}");
+    interrupt_and_check(child, &out);
 }
 
 /// `lagrangian run` of `scene` in a fresh directory with an empty `out/`, progress lines
