@@ -43,7 +43,8 @@ fn check(src: &str, f: &dyn Fn(C) -> C, t0: f64, r: f64) -> Tape {
     let tape = Tape::compile(&[parse(src).unwrap()], &["t"], &[]).unwrap();
     let tt = TaylorTape::new(&tape);
     let s = ORDER + 1;
-    let mut c = vec![0.0; tt.n_rows() * s];
+    // NaN everywhere: a recurrence that read a row nobody computed would show.
+    let mut c = vec![f64::NAN; tt.n_rows() * s];
     tt.expand(&mut c, s, ORDER, |k, c| {
         c[k] = match k {
             0 => t0,
@@ -114,6 +115,34 @@ fn square_roots_and_powers() {
     assert!(has(&tape, |i| matches!(i, Instr::Powf { .. })));
     // Half-integer powers lower to sqrt and products.
     check("(1 + t^2)^(-3/2)", &|t: C| (1.0 + t * t).powf(-1.5), 0.3, 0.5);
+}
+
+/// The recurrences of orders ≥ 1 are rewritten (products with and quotients by constants as
+/// scalings, squares over half their terms, powers of one row fused into one recurrence);
+/// the series must not change.
+#[test]
+fn rewritten_recurrences_give_the_same_series() {
+    let u = |t: C| 1.0 + t * t;
+    // Kepler's force: −x/(u √u) with u = x² + y²; here 1/(u √u), a power −3/2 of u.
+    check("1/((1 + t^2) sqrt(1 + t^2))", &move |t: C| u(t).powf(-1.5), 0.3, 0.5);
+    // The same power while √u is also read elsewhere (it stays a row of its own).
+    check("sqrt(1 + t^2) - 2/((1 + t^2) sqrt(1 + t^2))", &move |t: C| u(t).sqrt() - 2.0 * u(t).powf(-1.5), 0.3, 0.5);
+    // Roots of roots, a root over its base, a power times a negated power.
+    check("sqrt(sqrt(2 + t))", &|t: C| (2.0 + t).powf(0.25), 0.2, 1.0);
+    check("(2 + t)^(1/3) / (2 + t)", &|t: C| (2.0 + t).powf(-2.0 / 3.0), 0.2, 1.0);
+    check("-(2 + t)^(1/3) * (2 + t)^(0.7)", &|t: C| -(2.0 + t).powf(1.0 / 3.0 + 0.7), 0.2, 1.0);
+    // Constants times and over a series, and a square.
+    check("3 (t + 2)^2 - (t^2 + t)/7 + 2.5 exp(t)", &|t: C| 3.0 * (t + 2.0) * (t + 2.0) - (t * t + t) / 7.0 + 2.5 * t.exp(), 0.3, 1.0);
+}
+
+#[test]
+fn kepler_runs_the_recurrences_of_its_decomposition() {
+    // −x/|q|³ and −y/|q|³: x², y², u = x² + y², u^(−3/2), x u^(−3/2), y u^(−3/2). The plain
+    // tape's √u and u √u are not recomputed at orders ≥ 1.
+    let sys = lagrangian::mechanics::System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]);
+    let ode = sys.unwrap().compile_taylor().unwrap();
+    let tt = ode.taylor_tape();
+    assert_eq!(tt.n_recurrences(), 6, "{tt}");
 }
 
 #[test]

@@ -519,9 +519,19 @@ type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
 /// one sum after the other, each a chain of dependent additions). Each sum adds its terms
 /// in the interpreter's order with the interpreter's operations (Cranelift does not
 /// reassociate or fuse), so the coefficients are the interpreter's, bit for bit.
+///
+/// A first-order ODE can instead have its whole expansion in one function
+/// ([`NativeTaylor::compile_expansion`]): orders `1..=max_order` each followed by the step
+/// from order `k` of the right-hand side to order `k + 1` of the state. Then the values an
+/// order computes reach the next order in registers rather than through memory and a call,
+/// and the processor can start on order `k + 1`'s sums while order `k`'s last recurrences
+/// are still in flight.
 pub(crate) struct NativeTaylor {
-    /// `funcs[k − 1]` computes order `k`.
+    /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion: `funcs[0]` does it all.
     funcs: Vec<*const u8>,
+    /// Whether `funcs[0]` is a whole expansion.
+    whole: bool,
+    max_order: usize,
     _module: OwnedModule,
     stride: usize,
     n_rows: usize,
@@ -535,7 +545,7 @@ unsafe impl Sync for NativeTaylor {}
 
 impl std::fmt::Debug for NativeTaylor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "NativeTaylor({} rows, stride {}, orders 1..={})", self.n_rows, self.stride, self.funcs.len())
+        write!(f, "NativeTaylor({} rows, stride {}, orders 1..={})", self.n_rows, self.stride, self.max_order)
     }
 }
 
@@ -548,6 +558,30 @@ impl NativeTaylor {
     /// Compiles orders `1..=max_order` of `tape` for coefficient buffers of `stride`
     /// (`max_order < stride`), or `None` (too large, or no JIT on this host).
     pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+        Self::compile_with(tape, stride, max_order, None)
+    }
+
+    /// The whole expansion of `y' = f` in one function: orders `1..=max_order` of every row,
+    /// each followed by `c[dst, k + 1] = c[src, k] / (k + 1)` for every `(dst, src)` of
+    /// `glue` (state row, row of its derivative), as `TaylorOde::expand` does between orders.
+    pub(crate) fn compile_expansion(
+        tape: &super::TaylorTape,
+        stride: usize,
+        max_order: usize,
+        glue: &[(u32, u32)],
+    ) -> Option<NativeTaylor> {
+        if max_order + 1 >= stride {
+            return None;
+        }
+        Self::compile_with(tape, stride, max_order, Some(glue))
+    }
+
+    fn compile_with(
+        tape: &super::TaylorTape,
+        stride: usize,
+        max_order: usize,
+        glue: Option<&[(u32, u32)]>,
+    ) -> Option<NativeTaylor> {
         if max_order == 0 || max_order >= stride {
             return None;
         }
@@ -556,7 +590,25 @@ impl NativeTaylor {
         if terms > MAX_NATIVE_TAYLOR_TERMS || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
             return None;
         }
-        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order))).ok().flatten()
+        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, glue))).ok().flatten()
+    }
+
+    /// Whether this is a whole expansion ([`NativeTaylor::compile_expansion`]).
+    pub(crate) fn is_whole(&self) -> bool {
+        self.whole
+    }
+
+    /// Runs a whole expansion: orders `1..=max_order` and the glue after each (orders `0` of
+    /// every row and order 1 of the state given); `false` when an `abs` met its kink.
+    pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
+        assert!(self.whole, "not a whole expansion");
+        assert!(c.len() >= self.n_rows * self.stride, "Taylor buffer too short");
+        // SAFETY: as in `run_order`: the function has type `TaylorOrderFn` and touches only
+        // `c[0 .. n_rows · stride]`.
+        unsafe {
+            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0]);
+            f(c.as_mut_ptr()) == 0
+        }
     }
 
     /// The stride the code was compiled for.
@@ -566,13 +618,13 @@ impl NativeTaylor {
 
     /// The highest order compiled.
     pub(crate) fn max_order(&self) -> usize {
-        self.funcs.len()
+        self.max_order
     }
 
     /// Computes order `k` of every row of `c` (orders `0..k` and order `k` of the inputs
     /// given); `false` when an `abs` met its kink.
     pub(crate) fn run_order(&self, c: &mut [f64], k: usize) -> bool {
-        assert!((1..=self.funcs.len()).contains(&k), "order {k} not compiled");
+        assert!(!self.whole && (1..=self.funcs.len()).contains(&k), "order {k} not compiled");
         assert!(c.len() >= self.n_rows * self.stride, "Taylor buffer too short");
         // SAFETY: the function for order `k` has type `TaylorOrderFn` (see `compile_taylor_code`)
         // and touches only `c[0 .. n_rows · stride]`, which the assertion guarantees.
@@ -583,7 +635,12 @@ impl NativeTaylor {
     }
 }
 
-fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+fn compile_taylor_code(
+    tape: &super::TaylorTape,
+    stride: usize,
+    max_order: usize,
+    glue: Option<&[(u32, u32)]>,
+) -> Option<NativeTaylor> {
     let mut flags = settings::builder();
     flags.set("opt_level", "speed").ok()?;
     flags.set("is_pic", "false").ok()?;
@@ -595,8 +652,14 @@ fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize
     let mut ctx = module.make_context();
     let mut fbc = FunctionBuilderContext::new();
     let mut ids = Vec::with_capacity(max_order);
+    let whole = glue.is_some();
     let mut ok = true;
-    for k in 1..=max_order {
+    // Per order, one function per `k`; a whole expansion, one function for all of them.
+    let funcs: Vec<Vec<usize>> = match glue {
+        Some(_) => vec![(1..=max_order).collect()],
+        None => (1..=max_order).map(|k| vec![k]).collect(),
+    };
+    for orders in &funcs {
         ctx.func.signature.call_conv = call_conv;
         ctx.func.signature.params.push(AbiParam::new(ptr));
         ctx.func.signature.returns.push(AbiParam::new(types::I32));
@@ -607,8 +670,19 @@ fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize
             b.switch_to_block(block);
             b.seal_block(block);
             let base = b.block_params(block)[0];
-            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k, cur: vec![None; tape.n_rows()] };
-            let kink = em.order(tape);
+            let mut em =
+                TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; tape.n_rows() * stride] };
+            let mut kink = Some(em.b.ins().iconst(types::I8, 0));
+            for &k in orders {
+                em.k = k;
+                kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
+                for &(dst, src) in glue.unwrap_or(&[]) {
+                    let v = em.at(src, k);
+                    let inv = em.c(1.0 / (k + 1) as f64);
+                    let v = em.b.ins().fmul(v, inv);
+                    em.put_at(dst, k + 1, v);
+                }
+            }
             if let Some(kink) = kink {
                 let r = em.b.ins().uextend(types::I32, kink);
                 em.b.ins().return_(&[r]);
@@ -616,9 +690,8 @@ fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize
             }
             kink.is_some()
         };
-        let id = emitted
-            .then(|| module.declare_function(&format!("taylor_order_{k}"), Linkage::Export, &ctx.func.signature).ok())
-            .flatten();
+        let name = if glue.is_some() { "taylor_expansion".to_string() } else { format!("taylor_order_{}", orders[0]) };
+        let id = emitted.then(|| module.declare_function(&name, Linkage::Export, &ctx.func.signature).ok()).flatten();
         let defined = id.and_then(|id| module.define_function(id, &mut ctx).ok().map(|_| id));
         module.clear_context(&mut ctx);
         match defined {
@@ -635,7 +708,14 @@ fn compile_taylor_code(tape: &super::TaylorTape, stride: usize, max_order: usize
         return None;
     }
     let funcs = ids.into_iter().map(|id| module.get_finalized_function(id)).collect();
-    Some(NativeTaylor { funcs, _module: OwnedModule(ManuallyDrop::new(module)), stride, n_rows: tape.n_rows() })
+    Some(NativeTaylor {
+        funcs,
+        whole,
+        max_order,
+        _module: OwnedModule(ManuallyDrop::new(module)),
+        stride,
+        n_rows: tape.n_rows(),
+    })
 }
 
 /// Emits order `k` of every recurrence of a Taylor tape, mirroring
@@ -645,27 +725,31 @@ struct TaylorEmitter<'a, 'b> {
     base: Value,
     s: usize,
     k: usize,
-    /// Order `k` of each row written so far in this function (kept in SSA values, and stored).
-    cur: Vec<Option<Value>>,
+    /// Coefficient `j` of row `r` at `r · s + j`, for those written so far in this function
+    /// (kept in SSA values, and stored).
+    known: Vec<Option<Value>>,
 }
 
 impl TaylorEmitter<'_, '_> {
     /// Coefficient `j` of row `r`.
     fn at(&mut self, r: u32, j: usize) -> Value {
-        if j == self.k {
-            if let Some(v) = self.cur[r as usize] {
-                return v;
-            }
+        let i = r as usize * self.s + j;
+        if let Some(v) = self.known[i] {
+            return v;
         }
-        let off = ((r as usize * self.s + j) * 8) as i32;
-        self.b.ins().load(types::F64, MemFlags::trusted(), self.base, off)
+        self.b.ins().load(types::F64, MemFlags::trusted(), self.base, (i * 8) as i32)
     }
 
     /// Writes order `k` of row `r`.
     fn put(&mut self, r: u32, v: Value) {
-        let off = ((r as usize * self.s + self.k) * 8) as i32;
-        self.b.ins().store(MemFlags::trusted(), v, self.base, off);
-        self.cur[r as usize] = Some(v);
+        self.put_at(r, self.k, v);
+    }
+
+    /// Writes coefficient `j` of row `r`.
+    fn put_at(&mut self, r: u32, j: usize, v: Value) {
+        let i = r as usize * self.s + j;
+        self.b.ins().store(MemFlags::trusted(), v, self.base, (i * 8) as i32);
+        self.known[i] = Some(v);
     }
 
     fn c(&mut self, x: f64) -> Value {
@@ -737,21 +821,48 @@ impl TaylorEmitter<'_, '_> {
         self.sum(a, 1, b, k - 1, k - 1, |i| (i + 1) as f64)
     }
 
-    /// `Σ_{j=1}^{k−1} x_j x_{k−j}` over one row (`dot_rev(&r[1..k], &r[1..k])`).
-    fn inner_square(&mut self, r: u32) -> Value {
+    /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `taylor.rs`):
+    /// `2 Σ_{1≤j<k−j} a_j a_{k−j} + (a_{k/2}² or 0)`.
+    fn square_inner(&mut self, r: u32) -> Value {
         let k = self.k;
-        if k < 2 {
-            return self.c(0.0);
-        }
-        self.sum(r, 1, r, k - 1, k - 1, |_| 1.0)
+        let n = (k + 1) / 2 - 1;
+        let half = self.sum(r, 1, r, k - 1, n, |_| 1.0);
+        let two = self.c(2.0);
+        let twice = self.b.ins().fmul(two, half);
+        let mid = if k % 2 == 0 {
+            let m = self.at(r, k / 2);
+            self.b.ins().fmul(m, m)
+        } else {
+            self.c(0.0)
+        };
+        self.b.ins().fadd(twice, mid)
     }
 
-    fn fdiv_k(&mut self, x: Value) -> Value {
-        let kf = self.c(self.k as f64);
-        self.b.ins().fdiv(x, kf)
+    /// `Σ_{j=0}^{k} a_j a_{k−j}` (`square`): the inner sum, then `2a₀ · a_k`.
+    fn square(&mut self, r: u32) -> Value {
+        let inner = self.square_inner(r);
+        let two = self.c(2.0);
+        let a0 = self.at(r, 0);
+        let a0x2 = self.b.ins().fmul(two, a0);
+        let ak = self.at(r, self.k);
+        let late = self.b.ins().fmul(a0x2, ak);
+        self.b.ins().fadd(inner, late)
     }
 
-    /// `(e j − (k − j)) a_j d_{k−j}` summed, over `k a₀` (`constant_power`).
+    /// `x · (1/k)`.
+    fn times_rk(&mut self, x: Value) -> Value {
+        let rk = self.c(1.0 / self.k as f64);
+        self.b.ins().fmul(x, rk)
+    }
+
+    /// `x · (1/y)`.
+    fn times_recip(&mut self, x: Value, y: Value) -> Value {
+        let one = self.c(1.0);
+        let r = self.b.ins().fdiv(one, y);
+        self.b.ins().fmul(x, r)
+    }
+
+    /// `(e j − (k − j)) a_j d_{k−j}` summed, times `1/(k a₀)` (`constant_power`).
     fn constant_power(&mut self, a: u32, d: u32, e: f64) -> Value {
         let k = self.k;
         let acc = self.sum(a, 1, d, k - 1, k, |i| {
@@ -761,7 +872,7 @@ impl TaylorEmitter<'_, '_> {
         let a0 = self.at(a, 0);
         let kf = self.c(k as f64);
         let den = self.b.ins().fmul(kf, a0);
-        self.b.ins().fdiv(acc, den)
+        self.times_recip(acc, den)
     }
 
     /// All recurrences at order `k`; the value is the kink flag (an `i8`).
@@ -785,34 +896,44 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.b.ins().fneg(x);
                     self.put(d, v);
                 }
+                Op::Scale { d, a, f } => {
+                    let x = self.at(a, k);
+                    let fv = self.c(f);
+                    let v = self.b.ins().fmul(x, fv);
+                    self.put(d, v);
+                }
                 Op::Mul { d, a, b } => {
                     let v = self.cauchy(a, b, 0);
                     self.put(d, v);
                 }
+                Op::Sqr { d, a } => {
+                    let v = self.square(a);
+                    self.put(d, v);
+                }
                 Op::Div { d, a, b } => {
-                    // (a_k − Σ_{i<k} b_{1+i} d_{k−1−i}) / b₀
+                    // (a_k − Σ_{i<k} b_{1+i} d_{k−1−i}) · (1/b₀)
                     let acc = self.sum(b, 1, d, k - 1, k, |_| 1.0);
                     let ak = self.at(a, k);
                     let num = self.b.ins().fsub(ak, acc);
                     let b0 = self.at(b, 0);
-                    let v = self.b.ins().fdiv(num, b0);
+                    let v = self.times_recip(num, b0);
                     self.put(d, v);
                 }
                 Op::Sqrt { d, a } => {
-                    let acc = self.inner_square(d);
+                    let acc = self.square_inner(d);
                     let ak = self.at(a, k);
                     let num = self.b.ins().fsub(ak, acc);
                     let two = self.c(2.0);
                     let d0 = self.at(d, 0);
                     let den = self.b.ins().fmul(two, d0);
-                    let v = self.b.ins().fdiv(num, den);
+                    let v = self.times_recip(num, den);
                     self.put(d, v);
                 }
                 Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
                     let w = self.weighted(a, c);
-                    let sv = self.fdiv_k(w);
+                    let sv = self.times_rk(w);
                     let w = self.weighted(a, s);
-                    let cv = self.fdiv_k(w);
+                    let cv = self.times_rk(w);
                     self.put(s, sv);
                     let cv = if matches!(op, Op::SinCos { .. }) {
                         let m = self.c(-1.0);
@@ -824,58 +945,58 @@ impl TaylorEmitter<'_, '_> {
                 }
                 Op::Exp { d, a } => {
                     let w = self.weighted(a, d);
-                    let v = self.fdiv_k(w);
+                    let v = self.times_rk(w);
                     self.put(d, v);
                 }
                 Op::Log { d, a } => {
                     let acc = self.weighted_short(d, a);
-                    let q = self.fdiv_k(acc);
+                    let q = self.times_rk(acc);
                     let ak = self.at(a, k);
                     let num = self.b.ins().fsub(ak, q);
                     let a0 = self.at(a, 0);
-                    let v = self.b.ins().fdiv(num, a0);
+                    let v = self.times_recip(num, a0);
                     self.put(d, v);
                 }
                 Op::Tan { d, a, u, hyp } => {
                     let w = self.weighted(a, u);
-                    let dv = self.fdiv_k(w);
+                    let dv = self.times_rk(w);
                     self.put(d, dv);
-                    let sq = self.cauchy(d, d, 0);
+                    let sq = self.square(d);
                     let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
                     self.put(u, uv);
                 }
                 Op::Asin { d, a, r, neg } => {
-                    let sq = self.cauchy(a, a, 0);
+                    let sq = self.square(a);
                     let nsq = self.b.ins().fneg(sq);
-                    let inner = self.inner_square(r);
+                    let inner = self.square_inner(r);
                     let num = self.b.ins().fsub(nsq, inner);
                     let two = self.c(2.0);
                     let r0 = self.at(r, 0);
                     let den = self.b.ins().fmul(two, r0);
-                    let rv = self.b.ins().fdiv(num, den);
+                    let rv = self.times_recip(num, den);
                     let ak = self.at(a, k);
                     let ak = if neg { self.b.ins().fneg(ak) } else { ak };
                     let w = self.weighted_short(d, r);
-                    let q = self.fdiv_k(w);
+                    let q = self.times_rk(w);
                     let num = self.b.ins().fsub(ak, q);
-                    let dv = self.b.ins().fdiv(num, r0);
+                    let dv = self.times_recip(num, r0);
                     self.put(r, rv);
                     self.put(d, dv);
                 }
                 Op::Atan { d, a, u } => {
-                    let uv = self.cauchy(a, a, 0);
+                    let uv = self.square(a);
                     let w = self.weighted_short(d, u);
-                    let q = self.fdiv_k(w);
+                    let q = self.times_rk(w);
                     let ak = self.at(a, k);
                     let num = self.b.ins().fsub(ak, q);
                     let u0 = self.at(u, 0);
-                    let dv = self.b.ins().fdiv(num, u0);
+                    let dv = self.times_recip(num, u0);
                     self.put(u, uv);
                     self.put(d, dv);
                 }
                 Op::Atan2 { d, a, b, u } => {
-                    let x = self.cauchy(a, a, 0);
-                    let y = self.cauchy(b, b, 0);
+                    let x = self.square(a);
+                    let y = self.square(b);
                     let uv = self.b.ins().fadd(x, y);
                     let x = self.weighted(a, b);
                     let y = self.weighted(b, a);
@@ -885,7 +1006,7 @@ impl TaylorEmitter<'_, '_> {
                     let kf = self.c(k as f64);
                     let u0 = self.at(u, 0);
                     let den = self.b.ins().fmul(kf, u0);
-                    let dv = self.b.ins().fdiv(num, den);
+                    let dv = self.times_recip(num, den);
                     self.put(u, uv);
                     self.put(d, dv);
                 }
@@ -897,18 +1018,22 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.constant_power(a, d, tape.row_constant(e)?);
                     self.put(d, v);
                 }
+                Op::Power { d, a, e } => {
+                    let v = self.constant_power(a, d, e);
+                    self.put(d, v);
+                }
                 Op::PowVar { d, a, b, l, m } => {
                     let w = self.weighted_short(l, a);
-                    let q = self.fdiv_k(w);
+                    let q = self.times_rk(w);
                     let ak = self.at(a, k);
                     let num = self.b.ins().fsub(ak, q);
                     let a0 = self.at(a, 0);
-                    let lv = self.b.ins().fdiv(num, a0);
+                    let lv = self.times_recip(num, a0);
                     self.put(l, lv);
                     let mv = self.cauchy(b, l, 0);
                     self.put(m, mv);
                     let w = self.weighted(m, d);
-                    let dv = self.fdiv_k(w);
+                    let dv = self.times_rk(w);
                     self.put(d, dv);
                 }
                 Op::Abs { d, a } => {

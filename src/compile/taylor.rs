@@ -138,6 +138,87 @@ pub(super) enum Op {
         d: u32,
         a: u32,
     },
+    /// `d = a · a`, the Cauchy product of a row with itself summed over half its terms.
+    Sqr {
+        d: u32,
+        a: u32,
+    },
+    /// `d = f · a` for a constant `f` (a product with, or quotient by, a constant row): one
+    /// multiplication per order instead of a Cauchy product.
+    Scale {
+        d: u32,
+        a: u32,
+        f: f64,
+    },
+    /// `d = C · a^e` for constants `C` and `e`, a power of `a` built from roots, powers,
+    /// products and quotients of it (`u √u`, `1/(u √u)`): `a d' = e d a'` whatever `C` is,
+    /// with `d₀` from order 0.
+    Power {
+        d: u32,
+        a: u32,
+        e: f64,
+    },
+}
+
+impl Op {
+    /// The rows an operation writes.
+    fn dests(&self) -> impl Iterator<Item = u32> {
+        let (x, y) = match *self {
+            Op::SinCos { s, c, .. } | Op::SinhCosh { s, c, .. } => (s, Some(c)),
+            Op::Tan { d, u, .. } | Op::Atan { d, u, .. } | Op::Atan2 { d, u, .. } => (d, Some(u)),
+            Op::Asin { d, r, .. } => (d, Some(r)),
+            Op::PowVar { d, l, m, .. } => return [d, l, m].into_iter().take(3),
+            Op::Add { d, .. }
+            | Op::Sub { d, .. }
+            | Op::Mul { d, .. }
+            | Op::Div { d, .. }
+            | Op::Neg { d, .. }
+            | Op::Sqrt { d, .. }
+            | Op::Exp { d, .. }
+            | Op::Log { d, .. }
+            | Op::Root { d, .. }
+            | Op::PowConst { d, .. }
+            | Op::Abs { d, .. }
+            | Op::Sqr { d, .. }
+            | Op::Scale { d, .. }
+            | Op::Power { d, .. } => (d, None),
+        };
+        match y {
+            Some(y) => [x, y, 0].into_iter().take(2),
+            None => [x, 0, 0].into_iter().take(1),
+        }
+    }
+
+    /// The rows an operation reads besides its own destinations.
+    fn sources(&self) -> impl Iterator<Item = u32> {
+        let (a, b) = match *self {
+            Op::Add { a, b, .. }
+            | Op::Sub { a, b, .. }
+            | Op::Mul { a, b, .. }
+            | Op::Div { a, b, .. }
+            | Op::Atan2 { a, b, .. }
+            | Op::PowVar { a, b, .. } => (a, Some(b)),
+            Op::PowConst { a, e, .. } => (a, Some(e)),
+            Op::Neg { a, .. }
+            | Op::Sqrt { a, .. }
+            | Op::SinCos { a, .. }
+            | Op::SinhCosh { a, .. }
+            | Op::Exp { a, .. }
+            | Op::Log { a, .. }
+            | Op::Tan { a, .. }
+            | Op::Asin { a, .. }
+            | Op::Atan { a, .. }
+            | Op::Root { a, .. }
+            | Op::Abs { a, .. }
+            | Op::Sqr { a, .. }
+            | Op::Scale { a, .. }
+            | Op::Power { a, .. } => (a, None),
+        };
+        match b {
+            Some(b) => [a, b].into_iter().take(2),
+            None => [a, 0].into_iter().take(1),
+        }
+    }
 }
 
 /// Why a Taylor expansion has no value.
@@ -166,6 +247,9 @@ pub enum TaylorError {
 pub struct TaylorTape {
     n_inputs: usize,
     consts: Vec<f64>,
+    /// Order 0: the tape's own operations, renamed, plus the auxiliary rows.
+    ops0: Vec<Op>,
+    /// Orders ≥ 1: the recurrences, rewritten by [`higher_order_ops`].
     ops: Vec<Op>,
     outputs: Vec<u32>,
     n_rows: usize,
@@ -272,9 +356,14 @@ impl TaylorTape {
             };
             ops.push(op);
         }
-        let outputs = (0..tape.n_outputs()).map(|j| map[tape.output_slot(j)]).collect();
-        let abs_args = ops.iter().filter_map(|op| if let Op::Abs { a, .. } = op { Some(*a) } else { None }).collect();
-        TaylorTape { n_inputs, consts, ops, outputs, n_rows: next as usize, abs_args }
+        let outputs: Vec<u32> = (0..tape.n_outputs()).map(|j| map[tape.output_slot(j)]).collect();
+        let abs_args: Vec<u32> =
+            ops.iter().filter_map(|op| if let Op::Abs { a, .. } = op { Some(*a) } else { None }).collect();
+        let n_rows = next as usize;
+        let constant = |r: u32| (r as usize).checked_sub(n_inputs).and_then(|i| consts.get(i)).copied();
+        let roots = outputs.iter().chain(&abs_args).copied();
+        let higher = higher_order_ops(&ops, constant, n_rows, roots);
+        TaylorTape { n_inputs, consts, ops0: ops, ops: higher, outputs, n_rows, abs_args }
     }
 
     /// Whether the argument of some `abs` changes sign between the expansion point and `h`
@@ -288,7 +377,7 @@ impl TaylorTape {
         })
     }
 
-    /// The recurrences, in order (for the native back end).
+    /// The recurrences of orders ≥ 1, in order (for the native back end).
     pub(super) fn ops(&self) -> &[Op] {
         &self.ops
     }
@@ -312,6 +401,11 @@ impl TaylorTape {
     /// The number of coefficient rows (inputs, constants, values and auxiliaries).
     pub fn n_rows(&self) -> usize {
         self.n_rows
+    }
+
+    /// The number of recurrences run at each order ≥ 1 (after [`higher_order_ops`]).
+    pub fn n_recurrences(&self) -> usize {
+        self.ops.len()
     }
 
     /// The number of inputs (rows `0..n_inputs`).
@@ -348,80 +442,104 @@ impl TaylorTape {
             self.run_order0(c, stride);
             return Ok(());
         }
+        static AVX: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        if *AVX.get_or_init(|| std::env::var_os("AVX").is_some()) {
+            return unsafe { self.run_order_avx2(c, stride, k) };
+        }
+        self.run_recurrences(c, stride, k)
+    }
+
+    /// [`TaylorTape::run_order`] compiled for AVX2, whose four-wide registers hold the four
+    /// partial sums of [`sum4`] at once. The operations and their order are the same, so the
+    /// results are the same bits as without AVX2 (no fused multiply-add is enabled).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_order_avx2(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
+        self.run_recurrences(c, stride, k)
+    }
+
+    /// Order `k ≥ 1` of every recurrence. Divisions by order-0 values and by `k` are
+    /// multiplications by their reciprocals, which do not wait for order `k` of anything.
+    #[inline(always)]
+    fn run_recurrences(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
         let s = stride;
         let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
-        let kf = k as f64;
+        let rk = 1.0 / k as f64;
         for op in &self.ops {
             match *op {
                 Op::Add { d, a, b } => c[d as usize * s + k] = at(c, a, k) + at(c, b, k),
                 Op::Sub { d, a, b } => c[d as usize * s + k] = at(c, a, k) - at(c, b, k),
                 Op::Neg { d, a } => c[d as usize * s + k] = -at(c, a, k),
+                Op::Scale { d, a, f } => c[d as usize * s + k] = at(c, a, k) * f,
                 Op::Mul { d, a, b } => {
                     let (ra, rb) = (row(c, a, s), row(c, b, s));
                     c[d as usize * s + k] = cauchy(ra, rb, k);
                 }
+                Op::Sqr { d, a } => {
+                    let ra = row(c, a, s);
+                    c[d as usize * s + k] = square(ra, k);
+                }
                 Op::Div { d, a, b } => {
                     let (rb, rd) = (row(c, b, s), row(c, d, s));
                     let acc = dot_rev(&rb[1..=k], &rd[..k], true);
-                    c[d as usize * s + k] = (at(c, a, k) - acc) / rb[0];
+                    c[d as usize * s + k] = (at(c, a, k) - acc) * (1.0 / rb[0]);
                 }
                 Op::Sqrt { d, a } => {
                     let rd = row(c, d, s);
-                    let acc = dot_rev(&rd[1..k], &rd[1..k], false);
-                    c[d as usize * s + k] = (at(c, a, k) - acc) / (2.0 * rd[0]);
+                    let acc = square_inner(rd, k);
+                    c[d as usize * s + k] = (at(c, a, k) - acc) * (1.0 / (2.0 * rd[0]));
                 }
                 Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
                     let (ra, rs, rc) = (row(c, a, s), row(c, si, s), row(c, co, s));
-                    let sv = weighted(ra, rc, k) / kf;
-                    let cv = weighted(ra, rs, k) / kf;
+                    let sv = weighted(ra, rc, k) * rk;
+                    let cv = weighted(ra, rs, k) * rk;
                     let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
                     c[si as usize * s + k] = sv;
                     c[co as usize * s + k] = sign * cv;
                 }
                 Op::Exp { d, a } => {
                     let (ra, rd) = (row(c, a, s), row(c, d, s));
-                    c[d as usize * s + k] = weighted(ra, rd, k) / kf;
+                    c[d as usize * s + k] = weighted(ra, rd, k) * rk;
                 }
                 Op::Log { d, a } => {
                     // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
                     let (ra, rd) = (row(c, a, s), row(c, d, s));
                     let acc = weighted_short(rd, ra, k);
-                    c[d as usize * s + k] = (ra[k] - acc / kf) / ra[0];
+                    c[d as usize * s + k] = (ra[k] - acc * rk) * (1.0 / ra[0]);
                 }
                 Op::Tan { d, a, u, hyp } => {
                     let (ra, ru) = (row(c, a, s), row(c, u, s));
-                    let dv = weighted(ra, ru, k) / kf;
+                    let dv = weighted(ra, ru, k) * rk;
                     c[d as usize * s + k] = dv;
-                    let rd = row(c, d, s);
-                    let sq = cauchy(rd, rd, k);
+                    let sq = square(row(c, d, s), k);
                     c[u as usize * s + k] = if hyp { -sq } else { sq };
                 }
                 Op::Asin { d, a, r, neg } => {
                     // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                     let (ra, rr) = (row(c, a, s), row(c, r, s));
-                    let rv = (-cauchy(ra, ra, k) - dot_rev(&rr[1..k], &rr[1..k], false)) / (2.0 * rr[0]);
+                    let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
                     // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
                     let rd = row(c, d, s);
                     let ak = if neg { -ra[k] } else { ra[k] };
-                    let dv = (ak - weighted_short(rd, rr, k) / kf) / rr[0];
+                    let dv = (ak - weighted_short(rd, rr, k) * rk) * (1.0 / rr[0]);
                     c[r as usize * s + k] = rv;
                     c[d as usize * s + k] = dv;
                 }
                 Op::Atan { d, a, u } => {
                     let (ra, ru) = (row(c, a, s), row(c, u, s));
-                    let uv = cauchy(ra, ra, k);
+                    let uv = square(ra, k);
                     let rd = row(c, d, s);
-                    let dv = (ra[k] - weighted_short(rd, ru, k) / kf) / ru[0];
+                    let dv = (ra[k] - weighted_short(rd, ru, k) * rk) * (1.0 / ru[0]);
                     c[u as usize * s + k] = uv;
                     c[d as usize * s + k] = dv;
                 }
                 Op::Atan2 { d, a, b, u } => {
                     let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
-                    let uv = cauchy(ra, ra, k) + cauchy(rb, rb, k);
+                    let uv = square(ra, k) + square(rb, k);
                     // u d' = b a' − a b'.
                     let num = weighted(ra, rb, k) - weighted(rb, ra, k);
                     let rd = row(c, d, s);
-                    let dv = (num - weighted_short(rd, ru, k)) / (kf * ru[0]);
+                    let dv = (num - weighted_short(rd, ru, k)) * (1.0 / (k as f64 * ru[0]));
                     c[u as usize * s + k] = uv;
                     c[d as usize * s + k] = dv;
                 }
@@ -433,14 +551,18 @@ impl TaylorTape {
                     let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
                     c[d as usize * s + k] = v;
                 }
+                Op::Power { d, a, e } => {
+                    let v = constant_power(row(c, a, s), row(c, d, s), e, k);
+                    c[d as usize * s + k] = v;
+                }
                 Op::PowVar { d, a, b, l, m } => {
                     let (ra, rl) = (row(c, a, s), row(c, l, s));
-                    let lv = (ra[k] - weighted_short(rl, ra, k) / kf) / ra[0];
+                    let lv = (ra[k] - weighted_short(rl, ra, k) * rk) * (1.0 / ra[0]);
                     c[l as usize * s + k] = lv;
                     let (rb, rl) = (row(c, b, s), row(c, l, s));
                     c[m as usize * s + k] = cauchy(rb, rl, k);
                     let (rm, rd) = (row(c, m, s), row(c, d, s));
-                    c[d as usize * s + k] = weighted(rm, rd, k) / kf;
+                    c[d as usize * s + k] = weighted(rm, rd, k) * rk;
                 }
                 Op::Abs { d, a } => {
                     let (a0, ak) = (at(c, a, 0), at(c, a, k));
@@ -463,7 +585,7 @@ impl TaylorTape {
     /// Order 0: the interpreter's operations, plus the auxiliary rows.
     fn run_order0(&self, c: &mut [f64], s: usize) {
         let ix = |r: u32| r as usize * s;
-        for op in &self.ops {
+        for op in &self.ops0 {
             match *op {
                 Op::Add { d, a, b } => c[ix(d)] = c[ix(a)] + c[ix(b)],
                 Op::Sub { d, a, b } => c[ix(d)] = c[ix(a)] - c[ix(b)],
@@ -514,6 +636,11 @@ impl TaylorTape {
                     c[ix(m)] = y * lv;
                 }
                 Op::Abs { d, a } => c[ix(d)] = c[ix(a)].abs(),
+                // Only in the recurrences of orders ≥ 1, which start from these rows' values
+                // as the plain operations compute them; given here for completeness.
+                Op::Sqr { d, a } => c[ix(d)] = c[ix(a)] * c[ix(a)],
+                Op::Scale { d, a, f } => c[ix(d)] = c[ix(a)] * f,
+                Op::Power { d, a, e } => c[ix(d)] = c[ix(a)].powf(e),
             }
         }
     }
@@ -554,6 +681,103 @@ impl TaylorTape {
     }
 }
 
+/// The recurrences of orders ≥ 1, rewritten from the order-0 operations `ops0` where a cheaper
+/// recurrence gives the same series (`constant(r)`: the value of a constant row):
+///
+/// * a product with, or quotient by, a constant is a [`Op::Scale`], one multiplication per
+///   order instead of an `O(k)` sum;
+/// * `a · a` is an [`Op::Sqr`], which sums half the terms of the Cauchy product;
+/// * a power of one row built from roots, powers, products and quotients of it (Kepler's
+///   `1/(u √u)`) is one [`Op::Power`], whose intermediate rows (`√u`, `u √u`) are dropped at
+///   orders ≥ 1 when nothing else reads them (`roots`: the rows read from outside).
+///
+/// Order 0 still runs the plain operations, so its values equal the plain tape's bit for bit,
+/// and each rewritten row's series starts from the value the plain tape computes.
+fn higher_order_ops(
+    ops0: &[Op],
+    constant: impl Fn(u32) -> Option<f64>,
+    n_rows: usize,
+    roots: impl Iterator<Item = u32>,
+) -> Vec<Op> {
+    // `power[r] = Some((b, e))`: row `r` is a constant times `b^e`, through some root or power.
+    let mut power: Vec<Option<(u32, f64)>> = vec![None; n_rows];
+    let base = |power: &[Option<(u32, f64)>], r: u32| power[r as usize].unwrap_or((r, 1.0));
+    let mut ops = Vec::with_capacity(ops0.len());
+    for op in ops0 {
+        let (dest, pw, new) = match *op {
+            Op::Mul { d, a, b } => match (constant(a), constant(b)) {
+                (Some(f), _) => (d, power[b as usize], Op::Scale { d, a: b, f }),
+                (_, Some(f)) => (d, power[a as usize], Op::Scale { d, a, f }),
+                _ => {
+                    let ((ba, ea), (bb, eb)) = (base(&power, a), base(&power, b));
+                    if ba == bb && (power[a as usize].is_some() || power[b as usize].is_some()) {
+                        (d, Some((ba, ea + eb)), Op::Power { d, a: ba, e: ea + eb })
+                    } else if a == b {
+                        (d, None, Op::Sqr { d, a })
+                    } else {
+                        (d, None, *op)
+                    }
+                }
+            },
+            Op::Div { d, a, b } => match (constant(a), constant(b)) {
+                (_, Some(f)) => (d, power[a as usize], Op::Scale { d, a, f: 1.0 / f }),
+                (Some(_), None) => match power[b as usize] {
+                    Some((bb, eb)) => (d, Some((bb, -eb)), Op::Power { d, a: bb, e: -eb }),
+                    None => (d, None, *op),
+                },
+                _ => {
+                    let ((ba, ea), (bb, eb)) = (base(&power, a), base(&power, b));
+                    if ba == bb && (power[a as usize].is_some() || power[b as usize].is_some()) {
+                        (d, Some((ba, ea - eb)), Op::Power { d, a: ba, e: ea - eb })
+                    } else {
+                        (d, None, *op)
+                    }
+                }
+            },
+            Op::Neg { d, a } => (d, power[a as usize], *op),
+            // A square root of a plain row keeps its own (half-length) recurrence.
+            Op::Sqrt { d, a } => match power[a as usize] {
+                Some((b, e)) => (d, Some((b, e / 2.0)), Op::Power { d, a: b, e: e / 2.0 }),
+                None => (d, Some((a, 0.5)), *op),
+            },
+            Op::Root { d, a, q } => {
+                let (b, e) = base(&power, a);
+                let e = e / f64::from(q);
+                (d, Some((b, e)), Op::Power { d, a: b, e })
+            }
+            Op::PowConst { d, a, e } => match constant(e) {
+                Some(x) => {
+                    let (b, ea) = base(&power, a);
+                    (d, Some((b, ea * x)), Op::Power { d, a: b, e: ea * x })
+                }
+                None => (d, None, *op),
+            },
+            _ => {
+                ops.push(*op);
+                continue;
+            }
+        };
+        power[dest as usize] = pw;
+        ops.push(new);
+    }
+    // Keep what the roots need, back to front.
+    let mut live = vec![false; n_rows];
+    for r in roots {
+        live[r as usize] = true;
+    }
+    let mut kept: Vec<Op> = Vec::with_capacity(ops.len());
+    for op in ops.iter().rev() {
+        if op.dests().any(|d| live[d as usize]) {
+            for r in op.sources() {
+                live[r as usize] = true;
+            }
+            kept.push(*op);
+        }
+    }
+    kept.reverse();
+    kept
+}
+
 /// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
 /// ([`TaylorTape::compile_native`]); clones share the code.
 #[derive(Clone, Debug)]
@@ -570,9 +794,24 @@ impl TaylorNative {
         self.0.max_order()
     }
 
-    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride.
+    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride (code
+    /// compiled per order).
     pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
         if self.0.run_order(c, k) {
+            Ok(())
+        } else {
+            Err(KinkAt)
+        }
+    }
+
+    /// Whether this is the whole expansion of a first-order ODE (see [`TaylorOde::native_for`]).
+    pub fn is_whole(&self) -> bool {
+        self.0.is_whole()
+    }
+
+    /// Runs a whole expansion: orders `1..=max_order` and the state's next order after each.
+    fn run_expansion(&self, c: &mut [f64]) -> Result<(), KinkAt> {
+        if self.0.run_expansion(c) {
             Ok(())
         } else {
             Err(KinkAt)
@@ -634,10 +873,12 @@ fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
 #[inline(always)]
 fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_last: bool) -> f64 {
     let n = x.len();
-    let y = &y[..n];
+    assert!(y.len() >= n);
     let lo = usize::from(late_first && n > 0);
     let hi = if late_last && n > lo { n - 1 } else { n };
-    let term = |i: usize| w(i) * x[i] * y[n - 1 - i];
+    // SAFETY: every index below is `i < n` into `x` and `n − 1 − i` (with `i < n`) into `y`,
+    // whose length is at least `n` (asserted).
+    let term = |i: usize| unsafe { w(i) * *x.get_unchecked(i) * *y.get_unchecked(n - 1 - i) };
     let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
     let mut i = lo;
     while i + 4 <= hi {
@@ -670,6 +911,22 @@ fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_l
 #[inline(always)]
 fn cauchy(a: &[f64], b: &[f64], k: usize) -> f64 {
     sum4(&a[..=k], &b[..=k], |_| 1.0, true, true)
+}
+
+/// `Σ_{j=0}^{k} a_j a_{k−j}` over half its terms: `2 Σ_{1≤j<k−j} a_j a_{k−j} + a_{k/2}²`
+/// (even `k`) plus `2a₀ · a_k`, the one term that reads order `k`, last.
+#[inline(always)]
+fn square(a: &[f64], k: usize) -> f64 {
+    square_inner(a, k) + (2.0 * a[0]) * a[k]
+}
+
+/// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms: `2 Σ_{1≤j<k−j} a_j a_{k−j} + a_{k/2}²`.
+#[inline(always)]
+fn square_inner(a: &[f64], k: usize) -> f64 {
+    let n = (k + 1) / 2 - 1;
+    let half = sum4(&a[1..1 + n], &a[k - n..k], |_| 1.0, false, false);
+    let mid = if k % 2 == 0 { a[k / 2] * a[k / 2] } else { 0.0 };
+    2.0 * half + mid
 }
 
 /// `Σ_{j} x_j y_{n−1−j}` for two slices of length `n` (the second read backwards); `late`:
@@ -781,11 +1038,35 @@ impl TaylorOde {
 
     /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
     /// native code is off, or the tape is too large to unroll at this order).
+    ///
+    /// A first-order system gets its whole expansion as one function (orders and the steps
+    /// from each order of the right-hand side to the next of the state, see `native.rs`); a
+    /// `W q'' = F` system, whose solve between orders stays in Rust, one function per order.
     pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
         if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
-        self.native.by_order[order].get_or_init(|| self.tape.compile_native(order + 1, order - 1)).clone()
+        self.native.by_order[order].get_or_init(|| self.compile_native(order)).clone()
+    }
+
+    fn compile_native(&self, order: usize) -> Option<TaylorNative> {
+        if self.solve.is_some() {
+            return self.tape.compile_native(order + 1, order - 1);
+        }
+        if super::native::jit_disabled_by_env() {
+            return None;
+        }
+        let glue = (0..self.dim)
+            .map(|i| {
+                let src = match self.derivs[i] {
+                    Derivative::Output(j) => self.tape.output_row(j),
+                    Derivative::State(j) => j,
+                    Derivative::Solve(_) => return None,
+                };
+                Some((i as u32, src as u32))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        NativeTaylor::compile_expansion(&self.tape, order + 1, order - 1, &glue).map(|code| TaylorNative(Arc::new(code)))
     }
 
     /// The code an expansion of `order` runs on: the native code once it exists, compiled
@@ -802,7 +1083,7 @@ impl TaylorOde {
         if cache.uses.fetch_add(1, Ordering::Relaxed) < NATIVE_AFTER_EXPANSIONS {
             return None;
         }
-        slot.get_or_init(|| self.tape.compile_native(order + 1, order - 1)).as_ref()
+        slot.get_or_init(|| self.compile_native(order)).as_ref()
     }
 
     /// The Taylor form of the tape.
@@ -856,6 +1137,11 @@ impl TaylorOde {
         let native = self.native_tiered(order);
         for k in 0..order {
             match native {
+                Some(code) if k >= 1 && code.is_whole() => {
+                    // Orders 1..order − 1 and the state's orders 2..=order, all at once.
+                    code.run_expansion(c).map_err(kink)?;
+                    break;
+                }
                 Some(code) if k >= 1 => code.run_order(c, k).map_err(kink)?,
                 _ => self.tape.run_order(c, s, k).map_err(kink)?,
             }
@@ -934,7 +1220,13 @@ impl TaylorOde {
 
 impl fmt::Display for TaylorTape {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} rows, {} recurrences", self.n_rows, self.ops.len())
+        write!(
+            f,
+            "{} rows, {} operations at order 0, {} recurrences at orders ≥ 1",
+            self.n_rows,
+            self.ops0.len(),
+            self.ops.len()
+        )
     }
 }
 
@@ -1028,7 +1320,8 @@ impl System {
 }
 /// Coefficient `k` of `d = a^e` for a constant `e` (also the real root, `e = 1/q`), from
 /// `a d' = e d a'`: `d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀)`.
+#[inline(always)]
 fn constant_power(ra: &[f64], rd: &[f64], e: f64, k: usize) -> f64 {
     let acc = sum4(&ra[1..=k], &rd[..k], |i| e * (i + 1) as f64 - (k - (i + 1)) as f64, false, true);
-    acc / (k as f64 * ra[0])
+    acc * (1.0 / (k as f64 * ra[0]))
 }
