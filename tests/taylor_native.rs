@@ -166,8 +166,8 @@ fn ode_expansions_and_whole_runs_equal_the_interpreter() {
         ("double pendulum (W q'' = F)", double_pendulum(), vec![2.0, 2.5, 0.3, -0.2], 10.0),
         ("Kepler e = 0.6 (Hamiltonian)", kepler(), Kepler::pericentre(0.6).to_vec(), 20.0),
     ] {
-        // Native code is opt-in (see `TaylorOde::with_native`).
-        assert!(ode.native_for(19).is_none(), "{name}: native code is on by default");
+        // Native code is on by default, compiled on demand (see `TaylorOde::with_native`).
+        assert_eq!(ode.native_for(19).is_some(), jit_expected(), "{name}: native code by default");
         let reference = ode.clone().with_native(false);
         let ode = ode.with_native(true);
         let p = 19;

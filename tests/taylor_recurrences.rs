@@ -132,7 +132,12 @@ fn rewritten_recurrences_give_the_same_series() {
     check("(2 + t)^(1/3) / (2 + t)", &|t: C| (2.0 + t).powf(-2.0 / 3.0), 0.2, 1.0);
     check("-(2 + t)^(1/3) * (2 + t)^(0.7)", &|t: C| -(2.0 + t).powf(1.0 / 3.0 + 0.7), 0.2, 1.0);
     // Constants times and over a series, and a square.
-    check("3 (t + 2)^2 - (t^2 + t)/7 + 2.5 exp(t)", &|t: C| 3.0 * (t + 2.0) * (t + 2.0) - (t * t + t) / 7.0 + 2.5 * t.exp(), 0.3, 1.0);
+    check(
+        "3 (t + 2)^2 - (t^2 + t)/7 + 2.5 exp(t)",
+        &|t: C| 3.0 * (t + 2.0) * (t + 2.0) - (t * t + t) / 7.0 + 2.5 * t.exp(),
+        0.3,
+        1.0,
+    );
 }
 
 #[test]

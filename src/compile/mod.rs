@@ -47,7 +47,10 @@ pub use rhs::{
     SeparableHamiltonian,
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
-pub use taylor::{Derivative, KinkAt, TaylorError, TaylorNative, TaylorOde, TaylorTape, NATIVE_AFTER_EXPANSIONS};
+pub use taylor::{
+    Derivative, KinkAt, TaylorError, TaylorNative, TaylorOde, TaylorTape, AUTO_NATIVE_AFTER_EXPANSIONS,
+    NATIVE_AFTER_EXPANSIONS,
+};
 pub use variational::Variational;
 
 /// Why a set of expressions could not be compiled.

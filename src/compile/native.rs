@@ -670,8 +670,7 @@ fn compile_taylor_code(
             b.switch_to_block(block);
             b.seal_block(block);
             let base = b.block_params(block)[0];
-            let mut em =
-                TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; tape.n_rows() * stride] };
+            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; tape.n_rows() * stride] };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 em.k = k;

@@ -442,26 +442,8 @@ impl TaylorTape {
             self.run_order0(c, stride);
             return Ok(());
         }
-        static AVX: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-        if *AVX.get_or_init(|| std::env::var_os("AVX").is_some()) {
-            return unsafe { self.run_order_avx2(c, stride, k) };
-        }
-        self.run_recurrences(c, stride, k)
-    }
-
-    /// [`TaylorTape::run_order`] compiled for AVX2, whose four-wide registers hold the four
-    /// partial sums of [`sum4`] at once. The operations and their order are the same, so the
-    /// results are the same bits as without AVX2 (no fused multiply-add is enabled).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn run_order_avx2(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
-        self.run_recurrences(c, stride, k)
-    }
-
-    /// Order `k ≥ 1` of every recurrence. Divisions by order-0 values and by `k` are
-    /// multiplications by their reciprocals, which do not wait for order `k` of anything.
-    #[inline(always)]
-    fn run_recurrences(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
+        // Divisions by order-0 values and by `k` are multiplications by their reciprocals,
+        // which do not wait for order `k` of anything.
         let s = stride;
         let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
         let rk = 1.0 / k as f64;
@@ -824,10 +806,19 @@ impl TaylorNative {
 /// recurrences, so a cold start never waits for Cranelift.
 pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
 
+/// The same for a [`TaylorOde`] left at its default. Measured in BENCHMARKS.md, compiling
+/// costs about 9 µs per unrolled term and the native code saves about 0.3 ns per term and
+/// expansion, so it pays for itself after some 3 · 10⁴ expansions whatever the system's size;
+/// compiling after that many bounds the loss of a run that ends just after (as renting skis
+/// until their price is spent bounds the loss of buying too early).
+pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
+
 /// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
 #[derive(Debug)]
 struct NativeCache {
     allowed: bool,
+    /// Interpreted expansions before an order is compiled.
+    after: usize,
     /// Interpreted expansions so far (counted only until the code exists).
     uses: AtomicUsize,
     /// `by_order[p]`: the code for expansions of order `p` (stride `p + 1`, orders `1..p`).
@@ -835,9 +826,10 @@ struct NativeCache {
 }
 
 impl NativeCache {
-    fn new(allowed: bool) -> Arc<NativeCache> {
+    fn new(allowed: bool, after: usize) -> Arc<NativeCache> {
         Arc::new(NativeCache {
             allowed,
+            after,
             uses: AtomicUsize::new(0),
             by_order: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
         })
@@ -969,6 +961,10 @@ struct MassSolve {
     w: Vec<usize>,
     f: Vec<usize>,
     symmetric: bool,
+    /// Per row `i` of `W`, the columns `l` whose entry varies, with its coefficient row: the
+    /// only ones with orders ≥ 1 (a constant entry, such as the `2` and `1` of the double
+    /// pendulum's `W`, adds nothing to `Σ_{j≥1} W_j a_{k−j}`).
+    varying: Vec<Vec<(usize, usize)>>,
 }
 
 /// The Taylor expansion of the solution of `y' = f(t, y)` from a compiled tape: the state is
@@ -998,7 +994,7 @@ impl TaylorOde {
             time,
             derivs: (0..dim).map(Derivative::Output).collect(),
             solve: None,
-            native: NativeCache::new(false),
+            native: NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS),
         }
     }
 
@@ -1009,14 +1005,24 @@ impl TaylorOde {
     pub fn second_order(tape: &Tape, n: usize, symmetric: bool) -> TaylorOde {
         let mut derivs: Vec<Derivative> = (0..n).map(|i| Derivative::State(n + i)).collect();
         derivs.extend((0..n).map(Derivative::Solve));
+        let taylor = TaylorTape::new(tape);
+        let varying = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|l| (l, taylor.output_row(i * n + l)))
+                    .filter(|&(_, r)| taylor.row_constant(r as u32).is_none())
+                    .collect()
+            })
+            .collect();
+        let solve = MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric, varying };
         TaylorOde {
-            tape: TaylorTape::new(tape),
+            tape: taylor,
             plain: tape.clone(),
             dim: 2 * n,
             time: (tape.n_inputs() > 2 * n).then_some(2 * n),
             derivs,
-            solve: Some(MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric }),
-            native: NativeCache::new(false),
+            solve: Some(solve),
+            native: NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS),
         }
     }
 
@@ -1025,14 +1031,13 @@ impl TaylorOde {
         self.dim
     }
 
-    /// Turns the native Taylor code on or off. It is **off by default**: measured in
-    /// BENCHMARKS.md (issue 10), the unrolled code is 4–22 % faster than the interpreter
-    /// on the double pendulum but 4–14 % slower on Kepler, and costs 10–170 ms of Cranelift
-    /// time per order, repaid only after ~10⁵ steps. On, each order is compiled
-    /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions (and never when
-    /// [`crate::compile::NO_JIT_ENV`] is set); results are the same bits either way.
+    /// Turns the native Taylor code on early or off. By default each order is compiled after
+    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted expansions, when a run is long enough for
+    /// the code to repay its compile time; on, after [`NATIVE_AFTER_EXPANSIONS`]; off, never
+    /// (nor ever when [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits
+    /// whichever code runs.
     pub fn with_native(mut self, on: bool) -> TaylorOde {
-        self.native = NativeCache::new(on);
+        self.native = NativeCache::new(on, NATIVE_AFTER_EXPANSIONS);
         self
     }
 
@@ -1066,7 +1071,8 @@ impl TaylorOde {
                 Some((i as u32, src as u32))
             })
             .collect::<Option<Vec<_>>>()?;
-        NativeTaylor::compile_expansion(&self.tape, order + 1, order - 1, &glue).map(|code| TaylorNative(Arc::new(code)))
+        NativeTaylor::compile_expansion(&self.tape, order + 1, order - 1, &glue)
+            .map(|code| TaylorNative(Arc::new(code)))
     }
 
     /// The code an expansion of `order` runs on: the native code once it exists, compiled
@@ -1080,7 +1086,7 @@ impl TaylorOde {
         if let Some(code) = slot.get() {
             return code.as_ref();
         }
-        if cache.uses.fetch_add(1, Ordering::Relaxed) < NATIVE_AFTER_EXPANSIONS {
+        if cache.uses.fetch_add(1, Ordering::Relaxed) < cache.after {
             return None;
         }
         slot.get_or_init(|| self.compile_native(order)).as_ref()
@@ -1169,10 +1175,9 @@ impl TaylorOde {
                 }
                 for i in 0..n {
                     let mut v = c[out(m.f[i]) * s + k];
-                    for j in 1..=k {
-                        for l in 0..n {
-                            v -= c[out(m.w[i * n + l]) * s + j] * acc[l * s + k - j];
-                        }
+                    for &(l, r) in &m.varying[i] {
+                        // Σ_{j=1}^{k} W_il,j a_l,k−j
+                        v -= dot_rev(&c[r * s + 1..=r * s + k], &acc[l * s..l * s + k], false);
                     }
                     rhs[i] = v;
                 }
@@ -1194,7 +1199,8 @@ impl TaylorOde {
         for i in 0..dim {
             coeffs[i * s..(i + 1) * s].copy_from_slice(&c[i * s..(i + 1) * s]);
         }
-        if let Some(bad) = coeffs[..dim * s].iter().position(|x| !x.is_finite()) {
+        if crate::integrate::any_non_finite(&coeffs[..dim * s]) {
+            let bad = coeffs[..dim * s].iter().position(|x| !x.is_finite()).unwrap_or(0);
             return Err(TaylorError::NonFinite { t, order: bad % s, state: y[..dim].to_vec() });
         }
         Ok(())

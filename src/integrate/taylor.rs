@@ -148,7 +148,7 @@ impl Taylor {
     }
 
     /// The Jorba–Zou step size from the coefficients of one expansion (`stride = p + 1`).
-    fn step_size(&self, y: &[f64], coeffs: &[f64], p: usize) -> f64 {
+    fn step_size(&self, y: &[f64], coeffs: &[f64], p: usize, safety: f64) -> f64 {
         let s = p + 1;
         let n = y.len();
         let x0 = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -160,7 +160,7 @@ impl Taylor {
         let scale = if self.rtol * x0 <= self.atol { 1.0 } else { x0 };
         let rho = |norm: f64, m: usize| if norm == 0.0 { f64::INFINITY } else { (scale / norm).powf(1.0 / m as f64) };
         let r = rho(np1, p - 1).min(rho(np, p));
-        r * (-2.0 - 0.7 / (p - 1) as f64).exp()
+        r * safety
     }
 }
 
@@ -174,6 +174,8 @@ pub struct TaylorWork {
     /// The last step's size; its polynomial is `coeffs` (dense output).
     h_last: f64,
     dense_ready: bool,
+    /// Jorba & Zou's safety factor `exp(−2 − 0.7/(p − 1))` of the step size, once per run.
+    safety: f64,
 }
 
 impl TaylorWork {
@@ -226,6 +228,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
             inc: vec![0.0; n],
             h_last: 0.0,
             dense_ready: false,
+            safety: (-2.0 - 0.7 / (p - 1) as f64).exp(),
         }
     }
 
@@ -242,7 +245,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         sys.taylor_coefficients(t, y, p, &mut w.scratch, &mut w.coeffs)?;
         check_finite(&w.coeffs)?;
         let dir = h_req.signum();
-        let mut h = self.step_size(y, &w.coeffs, p);
+        let mut h = self.step_size(y, &w.coeffs, p, w.safety);
         if let Some(m) = self.h_max {
             h = h.min(m);
         }
