@@ -504,6 +504,29 @@ extern "C" fn sin_cos(x: f64, out: *mut f64) {
 // Taylor recurrences
 // ---------------------------------------------------------------------------------------------
 
+/// What a whole expansion does after the recurrences of each order `k = 1..=max_order`, as
+/// `TaylorOde::expand` does between orders: for `W q'' = F`, solve for order `k` of the
+/// accelerations; then `c[dst, k + 1] = c[src, k] · (1/(k + 1))` for every `(dst, src)` of
+/// `glue` (state row, row of its derivative).
+pub(crate) struct Expansion {
+    pub glue: Vec<(u32, u32)>,
+    pub solve: Option<CholeskySolve>,
+}
+
+/// Order `k` of the accelerations `a` of `W q'' = F`, from `W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`
+/// with `W₀ = L Lᵀ` factored at order 0 (by `rhs::factor`, in the buffer after the rows). The
+/// accelerations are rows `acc_row + l` of the buffer.
+pub(crate) struct CholeskySolve {
+    pub n: usize,
+    /// The row of `F_i`.
+    pub f_rows: Vec<u32>,
+    /// Per `i`, the varying entries of row `i` of `W`: `(l, row of W_il)`.
+    pub varying: Vec<Vec<(usize, u32)>>,
+    pub acc_row: u32,
+    /// Where `L` starts in the buffer (`L_ij` at `factor_at + i n + j`).
+    pub factor_at: usize,
+}
+
 /// The signature of one generated Taylor order: `fn(c: *mut f64) -> i32`, computing order `k`
 /// of every row of the coefficient buffer `c` in place; returns 1 when an `abs` met its kink.
 type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
@@ -535,6 +558,8 @@ pub(crate) struct NativeTaylor {
     _module: OwnedModule,
     stride: usize,
     n_rows: usize,
+    /// The buffer a whole expansion reads and writes.
+    buffer_len: usize,
 }
 
 // SAFETY: as for `NativeCode`: the module is touched only by `Drop`, and each generated
@@ -561,26 +586,24 @@ impl NativeTaylor {
         Self::compile_with(tape, stride, max_order, None)
     }
 
-    /// The whole expansion of `y' = f` in one function: orders `1..=max_order` of every row,
-    /// each followed by `c[dst, k + 1] = c[src, k] / (k + 1)` for every `(dst, src)` of
-    /// `glue` (state row, row of its derivative), as `TaylorOde::expand` does between orders.
+    /// The whole expansion of an ODE in one function (see [`Expansion`]).
     pub(crate) fn compile_expansion(
         tape: &super::TaylorTape,
         stride: usize,
         max_order: usize,
-        glue: &[(u32, u32)],
+        expansion: &Expansion,
     ) -> Option<NativeTaylor> {
         if max_order + 1 >= stride {
             return None;
         }
-        Self::compile_with(tape, stride, max_order, Some(glue))
+        Self::compile_with(tape, stride, max_order, Some(expansion))
     }
 
     fn compile_with(
         tape: &super::TaylorTape,
         stride: usize,
         max_order: usize,
-        glue: Option<&[(u32, u32)]>,
+        glue: Option<&Expansion>,
     ) -> Option<NativeTaylor> {
         if max_order == 0 || max_order >= stride {
             return None;
@@ -602,9 +625,9 @@ impl NativeTaylor {
     /// every row and order 1 of the state given); `false` when an `abs` met its kink.
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
         assert!(self.whole, "not a whole expansion");
-        assert!(c.len() >= self.n_rows * self.stride, "Taylor buffer too short");
+        assert!(c.len() >= self.buffer_len, "Taylor buffer too short");
         // SAFETY: as in `run_order`: the function has type `TaylorOrderFn` and touches only
-        // `c[0 .. n_rows · stride]`.
+        // `c[0 .. buffer_len]` (the rows, and for `W q'' = F` the accelerations and `L`).
         unsafe {
             let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0]);
             f(c.as_mut_ptr()) == 0
@@ -639,7 +662,7 @@ fn compile_taylor_code(
     tape: &super::TaylorTape,
     stride: usize,
     max_order: usize,
-    glue: Option<&[(u32, u32)]>,
+    glue: Option<&Expansion>,
 ) -> Option<NativeTaylor> {
     let mut flags = settings::builder();
     flags.set("opt_level", "speed").ok()?;
@@ -670,16 +693,22 @@ fn compile_taylor_code(
             b.switch_to_block(block);
             b.seal_block(block);
             let base = b.block_params(block)[0];
-            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; tape.n_rows() * stride] };
+            let rows = tape.n_rows() + glue.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
+            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; rows * stride] };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 em.k = k;
                 kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
-                for &(dst, src) in glue.unwrap_or(&[]) {
-                    let v = em.at(src, k);
-                    let inv = em.c(1.0 / (k + 1) as f64);
-                    let v = em.b.ins().fmul(v, inv);
-                    em.put_at(dst, k + 1, v);
+                if let Some(g) = glue {
+                    if let Some(m) = &g.solve {
+                        em.cholesky_solve(m);
+                    }
+                    for &(dst, src) in &g.glue {
+                        let v = em.at(src, k);
+                        let inv = em.c(1.0 / (k + 1) as f64);
+                        let v = em.b.ins().fmul(v, inv);
+                        em.put_at(dst, k + 1, v);
+                    }
                 }
             }
             if let Some(kink) = kink {
@@ -714,6 +743,7 @@ fn compile_taylor_code(
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
         n_rows: tape.n_rows(),
+        buffer_len: glue.and_then(|g| g.solve.as_ref()).map_or(tape.n_rows() * stride, |m| m.factor_at + m.n * m.n),
     })
 }
 
@@ -730,13 +760,18 @@ struct TaylorEmitter<'a, 'b> {
 }
 
 impl TaylorEmitter<'_, '_> {
-    /// Coefficient `j` of row `r`.
+    /// Coefficient `j` of row `r`. A coefficient is loaded at most once per function (nothing
+    /// else writes the buffer while it runs), so each later read is the same SSA value and
+    /// Cranelift's value numbering shares what is computed from it, such as the `j · a_j` of
+    /// a sine's and a cosine's sums over the same argument.
     fn at(&mut self, r: u32, j: usize) -> Value {
         let i = r as usize * self.s + j;
         if let Some(v) = self.known[i] {
             return v;
         }
-        self.b.ins().load(types::F64, MemFlags::trusted(), self.base, (i * 8) as i32)
+        let v = self.b.ins().load(types::F64, MemFlags::trusted(), self.base, (i * 8) as i32);
+        self.known[i] = Some(v);
+        v
     }
 
     /// Writes order `k` of row `r`.
@@ -799,6 +834,48 @@ impl TaylorEmitter<'_, '_> {
         s
     }
 
+    /// Order `k` of the accelerations (`TaylorOde::expand` and `rhs::solve` with a Cholesky
+    /// factor, operation for operation).
+    fn cholesky_solve(&mut self, m: &CholeskySolve) {
+        let (n, k) = (m.n, self.k);
+        let mut x = Vec::with_capacity(n);
+        for i in 0..n {
+            let mut v = self.at(m.f_rows[i], k);
+            for &(l, w) in &m.varying[i] {
+                let d = self.sum(w, 1, m.acc_row + l as u32, k - 1, k, |_| 1.0);
+                v = self.b.ins().fsub(v, d);
+            }
+            x.push(v);
+        }
+        let lf = |em: &mut Self, i: usize, j: usize| {
+            let off = ((m.factor_at + i * n + j) * 8) as i32;
+            em.b.ins().load(types::F64, MemFlags::trusted(), em.base, off)
+        };
+        for i in 0..n {
+            let mut v = x[i];
+            for j in 0..i {
+                let l = lf(self, i, j);
+                let p = self.b.ins().fmul(l, x[j]);
+                v = self.b.ins().fsub(v, p);
+            }
+            let d = lf(self, i, i);
+            x[i] = self.b.ins().fdiv(v, d);
+        }
+        for i in (0..n).rev() {
+            let mut v = x[i];
+            for j in i + 1..n {
+                let l = lf(self, j, i);
+                let p = self.b.ins().fmul(l, x[j]);
+                v = self.b.ins().fsub(v, p);
+            }
+            let d = lf(self, i, i);
+            x[i] = self.b.ins().fdiv(v, d);
+        }
+        for (i, &v) in x.iter().enumerate() {
+            self.put_at(m.acc_row + i as u32, k, v);
+        }
+    }
+
     /// `Σ_{j=lo}^{k−lo} a_j b_{k−j}` (`cauchy`).
     fn cauchy(&mut self, a: u32, b: u32, lo: usize) -> Value {
         let k = self.k;
@@ -824,7 +901,7 @@ impl TaylorEmitter<'_, '_> {
     /// `2 Σ_{1≤j<k−j} a_j a_{k−j} + (a_{k/2}² or 0)`.
     fn square_inner(&mut self, r: u32) -> Value {
         let k = self.k;
-        let n = (k + 1) / 2 - 1;
+        let n = k.div_ceil(2) - 1;
         let half = self.sum(r, 1, r, k - 1, n, |_| 1.0);
         let two = self.c(2.0);
         let twice = self.b.ins().fmul(two, half);

@@ -29,7 +29,7 @@ use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
-use super::native::NativeTaylor;
+use super::native::{CholeskySolve, Expansion, NativeTaylor};
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
@@ -791,7 +791,8 @@ impl TaylorNative {
         self.0.is_whole()
     }
 
-    /// Runs a whole expansion: orders `1..=max_order` and the state's next order after each.
+    /// Runs a whole expansion: orders `1..=max_order` and the state's next order after each
+    /// (`c`: the whole scratch of [`TaylorOde::expand`]).
     fn run_expansion(&self, c: &mut [f64]) -> Result<(), KinkAt> {
         if self.0.run_expansion(c) {
             Ok(())
@@ -915,7 +916,7 @@ fn square(a: &[f64], k: usize) -> f64 {
 /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms: `2 Σ_{1≤j<k−j} a_j a_{k−j} + a_{k/2}²`.
 #[inline(always)]
 fn square_inner(a: &[f64], k: usize) -> f64 {
-    let n = (k + 1) / 2 - 1;
+    let n = k.div_ceil(2) - 1;
     let half = sum4(&a[1..1 + n], &a[k - n..k], |_| 1.0, false, false);
     let mid = if k % 2 == 0 { a[k / 2] * a[k / 2] } else { 0.0 };
     2.0 * half + mid
@@ -1055,23 +1056,36 @@ impl TaylorOde {
     }
 
     fn compile_native(&self, order: usize) -> Option<TaylorNative> {
-        if self.solve.is_some() {
-            return self.tape.compile_native(order + 1, order - 1);
+        let stride = order + 1;
+        // An LU-factored (non-symmetric) `W` keeps its solve in Rust, between per-order code.
+        if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
+            return self.tape.compile_native(stride, order - 1);
         }
         if super::native::jit_disabled_by_env() {
             return None;
         }
+        let n_rows = self.tape.n_rows();
         let glue = (0..self.dim)
             .map(|i| {
                 let src = match self.derivs[i] {
                     Derivative::Output(j) => self.tape.output_row(j),
                     Derivative::State(j) => j,
-                    Derivative::Solve(_) => return None,
+                    Derivative::Solve(j) => n_rows + j,
                 };
-                Some((i as u32, src as u32))
+                (i as u32, src as u32)
             })
-            .collect::<Option<Vec<_>>>()?;
-        NativeTaylor::compile_expansion(&self.tape, order + 1, order - 1, &glue)
+            .collect();
+        // The accelerations are the `n` rows after the tape's, then comes the factor of `W₀`
+        // (the layout `expand` splits its scratch into).
+        let solve = self.solve.as_ref().map(|m| CholeskySolve {
+            n: m.n,
+            f_rows: m.f.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
+            varying: m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect(),
+            acc_row: n_rows as u32,
+            factor_at: (n_rows + m.n) * stride,
+        });
+        let expansion = Expansion { glue, solve };
+        NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion)
             .map(|code| TaylorNative(Arc::new(code)))
     }
 
@@ -1125,7 +1139,12 @@ impl TaylorOde {
         let dim = self.dim;
         assert!(y.len() >= dim && coeffs.len() >= dim * s, "state or coefficient buffer too short");
         let rows = self.tape.n_rows() * s;
-        let (c, rest) = scratch[..self.scratch_len(order)].split_at_mut(rows);
+        let len = self.scratch_len(order);
+        let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
+        let native = self.native_tiered(order);
+        let whole = native.filter(|code| code.is_whole());
+        let mut run_whole = false;
+        let (c, rest) = scratch[..len].split_at_mut(rows);
         self.tape.init(c, s);
         for i in 0..dim {
             c[i * s] = y[i];
@@ -1138,17 +1157,16 @@ impl TaylorOde {
                 r[1] = 1.0;
             }
         }
-        let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
         let mut kind = Factor::Cholesky;
-        let native = self.native_tiered(order);
         for k in 0..order {
+            // A whole expansion takes over after order 0, unless `W₀` needed LU (then this
+            // expansion stays interpreted).
+            if k == 1 && whole.is_some() && !matches!(kind, Factor::Lu) {
+                run_whole = true;
+                break;
+            }
             match native {
-                Some(code) if k >= 1 && code.is_whole() => {
-                    // Orders 1..order − 1 and the state's orders 2..=order, all at once.
-                    code.run_expansion(c).map_err(kink)?;
-                    break;
-                }
-                Some(code) if k >= 1 => code.run_order(c, k).map_err(kink)?,
+                Some(code) if k >= 1 && whole.is_none() => code.run_order(c, k).map_err(kink)?,
                 _ => self.tape.run_order(c, s, k).map_err(kink)?,
             }
             if let Some(m) = &self.solve {
@@ -1177,7 +1195,7 @@ impl TaylorOde {
                     let mut v = c[out(m.f[i]) * s + k];
                     for &(l, r) in &m.varying[i] {
                         // Σ_{j=1}^{k} W_il,j a_l,k−j
-                        v -= dot_rev(&c[r * s + 1..=r * s + k], &acc[l * s..l * s + k], false);
+                        v -= dot_rev(&c[r * s + 1..=r * s + k], &acc[l * s..l * s + k], true);
                     }
                     rhs[i] = v;
                 }
@@ -1196,8 +1214,12 @@ impl TaylorOde {
                 c[i * s + k + 1] = v * inv;
             }
         }
+        if let Some(code) = whole.filter(|_| run_whole) {
+            // Orders 1..order − 1 of every row and orders 2..=order of the state.
+            code.run_expansion(&mut scratch[..len]).map_err(kink)?;
+        }
         for i in 0..dim {
-            coeffs[i * s..(i + 1) * s].copy_from_slice(&c[i * s..(i + 1) * s]);
+            coeffs[i * s..(i + 1) * s].copy_from_slice(&scratch[i * s..(i + 1) * s]);
         }
         if crate::integrate::any_non_finite(&coeffs[..dim * s]) {
             let bad = coeffs[..dim * s].iter().position(|x| !x.is_finite()).unwrap_or(0);
