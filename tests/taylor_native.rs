@@ -160,11 +160,19 @@ fn kepler() -> TaylorOde {
     System::from_hamiltonian("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)", &["x", "y"]).unwrap().compile_taylor().unwrap()
 }
 
+fn indefinite() -> TaylorOde {
+    let l = "1/2 x'^2 - 1/2 (1 + x^2/10) y'^2 - 1/2 x^2 + 1/2 y^2";
+    System::from_lagrangian(l, &["x", "y"]).unwrap().compile_taylor().unwrap()
+}
+
 #[test]
 fn ode_expansions_and_whole_runs_equal_the_interpreter() {
     for (name, ode, y0, t1) in [
         ("double pendulum (W q'' = F)", double_pendulum(), vec![2.0, 2.5, 0.3, -0.2], 10.0),
         ("Kepler e = 0.6 (Hamiltonian)", kepler(), Kepler::pericentre(0.6).to_vec(), 20.0),
+        // A symmetric but indefinite W: its Cholesky fails at order 0, so every expansion
+        // falls back from the whole native expansion to the interpreter with an LU solve.
+        ("indefinite W (LU)", indefinite(), vec![0.5, 0.3, 0.1, -0.2], 200.0),
     ] {
         // Native code is on by default, compiled on demand (see `TaylorOde::with_native`).
         assert_eq!(ode.native_for(19).is_some(), jit_expected(), "{name}: native code by default");
