@@ -71,6 +71,7 @@ fn kepler() {
     for (name, m) in [
         ("Taylor tol 1e-15", Taylor::new(1e-15)),
         ("Taylor tol 1e-15 compensated", Taylor::new(1e-15).compensated()),
+        ("Taylor tol 1e-14", Taylor::new(1e-14)),
         ("Taylor tol 1e-13", Taylor::new(1e-13)),
     ] {
         let p = m.taylor_order();

@@ -32,7 +32,7 @@ def kepler():
     e = 0.9
     y0 = [1 - e, 0.0, 0.0, math.sqrt((1 + e) / (1 - e))]
     grid = 2 * math.pi * np.arange(0, 1001, dtype=float)
-    for tol in [1e-15, 1e-13]:
+    for tol in [1e-15, 1e-14, 1e-13]:
         tc = time.perf_counter()
         ta = hy.taylor_adaptive([(x, px), (y, py), (px, -x * r3), (py, -y * r3)], y0, tol=tol)
         compile_s = time.perf_counter() - tc

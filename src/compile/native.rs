@@ -853,9 +853,9 @@ impl TaylorEmitter<'_, '_> {
         };
         for i in 0..n {
             let mut v = x[i];
-            for j in 0..i {
+            for (j, &xj) in x.iter().enumerate().take(i) {
                 let l = lf(self, i, j);
-                let p = self.b.ins().fmul(l, x[j]);
+                let p = self.b.ins().fmul(l, xj);
                 v = self.b.ins().fsub(v, p);
             }
             let d = lf(self, i, i);
@@ -863,9 +863,9 @@ impl TaylorEmitter<'_, '_> {
         }
         for i in (0..n).rev() {
             let mut v = x[i];
-            for j in i + 1..n {
+            for (j, &xj) in x.iter().enumerate().skip(i + 1) {
                 let l = lf(self, j, i);
-                let p = self.b.ins().fmul(l, x[j]);
+                let p = self.b.ins().fmul(l, xj);
                 v = self.b.ins().fsub(v, p);
             }
             let d = lf(self, i, i);

@@ -807,11 +807,12 @@ impl TaylorNative {
 /// recurrences, so a cold start never waits for Cranelift.
 pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
 
-/// The same for a [`TaylorOde`] left at its default. Measured in BENCHMARKS.md, compiling
-/// costs about 9 µs per unrolled term and the native code saves about 0.3 ns per term and
-/// expansion, so it pays for itself after some 3 · 10⁴ expansions whatever the system's size;
-/// compiling after that many bounds the loss of a run that ends just after (as renting skis
-/// until their price is spent bounds the loss of buying too early).
+/// The same for a [`TaylorOde`] left at its default: about the number of expansions after
+/// which the code has repaid its compile time. Measured in BENCHMARKS.md: Kepler at order 19
+/// takes 8 ms to compile and then saves 0.34 µs per step (even after 2.5 · 10⁴ steps), the
+/// double pendulum at order 15 13 ms and 0.75 µs (1.8 · 10⁴); both costs grow with the
+/// unrolled terms. Waiting that long before compiling at most doubles the time of a run that
+/// ends just after (as renting skis until their price is spent bounds the loss of buying).
 pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
 
 /// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
