@@ -145,6 +145,30 @@ fn abs_kinks_are_reported_by_the_native_code_too() {
     }
 }
 
+#[test]
+fn abs_kinks_are_reported_by_a_whole_native_expansion() {
+    // x' = |x| + 1 expanded at x = 0: the argument of abs is 0 and its first coefficient is 1.
+    let f = [parse("abs(x) + 1").unwrap()];
+    let ode = TaylorOde::from_exprs(&f, &["x"], &[]).unwrap().with_native(true);
+    let reference = ode.clone().with_native(false);
+    let p = 6;
+    if jit_expected() {
+        assert!(ode.native_for(p).is_some_and(|n| n.is_whole()), "no whole native expansion");
+    }
+    let mut scratch = vec![0.0; ode.scratch_len(p)];
+    let mut coeffs = vec![0.0; p + 1];
+    for o in [&ode, &reference] {
+        let err = o.expand(0.0, &[0.0], p, &mut scratch, &mut coeffs).unwrap_err();
+        assert!(matches!(err, lagrangian::compile::TaylorError::AbsKink { .. }), "{err}");
+    }
+    // Away from the kink both give the same bits (x' = x + 1: x_k = 1.5/k! for k ≥ 1).
+    let mut other = coeffs.clone();
+    ode.expand(0.0, &[0.5], p, &mut scratch, &mut coeffs).unwrap();
+    reference.expand(0.0, &[0.5], p, &mut scratch, &mut other).unwrap();
+    assert_eq!(coeffs, other);
+    assert!((coeffs[p] - 1.5 / 720.0).abs() < 1e-15, "{coeffs:?}");
+}
+
 const DOUBLE_PENDULUM: &str = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
                                + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
 

@@ -14,7 +14,9 @@
 //! `t₀, 1, 0, …`.
 //!
 //! Order 0 is computed with exactly the floating-point operations of the interpreter, so the
-//! zeroth coefficients equal a plain evaluation bit for bit.
+//! zeroth coefficients equal a plain evaluation bit for bit. Orders ≥ 1 run recurrences
+//! rewritten from those operations where a cheaper one gives the same series (scalings,
+//! squares, fused powers: `higher_order_ops`).
 //!
 //! [`TaylorOde`] turns a tape into the right-hand side of an ODE in the integrators' layout:
 //! for each state component the tape output (or the other state component, for `q' = v`) that
@@ -249,7 +251,7 @@ pub struct TaylorTape {
     consts: Vec<f64>,
     /// Order 0: the tape's own operations, renamed, plus the auxiliary rows.
     ops0: Vec<Op>,
-    /// Orders ≥ 1: the recurrences, rewritten by [`higher_order_ops`].
+    /// Orders ≥ 1: the recurrences, rewritten by `higher_order_ops`.
     ops: Vec<Op>,
     outputs: Vec<u32>,
     n_rows: usize,
@@ -403,7 +405,7 @@ impl TaylorTape {
         self.n_rows
     }
 
-    /// The number of recurrences run at each order ≥ 1 (after [`higher_order_ops`]).
+    /// The number of recurrences run at each order ≥ 1 (after `higher_order_ops`).
     pub fn n_recurrences(&self) -> usize {
         self.ops.len()
     }
@@ -525,6 +527,8 @@ impl TaylorTape {
                     c[u as usize * s + k] = uv;
                     c[d as usize * s + k] = dv;
                 }
+                // `higher_order_ops` turns roots and constant powers into `Power`; these two arms
+                // keep `run_order` right for any tape.
                 Op::Root { d, a, q } => {
                     let v = constant_power(row(c, a, s), row(c, d, s), 1.0 / f64::from(q), k);
                     c[d as usize * s + k] = v;
