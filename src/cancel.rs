@@ -126,6 +126,42 @@ pub fn keep_at_exit(path: &Path) {
     v.retain(|p| p != path);
 }
 
+/// Removes the files registered with [`remove_at_exit`] (from a thread, never in signal
+/// context: it locks and allocates).
+fn remove_doomed() {
+    let v = DOOMED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    for p in v.iter() {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// Ends the process on SIGTERM or SIGHUP (a service manager stopping it, its terminal
+/// closing) with status 128 + the signal, after removing the staged outputs registered with
+/// [`remove_at_exit`], so a `lagrangian run` ended that way leaves no partial file. Without
+/// it the default action kills the process where it stands. Once per process; the signals
+/// arrive on a thread of their own (signal-hook), where removing files is allowed.
+#[cfg(unix)]
+pub fn install_termination() -> Result<(), String> {
+    use signal_hook::consts::{SIGHUP, SIGTERM};
+    static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+    INSTALLED
+        .get_or_init(|| {
+            let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGHUP])
+                .map_err(|e| format!("cannot install the SIGTERM handler: {e}"))?;
+            std::thread::Builder::new()
+                .name("lagrangian-termination".into())
+                .spawn(move || {
+                    if let Some(sig) = signals.forever().next() {
+                        remove_doomed();
+                        std::process::exit(128 + sig);
+                    }
+                })
+                .map(|_| ())
+                .map_err(|e| format!("cannot start the SIGTERM thread: {e}"))
+        })
+        .clone()
+}
+
 /// Connects SIGINT (Ctrl-C) to the process-wide token, once per process (later calls return
 /// `Ok` and keep the first handler). On a terminal, rustyline reads keys in raw mode, so
 /// Ctrl-C at the REPL prompt stays a key for the line editor; the signal arrives only while
@@ -141,10 +177,7 @@ pub fn install_ctrlc(second: SecondPress) -> Result<(), String> {
                 if n >= 2 && second == SecondPress::Exit {
                     // The handler runs on ctrlc's own thread, not in signal context, so it
                     // may lock and remove files.
-                    let v = DOOMED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                    for p in v.iter() {
-                        let _ = std::fs::remove_file(p);
-                    }
+                    remove_doomed();
                     std::process::exit(130);
                 }
             })

@@ -179,6 +179,20 @@ fn a_second_ctrl_c_exits_at_once_and_still_removes_the_staged_file() {
     interrupt_and_check(child, &out);
 }
 
+#[cfg(unix)]
+#[test]
+fn sigterm_ends_a_run_with_status_143_and_removes_the_staged_file() {
+    // Killed where it stands by the default action, the run would leave its staged GIF.
+    let (_dir, mut child, _err, out) = start_long_animation();
+    // SAFETY: `kill` with a valid pid and signal number has no memory effects here.
+    let r = unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+    assert_eq!(r, 0, "kill failed");
+    let status = wait_exit(&mut child, Duration::from_secs(20)).expect("the run did not stop within 20 s");
+    assert_eq!(status.code(), Some(143), "exit status {status}");
+    let left: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "files left behind: {left:?}");
+}
+
 #[test]
 fn ctrl_c_during_a_long_plot_stops_it_with_no_file() {
     // A run of 10⁶ stored states (`every 1`), then a plot of five expressions along it: about

@@ -82,6 +82,11 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             if let Err(e) = lagrangian::cancel::install_ctrlc(lagrangian::cancel::SecondPress::Exit) {
                 eprintln!("warning: {e}; Ctrl-C will end the process without cleaning up");
             }
+            // SIGTERM and SIGHUP end it too, with the staged files removed (status 143 / 129).
+            #[cfg(unix)]
+            if let Err(e) = lagrangian::cancel::install_termination() {
+                eprintln!("warning: {e}; SIGTERM will end the process without cleaning up");
+            }
             let text = read_scene(&scene).map_err(|e| report(&e))?;
             let mut opts = Options::new(Mode::Scene);
             opts.stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
