@@ -558,7 +558,7 @@ pub(crate) struct NativeTaylor {
     _module: OwnedModule,
     stride: usize,
     n_rows: usize,
-    /// The buffer a whole expansion reads and writes.
+    /// The length of the buffer the code reads and writes.
     buffer_len: usize,
 }
 
@@ -603,7 +603,7 @@ impl NativeTaylor {
         tape: &super::TaylorTape,
         stride: usize,
         max_order: usize,
-        glue: Option<&Expansion>,
+        expansion: Option<&Expansion>,
     ) -> Option<NativeTaylor> {
         if max_order == 0 || max_order >= stride {
             return None;
@@ -613,7 +613,7 @@ impl NativeTaylor {
         if terms > MAX_NATIVE_TAYLOR_TERMS || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
             return None;
         }
-        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, glue))).ok().flatten()
+        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, expansion))).ok().flatten()
     }
 
     /// Whether this is a whole expansion ([`NativeTaylor::compile_expansion`]).
@@ -625,11 +625,17 @@ impl NativeTaylor {
     /// every row and order 1 of the state given); `false` when an `abs` met its kink.
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
         assert!(self.whole, "not a whole expansion");
+        self.call(0, c)
+    }
+
+    /// Runs generated function `i` on `c`; `false` when an `abs` met its kink.
+    fn call(&self, i: usize, c: &mut [f64]) -> bool {
         assert!(c.len() >= self.buffer_len, "Taylor buffer too short");
-        // SAFETY: as in `run_order`: the function has type `TaylorOrderFn` and touches only
-        // `c[0 .. buffer_len]` (the rows, and for `W q'' = F` the accelerations and `L`).
+        // SAFETY: every generated function has type `TaylorOrderFn` (see `compile_taylor_code`)
+        // and touches only `c[0 .. buffer_len]` (the rows, and for a whole `W q'' = F`
+        // expansion the accelerations and `L` after them), which the assertion guarantees.
         unsafe {
-            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0]);
+            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[i]);
             f(c.as_mut_ptr()) == 0
         }
     }
@@ -648,13 +654,7 @@ impl NativeTaylor {
     /// given); `false` when an `abs` met its kink.
     pub(crate) fn run_order(&self, c: &mut [f64], k: usize) -> bool {
         assert!(!self.whole && (1..=self.funcs.len()).contains(&k), "order {k} not compiled");
-        assert!(c.len() >= self.n_rows * self.stride, "Taylor buffer too short");
-        // SAFETY: the function for order `k` has type `TaylorOrderFn` (see `compile_taylor_code`)
-        // and touches only `c[0 .. n_rows · stride]`, which the assertion guarantees.
-        unsafe {
-            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[k - 1]);
-            f(c.as_mut_ptr()) == 0
-        }
+        self.call(k - 1, c)
     }
 }
 
@@ -662,7 +662,7 @@ fn compile_taylor_code(
     tape: &super::TaylorTape,
     stride: usize,
     max_order: usize,
-    glue: Option<&Expansion>,
+    expansion: Option<&Expansion>,
 ) -> Option<NativeTaylor> {
     let mut flags = settings::builder();
     flags.set("opt_level", "speed").ok()?;
@@ -675,10 +675,10 @@ fn compile_taylor_code(
     let mut ctx = module.make_context();
     let mut fbc = FunctionBuilderContext::new();
     let mut ids = Vec::with_capacity(max_order);
-    let whole = glue.is_some();
+    let whole = expansion.is_some();
     let mut ok = true;
     // Per order, one function per `k`; a whole expansion, one function for all of them.
-    let funcs: Vec<Vec<usize>> = match glue {
+    let funcs: Vec<Vec<usize>> = match expansion {
         Some(_) => vec![(1..=max_order).collect()],
         None => (1..=max_order).map(|k| vec![k]).collect(),
     };
@@ -693,13 +693,13 @@ fn compile_taylor_code(
             b.switch_to_block(block);
             b.seal_block(block);
             let base = b.block_params(block)[0];
-            let rows = tape.n_rows() + glue.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
+            let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
             let mut em = TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; rows * stride] };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 em.k = k;
                 kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
-                if let Some(g) = glue {
+                if let Some(g) = expansion {
                     if let Some(m) = &g.solve {
                         em.cholesky_solve(m);
                     }
@@ -718,7 +718,7 @@ fn compile_taylor_code(
             }
             kink.is_some()
         };
-        let name = if glue.is_some() { "taylor_expansion".to_string() } else { format!("taylor_order_{}", orders[0]) };
+        let name = if whole { "taylor_expansion".to_string() } else { format!("taylor_order_{}", orders[0]) };
         let id = emitted.then(|| module.declare_function(&name, Linkage::Export, &ctx.func.signature).ok()).flatten();
         let defined = id.and_then(|id| module.define_function(id, &mut ctx).ok().map(|_| id));
         module.clear_context(&mut ctx);
@@ -743,7 +743,9 @@ fn compile_taylor_code(
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
         n_rows: tape.n_rows(),
-        buffer_len: glue.and_then(|g| g.solve.as_ref()).map_or(tape.n_rows() * stride, |m| m.factor_at + m.n * m.n),
+        buffer_len: expansion
+            .and_then(|g| g.solve.as_ref())
+            .map_or(tape.n_rows() * stride, |m| m.factor_at + m.n * m.n),
     })
 }
 

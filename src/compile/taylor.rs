@@ -1176,6 +1176,8 @@ impl TaylorOde {
             }
             if let Some(m) = &self.solve {
                 let n = m.n;
+                // The whole native expansion reads `acc` and `fm` at these offsets (the
+                // `CholeskySolve` of `compile_native`).
                 let (acc, rest) = rest.split_at_mut(n * s);
                 let (fm, rest) = rest.split_at_mut(n * n);
                 let (perm, rest) = rest.split_at_mut(n);
