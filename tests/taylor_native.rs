@@ -54,16 +54,21 @@ fn same_bits(src: &str, t0: f64) -> BTreeSet<String> {
         return tape.instrs().iter().map(kind).collect();
     }
     let native = native.unwrap_or_else(|| panic!("{src}: no native Taylor code"));
-    assert_eq!((native.stride(), native.max_order()), (s, ORDER));
-    let mut nat = vec![f64::NAN; tt.n_rows() * s];
-    tt.expand_with(Some(&native), &mut nat, s, ORDER, time).unwrap();
-    for (i, (a, b)) in interp.iter().zip(&nat).enumerate() {
-        assert!(
-            a.to_bits() == b.to_bits(),
-            "{src}: row {}, order {}: interpreter {a:e}, native {b:e}\n{tape}",
-            i / s,
-            i % s
-        );
+    assert!(!native.is_compact(), "{src}: a small tape gets unrolled code");
+    let compact = tt.compile_native_compact(s, ORDER).unwrap_or_else(|| panic!("{src}: no compact code"));
+    assert!(compact.is_compact());
+    for (form, code) in [("unrolled", native), ("compact", compact)] {
+        assert_eq!((code.stride(), code.max_order()), (s, ORDER));
+        let mut nat = vec![f64::NAN; tt.n_rows() * s];
+        tt.expand_with(Some(&code), &mut nat, s, ORDER, time).unwrap();
+        for (i, (a, b)) in interp.iter().zip(&nat).enumerate() {
+            assert!(
+                a.to_bits() == b.to_bits(),
+                "{src}: row {}, order {}: interpreter {a:e}, {form} {b:e}\n{tape}",
+                i / s,
+                i % s
+            );
+        }
     }
     // The series are not trivial: the output's high orders are non-zero.
     let out = tt.output_row(0);
@@ -136,11 +141,13 @@ fn abs_kinks_are_reported_by_the_native_code_too() {
         let time = |k: usize, c: &mut [f64]| c[k] = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0][k];
         let mut c = vec![0.0; tt.n_rows() * s];
         assert_eq!(tt.expand(&mut c, s, 5, time).is_err(), kink, "{src}: interpreter");
-        if let Some(native) = tt.compile_native(s, 5) {
-            let mut c = vec![0.0; tt.n_rows() * s];
-            assert_eq!(tt.expand_with(Some(&native), &mut c, s, 5, time).is_err(), kink, "{src}: native");
-        } else {
-            assert!(!jit_expected(), "{src}: no native code");
+        for (form, code) in [("unrolled", tt.compile_native(s, 5)), ("compact", tt.compile_native_compact(s, 5))] {
+            if let Some(native) = code {
+                let mut c = vec![0.0; tt.n_rows() * s];
+                assert_eq!(tt.expand_with(Some(&native), &mut c, s, 5, time).is_err(), kink, "{src}: {form}");
+            } else {
+                assert!(!jit_expected(), "{src}: no {form} code");
+            }
         }
     }
 }
@@ -228,12 +235,64 @@ fn ode_expansions_and_whole_runs_equal_the_interpreter() {
 }
 
 #[test]
-fn tapes_too_large_to_unroll_stay_interpreted() {
-    // 40 chained products at order 100: far more terms than the native limit.
-    let src = (0..40).fold("t".to_string(), |acc, i| format!("({acc}) * (t + {i})"));
+fn tapes_too_large_to_unroll_get_compact_code_with_the_same_bits() {
+    // 40 chained products at order 100: far more terms than unrolled code may have.
+    let src = (0..40).fold("t".to_string(), |acc, i| format!("({acc}) * (t + {i}/7)"));
     let tape = Tape::compile(&[parse(&src).unwrap()], &["t"], &[]).unwrap();
     let tt = TaylorTape::new(&tape);
-    assert!(tt.compile_native(101, 100).is_none());
+    let (s, p) = (101, 100);
     // A stride that cannot hold the orders asked for is refused, not a buffer overrun.
     assert!(tt.compile_native(5, 5).is_none());
+    assert!(tt.compile_native_compact(5, 5).is_none());
+    let native = tt.compile_native(s, p);
+    if !jit_expected() {
+        return;
+    }
+    let native = native.expect("compact code");
+    assert!(native.is_compact() && !native.is_whole());
+    let time = |k: usize, c: &mut [f64]| c[k] = [0.3, 1.0].get(k).copied().unwrap_or(0.0);
+    let mut interp = vec![f64::NAN; tt.n_rows() * s];
+    let mut nat = interp.clone();
+    tt.expand(&mut interp, s, p, time).unwrap();
+    tt.expand_with(Some(&native), &mut nat, s, p, time).unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&interp), bits(&nat));
+    // A polynomial of degree 41: order 41 is its leading coefficient 1, every higher order 0.
+    let out = tt.output_row(0) * s;
+    assert_eq!(interp[out + 41], 1.0);
+    assert!(interp[out + 42..out + s].iter().all(|&x| x == 0.0));
+}
+
+/// The 3-link pendulum (`W q'' = F`, symmetric `W`): at order 19 its recurrences unroll to more
+/// than `COMPACT_ABOVE_TERMS` terms.
+fn three_link() -> TaylorOde {
+    let l = "1/2 (m1 + m2 + m3) l1^2 a'^2 + 1/2 (m2 + m3) l2^2 b'^2 + 1/2 m3 l3^2 c'^2 \
+             + (m2 + m3) l1 l2 a' b' cos(a - b) + m3 l1 l3 a' c' cos(a - c) + m3 l2 l3 b' c' cos(b - c) \
+             + (m1 + m2 + m3) g l1 cos(a) + (m2 + m3) g l2 cos(b) + m3 g l3 cos(c)";
+    let p = [("m1", 1.0), ("m2", 1.0), ("m3", 1.0), ("l1", 1.0), ("l2", 1.0), ("l3", 1.0), ("g", 9.81)];
+    System::from_lagrangian(l, &["a", "b", "c"]).and_then(|s| s.with_params(&p)).unwrap().compile_taylor().unwrap()
+}
+
+#[test]
+fn a_large_tape_runs_on_compact_code_then_unrolled_code_with_the_same_bits() {
+    let ode = three_link();
+    let m = Taylor::new(1e-15);
+    let p = m.taylor_order();
+    let terms = ode.taylor_tape().n_recurrences() * (p - 1) * (p - 1) / 2;
+    assert!(terms > lagrangian::compile::COMPACT_ABOVE_TERMS, "{terms} terms: not a large tape");
+    let y0 = [0.5, 0.6, 0.7, 0.0, 0.0, 0.0];
+    let run = |o: &TaylorOde, t1: f64| m.integrate_with(o, 0.0..t1, &y0, Options::new().final_only()).unwrap();
+    let reference = ode.clone().with_native(false);
+    // Default tiers: a run of more than `COMPACT_AFTER_EXPANSIONS` steps ends on compact code.
+    let tiered = ode.clone();
+    let (ra, rb) = (run(&tiered, 150.0), run(&reference, 150.0));
+    assert!(ra.stats.steps > lagrangian::compile::COMPACT_AFTER_EXPANSIONS, "{} steps", ra.stats.steps);
+    assert_eq!(ra.last_state(), rb.last_state());
+    let code = tiered.native_compiled(p);
+    assert_eq!(code.as_ref().is_some_and(|c| c.is_compact()), jit_expected(), "{code:?}");
+    // Switched on: the final code (a whole unrolled expansion) after a few expansions.
+    let early = ode.with_native(true);
+    assert_eq!(run(&early, 150.0).last_state(), rb.last_state());
+    let code = early.native_compiled(p);
+    assert_eq!(code.as_ref().is_some_and(|c| c.is_whole()), jit_expected(), "{code:?}");
 }

@@ -49,7 +49,7 @@ pub use rhs::{
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
 pub use taylor::{
     Derivative, KinkAt, TaylorError, TaylorNative, TaylorOde, TaylorTape, AUTO_NATIVE_AFTER_EXPANSIONS,
-    NATIVE_AFTER_EXPANSIONS,
+    COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS, UNROLL_AFTER_EXPANSIONS,
 };
 pub use variational::Variational;
 

@@ -33,7 +33,7 @@
 use std::mem::ManuallyDrop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use cranelift_codegen::ir::condcodes::FloatCC;
+use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Signature, StackSlotData, StackSlotKind, Value};
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
@@ -531,6 +531,22 @@ pub(crate) struct CholeskySolve {
 /// of every row of the coefficient buffer `c` in place; returns 1 when an `abs` met its kink.
 type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
 
+/// The signature of compact Taylor code: `fn(c: *mut f64, k: usize) -> i32`, the same for the
+/// order `k` given at run time.
+type TaylorCompactFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
+
+/// How a [`NativeTaylor`] lays the recurrences out in machine code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Form {
+    /// One straight-line function per order.
+    PerOrder,
+    /// One straight-line function for a whole expansion ([`NativeTaylor::compile_expansion`]).
+    Whole,
+    /// One function for every order, the order its argument and each sum a loop
+    /// ([`NativeTaylor::compile_compact`]).
+    Compact,
+}
+
 /// Machine code for the Taylor recurrences of one [`TaylorTape`](super::TaylorTape) at a fixed
 /// stride: one straight-line function per order `k = 1..=max_order` (order 0, which calls the
 /// transcendental functions, stays in the interpreter).
@@ -549,11 +565,18 @@ type TaylorOrderFn = unsafe extern "C" fn(*mut f64) -> i32;
 /// order computes reach the next order in registers rather than through memory and a call,
 /// and the processor can start on order `k + 1`'s sums while order `k`'s last recurrences
 /// are still in flight.
+///
+/// Unrolled code grows as `recurrences · order²`; past [`MAX_NATIVE_TAYLOR_TERMS`] terms it
+/// would take Cranelift seconds and overflow the instruction cache. Such tapes get compact
+/// code ([`NativeTaylor::compile_compact`], heyoka's "compact mode"): one function whose
+/// argument is the order, each recurrence's sum a loop over the terms with the
+/// interpreter's four partial sums, so the code grows as `recurrences` alone and the
+/// coefficients are still the interpreter's bit for bit. What it saves over the interpreter
+/// is the instruction dispatch, the slice bounds checks and the row arithmetic.
 pub(crate) struct NativeTaylor {
-    /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion: `funcs[0]` does it all.
+    /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion or compact: `funcs[0]`.
     funcs: Vec<*const u8>,
-    /// Whether `funcs[0]` is a whole expansion.
-    whole: bool,
+    form: Form,
     max_order: usize,
     _module: OwnedModule,
     stride: usize,
@@ -570,73 +593,109 @@ unsafe impl Sync for NativeTaylor {}
 
 impl std::fmt::Debug for NativeTaylor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "NativeTaylor({} rows, stride {}, orders 1..={})", self.n_rows, self.stride, self.max_order)
+        write!(
+            f,
+            "NativeTaylor({:?}, {} rows, stride {}, orders 1..={})",
+            self.form, self.n_rows, self.stride, self.max_order
+        )
     }
 }
 
 /// Taylor tapes whose unrolled recurrences would have more terms than this (about
-/// `recurrences · order² / 2`) stay interpreted: Cranelift's compile time grows with the code,
-/// and the interpreter's per-term overhead matters least where sums are long.
+/// `recurrences · order² / 2`) get compact code instead: Cranelift's compile time grows with
+/// the unrolled code, and code this large runs out of the instruction cache.
 pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
+
+/// The terms of `tape`'s recurrences unrolled to `max_order` (about).
+pub(crate) fn unrolled_terms(tape: &super::TaylorTape, max_order: usize) -> usize {
+    tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2
+}
 
 impl NativeTaylor {
     /// Compiles orders `1..=max_order` of `tape` for coefficient buffers of `stride`
-    /// (`max_order < stride`), or `None` (too large, or no JIT on this host).
+    /// (`max_order < stride`): unrolled per order, or compact past [`MAX_NATIVE_TAYLOR_TERMS`];
+    /// `None` when the host has no JIT or the tape is too large even for compact code.
     pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
-        Self::compile_with(tape, stride, max_order, None)
+        if unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
+            return Self::compile_compact(tape, stride, max_order);
+        }
+        Self::compile_with(tape, stride, max_order, Form::PerOrder, None)
     }
 
-    /// The whole expansion of an ODE in one function (see [`Expansion`]).
+    /// Compact code for orders `1..=max_order` whatever the tape's size (up to
+    /// [`MAX_NATIVE_INSTRS`] recurrences).
+    pub(crate) fn compile_compact(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+        if tape.ops().len() > MAX_NATIVE_INSTRS {
+            return None;
+        }
+        Self::compile_with(tape, stride, max_order, Form::Compact, None)
+    }
+
+    /// The whole expansion of an ODE in one function (see [`Expansion`]); `None` also when
+    /// it would be too large to unroll.
     pub(crate) fn compile_expansion(
         tape: &super::TaylorTape,
         stride: usize,
         max_order: usize,
         expansion: &Expansion,
     ) -> Option<NativeTaylor> {
-        if max_order + 1 >= stride {
+        if max_order + 1 >= stride || unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
             return None;
         }
-        Self::compile_with(tape, stride, max_order, Some(expansion))
+        Self::compile_with(tape, stride, max_order, Form::Whole, Some(expansion))
     }
 
     fn compile_with(
         tape: &super::TaylorTape,
         stride: usize,
         max_order: usize,
+        form: Form,
         expansion: Option<&Expansion>,
     ) -> Option<NativeTaylor> {
-        if max_order == 0 || max_order >= stride {
-            return None;
-        }
-        let terms = tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2;
         // Every offset must fit Cranelift's 32-bit immediate.
-        if terms > MAX_NATIVE_TAYLOR_TERMS || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
+        if max_order == 0 || max_order >= stride || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
             return None;
         }
-        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, expansion))).ok().flatten()
+        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, form, expansion))).ok().flatten()
     }
 
     /// Whether this is a whole expansion ([`NativeTaylor::compile_expansion`]).
     pub(crate) fn is_whole(&self) -> bool {
-        self.whole
+        self.form == Form::Whole
+    }
+
+    /// Whether this is compact code ([`NativeTaylor::compile_compact`]).
+    pub(crate) fn is_compact(&self) -> bool {
+        self.form == Form::Compact
     }
 
     /// Runs a whole expansion: orders `1..=max_order` and the glue after each (orders `0` of
     /// every row and order 1 of the state given); `false` when an `abs` met its kink.
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
-        assert!(self.whole, "not a whole expansion");
-        self.call(0, c)
+        assert!(self.is_whole(), "not a whole expansion");
+        self.call(c, 0)
     }
 
-    /// Runs generated function `i` on `c`; `false` when an `abs` met its kink.
-    fn call(&self, i: usize, c: &mut [f64]) -> bool {
+    /// Runs the generated code for order `k` (any `k` for a whole expansion, which ignores
+    /// it) on `c`; `false` when an `abs` met its kink.
+    fn call(&self, c: &mut [f64], k: usize) -> bool {
         assert!(c.len() >= self.buffer_len, "Taylor buffer too short");
-        // SAFETY: every generated function has type `TaylorOrderFn` (see `compile_taylor_code`)
-        // and touches only `c[0 .. buffer_len]` (the rows, and for a whole `W q'' = F`
-        // expansion the accelerations and `L` after them), which the assertion guarantees.
+        // SAFETY: every generated function has the type its form says (see
+        // `compile_taylor_code`) and touches only `c[0 .. buffer_len]` (the rows, and for a
+        // whole `W q'' = F` expansion the accelerations and `L` after them), which the
+        // assertion guarantees; compact code reads and writes orders `0..=k` of the rows,
+        // and `run_order` asserts `k ≤ max_order < stride`.
         unsafe {
-            let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[i]);
-            f(c.as_mut_ptr()) == 0
+            match self.form {
+                Form::Compact => {
+                    let f = std::mem::transmute::<*const u8, TaylorCompactFn>(self.funcs[0]);
+                    f(c.as_mut_ptr(), k) == 0
+                }
+                Form::Whole => std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0])(c.as_mut_ptr()) == 0,
+                Form::PerOrder => {
+                    std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[k - 1])(c.as_mut_ptr()) == 0
+                }
+            }
         }
     }
 
@@ -653,8 +712,8 @@ impl NativeTaylor {
     /// Computes order `k` of every row of `c` (orders `0..k` and order `k` of the inputs
     /// given); `false` when an `abs` met its kink.
     pub(crate) fn run_order(&self, c: &mut [f64], k: usize) -> bool {
-        assert!(!self.whole && (1..=self.funcs.len()).contains(&k), "order {k} not compiled");
-        self.call(k - 1, c)
+        assert!(!self.is_whole() && (1..=self.max_order).contains(&k), "order {k} not compiled");
+        self.call(c, k)
     }
 }
 
@@ -662,6 +721,7 @@ fn compile_taylor_code(
     tape: &super::TaylorTape,
     stride: usize,
     max_order: usize,
+    form: Form,
     expansion: Option<&Expansion>,
 ) -> Option<NativeTaylor> {
     let mut flags = settings::builder();
@@ -675,16 +735,20 @@ fn compile_taylor_code(
     let mut ctx = module.make_context();
     let mut fbc = FunctionBuilderContext::new();
     let mut ids = Vec::with_capacity(max_order);
-    let whole = expansion.is_some();
     let mut ok = true;
-    // Per order, one function per `k`; a whole expansion, one function for all of them.
-    let funcs: Vec<Vec<usize>> = match expansion {
-        Some(_) => vec![(1..=max_order).collect()],
-        None => (1..=max_order).map(|k| vec![k]).collect(),
+    // The orders each function computes: one per function, all in one, or (compact) the
+    // argument, written 0 here.
+    let funcs: Vec<Vec<usize>> = match form {
+        Form::Whole => vec![(1..=max_order).collect()],
+        Form::PerOrder => (1..=max_order).map(|k| vec![k]).collect(),
+        Form::Compact => vec![vec![0]],
     };
     for orders in &funcs {
         ctx.func.signature.call_conv = call_conv;
         ctx.func.signature.params.push(AbiParam::new(ptr));
+        if form == Form::Compact {
+            ctx.func.signature.params.push(AbiParam::new(ptr));
+        }
         ctx.func.signature.returns.push(AbiParam::new(types::I32));
         let emitted = {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fbc);
@@ -693,15 +757,30 @@ fn compile_taylor_code(
             b.switch_to_block(block);
             b.seal_block(block);
             let base = b.block_params(block)[0];
+            let k = match form {
+                Form::Compact => {
+                    let k = b.block_params(block)[1];
+                    let kf = b.ins().fcvt_from_uint(types::F64, k);
+                    let one = b.ins().f64const(1.0);
+                    let rk = b.ins().fdiv(one, kf);
+                    let k8 = b.ins().ishl_imm(k, 3);
+                    let at_k = b.ins().iadd(base, k8);
+                    Order::Runtime { k, kf, rk, at_k }
+                }
+                _ => Order::Fixed(0),
+            };
             let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
-            let mut em = TaylorEmitter { b: &mut b, base, s: stride, k: 0, known: vec![None; rows * stride] };
+            let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
+            let mut em = TaylorEmitter { b: &mut b, base, ptr, s: stride, k, known };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
-                em.k = k;
+                if form != Form::Compact {
+                    em.k = Order::Fixed(k);
+                }
                 kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
                 if let Some(g) = expansion {
                     if let Some(m) = &g.solve {
-                        em.cholesky_solve(m);
+                        em.cholesky_solve(m, k);
                     }
                     for &(dst, src) in &g.glue {
                         let v = em.at(src, k);
@@ -714,11 +793,16 @@ fn compile_taylor_code(
             if let Some(kink) = kink {
                 let r = em.b.ins().uextend(types::I32, kink);
                 em.b.ins().return_(&[r]);
+                b.seal_all_blocks();
                 b.finalize();
             }
             kink.is_some()
         };
-        let name = if whole { "taylor_expansion".to_string() } else { format!("taylor_order_{}", orders[0]) };
+        let name = match form {
+            Form::Whole => "taylor_expansion".to_string(),
+            Form::Compact => "taylor_compact".to_string(),
+            Form::PerOrder => format!("taylor_order_{}", orders[0]),
+        };
         let id = emitted.then(|| module.declare_function(&name, Linkage::Export, &ctx.func.signature).ok()).flatten();
         let defined = id.and_then(|id| module.define_function(id, &mut ctx).ok().map(|_| id));
         module.clear_context(&mut ctx);
@@ -738,7 +822,7 @@ fn compile_taylor_code(
     let funcs = ids.into_iter().map(|id| module.get_finalized_function(id)).collect();
     Some(NativeTaylor {
         funcs,
-        whole,
+        form,
         max_order,
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
@@ -749,23 +833,99 @@ fn compile_taylor_code(
     })
 }
 
+/// The order a [`TaylorEmitter`] writes.
+#[derive(Clone, Copy)]
+enum Order {
+    /// A constant (unrolled code: every index is an immediate offset).
+    Fixed(usize),
+    /// The argument `k` of compact code, with `k` as a float, `1/k` (as the interpreter
+    /// computes it) and the address of order `k` of row 0.
+    Runtime { k: Value, kf: Value, rk: Value, at_k: Value },
+}
+
+/// A coefficient index `m·k + c` (`m` is 0 or 1), `k` the order being computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Ix {
+    m: isize,
+    c: isize,
+}
+
+impl Ix {
+    /// Order `k` itself.
+    const K: Ix = Ix { m: 1, c: 0 };
+
+    /// Order `c`.
+    const fn at(c: isize) -> Ix {
+        Ix { m: 0, c }
+    }
+
+    /// Order `k + c`.
+    const fn k(c: isize) -> Ix {
+        Ix { m: 1, c }
+    }
+
+    fn plus(self, o: Ix) -> Ix {
+        Ix { m: self.m + o.m, c: self.c + o.c }
+    }
+
+    fn minus(self, o: Ix) -> Ix {
+        Ix { m: self.m - o.m, c: self.c - o.c }
+    }
+
+    fn eval(self, k: usize) -> usize {
+        usize::try_from(self.m * k as isize + self.c).expect("a coefficient index is never negative")
+    }
+}
+
+/// The number of terms of a sum.
+#[derive(Clone, Copy)]
+enum Len {
+    Ix(Ix),
+    /// `⌈k/2⌉ − 1`: the distinct pairs of a square's inner sum.
+    HalfInner,
+}
+
+/// The weight of term `i` of a sum, with `j = i + 1`.
+#[derive(Clone, Copy)]
+enum Weight {
+    One,
+    /// `j`.
+    Index,
+    /// `e j − (k − j)` (`constant_power`).
+    Power(f64),
+}
+
+impl Weight {
+    /// As the interpreter's closures compute it, for term `i` at order `k`.
+    fn at(self, i: usize, k: usize) -> f64 {
+        let j = i + 1;
+        match self {
+            Weight::One => 1.0,
+            Weight::Index => j as f64,
+            Weight::Power(e) => e * j as f64 - (k - j) as f64,
+        }
+    }
+}
+
 /// Emits order `k` of every recurrence of a Taylor tape, mirroring
 /// `TaylorTape::run_order` operation for operation.
 struct TaylorEmitter<'a, 'b> {
     b: &'a mut FunctionBuilder<'b>,
     base: Value,
+    /// The integer type of addresses and of the order.
+    ptr: types::Type,
     s: usize,
-    k: usize,
-    /// Coefficient `j` of row `r` at `r · s + j`, for those written so far in this function
-    /// (kept in SSA values, and stored).
+    k: Order,
+    /// Unrolled code: coefficient `j` of row `r` at `r · s + j`, for those written so far in
+    /// this function (kept in SSA values, and stored). Compact code loads every time.
     known: Vec<Option<Value>>,
 }
 
 impl TaylorEmitter<'_, '_> {
-    /// Coefficient `j` of row `r`. A coefficient is loaded at most once per function (nothing
-    /// else writes the buffer while it runs), so each later read is the same SSA value and
-    /// Cranelift's value numbering shares what is computed from it, such as the `j · a_j` of
-    /// a sine's and a cosine's sums over the same argument.
+    /// Coefficient `j` of row `r` (unrolled code). A coefficient is loaded at most once per
+    /// function (nothing else writes the buffer while it runs), so each later read is the
+    /// same SSA value and Cranelift's value numbering shares what is computed from it, such as
+    /// the `j · a_j` of a sine's and a cosine's sums over the same argument.
     fn at(&mut self, r: u32, j: usize) -> Value {
         let i = r as usize * self.s + j;
         if let Some(v) = self.known[i] {
@@ -776,12 +936,49 @@ impl TaylorEmitter<'_, '_> {
         v
     }
 
-    /// Writes order `k` of row `r`.
-    fn put(&mut self, r: u32, v: Value) {
-        self.put_at(r, self.k, v);
+    /// Coefficient `j` of row `r`, in either kind of code.
+    fn coef(&mut self, r: u32, j: Ix) -> Value {
+        match self.k {
+            Order::Fixed(k) => self.at(r, j.eval(k)),
+            Order::Runtime { .. } => {
+                let (p, off) = self.addr(r, j);
+                self.b.ins().load(types::F64, MemFlags::trusted(), p, off)
+            }
+        }
     }
 
-    /// Writes coefficient `j` of row `r`.
+    /// Compact code: a base address and an immediate offset for coefficient `j` of row `r`.
+    fn addr(&mut self, r: u32, j: Ix) -> (Value, i32) {
+        let Order::Runtime { at_k, .. } = self.k else { unreachable!("addresses are for compact code") };
+        let off = ((r as usize * self.s) as isize + j.c) * 8;
+        let p = match j.m {
+            0 => self.base,
+            1 => at_k,
+            _ => unreachable!("indices are j or k + j"),
+        };
+        (p, off as i32)
+    }
+
+    /// The value of `m·k + c` as an integer (compact code).
+    fn index_value(&mut self, j: Ix) -> Value {
+        let Order::Runtime { k, .. } = self.k else { unreachable!("run-time indices are for compact code") };
+        match j.m {
+            0 => self.b.ins().iconst(self.ptr, j.c as i64),
+            _ => self.b.ins().iadd_imm(k, j.c as i64),
+        }
+    }
+
+    /// Writes order `k` of row `r`.
+    fn put(&mut self, r: u32, v: Value) {
+        match self.k {
+            Order::Fixed(k) => self.put_at(r, k, v),
+            Order::Runtime { at_k, .. } => {
+                self.b.ins().store(MemFlags::trusted(), v, at_k, (r as usize * self.s * 8) as i32);
+            }
+        }
+    }
+
+    /// Writes coefficient `j` of row `r` (unrolled code).
     fn put_at(&mut self, r: u32, j: usize, v: Value) {
         let i = r as usize * self.s + j;
         self.b.ins().store(MemFlags::trusted(), v, self.base, (i * 8) as i32);
@@ -792,17 +989,28 @@ impl TaylorEmitter<'_, '_> {
         self.b.ins().f64const(x)
     }
 
-    /// `w_i · a[a0 + i] · b[b0 − i]`, evaluated as `(w_i · a) · b`, with the multiplication
-    /// by a weight of exactly 1 left out (`1 · x = x` in IEEE arithmetic).
-    fn term(&mut self, a: u32, a0: usize, b: u32, b0: usize, i: usize, w: &impl Fn(usize) -> f64) -> Value {
-        let x = self.at(a, a0 + i);
-        let y = self.at(b, b0 - i);
-        let wi = w(i);
-        let x = if wi == 1.0 {
-            x
-        } else {
-            let wv = self.c(wi);
-            self.b.ins().fmul(wv, x)
+    /// `k` as a float.
+    fn kf(&mut self) -> Value {
+        match self.k {
+            Order::Fixed(k) => self.c(k as f64),
+            Order::Runtime { kf, .. } => kf,
+        }
+    }
+
+    /// `1/k`.
+    fn rk(&mut self) -> Value {
+        match self.k {
+            Order::Fixed(k) => self.c(1.0 / k as f64),
+            Order::Runtime { rk, .. } => rk,
+        }
+    }
+
+    /// `w · x · y`, evaluated as `(w · x) · y`, with the multiplication by a weight of exactly
+    /// 1 left out (`1 · x = x` in IEEE arithmetic).
+    fn term(&mut self, w: Option<Value>, x: Value, y: Value) -> Value {
+        let x = match w {
+            Some(w) => self.b.ins().fmul(w, x),
+            None => x,
         };
         self.b.ins().fmul(x, y)
     }
@@ -811,14 +1019,25 @@ impl TaylorEmitter<'_, '_> {
     /// `taylor.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
     /// added at the end, the others round-robin into four partial sums from `0.0`, combined
     /// as `(s₀ + s₁) + (s₂ + s₃)`.
-    fn sum(&mut self, a: u32, a0: usize, b: u32, b0: usize, len: usize, w: impl Fn(usize) -> f64) -> Value {
-        let k = self.k;
+    fn sum(&mut self, a: u32, a0: Ix, b: u32, b0: Ix, len: Len, w: Weight) -> Value {
+        let Order::Fixed(k) = self.k else { return self.sum_loop(a, a0, b, b0, len, w) };
+        let (a0, b0) = (a0.eval(k), b0.eval(k));
+        let len = match len {
+            Len::Ix(l) => l.eval(k),
+            Len::HalfInner => k.div_ceil(2) - 1,
+        };
         let lo = usize::from(len > 0 && b0 == k);
         let hi = if len > lo && a0 + len - 1 == k { len - 1 } else { len };
+        let term = |em: &mut Self, i: usize| {
+            let (x, y) = (em.at(a, a0 + i), em.at(b, b0 - i));
+            let wi = w.at(i, k);
+            let wv = (wi != 1.0).then(|| em.c(wi));
+            em.term(wv, x, y)
+        };
         let zero = self.c(0.0);
         let mut acc = [zero; 4];
         for i in lo..hi {
-            let t = self.term(a, a0, b, b0, i, &w);
+            let t = term(self, i);
             let r = (i - lo) % 4;
             acc[r] = self.b.ins().fadd(acc[r], t);
         }
@@ -826,25 +1045,143 @@ impl TaylorEmitter<'_, '_> {
         let s23 = self.b.ins().fadd(acc[2], acc[3]);
         let mut s = self.b.ins().fadd(s01, s23);
         if lo == 1 {
-            let t = self.term(a, a0, b, b0, 0, &w);
+            let t = term(self, 0);
             s = self.b.ins().fadd(s, t);
         }
         if hi < len {
-            let t = self.term(a, a0, b, b0, len - 1, &w);
+            let t = term(self, len - 1);
+            s = self.b.ins().fadd(s, t);
+        }
+        s
+    }
+
+    /// [`TaylorEmitter::sum`] in compact code: the same terms in the same order, as a loop of
+    /// four terms per pass (one into each partial sum) and a tail of up to three. Which terms
+    /// read order `k` does not depend on `k` for the sums of the recurrences (every one has at
+    /// least the terms that read order `k`), so they are known here.
+    fn sum_loop(&mut self, a: u32, a0: Ix, b: u32, b0: Ix, len: Len, w: Weight) -> Value {
+        let Order::Runtime { k, kf, .. } = self.k else { unreachable!("loops are for compact code") };
+        let late_first = b0 == Ix::K;
+        let late_last = matches!(len, Len::Ix(l) if a0.plus(l) == Ix::k(1));
+        let lo = isize::from(late_first);
+        let n = match len {
+            Len::Ix(l) => self.index_value(l),
+            Len::HalfInner => {
+                let km1 = self.b.ins().iadd_imm(k, -1);
+                self.b.ins().ushr_imm(km1, 1)
+            }
+        };
+        let ptr = self.ptr;
+        let remaining = self.b.ins().iadd_imm(n, -(lo + isize::from(late_last)) as i64);
+        let (pa, oa) = self.addr(a, a0.plus(Ix::at(lo)));
+        let px = self.b.ins().iadd_imm(pa, i64::from(oa));
+        let (pb, ob) = self.addr(b, b0.minus(Ix::at(lo)));
+        let py = self.b.ins().iadd_imm(pb, i64::from(ob));
+        let j0 = self.c((lo + 1) as f64);
+        let zero = self.c(0.0);
+        // The weight of the term whose `j` is `j` (a float holding an integer).
+        let weight = |em: &mut Self, j: Value| match w {
+            Weight::One => None,
+            Weight::Index => Some(j),
+            Weight::Power(e) => {
+                let kmj = em.b.ins().fsub(kf, j);
+                let ev = em.c(e);
+                let ej = em.b.ins().fmul(ev, j);
+                Some(em.b.ins().fsub(ej, kmj))
+            }
+        };
+        // Term `r` of a pass whose first term has `x` at `px`, `y` at `py` and `j`.
+        let pass_term = |em: &mut Self, px: Value, py: Value, j: Value, r: i32| {
+            let x = em.b.ins().load(types::F64, MemFlags::trusted(), px, 8 * r);
+            let y = em.b.ins().load(types::F64, MemFlags::trusted(), py, -8 * r);
+            let j = if r == 0 {
+                j
+            } else {
+                let rv = em.c(f64::from(r));
+                em.b.ins().fadd(j, rv)
+            };
+            let wv = weight(em, j);
+            em.term(wv, x, y)
+        };
+        let header = self.b.create_block();
+        for t in [ptr, ptr, ptr, types::F64, types::F64, types::F64, types::F64, types::F64] {
+            self.b.append_block_param(header, t);
+        }
+        let body = self.b.create_block();
+        let tail = self.b.create_block();
+        let join = self.b.create_block();
+        for _ in 0..3 {
+            self.b.append_block_param(join, types::F64);
+        }
+        self.b.ins().jump(header, &[remaining, px, py, j0, zero, zero, zero, zero]);
+
+        self.b.switch_to_block(header);
+        let hp = self.b.block_params(header).to_vec();
+        let (rem, px, py, j, acc) = (hp[0], hp[1], hp[2], hp[3], [hp[4], hp[5], hp[6], hp[7]]);
+        let more = self.b.ins().icmp_imm(IntCC::SignedGreaterThanOrEqual, rem, 4);
+        self.b.ins().brif(more, body, &[], tail, &[]);
+
+        self.b.switch_to_block(body);
+        self.b.seal_block(body);
+        let mut next = acc;
+        for (r, s) in next.iter_mut().enumerate() {
+            let t = pass_term(self, px, py, j, r as i32);
+            *s = self.b.ins().fadd(*s, t);
+        }
+        let rem4 = self.b.ins().iadd_imm(rem, -4);
+        let px4 = self.b.ins().iadd_imm(px, 32);
+        let py4 = self.b.ins().iadd_imm(py, -32);
+        let four = self.c(4.0);
+        let j4 = self.b.ins().fadd(j, four);
+        self.b.ins().jump(header, &[rem4, px4, py4, j4, next[0], next[1], next[2], next[3]]);
+        self.b.seal_block(header);
+
+        // The tail: term `r` goes into partial sum `r` while `r < rem`.
+        self.b.switch_to_block(tail);
+        self.b.seal_block(tail);
+        let mut sums = [acc[0], acc[1], acc[2]];
+        for r in 0..3 {
+            let take = self.b.ins().icmp_imm(IntCC::SignedGreaterThan, rem, r);
+            let add = self.b.create_block();
+            self.b.ins().brif(take, add, &[], join, &sums);
+            self.b.switch_to_block(add);
+            self.b.seal_block(add);
+            let t = pass_term(self, px, py, j, r as i32);
+            sums[r as usize] = self.b.ins().fadd(sums[r as usize], t);
+        }
+        self.b.ins().jump(join, &sums);
+        self.b.switch_to_block(join);
+        self.b.seal_block(join);
+        let jp = self.b.block_params(join).to_vec();
+        let s01 = self.b.ins().fadd(jp[0], jp[1]);
+        let s23 = self.b.ins().fadd(jp[2], acc[3]);
+        let mut s = self.b.ins().fadd(s01, s23);
+        if late_first {
+            let (x, y) = (self.coef(a, a0), self.coef(b, b0));
+            let one = self.c(1.0);
+            let wv = weight(self, one);
+            let t = self.term(wv, x, y);
+            s = self.b.ins().fadd(s, t);
+        }
+        if let (true, Len::Ix(l)) = (late_last, len) {
+            let (x, y) = (self.coef(a, Ix::K), self.coef(b, b0.minus(l).plus(Ix::at(1))));
+            let jl = self.b.ins().fcvt_from_sint(types::F64, n);
+            let wv = weight(self, jl);
+            let t = self.term(wv, x, y);
             s = self.b.ins().fadd(s, t);
         }
         s
     }
 
     /// Order `k` of the accelerations (`TaylorOde::expand` and `rhs::solve` with a Cholesky
-    /// factor, operation for operation).
-    fn cholesky_solve(&mut self, m: &CholeskySolve) {
-        let (n, k) = (m.n, self.k);
+    /// factor, operation for operation; unrolled code).
+    fn cholesky_solve(&mut self, m: &CholeskySolve, k: usize) {
+        let n = m.n;
         let mut x = Vec::with_capacity(n);
         for i in 0..n {
             let mut v = self.at(m.f_rows[i], k);
             for &(l, w) in &m.varying[i] {
-                let d = self.sum(w, 1, m.acc_row + l as u32, k - 1, k, |_| 1.0);
+                let d = self.sum(w, Ix::at(1), m.acc_row + l as u32, Ix::k(-1), Len::Ix(Ix::K), Weight::One);
                 v = self.b.ins().fsub(v, d);
             }
             x.push(v);
@@ -878,40 +1215,47 @@ impl TaylorEmitter<'_, '_> {
         }
     }
 
-    /// `Σ_{j=lo}^{k−lo} a_j b_{k−j}` (`cauchy`).
-    fn cauchy(&mut self, a: u32, b: u32, lo: usize) -> Value {
-        let k = self.k;
-        self.sum(a, lo, b, k - lo, k + 1 - 2 * lo, |_| 1.0)
+    /// `Σ_{j=0}^{k} a_j b_{k−j}` (`cauchy`).
+    fn cauchy(&mut self, a: u32, b: u32) -> Value {
+        self.sum(a, Ix::at(0), b, Ix::K, Len::Ix(Ix::k(1)), Weight::One)
     }
 
     /// `Σ_{j=1}^{k} j a_j b_{k−j}` (`weighted`).
     fn weighted(&mut self, a: u32, b: u32) -> Value {
-        let k = self.k;
-        self.sum(a, 1, b, k - 1, k, |i| (i + 1) as f64)
+        self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::K), Weight::Index)
     }
 
-    /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`).
+    /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`; an empty sum is `+0.0` either way).
     fn weighted_short(&mut self, a: u32, b: u32) -> Value {
-        let k = self.k;
-        if k < 2 {
+        if matches!(self.k, Order::Fixed(k) if k < 2) {
             return self.c(0.0);
         }
-        self.sum(a, 1, b, k - 1, k - 1, |i| (i + 1) as f64)
+        self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::k(-1)), Weight::Index)
     }
 
     /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `taylor.rs`):
     /// `2 Σ_{1≤j<k−j} a_j a_{k−j} + (a_{k/2}² or 0)`.
     fn square_inner(&mut self, r: u32) -> Value {
-        let k = self.k;
-        let n = k.div_ceil(2) - 1;
-        let half = self.sum(r, 1, r, k - 1, n, |_| 1.0);
+        let half = self.sum(r, Ix::at(1), r, Ix::k(-1), Len::HalfInner, Weight::One);
         let two = self.c(2.0);
         let twice = self.b.ins().fmul(two, half);
-        let mid = if k % 2 == 0 {
-            let m = self.at(r, k / 2);
-            self.b.ins().fmul(m, m)
-        } else {
-            self.c(0.0)
+        let mid = match self.k {
+            Order::Fixed(k) if k % 2 == 0 => {
+                let m = self.at(r, k / 2);
+                self.b.ins().fmul(m, m)
+            }
+            Order::Fixed(_) => self.c(0.0),
+            Order::Runtime { k, .. } => {
+                // a_{⌊k/2⌋}² for even k (the load is in the row whatever k), else 0.
+                let half = self.b.ins().ushr_imm(k, 1);
+                let bytes = self.b.ins().ishl_imm(half, 3);
+                let p = self.b.ins().iadd(self.base, bytes);
+                let m = self.b.ins().load(types::F64, MemFlags::trusted(), p, (r as usize * self.s * 8) as i32);
+                let sq = self.b.ins().fmul(m, m);
+                let odd = self.b.ins().band_imm(k, 1);
+                let zero = self.c(0.0);
+                self.b.ins().select(odd, zero, sq)
+            }
         };
         self.b.ins().fadd(twice, mid)
     }
@@ -920,16 +1264,16 @@ impl TaylorEmitter<'_, '_> {
     fn square(&mut self, r: u32) -> Value {
         let inner = self.square_inner(r);
         let two = self.c(2.0);
-        let a0 = self.at(r, 0);
+        let a0 = self.coef(r, Ix::at(0));
         let a0x2 = self.b.ins().fmul(two, a0);
-        let ak = self.at(r, self.k);
+        let ak = self.coef(r, Ix::K);
         let late = self.b.ins().fmul(a0x2, ak);
         self.b.ins().fadd(inner, late)
     }
 
     /// `x · (1/k)`.
     fn times_rk(&mut self, x: Value) -> Value {
-        let rk = self.c(1.0 / self.k as f64);
+        let rk = self.rk();
         self.b.ins().fmul(x, rk)
     }
 
@@ -942,13 +1286,9 @@ impl TaylorEmitter<'_, '_> {
 
     /// `(e j − (k − j)) a_j d_{k−j}` summed, times `1/(k a₀)` (`constant_power`).
     fn constant_power(&mut self, a: u32, d: u32, e: f64) -> Value {
-        let k = self.k;
-        let acc = self.sum(a, 1, d, k - 1, k, |i| {
-            let j = i + 1;
-            e * j as f64 - (k - j) as f64
-        });
-        let a0 = self.at(a, 0);
-        let kf = self.c(k as f64);
+        let acc = self.sum(a, Ix::at(1), d, Ix::k(-1), Len::Ix(Ix::K), Weight::Power(e));
+        let a0 = self.coef(a, Ix::at(0));
+        let kf = self.kf();
         let den = self.b.ins().fmul(kf, a0);
         self.times_recip(acc, den)
     }
@@ -956,32 +1296,32 @@ impl TaylorEmitter<'_, '_> {
     /// All recurrences at order `k`; the value is the kink flag (an `i8`).
     fn order(&mut self, tape: &super::TaylorTape) -> Option<Value> {
         let mut kink = self.b.ins().iconst(types::I8, 0);
-        let k = self.k;
+        let (k, zero) = (Ix::K, Ix::at(0));
         for op in tape.ops() {
             match *op {
                 Op::Add { d, a, b } => {
-                    let (x, y) = (self.at(a, k), self.at(b, k));
+                    let (x, y) = (self.coef(a, k), self.coef(b, k));
                     let v = self.b.ins().fadd(x, y);
                     self.put(d, v);
                 }
                 Op::Sub { d, a, b } => {
-                    let (x, y) = (self.at(a, k), self.at(b, k));
+                    let (x, y) = (self.coef(a, k), self.coef(b, k));
                     let v = self.b.ins().fsub(x, y);
                     self.put(d, v);
                 }
                 Op::Neg { d, a } => {
-                    let x = self.at(a, k);
+                    let x = self.coef(a, k);
                     let v = self.b.ins().fneg(x);
                     self.put(d, v);
                 }
                 Op::Scale { d, a, f } => {
-                    let x = self.at(a, k);
+                    let x = self.coef(a, k);
                     let fv = self.c(f);
                     let v = self.b.ins().fmul(x, fv);
                     self.put(d, v);
                 }
                 Op::Mul { d, a, b } => {
-                    let v = self.cauchy(a, b, 0);
+                    let v = self.cauchy(a, b);
                     self.put(d, v);
                 }
                 Op::Sqr { d, a } => {
@@ -990,19 +1330,19 @@ impl TaylorEmitter<'_, '_> {
                 }
                 Op::Div { d, a, b } => {
                     // (a_k − Σ_{i<k} b_{1+i} d_{k−1−i}) · (1/b₀)
-                    let acc = self.sum(b, 1, d, k - 1, k, |_| 1.0);
-                    let ak = self.at(a, k);
+                    let acc = self.sum(b, Ix::at(1), d, Ix::k(-1), Len::Ix(Ix::K), Weight::One);
+                    let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, acc);
-                    let b0 = self.at(b, 0);
+                    let b0 = self.coef(b, zero);
                     let v = self.times_recip(num, b0);
                     self.put(d, v);
                 }
                 Op::Sqrt { d, a } => {
                     let acc = self.square_inner(d);
-                    let ak = self.at(a, k);
+                    let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, acc);
                     let two = self.c(2.0);
-                    let d0 = self.at(d, 0);
+                    let d0 = self.coef(d, zero);
                     let den = self.b.ins().fmul(two, d0);
                     let v = self.times_recip(num, den);
                     self.put(d, v);
@@ -1029,9 +1369,9 @@ impl TaylorEmitter<'_, '_> {
                 Op::Log { d, a } => {
                     let acc = self.weighted_short(d, a);
                     let q = self.times_rk(acc);
-                    let ak = self.at(a, k);
+                    let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.at(a, 0);
+                    let a0 = self.coef(a, zero);
                     let v = self.times_recip(num, a0);
                     self.put(d, v);
                 }
@@ -1049,10 +1389,10 @@ impl TaylorEmitter<'_, '_> {
                     let inner = self.square_inner(r);
                     let num = self.b.ins().fsub(nsq, inner);
                     let two = self.c(2.0);
-                    let r0 = self.at(r, 0);
+                    let r0 = self.coef(r, zero);
                     let den = self.b.ins().fmul(two, r0);
                     let rv = self.times_recip(num, den);
-                    let ak = self.at(a, k);
+                    let ak = self.coef(a, k);
                     let ak = if neg { self.b.ins().fneg(ak) } else { ak };
                     let w = self.weighted_short(d, r);
                     let q = self.times_rk(w);
@@ -1065,9 +1405,9 @@ impl TaylorEmitter<'_, '_> {
                     let uv = self.square(a);
                     let w = self.weighted_short(d, u);
                     let q = self.times_rk(w);
-                    let ak = self.at(a, k);
+                    let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, q);
-                    let u0 = self.at(u, 0);
+                    let u0 = self.coef(u, zero);
                     let dv = self.times_recip(num, u0);
                     self.put(u, uv);
                     self.put(d, dv);
@@ -1081,8 +1421,8 @@ impl TaylorEmitter<'_, '_> {
                     let num = self.b.ins().fsub(x, y);
                     let w = self.weighted_short(d, u);
                     let num = self.b.ins().fsub(num, w);
-                    let kf = self.c(k as f64);
-                    let u0 = self.at(u, 0);
+                    let kf = self.kf();
+                    let u0 = self.coef(u, zero);
                     let den = self.b.ins().fmul(kf, u0);
                     let dv = self.times_recip(num, den);
                     self.put(u, uv);
@@ -1103,12 +1443,12 @@ impl TaylorEmitter<'_, '_> {
                 Op::PowVar { d, a, b, l, m } => {
                     let w = self.weighted_short(l, a);
                     let q = self.times_rk(w);
-                    let ak = self.at(a, k);
+                    let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.at(a, 0);
+                    let a0 = self.coef(a, zero);
                     let lv = self.times_recip(num, a0);
                     self.put(l, lv);
-                    let mv = self.cauchy(b, l, 0);
+                    let mv = self.cauchy(b, l);
                     self.put(m, mv);
                     let w = self.weighted(m, d);
                     let dv = self.times_rk(w);
@@ -1116,7 +1456,7 @@ impl TaylorEmitter<'_, '_> {
                 }
                 Op::Abs { d, a } => {
                     // a₀ > 0: a_k; a₀ < 0: −a_k; otherwise (0 or NaN) 0 if a_k == 0, else a kink.
-                    let (a0, ak) = (self.at(a, 0), self.at(a, k));
+                    let (a0, ak) = (self.coef(a, zero), self.coef(a, k));
                     let zero = self.c(0.0);
                     let pos = self.b.ins().fcmp(FloatCC::GreaterThan, a0, zero);
                     let negc = self.b.ins().fcmp(FloatCC::LessThan, a0, zero);

@@ -31,7 +31,7 @@ use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
-use super::native::{CholeskySolve, Expansion, NativeTaylor};
+use super::native::{unrolled_terms, CholeskySolve, Expansion, NativeTaylor, MAX_NATIVE_TAYLOR_TERMS};
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
@@ -390,14 +390,26 @@ impl TaylorTape {
     }
 
     /// Machine code for orders `1..=max_order` of this tape's recurrences, for coefficient
-    /// buffers of `stride` (`max_order < stride`): `None` when the tape is too large to unroll
-    /// (see `native.rs`), when [`crate::compile::NO_JIT_ENV`] is set, or when the host has no
-    /// JIT. Its coefficients equal [`TaylorTape::run_order`]'s bit for bit.
+    /// buffers of `stride` (`max_order < stride`): unrolled per order, or compact (see
+    /// [`TaylorTape::compile_native_compact`]) when unrolling would make too much code; `None`
+    /// when [`crate::compile::NO_JIT_ENV`] is set or the host has no JIT. Its coefficients
+    /// equal [`TaylorTape::run_order`]'s bit for bit.
     pub fn compile_native(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
         if super::native::jit_disabled_by_env() {
             return None;
         }
         NativeTaylor::compile(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
+    }
+
+    /// Compact machine code for orders `1..=max_order`: one function taking the order, each
+    /// recurrence's sum a loop, so the code grows with the recurrences alone (not with the
+    /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] chooses it
+    /// for large tapes; this asks for it whatever the size. Same bits as the interpreter.
+    pub fn compile_native_compact(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
+        if super::native::jit_disabled_by_env() {
+            return None;
+        }
+        NativeTaylor::compile_compact(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
     }
 
     /// The number of coefficient rows (inputs, constants, values and auxiliaries).
@@ -795,6 +807,11 @@ impl TaylorNative {
         self.0.is_whole()
     }
 
+    /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
+    pub fn is_compact(&self) -> bool {
+        self.0.is_compact()
+    }
+
     /// Runs a whole expansion: orders `1..=max_order` and the state's next order after each
     /// (`c`: the whole scratch of [`TaylorOde::expand`]).
     fn run_expansion(&self, c: &mut [f64]) -> Result<(), KinkAt> {
@@ -806,39 +823,74 @@ impl TaylorNative {
     }
 }
 
-/// How many expansions at one order a [`TaylorOde`] with native code switched on
-/// ([`TaylorOde::with_native`]) runs in the interpreter before compiling that order's
-/// recurrences, so a cold start never waits for Cranelift.
+/// How many expansions a [`TaylorOde`] with native code switched on
+/// ([`TaylorOde::with_native`]) runs in the interpreter before compiling, so a cold start
+/// never waits for Cranelift.
 pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
 
 /// The same for a [`TaylorOde`] left at its default: about the number of expansions after
-/// which the code has repaid its compile time. Measured in BENCHMARKS.md: Kepler at order 19
-/// takes 8 ms to compile and then saves 0.34 µs per step (even after 2.5 · 10⁴ steps), the
+/// which unrolled code has repaid its compile time. Measured in BENCHMARKS.md: Kepler at order
+/// 19 takes 8 ms to compile and then saves 0.34 µs per step (even after 2.5 · 10⁴ steps), the
 /// double pendulum at order 15 13 ms and 0.75 µs (1.8 · 10⁴); both costs grow with the
 /// unrolled terms. Waiting that long before compiling at most doubles the time of a run that
 /// ends just after (as renting skis until their price is spent bounds the loss of buying).
 pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
 
+/// Orders whose unrolled recurrences have more terms than this start on compact code
+/// (`native.rs`): unrolled code's compile time grows faster than its terms (0.2 s for the
+/// chaos map's variational double pendulum at order 12, 9,072 terms; 1.4 s for a 5-link
+/// pendulum at order 19), compact code's only with the recurrences (10 ms for either), and
+/// compact code runs 5–25 % slower than unrolled code for these sizes (BENCHMARKS.md). At
+/// this size unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`]
+/// interpreted expansions.
+pub const COMPACT_ABOVE_TERMS: usize = 5_000;
+
+/// By default, a tape past [`COMPACT_ABOVE_TERMS`] gets compact code after this many
+/// interpreted expansions (its compile time is that of about a thousand of them)…
+pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 10;
+
+/// …and unrolled code (if it has at most `native::MAX_NATIVE_TAYLOR_TERMS` terms) after this
+/// many expansions in all, when the run has been long enough to repay its compile time.
+pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 20;
+
 /// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
 #[derive(Debug)]
 struct NativeCache {
     allowed: bool,
-    /// Interpreted expansions before an order is compiled.
+    /// Interpreted expansions before a small tape's code (unrolled) is compiled.
     after: usize,
-    /// Interpreted expansions so far (counted only until the code exists).
+    /// Expansions before a large tape's compact code is compiled…
+    compact_after: usize,
+    /// …and before its unrolled code is.
+    unroll_after: usize,
+    /// Expansions so far (counted only until the final code exists).
     uses: AtomicUsize,
-    /// `by_order[p]`: the code for expansions of order `p` (stride `p + 1`, orders `1..p`).
+    /// `by_order[p]`: the final code for expansions of order `p` (stride `p + 1`, orders
+    /// `1..p`), the fastest there is.
     by_order: Vec<OnceLock<Option<TaylorNative>>>,
+    /// `compact[p]`: a large tape's compact code, run until `by_order[p]` exists.
+    compact: Vec<OnceLock<Option<TaylorNative>>>,
 }
 
 impl NativeCache {
-    fn new(allowed: bool, after: usize) -> Arc<NativeCache> {
+    /// Native code compiled after `after` expansions (small tapes), compact code after
+    /// `compact_after` and unrolled code after `unroll_after` (large tapes).
+    fn new(allowed: bool, after: usize, compact_after: usize, unroll_after: usize) -> Arc<NativeCache> {
+        let slots = || (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect();
         Arc::new(NativeCache {
             allowed,
             after,
+            compact_after,
+            unroll_after,
             uses: AtomicUsize::new(0),
-            by_order: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
+            by_order: slots(),
+            compact: slots(),
         })
+    }
+
+    /// The default tiers.
+    fn auto() -> Arc<NativeCache> {
+        NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_AFTER_EXPANSIONS, UNROLL_AFTER_EXPANSIONS)
     }
 }
 
@@ -1000,7 +1052,7 @@ impl TaylorOde {
             time,
             derivs: (0..dim).map(Derivative::Output).collect(),
             solve: None,
-            native: NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS),
+            native: NativeCache::auto(),
         }
     }
 
@@ -1028,7 +1080,7 @@ impl TaylorOde {
             time: (tape.n_inputs() > 2 * n).then_some(2 * n),
             derivs,
             solve: Some(solve),
-            native: NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS),
+            native: NativeCache::auto(),
         }
     }
 
@@ -1037,27 +1089,40 @@ impl TaylorOde {
         self.dim
     }
 
-    /// Turns the native Taylor code on early or off. By default each order is compiled after
-    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted expansions, when a run is long enough for
-    /// the code to repay its compile time; on, after [`NATIVE_AFTER_EXPANSIONS`]; off, never
-    /// (nor ever when [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits
-    /// whichever code runs.
+    /// Turns the native Taylor code on early or off. By default each order's code is
+    /// compiled when a run has been long enough for it to repay its compile time: unrolled
+    /// code after [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted expansions; for a tape past
+    /// [`COMPACT_ABOVE_TERMS`], compact code after [`COMPACT_AFTER_EXPANSIONS`] and unrolled
+    /// code after [`UNROLL_AFTER_EXPANSIONS`]. On: the fastest code after
+    /// [`NATIVE_AFTER_EXPANSIONS`]; off, never (nor ever when
+    /// [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits whichever code runs.
     pub fn with_native(mut self, on: bool) -> TaylorOde {
-        self.native = NativeCache::new(on, NATIVE_AFTER_EXPANSIONS);
+        let n = NATIVE_AFTER_EXPANSIONS;
+        self.native = NativeCache::new(on, n, n, n);
         self
     }
 
     /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
-    /// native code is off, or the tape is too large to unroll at this order).
+    /// native code is off, or the host has no JIT).
     ///
-    /// A first-order system gets its whole expansion as one function (orders and the steps
-    /// from each order of the right-hand side to the next of the state, see `native.rs`); a
-    /// `W q'' = F` system, whose solve between orders stays in Rust, one function per order.
+    /// A first-order system, and a `W q'' = F` system with a symmetric `W`, get the whole
+    /// expansion as one function (orders, the Cholesky solve and the steps from each order of
+    /// the right-hand side to the next of the state, see `native.rs`); a non-symmetric `W`,
+    /// whose LU solve stays in Rust, one function per order; a tape too large to unroll at
+    /// this order, compact code called once per order.
     pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
         if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
         self.native.by_order[order].get_or_init(|| self.compile_native(order)).clone()
+    }
+
+    /// The native code compiled so far for expansions of `order` (the final code if it
+    /// exists, else a large tape's compact code), compiling nothing.
+    pub fn native_compiled(&self, order: usize) -> Option<TaylorNative> {
+        let cache = &*self.native;
+        let slot = |tier: &[OnceLock<Option<TaylorNative>>]| tier.get(order).and_then(|c| c.get().cloned().flatten());
+        slot(&cache.by_order).or_else(|| slot(&cache.compact))
     }
 
     fn compile_native(&self, order: usize) -> Option<TaylorNative> {
@@ -1090,25 +1155,41 @@ impl TaylorOde {
             factor_at: (n_rows + m.n) * stride,
         });
         let expansion = Expansion { glue, solve };
-        NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion)
-            .map(|code| TaylorNative(Arc::new(code)))
+        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
+            Some(code) => Some(TaylorNative(Arc::new(code))),
+            // Too large to unroll: compact code, one call per order.
+            None => self.tape.compile_native(stride, order - 1),
+        }
     }
 
-    /// The code an expansion of `order` runs on: the native code once it exists, compiled
-    /// after [`NATIVE_AFTER_EXPANSIONS`] interpreted expansions.
+    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
+    /// describes: the interpreter (`None`), then for a large tape compact code, then the final
+    /// code ([`TaylorOde::native_for`]).
     fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
         let cache = &*self.native;
         if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
-        let slot = &cache.by_order[order];
-        if let Some(code) = slot.get() {
+        let best = &cache.by_order[order];
+        if let Some(code) = best.get() {
             return code.as_ref();
         }
-        if cache.uses.fetch_add(1, Ordering::Relaxed) < cache.after {
-            return None;
+        let uses = cache.uses.fetch_add(1, Ordering::Relaxed);
+        let terms = unrolled_terms(&self.tape, order - 1);
+        let final_after = match terms {
+            t if t <= COMPACT_ABOVE_TERMS => cache.after,
+            // Too large to unroll at all: the compact code is the final code.
+            t if t > MAX_NATIVE_TAYLOR_TERMS => cache.compact_after,
+            _ => cache.unroll_after,
+        };
+        if uses >= final_after {
+            return best.get_or_init(|| self.compile_native(order)).as_ref();
         }
-        slot.get_or_init(|| self.compile_native(order)).as_ref()
+        if terms > COMPACT_ABOVE_TERMS && uses >= cache.compact_after {
+            let compact = || self.tape.compile_native_compact(order + 1, order - 1);
+            return cache.compact[order].get_or_init(compact).as_ref();
+        }
+        None
     }
 
     /// The Taylor form of the tape.
