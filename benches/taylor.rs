@@ -6,7 +6,8 @@
 //! ```text
 //! cargo bench --bench taylor                    # everything (~1 minute on 2 cores)
 //! cargo bench --bench taylor -- kepler          # one section: kepler, double-pendulum,
-//!                                               #   step-profile, cold-start, chaos-map
+//!                                               #   step-profile, cold-start, large-tapes,
+//!                                               #   chaos-map
 //! ```
 //!
 //! Every system is compiled from text (the library's own path), not hand-written.
@@ -93,13 +94,18 @@ fn kepler() {
     println!("| DOP853 tol 10ε (its floor) compensated | {:.1} ms | {err:.2e} | {steps} |", t * 1e3);
 }
 
-fn double_pendulum() {
-    println!("## Double pendulum to t = 10 against the 50-digit reference (compiled from L)");
+/// The double pendulum of `shared/reference/double_pendulum.md`, from its Lagrangian.
+fn double_pendulum_system() -> System {
     let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
              + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
-    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
+    System::from_lagrangian(l, &["θ1", "θ2"])
         .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
-        .expect("valid L");
+        .expect("valid L")
+}
+
+fn double_pendulum() {
+    println!("## Double pendulum to t = 10 against the 50-digit reference (compiled from L)");
+    let sys = double_pendulum_system();
     let ode = sys.compile_taylor().expect("compiles").with_native(true);
     let rhs = sys.compile_rhs().expect("compiles");
     let err = |y: &[f64]| (0..4).map(|i| (y[i] - DoublePendulum::REFERENCE_T10[i]).abs()).fold(0.0, f64::max);
@@ -181,11 +187,7 @@ fn step_profile() {
         t / steps as f64 * 1e9
     };
     profile_one("Kepler e = 0.9, tol 1e-15", &ode, &Kepler::pericentre(0.9), m.taylor_order(), &kepler_step);
-    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
-             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
-    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
-        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
-        .expect("valid L");
+    let sys = double_pendulum_system();
     let ode = sys.compile_taylor().expect("compiles");
     let m = Taylor::new(1e-12).compensated();
     let dp_step = |o: &TaylorOde| {
@@ -204,14 +206,7 @@ fn cold_start() {
     println!("|---|---|---|---|---|---|---|");
     for n in [2, 10, 20] {
         let (w0, t0) = (Instant::now(), cpu_now());
-        let (l, coords, positive) = n_link::n_link(n);
-        let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
-        let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
-        let mut params: Vec<(String, f64)> =
-            (1..=n).flat_map(|i| [(format!("m{i}"), 1.0), (format!("l{i}"), 1.0)]).collect();
-        params.push(("g".into(), 9.81));
-        let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        let sys = System::from_lagrangian_with(&l, &coords, &d).and_then(|s| s.with_params(&refs)).expect("valid");
+        let sys = n_link_system(n);
         let ode: TaylorOde = sys.compile_taylor().expect("compiles");
         let t1 = cpu_now();
         let mut y0 = vec![0.0; 2 * n];
@@ -232,14 +227,86 @@ fn cold_start() {
     }
 }
 
+/// The n-link pendulum at unit masses and lengths.
+fn n_link_system(n: usize) -> System {
+    let (l, coords, positive) = n_link::n_link(n);
+    let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
+    let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
+    let mut params: Vec<(String, f64)> =
+        (1..=n).flat_map(|i| [(format!("m{i}"), 1.0), (format!("l{i}"), 1.0)]).collect();
+    params.push(("g".into(), 9.81));
+    let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    System::from_lagrangian_with(&l, &coords, &d).and_then(|s| s.with_params(&refs)).expect("valid")
+}
+
+/// Large tapes through the default tiers: one expansion interpreted, on the compact code a
+/// run reaches after `COMPACT_AFTER_EXPANSIONS` expansions, and on the final code
+/// (`native_for`, unrolled where the tape allows); with each code's compile time.
+fn large_tapes() {
+    println!("## Large Taylor tapes: ns per expansion (CPU time) and compile time, by code");
+    println!(
+        "| system, order | unrolled terms | interpreted | compact (compile) | final code (compile) | compact / interpreted | final / compact |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let var = Variational::of_system(&double_pendulum_system(), 1, true).expect("compiles");
+    let mut cases = vec![(
+        "double pendulum + tangent + MEGNO (chaos map), tol 1e-9".to_string(),
+        var.taylor().clone(),
+        var.initial_state(&[1.0, 2.0, 0.0, 0.0]),
+        Taylor::new(1e-9).taylor_order(),
+    )];
+    for n in [3, 5, 10] {
+        let ode = n_link_system(n).compile_taylor().expect("compiles");
+        let mut y0 = vec![0.0; 2 * n];
+        y0[..n].iter_mut().enumerate().for_each(|(i, q)| *q = 0.5 + 0.1 * i as f64);
+        cases.push((format!("{n}-link pendulum, tol 1e-15"), ode, y0, Taylor::new(1e-15).taylor_order()));
+    }
+    for (name, ode, y0, p) in cases {
+        let per_expansion = |o: &TaylorOde| {
+            let mut scratch = vec![0.0; o.scratch_len(p)];
+            let mut coeffs = vec![0.0; o.dim() * (p + 1)];
+            let reps = 2000;
+            let (t, _) = best(5, || {
+                for _ in 0..reps {
+                    o.expand(0.0, std::hint::black_box(&y0), p, &mut scratch, &mut coeffs).expect("expands");
+                }
+            });
+            t / reps as f64 * 1e9
+        };
+        let interp = per_expansion(&ode.clone().with_native(false));
+        let tiered = ode.clone();
+        let mut scratch = vec![0.0; ode.scratch_len(p)];
+        let mut coeffs = vec![0.0; ode.dim() * (p + 1)];
+        for _ in 0..=lagrangian::compile::COMPACT_AFTER_EXPANSIONS {
+            tiered.expand(0.0, &y0, p, &mut scratch, &mut coeffs).expect("expands");
+        }
+        assert!(tiered.native_compiled(p).is_some_and(|c| c.is_compact()), "{name}: not on compact code");
+        let compact = per_expansion(&tiered);
+        let (compact_ms, _) = best(3, || ode.taylor_tape().compile_native_compact(p + 1, p - 1));
+        let (final_ms, code) = best(1, || tiered.native_for(p).expect("final code"));
+        let final_ns = per_expansion(&tiered);
+        let form = if code.is_whole() {
+            "whole unrolled"
+        } else if code.is_compact() {
+            "compact"
+        } else {
+            "unrolled per order"
+        };
+        println!(
+            "| {name}, order {p} | {} | {interp:.0} | {compact:.0} ({:.1} ms) | {final_ns:.0}, {form} ({:.0} ms) | {:.2} | {:.2} |",
+            ode.taylor_tape().n_recurrences() * (p - 1) * (p - 1) / 2,
+            compact_ms * 1e3,
+            final_ms * 1e3,
+            compact / interp,
+            final_ns / compact,
+        );
+    }
+}
+
 fn chaos() {
     let k: usize = std::env::var("CHAOS_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
     println!("## Chaos map: double pendulum MEGNO over (θ1, θ2) at rest, {k} × {k} grid, t = 100, tol 1e-9, rayon");
-    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
-             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
-    let sys = System::from_lagrangian(l, &["θ1", "θ2"])
-        .and_then(|s| s.with_params(&[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)]))
-        .expect("valid L");
+    let sys = double_pendulum_system();
     let var = Variational::of_system(&sys, 1, true).expect("compiles");
     let starts: Vec<Vec<f64>> = (0..k * k)
         .map(|i| {
@@ -284,6 +351,9 @@ fn main() {
     }
     if want("cold-start") {
         cold_start();
+    }
+    if want("large-tapes") {
+        large_tapes();
     }
     if want("chaos-map") {
         chaos();
