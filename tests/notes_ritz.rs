@@ -141,3 +141,12 @@ fn a_trial_path_that_misses_an_end_condition_is_refused() {
     assert_eq!((code, out.as_str()), (2, ""));
     assert!(err.contains("misses the end condition x(1) = 1"), "{err}");
 }
+
+#[test]
+fn dependent_trial_coefficients_are_refused_as_a_singular_hessian() {
+    // a and b multiply the same function: S depends on a + b alone, so ∂²S/∂a∂b has equal rows.
+    let args = ["ritz", OSC, "--coords", "x", "--trial", "t + t (1 - t) (a + b)", "--unknowns", "a,b"];
+    let (code, out, err) = run(&[&args[..], &["--span", "0,1", "--from", "0", "--to", "1"]].concat());
+    assert_eq!((code, out.as_str()), (2, ""));
+    assert!(err.contains("the Hessian of S(a) is singular: the trial coefficients are not independent"), "{err}");
+}
