@@ -235,7 +235,7 @@ fn ode_expansions_and_whole_runs_equal_the_interpreter() {
 }
 
 #[test]
-fn tapes_too_large_to_unroll_get_compact_code_with_the_same_bits() {
+fn tapes_too_large_to_unroll_get_compact_code_with_the_same_bits_up_to_a_size() {
     // 40 chained products at order 100: far more terms than unrolled code may have.
     let src = (0..40).fold("t".to_string(), |acc, i| format!("({acc}) * (t + {i}/7)"));
     let tape = Tape::compile(&[parse(&src).unwrap()], &["t"], &[]).unwrap();
@@ -261,6 +261,11 @@ fn tapes_too_large_to_unroll_get_compact_code_with_the_same_bits() {
     let out = tt.output_row(0) * s;
     assert_eq!(interp[out + 41], 1.0);
     assert!(interp[out + 42..out + s].iter().all(|&x| x == 0.0));
+    // 700 products: past the recurrences compact code may have (the interpreter is faster).
+    let src = (0..700).fold("t".to_string(), |acc, i| format!("({acc}) * (t + {i}/7)"));
+    let tt = TaylorTape::new(&Tape::compile(&[parse(&src).unwrap()], &["t"], &[]).unwrap());
+    assert!(tt.n_recurrences() > 600);
+    assert!(tt.compile_native(s, p).is_none() && tt.compile_native_compact(s, p).is_none());
 }
 
 /// The 3-link pendulum (`W q'' = F`, symmetric `W`): at order 19 its recurrences unroll to more

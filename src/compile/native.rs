@@ -568,11 +568,14 @@ enum Form {
 ///
 /// Unrolled code grows as `recurrences · order²`; past [`MAX_NATIVE_TAYLOR_TERMS`] terms it
 /// would take Cranelift seconds and overflow the instruction cache. Such tapes get compact
-/// code ([`NativeTaylor::compile_compact`], heyoka's "compact mode"): one function whose
+/// code ([`NativeTaylor::compile_compact`], after heyoka's "compact mode"): one function whose
 /// argument is the order, each recurrence's sum a loop over the terms with the
 /// interpreter's four partial sums, so the code grows as `recurrences` alone and the
 /// coefficients are still the interpreter's bit for bit. What it saves over the interpreter
-/// is the instruction dispatch, the slice bounds checks and the row arithmetic.
+/// is the instruction dispatch, the slice bounds checks and the row arithmetic. Unlike
+/// heyoka's (one function per kind of recurrence, looping over their operands), its code
+/// still grows with the tape, so the largest tapes ([`MAX_COMPACT_RECURRENCES`]) stay
+/// interpreted.
 pub(crate) struct NativeTaylor {
     /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion or compact: `funcs[0]`.
     funcs: Vec<*const u8>,
@@ -606,6 +609,15 @@ impl std::fmt::Debug for NativeTaylor {
 /// the unrolled code, and code this large runs out of the instruction cache.
 pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
 
+/// Tapes with more recurrences than this stay interpreted rather than get compact code. Compact
+/// code is still a few hundred bytes per recurrence, and the interpreter's is a few kilobytes in
+/// all: measured on this project's machine (1 MB of L2 per core), compact code ran at 0.83–0.94×
+/// the interpreter's time up to the 16-link pendulum's 1,480 recurrences, then 1.2–2.3× slower
+/// at 1,881 and 2,330 (18- and 20-link), once code and coefficients no longer fit in L2
+/// (BENCHMARKS.md, "Large Taylor tapes"). Above about 500 recurrences it gains 10 % at most, so
+/// the limit leaves room for smaller caches.
+pub(crate) const MAX_COMPACT_RECURRENCES: usize = 600;
+
 /// The terms of `tape`'s recurrences unrolled to `max_order` (about).
 pub(crate) fn unrolled_terms(tape: &super::TaylorTape, max_order: usize) -> usize {
     tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2
@@ -622,10 +634,10 @@ impl NativeTaylor {
         Self::compile_with(tape, stride, max_order, Form::PerOrder, None)
     }
 
-    /// Compact code for orders `1..=max_order` whatever the tape's size (up to
-    /// [`MAX_NATIVE_INSTRS`] recurrences).
+    /// Compact code for orders `1..=max_order`, for tapes of at most
+    /// [`MAX_COMPACT_RECURRENCES`] recurrences.
     pub(crate) fn compile_compact(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
-        if tape.ops().len() > MAX_NATIVE_INSTRS {
+        if tape.ops().len() > MAX_COMPACT_RECURRENCES {
             return None;
         }
         Self::compile_with(tape, stride, max_order, Form::Compact, None)

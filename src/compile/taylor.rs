@@ -392,8 +392,8 @@ impl TaylorTape {
     /// Machine code for orders `1..=max_order` of this tape's recurrences, for coefficient
     /// buffers of `stride` (`max_order < stride`): unrolled per order, or compact (see
     /// [`TaylorTape::compile_native_compact`]) when unrolling would make too much code; `None`
-    /// when [`crate::compile::NO_JIT_ENV`] is set or the host has no JIT. Its coefficients
-    /// equal [`TaylorTape::run_order`]'s bit for bit.
+    /// when [`crate::compile::NO_JIT_ENV`] is set, the host has no JIT, or the tape is too
+    /// large for either form. Its coefficients equal [`TaylorTape::run_order`]'s bit for bit.
     pub fn compile_native(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
         if super::native::jit_disabled_by_env() {
             return None;
@@ -404,7 +404,9 @@ impl TaylorTape {
     /// Compact machine code for orders `1..=max_order`: one function taking the order, each
     /// recurrence's sum a loop, so the code grows with the recurrences alone (not with the
     /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] chooses it
-    /// for large tapes; this asks for it whatever the size. Same bits as the interpreter.
+    /// for large tapes; this asks for it whatever the order. `None` also past 600 recurrences,
+    /// where the code no longer fits in the caches and the interpreter is faster. Same bits as
+    /// the interpreter.
     pub fn compile_native_compact(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
         if super::native::jit_disabled_by_env() {
             return None;
