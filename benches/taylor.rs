@@ -7,7 +7,7 @@
 //! cargo bench --bench taylor                    # everything (~1 minute on 2 cores)
 //! cargo bench --bench taylor -- kepler          # one section: kepler, double-pendulum,
 //!                                               #   step-profile, cold-start, large-tapes,
-//!                                               #   chaos-map
+//!                                               #   compact-size, chaos-map
 //! ```
 //!
 //! Every system is compiled from text (the library's own path), not hand-written.
@@ -309,6 +309,45 @@ fn large_tapes() {
     }
 }
 
+/// Where compact code stops paying: the recurrences alone (a `TaylorTape` expansion, no solve)
+/// interpreted and as compact code, for n-link pendulums of growing size, at orders 11 and 19.
+/// The inputs' series are fixed smooth values; only the time per expansion matters here.
+fn compact_size() {
+    println!("## Compact code against the interpreter by tape size (recurrences alone, µs per expansion, CPU time)");
+    println!("| n-link | recurrences | order | coefficients | interpreted | compact | compact / interpreted |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [5, 8, 10, 12, 14, 16, 18, 20] {
+        let ode = n_link_system(n).compile_taylor().expect("compiles");
+        let tt = ode.taylor_tape();
+        for p in [11, 19] {
+            let s = p + 1;
+            let inputs = |k: usize, c: &mut [f64]| {
+                for i in 0..tt.n_inputs() {
+                    c[i * s + k] = if k == 0 { 0.3 + 0.01 * i as f64 } else { 0.1 / (k + i) as f64 };
+                }
+            };
+            let code = tt.compile_native_compact(s, p).expect("compact code");
+            let mut c = vec![0.0; tt.n_rows() * s];
+            let mut per_expansion = |code: Option<&lagrangian::compile::TaylorNative>| {
+                let reps = 100;
+                let (t, _) = best(5, || {
+                    for _ in 0..reps {
+                        tt.expand_with(code, &mut c, s, p, inputs).expect("expands");
+                    }
+                });
+                t / reps as f64 * 1e6
+            };
+            let (ti, tc) = (per_expansion(None), per_expansion(Some(&code)));
+            println!(
+                "| {n} | {} | {p} | {} KB | {ti:.1} | {tc:.1} | {:.2} |",
+                tt.n_recurrences(),
+                tt.n_rows() * s * 8 / 1024,
+                tc / ti
+            );
+        }
+    }
+}
+
 fn chaos() {
     let k: usize = std::env::var("CHAOS_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
     println!("## Chaos map: double pendulum MEGNO over (θ1, θ2) at rest, {k} × {k} grid, t = 100, tol 1e-9, rayon");
@@ -360,6 +399,9 @@ fn main() {
     }
     if want("large-tapes") {
         large_tapes();
+    }
+    if want("compact-size") {
+        compact_size();
     }
     if want("chaos-map") {
         chaos();

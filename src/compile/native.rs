@@ -609,7 +609,7 @@ impl std::fmt::Debug for NativeTaylor {
 /// the unrolled code, and code this large runs out of the instruction cache.
 pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
 
-/// Tapes with more recurrences than this stay interpreted rather than get compact code. Compact
+/// Tapes with more recurrences than this stay interpreted rather than run compact code. Compact
 /// code is still a few hundred bytes per recurrence, and the interpreter's is a few kilobytes in
 /// all: measured on this project's machine (1 MB of L2 per core), compact code ran at 0.83–0.94×
 /// the interpreter's time up to the 16-link pendulum's 1,480 recurrences, then 1.2–2.3× slower
@@ -629,15 +629,18 @@ impl NativeTaylor {
     /// `None` when the host has no JIT or the tape is too large even for compact code.
     pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
         if unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
+            if tape.ops().len() > MAX_COMPACT_RECURRENCES {
+                return None;
+            }
             return Self::compile_compact(tape, stride, max_order);
         }
         Self::compile_with(tape, stride, max_order, Form::PerOrder, None)
     }
 
-    /// Compact code for orders `1..=max_order`, for tapes of at most
-    /// [`MAX_COMPACT_RECURRENCES`] recurrences.
+    /// Compact code for orders `1..=max_order` whatever the tape's size (up to
+    /// [`MAX_NATIVE_INSTRS`] recurrences; [`MAX_COMPACT_RECURRENCES`] is where it stops paying).
     pub(crate) fn compile_compact(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
-        if tape.ops().len() > MAX_COMPACT_RECURRENCES {
+        if tape.ops().len() > MAX_NATIVE_INSTRS {
             return None;
         }
         Self::compile_with(tape, stride, max_order, Form::Compact, None)

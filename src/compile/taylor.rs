@@ -31,7 +31,9 @@ use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
-use super::native::{unrolled_terms, CholeskySolve, Expansion, NativeTaylor, MAX_NATIVE_TAYLOR_TERMS};
+use super::native::{
+    unrolled_terms, CholeskySolve, Expansion, NativeTaylor, MAX_COMPACT_RECURRENCES, MAX_NATIVE_TAYLOR_TERMS,
+};
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
@@ -403,10 +405,10 @@ impl TaylorTape {
 
     /// Compact machine code for orders `1..=max_order`: one function taking the order, each
     /// recurrence's sum a loop, so the code grows with the recurrences alone (not with the
-    /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] chooses it
-    /// for large tapes; this asks for it whatever the order. `None` also past 600 recurrences,
-    /// where the code no longer fits in the caches and the interpreter is faster. Same bits as
-    /// the interpreter.
+    /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] and
+    /// [`TaylorOde`] choose it for large tapes of at most 600 recurrences (past that its code
+    /// no longer fits in the caches and the interpreter is faster); this asks for it whatever
+    /// the size. Same bits as the interpreter.
     pub fn compile_native_compact(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
         if super::native::jit_disabled_by_env() {
             return None;
@@ -1187,7 +1189,10 @@ impl TaylorOde {
         if uses >= final_after {
             return best.get_or_init(|| self.compile_native(order)).as_ref();
         }
-        if terms > COMPACT_ABOVE_TERMS && uses >= cache.compact_after {
+        if terms > COMPACT_ABOVE_TERMS
+            && uses >= cache.compact_after
+            && self.tape.n_recurrences() <= MAX_COMPACT_RECURRENCES
+        {
             let compact = || self.tape.compile_native_compact(order + 1, order - 1);
             return cache.compact[order].get_or_init(compact).as_ref();
         }
