@@ -225,20 +225,15 @@ impl Ritz {
         a.resize(k, 0.0);
         for it in 1..=50 {
             crate::cancel::check().map_err(|_| bad(format!("interrupted after {} Newton steps", it - 1)))?;
-            let g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
-            let h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
+            let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
+            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if !gmax.is_finite() {
                 break;
             }
-            let newton = nalgebra::DMatrix::from_row_slice(k, k, &h)
-                .lu()
-                .solve(&nalgebra::DVector::from_vec(g))
-                .filter(|d| d.iter().all(|x| x.is_finite()))
-                .ok_or_else(|| {
-                    bad("the Hessian of S(a) is singular: the trial coefficients are not independent".into())
-                })?;
-            let g = newton.as_slice();
+            solve_dense(&mut h, &mut g, k).ok_or_else(|| {
+                bad("the Hessian of S(a) is singular: the trial coefficients are not independent".into())
+            })?;
             let mut step = 0.0f64;
             let mut scale = 1.0f64;
             for i in 0..k {
@@ -256,6 +251,37 @@ impl Ritz {
         }
         Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
     }
+}
+
+/// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
+fn solve_dense(m: &mut [f64], b: &mut [f64], n: usize) -> Option<()> {
+    for j in 0..n {
+        let piv = (j..n).max_by(|&x, &y| m[x * n + j].abs().total_cmp(&m[y * n + j].abs()))?;
+        if m[piv * n + j].abs() < 1e-300 || !m[piv * n + j].is_finite() {
+            return None;
+        }
+        if piv != j {
+            for c in 0..n {
+                m.swap(j * n + c, piv * n + c);
+            }
+            b.swap(j, piv);
+        }
+        for i in j + 1..n {
+            let f = m[i * n + j] / m[j * n + j];
+            for c in j..n {
+                m[i * n + c] -= f * m[j * n + c];
+            }
+            b[i] -= f * b[j];
+        }
+    }
+    for j in (0..n).rev() {
+        let mut s = b[j];
+        for c in j + 1..n {
+            s -= m[j * n + c] * b[c];
+        }
+        b[j] = s / m[j * n + j];
+    }
+    Some(())
 }
 
 /// The `n`-point Gauss–Legendre nodes and weights on [−1, 1]: Newton on `P_n` from the
