@@ -176,6 +176,34 @@ fn abs_kinks_are_reported_by_a_whole_native_expansion() {
     assert!((coeffs[p] - 1.5 / 720.0).abs() < 1e-15, "{coeffs:?}");
 }
 
+#[test]
+fn a_first_order_whole_expansion_computes_order_0_natively_with_the_same_bits() {
+    // Every operation of order 0: the built-ins, atan2, square roots, real roots, constant and
+    // variable powers, abs, quotients, and the time.
+    let f = [
+        "sin(y) cos(x) + tan(x/3) + exp(-x^2) + log(2 + y^2) + atan2(y, 1 + x^2)",
+        "sinh(x/4) - cosh(y/5) + tanh(x) + asin(x/4) + acos(y/4) + atan(x y) + sqrt(3 + x^2)",
+        "(2 + x^2)^(1/3) + (1 + y^2)^0.7 + (2 + x^2)^(1 + y/3) + abs(x - 5)/(3 + y^2) + t/10 - z",
+    ]
+    .map(|e| parse(e).unwrap());
+    let ode = TaylorOde::from_exprs(&f, &["x", "y", "z"], &[]).unwrap().with_native(true);
+    let reference = ode.clone().with_native(false);
+    let p = 16;
+    if jit_expected() {
+        let code = ode.native_for(p).expect("native code");
+        assert!(code.is_whole() && code.starts_at_order0(), "{code:?}");
+    }
+    let mut scratch = vec![0.0; ode.scratch_len(p)];
+    let (mut a, mut b) = (vec![0.0; 3 * (p + 1)], vec![0.0; 3 * (p + 1)]);
+    for (t, y) in [(0.0, [0.1, 0.2, 0.3]), (0.7, [-0.5, 0.9, 2.0]), (-1.3, [1.2, -0.4, -1.0])] {
+        ode.expand(t, &y, p, &mut scratch, &mut a).unwrap();
+        reference.expand(t, &y, p, &mut scratch, &mut b).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a), bits(&b), "t = {t}, y = {y:?}");
+        assert!(a.iter().all(|x| x.is_finite()) && (0..3).all(|i| a[i * (p + 1) + p] != 0.0), "{a:?}");
+    }
+}
+
 const DOUBLE_PENDULUM: &str = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
                                + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
 

@@ -34,7 +34,10 @@ use std::mem::ManuallyDrop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Signature, StackSlotData, StackSlotKind, Value};
+use cranelift_codegen::ir::{
+    types, AbiParam, InstBuilder, MemFlags, Signature, StackSlot, StackSlotData, StackSlotKind, Value,
+};
+use cranelift_codegen::isa::CallConv;
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
@@ -237,17 +240,12 @@ struct Emitter<'a, 'b> {
     b: &'a mut FunctionBuilder<'b>,
     /// The SSA value each slot holds right now (`None`: not yet written).
     slots: Vec<Option<Value>>,
-    call_conv: cranelift_codegen::isa::CallConv,
+    call_conv: CallConv,
     ptr: types::Type,
 }
 
 impl<'a, 'b> Emitter<'a, 'b> {
-    fn new(
-        b: &'a mut FunctionBuilder<'b>,
-        tape: &Tape,
-        call_conv: cranelift_codegen::isa::CallConv,
-        ptr: types::Type,
-    ) -> Self {
+    fn new(b: &'a mut FunctionBuilder<'b>, tape: &Tape, call_conv: CallConv, ptr: types::Type) -> Self {
         Emitter { b, slots: vec![None; tape.scratch_len()], call_conv, ptr }
     }
 
@@ -350,18 +348,7 @@ impl<'a, 'b> Emitter<'a, 'b> {
                 }
                 Instr::SinCos { s, c, a } => {
                     let x = self.get(a)?;
-                    let pair = *pair.get_or_insert_with(|| {
-                        self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3))
-                    });
-                    let addr = self.b.ins().stack_addr(self.ptr, pair, 0);
-                    let mut sig = Signature::new(self.call_conv);
-                    sig.params.push(AbiParam::new(types::F64));
-                    sig.params.push(AbiParam::new(self.ptr));
-                    let sig = self.b.import_signature(sig);
-                    let callee = self.b.ins().iconst(self.ptr, sin_cos as *const () as usize as i64);
-                    self.b.ins().call_indirect(sig, callee, &[x, addr]);
-                    let sv = self.b.ins().stack_load(types::F64, pair, 0);
-                    let cv = self.b.ins().stack_load(types::F64, pair, 8);
+                    let (sv, cv) = call_sin_cos(self.b, self.call_conv, self.ptr, &mut pair, x);
                     self.set(s, sv);
                     self.set(c, cv);
                 }
@@ -425,16 +412,42 @@ impl<'a, 'b> Emitter<'a, 'b> {
 
     /// Calls the `extern "C"` function at `addr` with `f64` arguments, returning one `f64`.
     fn call(&mut self, addr: usize, args: &[Value]) -> Value {
-        let mut sig = Signature::new(self.call_conv);
-        for _ in args {
-            sig.params.push(AbiParam::new(types::F64));
-        }
-        sig.returns.push(AbiParam::new(types::F64));
-        let sig = self.b.import_signature(sig);
-        let callee = self.b.ins().iconst(self.ptr, addr as i64);
-        let call = self.b.ins().call_indirect(sig, callee, args);
-        self.b.inst_results(call)[0]
+        call_f64(self.b, self.call_conv, self.ptr, addr, args)
     }
+}
+
+/// Calls the `extern "C"` function at `addr` with `f64` arguments, returning one `f64`.
+fn call_f64(b: &mut FunctionBuilder, call_conv: CallConv, ptr: types::Type, addr: usize, args: &[Value]) -> Value {
+    let mut sig = Signature::new(call_conv);
+    for _ in args {
+        sig.params.push(AbiParam::new(types::F64));
+    }
+    sig.returns.push(AbiParam::new(types::F64));
+    let sig = b.import_signature(sig);
+    let callee = b.ins().iconst(ptr, addr as i64);
+    let call = b.ins().call_indirect(sig, callee, args);
+    b.inst_results(call)[0]
+}
+
+/// `(sin x, cos x)` by the `sin_cos` wrapper, which writes them to the function's 16-byte
+/// stack slot `pair` (made on first use).
+fn call_sin_cos(
+    b: &mut FunctionBuilder,
+    call_conv: CallConv,
+    ptr: types::Type,
+    pair: &mut Option<StackSlot>,
+    x: Value,
+) -> (Value, Value) {
+    let pair =
+        *pair.get_or_insert_with(|| b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3)));
+    let addr = b.ins().stack_addr(ptr, pair, 0);
+    let mut sig = Signature::new(call_conv);
+    sig.params.push(AbiParam::new(types::F64));
+    sig.params.push(AbiParam::new(ptr));
+    let sig = b.import_signature(sig);
+    let callee = b.ins().iconst(ptr, sin_cos as *const () as usize as i64);
+    b.ins().call_indirect(sig, callee, &[x, addr]);
+    (b.ins().stack_load(types::F64, pair, 0), b.ins().stack_load(types::F64, pair, 8))
 }
 
 // The transcendental wrappers. Each calls exactly what the interpreter calls for the same
@@ -580,6 +593,8 @@ pub(crate) struct NativeTaylor {
     /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion or compact: `funcs[0]`.
     funcs: Vec<*const u8>,
     form: Form,
+    /// Whether a whole expansion computes order 0 too (first-order systems).
+    from_order0: bool,
     max_order: usize,
     _module: OwnedModule,
     stride: usize,
@@ -679,13 +694,20 @@ impl NativeTaylor {
         self.form == Form::Whole
     }
 
+    /// Whether this whole expansion starts at order 0 (the state's order 0 and the time's
+    /// orders given), not at order 1.
+    pub(crate) fn starts_at_order0(&self) -> bool {
+        self.from_order0
+    }
+
     /// Whether this is compact code ([`NativeTaylor::compile_compact`]).
     pub(crate) fn is_compact(&self) -> bool {
         self.form == Form::Compact
     }
 
     /// Runs a whole expansion: orders `1..=max_order` and the glue after each (orders `0` of
-    /// every row and order 1 of the state given); `false` when an `abs` met its kink.
+    /// every row and order 1 of the state given), or from order 0 ([`NativeTaylor::starts_at_order0`]);
+    /// `false` when an `abs` met its kink.
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
         assert!(self.is_whole(), "not a whole expansion");
         self.call(c, 0)
@@ -753,8 +775,10 @@ fn compile_taylor_code(
     let mut ok = true;
     // The orders each function computes: one per function, all in one, or (compact) the
     // argument, written 0 here.
+    // A first-order system's whole expansion starts at order 0 (`TaylorEmitter::order0`).
+    let from_order0 = form == Form::Whole && expansion.is_some_and(|g| g.solve.is_none());
     let funcs: Vec<Vec<usize>> = match form {
-        Form::Whole => vec![(1..=max_order).collect()],
+        Form::Whole => vec![(usize::from(!from_order0)..=max_order).collect()],
         Form::PerOrder => (1..=max_order).map(|k| vec![k]).collect(),
         Form::Compact => vec![vec![0]],
     };
@@ -786,13 +810,17 @@ fn compile_taylor_code(
             };
             let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
             let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
-            let mut em = TaylorEmitter { b: &mut b, base, ptr, s: stride, k, known };
+            let mut em = TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 if form != Form::Compact {
                     em.k = Order::Fixed(k);
                 }
-                kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
+                if from_order0 && k == 0 {
+                    em.order0(tape);
+                } else {
+                    kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
+                }
                 if let Some(g) = expansion {
                     if let Some(m) = &g.solve {
                         em.cholesky_solve(m, k);
@@ -838,6 +866,7 @@ fn compile_taylor_code(
     Some(NativeTaylor {
         funcs,
         form,
+        from_order0,
         max_order,
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
@@ -926,6 +955,7 @@ impl Weight {
 /// `TaylorTape::run_order` operation for operation.
 struct TaylorEmitter<'a, 'b> {
     b: &'a mut FunctionBuilder<'b>,
+    call_conv: CallConv,
     base: Value,
     /// The integer type of addresses and of the order.
     ptr: types::Type,
@@ -1306,6 +1336,159 @@ impl TaylorEmitter<'_, '_> {
         let kf = self.kf();
         let den = self.b.ins().fmul(kf, a0);
         self.times_recip(acc, den)
+    }
+
+    /// Order 0 of every row: `TaylorTape::run_order0`'s operations (the plain tape's, and the
+    /// auxiliary rows), the transcendental functions called through the wrappers the plain
+    /// native code calls, so the values are the interpreter's bit for bit.
+    fn order0(&mut self, tape: &super::TaylorTape) {
+        let mut pair = None;
+        let (cc, ptr) = (self.call_conv, self.ptr);
+        let unary = |em: &mut Self, f: Func, x: Value| match wrapper(f) {
+            Some(w) => call_f64(em.b, cc, ptr, w as usize, &[x]),
+            None => unreachable!("abs and atan2 have their own operations"),
+        };
+        let binary = |em: &mut Self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value| {
+            call_f64(em.b, cc, ptr, f as usize, &[x, y])
+        };
+        let one = self.c(1.0);
+        for op in tape.ops0() {
+            match *op {
+                Op::Add { d, a, b } => {
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let v = self.b.ins().fadd(x, y);
+                    self.put_at(d, 0, v);
+                }
+                Op::Sub { d, a, b } => {
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let v = self.b.ins().fsub(x, y);
+                    self.put_at(d, 0, v);
+                }
+                Op::Mul { d, a, b } => {
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let v = self.b.ins().fmul(x, y);
+                    self.put_at(d, 0, v);
+                }
+                Op::Div { d, a, b } => {
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let v = self.b.ins().fdiv(x, y);
+                    self.put_at(d, 0, v);
+                }
+                Op::Neg { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = self.b.ins().fneg(x);
+                    self.put_at(d, 0, v);
+                }
+                Op::Sqrt { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = self.b.ins().sqrt(x);
+                    self.put_at(d, 0, v);
+                }
+                Op::Abs { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = self.b.ins().fabs(x);
+                    self.put_at(d, 0, v);
+                }
+                Op::SinCos { s, c, a } => {
+                    let x = self.at(a, 0);
+                    let (sv, cv) = call_sin_cos(self.b, cc, ptr, &mut pair, x);
+                    self.put_at(s, 0, sv);
+                    self.put_at(c, 0, cv);
+                }
+                Op::SinhCosh { s, c, a } => {
+                    let x = self.at(a, 0);
+                    let sv = unary(self, Func::Sinh, x);
+                    let cv = unary(self, Func::Cosh, x);
+                    self.put_at(s, 0, sv);
+                    self.put_at(c, 0, cv);
+                }
+                Op::Exp { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = unary(self, Func::Exp, x);
+                    self.put_at(d, 0, v);
+                }
+                Op::Log { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = unary(self, Func::Log, x);
+                    self.put_at(d, 0, v);
+                }
+                Op::Tan { d, a, u, hyp } => {
+                    // u = 1 − tanh² or 1 + tan².
+                    let x = self.at(a, 0);
+                    let v = unary(self, if hyp { Func::Tanh } else { Func::Tan }, x);
+                    let sq = self.b.ins().fmul(v, v);
+                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
+                    self.put_at(d, 0, v);
+                    self.put_at(u, 0, uv);
+                }
+                Op::Asin { d, a, r, neg } => {
+                    // r = √(1 − x²).
+                    let x = self.at(a, 0);
+                    let v = unary(self, if neg { Func::Acos } else { Func::Asin }, x);
+                    let sq = self.b.ins().fmul(x, x);
+                    let rest = self.b.ins().fsub(one, sq);
+                    let rv = self.b.ins().sqrt(rest);
+                    self.put_at(d, 0, v);
+                    self.put_at(r, 0, rv);
+                }
+                Op::Atan { d, a, u } => {
+                    // u = 1 + x².
+                    let x = self.at(a, 0);
+                    let v = unary(self, Func::Atan, x);
+                    let sq = self.b.ins().fmul(x, x);
+                    let uv = self.b.ins().fadd(one, sq);
+                    self.put_at(d, 0, v);
+                    self.put_at(u, 0, uv);
+                }
+                Op::Atan2 { d, a, b, u } => {
+                    // u = x² + y².
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let v = binary(self, atan2, x, y);
+                    let (xx, yy) = (self.b.ins().fmul(x, x), self.b.ins().fmul(y, y));
+                    let uv = self.b.ins().fadd(xx, yy);
+                    self.put_at(d, 0, v);
+                    self.put_at(u, 0, uv);
+                }
+                Op::Root { d, a, q } => {
+                    let x = self.at(a, 0);
+                    let qv = self.c(f64::from(q));
+                    let v = binary(self, real_root, x, qv);
+                    self.put_at(d, 0, v);
+                }
+                Op::PowConst { d, a, e } => {
+                    let (x, y) = (self.at(a, 0), self.at(e, 0));
+                    let v = binary(self, powf, x, y);
+                    self.put_at(d, 0, v);
+                }
+                Op::PowVar { d, a, b, l, m } => {
+                    // l = ln x, m = y l.
+                    let (x, y) = (self.at(a, 0), self.at(b, 0));
+                    let lv = unary(self, Func::Log, x);
+                    let v = binary(self, powf, x, y);
+                    let mv = self.b.ins().fmul(y, lv);
+                    self.put_at(d, 0, v);
+                    self.put_at(l, 0, lv);
+                    self.put_at(m, 0, mv);
+                }
+                Op::Sqr { d, a } => {
+                    let x = self.at(a, 0);
+                    let v = self.b.ins().fmul(x, x);
+                    self.put_at(d, 0, v);
+                }
+                Op::Scale { d, a, f } => {
+                    let x = self.at(a, 0);
+                    let fv = self.c(f);
+                    let v = self.b.ins().fmul(x, fv);
+                    self.put_at(d, 0, v);
+                }
+                Op::Power { d, a, e } => {
+                    let x = self.at(a, 0);
+                    let ev = self.c(e);
+                    let v = binary(self, powf, x, ev);
+                    self.put_at(d, 0, v);
+                }
+            }
+        }
     }
 
     /// All recurrences at order `k`; the value is the kink flag (an `i8`).

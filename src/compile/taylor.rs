@@ -386,6 +386,11 @@ impl TaylorTape {
         &self.ops
     }
 
+    /// The operations of order 0, in order (for the native back end).
+    pub(super) fn ops0(&self) -> &[Op] {
+        &self.ops0
+    }
+
     /// The value of a constant row (`None` for any other row).
     pub(super) fn row_constant(&self, r: u32) -> Option<f64> {
         (r as usize).checked_sub(self.n_inputs).and_then(|i| self.consts.get(i)).copied()
@@ -809,6 +814,12 @@ impl TaylorNative {
     /// Whether this is the whole expansion of a first-order ODE (see [`TaylorOde::native_for`]).
     pub fn is_whole(&self) -> bool {
         self.0.is_whole()
+    }
+
+    /// Whether this whole expansion computes order 0 too (a first-order system's does; a
+    /// `W q'' = F` system's starts after order 0, which factors `W₀` in Rust).
+    pub fn starts_at_order0(&self) -> bool {
+        self.0.starts_at_order0()
     }
 
     /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
@@ -1251,10 +1262,11 @@ impl TaylorOde {
             }
         }
         let mut kind = Factor::Cholesky;
+        // A whole expansion takes over at order 0 (first-order systems) or after it, unless
+        // `W₀` needed LU (then this expansion stays interpreted).
+        let whole_from = whole.map(|code| usize::from(!code.starts_at_order0()));
         for k in 0..order {
-            // A whole expansion takes over after order 0, unless `W₀` needed LU (then this
-            // expansion stays interpreted).
-            if k == 1 && whole.is_some() && !matches!(kind, Factor::Lu) {
+            if whole_from == Some(k) && !matches!(kind, Factor::Lu) {
                 run_whole = true;
                 break;
             }
