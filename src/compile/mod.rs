@@ -22,7 +22,7 @@
 //!   Cranelift and evaluated there, with the same bits as the interpreter, which remains the
 //!   reference and the fallback ([`CompileOptions::native`], [`NO_JIT_ENV`]).
 //!
-//! This stage never parses: it receives [`Expr`]s and symbol names.
+//! This stage never parses: it receives [`Expr`](crate::Expr)s and symbol names.
 
 mod constrained;
 mod discrete;
