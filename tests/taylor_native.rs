@@ -2,7 +2,9 @@
 //! reference: for a tape using every instruction kind, every coefficient of every row up to
 //! order 24 must be the interpreter's bit for bit (the native code adds the same terms in the
 //! same order with the same IEEE operations), and so must whole Taylor integrations of
-//! `W q'' = F` and Hamiltonian systems.
+//! `W q'' = F` and Hamiltonian systems. The same holds for compact code (one function taking
+//! the order, each sum a loop), for the whole expansion of a first-order system from order 0,
+//! and along the tiers a large tape passes through (interpreted, compact, unrolled).
 //!
 //! The interpreter itself is checked against Cauchy integrals in `taylor_recurrences.rs`.
 

@@ -594,7 +594,7 @@ pub(crate) struct NativeTaylor {
     funcs: Vec<*const u8>,
     form: Form,
     /// Whether a whole expansion computes order 0 too (first-order systems).
-    from_order0: bool,
+    starts_at_order0: bool,
     max_order: usize,
     _module: OwnedModule,
     stride: usize,
@@ -626,11 +626,11 @@ pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
 
 /// Tapes with more recurrences than this stay interpreted rather than run compact code. Compact
 /// code is still a few hundred bytes per recurrence, and the interpreter's is a few kilobytes in
-/// all: measured on this project's machine (1 MB of L2 per core), compact code ran at 0.83–0.94×
-/// the interpreter's time up to the 16-link pendulum's 1,480 recurrences, then 1.2–2.3× slower
-/// at 1,881 and 2,330 (18- and 20-link), once code and coefficients no longer fit in L2
-/// (BENCHMARKS.md, "Large Taylor tapes"). Above about 500 recurrences it gains 10 % at most, so
-/// the limit leaves room for smaller caches.
+/// all: measured on this project's machine (1 MB of L2 per core), compact code ran at 0.64–1.04×
+/// the interpreter's time up to the 16-link pendulum's 1,480 recurrences, the gain shrinking with
+/// size, then 1.2–2.5× slower at 1,881 and 2,330 (18- and 20-link), once code and coefficients no
+/// longer fit in L2 (BENCHMARKS.md, "Where compact code stops paying"). Past a few hundred
+/// recurrences it gains 18 % at most, so the limit leaves room for smaller caches.
 pub(crate) const MAX_COMPACT_RECURRENCES: usize = 600;
 
 /// The terms of `tape`'s recurrences unrolled to `max_order` (about).
@@ -697,7 +697,7 @@ impl NativeTaylor {
     /// Whether this whole expansion starts at order 0 (the state's order 0 and the time's
     /// orders given), not at order 1.
     pub(crate) fn starts_at_order0(&self) -> bool {
-        self.from_order0
+        self.starts_at_order0
     }
 
     /// Whether this is compact code ([`NativeTaylor::compile_compact`]).
@@ -706,8 +706,9 @@ impl NativeTaylor {
     }
 
     /// Runs a whole expansion: orders `1..=max_order` and the glue after each (orders `0` of
-    /// every row and order 1 of the state given), or from order 0 ([`NativeTaylor::starts_at_order0`]);
-    /// `false` when an `abs` met its kink.
+    /// every row and order 1 of the state given), or the same from order 0
+    /// ([`NativeTaylor::starts_at_order0`]: only the state's order 0 and the time's orders
+    /// given); `false` when an `abs` met its kink.
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
         assert!(self.is_whole(), "not a whole expansion");
         self.call(c, 0)
@@ -773,12 +774,12 @@ fn compile_taylor_code(
     let mut fbc = FunctionBuilderContext::new();
     let mut ids = Vec::with_capacity(max_order);
     let mut ok = true;
-    // The orders each function computes: one per function, all in one, or (compact) the
-    // argument, written 0 here.
-    // A first-order system's whole expansion starts at order 0 (`TaylorEmitter::order0`).
-    let from_order0 = form == Form::Whole && expansion.is_some_and(|g| g.solve.is_none());
+    // The orders each function computes: one each (per order); all of them in one function
+    // (whole expansion, from order 0 for a first-order system, see `TaylorEmitter::order0`);
+    // for compact code a placeholder, its order being the function's argument.
+    let starts_at_order0 = form == Form::Whole && expansion.is_some_and(|g| g.solve.is_none());
     let funcs: Vec<Vec<usize>> = match form {
-        Form::Whole => vec![(usize::from(!from_order0)..=max_order).collect()],
+        Form::Whole => vec![(usize::from(!starts_at_order0)..=max_order).collect()],
         Form::PerOrder => (1..=max_order).map(|k| vec![k]).collect(),
         Form::Compact => vec![vec![0]],
     };
@@ -816,7 +817,7 @@ fn compile_taylor_code(
                 if form != Form::Compact {
                     em.k = Order::Fixed(k);
                 }
-                if from_order0 && k == 0 {
+                if starts_at_order0 && k == 0 {
                     em.order0(tape);
                 } else {
                     kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
@@ -866,7 +867,7 @@ fn compile_taylor_code(
     Some(NativeTaylor {
         funcs,
         form,
-        from_order0,
+        starts_at_order0,
         max_order,
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,

@@ -796,7 +796,8 @@ impl TaylorNative {
         self.0.stride()
     }
 
-    /// The highest order compiled (orders `1..=max_order`; order 0 is always interpreted).
+    /// The highest order compiled (orders `1..=max_order`; order 0 is interpreted except in a
+    /// first-order system's whole expansion, see [`TaylorNative::starts_at_order0`]).
     pub fn max_order(&self) -> usize {
         self.0.max_order()
     }
@@ -827,8 +828,9 @@ impl TaylorNative {
         self.0.is_compact()
     }
 
-    /// Runs a whole expansion: orders `1..=max_order` and the state's next order after each
-    /// (`c`: the whole scratch of [`TaylorOde::expand`]).
+    /// Runs a whole expansion: orders `1..=max_order` (from order 0 if it
+    /// [`starts_at_order0`](TaylorNative::starts_at_order0)) and the state's next order after
+    /// each (`c`: the whole scratch of [`TaylorOde::expand`]).
     fn run_expansion(&self, c: &mut [f64]) -> Result<(), KinkAt> {
         if self.0.run_expansion(c) {
             Ok(())
@@ -853,9 +855,9 @@ pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
 
 /// Orders whose unrolled recurrences have more terms than this start on compact code
 /// (`native.rs`): unrolled code's compile time grows faster than its terms (0.2 s for the
-/// chaos map's variational double pendulum at order 12, 9,072 terms; 1.4 s for a 5-link
+/// chaos map's variational double pendulum at order 12, 7,623 terms; 1.4–2.6 s for a 5-link
 /// pendulum at order 19), compact code's only with the recurrences (10 ms for either), and
-/// compact code runs 5–25 % slower than unrolled code for these sizes (BENCHMARKS.md). At
+/// compact code runs only 5–11 % slower than unrolled code for these sizes (BENCHMARKS.md). At
 /// this size unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`]
 /// interpreted expansions.
 pub const COMPACT_ABOVE_TERMS: usize = 5_000;
@@ -1118,7 +1120,8 @@ impl TaylorOde {
     }
 
     /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
-    /// native code is off, or the host has no JIT).
+    /// native code is off, the host has no JIT, or the tape is too large for unrolled and for
+    /// compact code).
     ///
     /// A first-order system, and a `W q'' = F` system with a symmetric `W`, get the whole
     /// expansion as one function (orders, the Cholesky solve and the steps from each order of
@@ -1172,7 +1175,8 @@ impl TaylorOde {
         let expansion = Expansion { glue, solve };
         match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
             Some(code) => Some(TaylorNative(Arc::new(code))),
-            // Too large to unroll: compact code, one call per order.
+            // Too large to unroll: compact code, one call per order (none past
+            // `MAX_COMPACT_RECURRENCES`).
             None => self.tape.compile_native(stride, order - 1),
         }
     }
