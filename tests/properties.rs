@@ -1,12 +1,14 @@
 //! Properties over random expressions: the algebra tools and the simplifier preserve values,
 //! derivatives agree with central finite differences, plain printing re-parses to the
-//! identical DAG, and canonical construction does not depend on the order of operands.
+//! identical DAG, canonical construction does not depend on the order of operands, and the
+//! native Taylor coefficients (unrolled and compact) are the interpreter's bit for bit.
 
 use std::collections::HashMap;
 
 use lagrangian::algebra::{
     cancel, collect_common, expand_with_limit, factor_content, numer_denom, together, trig_normalize,
 };
+use lagrangian::compile::{Tape, TaylorTape};
 use lagrangian::diff::diff;
 use lagrangian::eval::eval_with;
 use lagrangian::parse::parse;
@@ -196,4 +198,38 @@ fn printed_products_reparse_identically() {
     let by_hand = Expr::var("y").over(&Expr::var("x").powi(2));
     assert!(parse("x^-2 y").is_ok_and(|e| e == by_hand));
     assert!(parse("-x^2").is_ok_and(|e| e == Expr::var("x").powi(2).neg()));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    /// The Taylor coefficients of `e` along a line through the sample box, to order 12: the
+    /// unrolled and the compact native code give the interpreter's bits for every row and
+    /// order (where the host has a JIT; the fixed cases in `taylor_native.rs` check that it does).
+    #[test]
+    fn native_taylor_coefficients_equal_the_interpreter(e in arb_expr(), seed in any::<u64>()) {
+        let Ok(tape) = Tape::compile(std::slice::from_ref(&e), &NAMES, &[]) else { return Ok(()) };
+        let tt = TaylorTape::new(&tape);
+        let (p, s) = (12, 13);
+        let at = &points(seed)[0];
+        let start: Vec<f64> = NAMES.iter().map(|n| at[*n]).collect();
+        // x_i(t) = x_i + (i + 1)/4 · t.
+        let line = |k: usize, c: &mut [f64]| {
+            for (i, x0) in start.iter().enumerate() {
+                c[i * s + k] = match k {
+                    0 => *x0,
+                    1 => (i + 1) as f64 / 4.0,
+                    _ => 0.0,
+                };
+            }
+        };
+        let bits = |c: &[f64]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut reference = vec![f64::NAN; tt.n_rows() * s];
+        tt.expand(&mut reference, s, p, line).map_err(|_| TestCaseError::fail("abs kink"))?;
+        for code in [tt.compile_native(s, p), tt.compile_native_compact(s, p)].into_iter().flatten() {
+            let mut c = vec![f64::NAN; tt.n_rows() * s];
+            tt.expand_with(Some(&code), &mut c, s, p, line).map_err(|_| TestCaseError::fail("abs kink"))?;
+            prop_assert_eq!(bits(&reference), bits(&c), "{} ({})", e, if code.is_compact() { "compact" } else { "unrolled" });
+        }
+    }
 }
