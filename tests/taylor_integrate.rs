@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 use lagrangian::compile::TaylorOde;
 use lagrangian::integrate::problems::{elliptic_k, DoublePendulum, Kepler, Pendulum};
-use lagrangian::integrate::{Crossing, Event, FailureReason, Integrate, Options, Taylor};
+use lagrangian::integrate::{Crossing, Event, FailureReason, Integrate, Options, RhsError, Taylor, TaylorSystem};
 use lagrangian::mechanics::System;
 use lagrangian::parse;
 
@@ -182,6 +182,46 @@ fn a_blow_up_ends_with_a_typed_error_not_a_hang() {
     );
     assert!(err.t > 0.99 && err.t < 1.0 + 1e-12, "{err}");
     assert!(err.steps < 10_000, "{} steps", err.steps);
+}
+
+/// `y(t) = y₀ + t`, except that every coefficient from order 2 on is NaN, which this system
+/// does not check itself (`TaylorSystem::refuses_non_finite` left at `false`).
+struct NanSeries;
+
+impl TaylorSystem for NanSeries {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn scratch_len(&self, _order: usize) -> usize {
+        0
+    }
+    fn taylor_coefficients(
+        &self,
+        _t: f64,
+        y: &[f64],
+        order: usize,
+        _scratch: &mut [f64],
+        coeffs: &mut [f64],
+    ) -> Result<(), RhsError> {
+        coeffs[0] = y[0];
+        coeffs[1] = 1.0;
+        coeffs[2..=order].fill(f64::NAN);
+        Ok(())
+    }
+}
+
+#[test]
+fn non_finite_coefficients_are_refused_by_the_system_or_else_the_integrator() {
+    // A system that does not check: the integrator's typed failure, before any step.
+    let err = Taylor::new(1e-12).integrate(&NanSeries, 0.0..1.0, &[0.0]).unwrap_err();
+    assert!(matches!(err.reason, FailureReason::NonFinite { component: 0 }), "{err}");
+    assert_eq!(err.steps, 0);
+    // A compiled system refuses them in its own expansion, naming the order and the state:
+    // y' = exp(y) at y = 800 overflows at order 1.
+    let sys = TaylorOde::from_exprs(&[parse("exp(y)").unwrap()], &["y"], &[]).unwrap();
+    let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[800.0]).unwrap_err();
+    assert!(matches!(err.reason, FailureReason::Rhs(_)), "{err}");
+    assert!(err.to_string().contains("non-finite Taylor coefficient of order 1"), "{err}");
 }
 
 #[test]

@@ -1386,6 +1386,10 @@ impl TaylorSystem for TaylorOde {
     ) -> Result<(), StepError> {
         self.expand(t, y, order, scratch, coeffs).map_err(|e| StepError::new(e.to_string()))
     }
+    /// `expand` ends by refusing non-finite coefficients ([`TaylorError::NonFinite`]).
+    fn refuses_non_finite(&self) -> bool {
+        true
+    }
     fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
         // Tape values are expanded to `order − 1` (the state's order-`order` terms come from
         // them), so their polynomial stops there.

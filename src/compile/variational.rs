@@ -193,4 +193,7 @@ impl TaylorSystem for Variational {
     fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
         self.taylor.check_step(scratch, order, h)
     }
+    fn refuses_non_finite(&self) -> bool {
+        self.taylor.refuses_non_finite()
+    }
 }
