@@ -206,6 +206,27 @@ fn a_first_order_whole_expansion_computes_order_0_natively_with_the_same_bits() 
     }
 }
 
+#[test]
+fn a_small_tape_runs_on_compact_code_until_its_unrolled_code_is_due() {
+    // Kepler (6 recurrences): default tiers, a run of more than `COMPACT_AFTER_EXPANSIONS`
+    // steps and fewer than `AUTO_NATIVE_AFTER_EXPANSIONS` ends on compact code, with the
+    // interpreter's bits.
+    let (ode, reference) = (kepler(), kepler().with_native(false));
+    let m = Taylor::new(1e-15);
+    let y0 = Kepler::pericentre(0.6);
+    let run = |o: &TaylorOde| m.integrate_with(o, 0.0..1000.0, &y0, Options::new().final_only()).unwrap();
+    let (ra, rb) = (run(&ode), run(&reference));
+    assert!(
+        (lagrangian::compile::COMPACT_AFTER_EXPANSIONS..lagrangian::compile::AUTO_NATIVE_AFTER_EXPANSIONS)
+            .contains(&ra.stats.steps),
+        "{} steps",
+        ra.stats.steps
+    );
+    assert_eq!(ra.last_state(), rb.last_state());
+    let code = ode.native_compiled(m.taylor_order());
+    assert_eq!(code.as_ref().is_some_and(|c| c.is_compact()), jit_expected(), "{code:?}");
+}
+
 const DOUBLE_PENDULUM: &str = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
                                + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
 
@@ -329,14 +350,14 @@ fn a_large_tape_runs_on_compact_code_then_unrolled_code_with_the_same_bits() {
     let reference = ode.clone().with_native(false);
     // Default tiers: a run of more than `COMPACT_AFTER_EXPANSIONS` steps ends on compact code.
     let tiered = ode.clone();
-    let (ra, rb) = (run(&tiered, 150.0), run(&reference, 150.0));
+    let (ra, rb) = (run(&tiered, 400.0), run(&reference, 400.0));
     assert!(ra.stats.steps > lagrangian::compile::COMPACT_AFTER_EXPANSIONS, "{} steps", ra.stats.steps);
     assert_eq!(ra.last_state(), rb.last_state());
     let code = tiered.native_compiled(p);
     assert_eq!(code.as_ref().is_some_and(|c| c.is_compact()), jit_expected(), "{code:?}");
     // Switched on: the final code (a whole unrolled expansion) after a few expansions.
     let early = ode.with_native(true);
-    assert_eq!(run(&early, 150.0).last_state(), rb.last_state());
+    assert_eq!(run(&early, 400.0).last_state(), rb.last_state());
     let code = early.native_compiled(p);
     assert_eq!(code.as_ref().is_some_and(|c| c.is_whole()), jit_expected(), "{code:?}");
 }

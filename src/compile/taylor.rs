@@ -853,45 +853,51 @@ pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
 /// ends just after (as renting skis until their price is spent bounds the loss of buying).
 pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
 
-/// Orders whose unrolled recurrences have more terms than this start on compact code
-/// (`native.rs`): unrolled code's compile time grows faster than its terms (0.2 s for the
-/// chaos map's variational double pendulum at order 12, 7,623 terms; 1.4–2.6 s for a 5-link
-/// pendulum at order 19), compact code's only with the recurrences (10 ms for either), and
-/// compact code runs only 5–11 % slower than unrolled code for these sizes (BENCHMARKS.md). At
-/// this size unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`]
-/// interpreted expansions.
+/// Orders whose unrolled recurrences have more terms than this wait for
+/// [`UNROLL_AFTER_EXPANSIONS`] before unrolled code, not [`AUTO_NATIVE_AFTER_EXPANSIONS`]:
+/// unrolled code's compile time grows faster than its terms (0.2 s for the chaos map's
+/// variational double pendulum at order 12, 7,623 terms; 1.4–2.6 s for a 5-link pendulum at
+/// order 19), compact code's only with the recurrences (10 ms for either), and compact code
+/// runs only 5–11 % slower than unrolled code at these sizes (BENCHMARKS.md). At this size
+/// unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted
+/// expansions.
 pub const COMPACT_ABOVE_TERMS: usize = 5_000;
 
-/// By default, a tape past [`COMPACT_ABOVE_TERMS`] gets compact code after this many
-/// interpreted expansions (its compile time is that of about a thousand of them)…
-pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 10;
+/// By default every tape (of at most 600 recurrences) gets compact code after this many
+/// interpreted expansions, until its unrolled code exists. Compact code's compile time over
+/// what it saves per expansion against the interpreter is 3,000–5,000 expansions for every
+/// tape measured (Kepler 0.9 ms / 0.19 µs, the chaos map's variational system 8 ms / 1.9 µs,
+/// the 10-link pendulum 38 ms / 8 µs; BENCHMARKS.md), so waiting this long at most doubles
+/// the cost of a run that ends just after, as for [`AUTO_NATIVE_AFTER_EXPANSIONS`]…
+pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 12;
 
-/// …and unrolled code (if it has at most `native::MAX_NATIVE_TAYLOR_TERMS` terms) after this
-/// many expansions in all, when the run has been long enough to repay its compile time.
+/// …and a tape past [`COMPACT_ABOVE_TERMS`] gets unrolled code (if it has at most
+/// `native::MAX_NATIVE_TAYLOR_TERMS` terms) after this many expansions in all, when the run
+/// has been long enough to repay its compile time.
 pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 20;
 
 /// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
 #[derive(Debug)]
 struct NativeCache {
     allowed: bool,
-    /// Interpreted expansions before a small tape's code (unrolled) is compiled.
+    /// Expansions before a small tape's unrolled code is compiled.
     after: usize,
-    /// Expansions before a large tape's compact code is compiled…
+    /// Expansions before compact code is compiled (until the unrolled code exists).
     compact_after: usize,
-    /// …and before its unrolled code is.
+    /// Expansions before a large tape's unrolled code is compiled.
     unroll_after: usize,
     /// Expansions so far (counted only until the final code exists).
     uses: AtomicUsize,
     /// `by_order[p]`: the final code for expansions of order `p` (stride `p + 1`, orders
     /// `1..p`), the fastest there is.
     by_order: Vec<OnceLock<Option<TaylorNative>>>,
-    /// `compact[p]`: a large tape's compact code, run until `by_order[p]` exists.
+    /// `compact[p]`: compact code, run until `by_order[p]` exists.
     compact: Vec<OnceLock<Option<TaylorNative>>>,
 }
 
 impl NativeCache {
-    /// Native code compiled after `after` expansions (small tapes), compact code after
-    /// `compact_after` and unrolled code after `unroll_after` (large tapes).
+    /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
+    /// tapes) or `unroll_after` (large tapes).
     fn new(allowed: bool, after: usize, compact_after: usize, unroll_after: usize) -> Arc<NativeCache> {
         let slots = || (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect();
         Arc::new(NativeCache {
@@ -1107,10 +1113,10 @@ impl TaylorOde {
     }
 
     /// Turns the native Taylor code on early or off. By default each order's code is
-    /// compiled when a run has been long enough for it to repay its compile time: unrolled
-    /// code after [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted expansions; for a tape past
-    /// [`COMPACT_ABOVE_TERMS`], compact code after [`COMPACT_AFTER_EXPANSIONS`] and unrolled
-    /// code after [`UNROLL_AFTER_EXPANSIONS`]. On: the fastest code after
+    /// compiled when a run has been long enough for it to repay its compile time: compact
+    /// code after [`COMPACT_AFTER_EXPANSIONS`] expansions, then unrolled code after
+    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`], or for a tape past [`COMPACT_ABOVE_TERMS`] after
+    /// [`UNROLL_AFTER_EXPANSIONS`]. On: the fastest code after
     /// [`NATIVE_AFTER_EXPANSIONS`]; off, never (nor ever when
     /// [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits whichever code runs.
     pub fn with_native(mut self, on: bool) -> TaylorOde {
@@ -1136,7 +1142,7 @@ impl TaylorOde {
     }
 
     /// The native code compiled so far for expansions of `order` (the final code if it
-    /// exists, else a large tape's compact code), compiling nothing.
+    /// exists, else compact code), compiling nothing.
     pub fn native_compiled(&self, order: usize) -> Option<TaylorNative> {
         let cache = &*self.native;
         let slot = |tier: &[OnceLock<Option<TaylorNative>>]| tier.get(order).and_then(|c| c.get().cloned().flatten());
@@ -1182,8 +1188,8 @@ impl TaylorOde {
     }
 
     /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
-    /// describes: the interpreter (`None`), then for a large tape compact code, then the final
-    /// code ([`TaylorOde::native_for`]).
+    /// describes: the interpreter (`None`), then compact code, then the final code
+    /// ([`TaylorOde::native_for`]).
     fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
         let cache = &*self.native;
         if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
@@ -1204,10 +1210,7 @@ impl TaylorOde {
         if uses >= final_after {
             return best.get_or_init(|| self.compile_native(order)).as_ref();
         }
-        if terms > COMPACT_ABOVE_TERMS
-            && uses >= cache.compact_after
-            && self.tape.n_recurrences() <= MAX_COMPACT_RECURRENCES
-        {
+        if uses >= cache.compact_after && self.tape.n_recurrences() <= MAX_COMPACT_RECURRENCES {
             let compact = || self.tape.compile_native_compact(order + 1, order - 1);
             return cache.compact[order].get_or_init(compact).as_ref();
         }
