@@ -36,6 +36,7 @@ use lagrangian::Declarations;
 
 #[path = "../tests/mechanics_support/n_link.rs"]
 mod n_link;
+use n_link::n_link_system;
 
 /// The double pendulum as a user writes it (PHYSICS.md §3), relative angles from the vertical.
 const DOUBLE: &str = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
@@ -192,13 +193,6 @@ fn cold_dp(tol: f64) {
         (t2 - t1).as_secs_f64(),
         max_err(&y, &DoublePendulum::REFERENCE_T10)
     );
-}
-
-fn n_link_system(n: usize) -> System {
-    let (l, coords, positive) = n_link::n_link(n);
-    let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
-    let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
-    System::from_lagrangian_with(&l, &coords, &d).expect("valid Lagrangian")
 }
 
 /// The raw Euler–Lagrange expressions d/dt ∂L/∂q' − ∂L/∂q (no simplification): what the

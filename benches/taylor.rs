@@ -20,10 +20,10 @@ use lagrangian::compile::{TaylorOde, Variational};
 use lagrangian::integrate::problems::{DoublePendulum, Kepler};
 use lagrangian::integrate::{Dop853, Integrate, Method, Options, Rhs, Status, Taylor, TaylorSystem};
 use lagrangian::mechanics::System;
-use lagrangian::Declarations;
 
 #[path = "../tests/mechanics_support/n_link.rs"]
 mod n_link;
+use n_link::unit_n_link_system;
 
 /// This thread's CPU time in seconds. On the shared 2-core machine (load 10–18 while six
 /// engineers build) wall time counts other processes' time slices, and a long loop is
@@ -206,7 +206,7 @@ fn cold_start() {
     println!("|---|---|---|---|---|---|---|");
     for n in [2, 10, 20] {
         let (w0, t0) = (Instant::now(), cpu_now());
-        let sys = n_link_system(n);
+        let sys = unit_n_link_system(n);
         let ode: TaylorOde = sys.compile_taylor().expect("compiles");
         let t1 = cpu_now();
         let mut y0 = vec![0.0; 2 * n];
@@ -227,18 +227,6 @@ fn cold_start() {
     }
 }
 
-/// The n-link pendulum at unit masses and lengths.
-fn n_link_system(n: usize) -> System {
-    let (l, coords, positive) = n_link::n_link(n);
-    let coords: Vec<&str> = coords.iter().map(String::as_str).collect();
-    let d = Declarations::new().with_positive(positive.iter().map(String::as_str));
-    let mut params: Vec<(String, f64)> =
-        (1..=n).flat_map(|i| [(format!("m{i}"), 1.0), (format!("l{i}"), 1.0)]).collect();
-    params.push(("g".into(), 9.81));
-    let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-    System::from_lagrangian_with(&l, &coords, &d).and_then(|s| s.with_params(&refs)).expect("valid")
-}
-
 /// Large tapes through the default tiers: one expansion interpreted, on the compact code a
 /// run reaches after `COMPACT_AFTER_EXPANSIONS` expansions, and on the final code
 /// (`native_for`, unrolled where the tape allows); with each code's compile time.
@@ -256,7 +244,7 @@ fn large_tapes() {
         Taylor::new(1e-9).taylor_order(),
     )];
     for n in [3, 5, 10, 20] {
-        let ode = n_link_system(n).compile_taylor().expect("compiles");
+        let ode = unit_n_link_system(n).compile_taylor().expect("compiles");
         let mut y0 = vec![0.0; 2 * n];
         y0[..n].iter_mut().enumerate().for_each(|(i, q)| *q = 0.5 + 0.1 * i as f64);
         cases.push((format!("{n}-link pendulum, tol 1e-15"), ode, y0, Taylor::new(1e-15).taylor_order()));
@@ -317,7 +305,7 @@ fn compact_size() {
     println!("| n-link | recurrences | order | coefficients | interpreted | compact | compact / interpreted |");
     println!("|---|---|---|---|---|---|---|");
     for n in [5, 8, 10, 12, 14, 16, 18, 20] {
-        let ode = n_link_system(n).compile_taylor().expect("compiles");
+        let ode = unit_n_link_system(n).compile_taylor().expect("compiles");
         let tt = ode.taylor_tape();
         for p in [11, 19] {
             let s = p + 1;

@@ -16,6 +16,10 @@ use lagrangian::integrate::{Integrate, Options, Taylor};
 use lagrangian::mechanics::System;
 use lagrangian::{parse, Func};
 
+#[path = "mechanics_support/n_link.rs"]
+mod n_link;
+use n_link::unit_n_link_system;
+
 const ORDER: usize = 24;
 
 /// Whether this run may expect native code (the JIT is on and the host is one Cranelift
@@ -328,19 +332,10 @@ fn tapes_too_large_to_unroll_get_compact_code_with_the_same_bits_up_to_a_size() 
     assert!(interp[out..out + s].iter().all(|x| x.is_finite()) && interp[out + p] != 0.0);
 }
 
-/// The 3-link pendulum (`W q'' = F`, symmetric `W`): at order 19 its recurrences unroll to more
-/// than `COMPACT_ABOVE_TERMS` terms.
-fn three_link() -> TaylorOde {
-    let l = "1/2 (m1 + m2 + m3) l1^2 a'^2 + 1/2 (m2 + m3) l2^2 b'^2 + 1/2 m3 l3^2 c'^2 \
-             + (m2 + m3) l1 l2 a' b' cos(a - b) + m3 l1 l3 a' c' cos(a - c) + m3 l2 l3 b' c' cos(b - c) \
-             + (m1 + m2 + m3) g l1 cos(a) + (m2 + m3) g l2 cos(b) + m3 g l3 cos(c)";
-    let p = [("m1", 1.0), ("m2", 1.0), ("m3", 1.0), ("l1", 1.0), ("l2", 1.0), ("l3", 1.0), ("g", 9.81)];
-    System::from_lagrangian(l, &["a", "b", "c"]).and_then(|s| s.with_params(&p)).unwrap().compile_taylor().unwrap()
-}
-
 #[test]
 fn a_large_tape_runs_on_compact_code_then_unrolled_code_with_the_same_bits() {
-    let ode = three_link();
+    // The 3-link pendulum (`W q'' = F`, symmetric `W`).
+    let ode = unit_n_link_system(3).compile_taylor().unwrap();
     let m = Taylor::new(1e-15);
     let p = m.taylor_order();
     let terms = ode.taylor_tape().n_recurrences() * (p - 1) * (p - 1) / 2;

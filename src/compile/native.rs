@@ -46,7 +46,7 @@ use cranelift_module::{default_libcall_names, Linkage, Module};
 use crate::expr::Func;
 
 use super::tape::{Instr, Tape};
-use super::taylor::Op;
+use super::taylor::{Op, Weight};
 
 /// The signature of a plain generated function (see the module documentation).
 type NativeFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize);
@@ -633,6 +633,11 @@ pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
 /// recurrences it gains 18 % at most, so the limit leaves room for smaller caches.
 pub(crate) const MAX_COMPACT_RECURRENCES: usize = 600;
 
+/// Whether compact code pays for `tape` (at most [`MAX_COMPACT_RECURRENCES`] recurrences).
+pub(crate) fn compact_pays(tape: &super::TaylorTape) -> bool {
+    tape.ops().len() <= MAX_COMPACT_RECURRENCES
+}
+
 /// The terms of `tape`'s recurrences unrolled to `max_order` (about).
 pub(crate) fn unrolled_terms(tape: &super::TaylorTape, max_order: usize) -> usize {
     tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2
@@ -644,10 +649,7 @@ impl NativeTaylor {
     /// `None` when the host has no JIT or the tape is too large even for compact code.
     pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
         if unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
-            if tape.ops().len() > MAX_COMPACT_RECURRENCES {
-                return None;
-            }
-            return Self::compile_compact(tape, stride, max_order);
+            return compact_pays(tape).then(|| Self::compile_compact(tape, stride, max_order)).flatten();
         }
         Self::compile_with(tape, stride, max_order, Form::PerOrder, None)
     }
@@ -928,28 +930,6 @@ enum Len {
     Ix(Ix),
     /// `⌈k/2⌉ − 1`: the distinct pairs of a square's inner sum.
     HalfInner,
-}
-
-/// The weight of term `i` of a sum, with `j = i + 1`.
-#[derive(Clone, Copy)]
-enum Weight {
-    One,
-    /// `j`.
-    Index,
-    /// `e j − (k − j)` (`constant_power`).
-    Power(f64),
-}
-
-impl Weight {
-    /// As the interpreter's closures compute it, for term `i` at order `k`.
-    fn at(self, i: usize, k: usize) -> f64 {
-        let j = i + 1;
-        match self {
-            Weight::One => 1.0,
-            Weight::Index => j as f64,
-            Weight::Power(e) => e * j as f64 - (k - j) as f64,
-        }
-    }
 }
 
 /// Emits order `k` of every recurrence of a Taylor tape, mirroring
@@ -1339,6 +1319,17 @@ impl TaylorEmitter<'_, '_> {
         self.times_recip(acc, den)
     }
 
+    /// `x ∘ y` for an `Add`, `Sub`, `Mul` or `Div` (one IEEE operation, as in the interpreter).
+    fn arith(&mut self, op: &Op, x: Value, y: Value) -> Value {
+        match op {
+            Op::Add { .. } => self.b.ins().fadd(x, y),
+            Op::Sub { .. } => self.b.ins().fsub(x, y),
+            Op::Mul { .. } => self.b.ins().fmul(x, y),
+            Op::Div { .. } => self.b.ins().fdiv(x, y),
+            _ => unreachable!("not an arithmetic operation"),
+        }
+    }
+
     /// Order 0 of every row: `TaylorTape::run_order0`'s operations (the plain tape's, and the
     /// auxiliary rows), the transcendental functions called through the wrappers the plain
     /// native code calls, so the values are the interpreter's bit for bit.
@@ -1355,24 +1346,9 @@ impl TaylorEmitter<'_, '_> {
         let one = self.c(1.0);
         for op in tape.ops0() {
             match *op {
-                Op::Add { d, a, b } => {
+                Op::Add { d, a, b } | Op::Sub { d, a, b } | Op::Mul { d, a, b } | Op::Div { d, a, b } => {
                     let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = self.b.ins().fadd(x, y);
-                    self.put_at(d, 0, v);
-                }
-                Op::Sub { d, a, b } => {
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = self.b.ins().fsub(x, y);
-                    self.put_at(d, 0, v);
-                }
-                Op::Mul { d, a, b } => {
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = self.b.ins().fmul(x, y);
-                    self.put_at(d, 0, v);
-                }
-                Op::Div { d, a, b } => {
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = self.b.ins().fdiv(x, y);
+                    let v = self.arith(op, x, y);
                     self.put_at(d, 0, v);
                 }
                 Op::Neg { d, a } => {
@@ -1498,14 +1474,9 @@ impl TaylorEmitter<'_, '_> {
         let (k, zero) = (Ix::K, Ix::at(0));
         for op in tape.ops() {
             match *op {
-                Op::Add { d, a, b } => {
+                Op::Add { d, a, b } | Op::Sub { d, a, b } => {
                     let (x, y) = (self.coef(a, k), self.coef(b, k));
-                    let v = self.b.ins().fadd(x, y);
-                    self.put(d, v);
-                }
-                Op::Sub { d, a, b } => {
-                    let (x, y) = (self.coef(a, k), self.coef(b, k));
-                    let v = self.b.ins().fsub(x, y);
+                    let v = self.arith(op, x, y);
                     self.put(d, v);
                 }
                 Op::Neg { d, a } => {
