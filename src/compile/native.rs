@@ -1060,25 +1060,29 @@ impl TaylorEmitter<'_, '_> {
             let wv = (wi != 1.0).then(|| em.c(wi));
             em.term(wv, x, y)
         };
-        let zero = self.c(0.0);
-        let mut acc = [zero; 4];
+        // `None` is a partial sum still at its −0.0, which adds exactly nothing.
+        let add = |em: &mut Self, s: Option<Value>, t: Option<Value>| match (s, t) {
+            (Some(s), Some(t)) => Some(em.b.ins().fadd(s, t)),
+            (s, t) => s.or(t),
+        };
+        let mut acc = [None; 4];
         for i in lo..hi {
             let t = term(self, i);
             let r = (i - lo) % 4;
-            acc[r] = self.b.ins().fadd(acc[r], t);
+            acc[r] = add(self, acc[r], Some(t));
         }
-        let s01 = self.b.ins().fadd(acc[0], acc[1]);
-        let s23 = self.b.ins().fadd(acc[2], acc[3]);
-        let mut s = self.b.ins().fadd(s01, s23);
+        let s01 = add(self, acc[0], acc[1]);
+        let s23 = add(self, acc[2], acc[3]);
+        let mut s = add(self, s01, s23);
         if lo == 1 {
             let t = term(self, 0);
-            s = self.b.ins().fadd(s, t);
+            s = add(self, s, Some(t));
         }
         if hi < len {
             let t = term(self, len - 1);
-            s = self.b.ins().fadd(s, t);
+            s = add(self, s, Some(t));
         }
-        s
+        s.unwrap_or_else(|| self.c(-0.0))
     }
 
     /// [`TaylorEmitter::sum`] in compact code: the same terms in the same order, as a loop of
@@ -1104,7 +1108,7 @@ impl TaylorEmitter<'_, '_> {
         let (pb, ob) = self.addr(b, b0.minus(Ix::at(lo)));
         let py = self.b.ins().iadd_imm(pb, i64::from(ob));
         let j0 = self.c((lo + 1) as f64);
-        let zero = self.c(0.0);
+        let zero = self.c(-0.0);
         // The weight of the term whose `j` is `j` (a float holding an integer).
         let weight = |em: &mut Self, j: Value| match w {
             Weight::One => None,
@@ -1251,10 +1255,10 @@ impl TaylorEmitter<'_, '_> {
         self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::K), Weight::Index)
     }
 
-    /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`; an empty sum is `+0.0` either way).
+    /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`; an empty sum is `−0.0` either way).
     fn weighted_short(&mut self, a: u32, b: u32) -> Value {
         if matches!(self.k, Order::Fixed(k) if k < 2) {
-            return self.c(0.0);
+            return self.c(-0.0);
         }
         self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::k(-1)), Weight::Index)
     }

@@ -976,7 +976,10 @@ fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_l
     // SAFETY: every index below is `i < n` into `x` and `n − 1 − i` (with `i < n`) into `y`,
     // whose length is at least `n` (asserted).
     let term = |i: usize| unsafe { w(i) * *x.get_unchecked(i) * *y.get_unchecked(n - 1 - i) };
-    let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
+    // The partial sums start from −0.0, the identity of IEEE addition (`−0.0 + t` is `t`
+    // for every `t`, where `+0.0 + (−0.0)` is `+0.0`), so the native code can start each
+    // from its first term and leave out the partial sums that get none.
+    let (mut s0, mut s1, mut s2, mut s3) = (-0.0, -0.0, -0.0, -0.0);
     let mut i = lo;
     while i + 4 <= hi {
         s0 += term(i);
@@ -1043,7 +1046,7 @@ fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
 #[inline(always)]
 fn weighted_short(a: &[f64], b: &[f64], k: usize) -> f64 {
     if k < 2 {
-        return 0.0;
+        return -0.0;
     }
     sum4(&a[1..k], &b[1..k], |i| Weight::Index.at(i, k), false, false)
 }
