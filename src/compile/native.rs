@@ -813,7 +813,7 @@ fn compile_taylor_code(
             };
             let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
             let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
-            let mut em = TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known };
+            let mut em = TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known, reloads: 0 };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 if form != Form::Compact {
@@ -945,21 +945,53 @@ struct TaylorEmitter<'a, 'b> {
     /// Unrolled code: coefficient `j` of row `r` at `r · s + j`, for those written so far in
     /// this function (kept in SSA values, and stored). Compact code loads every time.
     known: Vec<Option<Value>>,
+    /// Loads made by [`TaylorEmitter::reload`] so far (each gets its own address expression).
+    reloads: usize,
 }
 
 impl TaylorEmitter<'_, '_> {
-    /// Coefficient `j` of row `r` (unrolled code). A coefficient is loaded at most once per
-    /// function (nothing else writes the buffer while it runs), so each later read is the
-    /// same SSA value and Cranelift's value numbering shares what is computed from it, such as
-    /// the `j · a_j` of a sine's and a cosine's sums over the same argument.
+    /// Coefficient `j` of row `r` (unrolled code). Orders `k` and `k − 1` are read as the SSA
+    /// values that wrote them (they are on the dependency chain from one order to the next,
+    /// where a reload would add store-forwarding latency), so Cranelift's value numbering shares
+    /// what is computed from them, such as the `j · a_j` of a sine's and a cosine's sums over
+    /// the same argument; older orders are reloaded (see [`TaylorEmitter::reload`]).
     fn at(&mut self, r: u32, j: usize) -> Value {
         let i = r as usize * self.s + j;
-        if let Some(v) = self.known[i] {
-            return v;
+        match (self.known[i], self.k) {
+            (Some(_), Order::Fixed(k)) if j + 2 <= k => self.reload(i),
+            (Some(v), _) => v,
+            (None, _) => {
+                let v = self.b.ins().load(types::F64, MemFlags::trusted(), self.base, (i * 8) as i32);
+                self.known[i] = Some(v);
+                v
+            }
         }
-        let v = self.b.ins().load(types::F64, MemFlags::trusted(), self.base, (i * 8) as i32);
-        self.known[i] = Some(v);
-        v
+    }
+
+    /// Coefficient `i` of the buffer, which this function has already stored or loaded, read
+    /// again from the buffer for one use.
+    ///
+    /// Kept in an SSA value instead, every coefficient of an unrolled expansion lives for all
+    /// later orders, so Cranelift spills nearly all of them to the stack and reloads each at
+    /// every use: a second copy of a buffer that already holds them, and a third of the code
+    /// (Kepler: 1,369 reloads and 108 spills in 3,989 instructions). A plain `load` does not
+    /// help: it is a side effect, kept in emission order, while the mid-end sinks the pure
+    /// arithmetic to its first use, so every sum's loads would run ahead of its arithmetic
+    /// and be spilled again. A `readonly` `notrap` load is pure, so it is placed next to its
+    /// use. Each one has its own address expression (`base + 8u` plus `8i − 8u`, folded back
+    /// into one addressing mode), or value numbering would merge all reads of a coefficient
+    /// into one long-lived value, the spill again.
+    ///
+    /// `readonly` holds for these words from the point they are read: a function is one
+    /// straight-line block, in which a pure value is placed no earlier than its first use,
+    /// and that use follows the store of the coefficient, which is never written again. The
+    /// bit-for-bit comparisons with the interpreter on reused buffers
+    /// (`tests/taylor_native.rs`) would catch a load moved above its store.
+    fn reload(&mut self, i: usize) -> Value {
+        self.reloads += 1;
+        let u = 8 * (self.reloads % (1 << 24)) as i64;
+        let at = self.b.ins().iadd_imm(self.base, u);
+        self.b.ins().load(types::F64, MemFlags::trusted().with_readonly(), at, (8 * i as i64 - u) as i32)
     }
 
     /// Coefficient `j` of row `r`, in either kind of code.
