@@ -853,12 +853,12 @@ pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
 
 /// Orders whose unrolled recurrences have more terms than this wait for
 /// [`UNROLL_AFTER_EXPANSIONS`] before unrolled code, not [`AUTO_NATIVE_AFTER_EXPANSIONS`]:
-/// unrolled code's compile time grows faster than its terms (0.2 s for the chaos map's
-/// variational double pendulum at order 12, 7,623 terms; 1.4–2.6 s for a 5-link pendulum at
-/// order 19), compact code's only with the recurrences (10 ms for either), and compact code
-/// runs only 5–11 % slower than unrolled code at these sizes (BENCHMARKS.md). At this size
-/// unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`] interpreted
-/// expansions.
+/// unrolled code's compile time grows faster than its terms (76 ms for the chaos map's
+/// variational double pendulum at order 12, 7,623 terms; 0.45 s for a 5-link pendulum at
+/// order 19, 21,546), compact code's only with the recurrences (8–9 ms for either), and
+/// compact code runs only 15–35 % slower than unrolled code at these sizes (BENCHMARKS.md).
+/// At this size unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`]
+/// interpreted expansions.
 pub const COMPACT_ABOVE_TERMS: usize = 5_000;
 
 /// By default every tape (of at most 600 recurrences) gets compact code after this many
@@ -871,8 +871,11 @@ pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 12;
 
 /// …and a tape past [`COMPACT_ABOVE_TERMS`] gets unrolled code (if it has at most
 /// `native::MAX_NATIVE_TAYLOR_TERMS` terms) after this many expansions in all, when the run
-/// has been long enough to repay its compile time.
-pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 20;
+/// has been long enough to repay its compile time: unrolled code's compile time over what it
+/// saves per expansion against compact code is 0.9–1.7 · 10⁵ expansions for these tapes (the
+/// chaos map's variational system 76 ms / 0.89 µs, the 3-link pendulum 74 ms / 0.43 µs, the
+/// 5-link 445 ms / 2.7 µs; BENCHMARKS.md).
+pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 17;
 
 /// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
 #[derive(Debug)]
