@@ -1063,11 +1063,14 @@ impl TaylorEmitter<'_, '_> {
         }
     }
 
-    /// `w · x · y`, evaluated as `(w · x) · y`, with the multiplication by a weight of exactly
-    /// 1 left out (`1 · x = x` in IEEE arithmetic).
+    /// `w · x · y`, evaluated as `(x · w) · y`, with the multiplication by a weight of exactly
+    /// 1 left out (`1 · x = x` in IEEE arithmetic). A constant goes second in every product
+    /// here (the same bits: IEEE multiplication commutes), where x86 lowering reads it from the
+    /// constant pool as a memory operand; first, it was put in a register, shared by value
+    /// numbering across the function, kept alive and spilled (Kepler: 70 constants).
     fn term(&mut self, w: Option<Value>, x: Value, y: Value) -> Value {
         let x = match w {
-            Some(w) => self.b.ins().fmul(w, x),
+            Some(w) => self.b.ins().fmul(x, w),
             None => x,
         };
         self.b.ins().fmul(x, y)
@@ -1300,7 +1303,7 @@ impl TaylorEmitter<'_, '_> {
     fn square_inner(&mut self, r: u32) -> Value {
         let half = self.sum(r, Ix::at(1), r, Ix::k(-1), Len::HalfInner, Weight::One);
         let two = self.c(2.0);
-        let twice = self.b.ins().fmul(two, half);
+        let twice = self.b.ins().fmul(half, two);
         let mid = match self.k {
             Order::Fixed(k) if k % 2 == 0 => {
                 let m = self.at(r, k / 2);
@@ -1327,7 +1330,7 @@ impl TaylorEmitter<'_, '_> {
         let inner = self.square_inner(r);
         let two = self.c(2.0);
         let a0 = self.coef(r, Ix::at(0));
-        let a0x2 = self.b.ins().fmul(two, a0);
+        let a0x2 = self.b.ins().fmul(a0, two);
         let ak = self.coef(r, Ix::K);
         let late = self.b.ins().fmul(a0x2, ak);
         self.b.ins().fadd(inner, late)
@@ -1351,7 +1354,7 @@ impl TaylorEmitter<'_, '_> {
         let acc = self.sum(a, Ix::at(1), d, Ix::k(-1), Len::Ix(Ix::K), Weight::Power(e));
         let a0 = self.coef(a, Ix::at(0));
         let kf = self.kf();
-        let den = self.b.ins().fmul(kf, a0);
+        let den = self.b.ins().fmul(a0, kf);
         self.times_recip(acc, den)
     }
 
@@ -1549,7 +1552,7 @@ impl TaylorEmitter<'_, '_> {
                     let num = self.b.ins().fsub(ak, acc);
                     let two = self.c(2.0);
                     let d0 = self.coef(d, zero);
-                    let den = self.b.ins().fmul(two, d0);
+                    let den = self.b.ins().fmul(d0, two);
                     let v = self.times_recip(num, den);
                     self.put(d, v);
                 }
@@ -1596,7 +1599,7 @@ impl TaylorEmitter<'_, '_> {
                     let num = self.b.ins().fsub(nsq, inner);
                     let two = self.c(2.0);
                     let r0 = self.coef(r, zero);
-                    let den = self.b.ins().fmul(two, r0);
+                    let den = self.b.ins().fmul(r0, two);
                     let rv = self.times_recip(num, den);
                     let ak = self.coef(a, k);
                     let ak = if neg { self.b.ins().fneg(ak) } else { ak };
@@ -1629,7 +1632,7 @@ impl TaylorEmitter<'_, '_> {
                     let num = self.b.ins().fsub(num, w);
                     let kf = self.kf();
                     let u0 = self.coef(u, zero);
-                    let den = self.b.ins().fmul(kf, u0);
+                    let den = self.b.ins().fmul(u0, kf);
                     let dv = self.times_recip(num, den);
                     self.put(u, uv);
                     self.put(d, dv);
