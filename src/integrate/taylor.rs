@@ -202,16 +202,36 @@ impl TaylorWork {
     }
 }
 
-/// `Σ_k c_k x^k` by Horner, from `k = lo`.
+/// `Σ_k c_k x^(k − lo)`, `k = lo..c.len()`. Horner's rule is one chain of `p` dependent
+/// multiply-adds, whose latency was a tenth of a Kepler step. Here only the first
+/// [`HORNER_TERMS`] coefficients are added by Horner's rule, which carries their large terms
+/// with its small rounding error; the tail, whose terms are smaller by the series' decay
+/// (about `e⁻²` an order at Jorba and Zou's step), is Horner's rule in `x⁴` over blocks
+/// `(c₀ + c₁x) + (c₂ + c₃x)·x²` (a step of Estrin's scheme), whose blocks are independent. The
+/// chain is about half as long, for the same work. Kepler e = 0.9 over 1000 orbits (tol 1e-15):
+/// 36.8 → 32.8 ms with the energy error unchanged, 2.03e-13; blocks all the way down doubled
+/// it (4.8e-13), the large terms then being added first.
 #[inline]
-fn horner(c: &[f64], x: f64, lo: usize) -> f64 {
-    let mut acc = 0.0;
-    for k in (lo..c.len()).rev() {
-        acc = acc * x + c[k];
-    }
-    acc
+fn polynomial(c: &[f64], x: f64, lo: usize) -> f64 {
+    let c = &c[lo.min(c.len())..];
+    let (head, tail) = c.split_at(c.len().min(HORNER_TERMS));
+    let x2 = x * x;
+    let x4 = x2 * x2;
+    let block = |b: &[f64]| match *b {
+        [c0, c1, c2, c3] => (c0 + c1 * x) + (c2 + c3 * x) * x2,
+        [c0, c1, c2] => (c0 + c1 * x) + c2 * x2,
+        [c0, c1] => c0 + c1 * x,
+        [c0] => c0,
+        _ => 0.0,
+    };
+    let mut blocks = tail.chunks(4).rev();
+    let top = blocks.next().map_or(0.0, block);
+    let tail = blocks.fold(top, |acc, b| acc * x4 + block(b));
+    head.iter().rev().fold(tail, |acc, &ck| acc * x + ck)
 }
 
+/// The leading coefficients [`polynomial`] adds by Horner's rule.
+const HORNER_TERMS: usize = 6;
 impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
     type Work = TaylorWork;
 
@@ -265,7 +285,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         }
         sys.check_step(&w.scratch, p, h)?;
         for i in 0..n {
-            w.inc[i] = h * horner(&w.coeffs[i * s..(i + 1) * s], h, 1);
+            w.inc[i] = h * polynomial(&w.coeffs[i * s..(i + 1) * s], h, 1);
         }
         add_scaled(y, self.compensated.then_some(&mut w.comp[..]), 1.0, &w.inc);
         w.h_last = h;
@@ -291,7 +311,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         let s = w.order + 1;
         let x = theta * w.h_last;
         for (i, o) in out.iter_mut().enumerate() {
-            *o = horner(&w.coeffs[i * s..(i + 1) * s], x, 0);
+            *o = polynomial(&w.coeffs[i * s..(i + 1) * s], x, 0);
         }
         Ok(true)
     }
@@ -299,5 +319,42 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
     fn reset(&self, w: &mut TaylorWork) {
         w.comp.fill(0.0);
         w.dense_ready = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_rational::BigRational;
+    use num_traits::ToPrimitive;
+    use proptest::prelude::*;
+
+    fn exact(x: f64) -> BigRational {
+        BigRational::from_float(x).expect("finite")
+    }
+
+    proptest! {
+        /// The blocked evaluation is within a few rounding errors of the exact value of the
+        /// polynomial (exact rational arithmetic on the same doubles), relative to the sum of
+        /// its terms' magnitudes, for coefficients decaying as a Taylor series' do at a step
+        /// (`r` per order), and equals Horner's rule bit for bit up to `HORNER_TERMS` of them.
+        #[test]
+        fn polynomial_is_accurate(c in prop::collection::vec(-1.0f64..1.0, 0..40), r in 0.05f64..1.0, x in -1.0f64..1.0, lo in 0usize..3) {
+            let c: Vec<f64> = c.iter().enumerate().map(|(k, v)| v * r.powi(k as i32)).collect();
+            let got = polynomial(&c, x, lo);
+            let tail = &c[lo.min(c.len())..];
+            let (mut sum, mut mag, mut xk) = (exact(0.0), 0.0f64, exact(1.0));
+            for &ck in tail {
+                sum += exact(ck) * &xk;
+                mag += (exact(ck) * &xk).to_f64().unwrap().abs();
+                xk *= exact(x);
+            }
+            let err = (exact(got) - sum).to_f64().unwrap().abs();
+            prop_assert!(err <= 8.0 * f64::EPSILON * mag + f64::MIN_POSITIVE, "error {err:e}, terms {mag:e}");
+            if tail.len() <= HORNER_TERMS {
+                let horner = tail.iter().rev().fold(0.0, |acc, &ck| acc * x + ck);
+                prop_assert_eq!(got.to_bits(), horner.to_bits());
+            }
+        }
     }
 }
