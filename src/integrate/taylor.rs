@@ -209,8 +209,9 @@ impl TaylorWork {
 /// (about `e⁻²` an order at Jorba and Zou's step), is Horner's rule in `x⁴` over blocks
 /// `(c₀ + c₁x) + (c₂ + c₃x)·x²` (a step of Estrin's scheme), whose blocks are independent. The
 /// chain is about half as long, for the same work. Kepler e = 0.9 over 1000 orbits (tol 1e-15):
-/// 36.8 → 32.8 ms with the energy error unchanged, 2.03e-13; blocks all the way down doubled
-/// it (4.8e-13), the large terms then being added first.
+/// 37.4 → 36.6 ms in the Taylor bench, within its noise (36.8 → 32.8 ms in a program running
+/// that case alone), with the energy error unchanged, 2.03e-13; blocks all the way down
+/// doubled it (4.8e-13), the large terms then being added first.
 #[inline]
 fn polynomial(c: &[f64], x: f64, lo: usize) -> f64 {
     let c = &c[lo.min(c.len())..];
