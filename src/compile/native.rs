@@ -942,8 +942,9 @@ struct TaylorEmitter<'a, 'b> {
     ptr: types::Type,
     s: usize,
     k: Order,
-    /// Unrolled code: coefficient `j` of row `r` at `r · s + j`, for those written so far in
-    /// this function (kept in SSA values, and stored). Compact code loads every time.
+    /// Unrolled code: coefficient `j` of row `r` at `r · s + j`, for those written or loaded so
+    /// far in this function (stored, and read as these SSA values while they are of order `k`
+    /// or `k − 1`, see [`TaylorEmitter::at`]). Compact code loads every time.
     known: Vec<Option<Value>>,
     /// Loads made by [`TaylorEmitter::reload`] so far (each gets its own address expression).
     reloads: usize,
@@ -1143,7 +1144,8 @@ impl TaylorEmitter<'_, '_> {
         let (pb, ob) = self.addr(b, b0.minus(Ix::at(lo)));
         let py = self.b.ins().iadd_imm(pb, i64::from(ob));
         let j0 = self.c((lo + 1) as f64);
-        let zero = self.c(-0.0);
+        // The partial sums start from −0.0, as `sum4`'s do.
+        let start = self.c(-0.0);
         // The weight of the term whose `j` is `j` (a float holding an integer).
         let weight = |em: &mut Self, j: Value| match w {
             Weight::One => None,
@@ -1178,7 +1180,7 @@ impl TaylorEmitter<'_, '_> {
         for _ in 0..3 {
             self.b.append_block_param(join, types::F64);
         }
-        self.b.ins().jump(header, &[remaining, px, py, j0, zero, zero, zero, zero]);
+        self.b.ins().jump(header, &[remaining, px, py, j0, start, start, start, start]);
 
         self.b.switch_to_block(header);
         let hp = self.b.block_params(header).to_vec();
