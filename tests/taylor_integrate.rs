@@ -184,39 +184,36 @@ fn a_blow_up_ends_with_a_typed_error_not_a_hang() {
     assert!(err.steps < 10_000, "{} steps", err.steps);
 }
 
-/// `y(t) = y₀ + t`, except that every coefficient from order 2 on is NaN, which this system
-/// does not check itself (`TaylorSystem::refuses_non_finite` left at `false`).
-struct NanSeries;
+/// `y(t) = y₀ + t`, except that every coefficient from order 2 on is the given non-finite
+/// value, and this system names no order (`TaylorSystem::non_finite` left at its default).
+struct BadSeries(f64);
 
-impl TaylorSystem for NanSeries {
+impl TaylorSystem for BadSeries {
     fn dim(&self) -> usize {
         1
     }
-    fn scratch_len(&self, _order: usize) -> usize {
-        0
+    fn scratch_len(&self, order: usize) -> usize {
+        order + 1
     }
-    fn taylor_coefficients(
-        &self,
-        _t: f64,
-        y: &[f64],
-        order: usize,
-        _scratch: &mut [f64],
-        coeffs: &mut [f64],
-    ) -> Result<(), RhsError> {
-        coeffs[0] = y[0];
-        coeffs[1] = 1.0;
-        coeffs[2..=order].fill(f64::NAN);
+    fn taylor_coefficients(&self, _t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), RhsError> {
+        buf[0] = y[0];
+        buf[1] = 1.0;
+        buf[2..=order].fill(self.0);
         Ok(())
     }
 }
 
 #[test]
-fn non_finite_coefficients_are_refused_by_the_system_or_else_the_integrator() {
-    // A system that does not check: the integrator's typed failure, before any step.
-    let err = Taylor::new(1e-12).integrate(&NanSeries, 0.0..1.0, &[0.0]).unwrap_err();
-    assert!(matches!(err.reason, FailureReason::NonFinite { component: 0 }), "{err}");
-    assert_eq!(err.steps, 0);
-    // A compiled system refuses them in its own expansion, naming the order and the state:
+fn non_finite_coefficients_are_typed_failures_named_by_the_system() {
+    // The integrator's default failure, before any step: NaN (ignored by the norms, so the
+    // step size is finite) and ∞ (which makes the step size zero, still reported as the
+    // non-finite coefficient it is, not as a collapse).
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let err = Taylor::new(1e-12).integrate(&BadSeries(bad), 0.0..1.0, &[0.0]).unwrap_err();
+        assert!(matches!(err.reason, FailureReason::NonFinite { component: 0 }), "{bad}: {err}");
+        assert_eq!(err.steps, 0);
+    }
+    // A compiled system names the order and the state:
     // y' = exp(y) at y = 800 overflows at order 1.
     let sys = TaylorOde::from_exprs(&[parse("exp(y)").unwrap()], &["y"], &[]).unwrap();
     let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[800.0]).unwrap_err();

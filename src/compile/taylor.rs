@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use crate::expr::{Expr, Func};
-use crate::integrate::{RhsError as StepError, TaylorSystem};
+use crate::integrate::{RhsError as StepError, StepFailure, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
 use super::native::{compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, MAX_NATIVE_TAYLOR_TERMS};
@@ -1267,7 +1267,9 @@ impl TaylorOde {
     }
 
     /// Fills `coeffs[i · (order + 1) + k]` with the normalised Taylor coefficients
-    /// `y_i⁽ᵏ⁾(t)/k!`, `k = 0..=order`, of the solution through `(t, y)`.
+    /// `y_i⁽ᵏ⁾(t)/k!`, `k = 0..=order`, of the solution through `(t, y)`, and refuses
+    /// non-finite ones ([`TaylorError::NonFinite`], naming the order). The integrator calls
+    /// [`TaylorOde::expand_in_place`] instead, which neither copies nor scans.
     pub fn expand(
         &self,
         t: f64,
@@ -1277,8 +1279,29 @@ impl TaylorOde {
         coeffs: &mut [f64],
     ) -> Result<(), TaylorError> {
         let s = order + 1;
+        let n = self.dim * s;
+        assert!(coeffs.len() >= n, "coefficient buffer too short");
+        self.expand_in_place(t, y, order, scratch)?;
+        coeffs[..n].copy_from_slice(&scratch[..n]);
+        match coeffs[..n].iter().position(|x| !x.is_finite()) {
+            Some(bad) => Err(self.non_finite_at(t, y, order, bad)),
+            None => Ok(()),
+        }
+    }
+
+    /// The error for the non-finite coefficient `coeffs[at]` of the expansion at `(t, y)`.
+    fn non_finite_at(&self, t: f64, y: &[f64], order: usize, at: usize) -> TaylorError {
+        TaylorError::NonFinite { t, order: at % (order + 1), state: y[..self.dim].to_vec() }
+    }
+
+    /// [`TaylorOde::expand`] without the copy and the check: the coefficients are left in
+    /// `scratch[i · (order + 1) + k]` (the state's rows come first), and may be non-finite.
+    /// The Taylor integrator finds non-finite ones from its step's result instead, at no
+    /// cost to good steps (`integrate::TaylorSystem::taylor_coefficients`).
+    pub fn expand_in_place(&self, t: f64, y: &[f64], order: usize, scratch: &mut [f64]) -> Result<(), TaylorError> {
+        let s = order + 1;
         let dim = self.dim;
-        assert!(y.len() >= dim && coeffs.len() >= dim * s, "state or coefficient buffer too short");
+        assert!(y.len() >= dim, "state too short");
         let rows = self.tape.n_rows() * s;
         let len = self.scratch_len(order);
         let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
@@ -1362,13 +1385,6 @@ impl TaylorOde {
             // Orders 1..order − 1 of every row and orders 2..=order of the state.
             code.run_expansion(&mut scratch[..len]).map_err(kink)?;
         }
-        for i in 0..dim {
-            coeffs[i * s..(i + 1) * s].copy_from_slice(&scratch[i * s..(i + 1) * s]);
-        }
-        if crate::integrate::any_non_finite(&coeffs[..dim * s]) {
-            let bad = coeffs[..dim * s].iter().position(|x| !x.is_finite()).unwrap_or(0);
-            return Err(TaylorError::NonFinite { t, order: bad % s, state: y[..dim].to_vec() });
-        }
         Ok(())
     }
 
@@ -1409,19 +1425,12 @@ impl TaylorSystem for TaylorOde {
     fn scratch_len(&self, order: usize) -> usize {
         TaylorOde::scratch_len(self, order)
     }
-    fn taylor_coefficients(
-        &self,
-        t: f64,
-        y: &[f64],
-        order: usize,
-        scratch: &mut [f64],
-        coeffs: &mut [f64],
-    ) -> Result<(), StepError> {
-        self.expand(t, y, order, scratch, coeffs).map_err(|e| StepError::new(e.to_string()))
+    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), StepError> {
+        self.expand_in_place(t, y, order, buf).map_err(|e| StepError::new(e.to_string()))
     }
-    /// `expand` ends by refusing non-finite coefficients ([`TaylorError::NonFinite`]).
-    fn refuses_non_finite(&self) -> bool {
-        true
+    /// Names the coefficient's order ([`TaylorError::NonFinite`]).
+    fn non_finite(&self, t: f64, y: &[f64], order: usize, at: usize) -> StepFailure {
+        StepError::new(self.non_finite_at(t, y, order, at).to_string()).into()
     }
     fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
         // Tape values are expanded to `order − 1` (the state's order-`order` terms come from

@@ -13,7 +13,7 @@
 
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
-use crate::integrate::{Rhs, RhsError as StepError, TaylorSystem};
+use crate::integrate::{Rhs, RhsError as StepError, StepFailure, TaylorSystem};
 use crate::mechanics::System;
 
 use super::{CompileError, Tape, TaylorOde};
@@ -180,20 +180,13 @@ impl TaylorSystem for Variational {
     fn scratch_len(&self, order: usize) -> usize {
         self.taylor.scratch_len(order)
     }
-    fn taylor_coefficients(
-        &self,
-        t: f64,
-        y: &[f64],
-        order: usize,
-        scratch: &mut [f64],
-        coeffs: &mut [f64],
-    ) -> Result<(), StepError> {
-        self.taylor.taylor_coefficients(t, y, order, scratch, coeffs)
+    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), StepError> {
+        self.taylor.taylor_coefficients(t, y, order, buf)
     }
     fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
         self.taylor.check_step(scratch, order, h)
     }
-    fn refuses_non_finite(&self) -> bool {
-        self.taylor.refuses_non_finite()
+    fn non_finite(&self, t: f64, y: &[f64], order: usize, at: usize) -> StepFailure {
+        self.taylor.non_finite(t, y, order, at)
     }
 }

@@ -56,7 +56,6 @@ mod splitting;
 mod taylor;
 
 pub use dop853::Dop853;
-pub(crate) use error::any_non_finite;
 pub use error::{fmt_state, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;

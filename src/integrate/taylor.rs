@@ -15,7 +15,7 @@
 //! Dense output is the step's own polynomial (no extra right-hand sides), so events located
 //! by the [`super::Solver`] are roots of `g` on that polynomial.
 
-use super::error::{any_non_finite, FailureReason, StepFailure};
+use super::error::{FailureReason, StepFailure};
 use super::{add_scaled, Method, MethodInfo, RhsError};
 
 /// A system whose solution can be expanded in a Taylor series at any state: the integrators'
@@ -23,18 +23,19 @@ use super::{add_scaled, Method, MethodInfo, RhsError};
 pub trait TaylorSystem: Sync {
     /// The dimension of the state.
     fn dim(&self) -> usize;
-    /// The scratch [`TaylorSystem::taylor_coefficients`] needs at `order`.
+    /// The length of the buffer [`TaylorSystem::taylor_coefficients`] takes at `order`: at
+    /// least `dim · (order + 1)`.
     fn scratch_len(&self, order: usize) -> usize;
     /// Writes the normalised Taylor coefficients `y_i⁽ᵏ⁾(t)/k!` of the solution through
-    /// `(t, y)` into `coeffs[i · (order + 1) + k]`, `k = 0..=order`. Must not allocate.
-    fn taylor_coefficients(
-        &self,
-        t: f64,
-        y: &[f64],
-        order: usize,
-        scratch: &mut [f64],
-        coeffs: &mut [f64],
-    ) -> Result<(), RhsError>;
+    /// `(t, y)` into `buf[i · (order + 1) + k]`, `k = 0..=order`, `i < dim`; the rest of `buf`
+    /// is the system's scratch. Must not allocate.
+    ///
+    /// The coefficients may be non-finite. The integrator does not scan them on every step:
+    /// at a finite step `h`, a non-finite coefficient makes the step's increment `Σ c_k h^k`
+    /// non-finite (NaN and ±∞ propagate through products and sums, and `∞ · 0` is NaN), so
+    /// it scans only when the increment or the step size is not finite, and then asks
+    /// [`TaylorSystem::non_finite`] to name the failure.
+    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), RhsError>;
     /// Checks that the expansion last written by [`TaylorSystem::taylor_coefficients`] (still
     /// in `scratch`) may be summed at the step `h`: a system with a non-smooth operation
     /// (`abs`) reports a kink inside the step as an error instead of a silently wrong step.
@@ -42,11 +43,11 @@ pub trait TaylorSystem: Sync {
     fn check_step(&self, _scratch: &[f64], _order: usize, _h: f64) -> Result<(), RhsError> {
         Ok(())
     }
-    /// Whether [`TaylorSystem::taylor_coefficients`] already refuses non-finite coefficients
-    /// with its own error. The integrator then does not scan them a second time (a few percent
-    /// of a step for small systems); the default `false` has it scan them.
-    fn refuses_non_finite(&self) -> bool {
-        false
+    /// The failure for the non-finite coefficient `buf[at]` of the expansion at `(t, y)`
+    /// (component `at / (order + 1)`, order `at % (order + 1)`). The default names the
+    /// component; a compiled system also names the order.
+    fn non_finite(&self, _t: f64, _y: &[f64], order: usize, at: usize) -> StepFailure {
+        StepFailure(FailureReason::NonFinite { component: at / (order + 1) })
     }
 }
 
@@ -153,8 +154,11 @@ impl Taylor {
         Ok(())
     }
 
-    /// The Jorba–Zou step size from the coefficients of one expansion (`stride = p + 1`).
-    fn step_size(&self, y: &[f64], coeffs: &[f64], p: usize, safety: f64) -> f64 {
+    /// The Jorba–Zou step size from the coefficients of one expansion (`stride = p + 1`),
+    /// `safety_log2 = log₂` of their safety factor. The roots `(s/‖y_[m]‖)^{1/m}` are taken in
+    /// base-2 logarithms, `h = 2^{min_m log₂(s/‖y_[m]‖)/m + log₂ safety}`: two `log2` and one
+    /// `exp2` where two `powf` were 7 % of a Kepler step.
+    fn step_size(&self, y: &[f64], coeffs: &[f64], p: usize, safety_log2: f64) -> f64 {
         let s = p + 1;
         let n = y.len();
         let x0 = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -164,24 +168,26 @@ impl Taylor {
             np = np.max(coeffs[i * s + p].abs());
         }
         let scale = if self.rtol * x0 <= self.atol { 1.0 } else { x0 };
-        let rho = |norm: f64, m: usize| if norm == 0.0 { f64::INFINITY } else { (scale / norm).powf(1.0 / m as f64) };
-        let r = rho(np1, p - 1).min(rho(np, p));
-        r * safety
+        // A zero norm gives `log2(∞) = ∞` (no bound from that order), an infinite one
+        // `log2(0) = −∞`, so `h = 0`.
+        let root = |norm: f64, m: usize| (scale / norm).log2() / m as f64;
+        (root(np1, p - 1).min(root(np, p)) + safety_log2).exp2()
     }
 }
 
 /// Scratch storage of a [`Taylor`] integration.
 pub struct TaylorWork {
     order: usize,
-    coeffs: Vec<f64>,
-    scratch: Vec<f64>,
+    /// The system's buffer: the state's coefficients first (`i · (order + 1) + k`), then its
+    /// scratch.
+    buf: Vec<f64>,
     comp: Vec<f64>,
     inc: Vec<f64>,
     /// The last step's size; its polynomial is `coeffs` (dense output).
     h_last: f64,
     dense_ready: bool,
-    /// Jorba & Zou's safety factor `exp(−2 − 0.7/(p − 1))` of the step size, once per run.
-    safety: f64,
+    /// `log₂` of Jorba & Zou's safety factor `exp(−2 − 0.7/(p − 1))` of the step size.
+    safety_log2: f64,
 }
 
 impl TaylorWork {
@@ -193,7 +199,7 @@ impl TaylorWork {
     /// The normalised Taylor coefficients of the last step (`i · (order + 1) + k`), expanded
     /// at its start.
     pub fn coefficients(&self) -> &[f64] {
-        &self.coeffs
+        &self.buf[..self.comp.len() * (self.order + 1)]
     }
 
     /// The signed size of the last step.
@@ -249,13 +255,12 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         let p = self.taylor_order().clamp(2, 100);
         TaylorWork {
             order: p,
-            coeffs: vec![0.0; n * (p + 1)],
-            scratch: vec![0.0; sys.scratch_len(p)],
+            buf: vec![0.0; sys.scratch_len(p).max(n * (p + 1))],
             comp: vec![0.0; n],
             inc: vec![0.0; n],
             h_last: 0.0,
             dense_ready: false,
-            safety: (-2.0 - 0.7 / (p - 1) as f64).exp(),
+            safety_log2: (-2.0 - 0.7 / (p - 1) as f64) * std::f64::consts::LOG2_E,
         }
     }
 
@@ -269,25 +274,29 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         let s = p + 1;
         let n = y.len();
         w.dense_ready = false;
-        sys.taylor_coefficients(t, y, p, &mut w.scratch, &mut w.coeffs)?;
-        if !sys.refuses_non_finite() && any_non_finite(&w.coeffs) {
-            // Coefficient `i · s + k` belongs to component `i`.
-            let at = w.coeffs.iter().position(|x| !x.is_finite()).unwrap_or(0);
-            return Err(StepFailure(FailureReason::NonFinite { component: at / s }));
-        }
+        sys.taylor_coefficients(t, y, p, &mut w.buf)?;
+        let coeffs = &w.buf[..n * s];
         let dir = h_req.signum();
-        let mut h = self.step_size(y, &w.coeffs, p, w.safety);
+        let mut h = self.step_size(y, coeffs, p, w.safety_log2);
         if let Some(m) = self.h_max {
             h = h.min(m);
         }
         let h = if h >= h_req.abs() { h_req } else { dir * h };
-        if h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0 {
-            return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
-        }
-        sys.check_step(&w.scratch, p, h)?;
         for i in 0..n {
-            w.inc[i] = h * polynomial(&w.coeffs[i * s..(i + 1) * s], h, 1);
+            w.inc[i] = h * polynomial(&coeffs[i * s..(i + 1) * s], h, 1);
         }
+        let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0;
+        if collapsed || w.inc.iter().any(|v| !v.is_finite()) {
+            // A non-finite coefficient is the cause if there is one (`∞` in the last orders
+            // makes `h` zero); the scan runs only here.
+            if let Some(at) = coeffs.iter().position(|x| !x.is_finite()) {
+                return Err(sys.non_finite(t, y, p, at));
+            }
+            if collapsed {
+                return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
+            }
+        }
+        sys.check_step(&w.buf, p, h)?;
         add_scaled(y, self.compensated.then_some(&mut w.comp[..]), 1.0, &w.inc);
         w.h_last = h;
         w.dense_ready = true;
@@ -296,11 +305,13 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
 
     fn rate(&self, sys: &S, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), StepFailure> {
         let n = sys.dim();
-        let mut scratch = vec![0.0; sys.scratch_len(1)];
-        let mut coeffs = vec![0.0; 2 * n];
-        sys.taylor_coefficients(t, y, 1, &mut scratch, &mut coeffs)?;
+        let mut buf = vec![0.0; sys.scratch_len(1).max(2 * n)];
+        sys.taylor_coefficients(t, y, 1, &mut buf)?;
+        if let Some(at) = buf[..2 * n].iter().position(|x| !x.is_finite()) {
+            return Err(sys.non_finite(t, y, 1, at));
+        }
         for i in 0..n {
-            dy[i] = coeffs[2 * i + 1];
+            dy[i] = buf[2 * i + 1];
         }
         Ok(())
     }
@@ -312,7 +323,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         let s = w.order + 1;
         let x = theta * w.h_last;
         for (i, o) in out.iter_mut().enumerate() {
-            *o = polynomial(&w.coeffs[i * s..(i + 1) * s], x, 0);
+            *o = polynomial(&w.buf[i * s..(i + 1) * s], x, 0);
         }
         Ok(true)
     }
