@@ -329,6 +329,9 @@ impl<S: ?Sized, M: Method<S>> Method<S> for Projected<'_, M> {
     fn fixed_step(&self) -> Option<f64> {
         self.method.fixed_step()
     }
+    fn check(&self) -> Result<(), String> {
+        self.method.check()
+    }
     fn step(&self, sys: &S, work: &mut Self::Work, t: f64, y: &mut [f64], h: f64) -> Result<f64, StepFailure> {
         let taken = self.method.step(sys, work, t, y, h)?;
         self.constraints.project(t + taken, y).map_err(|e| StepFailure::from(StepError::from(e)))?;
