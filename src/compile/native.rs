@@ -524,6 +524,9 @@ extern "C" fn sin_cos(x: f64, out: *mut f64) {
 pub(crate) struct Expansion {
     pub glue: Vec<(u32, u32)>,
     pub solve: Option<CholeskySolve>,
+    /// Where the rows' mirror images start in the buffer ([`TaylorEmitter::pair`]): row `r`'s
+    /// coefficient `j` also at `mirror_at + r · stride + (stride − 1 − j)`.
+    pub mirror_at: usize,
 }
 
 /// Order `k` of the accelerations `a` of `W q'' = F`, from `W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`
@@ -828,7 +831,9 @@ fn compile_taylor_code(
             let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
             let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
             let windows = Windows { span: second, bases: Vec::new() };
-            let mut em = TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known, reloads: 0, windows };
+            let mirror = expansion.map(|g| g.mirror_at);
+            let mut em =
+                TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known, reloads: 0, windows, mirror };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             for &k in orders {
                 if form != Form::Compact {
@@ -889,9 +894,10 @@ fn compile_taylor_code(
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
         n_rows: tape.n_rows(),
-        buffer_len: expansion
-            .and_then(|g| g.solve.as_ref())
-            .map_or(tape.n_rows() * stride, |m| m.factor_at + m.n * m.n),
+        buffer_len: match expansion {
+            Some(g) => g.mirror_at + (tape.n_rows() + g.solve.as_ref().map_or(0, |m| m.n)) * stride,
+            None => tape.n_rows() * stride,
+        },
     })
 }
 
@@ -965,6 +971,8 @@ struct TaylorEmitter<'a, 'b> {
     reloads: usize,
     /// Unrolled code's base registers into the buffer ([`TaylorEmitter::window`]).
     windows: Windows,
+    /// Whole expansions: where the mirror images of the rows start ([`TaylorEmitter::pair`]).
+    mirror: Option<usize>,
 }
 
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
@@ -988,6 +996,7 @@ impl TaylorEmitter<'_, '_> {
             (None, _) => {
                 let (p, off) = self.window(i);
                 let v = self.b.ins().load(types::F64, MemFlags::trusted(), p, off);
+                self.mirror_store(r, j, v);
                 self.known[i] = Some(v);
                 v
             }
@@ -1102,11 +1111,60 @@ impl TaylorEmitter<'_, '_> {
         let i = r as usize * self.s + j;
         let (p, off) = self.window(i);
         self.b.ins().store(MemFlags::trusted(), v, p, off);
+        self.mirror_store(r, j, v);
         self.known[i] = Some(v);
+    }
+
+    /// Stores coefficient `j` of row `r` in its row's mirror image too, if there is one.
+    fn mirror_store(&mut self, r: u32, j: usize, v: Value) {
+        if let Some(m) = self.mirror {
+            let (p, off) = self.window(m + r as usize * self.s + self.s - 1 - j);
+            self.b.ins().store(MemFlags::trusted(), v, p, off);
+        }
+    }
+
+    /// Coefficients `j` and `j + 1` of row `r` (`descending`: `j` and `j − 1`) as the two lanes
+    /// of a vector, for two terms of a sum at once ([`TaylorEmitter::sum`]).
+    ///
+    /// Two consecutive terms of a Cauchy product read one row upwards and the other
+    /// downwards: `a_i b_{k−i}` and `a_{i+1} b_{k−i−1}`. A row's mirror image (stored next to
+    /// every coefficient, one store each) has the downward pair at consecutive addresses, so
+    /// both pairs are single loads: pure loads at their own addresses, as
+    /// [`TaylorEmitter::reload`]'s. Coefficients of orders `k` and `k − 1`, kept in registers,
+    /// or not yet in the buffer, are put into the lanes one by one: a vector load of words
+    /// stored just before would wait for the stores to complete.
+    fn pair(&mut self, r: u32, j: usize, descending: bool) -> Value {
+        let Order::Fixed(k) = self.k else { unreachable!("pairs are for unrolled code") };
+        let j1 = if descending { j - 1 } else { j + 1 };
+        let row = r as usize * self.s;
+        let old = |em: &Self, j: usize| j + 2 <= k && em.known[row + j].is_some();
+        if old(self, j) && old(self, j1) {
+            let i = match (descending, self.mirror) {
+                (false, _) => row + j,
+                (true, Some(m)) => m + row + self.s - 1 - j,
+                (true, None) => unreachable!("descending pairs need the mirror"),
+            };
+            self.reloads += 1;
+            let u = 8 * (self.reloads % (1 << 24)) as i64;
+            let (p, off) = self.window(i);
+            let at = self.b.ins().iadd_imm(p, u);
+            let flags = MemFlags::new().with_notrap().with_readonly();
+            return self.b.ins().load(types::F64X2, flags, at, (off as i64 - u) as i32);
+        }
+        let (x0, x1) = (self.at(r, j), self.at(r, j1));
+        let v = self.b.ins().scalar_to_vector(types::F64X2, x0);
+        self.b.ins().insertlane(v, x1, 1)
     }
 
     fn c(&mut self, x: f64) -> Value {
         self.b.ins().f64const(x)
+    }
+
+    /// The vector constant `(x, y)`.
+    fn pair_const(&mut self, x: f64, y: f64) -> Value {
+        let bytes: Vec<u8> = x.to_le_bytes().into_iter().chain(y.to_le_bytes()).collect();
+        let c = self.b.func.dfg.constants.insert(bytes.into());
+        self.b.ins().vconst(types::F64X2, c)
     }
 
     /// `k` as a float.
@@ -1163,7 +1221,42 @@ impl TaylorEmitter<'_, '_> {
             (s, t) => s.or(t),
         };
         let mut acc = [None; 4];
-        for i in lo..hi {
+        // Whole quads of terms, two by two in vector lanes when the rows are mirrored: lanes
+        // 0 and 1 of `pairs[0]` are partial sums 0 and 1, those of `pairs[1]` sums 2 and 3,
+        // each lane the scalar code's operations on its own term, so the bits are the same.
+        let mut from = lo;
+        if self.mirror.is_some() && hi - lo >= 4 {
+            let mut pairs: [Option<Value>; 2] = [None; 2];
+            while from + 2 <= hi {
+                // The last two or three terms: their first two go to partial sums 0 and 1
+                // (`pairs[0]`), as in the scalar order; a third is left to the scalar code.
+                let halves = if from + 4 <= hi { 2 } else { 1 };
+                for (h, lanes) in pairs.iter_mut().enumerate().take(halves) {
+                    let i = from + 2 * h;
+                    let x = self.pair(a, a0 + i, false);
+                    let y = self.pair(b, b0 - i, true);
+                    let (w0, w1) = (w.at(i, k), w.at(i + 1, k));
+                    let x = if w0 == 1.0 && w1 == 1.0 {
+                        x
+                    } else {
+                        let wv = self.pair_const(w0, w1);
+                        self.b.ins().fmul(x, wv)
+                    };
+                    let t = self.b.ins().fmul(x, y);
+                    *lanes = Some(match *lanes {
+                        Some(s) => self.b.ins().fadd(s, t),
+                        None => t,
+                    });
+                }
+                from += 2 * halves;
+            }
+            for (h, lanes) in pairs.into_iter().enumerate() {
+                let v = lanes.expect("at least one quad");
+                acc[2 * h] = Some(self.b.ins().extractlane(v, 0));
+                acc[2 * h + 1] = Some(self.b.ins().extractlane(v, 1));
+            }
+        }
+        for i in from..hi {
             let t = term(self, i);
             let r = (i - lo) % 4;
             acc[r] = add(self, acc[r], Some(t));

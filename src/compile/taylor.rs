@@ -1208,7 +1208,7 @@ impl TaylorOde {
             acc_row: n_rows as u32,
             factor_at: (n_rows + m.n) * stride,
         });
-        let expansion = Expansion { glue, solve };
+        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride) };
         match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
             Some(code) => Some(TaylorNative(Arc::new(code))),
             // Too large to unroll: compact code, one call per order (none past
@@ -1263,6 +1263,13 @@ impl TaylorOde {
     /// Scratch values [`TaylorOde::expand`] needs for `order`.
     pub fn scratch_len(&self, order: usize) -> usize {
         let stride = order + 1;
+        let rows = self.tape.n_rows() + self.solve.as_ref().map_or(0, |m| m.n);
+        self.mirror_at(stride) + rows * stride
+    }
+
+    /// Where the whole native expansion keeps the mirror images of its rows (after the rows
+    /// and the solve's scratch; see `native::TaylorEmitter::pair`).
+    fn mirror_at(&self, stride: usize) -> usize {
         self.tape.n_rows() * stride + self.solve_len(stride)
     }
 
