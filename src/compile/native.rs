@@ -541,6 +541,23 @@ pub(crate) struct CholeskySolve {
     pub acc_row: u32,
     /// Where `L` starts in the buffer (`L_ij` at `factor_at + i n + j`).
     pub factor_at: usize,
+    /// The row of every entry `W_ij` (`i n + j`), for the factorisation at order 0.
+    pub w_rows: Vec<u32>,
+}
+
+/// What a whole expansion's return value means: bit 0, an `abs` met its kink; bit 1, `W₀` was
+/// not finite or not positive definite, so the rest is garbage and the interpreter must redo
+/// the expansion (and choose LU, or report the error).
+const STATUS_KINK: i32 = 1;
+const STATUS_REDO: i32 = 2;
+
+/// How a whole native expansion ended ([`NativeTaylor::run_expansion`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Ran {
+    Done,
+    Kink,
+    /// `W₀` needs the interpreter (see [`STATUS_REDO`]).
+    Redo,
 }
 
 /// The signature of one generated Taylor order: `fn(c: *mut f64, window: usize) -> i32`,
@@ -725,14 +742,18 @@ impl NativeTaylor {
     /// every row and order 1 of the state given), or the same from order 0
     /// ([`NativeTaylor::starts_at_order0`]: only the state's order 0 and the time's orders
     /// given); `false` when an `abs` met its kink.
-    pub(crate) fn run_expansion(&self, c: &mut [f64]) -> bool {
+    pub(crate) fn run_expansion(&self, c: &mut [f64]) -> Ran {
         assert!(self.is_whole(), "not a whole expansion");
-        self.call(c, 0)
+        match self.call(c, 0) {
+            s if s & STATUS_REDO != 0 => Ran::Redo,
+            s if s & STATUS_KINK != 0 => Ran::Kink,
+            _ => Ran::Done,
+        }
     }
 
     /// Runs the generated code for order `k` (any `k` for a whole expansion, which ignores
-    /// it) on `c`; `false` when an `abs` met its kink.
-    fn call(&self, c: &mut [f64], k: usize) -> bool {
+    /// it) on `c`; its status: 0, or [`STATUS_KINK`] and [`STATUS_REDO`] bits.
+    fn call(&self, c: &mut [f64], k: usize) -> i32 {
         assert!(c.len() >= self.buffer_len, "Taylor buffer too short");
         // SAFETY: every generated function has the type its form says (see
         // `compile_taylor_code`) and touches only `c[0 .. buffer_len]` (the rows, and for a
@@ -743,14 +764,14 @@ impl NativeTaylor {
             match self.form {
                 Form::Compact => {
                     let f = std::mem::transmute::<*const u8, TaylorCompactFn>(self.funcs[0]);
-                    f(c.as_mut_ptr(), k) == 0
+                    f(c.as_mut_ptr(), k)
                 }
                 Form::Whole => {
-                    std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0])(c.as_mut_ptr(), WINDOW_BYTES) == 0
+                    std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0])(c.as_mut_ptr(), WINDOW_BYTES)
                 }
                 Form::PerOrder => {
                     let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[k - 1]);
-                    f(c.as_mut_ptr(), WINDOW_BYTES) == 0
+                    f(c.as_mut_ptr(), WINDOW_BYTES)
                 }
             }
         }
@@ -770,7 +791,7 @@ impl NativeTaylor {
     /// given); `false` when an `abs` met its kink.
     pub(crate) fn run_order(&self, c: &mut [f64], k: usize) -> bool {
         assert!(!self.is_whole() && (1..=self.max_order).contains(&k), "order {k} not compiled");
-        self.call(c, k)
+        self.call(c, k) == 0
     }
 }
 
@@ -796,7 +817,7 @@ fn compile_taylor_code(
     // The orders each function computes: one each (per order); all of them in one function
     // (whole expansion, from order 0 for a first-order system, see `TaylorEmitter::order0`);
     // for compact code a placeholder, its order being the function's argument.
-    let starts_at_order0 = form == Form::Whole && expansion.is_some_and(|g| g.solve.is_none());
+    let starts_at_order0 = form == Form::Whole && expansion.is_some();
     let funcs: Vec<Vec<usize>> = match form {
         Form::Whole => vec![(usize::from(!starts_at_order0)..=max_order).collect()],
         Form::PerOrder => (1..=max_order).map(|k| vec![k]).collect(),
@@ -835,12 +856,16 @@ fn compile_taylor_code(
             let mut em =
                 TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known, reloads: 0, windows, mirror };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
+            let mut redo = None;
             for &k in orders {
                 if form != Form::Compact {
                     em.k = Order::Fixed(k);
                 }
                 if starts_at_order0 && k == 0 {
                     em.order0(tape);
+                    if let Some(m) = expansion.and_then(|g| g.solve.as_ref()) {
+                        redo = Some(em.cholesky_factor(m));
+                    }
                 } else {
                     kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
                 }
@@ -857,7 +882,12 @@ fn compile_taylor_code(
                 }
             }
             if let Some(kink) = kink {
-                let r = em.b.ins().uextend(types::I32, kink);
+                let mut r = em.b.ins().uextend(types::I32, kink);
+                if let Some(redo) = redo {
+                    let redo = em.b.ins().uextend(types::I32, redo);
+                    let redo = em.b.ins().imul_imm(redo, i64::from(STATUS_REDO));
+                    r = em.b.ins().bor(r, redo);
+                }
                 em.b.ins().return_(&[r]);
                 b.seal_all_blocks();
                 b.finalize();
@@ -1396,13 +1426,67 @@ impl TaylorEmitter<'_, '_> {
 
     /// Order `k` of the accelerations (`TaylorOde::expand` and `rhs::solve` with a Cholesky
     /// factor, operation for operation; unrolled code).
+    /// Order 0 of `W q'' = F`: the Cholesky factor `L` of `W₀` into the buffer at
+    /// `factor_at`, operation for operation as `rhs::factor` (so the bits are the
+    /// interpreter's), and a flag (`i8`) set when an entry of `W₀` is not finite or a pivot is
+    /// at most `n ε max|W₀|`: then the interpreter redoes the expansion, which factors by LU
+    /// or reports the error. The code runs on regardless (one straight-line block), on
+    /// garbage that is never used.
+    fn cholesky_factor(&mut self, m: &CholeskySolve) -> Value {
+        let n = m.n;
+        let mut a: Vec<Value> = m.w_rows.iter().map(|&r| self.at(r, 0)).collect();
+        let inf = self.c(f64::INFINITY);
+        let mut redo = self.b.ins().iconst(types::I8, 0);
+        let mut scale = self.c(0.0);
+        for &x in &a {
+            let ax = self.b.ins().fabs(x);
+            let finite = self.b.ins().fcmp(FloatCC::LessThan, ax, inf);
+            let bad = self.b.ins().bxor_imm(finite, 1);
+            redo = self.b.ins().bor(redo, bad);
+            // `f64::max` of finite values (a non-finite one sets `redo` anyway).
+            scale = self.b.ins().fmax(scale, ax);
+        }
+        let ne = self.c(n as f64 * f64::EPSILON);
+        let tol = self.b.ins().fmul(ne, scale);
+        for j in 0..n {
+            let mut d = a[j * n + j];
+            for k in 0..j {
+                let p = self.b.ins().fmul(a[j * n + k], a[j * n + k]);
+                d = self.b.ins().fsub(d, p);
+            }
+            let small = self.b.ins().fcmp(FloatCC::LessThanOrEqual, d, tol);
+            redo = self.b.ins().bor(redo, small);
+            let l = self.b.ins().sqrt(d);
+            a[j * n + j] = l;
+            for i in j + 1..n {
+                let mut x = a[i * n + j];
+                for k in 0..j {
+                    let p = self.b.ins().fmul(a[i * n + k], a[j * n + k]);
+                    x = self.b.ins().fsub(x, p);
+                }
+                a[i * n + j] = self.b.ins().fdiv(x, l);
+            }
+        }
+        for i in 0..n {
+            for j in 0..=i {
+                let off = ((m.factor_at + i * n + j) * 8) as i32;
+                self.b.ins().store(MemFlags::trusted(), a[i * n + j], self.base, off);
+            }
+        }
+        redo
+    }
+
     fn cholesky_solve(&mut self, m: &CholeskySolve, k: usize) {
         let n = m.n;
         let mut x = Vec::with_capacity(n);
         for i in 0..n {
             let mut v = self.at(m.f_rows[i], k);
             for &(l, w) in &m.varying[i] {
-                let d = self.sum(w, Ix::at(1), m.acc_row + l as u32, Ix::k(-1), Len::Ix(Ix::K), Weight::One);
+                // Order 0 has no terms: the interpreter's empty sum, −0.0.
+                let d = match k {
+                    0 => self.c(-0.0),
+                    _ => self.sum(w, Ix::at(1), m.acc_row + l as u32, Ix::k(-1), Len::Ix(Ix::K), Weight::One),
+                };
                 v = self.b.ins().fsub(v, d);
             }
             x.push(v);

@@ -31,7 +31,9 @@ use crate::expr::{Expr, Func};
 use crate::integrate::{RhsError as StepError, StepFailure, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
-use super::native::{compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, MAX_NATIVE_TAYLOR_TERMS};
+use super::native::{
+    compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, Ran, MAX_NATIVE_TAYLOR_TERMS,
+};
 use super::rhs::{factor, solve, Factor};
 use super::tape::{Instr, Tape};
 use super::{CompileError, HamiltonianRhs, LagrangianRhs};
@@ -826,15 +828,11 @@ impl TaylorNative {
         self.0.is_compact()
     }
 
-    /// Runs a whole expansion: orders `1..=max_order` (from order 0 if it
-    /// [`starts_at_order0`](TaylorNative::starts_at_order0)) and the state's next order after
-    /// each (`c`: the whole scratch of [`TaylorOde::expand`]).
-    fn run_expansion(&self, c: &mut [f64]) -> Result<(), KinkAt> {
-        if self.0.run_expansion(c) {
-            Ok(())
-        } else {
-            Err(KinkAt)
-        }
+    /// Runs a whole expansion: orders `0..=max_order` and the state's next order after each
+    /// (`c`: the whole scratch of [`TaylorOde::expand`], with the state's order 0 and the
+    /// time's orders given).
+    fn run_expansion(&self, c: &mut [f64]) -> Ran {
+        self.0.run_expansion(c)
     }
 }
 
@@ -1207,6 +1205,7 @@ impl TaylorOde {
             varying: m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect(),
             acc_row: n_rows as u32,
             factor_at: (n_rows + m.n) * stride,
+            w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
         });
         let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride) };
         match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
@@ -1313,32 +1312,36 @@ impl TaylorOde {
         let len = self.scratch_len(order);
         let kink = |_| TaylorError::AbsKink { t, state: y[..dim].to_vec() };
         let native = self.native_tiered(order);
-        let whole = native.filter(|code| code.is_whole());
-        let mut run_whole = false;
+        {
+            let c = &mut scratch[..rows];
+            self.tape.init(c, s);
+            for i in 0..dim {
+                c[i * s] = y[i];
+            }
+            if let Some(ti) = self.time {
+                let r = &mut c[ti * s..(ti + 1) * s];
+                r.fill(0.0);
+                r[0] = t;
+                if s > 1 {
+                    r[1] = 1.0;
+                }
+            }
+        }
+        if let Some(code) = native.filter(|code| code.is_whole()) {
+            match code.run_expansion(&mut scratch[..len]) {
+                Ran::Done => return Ok(()),
+                Ran::Kink => return Err(kink(KinkAt)),
+                // `W₀` not finite or not positive definite: the interpreter redoes it all, and
+                // factors by LU or reports the error.
+                Ran::Redo => {}
+            }
+        }
+        let native = native.filter(|code| !code.is_whole());
         let (c, rest) = scratch[..len].split_at_mut(rows);
-        self.tape.init(c, s);
-        for i in 0..dim {
-            c[i * s] = y[i];
-        }
-        if let Some(ti) = self.time {
-            let r = &mut c[ti * s..(ti + 1) * s];
-            r.fill(0.0);
-            r[0] = t;
-            if s > 1 {
-                r[1] = 1.0;
-            }
-        }
         let mut kind = Factor::Cholesky;
-        // A whole expansion takes over at order 0 (first-order systems) or after it, unless
-        // `W₀` needed LU (then this expansion stays interpreted).
-        let whole_from = whole.map(|code| usize::from(!code.starts_at_order0()));
         for k in 0..order {
-            if whole_from == Some(k) && !matches!(kind, Factor::Lu) {
-                run_whole = true;
-                break;
-            }
             match native {
-                Some(code) if k >= 1 && whole.is_none() => code.run_order(c, k).map_err(kink)?,
+                Some(code) if k >= 1 => code.run_order(c, k).map_err(kink)?,
                 _ => self.tape.run_order(c, s, k).map_err(kink)?,
             }
             if let Some(m) = &self.solve {
@@ -1387,10 +1390,6 @@ impl TaylorOde {
                 };
                 c[i * s + k + 1] = v * inv;
             }
-        }
-        if let Some(code) = whole.filter(|_| run_whole) {
-            // Orders 1..order − 1 of every row and orders 2..=order of the state.
-            code.run_expansion(&mut scratch[..len]).map_err(kink)?;
         }
         Ok(())
     }
