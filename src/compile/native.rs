@@ -631,8 +631,6 @@ pub(crate) struct NativeTaylor {
     /// Per order: `funcs[k − 1]` computes order `k`. Whole expansion or compact: `funcs[0]`.
     funcs: Vec<*const u8>,
     form: Form,
-    /// Whether a whole expansion computes order 0 too (first-order systems).
-    starts_at_order0: bool,
     max_order: usize,
     _module: OwnedModule,
     stride: usize,
@@ -734,21 +732,13 @@ impl NativeTaylor {
         self.form == Form::Whole
     }
 
-    /// Whether this whole expansion starts at order 0 (the state's order 0 and the time's
-    /// orders given), not at order 1.
-    pub(crate) fn starts_at_order0(&self) -> bool {
-        self.starts_at_order0
-    }
-
     /// Whether this is compact code ([`NativeTaylor::compile_compact`]).
     pub(crate) fn is_compact(&self) -> bool {
         self.form == Form::Compact
     }
 
-    /// Runs a whole expansion: orders `1..=max_order` and the glue after each (orders `0` of
-    /// every row and order 1 of the state given), or the same from order 0
-    /// ([`NativeTaylor::starts_at_order0`]: only the state's order 0 and the time's orders
-    /// given); `false` when an `abs` met its kink.
+    /// Runs a whole expansion: orders `0..=max_order` and the glue after each (the state's
+    /// order 0 and the time's orders given).
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> Ran {
         assert!(self.is_whole(), "not a whole expansion");
         match self.call(c, 0) {
@@ -822,11 +812,10 @@ fn compile_taylor_code(
     let mut ids = Vec::with_capacity(max_order);
     let mut ok = true;
     // The orders each function computes: one each (per order); all of them in one function
-    // (whole expansion, from order 0 for a first-order system, see `TaylorEmitter::order0`);
-    // for compact code a placeholder, its order being the function's argument.
-    let starts_at_order0 = form == Form::Whole && expansion.is_some();
+    // (whole expansion, from order 0, see `TaylorEmitter::order0`); for compact code a
+    // placeholder, its order being the function's argument.
     let funcs: Vec<Vec<usize>> = match form {
-        Form::Whole => vec![(usize::from(!starts_at_order0)..=max_order).collect()],
+        Form::Whole => vec![(0..=max_order).collect()],
         Form::PerOrder => (1..=max_order).map(|k| vec![k]).collect(),
         Form::Compact => vec![vec![0]],
     };
@@ -868,7 +857,7 @@ fn compile_taylor_code(
                 if form != Form::Compact {
                     em.k = Order::Fixed(k);
                 }
-                if starts_at_order0 && k == 0 {
+                if form == Form::Whole && k == 0 {
                     em.order0(tape);
                     if let Some(m) = expansion.and_then(|g| g.solve.as_ref()) {
                         redo = Some(em.cholesky_factor(m));
@@ -926,7 +915,6 @@ fn compile_taylor_code(
     Some(NativeTaylor {
         funcs,
         form,
-        starts_at_order0,
         max_order,
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,

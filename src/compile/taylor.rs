@@ -797,7 +797,7 @@ impl TaylorNative {
     }
 
     /// The highest order compiled (orders `1..=max_order`; order 0 is interpreted except in a
-    /// first-order system's whole expansion, see [`TaylorNative::starts_at_order0`]).
+    /// whole expansion).
     pub fn max_order(&self) -> usize {
         self.0.max_order()
     }
@@ -812,15 +812,10 @@ impl TaylorNative {
         }
     }
 
-    /// Whether this is the whole expansion of a first-order ODE (see [`TaylorOde::native_for`]).
+    /// Whether this is the whole expansion of an ODE from order 0 (see
+    /// [`TaylorOde::native_for`]).
     pub fn is_whole(&self) -> bool {
         self.0.is_whole()
-    }
-
-    /// Whether this whole expansion computes order 0 too (a first-order system's does; a
-    /// `W q'' = F` system's starts after order 0, which factors `W₀` in Rust).
-    pub fn starts_at_order0(&self) -> bool {
-        self.0.starts_at_order0()
     }
 
     /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
