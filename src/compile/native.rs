@@ -849,8 +849,19 @@ fn compile_taylor_code(
             let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
             let windows = Windows { span: second, bases: Vec::new() };
             let mirror = expansion.filter(|_| max_order + 1 >= PAIRS_FROM_ORDER).map(|g| g.mirror_at);
-            let mut em =
-                TaylorEmitter { b: &mut b, call_conv, base, ptr, s: stride, k, known, reloads: 0, windows, mirror };
+            let mut em = TaylorEmitter {
+                b: &mut b,
+                call_conv,
+                base,
+                ptr,
+                s: stride,
+                k,
+                known,
+                reloads: 0,
+                windows,
+                mirror,
+                inv_diag: Vec::new(),
+            };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             let mut redo = None;
             for &k in orders {
@@ -998,6 +1009,8 @@ struct TaylorEmitter<'a, 'b> {
     windows: Windows,
     /// Whole expansions: where the mirror images of the rows start ([`TaylorEmitter::pair`]).
     mirror: Option<usize>,
+    /// `W q'' = F`: the reciprocals of the diagonal of `W₀`'s Cholesky factor, from order 0.
+    inv_diag: Vec<Value>,
 }
 
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
@@ -1419,8 +1432,6 @@ impl TaylorEmitter<'_, '_> {
         s
     }
 
-    /// Order `k` of the accelerations (`TaylorOde::expand` and `rhs::solve` with a Cholesky
-    /// factor, operation for operation; unrolled code).
     /// Order 0 of `W q'' = F`: the Cholesky factor `L` of `W₀` into the buffer at
     /// `factor_at`, operation for operation as `rhs::factor` (so the bits are the
     /// interpreter's), and a flag (`i8`) set when an entry of `W₀` is not finite or a pivot is
@@ -1468,9 +1479,14 @@ impl TaylorEmitter<'_, '_> {
                 self.b.ins().store(MemFlags::trusted(), a[i * n + j], self.base, off);
             }
         }
+        let one = self.c(1.0);
+        self.inv_diag = (0..n).map(|i| self.b.ins().fdiv(one, a[i * n + i])).collect();
         redo
     }
 
+    /// Order `k` of the accelerations (`TaylorOde::expand` and its `cholesky_solve`, with the
+    /// reciprocals of the factor's diagonal from order 0, operation for operation; unrolled
+    /// code).
     fn cholesky_solve(&mut self, m: &CholeskySolve, k: usize) {
         let n = m.n;
         let mut x = Vec::with_capacity(n);
@@ -1497,8 +1513,7 @@ impl TaylorEmitter<'_, '_> {
                 let p = self.b.ins().fmul(l, xj);
                 v = self.b.ins().fsub(v, p);
             }
-            let d = lf(self, i, i);
-            x[i] = self.b.ins().fdiv(v, d);
+            x[i] = self.b.ins().fmul(v, self.inv_diag[i]);
         }
         for i in (0..n).rev() {
             let mut v = x[i];
@@ -1507,8 +1522,7 @@ impl TaylorEmitter<'_, '_> {
                 let p = self.b.ins().fmul(l, xj);
                 v = self.b.ins().fsub(v, p);
             }
-            let d = lf(self, i, i);
-            x[i] = self.b.ins().fdiv(v, d);
+            x[i] = self.b.ins().fmul(v, self.inv_diag[i]);
         }
         for (i, &v) in x.iter().enumerate() {
             self.put_at(m.acc_row + i as u32, k, v);

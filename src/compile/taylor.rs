@@ -1003,6 +1003,28 @@ fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_l
     s
 }
 
+/// Solves `L Lᵀ x = b` in place (`x` holds `b`) with the factor `L` of `rhs::factor` and its
+/// diagonal's reciprocals `inv`: `rhs::solve`'s substitutions with multiplications where it
+/// divides. Each order of a `W q'' = F` expansion runs one solve on its dependency chain from
+/// one order to the next, and the `2n` divisions (13 cycles or more each) were most of that
+/// chain's latency. The whole native expansion does the same operations (the same bits).
+fn cholesky_solve(l: &[f64], inv: &[f64], n: usize, x: &mut [f64]) {
+    for i in 0..n {
+        let mut v = x[i];
+        for k in 0..i {
+            v -= l[i * n + k] * x[k];
+        }
+        x[i] = v * inv[i];
+    }
+    for i in (0..n).rev() {
+        let mut v = x[i];
+        for k in i + 1..n {
+            v -= l[k * n + i] * x[k];
+        }
+        x[i] = v * inv[i];
+    }
+}
+
 /// `Σ_{j=0}^{k} a_j b_{k−j}` (both end terms read order `k`).
 #[inline(always)]
 fn cauchy(a: &[f64], b: &[f64], k: usize) -> f64 {
@@ -1362,6 +1384,12 @@ impl TaylorOde {
                         index,
                         state: y[..dim].to_vec(),
                     })?;
+                    if matches!(kind, Factor::Cholesky) {
+                        // `perm` is LU's; a Cholesky factor keeps its diagonal's reciprocals there.
+                        for i in 0..n {
+                            perm[i] = 1.0 / fm[i * n + i];
+                        }
+                    }
                 }
                 for i in 0..n {
                     let mut v = c[out(m.f[i]) * s + k];
@@ -1371,7 +1399,10 @@ impl TaylorOde {
                     }
                     rhs[i] = v;
                 }
-                solve(kind, fm, perm, n, rhs, tmp);
+                match kind {
+                    Factor::Cholesky => cholesky_solve(fm, perm, n, rhs),
+                    Factor::Lu => solve(kind, fm, perm, n, rhs, tmp),
+                }
                 for i in 0..n {
                     acc[i * s + k] = rhs[i];
                 }
