@@ -1236,8 +1236,9 @@ impl TaylorEmitter<'_, '_> {
 
     /// `Σ_i w_i · a[a0 + i] · b[b0 − i]`, `i = 0..len`, in the interpreter's order (`sum4` in
     /// `taylor.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
-    /// added at the end, the others round-robin into four partial sums from `0.0`, combined
-    /// as `(s₀ + s₁) + (s₂ + s₃)`.
+    /// added at the end, the others round-robin into four partial sums (from their first
+    /// terms; two terms at a time in vector lanes from [`PAIRS_FROM_ORDER`]), combined as
+    /// `(s₀ + s₁) + (s₂ + s₃)`.
     fn sum(&mut self, a: u32, a0: Ix, b: u32, b0: Ix, len: Len, w: Weight) -> Value {
         let Order::Fixed(k) = self.k else { return self.sum_loop(a, a0, b, b0, len, w) };
         let (a0, b0) = (a0.eval(k), b0.eval(k));
@@ -1259,9 +1260,9 @@ impl TaylorEmitter<'_, '_> {
             (s, t) => s.or(t),
         };
         let mut acc = [None; 4];
-        // Whole quads of terms, two by two in vector lanes when the rows are mirrored: lanes
-        // 0 and 1 of `pairs[0]` are partial sums 0 and 1, those of `pairs[1]` sums 2 and 3,
-        // each lane the scalar code's operations on its own term, so the bits are the same.
+        // Quads of terms, two by two in vector lanes when the rows are mirrored: lanes 0 and 1
+        // of `pairs[0]` are partial sums 0 and 1, those of `pairs[1]` sums 2 and 3, each lane
+        // the scalar code's operations on its own term, so the bits are the same.
         let mut from = lo;
         if self.mirror.is_some() && hi - lo >= 4 {
             let mut pairs: [Option<Value>; 2] = [None; 2];
