@@ -560,9 +560,10 @@ pub(crate) enum Ran {
     Redo,
 }
 
-/// The signature of one generated Taylor order: `fn(c: *mut f64, window: usize) -> i32`,
-/// computing order `k` of every row of the coefficient buffer `c` in place; returns 1 when an
-/// `abs` met its kink. `window` is always [`WINDOW_BYTES`] (see [`TaylorEmitter::window`]).
+/// The signature of one generated Taylor order, or of a whole expansion:
+/// `fn(c: *mut f64, window: usize) -> i32`, computing in place in the coefficient buffer `c`;
+/// returns its status ([`STATUS_KINK`], and for a whole expansion [`STATUS_REDO`]). `window`
+/// is always [`WINDOW_BYTES`] (see [`TaylorEmitter::window`]).
 type TaylorOrderFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
 
 /// The lowest order whose whole expansion sums two terms at once ([`TaylorEmitter::pair`]).
@@ -1072,13 +1073,14 @@ impl TaylorEmitter<'_, '_> {
     /// (unrolled code).
     ///
     /// With the buffer's one base register, every access past its first 128 bytes takes a
-    /// four-byte displacement: Kepler's order-18 expansion was 23 kB of code, ~1,500 of its
-    /// 3,257 instructions loads and stores of 8 bytes each. The code's speed then moved by
-    /// up to 20 % with the placement of the integrator's own code (an instruction cache
-    /// near capacity; the effect grows with the order: 1 % at order 8, 12 % at order 18).
-    /// Base registers every [`WINDOW_BYTES`] bytes (up to [`MAX_WINDOWS`]) reach each
-    /// coefficient with a one-byte displacement. Each is `base + w · span`, where `span` is a function argument, so that
-    /// Cranelift cannot fold it back into `base` plus a constant.
+    /// four-byte displacement: Kepler's order-18 expansion was 17.8 kB of instructions (and a
+    /// 5 kB constant pool), ~1,500 of its 3,257 instructions loads and stores of 8 bytes
+    /// each. How fast that code ran moved by up to 20 % with the placement of the
+    /// integrator's own code, and the effect grows with the code's size (1 % at order 8, 12 %
+    /// at order 18), which points at the instruction caches. Base registers every
+    /// [`WINDOW_BYTES`] bytes (up to [`MAX_WINDOWS`]) reach each coefficient with a one-byte
+    /// displacement (16.0 kB). Each is `base + w · span`, where `span` is a function argument,
+    /// so that Cranelift cannot fold it back into `base` plus a constant.
     fn window(&mut self, i: usize) -> (Value, i32) {
         let bytes = 8 * i;
         let w = (bytes + WINDOW_BYTES / 2) / WINDOW_BYTES;
