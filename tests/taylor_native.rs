@@ -356,3 +356,31 @@ fn a_large_tape_runs_on_compact_code_then_unrolled_code_with_the_same_bits() {
     let code = early.native_compiled(p);
     assert_eq!(code.as_ref().is_some_and(|c| c.is_whole()), jit_expected(), "{code:?}");
 }
+
+#[test]
+fn a_whole_expansion_hands_a_bad_mass_matrix_to_the_interpreter() {
+    // W = 1/x² is infinite at x = 0 and W = −1 − x² is negative definite: the generated code's
+    // order 0 must not go on with a Cholesky factor of either (it flags the expansion, and the
+    // interpreter redoes it), so both give the interpreter's answer, a typed error or an LU
+    // solve, never the native code's garbage.
+    let p = 16;
+    for (l, y) in [("1/2 x'^2/x^2 - x", [0.0, 1.0]), ("-1/2 (1 + x^2) x'^2 - x", [0.5, 1.0])] {
+        let ode = System::from_lagrangian(l, &["x"]).unwrap().compile_taylor().unwrap().with_native(true);
+        let reference = ode.clone().with_native(false);
+        if jit_expected() {
+            assert!(ode.native_for(p).is_some_and(|c| c.is_whole()), "{l}: no whole native expansion");
+        }
+        let mut scratch = vec![0.0; ode.scratch_len(p)];
+        let (mut a, mut b) = (vec![0.0; 2 * (p + 1)], vec![0.0; 2 * (p + 1)]);
+        let native = ode.expand(0.0, &y, p, &mut scratch, &mut a);
+        let interpreted = reference.expand(0.0, &y, p, &mut scratch, &mut b);
+        match (native, interpreted) {
+            (Err(e), Err(f)) => assert_eq!(e.to_string(), f.to_string(), "{l}"),
+            (Ok(()), Ok(())) => {
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a), bits(&b), "{l}");
+            }
+            (n, i) => panic!("{l}: native {n:?}, interpreted {i:?}"),
+        }
+    }
+}
