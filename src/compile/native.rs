@@ -1062,11 +1062,17 @@ impl TaylorEmitter<'_, '_> {
     /// bit-for-bit comparisons with the interpreter on reused buffers
     /// (`tests/taylor_native.rs`) would catch a load moved above its store.
     fn reload(&mut self, i: usize) -> Value {
+        self.pure_load(types::F64, MemFlags::trusted(), i)
+    }
+
+    /// A `readonly` load of type `ty` at word `i` of the buffer with its own address
+    /// expression ([`TaylorEmitter::reload`]; `flags` without `readonly`).
+    fn pure_load(&mut self, ty: types::Type, flags: MemFlags, i: usize) -> Value {
         self.reloads += 1;
         let u = 8 * (self.reloads % (1 << 24)) as i64;
         let (p, off) = self.window(i);
         let at = self.b.ins().iadd_imm(p, u);
-        self.b.ins().load(types::F64, MemFlags::trusted().with_readonly(), at, (off as i64 - u) as i32)
+        self.b.ins().load(ty, flags.with_readonly(), at, (off as i64 - u) as i32)
     }
 
     /// A base register and a one-byte displacement for coefficient `i` of the buffer
@@ -1184,12 +1190,8 @@ impl TaylorEmitter<'_, '_> {
                 (true, Some(m)) => m + row + self.s - 1 - j,
                 (true, None) => unreachable!("descending pairs need the mirror"),
             };
-            self.reloads += 1;
-            let u = 8 * (self.reloads % (1 << 24)) as i64;
-            let (p, off) = self.window(i);
-            let at = self.b.ins().iadd_imm(p, u);
-            let flags = MemFlags::new().with_notrap().with_readonly();
-            return self.b.ins().load(types::F64X2, flags, at, (off as i64 - u) as i32);
+            // Words are 8-byte aligned, pairs not 16-byte aligned: no `aligned` flag.
+            return self.pure_load(types::F64X2, MemFlags::new().with_notrap(), i);
         }
         let (x0, x1) = (self.at(r, j), self.at(r, j1));
         let v = self.b.ins().scalar_to_vector(types::F64X2, x0);
