@@ -862,6 +862,7 @@ fn compile_taylor_code(
                 windows,
                 mirror,
                 inv_diag: Vec::new(),
+                weighted: (0..tape.n_rows() as u32).map(|r| tape.weighted_row(r)).collect(),
             };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             let mut redo = None;
@@ -1012,6 +1013,8 @@ struct TaylorEmitter<'a, 'b> {
     mirror: Option<usize>,
     /// `W q'' = F`: the reciprocals of the diagonal of `W₀`'s Cholesky factor, from order 0.
     inv_diag: Vec<Value>,
+    /// Each row's weighted row, if it has one (`TaylorTape::weighted_row`).
+    weighted: Vec<Option<u32>>,
 }
 
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
@@ -1142,13 +1145,19 @@ impl TaylorEmitter<'_, '_> {
         }
     }
 
-    /// Writes order `k` of row `r`.
+    /// Writes order `k` of row `r` and, if it has one, of its weighted row (`k · v`, as
+    /// `TaylorTape::run_order`'s `put`).
     fn put(&mut self, r: u32, v: Value) {
         match self.k {
             Order::Fixed(k) => self.put_at(r, k, v),
             Order::Runtime { at_k, .. } => {
                 self.b.ins().store(MemFlags::trusted(), v, at_k, (r as usize * self.s * 8) as i32);
             }
+        }
+        if let Some(w) = self.weighted.get(r as usize).copied().flatten() {
+            let kf = self.kf();
+            let wv = self.b.ins().fmul(v, kf);
+            self.put(w, wv);
         }
     }
 
@@ -1346,7 +1355,6 @@ impl TaylorEmitter<'_, '_> {
         // The weight of the term whose `j` is `j` (a float holding an integer).
         let weight = |em: &mut Self, j: Value| match w {
             Weight::One => None,
-            Weight::Index => Some(j),
             Weight::Power(e) => {
                 let kmj = em.b.ins().fsub(kf, j);
                 let ev = em.c(e);
@@ -1539,9 +1547,10 @@ impl TaylorEmitter<'_, '_> {
         self.sum(a, Ix::at(0), b, Ix::K, Len::Ix(Ix::k(1)), Weight::One)
     }
 
-    /// `Σ_{j=1}^{k} j a_j b_{k−j}` (`weighted`).
+    /// `Σ_{j=1}^{k} j a_j b_{k−j}` (`weighted`), read from `a`'s weighted row.
     fn weighted(&mut self, a: u32, b: u32) -> Value {
-        self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::K), Weight::Index)
+        let wa = self.weighted_row(a);
+        self.sum(wa, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::K), Weight::One)
     }
 
     /// `Σ_{j=1}^{k−1} j a_j b_{k−j}` (`weighted_short`; an empty sum is `−0.0` either way).
@@ -1549,7 +1558,13 @@ impl TaylorEmitter<'_, '_> {
         if matches!(self.k, Order::Fixed(k) if k < 2) {
             return self.c(-0.0);
         }
-        self.sum(a, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::k(-1)), Weight::Index)
+        let wa = self.weighted_row(a);
+        self.sum(wa, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::k(-1)), Weight::One)
+    }
+
+    /// The weighted row of row `r` (`j · r_j`, `weigh_rows` in `taylor.rs`).
+    fn weighted_row(&self, r: u32) -> u32 {
+        self.weighted[r as usize].expect("weigh_rows gives every weighted operand its row")
     }
 
     /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `taylor.rs`):
@@ -1757,6 +1772,10 @@ impl TaylorEmitter<'_, '_> {
                     let v = binary(self, powf, x, ev);
                     self.put_at(d, 0, v);
                 }
+                Op::Weigh { d, .. } => {
+                    let zero = self.c(0.0);
+                    self.put_at(d, 0, zero);
+                }
             }
         }
     }
@@ -1781,6 +1800,12 @@ impl TaylorEmitter<'_, '_> {
                     let x = self.coef(a, k);
                     let fv = self.c(f);
                     let v = self.b.ins().fmul(x, fv);
+                    self.put(d, v);
+                }
+                Op::Weigh { d, a } => {
+                    let x = self.coef(a, k);
+                    let kf = self.kf();
+                    let v = self.b.ins().fmul(x, kf);
                     self.put(d, v);
                 }
                 Op::Mul { d, a, b } => {

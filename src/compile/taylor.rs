@@ -154,6 +154,12 @@ pub(super) enum Op {
         a: u32,
         f: f64,
     },
+    /// `d_j = j · a_j` (orders ≥ 1 only): the weighted row of an input or constant row that
+    /// some recurrence's sum `Σ j a_j b_{k−j}` reads (see `weigh_rows`).
+    Weigh {
+        d: u32,
+        a: u32,
+    },
     /// `d = C · a^e` for constants `C` and `e`, a power of `a` built from roots, powers,
     /// products and quotients of it (`u √u`, `1/(u √u)`): `a d' = e d a'` whatever `C` is,
     /// with `d₀` from order 0.
@@ -185,12 +191,29 @@ impl Op {
             | Op::Abs { d, .. }
             | Op::Sqr { d, .. }
             | Op::Scale { d, .. }
+            | Op::Weigh { d, .. }
             | Op::Power { d, .. } => (d, None),
         };
         match y {
             Some(y) => [x, y, 0].into_iter().take(2),
             None => [x, 0, 0].into_iter().take(1),
         }
+    }
+
+    /// The rows whose weighted rows (`j · x_j`, see `weigh_rows`) this operation's sums read
+    /// at orders ≥ 1: the argument of sin, cos, sinh, cosh, exp and tan, both of `atan2`, and
+    /// the results of the recurrences that are solved for their own order `k`.
+    fn weighted_operands(&self) -> impl Iterator<Item = u32> {
+        let (x, y, z) = match *self {
+            Op::SinCos { a, .. } | Op::SinhCosh { a, .. } | Op::Exp { a, .. } | Op::Tan { a, .. } => {
+                (Some(a), None, None)
+            }
+            Op::Log { d, .. } | Op::Asin { d, .. } | Op::Atan { d, .. } => (Some(d), None, None),
+            Op::Atan2 { d, a, b, .. } => (Some(a), Some(b), Some(d)),
+            Op::PowVar { l, m, .. } => (Some(l), Some(m), None),
+            _ => (None, None, None),
+        };
+        [x, y, z].into_iter().flatten()
     }
 
     /// The rows an operation reads besides its own destinations.
@@ -216,6 +239,7 @@ impl Op {
             | Op::Abs { a, .. }
             | Op::Sqr { a, .. }
             | Op::Scale { a, .. }
+            | Op::Weigh { a, .. }
             | Op::Power { a, .. } => (a, None),
         };
         match b {
@@ -259,6 +283,9 @@ pub struct TaylorTape {
     n_rows: usize,
     /// The rows of the arguments of `abs` (whose sign must not change within a step).
     abs_args: Vec<u32>,
+    /// For each row, its weighted row (`j · x_j` at orders ≥ 1; order 0 is never read), if a
+    /// recurrence weights it (`weigh_rows`).
+    weighted: Vec<Option<u32>>,
 }
 
 impl TaylorTape {
@@ -367,7 +394,8 @@ impl TaylorTape {
         let constant = |r: u32| (r as usize).checked_sub(n_inputs).and_then(|i| consts.get(i)).copied();
         let roots = outputs.iter().chain(&abs_args).copied();
         let higher = higher_order_ops(&ops, constant, n_rows, roots);
-        TaylorTape { n_inputs, consts, ops0: ops, ops: higher, outputs, n_rows, abs_args }
+        let (higher, weighted, n_rows) = weigh_rows(higher, n_rows);
+        TaylorTape { n_inputs, consts, ops0: ops, ops: higher, outputs, n_rows, abs_args, weighted }
     }
 
     /// Whether the argument of some `abs` changes sign between the expansion point and `h`
@@ -389,6 +417,17 @@ impl TaylorTape {
     /// The operations of order 0, in order (for the native back end).
     pub(super) fn ops0(&self) -> &[Op] {
         &self.ops0
+    }
+
+    /// The weighted row of row `r` (`j · r_j`), if a recurrence weights it (`weigh_rows`).
+    pub(super) fn weighted_row(&self, r: u32) -> Option<u32> {
+        self.weighted[r as usize]
+    }
+
+    /// Row `r`'s weighted row in a coefficient buffer of stride `s` (the interpreter's sums).
+    fn weighted_of<'c>(&self, c: &'c [f64], s: usize, r: u32) -> &'c [f64] {
+        let w = self.weighted[r as usize].expect("weigh_rows gives every weighted operand its row");
+        row(c, w, s)
     }
 
     /// The value of a constant row (`None` for any other row).
@@ -470,106 +509,140 @@ impl TaylorTape {
         let s = stride;
         let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
         let rk = 1.0 / k as f64;
+        // Writes order `k` of row `r` and, if it has one, of its weighted row.
+        let put = |c: &mut [f64], r: u32, v: f64| {
+            c[r as usize * s + k] = v;
+            if let Some(w) = self.weighted[r as usize] {
+                c[w as usize * s + k] = v * k as f64;
+            }
+        };
         for op in &self.ops {
             match *op {
-                Op::Add { d, a, b } => c[d as usize * s + k] = at(c, a, k) + at(c, b, k),
-                Op::Sub { d, a, b } => c[d as usize * s + k] = at(c, a, k) - at(c, b, k),
-                Op::Neg { d, a } => c[d as usize * s + k] = -at(c, a, k),
-                Op::Scale { d, a, f } => c[d as usize * s + k] = at(c, a, k) * f,
+                Op::Weigh { d, a } => {
+                    let v = at(c, a, k) * k as f64;
+                    put(c, d, v);
+                }
+                Op::Add { d, a, b } => {
+                    let v = at(c, a, k) + at(c, b, k);
+                    put(c, d, v);
+                }
+                Op::Sub { d, a, b } => {
+                    let v = at(c, a, k) - at(c, b, k);
+                    put(c, d, v);
+                }
+                Op::Neg { d, a } => {
+                    let v = -at(c, a, k);
+                    put(c, d, v);
+                }
+                Op::Scale { d, a, f } => {
+                    let v = at(c, a, k) * f;
+                    put(c, d, v);
+                }
                 Op::Mul { d, a, b } => {
                     let (ra, rb) = (row(c, a, s), row(c, b, s));
-                    c[d as usize * s + k] = cauchy(ra, rb, k);
+                    let v = cauchy(ra, rb, k);
+                    put(c, d, v);
                 }
                 Op::Sqr { d, a } => {
                     let ra = row(c, a, s);
-                    c[d as usize * s + k] = square(ra, k);
+                    let v = square(ra, k);
+                    put(c, d, v);
                 }
                 Op::Div { d, a, b } => {
                     let (rb, rd) = (row(c, b, s), row(c, d, s));
                     let acc = dot_rev(&rb[1..=k], &rd[..k], true);
-                    c[d as usize * s + k] = (at(c, a, k) - acc) * (1.0 / rb[0]);
+                    let v = (at(c, a, k) - acc) * (1.0 / rb[0]);
+                    put(c, d, v);
                 }
                 Op::Sqrt { d, a } => {
                     let rd = row(c, d, s);
                     let acc = square_inner(rd, k);
-                    c[d as usize * s + k] = (at(c, a, k) - acc) * (1.0 / (2.0 * rd[0]));
+                    let v = (at(c, a, k) - acc) * (1.0 / (2.0 * rd[0]));
+                    put(c, d, v);
                 }
                 Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
-                    let (ra, rs, rc) = (row(c, a, s), row(c, si, s), row(c, co, s));
-                    let sv = weighted(ra, rc, k) * rk;
-                    let cv = weighted(ra, rs, k) * rk;
+                    let (wa, rs, rc) = (self.weighted_of(c, s, a), row(c, si, s), row(c, co, s));
+                    let sv = weighted(wa, rc, k) * rk;
+                    let cv = weighted(wa, rs, k) * rk;
                     let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
-                    c[si as usize * s + k] = sv;
-                    c[co as usize * s + k] = sign * cv;
+                    put(c, si, sv);
+                    let v = sign * cv;
+                    put(c, co, v);
                 }
                 Op::Exp { d, a } => {
-                    let (ra, rd) = (row(c, a, s), row(c, d, s));
-                    c[d as usize * s + k] = weighted(ra, rd, k) * rk;
+                    let (wa, rd) = (self.weighted_of(c, s, a), row(c, d, s));
+                    let v = weighted(wa, rd, k) * rk;
+                    put(c, d, v);
                 }
                 Op::Log { d, a } => {
                     // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
-                    let (ra, rd) = (row(c, a, s), row(c, d, s));
-                    let acc = weighted_short(rd, ra, k);
-                    c[d as usize * s + k] = (ra[k] - acc * rk) * (1.0 / ra[0]);
+                    let (ra, wd) = (row(c, a, s), self.weighted_of(c, s, d));
+                    let acc = weighted_short(wd, ra, k);
+                    let v = (ra[k] - acc * rk) * (1.0 / ra[0]);
+                    put(c, d, v);
                 }
                 Op::Tan { d, a, u, hyp } => {
-                    let (ra, ru) = (row(c, a, s), row(c, u, s));
-                    let dv = weighted(ra, ru, k) * rk;
-                    c[d as usize * s + k] = dv;
+                    let (wa, ru) = (self.weighted_of(c, s, a), row(c, u, s));
+                    let dv = weighted(wa, ru, k) * rk;
+                    put(c, d, dv);
                     let sq = square(row(c, d, s), k);
-                    c[u as usize * s + k] = if hyp { -sq } else { sq };
+                    let v = if hyp { -sq } else { sq };
+                    put(c, u, v);
                 }
                 Op::Asin { d, a, r, neg } => {
                     // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                     let (ra, rr) = (row(c, a, s), row(c, r, s));
                     let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
                     // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
-                    let rd = row(c, d, s);
+                    let wd = self.weighted_of(c, s, d);
                     let ak = if neg { -ra[k] } else { ra[k] };
-                    let dv = (ak - weighted_short(rd, rr, k) * rk) * (1.0 / rr[0]);
-                    c[r as usize * s + k] = rv;
-                    c[d as usize * s + k] = dv;
+                    let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
+                    put(c, r, rv);
+                    put(c, d, dv);
                 }
                 Op::Atan { d, a, u } => {
                     let (ra, ru) = (row(c, a, s), row(c, u, s));
                     let uv = square(ra, k);
-                    let rd = row(c, d, s);
-                    let dv = (ra[k] - weighted_short(rd, ru, k) * rk) * (1.0 / ru[0]);
-                    c[u as usize * s + k] = uv;
-                    c[d as usize * s + k] = dv;
+                    let wd = self.weighted_of(c, s, d);
+                    let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
+                    put(c, u, uv);
+                    put(c, d, dv);
                 }
                 Op::Atan2 { d, a, b, u } => {
                     let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
                     let uv = square(ra, k) + square(rb, k);
                     // u d' = b a' − a b'.
-                    let num = weighted(ra, rb, k) - weighted(rb, ra, k);
-                    let rd = row(c, d, s);
-                    let dv = (num - weighted_short(rd, ru, k)) * (1.0 / (k as f64 * ru[0]));
-                    c[u as usize * s + k] = uv;
-                    c[d as usize * s + k] = dv;
+                    let (wa, wb) = (self.weighted_of(c, s, a), self.weighted_of(c, s, b));
+                    let num = weighted(wa, rb, k) - weighted(wb, ra, k);
+                    let wd = self.weighted_of(c, s, d);
+                    let dv = (num - weighted_short(wd, ru, k)) * (1.0 / (k as f64 * ru[0]));
+                    put(c, u, uv);
+                    put(c, d, dv);
                 }
                 // `higher_order_ops` turns roots and constant powers into `Power`; these two arms
                 // keep `run_order` right for any tape.
                 Op::Root { d, a, q } => {
                     let v = constant_power(row(c, a, s), row(c, d, s), 1.0 / f64::from(q), k);
-                    c[d as usize * s + k] = v;
+                    put(c, d, v);
                 }
                 Op::PowConst { d, a, e } => {
                     let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
-                    c[d as usize * s + k] = v;
+                    put(c, d, v);
                 }
                 Op::Power { d, a, e } => {
                     let v = constant_power(row(c, a, s), row(c, d, s), e, k);
-                    c[d as usize * s + k] = v;
+                    put(c, d, v);
                 }
                 Op::PowVar { d, a, b, l, m } => {
-                    let (ra, rl) = (row(c, a, s), row(c, l, s));
-                    let lv = (ra[k] - weighted_short(rl, ra, k) * rk) * (1.0 / ra[0]);
-                    c[l as usize * s + k] = lv;
+                    let (ra, wl) = (row(c, a, s), self.weighted_of(c, s, l));
+                    let lv = (ra[k] - weighted_short(wl, ra, k) * rk) * (1.0 / ra[0]);
+                    put(c, l, lv);
                     let (rb, rl) = (row(c, b, s), row(c, l, s));
-                    c[m as usize * s + k] = cauchy(rb, rl, k);
-                    let (rm, rd) = (row(c, m, s), row(c, d, s));
-                    c[d as usize * s + k] = weighted(rm, rd, k) * rk;
+                    let v = cauchy(rb, rl, k);
+                    put(c, m, v);
+                    let (wm, rd) = (self.weighted_of(c, s, m), row(c, d, s));
+                    let v = weighted(wm, rd, k) * rk;
+                    put(c, d, v);
                 }
                 Op::Abs { d, a } => {
                     let (a0, ak) = (at(c, a, 0), at(c, a, k));
@@ -582,7 +655,7 @@ impl TaylorTape {
                     } else {
                         return Err(KinkAt);
                     };
-                    c[d as usize * s + k] = v;
+                    put(c, d, v);
                 }
             }
         }
@@ -648,6 +721,7 @@ impl TaylorTape {
                 Op::Sqr { d, a } => c[ix(d)] = c[ix(a)] * c[ix(a)],
                 Op::Scale { d, a, f } => c[ix(d)] = c[ix(a)] * f,
                 Op::Power { d, a, e } => c[ix(d)] = c[ix(a)].powf(e),
+                Op::Weigh { d, .. } => c[ix(d)] = 0.0,
             }
         }
     }
@@ -783,6 +857,37 @@ fn higher_order_ops(
     }
     kept.reverse();
     kept
+}
+
+/// Gives every row that a recurrence weights (the sums `Σ j a_j b_{k−j}` of sin, cos, exp,
+/// tan, log, the inverse functions and varying powers) a weighted row `j · a_j` of its own,
+/// which the sums read instead of multiplying each term by `j`: one multiplication per order
+/// instead of one per term (the double pendulum's three sines and cosines: six sums), and the
+/// same bits, each term being `(j · a_j) · b_{k−j}` either way. A row that the recurrences
+/// write gets its weighted row with each write of an order (`put` in
+/// [`TaylorTape::run_order`], `TaylorEmitter::put`); an input or a constant, by an
+/// [`Op::Weigh`] at the start of each order, when its order `k` is known. Returns the
+/// operations, the map from rows to weighted rows and the new number of rows.
+fn weigh_rows(ops: Vec<Op>, n_rows: usize) -> (Vec<Op>, Vec<Option<u32>>, usize) {
+    let mut written = vec![false; n_rows];
+    for d in ops.iter().flat_map(Op::dests) {
+        written[d as usize] = true;
+    }
+    let mut weighted = vec![None; n_rows];
+    let mut next = n_rows as u32;
+    let mut weigh = Vec::new();
+    for r in ops.iter().flat_map(Op::weighted_operands) {
+        if weighted[r as usize].is_none() {
+            weighted[r as usize] = Some(next);
+            if !written[r as usize] {
+                weigh.push(Op::Weigh { d: next, a: r });
+            }
+            next += 1;
+        }
+    }
+    weighted.resize(next as usize, None);
+    weigh.extend(ops);
+    (weigh, weighted, next as usize)
 }
 
 /// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
@@ -940,8 +1045,6 @@ fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Weight {
     One,
-    /// `j`.
-    Index,
     /// `e j − (k − j)` (`constant_power`).
     Power(f64),
 }
@@ -953,7 +1056,6 @@ impl Weight {
         let j = i + 1;
         match self {
             Weight::One => 1.0,
-            Weight::Index => j as f64,
             Weight::Power(e) => e * j as f64 - (k - j) as f64,
         }
     }
@@ -1054,19 +1156,20 @@ fn dot_rev(x: &[f64], y: &[f64], late: bool) -> f64 {
     sum4(x, y, |_| 1.0, false, late)
 }
 
-/// `Σ_{j=1}^{k} j a_j b_{k−j}` (the coefficient of `t^{k−1}` in `a' b`).
+/// `Σ_{j=1}^{k} j a_j b_{k−j}` (the coefficient of `t^{k−1}` in `a' b`), given `a`'s weighted
+/// row `wa` (`wa_j = j · a_j`, see `weigh_rows`): the terms `(j · a_j) · b_{k−j}`.
 #[inline(always)]
-fn weighted(a: &[f64], b: &[f64], k: usize) -> f64 {
-    sum4(&a[1..=k], &b[..k], |i| Weight::Index.at(i, k), false, true)
+fn weighted(wa: &[f64], b: &[f64], k: usize) -> f64 {
+    sum4(&wa[1..=k], &b[..k], |_| 1.0, false, true)
 }
 
-/// `Σ_{j=1}^{k−1} j a_j b_{k−j}`.
+/// `Σ_{j=1}^{k−1} j a_j b_{k−j}`, given `a`'s weighted row.
 #[inline(always)]
-fn weighted_short(a: &[f64], b: &[f64], k: usize) -> f64 {
+fn weighted_short(wa: &[f64], b: &[f64], k: usize) -> f64 {
     if k < 2 {
         return -0.0;
     }
-    sum4(&a[1..k], &b[1..k], |i| Weight::Index.at(i, k), false, false)
+    sum4(&wa[1..k], &b[1..k], |_| 1.0, false, false)
 }
 
 /// Where the derivative of a state component comes from.
