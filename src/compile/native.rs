@@ -583,6 +583,27 @@ const WINDOW_BYTES: usize = 256;
 /// register every 256 bytes).
 const MAX_WINDOWS: usize = 12;
 
+/// How many orders unrolled code keeps in SSA values (see [`TaylorEmitter::at`]): `k` and
+/// `k − 1` when at most [`SSA_TWO_ORDERS_MAX_ROWS`] rows are written per order, else `k` alone.
+///
+/// An SSA value of order `k − 1` is read at order `k` once for each sum it appears in, so
+/// with many rows per order those values outnumber the 16 vector registers, and Cranelift
+/// spills them to the stack, a second copy of what the buffer already holds. Reading them
+/// from the buffer instead, per expansion: double pendulum (24 rows per order) 8–13 % faster
+/// at orders 11–19, 3-link pendulum 2246 → 2035 ns, 5-link 8376 → 7246 ns, the chaos map's
+/// variational system 2553 → 2404 ns; Kepler (10 rows) 2 % slower, so it keeps both.
+fn ssa_orders(tape: &super::TaylorTape, expansion: Option<&Expansion>) -> usize {
+    let rows = tape.rows_per_order() + expansion.map_or(0, |g| g.glue.len() + g.solve.as_ref().map_or(0, |m| m.n));
+    if rows <= SSA_TWO_ORDERS_MAX_ROWS {
+        2
+    } else {
+        1
+    }
+}
+
+/// See [`ssa_orders`].
+const SSA_TWO_ORDERS_MAX_ROWS: usize = 12;
+
 /// The signature of compact Taylor code: `fn(c: *mut f64, k: usize) -> i32`, the same for the
 /// order `k` given at run time.
 type TaylorCompactFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
@@ -863,6 +884,7 @@ fn compile_taylor_code(
                 mirror,
                 inv_diag: Vec::new(),
                 weighted: (0..tape.n_rows() as u32).map(|r| tape.weighted_row(r)).collect(),
+                ssa_orders: ssa_orders(tape, expansion),
             };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             let mut redo = None;
@@ -1015,6 +1037,9 @@ struct TaylorEmitter<'a, 'b> {
     inv_diag: Vec<Value>,
     /// Each row's weighted row, if it has one (`TaylorTape::weighted_row`).
     weighted: Vec<Option<u32>>,
+    /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
+    /// values and reloads older ones ([`ssa_orders`]).
+    ssa_orders: usize,
 }
 
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
@@ -1025,15 +1050,14 @@ struct Windows {
 }
 
 impl TaylorEmitter<'_, '_> {
-    /// Coefficient `j` of row `r` (unrolled code). Orders `k` and `k − 1` are read as the SSA
-    /// values that wrote them (they are on the dependency chain from one order to the next,
-    /// where a reload would add store-forwarding latency), so Cranelift's value numbering shares
-    /// what is computed from them, such as the `j · a_j` of a sine's and a cosine's sums over
-    /// the same argument; older orders are reloaded (see [`TaylorEmitter::reload`]).
+    /// Coefficient `j` of row `r` (unrolled code). Order `k` (and for small tapes `k − 1`, see
+    /// [`ssa_orders`]) is read as the SSA value that wrote it (it is on the dependency chain
+    /// from one order to the next, where a reload would add store-forwarding latency); older
+    /// orders are reloaded (see [`TaylorEmitter::reload`]).
     fn at(&mut self, r: u32, j: usize) -> Value {
         let i = r as usize * self.s + j;
         match (self.known[i], self.k) {
-            (Some(_), Order::Fixed(k)) if j + 2 <= k => self.reload(i),
+            (Some(_), Order::Fixed(k)) if j + self.ssa_orders <= k => self.reload(i),
             (Some(v), _) => v,
             (None, _) => {
                 let (p, off) = self.window(i);
@@ -1185,14 +1209,14 @@ impl TaylorEmitter<'_, '_> {
     /// downwards: `a_i b_{k−i}` and `a_{i+1} b_{k−i−1}`. A row's mirror image (stored next to
     /// every coefficient, one store each) has the downward pair at consecutive addresses, so
     /// both pairs are single loads: pure loads at their own addresses, as
-    /// [`TaylorEmitter::reload`]'s. Coefficients of orders `k` and `k − 1`, kept in registers,
+    /// [`TaylorEmitter::reload`]'s. Coefficients kept in registers ([`ssa_orders`]),
     /// or not yet in the buffer, are put into the lanes one by one: a vector load of words
     /// stored just before would wait for the stores to complete.
     fn pair(&mut self, r: u32, j: usize, descending: bool) -> Value {
         let Order::Fixed(k) = self.k else { unreachable!("pairs are for unrolled code") };
         let j1 = if descending { j - 1 } else { j + 1 };
         let row = r as usize * self.s;
-        let old = |em: &Self, j: usize| j + 2 <= k && em.known[row + j].is_some();
+        let old = |em: &Self, j: usize| j + em.ssa_orders <= k && em.known[row + j].is_some();
         if old(self, j) && old(self, j1) {
             let i = match (descending, self.mirror) {
                 (false, _) => row + j,
@@ -1843,7 +1867,7 @@ impl TaylorEmitter<'_, '_> {
                     self.put(s, sv);
                     let cv = if matches!(op, Op::SinCos { .. }) {
                         let m = self.c(-1.0);
-                        self.b.ins().fmul(m, cv)
+                        self.b.ins().fmul(cv, m)
                     } else {
                         cv
                     };

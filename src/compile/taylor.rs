@@ -419,6 +419,12 @@ impl TaylorTape {
         &self.ops0
     }
 
+    /// The number of rows the recurrences write at each order ≥ 1, weighted rows included.
+    pub(super) fn rows_per_order(&self) -> usize {
+        let dests = self.ops.iter().flat_map(Op::dests);
+        dests.map(|d| 1 + usize::from(self.weighted[d as usize].is_some())).sum()
+    }
+
     /// The weighted row of row `r` (`j · r_j`), if a recurrence weights it (`weigh_rows`).
     pub(super) fn weighted_row(&self, r: u32) -> Option<u32> {
         self.weighted[r as usize]
