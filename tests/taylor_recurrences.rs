@@ -166,6 +166,27 @@ fn sine_and_cosine_alone_and_paired() {
     assert!(has(&tape, |i| matches!(i, Instr::SinCos { .. })));
 }
 
+/// The sums `Σ j a_j b_{k−j}` read a row `j · a_j` written once per order: an input's by one
+/// recurrence of its own, shared by every function of it (here a sine–cosine pair and an
+/// exponential), a computed value's with its own write (no recurrence). One row per argument,
+/// not one per sum or per function, or the multiplication per term would come back as one
+/// per function.
+#[test]
+fn functions_of_one_argument_share_its_weighted_row() {
+    let n = |src: &str| TaylorTape::new(&Tape::compile(&[parse(src).unwrap()], &["t"], &[]).unwrap()).n_recurrences();
+    // The weighting of `t`, then the sine–cosine pair.
+    assert_eq!(n("sin(t)"), 2);
+    // One weighting of `t`, the sine–cosine pair, the exponential, the sum.
+    assert_eq!(n("sin(t) + exp(t)"), 4);
+    assert_eq!(n("sin(t) + cos(t) + exp(t)"), 5);
+    // Computed arguments `t² + t` and `2t`: no weighting recurrence; the sine–cosine pair,
+    // two exponentials and two sums.
+    assert_eq!(n("sin(t^2 + t) + exp(t^2 + t) + exp(2 t)"), n("t^2 + t") + n("2 t") + 5);
+    check("sin(t) + cos(t) * exp(t)", &|t: C| t.sin() + t.cos() * t.exp(), 0.3, 1.5);
+    let g = |t: C| t * t + t;
+    check("sin(t^2 + t) * exp(t^2 + t)", &move |t: C| g(t).sin() * g(t).exp(), 0.3, 1.0);
+}
+
 #[test]
 fn exponential_logarithm_and_hyperbolic_functions() {
     let tape = check("exp(sin(t))", &|t: C| t.sin().exp(), 0.3, 1.5);
