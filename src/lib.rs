@@ -28,7 +28,8 @@
 //! ```
 //!
 //! The pipeline, one module per stage (see `ARCHITECTURE.md`):
-//! [`parse`] text → [`expr`] canonical DAG → [`simplify`] (egg) → [`diff`] → [`print`] / [`eval`].
+//! [`parse`](mod@parse) text → [`expr`] canonical DAG → [`simplify`] (egg) → [`diff`] →
+//! [`print`](mod@print) / [`eval`].
 
 pub mod algebra;
 pub mod animate;

@@ -547,7 +547,8 @@ egg::define_language! {
 pub struct Facts {
     /// The cheapest canonical expression known for the class.
     pub repr: Expr,
-    /// Its cost (see [`cost`]).
+    /// Its cost: printed operations, then negated products of sums, then size (the
+    /// extraction cost of this module).
     pub cost: (usize, usize, usize),
     /// Whether the class is known to be strictly positive (from any of its forms).
     pub positive: bool,
@@ -771,7 +772,7 @@ fn rule_set() -> &'static [egg::Rewrite<Math, Knowledge>] {
     RULE_SET.get_or_init(rules)
 }
 
-/// The rules of [`RULES`] as egg rewrites.
+/// The rewrite rules of this module's rule table, as egg rewrites.
 pub fn rules() -> Vec<egg::Rewrite<Math, Knowledge>> {
     RULES
         .iter()

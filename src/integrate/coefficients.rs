@@ -281,7 +281,7 @@ impl Tableau {
 ///
 /// Stages are numbered from 0: stages 0–11 form the step, stage 12 is `f(t + h, y_{n+1})`
 /// (reused as stage 0 of the next step), stages 13–15 are evaluated only for dense output.
-/// Row `i` of [`DOP853_A`] lists the non-zero `(j, a_ij)`; row 12 is the weight vector `b`.
+/// Row `i` of [`dop853::A`] lists the non-zero `(j, a_ij)`; row 12 is the weight vector `b`.
 pub mod dop853 {
     /// Nodes `c_i`.
     pub const C: [f64; 16] = [
