@@ -527,6 +527,9 @@ pub(crate) struct Expansion {
     /// Where the rows' mirror images start in the buffer ([`TaylorEmitter::pair`]): row `r`'s
     /// coefficient `j` also at `mirror_at + r · stride + (stride − 1 − j)`.
     pub mirror_at: usize,
+    /// The length of the buffer the expansion reads and writes (`TaylorOde::scratch_len`,
+    /// which owns the layout).
+    pub len: usize,
 }
 
 /// Order `k` of the accelerations `a` of `W q'' = F`, from `W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`
@@ -560,11 +563,12 @@ pub(crate) enum Ran {
     Redo,
 }
 
-/// The signature of one generated Taylor order, or of a whole expansion:
-/// `fn(c: *mut f64, window: usize) -> i32`, computing in place in the coefficient buffer `c`;
-/// returns its status ([`STATUS_KINK`], and for a whole expansion [`STATUS_REDO`]). `window`
-/// is always [`WINDOW_BYTES`] (see [`TaylorEmitter::window`]).
-type TaylorOrderFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
+/// The signature of generated Taylor code, every form: `fn(c: *mut f64, arg: usize) -> i32`,
+/// computing in place in the coefficient buffer `c` and returning its status
+/// ([`STATUS_KINK`], and for a whole expansion [`STATUS_REDO`]). `arg` is the order `k` for
+/// compact code (one function for every order) and [`WINDOW_BYTES`] for unrolled code (see
+/// [`TaylorEmitter::window`]).
+type TaylorFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
 
 /// The lowest order whose whole expansion sums two terms at once ([`TaylorEmitter::pair`]).
 /// Each sum pays two lane extractions and each coefficient a store to its mirror, which the
@@ -603,10 +607,6 @@ fn ssa_orders(tape: &super::TaylorTape, expansion: Option<&Expansion>) -> usize 
 
 /// See [`ssa_orders`].
 const SSA_TWO_ORDERS_MAX_ROWS: usize = 12;
-
-/// The signature of compact Taylor code: `fn(c: *mut f64, k: usize) -> i32`, the same for the
-/// order `k` given at run time.
-type TaylorCompactFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
 
 /// How a [`NativeTaylor`] lays the recurrences out in machine code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -774,26 +774,17 @@ impl NativeTaylor {
     /// it) on `c`; its status: 0, or [`STATUS_KINK`] and [`STATUS_REDO`] bits.
     fn call(&self, c: &mut [f64], k: usize) -> i32 {
         assert!(c.len() >= self.buffer_len, "Taylor buffer too short");
-        // SAFETY: every generated function has the type its form says (see
-        // `compile_taylor_code`) and touches only `c[0 .. buffer_len]` (the rows, and for a
-        // whole `W q'' = F` expansion the accelerations and `L` after them), which the
-        // assertion guarantees; compact code reads and writes orders `0..=k` of the rows,
-        // and `run_order` asserts `k ≤ max_order < stride`.
-        unsafe {
-            match self.form {
-                Form::Compact => {
-                    let f = std::mem::transmute::<*const u8, TaylorCompactFn>(self.funcs[0]);
-                    f(c.as_mut_ptr(), k)
-                }
-                Form::Whole => {
-                    std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[0])(c.as_mut_ptr(), WINDOW_BYTES)
-                }
-                Form::PerOrder => {
-                    let f = std::mem::transmute::<*const u8, TaylorOrderFn>(self.funcs[k - 1]);
-                    f(c.as_mut_ptr(), WINDOW_BYTES)
-                }
-            }
-        }
+        let (func, arg) = match self.form {
+            Form::Compact => (self.funcs[0], k),
+            Form::Whole => (self.funcs[0], WINDOW_BYTES),
+            Form::PerOrder => (self.funcs[k - 1], WINDOW_BYTES),
+        };
+        // SAFETY: every generated function has the type `TaylorFn` (see `compile_taylor_code`)
+        // and touches only `c[0 .. buffer_len]` (the rows, and for a whole expansion the
+        // accelerations, `L` and the mirror images after them: `TaylorOde::scratch_len`),
+        // which the assertion guarantees; compact code reads and writes orders `0..=k` of the
+        // rows, and `run_order` asserts `k ≤ max_order < stride`.
+        unsafe { std::mem::transmute::<*const u8, TaylorFn>(func)(c.as_mut_ptr(), arg) }
     }
 
     /// The stride the code was compiled for.
@@ -873,6 +864,7 @@ fn compile_taylor_code(
             let mirror = expansion.filter(|_| max_order + 1 >= PAIRS_FROM_ORDER).map(|g| g.mirror_at);
             let mut em = TaylorEmitter {
                 b: &mut b,
+                tape,
                 call_conv,
                 base,
                 ptr,
@@ -883,7 +875,6 @@ fn compile_taylor_code(
                 windows,
                 mirror,
                 inv_diag: Vec::new(),
-                weighted: (0..tape.n_rows() as u32).map(|r| tape.weighted_row(r)).collect(),
                 ssa_orders: ssa_orders(tape, expansion),
             };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
@@ -893,12 +884,12 @@ fn compile_taylor_code(
                     em.k = Order::Fixed(k);
                 }
                 if form == Form::Whole && k == 0 {
-                    em.order0(tape);
+                    em.order0();
                     if let Some(m) = expansion.and_then(|g| g.solve.as_ref()) {
                         redo = Some(em.cholesky_factor(m));
                     }
                 } else {
-                    kink = kink.zip(em.order(tape)).map(|(a, b)| em.b.ins().bor(a, b));
+                    kink = kink.zip(em.order()).map(|(a, b)| em.b.ins().bor(a, b));
                 }
                 if let Some(g) = expansion {
                     if let Some(m) = &g.solve {
@@ -954,10 +945,7 @@ fn compile_taylor_code(
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
         n_rows: tape.n_rows(),
-        buffer_len: match expansion {
-            Some(g) => g.mirror_at + (tape.n_rows() + g.solve.as_ref().map_or(0, |m| m.n)) * stride,
-            None => tape.n_rows() * stride,
-        },
+        buffer_len: expansion.map_or(tape.n_rows() * stride, |g| g.len),
     })
 }
 
@@ -1017,6 +1005,8 @@ enum Len {
 /// `TaylorTape::run_order` operation for operation.
 struct TaylorEmitter<'a, 'b> {
     b: &'a mut FunctionBuilder<'b>,
+    /// The tape whose recurrences are emitted.
+    tape: &'a super::TaylorTape,
     call_conv: CallConv,
     base: Value,
     /// The integer type of addresses and of the order.
@@ -1024,8 +1014,8 @@ struct TaylorEmitter<'a, 'b> {
     s: usize,
     k: Order,
     /// Unrolled code: coefficient `j` of row `r` at `r · s + j`, for those written or loaded so
-    /// far in this function (stored, and read as these SSA values while they are of order `k`
-    /// or `k − 1`, see [`TaylorEmitter::at`]). Compact code loads every time.
+    /// far in this function (stored, and read as these SSA values while they are among the
+    /// last [`ssa_orders`], see [`TaylorEmitter::at`]). Compact code loads every time.
     known: Vec<Option<Value>>,
     /// Loads made by [`TaylorEmitter::reload`] so far (each gets its own address expression).
     reloads: usize,
@@ -1035,8 +1025,6 @@ struct TaylorEmitter<'a, 'b> {
     mirror: Option<usize>,
     /// `W q'' = F`: the reciprocals of the diagonal of `W₀`'s Cholesky factor, from order 0.
     inv_diag: Vec<Value>,
-    /// Each row's weighted row, if it has one (`TaylorTape::weighted_row`).
-    weighted: Vec<Option<u32>>,
     /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
     /// values and reloads older ones ([`ssa_orders`]).
     ssa_orders: usize,
@@ -1178,7 +1166,7 @@ impl TaylorEmitter<'_, '_> {
                 self.b.ins().store(MemFlags::trusted(), v, at_k, (r as usize * self.s * 8) as i32);
             }
         }
-        if let Some(w) = self.weighted.get(r as usize).copied().flatten() {
+        if let Some(w) = self.tape.weighted_row(r) {
             let kf = self.kf();
             let wv = self.b.ins().fmul(v, kf);
             self.put(w, wv);
@@ -1588,7 +1576,7 @@ impl TaylorEmitter<'_, '_> {
 
     /// The weighted row of row `r` (`j · r_j`, `weigh_rows` in `taylor.rs`).
     fn weighted_row(&self, r: u32) -> u32 {
-        self.weighted[r as usize].expect("weigh_rows gives every weighted operand its row")
+        self.tape.weighted_row(r).expect("weigh_rows gives every weighted operand its row")
     }
 
     /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `taylor.rs`):
@@ -1665,7 +1653,8 @@ impl TaylorEmitter<'_, '_> {
     /// Order 0 of every row: `TaylorTape::run_order0`'s operations (the plain tape's, and the
     /// auxiliary rows), the transcendental functions called through the wrappers the plain
     /// native code calls, so the values are the interpreter's bit for bit.
-    fn order0(&mut self, tape: &super::TaylorTape) {
+    fn order0(&mut self) {
+        let tape = self.tape;
         let mut pair = None;
         let (cc, ptr) = (self.call_conv, self.ptr);
         let unary = |em: &mut Self, f: Func, x: Value| match wrapper(f) {
@@ -1805,7 +1794,8 @@ impl TaylorEmitter<'_, '_> {
     }
 
     /// All recurrences at order `k`; the value is the kink flag (an `i8`).
-    fn order(&mut self, tape: &super::TaylorTape) -> Option<Value> {
+    fn order(&mut self) -> Option<Value> {
+        let tape = self.tape;
         let mut kink = self.b.ins().iconst(types::I8, 0);
         let (k, zero) = (Ix::K, Ix::at(0));
         for op in tape.ops() {

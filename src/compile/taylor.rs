@@ -432,7 +432,7 @@ impl TaylorTape {
 
     /// Row `r`'s weighted row in a coefficient buffer of stride `s` (the interpreter's sums).
     fn weighted_of<'c>(&self, c: &'c [f64], s: usize, r: u32) -> &'c [f64] {
-        let w = self.weighted[r as usize].expect("weigh_rows gives every weighted operand its row");
+        let w = self.weighted_row(r).expect("weigh_rows gives every weighted operand its row");
         row(c, w, s)
     }
 
@@ -1333,7 +1333,7 @@ impl TaylorOde {
             factor_at: (n_rows + m.n) * stride,
             w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
         });
-        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride) };
+        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) };
         match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
             Some(code) => Some(TaylorNative(Arc::new(code))),
             // Too large to unroll: compact code, one call per order (none past
