@@ -47,6 +47,8 @@ pub mod plot;
 pub mod print;
 pub mod scene;
 pub mod simplify;
+pub mod simulate;
+mod suggest;
 
 pub use expr::{live_nodes, Expr, Func, Node, Rational, Symbol};
 pub use parse::{parse, parse_with, Declarations, ParseError};

@@ -312,7 +312,9 @@ mod counting {
     use super::Counting;
     use lagrangian::chaos::{Indicator, Indicators};
     use lagrangian::expr::Expr;
-    use lagrangian::scene::backend::{CompileRequest, Compiled, RunRequest, SystemRef, VariationalRequest};
+    use lagrangian::scene::backend::{
+        CompileRequest, Compiled, CompiledVariational, RunRequest, SystemRef, VariationalRequest,
+    };
     use lagrangian::scene::{Backend, BackendError, Line, NativeBackend, Trajectory};
 
     impl Backend for Counting {
@@ -345,17 +347,23 @@ mod counting {
         ) -> Result<Trajectory, BackendError> {
             NativeBackend.integrate(c, run, progress)
         }
-        fn compile_variational(&self, req: &VariationalRequest) -> Result<Compiled, BackendError> {
+        fn compile_variational(&self, req: &VariationalRequest) -> Result<CompiledVariational, BackendError> {
             self.bump("compile_variational");
             NativeBackend.compile_variational(req)
         }
-        fn indicators(&self, c: &Compiled, x0: &[f64], t: f64, tol: f64) -> Result<Indicators, BackendError> {
+        fn indicators(
+            &self,
+            c: &CompiledVariational,
+            x0: &[f64],
+            t: f64,
+            tol: f64,
+        ) -> Result<Indicators, BackendError> {
             self.bump("indicators");
             NativeBackend.indicators(c, x0, t, tol)
         }
         fn chaos_map(
             &self,
-            c: &Compiled,
+            c: &CompiledVariational,
             starts: &[Vec<f64>],
             t: f64,
             tol: f64,

@@ -320,30 +320,20 @@ fn parallel_ensemble_runs_equal_single_runs_and_report_progress() {
     use lagrangian::scene::{Backend, NativeBackend};
     use lagrangian::{parse_with, Declarations, Symbol};
     let decls = Declarations::new();
-    let m = lagrangian::scene::sim::method("rk4").unwrap();
+    let m = lagrangian::simulate::MethodId::Rk4;
     let h = parse_with("p_θ^2/2 - cos(θ)", &decls).unwrap();
     let req = CompileRequest {
         coords: vec![Symbol::new("θ")],
         formulation: Formulation::Hamiltonian(h),
         params: vec![],
-        method: m,
+        form: m.form(),
         events: vec![],
-        decls,
     };
     let compiled = NativeBackend.compile(&req).unwrap();
-    let runs: Vec<RunRequest> = (0..16)
-        .map(|k| RunRequest {
-            method: m,
-            y0: vec![0.1 * k as f64, 0.0],
-            t0: 0.0,
-            t1: 20.0,
-            dt: Some(0.01),
-            tol: None,
-            events: vec![],
-            every: None,
-            energy: None,
-        })
-        .collect();
+    let mut options = lagrangian::simulate::RunOptions::new(m, 0.0, 20.0);
+    options.dt = Some(0.01);
+    let runs: Vec<RunRequest> =
+        (0..16).map(|k| RunRequest { y0: vec![0.1 * k as f64, 0.0], options: options.clone() }).collect();
     let mut seen = Vec::new();
     let many = NativeBackend.integrate_many(&compiled, &runs, &mut |f| seen.push(f));
     assert_eq!(many.len(), runs.len());

@@ -58,13 +58,16 @@ impl Backend for Counting {
     }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
         self.0.bump(match req.formulation {
-            Formulation::Lagrangian(_) | Formulation::Extended(_) => "compile_lagrangian",
+            Formulation::Lagrangian(_) | Formulation::Equations { .. } | Formulation::Extended(_) => {
+                "compile_lagrangian"
+            }
             Formulation::FirstOrder(_) => "compile_first_order",
             Formulation::Hamiltonian(_) => "compile_hamiltonian",
             Formulation::Separable { .. } => "compile_separable",
             Formulation::Variational(_) => "compile_variational",
         });
-        Ok(Arc::new(req.coords.len()))
+        // A real compilation: the compiled system is a typed value, not a stand-in.
+        lagrangian::scene::NativeBackend.compile(req)
     }
     fn integrate(
         &self,
@@ -75,18 +78,10 @@ impl Backend for Counting {
         self.0.bump("integrate");
         progress(1.0);
         // A constant trajectory: enough for plots and exports to have data.
-        let t: Vec<f64> = (0..=10).map(|i| run.t0 + (run.t1 - run.t0) * i as f64 / 10.0).collect();
+        let t: Vec<f64> =
+            (0..=10).map(|i| run.options.t0 + (run.options.t1 - run.options.t0) * i as f64 / 10.0).collect();
         let y = vec![run.y0.clone(); t.len()];
-        Ok(Trajectory {
-            t,
-            y,
-            events: vec![],
-            steps: 10,
-            evaluations: 10,
-            stop: "end".into(),
-            aux: vec![],
-            ..Default::default()
-        })
+        Ok(Trajectory { t, y, events: vec![], steps: 10, evaluations: 10, aux: vec![], ..Default::default() })
     }
 }
 

@@ -4,9 +4,8 @@
 
 use std::process::Command;
 
-use lagrangian::scene::backend::{CompileRequest, EventRequest, Formulation, RunRequest};
-use lagrangian::scene::sim::method;
-use lagrangian::scene::{Backend, NativeBackend};
+use lagrangian::integrate::Crossing;
+use lagrangian::simulate::{self, CompileRequest, EventSpec, Family, Formulation, MethodId, RunOptions};
 use lagrangian::{parse_with, Declarations, Symbol};
 
 /// Integrates the pendulum `H = p²/2 − cos θ` over `0..t1` with `name`, recording every
@@ -14,30 +13,24 @@ use lagrangian::{parse_with, Declarations, Symbol};
 fn reports(name: &str, t1: f64, with_event: bool) -> (Vec<f64>, usize) {
     let decls = Declarations::new();
     let h = parse_with("p_θ^2/2 - cos(θ)", &decls).unwrap();
-    let m = method(name).unwrap();
-    let formulation = match m.family {
-        lagrangian::scene::sim::Family::Splitting => Formulation::Separable {
+    let m = MethodId::from_name(name).unwrap();
+    let formulation = match m.family() {
+        Family::Splitting => Formulation::Separable {
             t: parse_with("p_θ^2/2", &decls).unwrap(),
             v: parse_with("-cos(θ)", &decls).unwrap(),
         },
         _ => Formulation::Hamiltonian(h),
     };
     let events = if with_event { vec![parse_with("θ", &decls).unwrap()] } else { vec![] };
-    let req = CompileRequest { coords: vec![Symbol::new("θ")], formulation, params: vec![], method: m, events, decls };
-    let compiled = NativeBackend.compile(&req).unwrap();
-    let run = RunRequest {
-        method: m,
-        y0: vec![1.0, 0.0],
-        t0: 0.0,
-        t1,
-        dt: Some(0.001),
-        tol: None,
-        events: if with_event { vec![EventRequest { index: 0, terminal: false, rising: Some(true) }] } else { vec![] },
-        every: None,
-        energy: None,
-    };
+    let req = CompileRequest { coords: vec![Symbol::new("θ")], formulation, params: vec![], form: m.form(), events };
+    let compiled = simulate::compile(&req).unwrap();
+    let mut run = RunOptions::new(m, 0.0, t1);
+    run.dt = Some(0.001);
+    if with_event {
+        run.events = vec![EventSpec { index: 0, crossing: Crossing::Rising, terminal: false }];
+    }
     let mut seen = Vec::new();
-    let tr = NativeBackend.integrate(&compiled, &run, &mut |f| seen.push(f)).unwrap();
+    let tr = simulate::integrate(&compiled, &[1.0, 0.0], &run, &mut |f| seen.push(f)).unwrap();
     (seen, tr.events.len())
 }
 

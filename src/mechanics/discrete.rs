@@ -22,7 +22,7 @@ use super::tidy::tidy;
 use super::MechanicsError;
 
 /// The quadrature rule that turns `∫ L dt` over one step into `L_d`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Rule {
     /// `h L((q_k + q_{k+1})/2, (q_{k+1} − q_k)/h, t_k + h/2)`: order 2.
     Midpoint,

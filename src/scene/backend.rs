@@ -5,16 +5,14 @@
 //! new stage is a change to [`NativeBackend`] only. Tests substitute a backend that counts
 //! calls, to prove what the session does and does not build.
 
-use std::any::Any;
 use std::fmt;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use crate::expr::{Expr, Symbol};
 use crate::parse::Declarations;
+use crate::simulate::{self, RunOptions, SimulateError};
 
-use super::sim::{Family, Method};
-use crate::integrate::{Jacobian, Rhs, RhsError, Separable};
+pub use crate::simulate::{CompileRequest, ExtendedLagrangian, Formulation, Trajectory};
 
 /// One printed line of a derivation: `lhs = rhs`, with an optional label (`E_θ`, a reason).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -30,7 +28,7 @@ pub struct Line {
 }
 
 /// Why a backend could not do something.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum BackendError {
     /// The library stage is not built yet.
     NotYetAvailable {
@@ -43,6 +41,8 @@ pub enum BackendError {
     Failed(String),
     /// The integration stopped with an error (at a time, with a reason).
     Numeric(String),
+    /// The simulation layer refused or failed, with its typed reason.
+    Simulate(SimulateError),
 }
 
 impl fmt::Display for BackendError {
@@ -52,6 +52,7 @@ impl fmt::Display for BackendError {
                 write!(f, "{what} is not yet available (it needs the {stage} stage, which is still being built)")
             }
             BackendError::Failed(m) | BackendError::Numeric(m) => f.write_str(m),
+            BackendError::Simulate(e) => write!(f, "{e}"),
         }
     }
 }
@@ -63,74 +64,6 @@ pub struct SystemRef<'a> {
     pub coords: &'a [Symbol],
     /// How the text was parsed (functions, positive symbols).
     pub decls: &'a Declarations,
-}
-
-/// The equations of motion a simulation integrates.
-#[derive(Clone, Debug)]
-pub enum Formulation {
-    /// `L(q, q', t)`: state `(q, q')`, accelerations from `W q'' = F`.
-    Lagrangian(Expr),
-    /// `H(q, p, t)`: state `(q, p)`, Hamilton's equations.
-    Hamiltonian(Expr),
-    /// `L = Σ a_i(z, t) z'_i − H(z, t)`, first order in the velocities: state `(z, z')`,
-    /// `ω z' = ∂H/∂z + ∂a/∂t` integrated for `z`, the velocities filled in at kept states.
-    FirstOrder(Expr),
-    /// `L(q, q', t)` with generalized forces, a Rayleigh function or holonomic constraints:
-    /// state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
-    Extended(Box<ExtendedLagrangian>),
-    /// `L(q, q', t)` discretized (`variational` methods): state `(q, p)`, the map
-    /// `(q_k, p_k) → (q_{k+1}, p_{k+1})` of the discrete Lagrangian.
-    Variational(Expr),
-    /// `H = T(p) + V(q, t)`: drift and kick for splitting methods.
-    Separable {
-        /// The kinetic part `T(p)`.
-        t: Expr,
-        /// The potential part `V(q, t)`.
-        v: Expr,
-    },
-}
-
-/// A Lagrangian with what `force`, `rayleigh` and `constraint` statements add to it.
-#[derive(Clone, Debug)]
-pub struct ExtendedLagrangian {
-    /// `L(q, q', t)`.
-    pub l: Expr,
-    /// The generalized force `Q_i(q, q', t)` on each coordinate (zero where none).
-    pub forces: Vec<Expr>,
-    /// The Rayleigh dissipation function `R(q, q')`.
-    pub rayleigh: Option<Expr>,
-    /// Holonomic constraints `f_j(q, t)`, each `= 0`.
-    pub constraints: Vec<Expr>,
-    /// How a constrained run is held on its constraints.
-    pub stabilization: crate::compile::Stabilization,
-}
-
-impl ExtendedLagrangian {
-    /// Every expression the compiled system depends on (for cache keys and parameter checks).
-    pub fn exprs(&self) -> Vec<Expr> {
-        let mut v = vec![self.l.clone()];
-        v.extend(self.forces.iter().cloned());
-        v.extend(self.rayleigh.iter().cloned());
-        v.extend(self.constraints.iter().cloned());
-        v
-    }
-}
-
-/// What to compile: the formulation with its parameters bound.
-#[derive(Clone, Debug)]
-pub struct CompileRequest {
-    /// Coordinates in order (the state is `(q…, v…)`).
-    pub coords: Vec<Symbol>,
-    /// The equations.
-    pub formulation: Formulation,
-    /// Parameter values, by plain name.
-    pub params: Vec<(String, f64)>,
-    /// The method the result is for (implicit methods want a Jacobian).
-    pub method: Method,
-    /// Event functions (zero crossings), in the state's variables.
-    pub events: Vec<Expr>,
-    /// Declarations the expressions were parsed with.
-    pub decls: Declarations,
 }
 
 /// What the chaos statements compile: the variational equations of `H` (Hamilton's
@@ -150,80 +83,20 @@ pub struct VariationalRequest {
     pub megno: bool,
 }
 
-/// An event during integration.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EventRequest {
-    /// Index into [`CompileRequest::events`].
-    pub index: usize,
-    /// Stop the integration at the first crossing.
-    pub terminal: bool,
-    /// Only upward (`Some(true)`) or downward crossings.
-    pub rising: Option<bool>,
-}
-
-/// One integration.
+/// One integration: the initial state and the library's run options.
 #[derive(Clone, Debug)]
 pub struct RunRequest {
-    /// The method.
-    pub method: Method,
-    /// The initial state `(q…, v…)`.
+    /// The initial state, in the compiled system's layout.
     pub y0: Vec<f64>,
-    /// Start time.
-    pub t0: f64,
-    /// End time.
-    pub t1: f64,
-    /// Fixed step (fixed-step methods).
-    pub dt: Option<f64>,
-    /// Tolerance (adaptive methods).
-    pub tol: Option<f64>,
-    /// Events.
-    pub events: Vec<EventRequest>,
-    /// Keep every `k`-th step (`Some(1)`: all); `None` keeps at most [`MAX_POINTS`] states
-    /// (every k-th of a fixed-step run for a k chosen up front; evenly thinned as an adaptive
-    /// run grows).
-    pub every: Option<usize>,
-    /// The conserved energy to check after every step ([`super::drift`]); `None`: unchecked.
-    pub energy: Option<super::drift::EnergyCheck>,
+    /// Method, span, step or tolerance, events, sampling, energy check.
+    pub options: RunOptions,
 }
 
-impl RunRequest {
-    /// The fixed step, or a thousandth of the span when none was given.
-    pub fn step(&self) -> f64 {
-        self.dt.unwrap_or((self.t1 - self.t0) / 1000.0)
-    }
+/// A compiled system ([`crate::simulate::Compiled`]), shared by the runs that use it.
+pub type Compiled = Arc<simulate::Compiled>;
 
-    /// The tolerance, or 1e-10 when none was given.
-    pub fn tolerance(&self) -> f64 {
-        self.tol.unwrap_or(1e-10)
-    }
-}
-
-/// A computed trajectory.
-#[derive(Clone, Debug, Default)]
-pub struct Trajectory {
-    /// Times of the stored states.
-    pub t: Vec<f64>,
-    /// States `(q…, v…)`, one per time.
-    pub y: Vec<Vec<f64>>,
-    /// Recorded events: which event, when, and the state there.
-    pub events: Vec<(usize, f64, Vec<f64>)>,
-    /// Steps taken.
-    pub steps: usize,
-    /// Right-hand-side evaluations (for splitting methods, kicks: the force evaluations),
-    /// counted during the run: the work axis of a work-precision diagram, deterministic
-    /// where wall time is not. Jacobian evaluations of implicit methods are not included.
-    pub evaluations: usize,
-    /// Why the integration ended.
-    pub stop: String,
-    /// Further named values at each stored state, computed by the compiled system (the
-    /// multipliers `λ1, …` and the constraint residuals `residual1, …` of a constrained run).
-    pub aux: Vec<(String, Vec<f64>)>,
-    /// The energy ledger: what [`RunRequest::energy`] saw (the session names it).
-    pub energy: super::drift::Ledger,
-}
-
-/// A compiled system, opaque to the session (the backend downcasts it).
-pub type Compiled = Arc<dyn Any + Send + Sync>;
+/// The compiled variational equations of the chaos statements.
+pub type CompiledVariational = Arc<crate::compile::Variational>;
 
 /// The library stages as the scene sees them.
 pub trait Backend {
@@ -250,7 +123,7 @@ pub trait Backend {
     ) -> Result<Trajectory, BackendError>;
     /// Compiles the variational equations for the chaos statements (`lyapunov`, `megno`,
     /// `fli`, `chaos_map`).
-    fn compile_variational(&self, req: &VariationalRequest) -> Result<Compiled, BackendError> {
+    fn compile_variational(&self, req: &VariationalRequest) -> Result<CompiledVariational, BackendError> {
         let _ = req;
         Err(BackendError::NotYetAvailable { what: "the variational equations".into(), stage: "chaos" })
     }
@@ -258,7 +131,7 @@ pub trait Backend {
     /// Taylor method at `tol`, on a system from [`Backend::compile_variational`].
     fn indicators(
         &self,
-        compiled: &Compiled,
+        compiled: &CompiledVariational,
         x0: &[f64],
         t_end: f64,
         tol: f64,
@@ -271,7 +144,7 @@ pub trait Backend {
     /// hold every start's samples). One at a time unless a backend does better.
     fn chaos_map(
         &self,
-        compiled: &Compiled,
+        compiled: &CompiledVariational,
         starts: &[Vec<f64>],
         t_end: f64,
         tol: f64,
@@ -307,25 +180,6 @@ pub trait Backend {
             })
             .collect()
     }
-}
-
-/// What [`NativeBackend::compile`] builds.
-#[derive(Debug)]
-pub enum NativeCompiled {
-    /// Hamilton's equations with their Jacobian (implicit and explicit methods).
-    Hamiltonian(crate::compile::HamiltonianRhs),
-    /// Drift and kick (splitting methods).
-    Separable(crate::compile::SeparableHamiltonian),
-    /// `W q'' = F` (explicit and adaptive methods).
-    Lagrangian(crate::compile::LagrangianRhs),
-    /// `W q'' = F` with its Jacobian (implicit methods).
-    LagrangianJacobian(crate::compile::LagrangianJacobian),
-    /// `ω z' = b` of a first-order Lagrangian, on the `(z, z')` layout.
-    FirstOrder(crate::compile::WithVelocitySlots),
-    /// The augmented system of a constrained Lagrangian.
-    Constrained(crate::compile::ConstrainedRhs),
-    /// The variational map of a discrete Lagrangian, with the order of its rule.
-    Variational(crate::compile::VariationalMap, u32),
 }
 
 /// The real library.
@@ -394,88 +248,7 @@ impl Backend for NativeBackend {
         Ok(crate::canonical::poisson(f, g, &ps))
     }
     fn compile(&self, req: &CompileRequest) -> Result<Compiled, BackendError> {
-        use crate::compile::{HamiltonianRhs, LagrangianRhs, SeparableHamiltonian};
-        let coords: Vec<&str> = req.coords.iter().map(|q| q.name()).collect();
-        let momenta_owned: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
-        let momenta: Vec<&str> = momenta_owned.iter().map(String::as_str).collect();
-        let params: Vec<(&str, f64)> = req.params.iter().map(|(n, v)| (n.as_str(), *v)).collect();
-        let failed = |e: crate::compile::CompileError| BackendError::Failed(e.to_string());
-        let compiled: NativeCompiled = match &req.formulation {
-            Formulation::Separable { t, v } => NativeCompiled::Separable(
-                SeparableHamiltonian::new(&t.plus(v), &coords, &momenta, &params).map_err(failed)?,
-            ),
-            Formulation::Hamiltonian(h) => {
-                NativeCompiled::Hamiltonian(HamiltonianRhs::new(h, &coords, &momenta, &params).map_err(failed)?)
-            }
-            Formulation::FirstOrder(l) => {
-                let system =
-                    crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
-                let f = system.first_order().map_err(mechanics_error)?;
-                f.check_nondegenerate().map_err(mechanics_error)?;
-                let rhs = crate::compile::FirstOrderRhs::new(&f.omega, &f.force, &coords, &params).map_err(failed)?;
-                NativeCompiled::FirstOrder(crate::compile::WithVelocitySlots(rhs))
-            }
-            Formulation::Variational(l) => {
-                let (map, order) = super::notes::variational_map(l, &req.coords, req.method.name, &params)?;
-                NativeCompiled::Variational(map, order)
-            }
-            Formulation::Lagrangian(l) => {
-                let system =
-                    crate::mechanics::System::from_lagrangian_expr(l.clone(), &req.coords).map_err(mechanics_error)?;
-                let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
-                let rhs = LagrangianRhs::new(&w, &f, &coords, &params).map_err(failed)?;
-                if req.method.family == Family::Implicit {
-                    NativeCompiled::LagrangianJacobian(rhs.with_jacobian().map_err(failed)?)
-                } else {
-                    NativeCompiled::Lagrangian(rhs)
-                }
-            }
-            Formulation::Extended(x) => {
-                let mut system = crate::mechanics::System::from_lagrangian_expr(x.l.clone(), &req.coords)
-                    .map_err(mechanics_error)?;
-                for (q, force) in req.coords.iter().zip(&x.forces) {
-                    if !force.is_zero() {
-                        system = system.with_force_expr(q.name(), force.clone()).map_err(mechanics_error)?;
-                    }
-                }
-                if let Some(r) = &x.rayleigh {
-                    system = system.with_rayleigh_expr(r.clone()).map_err(mechanics_error)?;
-                }
-                if x.constraints.is_empty() {
-                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
-                    let rhs = LagrangianRhs::new(&w, &f, &coords, &params).map_err(failed)?;
-                    if req.method.family == Family::Implicit {
-                        NativeCompiled::LagrangianJacobian(rhs.with_jacobian().map_err(failed)?)
-                    } else {
-                        NativeCompiled::Lagrangian(rhs)
-                    }
-                } else {
-                    for f in &x.constraints {
-                        system = system.with_constraint_expr(f.clone()).map_err(mechanics_error)?;
-                    }
-                    let (w, f) = system.mass_matrix_split().map_err(mechanics_error)?;
-                    NativeCompiled::Constrained(
-                        crate::compile::ConstrainedRhs::new(
-                            &w,
-                            &f,
-                            system.constraints(),
-                            &req.coords,
-                            &params,
-                            x.stabilization,
-                        )
-                        .map_err(failed)?,
-                    )
-                }
-            }
-        };
-        let lagrangian = matches!(
-            req.formulation,
-            Formulation::Lagrangian(_) | Formulation::FirstOrder(_) | Formulation::Extended(_)
-        );
-        // (A `Variational` state is `(q, p)`, the discrete Legendre momenta.)
-        let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
-        state.extend(coords.iter().map(|q| if lagrangian { format!("{q}'") } else { format!("p_{q}") }));
-        Ok(Arc::new(Native { rhs: compiled, events: req.events.clone(), state, params: req.params.clone() }))
+        simulate::compile(req).map(Arc::new).map_err(BackendError::Simulate)
     }
     fn integrate(
         &self,
@@ -483,74 +256,10 @@ impl Backend for NativeBackend {
         run: &RunRequest,
         progress: &mut dyn FnMut(f64),
     ) -> Result<Trajectory, BackendError> {
-        use crate::integrate::Splitting;
-        let Some(native) = compiled.downcast_ref::<Native>() else {
-            return Err(BackendError::Failed("internal: not a natively compiled system".into()));
-        };
-        let c = &native.rhs;
-        let events = native.event_fns(&run.events);
-        let names = &native.state;
-        let count = AtomicUsize::new(0);
-        let (dt, tol) = (run.step(), run.tolerance());
-        if run.method.name == "taylor" {
-            return taylor(c, run, tol, &events, names, progress);
-        }
-        match c {
-            NativeCompiled::Separable(s) => {
-                let m = match run.method.name {
-                    "leapfrog" | "verlet" => Splitting::leapfrog(dt),
-                    "yoshida4" => Splitting::yoshida4(dt),
-                    "yoshida6" => Splitting::yoshida6(dt),
-                    "yoshida8" => Splitting::yoshida8(dt),
-                    "blanes_moan" => Splitting::blanes_moan4(dt),
-                    "symplectic_euler" => Splitting::symplectic_euler(dt),
-                    other => return Err(BackendError::Failed(format!("`{other}` is not a splitting method"))),
-                };
-                drive(&m, &Counted::new(s, &count), run, &events, names, progress)
-            }
-            NativeCompiled::Hamiltonian(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None),
-            NativeCompiled::Lagrangian(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None),
-            NativeCompiled::LagrangianJacobian(r) => {
-                by_method(&Counted::new(r, &count), run, &events, names, progress, None)
-            }
-            NativeCompiled::Constrained(r) => {
-                check_constrained_start(r, run)?;
-                let project = (r.stabilization() == crate::compile::Stabilization::Projection).then_some(r);
-                by_method(&Counted::new(r, &count), run, &events, names, progress, project).map(|mut t| {
-                    t.aux = constrained_aux(r, &t);
-                    t
-                })
-            }
-            NativeCompiled::Variational(m, order) => {
-                let before = m.evaluations();
-                let stepper = crate::compile::VariationalStepper { h: dt, order: *order };
-                drive(&stepper, m, run, &events, names, progress)
-                    .inspect(|_| count.store(m.evaluations() - before, Ordering::Relaxed))
-            }
-            NativeCompiled::FirstOrder(r) => by_method(&Counted::new(r, &count), run, &events, names, progress, None)
-                .and_then(|mut traj| {
-                    let fill = |t: f64, y: &mut Vec<f64>| {
-                        r.0.fill_velocities(t, y).map_err(|e| BackendError::Numeric(e.to_string()))
-                    };
-                    for (t, y) in traj.t.iter().zip(traj.y.iter_mut()) {
-                        fill(*t, y)?;
-                    }
-                    for (_, t, y) in traj.events.iter_mut() {
-                        fill(*t, y)?;
-                    }
-                    Ok(traj)
-                }),
-        }
-        .map(|mut t| {
-            t.evaluations = count.load(Ordering::Relaxed);
-            if t.stop.is_empty() {
-                t.stop = "end of the time span".into();
-            }
-            t
-        })
+        simulate::integrate(compiled, &run.y0, &run.options, progress).map_err(BackendError::Simulate)
     }
 
-    fn compile_variational(&self, req: &VariationalRequest) -> Result<Compiled, BackendError> {
+    fn compile_variational(&self, req: &VariationalRequest) -> Result<CompiledVariational, BackendError> {
         let q: Vec<&str> = req.coords.iter().map(|c| c.name()).collect();
         let p_owned: Vec<String> = q.iter().map(|c| format!("p_{c}")).collect();
         let p: Vec<&str> = p_owned.iter().map(String::as_str).collect();
@@ -562,12 +271,12 @@ impl Backend for NativeBackend {
 
     fn indicators(
         &self,
-        compiled: &Compiled,
+        compiled: &CompiledVariational,
         x0: &[f64],
         t_end: f64,
         tol: f64,
     ) -> Result<crate::chaos::Indicators, BackendError> {
-        let var = variational(compiled)?;
+        let var = &**compiled;
         crate::chaos::indicators(var, x0, t_end, tol)
             .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
     }
@@ -576,389 +285,37 @@ impl Backend for NativeBackend {
     /// depend on the number of threads); this thread reports progress every 50 ms.
     fn chaos_map(
         &self,
-        compiled: &Compiled,
+        compiled: &CompiledVariational,
         starts: &[Vec<f64>],
         t_end: f64,
         tol: f64,
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<f64, BackendError>> {
-        let var = match variational(compiled) {
-            Ok(v) => v,
-            Err(e) => return starts.iter().map(|_| Err(e.clone())).collect(),
-        };
-        par_map_with_progress(starts, "a chaos map worker", progress, |x0| {
+        let var = &**compiled;
+        simulate::par_map_with_progress(starts, None, progress, |x0| {
             crate::chaos::indicators(var, x0, t_end, tol)
                 .map(|r| r.value(which))
                 .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
         })
+        .unwrap_or_else(|_| {
+            starts.iter().map(|_| Err(BackendError::Failed("internal: a chaos map worker panicked".into()))).collect()
+        })
     }
 
     /// The runs in parallel on rayon's pool; this thread reports how many have finished
-    /// (every 50 ms) while a scoped thread waits for the pool.
+    /// (every 50 ms). The runs share their options (an ensemble differs only in its starts).
     fn integrate_many(
         &self,
         compiled: &Compiled,
         runs: &[RunRequest],
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<Trajectory, BackendError>> {
-        par_map_with_progress(runs, "an ensemble worker", progress, |r| {
-            NativeBackend.integrate(compiled, r, &mut |_| {})
-        })
-    }
-}
-
-/// The variational system inside a [`Compiled`] from [`NativeBackend::compile_variational`].
-fn variational(compiled: &Compiled) -> Result<&crate::compile::Variational, BackendError> {
-    compiled
-        .downcast_ref::<crate::compile::Variational>()
-        .ok_or_else(|| BackendError::Failed("internal: not a compiled variational system".into()))
-}
-
-/// A compiled system that counts its evaluations (see [`Trajectory::evaluations`]). One run
-/// is integrated on one thread, so the count is a relaxed load and store, not a locked
-/// read-modify-write: plain moves on common targets, small next to an evaluation.
-struct Counted<'a, S: ?Sized> {
-    inner: &'a S,
-    count: &'a AtomicUsize,
-}
-
-impl<'a, S: ?Sized> Counted<'a, S> {
-    fn new(inner: &'a S, count: &'a AtomicUsize) -> Self {
-        Counted { inner, count }
-    }
-    fn bump(&self) {
-        self.count.store(self.count.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
-    }
-}
-
-impl<S: Rhs + ?Sized> Rhs for Counted<'_, S> {
-    fn dim(&self) -> usize {
-        self.inner.dim()
-    }
-    fn eval(&self, t: f64, y: &[f64], dy: &mut [f64]) {
-        self.bump();
-        self.inner.eval(t, y, dy);
-    }
-    fn try_eval(&self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), RhsError> {
-        self.bump();
-        self.inner.try_eval(t, y, dy)
-    }
-    fn as_jacobian(&self) -> Option<&dyn Jacobian> {
-        self.inner.as_jacobian()
-    }
-}
-
-impl<S: Separable + ?Sized> Separable for Counted<'_, S> {
-    fn dof(&self) -> usize {
-        self.inner.dof()
-    }
-    fn drift(&self, p: &[f64], dq: &mut [f64]) {
-        self.inner.drift(p, dq);
-    }
-    fn kick(&self, t: f64, q: &[f64], dp: &mut [f64]) {
-        self.bump();
-        self.inner.kick(t, q, dp);
-    }
-    fn try_drift(&self, p: &[f64], dq: &mut [f64]) -> Result<(), RhsError> {
-        self.inner.try_drift(p, dq)
-    }
-    fn try_kick(&self, t: f64, q: &[f64], dp: &mut [f64]) -> Result<(), RhsError> {
-        self.bump();
-        self.inner.try_kick(t, q, dp)
-    }
-}
-
-/// Event functions with their parameters bound, evaluated on the state.
-type EventFns = Vec<(Box<dyn Fn(f64, &[f64]) -> f64 + Sync>, EventRequest)>;
-
-/// A compiled right-hand side with the event functions of its run.
-struct Native {
-    rhs: NativeCompiled,
-    events: Vec<Expr>,
-    /// Plain names of the state's entries (`x`, `x'` or `p_x`).
-    state: Vec<String>,
-    params: Vec<(String, f64)>,
-}
-
-impl Native {
-    /// Event functions evaluated by the reference evaluator (called once per step, so
-    /// their cost is small next to the right-hand side's).
-    fn event_fns(&self, requests: &[EventRequest]) -> EventFns {
-        requests
-            .iter()
-            .filter_map(|r| {
-                let e = self.events.get(r.index)?.clone();
-                let state = self.state.clone();
-                let params = self.params.clone();
-                let g = move |t: f64, y: &[f64]| -> f64 {
-                    crate::eval::eval_with(&e, &|s: &Symbol| {
-                        if s.is_time() {
-                            return Some(t);
-                        }
-                        let name = s.to_string();
-                        if let Some(i) = state.iter().position(|n| *n == name) {
-                            return y.get(i).copied();
-                        }
-                        params.iter().find(|(n, _)| n == s.name()).map(|(_, v)| *v)
-                    })
-                    .unwrap_or(f64::NAN)
-                };
-                Some((Box::new(g) as Box<dyn Fn(f64, &[f64]) -> f64 + Sync>, r.clone()))
-            })
+        let Some(first) = runs.first() else { return Vec::new() };
+        let starts: Vec<Vec<f64>> = runs.iter().map(|r| r.y0.clone()).collect();
+        simulate::ensemble(compiled, &starts, &first.options, None, progress)
+            .into_iter()
+            .map(|r| r.map_err(BackendError::Simulate))
             .collect()
     }
-}
-
-/// Integrates with the method named in `run`; with `project`, every step is followed by a
-/// projection onto those constraints ([`crate::compile::Projected`]).
-fn by_method<S: crate::integrate::Rhs>(
-    sys: &S,
-    run: &RunRequest,
-    events: &EventFns,
-    names: &[String],
-    progress: &mut dyn FnMut(f64),
-    project: Option<&crate::compile::ConstrainedRhs>,
-) -> Result<Trajectory, BackendError> {
-    use crate::compile::Projected;
-    use crate::integrate::{Dop853, ExplicitRk, Gauss};
-    let (dt, tol) = (run.step(), run.tolerance());
-    macro_rules! go {
-        ($m:expr) => {
-            match project {
-                Some(c) => drive(&Projected { method: &$m, constraints: c }, sys, run, events, names, progress),
-                None => drive(&$m, sys, run, events, names, progress),
-            }
-        };
-    }
-    match run.method.name {
-        "midpoint" => go!(Gauss::midpoint(dt)),
-        "gauss4" => go!(Gauss::gauss4(dt)),
-        "gauss6" => go!(Gauss::gauss6(dt)),
-        "euler" => go!(ExplicitRk::euler(dt)),
-        "rk4" => go!(ExplicitRk::rk4(dt)),
-        "dop853" => go!(Dop853::new(tol, tol)),
-        other => Err(BackendError::Failed(format!("`{other}` cannot integrate this system"))),
-    }
-}
-
-/// A constrained run's initial state must lie on the constraints (positions and velocities),
-/// and the augmented matrix must be regular there: otherwise the run is refused before it
-/// starts, naming the constraint.
-fn check_constrained_start(r: &crate::compile::ConstrainedRhs, run: &RunRequest) -> Result<(), BackendError> {
-    let mut dy = vec![0.0; run.y0.len()];
-    r.try_eval(run.t0, &run.y0, &mut dy).map_err(|e| BackendError::Failed(format!("at the initial state: {e}")))
-}
-
-/// The multipliers and residuals of a constrained run at each stored state.
-fn constrained_aux(r: &crate::compile::ConstrainedRhs, tr: &Trajectory) -> Vec<(String, Vec<f64>)> {
-    let m = r.constraints();
-    let mut lambda = vec![vec![0.0; tr.t.len()]; m];
-    let mut resid = vec![vec![0.0; tr.t.len()]; m];
-    let (mut l, mut f) = (vec![0.0; m], vec![0.0; m]);
-    for (k, (t, y)) in tr.t.iter().zip(&tr.y).enumerate() {
-        if r.multipliers(*t, y, &mut l).is_err() {
-            l.fill(f64::NAN);
-        }
-        r.residuals(*t, y, &mut f);
-        for (column, value) in lambda.iter_mut().zip(&l).chain(resid.iter_mut().zip(&f)) {
-            column[k] = *value;
-        }
-    }
-    let mut out = Vec::new();
-    for (j, v) in lambda.into_iter().enumerate() {
-        out.push((format!("λ{}", j + 1), v));
-    }
-    for (j, v) in resid.into_iter().enumerate() {
-        out.push((format!("residual{}", j + 1), v));
-    }
-    out
-}
-
-/// The most states a trajectory keeps: fixed-step runs keep every k-th step for a k chosen
-/// up front, adaptive runs thin as they go ([`crate::integrate::Output::AtMost`]), so the
-/// memory of a run is bounded whatever its length (issue 16: an adaptive run used to keep
-/// every step, and a stiff one ran the allocator dry).
-pub const MAX_POINTS: usize = 20_000;
-
-/// The step budget of an adaptive run. Fixed-step runs are refused up front by the session
-/// when they need more than 10⁹ steps; an adaptive run cannot know its count, so it stops
-/// here with an error that says where it got to and why (typically stiffness).
-pub const MAX_ADAPTIVE_STEPS: usize = 1_000_000;
-
-/// `name = value` pairs of a state, for error messages.
-fn named_state(names: &[String], y: &[f64]) -> String {
-    let parts: Vec<String> = names.iter().zip(y).map(|(n, v)| format!("{n} = {v}")).collect();
-    if parts.len() == y.len() {
-        parts.join(", ")
-    } else {
-        crate::integrate::fmt_state(y)
-    }
-}
-
-/// The integrator's typed failure as the scene reports it: the time, the last good state by
-/// name, the reason, and for an adaptive run that ran out of steps the likely cause.
-fn numeric_error(e: crate::integrate::IntegrateError, run: &RunRequest, names: &[String]) -> BackendError {
-    use crate::integrate::FailureReason;
-    let mut msg = format!("integration stopped at t = {} (state {}): {}", e.t, named_state(names, &e.state), e.reason);
-    if let FailureReason::StepLimit { .. } = e.reason {
-        if run.method.family == Family::Adaptive {
-            let done = e.t - run.t0;
-            let avg = done / e.steps.max(1) as f64;
-            msg.push_str(&format!(
-                "; the average step was {avg:.3e} over {done:.3e} of the {:.3e} span, so the problem is stiff (or very oscillatory) at this tolerance: use an implicit method with a fixed step (`with gauss6 dt = …`), a looser `tol`, or a shorter span",
-                run.t1 - run.t0
-            ));
-        }
-    }
-    BackendError::Numeric(msg)
-}
-
-/// The Taylor method on the Taylor form of a compiled system. Its work is counted in series
-/// expansions (one per step), reported as [`Trajectory::evaluations`].
-fn taylor(
-    c: &NativeCompiled,
-    run: &RunRequest,
-    tol: f64,
-    events: &EventFns,
-    names: &[String],
-    progress: &mut dyn FnMut(f64),
-) -> Result<Trajectory, BackendError> {
-    use crate::compile::TaylorOde;
-    let ode = match c {
-        NativeCompiled::Lagrangian(r) => TaylorOde::from_lagrangian(r),
-        NativeCompiled::LagrangianJacobian(r) => TaylorOde::from_lagrangian(r.rhs()),
-        NativeCompiled::Hamiltonian(r) => TaylorOde::from_hamiltonian(r),
-        NativeCompiled::Separable(_) => {
-            return Err(BackendError::Failed("`taylor` cannot integrate a drift/kick split".into()))
-        }
-        NativeCompiled::FirstOrder(_) | NativeCompiled::Constrained(_) | NativeCompiled::Variational(..) => {
-            return Err(BackendError::Failed(
-                "`taylor` does not yet integrate first-order or constrained Lagrangians: use dop853 or gauss6".into(),
-            ))
-        }
-    };
-    let method = crate::integrate::Taylor::new(tol);
-    method.validate().map_err(BackendError::Failed)?;
-    let mut t = drive(&method, &ode, run, events, names, progress)?;
-    t.evaluations = t.steps;
-    if t.stop.is_empty() {
-        t.stop = "end of the time span".into();
-    }
-    Ok(t)
-}
-
-/// The thinning of a fixed-step run that keeps at most [`MAX_POINTS`] states (1 for an
-/// adaptive run, whose count is not known in advance).
-pub fn default_every(dt: Option<f64>, t0: f64, t1: f64) -> usize {
-    let expected_steps = dt.map_or(MAX_POINTS, |h| ((t1 - t0) / h).ceil() as usize);
-    expected_steps.div_ceil(MAX_POINTS).max(1)
-}
-
-fn drive<S: ?Sized, M: crate::integrate::Method<S>>(
-    method: &M,
-    sys: &S,
-    run: &RunRequest,
-    events: &EventFns,
-    names: &[String],
-    progress: &mut dyn FnMut(f64),
-) -> Result<Trajectory, BackendError> {
-    use crate::integrate::{Crossing, Event, Integrate, Options, StopReason};
-    // The driver that locates events takes no progress callback, but it evaluates every
-    // event function once per step at the step's end: one more "event" that never changes
-    // sign reports the time reached, throttled to every 256th step.
-    let span = run.t1 - run.t0;
-    let calls = std::cell::Cell::new(0usize);
-    let progress = std::cell::RefCell::new(progress);
-    // The same per-step hook feeds the energy ledger (every accepted step, the initial state
-    // first), so a step that jumps is seen even when the output is thinned.
-    let monitor = run.energy.as_ref().map(|c| std::cell::RefCell::new(c.monitor()));
-    let watch = Event::new(|t, y: &[f64]| {
-        if let Some(m) = &monitor {
-            m.borrow_mut().observe(t, y);
-        }
-        calls.set(calls.get() + 1);
-        if calls.get() % 256 == 0 {
-            if let Ok(mut p) = progress.try_borrow_mut() {
-                p((t - run.t0) / span);
-            }
-        }
-        1.0
-    });
-    // The session refuses fixed-step runs of more than 10⁹ steps before this point; an
-    // adaptive run stops at its step budget, so even `every 1` keeps a bounded number.
-    let budget = if run.dt.is_some() { usize::MAX } else { MAX_ADAPTIVE_STEPS };
-    let mut opts = match (run.every, run.dt) {
-        (Some(k), _) => Options::new().every(k.max(1)),
-        (None, Some(_)) => Options::new().every(default_every(run.dt, run.t0, run.t1)),
-        (None, None) => Options::new().at_most(MAX_POINTS),
-    }
-    .max_steps(budget)
-    .event(watch);
-    for (g, req) in events {
-        let mut e = Event::new(|t, y: &[f64]| g(t, y)).crossing(match req.rising {
-            Some(true) => Crossing::Rising,
-            Some(false) => Crossing::Falling,
-            None => Crossing::Either,
-        });
-        if req.terminal {
-            e = e.stop();
-        }
-        opts = opts.event(e);
-    }
-    let tr = method.integrate_with(sys, run.t0..run.t1, &run.y0, opts).map_err(|e| numeric_error(e, run, names))?;
-    (progress.into_inner())(1.0);
-    let report = monitor.and_then(|m| m.into_inner().report());
-    let dim = tr.dim;
-    Ok(Trajectory {
-        t: tr.times.clone(),
-        y: tr.states.chunks(dim).map(<[f64]>::to_vec).collect(),
-        // The watch is event 0 and never fires; the scene's events are numbered from 1.
-        events: tr.events.iter().filter(|e| e.index > 0).map(|e| (e.index - 1, e.t, e.state.clone())).collect(),
-        steps: tr.stats.steps,
-        evaluations: 0,
-        stop: match tr.stop {
-            StopReason::ReachedEnd => "end of the time span".to_string(),
-            StopReason::Event { index, t } => format!("event {} at t = {t}", index.saturating_sub(1)),
-        },
-        aux: Vec::new(),
-        energy: match report {
-            Some(report) => super::drift::Ledger::Checked { symbol: "", report },
-            None => super::drift::Ledger::Unchecked,
-        },
-    })
-}
-
-/// `f` over `items` in parallel on rayon's pool, while this thread reports the fraction
-/// finished every 50 ms. A worker that panics turns every result into an internal error
-/// naming `worker` (the panic has already been printed by the hook).
-fn par_map_with_progress<T: Sync, R: Send>(
-    items: &[T],
-    worker: &str,
-    progress: &mut dyn FnMut(f64),
-    f: impl Fn(&T) -> Result<R, BackendError> + Sync,
-) -> Vec<Result<R, BackendError>> {
-    use rayon::prelude::*;
-    let done = AtomicUsize::new(0);
-    let n = items.len().max(1) as f64;
-    std::thread::scope(|scope| {
-        let work = scope.spawn(|| {
-            items
-                .par_iter()
-                .map(|x| {
-                    let out = f(x);
-                    done.fetch_add(1, Ordering::Relaxed);
-                    out
-                })
-                .collect::<Vec<_>>()
-        });
-        while !work.is_finished() {
-            progress(done.load(Ordering::Relaxed) as f64 / n);
-            std::thread::sleep(std::time::Duration::from_millis(50));
-        }
-        progress(1.0);
-        work.join().unwrap_or_else(|_| {
-            items.iter().map(|_| Err(BackendError::Failed(format!("internal: {worker} panicked")))).collect()
-        })
-    })
 }

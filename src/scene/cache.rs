@@ -21,7 +21,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde_json::{json, Value as Json};
 
-use super::backend::{Compiled, Line};
+use super::backend::{Compiled, CompiledVariational, Line};
 use super::plan::Step;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
@@ -100,6 +100,8 @@ pub(super) enum Value {
     Exprs(Vec<Expr>),
     /// Compiled code lives in memory only (it binds parameter values and holds tapes).
     Compiled(Compiled),
+    /// The variational equations of the chaos statements (memory only, like `Compiled`).
+    Variational(CompiledVariational),
 }
 
 impl Cache {
@@ -292,7 +294,7 @@ fn encode(value: &Value, key: &str) -> Option<String> {
         Value::Expr(e) => json!({ "expr": plain(e) }),
         Value::Exprs(es) => json!({ "exprs": es.iter().map(plain).collect::<Vec<_>>() }),
         Value::Lines(ls) => json!({ "lines": ls.iter().map(line).collect::<Vec<_>>() }),
-        Value::Compiled(_) => return None,
+        Value::Compiled(_) | Value::Variational(_) => return None,
     };
     let doc = json!({ "format": CACHE_FORMAT, "key": key, "checksum": checksum(key, &v), "value": v });
     serde_json::to_string(&doc).ok()

@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 
 use super::ast::{ChaosSpec, LevelSpec, Src};
-use super::backend::{Compiled, VariationalRequest};
+use super::backend::{CompiledVariational, VariationalRequest};
 use super::cache::{CacheKey, Value};
 use super::error::{ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
@@ -67,7 +67,7 @@ fn label(which: Indicator) -> &'static str {
 /// What a chaos statement integrates: the variational system and how to build a start.
 struct Setup {
     /// The variational system, compiled by the backend (cached).
-    var: Compiled,
+    var: CompiledVariational,
     coords: Vec<Symbol>,
     /// `p = ∂L/∂q'` when the starts give velocities.
     momenta: Option<Vec<Expr>>,
@@ -609,13 +609,13 @@ impl Session {
             if megno { " and MEGNO's accumulator" } else { "" }
         );
         let var = match self.lookup(&key, Step::Compile, &what) {
-            Some(Value::Compiled(c)) => c,
+            Some(Value::Variational(c)) => c,
             _ => {
                 let req = VariationalRequest { coords: coords.clone(), h, params: params.clone(), tangents, megno };
                 let built =
-                    self.backend.compile_variational(&req).map(Value::Compiled).map_err(|e| backend_error(e, span));
+                    self.backend.compile_variational(&req).map(Value::Variational).map_err(|e| backend_error(e, span));
                 match self.record(Step::Compile, what, key, built)? {
-                    Value::Compiled(c) => c,
+                    Value::Variational(c) => c,
                     _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(span)),
                 }
             }

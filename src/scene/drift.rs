@@ -21,58 +21,14 @@ use crate::expr::{Expr, Symbol};
 fn has_t(e: &Expr) -> bool {
     e.free_symbols().iter().any(Symbol::is_time)
 }
-use crate::integrate::drift::{DriftReport, EnergyMonitor};
-
-/// The energy a run is checked against, compiled once per run.
-#[derive(Clone, Debug)]
-pub struct EnergyCheck {
-    /// `energy(state…, t)`, inputs in the state's order then `t`.
-    pub tape: Arc<Tape>,
-    /// Relative drift above which the run is reported.
-    pub threshold: f64,
-}
-
-impl EnergyCheck {
-    /// A monitor evaluating the tape on `(y, t)`.
-    pub fn monitor(&self) -> EnergyMonitor<impl FnMut(f64, &[f64]) -> f64 + '_> {
-        let mut x = vec![0.0; self.tape.n_inputs()];
-        let mut out = [0.0];
-        let tape = &self.tape;
-        EnergyMonitor::new(
-            move |t: f64, y: &[f64]| {
-                let n = x.len() - 1;
-                x[..n].copy_from_slice(&y[..n]);
-                x[n] = t;
-                tape.eval(&x, &mut out);
-                out[0]
-            },
-            self.threshold,
-        )
-    }
-}
+use crate::integrate::drift::DriftReport;
+pub use crate::simulate::{EnergyCheck, Ledger};
 
 /// The energy a run is checked against (`H` or `h`, and its check), or why none is.
 pub type EnergyChoice = Result<(&'static str, EnergyCheck), String>;
 
 /// Which energy a prepared run checks (`H` or `h`), or why it checks none.
 pub type EnergyPlan = Result<&'static str, String>;
-
-/// What a run's summary says about its energy.
-#[derive(Clone, Debug, Default)]
-pub enum Ledger {
-    /// Not checked, and why (empty: nothing to say, e.g. a section's trajectory).
-    #[default]
-    Unchecked,
-    /// Not checked, with the reason for the summary.
-    Skipped(String),
-    /// Checked: the energy's name (`H` or `h`) and what the monitor saw.
-    Checked {
-        /// `H` or `h`.
-        symbol: &'static str,
-        /// The ledger.
-        report: DriftReport,
-    },
-}
 
 /// How a drift or jump is written: relative `|ΔH/H₀|` or absolute `|ΔH|` when `H₀ = 0`.
 fn measure(symbol: &str, r: &DriftReport) -> String {
@@ -125,6 +81,8 @@ impl Session {
                 return Ok(Err("forces, dissipation or constraints: no conserved energy".into()))
             }
             Formulation::FirstOrder(_) => return Ok(Err("first-order Lagrangian: not implemented".into())),
+            // Scenes pass L, never its derived equations.
+            Formulation::Equations { .. } => return Ok(Err("no Lagrangian to take the energy of".into())),
             Formulation::Separable { t: kinetic, v } => ("H", kinetic.plus(v)),
             Formulation::Hamiltonian(h) => ("H", h.clone()),
             // The map's state is (q, p) with the discrete momenta, which approach ∂L/∂q' at

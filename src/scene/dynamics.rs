@@ -46,6 +46,11 @@ impl Dynamics {
         self.forces.is_empty() && self.rayleigh.is_none() && self.constraints.is_empty()
     }
 
+    /// Whether forces or a Rayleigh function act on the coordinates.
+    pub(super) fn forced(&self) -> bool {
+        !self.forces.is_empty() || self.rayleigh.is_some()
+    }
+
     /// Whether there are constraints.
     pub(super) fn constrained(&self) -> bool {
         !self.constraints.is_empty()

@@ -113,7 +113,7 @@ impl Session {
         let level = self.number(&value, ens.value.span)?;
         let mut params: HashMap<String, f64> = self.param_values();
         params.extend(template.params.iter().map(|(k, v)| (k.clone(), *v)));
-        let t0 = run.t0;
+        let t0 = run.options.t0;
         let on_span = ens.on.span;
         let f = |y: &[f64]| -> Result<f64, SceneError> {
             crate::eval::eval_with(&on, &|s: &Symbol| {
@@ -190,7 +190,7 @@ impl Session {
         }
         self.plan.push(PlanEntry {
             step: Step::Integrate,
-            what: format!("ensemble {name}: {} runs with {}", ids.len(), run.method.name),
+            what: format!("ensemble {name}: {} runs with {}", ids.len(), run.options.method.name()),
             line: Some(self.line),
             status: Status::Built,
         });

@@ -267,7 +267,7 @@ impl Session {
                     let r = self.demand_run(id)?;
                     let errors = self.energy_errors(&r)?;
                     let pts = r.traj.t.iter().copied().zip(errors).collect();
-                    series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
+                    series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name()), points: pts });
                 }
                 let title = format!("relative energy error |ΔE/E₀|, {}", self.runs_phrase(&ids));
                 Ok(Figure::log_y(&title, "t", "|ΔE/E₀|", series))
@@ -331,9 +331,9 @@ impl Session {
                 None => self.energy_errors(&r)?.into_iter().fold(0.0, f64::max),
             };
             let point = (r.traj.evaluations as f64, error);
-            match by_method.iter_mut().find(|(m, _)| *m == r.method.name) {
+            match by_method.iter_mut().find(|(m, _)| *m == r.method.name()) {
                 Some((_, pts)) => pts.push(point),
-                None => by_method.push((r.method.name, vec![point])),
+                None => by_method.push((r.method.name(), vec![point])),
             }
         }
         let series = by_method
@@ -637,7 +637,7 @@ impl Session {
                     }));
                 }
             }
-            columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name)
+            columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name())
         };
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)

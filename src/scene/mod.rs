@@ -48,7 +48,6 @@ pub mod progress;
 pub mod repl;
 mod sections;
 pub mod session;
-pub mod sim;
 mod simulate;
 mod symmetries;
 

@@ -8,31 +8,13 @@
 
 use std::collections::HashMap;
 
-use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 
-use crate::mechanics::{embedded, geodesic, geodesic_from_metric, Geodesic, Ritz, Rule, System};
+use crate::mechanics::{embedded, geodesic, geodesic_from_metric, Geodesic, Ritz, System};
 
 use super::ast::{GeodesicSpec, Geometry, RitzSpec, SimSpec, Src};
-use super::backend::BackendError;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::Session;
-
-/// Whether `L` is linear in every velocity of `coords` (every `∂L/∂q'_i` is free of
-/// velocities, read off the canonical form without expanding), so that `simulate`
-/// integrates `ω z' = ∂H/∂z + ∂a/∂t` instead of `W q'' = F` with `W ≡ 0`.
-pub(super) fn is_first_order(l: &Expr, coords: &[Symbol]) -> bool {
-    let velocities: Vec<Symbol> = coords.iter().map(Symbol::prime).collect();
-    let free = l.free_symbols();
-    if !velocities.iter().any(|v| free.contains(v)) {
-        return false;
-    }
-    let mut d = Differentiator::new();
-    velocities.iter().all(|v| {
-        let a = d.diff(l, v).free_symbols();
-        !velocities.iter().any(|w| a.contains(w))
-    })
-}
 
 /// The state of a first-order Lagrangian is `z` alone: its velocities follow from
 /// `ω z' = b` and are not initial data, and there are no momenta `p_z`.
@@ -72,35 +54,6 @@ pub(super) fn check_first_order_event(e: &Expr, span: Span) -> Result<(), SceneE
     Ok(())
 }
 
-/// The discrete-mechanics rule a `variational…` method names.
-pub(super) fn variational_rule(method: &str) -> Rule {
-    match method {
-        "variational_trapezoid" => Rule::Trapezoid,
-        "variational_gauss2" => Rule::Gauss2,
-        _ => Rule::Midpoint,
-    }
-}
-
-/// Builds the variational map of `L` for a `variational…` method (§4.7.2: the discrete
-/// Lagrangian's map as an integrator). The step is an input of the compiled map, so one
-/// compilation serves every `dt`; the placeholder bound here is never stepped with.
-pub(super) fn variational_map(
-    l: &Expr,
-    coords: &[Symbol],
-    method: &str,
-    params: &[(&str, f64)],
-) -> Result<(crate::compile::VariationalMap, u32), BackendError> {
-    let failed = |e: String| BackendError::Failed(e);
-    let rule = variational_rule(method);
-    let system = System::from_lagrangian_expr(l.clone(), coords).map_err(|e| failed(e.to_string()))?;
-    let step = "h__variational";
-    let d = system.discretize(rule, &Expr::var(step)).map_err(|e| failed(e.to_string()))?;
-    let mut bound: Vec<(&str, f64)> = params.to_vec();
-    bound.push((step, 1.0));
-    let map = crate::compile::VariationalMap::new(&d, &bound).map_err(|e| failed(e.to_string()))?;
-    Ok((map, rule.order()))
-}
-
 /// A `variational` run needs `L` and takes no events (the map has no continuous rate to
 /// locate a crossing inside a step).
 pub(super) fn check_variational_run(method: &str, spec: &SimSpec, has_l: bool, span: Span) -> Result<(), SceneError> {
@@ -121,26 +74,6 @@ pub(super) fn check_variational_run(method: &str, spec: &SimSpec, has_l: bool, s
         .hint("define `L = …` first"));
     }
     Ok(())
-}
-
-/// `variational` with forces, dissipation or constraints.
-pub(super) fn variational_dynamics_error(method: &str, spec: &SimSpec, span: Span) -> SceneError {
-    SceneError::new(
-        ErrorKind::Derivation,
-        format!("`{method}` discretizes a Lagrangian alone; forces, dissipation and constraints are not part of L_d"),
-    )
-    .at(spec.method.as_ref().map_or(span, |m| m.span))
-    .hint("use `dop853`, `rk4` or `gauss6`, which integrate the equations of motion with them")
-}
-
-/// `variational` with a first-order `L` (its discrete Legendre map is degenerate).
-pub(super) fn variational_first_order_error(method: &str, spec: &SimSpec, span: Span) -> SceneError {
-    SceneError::new(
-        ErrorKind::Derivation,
-        format!("`{method}` needs a regular L: this L is first order in the velocities, so its discrete Legendre map has no inverse"),
-    )
-    .at(spec.method.as_ref().map_or(span, |m| m.span))
-    .hint("use `dop853` or `gauss6`, which integrate ω z' = ∂H/∂z")
 }
 
 impl Session {

@@ -2,7 +2,6 @@
 //! skipped, and why), and its text for `lagrangian run --explain`.
 
 use super::session::{deriv_step, DefBody, Session};
-use super::sim;
 
 /// One kind of work the plan reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -96,7 +95,7 @@ impl Session {
                     what: format!(
                         "{} ({})",
                         r.name,
-                        r.spec.method.as_ref().map_or(sim::DEFAULT_METHOD, |m| m.text.as_str())
+                        r.spec.method.as_ref().map_or(crate::simulate::DEFAULT_METHOD.name(), |m| m.text.as_str())
                     ),
                     line: Some(r.line),
                     status: Status::Skipped(format!("no plot or export uses `{}`", r.name)),

@@ -22,7 +22,7 @@ use super::cache::Cache;
 use super::help::TOPICS;
 use super::parser::{is_incomplete, STATEMENTS};
 use super::session::{Mode, Options, Session};
-use super::sim::METHODS;
+use crate::simulate::METHODS;
 
 /// The prompt.
 pub const PROMPT: &str = "lagrangian> ";
@@ -65,7 +65,11 @@ pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>
     let before: Vec<&str> = line[..start].split_whitespace().collect();
     let pool: Vec<String> = match before.last() {
         None => STATEMENTS.iter().map(|s| s.to_string()).chain(names.iter().cloned()).collect(),
-        Some(&"with") => METHODS.iter().map(|m| m.name.to_string()).collect(),
+        Some(&"with") => METHODS
+            .iter()
+            .flat_map(|m| std::iter::once(m.name).chain(m.aliases.iter().copied()))
+            .map(str::to_string)
+            .collect(),
         Some(&"help") => TOPICS.iter().map(|t| t.word.to_string()).collect(),
         Some(&"as") | Some(&"format") => ["plain", "unicode", "latex"].iter().map(|s| s.to_string()).collect(),
         Some(&"plot") => ["phase", "energy", "path", "poincare", "work_precision"]

@@ -21,8 +21,8 @@ impl Session {
         }
         Ok(RunResult {
             traj: Arc::new(Trajectory {
-                t: r.traj.events.iter().map(|e| e.1).collect(),
-                y: r.traj.events.iter().map(|e| e.2.clone()).collect(),
+                t: r.traj.events.iter().map(|e| e.t).collect(),
+                y: r.traj.events.iter().map(|e| e.state.clone()).collect(),
                 ..Trajectory::default()
             }),
             ..r.clone()
@@ -45,7 +45,7 @@ impl Session {
         let sub = self.section_of(&r)?;
         let mut columns: Vec<(String, Vec<f64>)> = vec![
             ("t".to_string(), sub.traj.t.clone()),
-            ("event".to_string(), r.traj.events.iter().map(|e| (e.0 + 1) as f64).collect()),
+            ("event".to_string(), r.traj.events.iter().map(|e| (e.index + 1) as f64).collect()),
         ];
         if items.is_empty() {
             for (i, n) in state_names(&r.coords, r.layout).iter().enumerate() {
@@ -60,7 +60,7 @@ impl Session {
                 columns.push((src.text.trim().to_string(), self.along(&sub, &e, src.span)?));
             }
         }
-        let text = columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name);
+        let text = columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name());
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)
             .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;

@@ -23,11 +23,11 @@ use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::output::Staging;
 use super::parser;
 use super::progress::Draw;
-use super::sim::Method;
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::{render, Format};
+use crate::simulate::MethodId;
 
 /// Where a session's text comes from, which decides when values are computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -127,7 +127,7 @@ pub(super) struct RunEntry {
 
 #[derive(Clone)]
 pub(super) struct RunResult {
-    pub(super) method: Method,
+    pub(super) method: MethodId,
     pub(super) layout: Layout,
     pub(super) coords: Vec<Symbol>,
     pub(super) params: HashMap<String, f64>,
@@ -204,6 +204,8 @@ pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
         BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
         BackendError::Failed(_) => ErrorKind::Derivation,
         BackendError::Numeric(_) => ErrorKind::Numeric,
+        BackendError::Simulate(crate::simulate::SimulateError::Integrate { .. }) => ErrorKind::Numeric,
+        BackendError::Simulate(_) => ErrorKind::Derivation,
     };
     let mut err = SceneError::new(kind, e.to_string()).at(span);
     if kind == ErrorKind::NotAvailable {

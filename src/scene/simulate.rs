@@ -5,7 +5,7 @@ use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
-use super::backend::{CompileRequest, Compiled, EventRequest, Formulation, RunRequest, Trajectory};
+use super::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
 use super::cache::{CacheKey, Value};
 use super::drift::EnergyPlan;
 use super::dynamics::Dynamics;
@@ -13,9 +13,12 @@ use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
 use super::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
-use super::sim::{self, Family, Method};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
+use crate::simulate::{
+    self as sim, route, EventSpec as RunEvent, Family, MethodId, Refusal, RefusalReason, Route, RunOptions, Sampling,
+    Shape, SimulateError,
+};
 
 impl Session {
     // ----- simulation ----------------------------------------------------------------------
@@ -50,7 +53,7 @@ impl Session {
         Ok(())
     }
 
-    pub(super) fn check_method(&self, spec: &SimSpec) -> Result<Method, SceneError> {
+    pub(super) fn check_method(&self, spec: &SimSpec) -> Result<MethodId, SceneError> {
         if spec.time_var.text != "t" {
             return Err(SceneError::new(
                 ErrorKind::Syntax,
@@ -60,18 +63,13 @@ impl Session {
             .hint("write `for t in 0..10`"));
         }
         match &spec.method {
-            None => Ok(sim::method(sim::DEFAULT_METHOD).unwrap_or(sim::METHODS[0])),
-            Some(m) => sim::method(&m.text).ok_or_else(|| {
-                let names = sim::METHODS.iter().map(|m| m.name);
-                let err = SceneError::new(ErrorKind::UnknownMethod, format!("unknown integration method `{}`", m.text))
-                    .at(m.span)
-                    .label("not a method");
-                match did_you_mean(&m.text, names) {
-                    Some(s) => err.hint(format!("did you mean `{s}`? (`help simulate` lists the methods)")),
-                    None => err.hint(format!(
-                        "the methods are {}",
-                        sim::METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
-                    )),
+            None => Ok(sim::DEFAULT_METHOD),
+            Some(m) => MethodId::from_name(&m.text).ok_or_else(|| {
+                let e = SimulateError::unknown_method(&m.text);
+                let err = SceneError::new(ErrorKind::UnknownMethod, e.to_string()).at(m.span).label("not a method");
+                match e.hint() {
+                    Some(h) => err.hint(h),
+                    None => err,
                 }
             }),
         }
@@ -84,7 +82,7 @@ impl Session {
         let mut s = format!(
             "{}: {} from t = {} to t = {} in {} steps",
             run.name,
-            r.method.name,
+            r.method.name(),
             fmt_num(tr.t.first().copied().unwrap_or(0.0)),
             fmt_num(tr.t.last().copied().unwrap_or(0.0)),
             tr.steps
@@ -197,7 +195,7 @@ impl Session {
             Ok(Some(x))
         };
         let mut dt = positive(&spec.dt, self, "the step `dt`")?;
-        let mut tol = positive(&spec.tol, self, "the tolerance `tol`")?;
+        let tol = positive(&spec.tol, self, "the tolerance `tol`")?;
         let steps = positive(&spec.steps, self, "`steps`")?;
         if let Some(n) = steps {
             if n.fract() != 0.0 {
@@ -210,131 +208,64 @@ impl Session {
             }
             dt = Some((t1 - t0) / n);
         }
-        if let (Some(t), Some(src)) = (tol, &spec.tol) {
-            // Each adaptive method's own floor: DOP853's is Hairer's 10·ε; the Taylor method
-            // controls the error of its series, which can go below ε.
-            let (floor, hint) = if method.name == "taylor" {
-                (crate::integrate::MIN_TOL, "omit `tol`: the Taylor method defaults to machine precision")
-            } else {
-                (
-                    crate::integrate::Dop853::MIN_RTOL,
-                    "write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)",
-                )
-            };
-            if t < floor {
-                return Err(SceneError::new(
-                    ErrorKind::BadNumber,
-                    format!("tol = {t:e} is below what f64 can meet; the smallest usable tol is {floor:.2e}"),
-                )
-                .at(src.span)
-                .label("too small")
-                .hint(hint));
-            }
-        }
-        match method.family {
-            Family::Adaptive => {
-                if spec.dt.is_some() {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`{}` chooses its own steps; give a tolerance instead of `dt`", method.name),
-                    )
-                    .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
-                    .hint("write `tol = 1e-10`, or pick a fixed-step method such as `gauss6` or `rk4`"));
-                }
-                // Taylor defaults to machine precision (its cost grows only like ln(1/tol)).
-                tol = Some(tol.unwrap_or(if method.name == "taylor" { f64::EPSILON } else { 1e-10 }));
-            }
-            _ => {
-                if dt.is_none() {
-                    return Err(SceneError::new(
-                        ErrorKind::MissingValue,
-                        format!("`{}` is a fixed-step method and needs a step", method.name),
-                    )
-                    .at(stmt_span)
-                    .hint("add `dt = 0.01` (or `steps = 1000`)"));
-                }
-            }
-        }
-        if let Some(d) = dt {
-            if (t1 - t0) / d > 1e9 {
-                return Err(SceneError::new(
-                    ErrorKind::BadNumber,
-                    format!("{:.3e} steps is more than the limit of 10⁹", (t1 - t0) / d),
-                )
-                .at(spec.dt.as_ref().map_or(stmt_span, |s| s.span))
-                .hint("use a larger `dt` or a shorter time span"));
-            }
-        }
+        let mut options = RunOptions::new(method, t0, t1);
+        options.dt = dt;
+        options.rtol = tol;
+        options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
 
         // The formulation this method needs: this decides what is derived.
         let has_l = self.def_names.contains_key("L");
         let has_h = self.def_names.contains_key("H");
-        let (formulation, layout, l_expr, h_expr) = match method.family {
-            _ if !dynamics.is_empty() => {
-                if method.family == Family::Variational {
-                    return Err(super::notes::variational_dynamics_error(method.name, spec, stmt_span));
-                }
-                if method.family == Family::Splitting {
-                    return Err(SceneError::new(
-                        ErrorKind::Derivation,
-                        format!(
-                            "`{}` splits a conservative H = T(p) + V(q); forces, dissipation and constraints are not part of H",
-                            method.name
-                        ),
-                    )
-                    .at(spec.method.as_ref().map_or(stmt_span, |m| m.span))
-                    .hint("use `dop853`, `rk4` or `gauss6`, which integrate the equations of motion from `L`"));
-                }
-                if !has_l {
-                    return Err(SceneError::new(
-                        ErrorKind::Undeclared,
-                        "forces, dissipation and constraints act on the equations of `L`, and no `L` is defined",
-                    )
-                    .at(stmt_span)
-                    .hint("define the Lagrangian: `L = …`"));
-                }
+        if spec.stabilize.is_some() && dynamics.is_empty() {
+            let s = spec.stabilize.as_ref().map_or(stmt_span, |s| s.span);
+            return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
+                .at(s)
+                .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
+        }
+        if method.family() == Family::Variational && dynamics.is_empty() {
+            super::notes::check_variational_run(method.name(), spec, has_l, stmt_span)?;
+        }
+        // Whether L is first order matters unless a splitting method runs the user's own H.
+        let l_if_needed =
+            if has_l && !(method.family() == Family::Splitting && has_h) { Some(self.lagrangian()?) } else { None };
+        let shape = Shape {
+            lagrangian: has_l,
+            hamiltonian: has_h,
+            first_order: l_if_needed.as_ref().is_some_and(|l| sim::is_first_order(l, &self.coords)),
+            forces: dynamics.forced(),
+            constraints: dynamics.constrained(),
+        };
+        let route = route(method, &shape).map_err(|r| refusal_error(r, spec, stmt_span))?;
+        let (formulation, l_expr, h_expr) = match route {
+            Route::Extended => {
                 let l = self.lagrangian()?;
                 let ext = self.extended(l.clone(), dynamics, spec)?;
-                (Formulation::Extended(Box::new(ext)), Layout::Velocities, Some(l), None)
+                (Formulation::Extended(Box::new(ext)), Some(l), None)
             }
-            _ if spec.stabilize.is_some() => {
-                let s = spec.stabilize.as_ref().map_or(stmt_span, |s| s.span);
-                return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
-                    .at(s)
-                    .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
-            }
-            Family::Variational => {
-                super::notes::check_variational_run(method.name, spec, has_l, stmt_span)?;
+            Route::Variational => {
                 let l = self.lagrangian()?;
-                if super::notes::is_first_order(&l, &self.coords) {
-                    return Err(super::notes::variational_first_order_error(method.name, spec, stmt_span));
-                }
                 let h = self.hamiltonian()?;
-                (Formulation::Variational(l.clone()), Layout::Momenta, Some(l), Some(h))
+                (Formulation::Variational(l.clone()), Some(l), Some(h))
             }
-            Family::Splitting => {
+            Route::Separable => {
                 let h = self.hamiltonian()?;
                 let (t, v) = self.split(&h, method)?;
-                (Formulation::Separable { t, v }, Layout::Momenta, None, Some(h))
+                (Formulation::Separable { t, v }, None, Some(h))
             }
-            _ if has_l => {
+            Route::FirstOrder => {
                 let l = self.lagrangian()?;
-                if super::notes::is_first_order(&l, &self.coords) {
-                    (Formulation::FirstOrder(l.clone()), Layout::Velocities, Some(l), None)
-                } else {
-                    (Formulation::Lagrangian(l.clone()), Layout::Velocities, Some(l), None)
-                }
+                (Formulation::FirstOrder(l.clone()), Some(l), None)
             }
-            _ if has_h => {
+            Route::Lagrangian => {
+                let l = self.lagrangian()?;
+                (Formulation::Lagrangian(l.clone()), Some(l), None)
+            }
+            Route::Hamiltonian => {
                 let h = self.hamiltonian()?;
-                (Formulation::Hamiltonian(h.clone()), Layout::Momenta, None, Some(h))
-            }
-            _ => {
-                return Err(SceneError::new(ErrorKind::Undeclared, "nothing to simulate: no `L` or `H` defined")
-                    .at(stmt_span)
-                    .hint("define `L = …` or `H = …` first"))
+                (Formulation::Hamiltonian(h.clone()), None, Some(h))
             }
         };
+        let layout = if route.has_velocities() { Layout::Velocities } else { Layout::Momenta };
 
         // Initial state.
         let coords = self.coords.clone();
@@ -472,12 +403,17 @@ impl Session {
                 super::notes::check_first_order_event(&e, ev.span)?;
             }
             event_exprs.push(e);
-            events.push(EventRequest { index, terminal: ev.terminal, rising: ev.rising });
+            let crossing = match ev.rising {
+                Some(true) => crate::integrate::Crossing::Rising,
+                Some(false) => crate::integrate::Crossing::Falling,
+                None => crate::integrate::Crossing::Either,
+            };
+            events.push(RunEvent { index, crossing, terminal: ev.terminal });
         }
 
         // Every parameter the equations use needs a value.
         let mut needed: BTreeSet<String> = BTreeSet::new();
-        let exprs = formulation_exprs(&formulation);
+        let exprs = formulation.exprs();
         for e in exprs.iter().chain(event_exprs.iter()) {
             if let Some(f) = e.applied_functions().into_iter().next() {
                 return Err(SceneError::new(
@@ -513,11 +449,10 @@ impl Session {
             coords: coords.clone(),
             formulation: formulation.clone(),
             params: params.clone(),
-            method,
+            form: method.form(),
             events: event_exprs.clone(),
-            decls: self.declarations(),
         };
-        let mut inputs: Vec<Expr> = formulation_exprs(&formulation);
+        let mut inputs: Vec<Expr> = formulation.exprs();
         inputs.extend(event_exprs.iter().cloned());
         let key = CacheKey {
             step: Step::Compile,
@@ -525,8 +460,9 @@ impl Session {
             inputs,
             numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
             extra: format!(
-                "{:?}{}{}",
-                method.family,
+                "{:?}{:?}{}{}",
+                method.family(),
+                method.form(),
                 match &formulation {
                     // Which input is which, and the stabilisation, are part of the content.
                     Formulation::Extended(x) => format!(
@@ -537,13 +473,13 @@ impl Session {
                         x.stabilization
                     ),
                     // The rule is part of the content (the methods share a family).
-                    Formulation::Variational(_) => format!("variational:{}", method.name),
+                    Formulation::Variational(_) => format!("variational:{}", method.name()),
                     _ => String::new(),
                 },
                 params.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(",")
             ),
         };
-        let what = format!("{} for {}", formulation_name(&formulation), method.name);
+        let what = format!("{} for {}", formulation.describe(), method.name());
         let compiled = match self.lookup(&key, Step::Compile, &what) {
             Some(Value::Compiled(c)) => c,
             _ => {
@@ -558,7 +494,10 @@ impl Session {
         let names = super::drift::input_names(&coords, layout);
         let check = self.energy_check(spec, &formulation, &names, &params)?;
         let energy = check.as_ref().ok().map(|(_, c)| c.clone());
-        let run = RunRequest { method, y0, t0, t1, dt, tol, events, every, energy };
+        options.events = events;
+        options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
+        options.energy = energy;
+        let run = RunRequest { y0, options };
         let template = RunResult {
             method,
             layout,
@@ -619,7 +558,7 @@ impl Session {
             // states, evenly spaced in steps, and says so when it thins.
             return Ok(None);
         }
-        let every = super::backend::default_every(dt, t0, t1);
+        let every = dt.map_or(1, |h| sim::default_every(h, t0, t1));
         if every > 1 {
             let steps = dt.map_or(0, |h| ((t1 - t0) / h).ceil() as usize);
             self.output.push(format!(
@@ -648,7 +587,7 @@ impl Session {
         let traj = result.map_err(|e| backend_error(e, span))?;
         self.plan.push(PlanEntry {
             step: Step::Integrate,
-            what: format!("{name} with {} ({} steps)", run.method.name, traj.steps),
+            what: format!("{name} with {} ({} steps)", run.options.method.name(), traj.steps),
             line: Some(self.line),
             status: Status::Built,
         });
@@ -679,7 +618,7 @@ impl Session {
     /// that what the session accepts is what [`crate::compile::SeparableHamiltonian`]
     /// compiles. When `H` is not separable, the first term that mixes coordinates and
     /// momenta is named in the error.
-    pub(super) fn split(&mut self, h: &Expr, method: Method) -> Result<(Expr, Expr), SceneError> {
+    pub(super) fn split(&mut self, h: &Expr, method: MethodId) -> Result<(Expr, Expr), SceneError> {
         let key = CacheKey::symbolic(Step::Split, &self.coords, vec![h.clone()]);
         let what = format!("of {}", short(h));
         if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &what) {
@@ -696,7 +635,7 @@ impl Session {
                 ErrorKind::Derivation,
                 format!(
                     "`{}` needs a separable H = T(p) + V(q), but the term `{}` mixes coordinates and momenta",
-                    method.name,
+                    method.name(),
                     render(term.as_ref().unwrap_or(h), Format::Plain)
                 ),
             )
@@ -853,27 +792,35 @@ impl Session {
 }
 
 /// Every expression a formulation compiles from.
-pub(super) fn formulation_exprs(f: &Formulation) -> Vec<Expr> {
-    match f {
-        Formulation::Lagrangian(e)
-        | Formulation::Hamiltonian(e)
-        | Formulation::FirstOrder(e)
-        | Formulation::Variational(e) => vec![e.clone()],
-        Formulation::Separable { t, v } => vec![t.clone(), v.clone()],
-        Formulation::Extended(x) => x.exprs(),
+/// A refused `simulate` option as the scene reports it, at the clause it concerns.
+fn run_option_error(e: SimulateError, spec: &SimSpec, stmt: Span) -> SceneError {
+    let at = |src: &Option<Src>| src.as_ref().map_or(stmt, |s| s.span);
+    let (kind, span, label) = match &e {
+        SimulateError::NeedsStep { .. } => (ErrorKind::MissingValue, stmt, None),
+        SimulateError::NeedsTolerance { .. } => {
+            (ErrorKind::BadNumber, at(if spec.steps.is_some() { &spec.steps } else { &spec.dt }), None)
+        }
+        SimulateError::ToleranceBelowFloor { .. } => (ErrorKind::BadNumber, at(&spec.tol), Some("too small")),
+        SimulateError::TooManySteps { .. } => (ErrorKind::BadNumber, at(&spec.dt), None),
+        _ => (ErrorKind::BadNumber, stmt, None),
+    };
+    let mut err = SceneError::new(kind, e.to_string()).at(span);
+    if let Some(l) = label {
+        err = err.label(l);
+    }
+    match e.hint() {
+        Some(h) => err.hint(h),
+        None => err,
     }
 }
 
-pub(super) fn formulation_name(f: &Formulation) -> &'static str {
-    match f {
-        Formulation::Lagrangian(_) => "W q'' = F from L",
-        Formulation::FirstOrder(_) => "ω z' = ∂H/∂z from a first-order L",
-        Formulation::Variational(_) => "the discrete Euler–Lagrange map of L",
-        Formulation::Extended(x) if !x.constraints.is_empty() => "the augmented system [W Φᵀ; Φ 0] from L",
-        Formulation::Extended(_) => "W q'' = F from L with forces",
-        Formulation::Hamiltonian(_) => "Hamilton's equations of H",
-        Formulation::Separable { .. } => "drift ∂T/∂p and kick −∂V/∂q",
-    }
+/// A method refused for the scene's system, pointing at the method.
+fn refusal_error(r: Refusal, spec: &SimSpec, stmt: Span) -> SceneError {
+    let (kind, span) = match r.reason {
+        RefusalReason::NothingToIntegrate | RefusalReason::NeedsLagrangian => (ErrorKind::Undeclared, stmt),
+        _ => (ErrorKind::Derivation, spec.method.as_ref().map_or(stmt, |m| m.span)),
+    };
+    SceneError::new(kind, r.to_string()).at(span).hint(r.hint())
 }
 
 pub(super) fn state_names(coords: &[Symbol], layout: Layout) -> Vec<String> {

@@ -1,0 +1,126 @@
+//! A [`System`] (Lagrangian or Hamiltonian, with its forces, dissipation and constraints) as
+//! the formulation a method needs: the library route for callers that hold a whole system
+//! (Python, the command line, library users).
+
+use super::compiled::{compile, CompileRequest, Compiled};
+use super::error::SimulateError;
+use super::formulation::{route, ExtendedLagrangian, Formulation, Route, Shape};
+use super::method::MethodId;
+use crate::compile::{split_separable, CompileError, Stabilization};
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+use crate::mechanics::{Kind, MechanicsError, System};
+
+/// Whether `L` is first order in the velocities (`L = a(q)·q' − H(q)`): some velocity appears,
+/// and no `∂L/∂q'` contains a velocity, so `W = 0` and the state is `q` alone.
+pub fn is_first_order(l: &Expr, coords: &[Symbol]) -> bool {
+    let velocities: Vec<Symbol> = coords.iter().map(Symbol::prime).collect();
+    let free = l.free_symbols();
+    if !velocities.iter().any(|v| free.contains(v)) {
+        return false;
+    }
+    let mut d = Differentiator::new();
+    velocities.iter().all(|v| {
+        let a = d.diff(l, v).free_symbols();
+        !velocities.iter().any(|w| a.contains(w))
+    })
+}
+
+/// What [`route`] needs to know about `sys`.
+pub fn shape_of(sys: &System) -> Shape {
+    let (lagrangian, first_order) = match sys.kind() {
+        Kind::Lagrangian(l) => (true, is_first_order(l, sys.coordinates())),
+        Kind::Hamiltonian(_) => (false, false),
+    };
+    Shape {
+        lagrangian,
+        hamiltonian: !lagrangian,
+        first_order,
+        forces: sys.forces().iter().any(|f| !f.is_zero()) || sys.rayleigh().is_some(),
+        constraints: !sys.constraints().is_empty(),
+    }
+}
+
+/// The symbolic derivations a formulation needs, so a caller with a derivation cache (the
+/// Python package) can supply them; the defaults derive them afresh.
+pub trait Derivations {
+    /// `W q'' = F` of `sys`, forces and dissipation included.
+    fn mass_matrix(&self, sys: &System) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
+        sys.mass_matrix_split()
+    }
+    /// `H` of `sys` (its own, or the Legendre transform of `L`).
+    fn hamiltonian(&self, sys: &System) -> Result<Expr, MechanicsError> {
+        sys.hamiltonian()
+    }
+}
+
+/// Derives everything afresh.
+pub struct Fresh;
+impl Derivations for Fresh {}
+
+/// The formulation `method` integrates for `sys`, or the typed refusal naming what can.
+pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations) -> Result<Formulation, SimulateError> {
+    let r = route(method, &shape_of(sys)).map_err(SimulateError::Refused)?;
+    Ok(match r {
+        Route::Lagrangian => {
+            let (w, f) = derive.mass_matrix(sys)?;
+            Formulation::Equations { w, f }
+        }
+        Route::Extended if sys.constraints().is_empty() => {
+            let (w, f) = derive.mass_matrix(sys)?;
+            Formulation::Equations { w, f }
+        }
+        Route::Extended => {
+            let Kind::Lagrangian(l) = sys.kind() else { unreachable!("route refuses forces without L") };
+            Formulation::Extended(Box::new(ExtendedLagrangian {
+                l: l.clone(),
+                forces: sys.forces().to_vec(),
+                rayleigh: sys.rayleigh().cloned(),
+                constraints: sys.constraints().to_vec(),
+                // As scenes do by default: projection holds the run on f = 0 and ḟ = 0.
+                stabilization: Stabilization::Projection,
+            }))
+        }
+        Route::FirstOrder | Route::Variational => {
+            let Kind::Lagrangian(l) = sys.kind() else { unreachable!("these routes need L") };
+            if r == Route::FirstOrder {
+                Formulation::FirstOrder(l.clone())
+            } else {
+                Formulation::Variational(l.clone())
+            }
+        }
+        Route::Hamiltonian => Formulation::Hamiltonian(derive.hamiltonian(sys)?),
+        Route::Separable => {
+            let h = derive.hamiltonian(sys)?;
+            let q: Vec<&str> = sys.coordinates().iter().map(|s| s.name()).collect();
+            let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
+            let p: Vec<&str> = p.iter().map(String::as_str).collect();
+            let (t, v) = split_separable(&h, &q, &p).ok_or(SimulateError::Compile(CompileError::NotSeparable))?;
+            Formulation::Separable { t, v }
+        }
+    })
+}
+
+/// Compiles `sys` for `method` with its bound parameters and the event functions `events`
+/// (expressions in the state's variables and `t`).
+pub fn compile_system(sys: &System, method: MethodId, events: &[Expr]) -> Result<Compiled, SimulateError> {
+    compile_system_with(sys, method, events, &Fresh)
+}
+
+/// [`compile_system`] with the derivations supplied by `derive`.
+pub fn compile_system_with(
+    sys: &System,
+    method: MethodId,
+    events: &[Expr],
+    derive: &dyn Derivations,
+) -> Result<Compiled, SimulateError> {
+    let formulation = formulation_for(sys, method, derive)?;
+    let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.name().to_string(), *v)).collect();
+    compile(&CompileRequest {
+        coords: sys.coordinates().to_vec(),
+        formulation,
+        params,
+        form: method.form(),
+        events: events.to_vec(),
+    })
+}
