@@ -19,8 +19,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
 
-use lagrangian::compile::CompileError;
-use lagrangian::mechanics::{Kind, System};
+use lagrangian::mechanics::{Kind, MechanicsError, System};
 use lagrangian::scene::cache::{configured_dir, Cache};
 use lagrangian::scene::Step;
 use lagrangian::Expr;
@@ -102,46 +101,38 @@ fn cached<E>(
     Ok(v)
 }
 
-/// `W q'' = F` of a Lagrangian system without constraints (the caller checks), from the
-/// cache or derived now.
-pub fn mass_matrix(sys: &System, l: &Expr) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), CompileError> {
+/// `W q'' = F` of `sys` (forces and dissipation included), from the cache when an earlier
+/// process derived it. A cached entry of the wrong shape is derived again.
+pub fn mass_matrix(sys: &System) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
     let n = sys.coordinates().len();
-    // Everything the split depends on besides the coordinates: L, each generalized force and
-    // the dissipation function (zero when absent, so the slots keep their meaning).
+    let Some(l) = sys.lagrangian() else { return sys.mass_matrix_split() };
     let mut inputs = vec![l.clone()];
     inputs.extend(sys.forces().iter().cloned());
     inputs.push(sys.rayleigh().cloned().unwrap_or_else(Expr::zero));
     let flat = cached(sys, Step::EulerLagrange, "python: W q'' = F, forces, Rayleigh", &inputs, || {
-        let (w, f) = sys.mass_matrix_split().map_err(|e| CompileError::Mechanics(e.to_string()))?;
-        Ok::<_, CompileError>(w.into_iter().flatten().chain(f).collect())
+        let (w, f) = sys.mass_matrix_split()?;
+        Ok::<_, MechanicsError>(w.into_iter().flatten().chain(f).collect())
     })?;
     if flat.len() != n * n + n {
-        return Err(CompileError::Mechanics(format!(
-            "the cached W q'' = F has {} entries, expected {}",
-            flat.len(),
-            n * n + n
-        )));
+        return sys.mass_matrix_split();
     }
     let w = flat[..n * n].chunks(n).map(<[Expr]>::to_vec).collect();
     Ok((w, flat[n * n..].to_vec()))
 }
 
-/// The Hamiltonian: the system's own, or the Legendre transform of its Lagrangian from the
-/// cache or derived now.
-pub fn hamiltonian(sys: &System) -> Result<Expr, CompileError> {
+/// `H` of `sys`: its own, or the Legendre transform of `L` (from the cache when derived before).
+pub fn hamiltonian(sys: &System) -> Result<Expr, MechanicsError> {
     let l = match sys.kind() {
         Kind::Hamiltonian(h) => return Ok(h.clone()),
         Kind::Lagrangian(l) => l,
     };
-    let v = cached(sys, Step::Legendre, "python: H", std::slice::from_ref(l), || {
-        sys.hamiltonian().map(|h| vec![h]).map_err(|e| CompileError::Mechanics(e.to_string()))
-    })?;
-    v.into_iter().next().ok_or_else(|| CompileError::Mechanics("the cached Hamiltonian is empty".into()))
+    let v = cached(sys, Step::Legendre, "python: H", std::slice::from_ref(l), || sys.hamiltonian().map(|h| vec![h]))?;
+    match v.into_iter().next() {
+        Some(h) => Ok(h),
+        None => sys.hamiltonian(),
+    }
 }
 
-/// ``cache_info()``: the derivation cache's directory (``None`` when it is in memory only)
-/// and this process's counts: ``derived`` (derivations done here) and ``hits`` (results found
-/// in the cache, in memory or on disk).
 #[pyfunction]
 pub fn cache_info(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     init(py);

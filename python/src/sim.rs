@@ -2,26 +2,29 @@
 //! or a batch; a drop-in `fun=` for SciPy's `solve_ivp`), `integrate` returning NumPy arrays
 //! and `ensemble` over many initial states. Every integration runs with the GIL released.
 //!
-//! Progress and Ctrl-C: the driver adds one event whose function records the current time on
-//! every step (the progress bar reads it), and hands the run the engine's cancellation token
-//! ([`lagrangian::cancel::CancelToken`], checked before every step), which the waiting thread
-//! sets on `KeyboardInterrupt`. The calling thread waits with the GIL released and, a few
-//! times a second, takes the GIL to draw the bar and check for the signal.
+//! Every run goes through the engine's one simulation layer ([`lagrangian::simulate`]): the
+//! method registry, the choice of equations for the system (with its typed refusal when a
+//! method cannot run it), the compiled system and the drive loop. This file only translates
+//! Python arguments into a [`RunOptions`] and the [`Trajectory`] back into arrays.
+//!
+//! Progress and Ctrl-C: the drive loop reports the fraction done (stored in an atomic that the
+//! progress bar reads) and checks the engine's cancellation token
+//! ([`lagrangian::cancel::CancelToken`]) before every step; the waiting thread sets it on
+//! `KeyboardInterrupt`. The calling thread waits with the GIL released and, a few times a
+//! second, takes the GIL to draw the bar and check for the signal.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use lagrangian::compile::{
-    CompileError, HamiltonianRhs, LagrangianJacobian, LagrangianRhs, SeparableHamiltonian, Tape, TaylorOde,
+use lagrangian::integrate::{Crossing, EventRecord};
+use lagrangian::mechanics::System;
+use lagrangian::simulate::{
+    self, Compiled, CompiledSystem, Derivations, Equations, EventSpec, Form, MethodId, RunOptions, Sampling,
+    SimulateError, Trajectory,
 };
-use lagrangian::integrate::{
-    Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError, Options, Rhs,
-    Separable, Splitting, Status, StopReason, Taylor,
-};
-use lagrangian::mechanics::{Kind, System};
-use lagrangian::scene::sim::{self as methods, Family};
+use lagrangian::Expr;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
@@ -31,155 +34,100 @@ use crate::errors::{exc, integration_error, PyResultExt};
 use crate::expr::to_expr;
 use crate::system::PySystem;
 
-/// Which equations a method integrates, and so the state layout.
+/// The derivations a formulation needs, from the process's derivation cache (`cache.rs`), so a
+/// worker process or a new parameter set does not derive them again.
+struct Cached;
+
+impl Derivations for Cached {
+    fn mass_matrix(&self, sys: &System) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), lagrangian::mechanics::MechanicsError> {
+        crate::cache::mass_matrix(sys)
+    }
+    fn hamiltonian(&self, sys: &System) -> Result<Expr, lagrangian::mechanics::MechanicsError> {
+        crate::cache::hamiltonian(sys)
+    }
+}
+
+/// What a compiled system of a `System` is cached by: the equations a method (or a named
+/// formulation) integrates, and the form they are compiled to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Formulation {
-    /// `W q'' = F`; state `(q, q')`.
-    Lagrangian,
-    /// `W q'' = F` with its exact Jacobian (implicit methods); state `(q, q')`.
-    LagrangianJacobian,
-    /// Hamilton's equations; state `(q, p)`.
-    Hamiltonian,
-    /// `H = T(p) + V(q, t)` split into drift and kick (splitting methods); state `(q, p)`.
-    Separable,
-    /// The Taylor form of `W q'' = F` (state `(q, q')`) or of Hamilton's equations (state
-    /// `(q, p)`), for the Taylor method.
-    Taylor,
+pub enum CompiledKey {
+    /// What `method` needs.
+    Method(Form),
+    /// The equations named by `System.compile(formulation=…)`, with or without the Jacobian.
+    Named(Equations, Form),
 }
 
-impl Formulation {
-    /// What `method` needs from `sys`.
-    pub fn for_method(sys: &System, m: methods::Method) -> Formulation {
-        let lagrangian = matches!(sys.kind(), Kind::Lagrangian(_));
-        match m.family {
-            Family::Splitting => Formulation::Separable,
-            Family::Adaptive if m.name == "taylor" => Formulation::Taylor,
-            Family::Implicit if lagrangian => Formulation::LagrangianJacobian,
-            _ if lagrangian => Formulation::Lagrangian,
-            _ => Formulation::Hamiltonian,
-        }
-    }
+/// Compiled systems of one `System` (compiling is done once per process and key).
+pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
 
-    /// `(q…, q'…)` or `(q…, p_q…)`.
-    pub fn state_names(self, sys: &System) -> Vec<String> {
-        let lagrangian = matches!(sys.kind(), Kind::Lagrangian(_));
-        let second = match self {
-            Formulation::Lagrangian | Formulation::LagrangianJacobian => sys.velocities(),
-            Formulation::Taylor if lagrangian => sys.velocities(),
-            _ => sys.momenta(),
-        };
-        sys.coordinates().iter().chain(second).map(|s| s.to_string()).collect()
-    }
-}
-
-/// A compiled system.
-pub enum Compiled {
-    Lagrangian(LagrangianRhs),
-    LagrangianJacobian(LagrangianJacobian),
-    Hamiltonian(HamiltonianRhs),
-    Separable(SeparableHamiltonian),
-    /// The Taylor form, and the right-hand side it was made from (for `f(t, y)` calls).
-    Taylor(TaylorOde, Box<Compiled>),
-}
-
-impl Compiled {
-    fn rhs(&self) -> &dyn Rhs {
-        match self {
-            Compiled::Lagrangian(r) => r,
-            Compiled::LagrangianJacobian(r) => r,
-            Compiled::Hamiltonian(r) => r,
-            Compiled::Separable(r) => r,
-            Compiled::Taylor(_, r) => r.rhs(),
-        }
-    }
-
-    /// Writes the exact Jacobian `∂f_i/∂y_j` into `jac[i * dim + j]`, if this formulation
-    /// carries one.
-    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), lagrangian::compile::RhsError>> {
-        match self {
-            Compiled::LagrangianJacobian(r) => Some(r.try_jacobian(t, y, jac)),
-            Compiled::Hamiltonian(r) => Some(r.try_jacobian(t, y, jac)),
-            _ => None,
+/// A simulation error as Python sees it: a request the engine refuses is a `ValueError` (with
+/// the engine's hint), a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
+pub fn simulate_error(py: Python<'_>, e: SimulateError) -> PyErr {
+    match e {
+        SimulateError::Integrate { error, .. } => integration_error(py, error),
+        SimulateError::Cancelled => PyKeyboardInterrupt::new_err("integration interrupted"),
+        SimulateError::Compile(c) => exc::CompileError::new_err(c.to_string()),
+        SimulateError::Mechanics(m) => exc::MechanicsError::new_err(m.to_string()),
+        other => {
+            let msg = match other.hint() {
+                Some(h) => format!("{other} ({h})"),
+                None => other.to_string(),
+            };
+            PyValueError::new_err(msg)
         }
     }
 }
 
-/// Compiles `f` for `sys`, taking the symbolic inputs from the derivation cache
-/// (`cache.rs`), so a worker process or a new parameter set does not derive them again.
-fn compile_formulation(sys: &System, f: Formulation) -> Result<Compiled, CompileError> {
-    let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
-    let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-    let q: Vec<String> = sys.coordinates().iter().map(|s| s.to_string()).collect();
-    let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
-    let q: Vec<&str> = q.iter().map(String::as_str).collect();
-    let p: Vec<&str> = p.iter().map(String::as_str).collect();
-    let lagrangian_rhs = || match sys.kind() {
-        // The checks of `System::compile_rhs` (constraints, a Hamiltonian system) come first.
-        Kind::Lagrangian(l) if sys.constraints().is_empty() => {
-            let (w, f) = crate::cache::mass_matrix(sys, l)?;
-            LagrangianRhs::new(&w, &f, &q, &params)
-        }
-        _ => sys.compile_rhs(),
-    };
-    Ok(match f {
-        Formulation::Lagrangian => Compiled::Lagrangian(lagrangian_rhs()?),
-        Formulation::LagrangianJacobian => Compiled::LagrangianJacobian(lagrangian_rhs()?.with_jacobian()?),
-        Formulation::Hamiltonian => {
-            Compiled::Hamiltonian(HamiltonianRhs::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?)
-        }
-        Formulation::Separable => {
-            Compiled::Separable(SeparableHamiltonian::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?)
-        }
-        Formulation::Taylor => match sys.kind() {
-            Kind::Lagrangian(_) => {
-                let r = lagrangian_rhs()?;
-                Compiled::Taylor(TaylorOde::from_lagrangian(&r), Box::new(Compiled::Lagrangian(r)))
-            }
-            Kind::Hamiltonian(_) => {
-                let r = HamiltonianRhs::new(&crate::cache::hamiltonian(sys)?, &q, &p, &params)?;
-                Compiled::Taylor(TaylorOde::from_hamiltonian(&r), Box::new(Compiled::Hamiltonian(r)))
-            }
-        },
-    })
-}
-
-/// Compiled systems of one `System`, by formulation (compiling is done once per process).
-pub type CompiledCache = Arc<Mutex<HashMap<Formulation, Arc<Compiled>>>>;
-
-/// The compiled `f` of `sys` for `f`, from the cache or compiled now (GIL released).
-pub fn compiled(py: Python<'_>, s: &PySystem, f: Formulation) -> PyResult<Arc<Compiled>> {
-    if let Some(c) = s.compiled.lock().ok().and_then(|m| m.get(&f).cloned()) {
+/// The compiled system of `s` under `key`, from its cache or compiled now (GIL released).
+fn compiled_for(py: Python<'_>, s: &PySystem, key: CompiledKey) -> PyResult<Arc<Compiled>> {
+    if let Some(c) = s.compiled.lock().ok().and_then(|m| m.get(&key).cloned()) {
         return Ok(c);
     }
     let sys = &s.sys;
     crate::cache::init(py);
-    let c = py.allow_threads(|| compile_formulation(sys, f)).py()?;
+    let c = py
+        .allow_threads(|| match key {
+            CompiledKey::Method(form) => {
+                let method = MethodId::all().find(|m| m.form() == form).expect("every form has a method");
+                simulate::compile_system_with(sys, method, &[], &Cached)
+            }
+            CompiledKey::Named(eq, form) => {
+                let f = simulate::formulation_of(sys, eq, &Cached)?;
+                simulate::compile_formulation(sys, f, form, &[])
+            }
+        })
+        .map_err(|e| simulate_error(py, e))?;
     let c = Arc::new(c);
     if let Ok(mut m) = s.compiled.lock() {
-        m.insert(f, c.clone());
+        m.insert(key, c.clone());
     }
     Ok(c)
 }
 
-/// The methods the binding runs. The discrete variational maps (`variational`, …) integrate
-/// the discrete Lagrangian's map with its own state `(q, p)` and are offered by scenes and
-/// `lagrangian discretize`, not here yet.
-pub fn binding_methods() -> impl Iterator<Item = &'static methods::Method> {
-    methods::METHODS.iter().filter(|m| !matches!(m.family, Family::Variational))
+/// The compiled system `method` integrates for `s`, after the engine's check that the method
+/// can run this kind of system (a typed refusal naming the methods that can).
+pub fn compiled_for_method(py: Python<'_>, s: &PySystem, method: MethodId) -> PyResult<Arc<Compiled>> {
+    simulate::route(method, &simulate::shape_of(&s.sys)).map_err(|r| simulate_error(py, SimulateError::Refused(r)))?;
+    compiled_for(py, s, CompiledKey::Method(method.form()))
 }
 
-/// The method called `name`, or a `ValueError` listing them.
-pub fn method(name: &str) -> PyResult<methods::Method> {
-    let names = || binding_methods().map(|m| m.name).collect::<Vec<_>>().join(", ");
-    match methods::method(name) {
-        Some(m) if matches!(m.family, Family::Variational) => Err(PyValueError::new_err(format!(
-            "`{name}` (a discrete variational map) runs in scenes and `lagrangian discretize`, not in the \
-             Python binding; the methods here are {}",
-            names()
-        ))),
-        Some(m) => Ok(m),
-        None => Err(PyValueError::new_err(format!("unknown method `{name}`; the methods are {}", names()))),
-    }
+/// The methods the binding runs: every method of the registry.
+pub fn binding_methods() -> impl Iterator<Item = MethodId> {
+    MethodId::all()
+}
+
+/// The method called `name`, or a `ValueError` with the closest name and the list.
+pub fn method(name: &str) -> PyResult<MethodId> {
+    MethodId::from_name(name).ok_or_else(|| {
+        let e = SimulateError::unknown_method(name);
+        let list = simulate::method::method_names();
+        match &e {
+            SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
+                PyValueError::new_err(format!("unknown method `{name}`: did you mean `{s}`? (the methods are {list})"))
+            }
+            _ => PyValueError::new_err(format!("unknown method `{name}`; the methods are {list}")),
+        }
+    })
 }
 
 /// The elements of an array as float64 in C order. (An empty array is handled apart: its
@@ -214,30 +162,30 @@ fn float_array<'py>(y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
 pub struct CompiledRhs {
     c: Arc<Compiled>,
     names: Vec<String>,
-    /// The system and formulation, to compile the Jacobian on first use.
+    /// The system and the equations, to compile the Jacobian on first use.
     system: Py<PySystem>,
-    formulation: Formulation,
+    equations: Equations,
     jac: std::sync::OnceLock<Arc<Compiled>>,
 }
 
 impl CompiledRhs {
-    /// The formulation with the exact Jacobian of this one's equations, compiled once.
+    /// The same equations with their exact Jacobian, compiled once.
     fn jacobian_code(&self, py: Python<'_>) -> PyResult<Arc<Compiled>> {
         if let Some(c) = self.jac.get() {
             return Ok(c.clone());
         }
-        let f = match self.formulation {
-            Formulation::Lagrangian | Formulation::LagrangianJacobian => Formulation::LagrangianJacobian,
-            // The split integrates Hamilton's equations in the same state `(q, p)`.
-            Formulation::Hamiltonian | Formulation::Separable | Formulation::Taylor => Formulation::Hamiltonian,
+        // A split integrates Hamilton's equations in the same state `(q, p)`.
+        let eq = match self.equations {
+            Equations::Separable => Equations::Hamiltonian,
+            other => other,
         };
-        let c = compiled(py, self.system.bind(py).get(), f)?;
+        let c = compiled_for(py, self.system.bind(py).get(), CompiledKey::Named(eq, Form::RhsWithJacobian))?;
         let _ = self.jac.set(c.clone());
         Ok(c)
     }
 
     fn eval_one(&self, t: f64, y: &[f64], dy: &mut [f64]) -> PyResult<()> {
-        self.c.rhs().try_eval(t, y, dy).map_err(|e| exc::RhsError::new_err(e.reason))
+        rhs_of(&self.c)?.try_eval(t, y, dy).map_err(|e| exc::RhsError::new_err(e.reason))
     }
 }
 
@@ -276,7 +224,7 @@ impl CompiledRhs {
         let v = f64_vec(&a)?;
         let c = self.jacobian_code(py)?;
         let mut j = vec![0.0; n * n];
-        match c.jacobian(t, &v, &mut j) {
+        match c.system.try_jacobian(t, &v, &mut j) {
             Some(r) => r.py()?,
             None => return Err(PyValueError::new_err("this formulation has no compiled Jacobian")),
         }
@@ -327,10 +275,11 @@ impl CompiledRhs {
                 let k = *k;
                 let v = f64_vec(&a)?;
                 let ys = &v[..];
-                let c = &self.c;
+                let rhs = rhs_of(&self.c)?;
+                let system = &*self.c.system;
                 let out = py.allow_threads(|| -> Result<Vec<f64>, String> {
                     let mut dy = vec![0.0; n * k];
-                    if let Compiled::Lagrangian(l) = &**c {
+                    if let CompiledSystem::Lagrangian(l) = system {
                         // Structure-of-arrays, exactly NumPy's (n, k) C order.
                         l.eval_batch(t, ys, &mut dy, k).map_err(|e| e.to_string())?;
                         return Ok(dy);
@@ -340,7 +289,7 @@ impl CompiledRhs {
                         for i in 0..n {
                             yi[i] = ys[i * k + j];
                         }
-                        c.rhs().try_eval(t, &yi, &mut di).map_err(|e| e.reason)?;
+                        rhs.try_eval(t, &yi, &mut di).map_err(|e| e.reason)?;
                         for i in 0..n {
                             dy[i * k + j] = di[i];
                         }
@@ -362,271 +311,20 @@ impl CompiledRhs {
 /// progress bar.
 #[derive(Default)]
 pub struct Control {
-    t: AtomicU64,
-    done: AtomicUsize,
+    /// The fraction of the span done, as `f64` bits.
+    fraction: AtomicU64,
     cancel: lagrangian::cancel::CancelToken,
 }
 
-/// One integration request, checked.
-#[derive(Clone)]
-pub struct RunSpec {
-    pub method: methods::Method,
-    pub t0: f64,
-    pub t1: f64,
-    pub dt: Option<f64>,
-    pub rtol: f64,
-    pub atol: f64,
-    pub max_steps: usize,
-    pub every: usize,
-    pub final_only: bool,
-    pub compensated: bool,
-    pub t_eval: Option<Vec<f64>>,
-    pub events: Vec<EventSpec>,
-}
-
-/// A compiled event function `g(state, t)` with its direction and whether it stops.
-#[derive(Clone)]
-pub struct EventSpec {
-    tape: Arc<Tape>,
-    crossing: Crossing,
-    terminal: bool,
-}
-
-impl EventSpec {
-    /// `g(t, y)`.
-    fn function(&self) -> impl Fn(f64, &[f64]) -> f64 {
-        let tape = self.tape.clone();
-        move |t, y| {
-            let mut x = Vec::with_capacity(y.len() + 1);
-            x.extend_from_slice(y);
-            x.push(t);
-            let mut o = [0.0];
-            tape.eval(&x, &mut o);
-            o[0]
-        }
+impl Control {
+    fn fraction(&self) -> f64 {
+        f64::from_bits(self.fraction.load(Ordering::Relaxed))
     }
 }
 
-/// The result of one integration.
-pub struct Out {
-    times: Vec<f64>,
-    states: Vec<f64>,
-    events: Vec<EventRecord>,
-    stop: Option<(usize, f64)>,
-    steps: usize,
-    rejected: usize,
-}
-
-pub enum RunError {
-    Failed(IntegrateError),
-    Cancelled,
-}
-
-impl From<IntegrateError> for RunError {
-    /// The token's [`FailureReason::Interrupted`] is the user's Ctrl-C, not a failure.
-    fn from(e: IntegrateError) -> Self {
-        if e.reason == FailureReason::Interrupted {
-            RunError::Cancelled
-        } else {
-            RunError::Failed(e)
-        }
-    }
-}
-
-fn drive<S: ?Sized, M: Integrate<S>>(m: &M, sys: &S, y0: &[f64], p: &RunSpec, ctl: &Control) -> Result<Out, RunError> {
-    if let Some(te) = &p.t_eval {
-        return drive_dense(m, sys, y0, p, te, ctl);
-    }
-    let mut opts = Options::new().max_steps(p.max_steps).every(p.every);
-    if p.final_only {
-        opts = opts.final_only();
-    }
-    // Event 0 is the progress hook (see the module docs); the user's follow.
-    opts = opts.cancel(ctl.cancel.clone()).event(
-        Event::new(|t, _| {
-            ctl.t.store(t.to_bits(), Ordering::Relaxed);
-            1.0
-        })
-        .crossing(Crossing::Falling)
-        .stop(),
-    );
-    for e in &p.events {
-        let mut ev = Event::new(e.function()).crossing(e.crossing);
-        if e.terminal {
-            ev = ev.stop();
-        }
-        opts = opts.event(ev);
-    }
-    let traj = m.integrate_with(sys, p.t0..p.t1, y0, opts)?;
-    let stop = match traj.stop {
-        // The progress hook never changes sign, so event 0 never stops a run.
-        StopReason::Event { index: 0, .. } => return Err(RunError::Cancelled),
-        StopReason::Event { index, t } => Some((index - 1, t)),
-        StopReason::ReachedEnd => None,
-    };
-    let events =
-        traj.events.into_iter().filter(|e| e.index > 0).map(|e| EventRecord { index: e.index - 1, ..e }).collect();
-    Ok(Out {
-        times: traj.times,
-        states: traj.states,
-        events,
-        stop,
-        steps: traj.stats.steps,
-        rejected: traj.stats.rejected,
-    })
-}
-
-/// Steps with a [`lagrangian::integrate::Solver`] and interpolates at the requested times
-/// (the method's dense output, or Hermite interpolation for methods without one). Events are
-/// watched as the engine's own driver does: after each step every event function is evaluated
-/// at the step's end, and a sign change is located on the same interpolant
-/// ([`lagrangian::integrate::Solver::locate`]). As in SciPy's `solve_ivp`, the integration
-/// then runs over the whole span (events may come after the last requested time), and a
-/// terminal event ends the output at the last requested time before it.
-fn drive_dense<S: ?Sized, M: Integrate<S>>(
-    m: &M,
-    sys: &S,
-    y0: &[f64],
-    p: &RunSpec,
-    t_eval: &[f64],
-    ctl: &Control,
-) -> Result<Out, RunError> {
-    let n = y0.len();
-    let mut solver = m.solver(sys, p.t0, y0, p.t1)?;
-    solver.set_cancel(ctl.cancel.clone());
-    let dir = if p.t1 >= p.t0 { 1.0 } else { -1.0 };
-    let mut times = Vec::with_capacity(t_eval.len());
-    let mut states = vec![0.0; t_eval.len() * n];
-    let mut next = 0;
-    while next < t_eval.len() && t_eval[next] == p.t0 {
-        states[next * n..(next + 1) * n].copy_from_slice(y0);
-        times.push(p.t0);
-        next += 1;
-    }
-    let gs: Vec<_> = p.events.iter().map(EventSpec::function).collect();
-    let mut g_prev: Vec<f64> = gs.iter().map(|g| g(p.t0, y0)).collect();
-    let mut events = Vec::new();
-    let mut stop = None;
-    while next < t_eval.len() || !gs.is_empty() {
-        if solver.steps() >= p.max_steps {
-            return Err(RunError::Failed(IntegrateError {
-                t: solver.t(),
-                state: solver.y().to_vec(),
-                reason: lagrangian::integrate::FailureReason::StepLimit { max_steps: p.max_steps },
-                steps: solver.steps(),
-            }));
-        }
-        if ctl.cancel.is_cancelled() {
-            return Err(RunError::Cancelled);
-        }
-        let status = solver.step()?;
-        let t = solver.t();
-        ctl.t.store(t.to_bits(), Ordering::Relaxed);
-        // This step's crossings in time order; a terminal one ends the output there.
-        let mut hits = Vec::new();
-        for (i, g) in gs.iter().enumerate() {
-            let g1 = g(t, solver.y());
-            if p.events[i].crossing.crossed(g_prev[i], g1) {
-                let (te, ye) = solver.locate(g, g_prev[i], g1)?;
-                hits.push(EventRecord { index: i, t: te, state: ye });
-            }
-            g_prev[i] = g1;
-        }
-        hits.sort_by(|a, b| (dir * a.t).total_cmp(&(dir * b.t)));
-        let mut until = t;
-        for h in hits {
-            let (i, te) = (h.index, h.t);
-            events.push(h);
-            if p.events[i].terminal {
-                stop = Some((i, te));
-                until = te;
-                break;
-            }
-        }
-        while next < t_eval.len() && dir * (t_eval[next] - until) <= 0.0 {
-            solver.interpolate(t_eval[next], &mut states[next * n..(next + 1) * n])?;
-            times.push(t_eval[next]);
-            next += 1;
-        }
-        if stop.is_some() || status == Status::Finished {
-            break;
-        }
-    }
-    states.truncate(times.len() * n);
-    Ok(Out { times, states, events, stop, steps: solver.steps(), rejected: solver.rejected() })
-}
-
-/// Runs `p` on `c` from `y0`.
-pub fn run(c: &Compiled, y0: &[f64], p: &RunSpec, ctl: &Control) -> Result<Out, RunError> {
-    let m = p.method;
-    let dt = p.dt.unwrap_or(f64::NAN);
-    match m.family {
-        Family::Splitting => {
-            let Compiled::Separable(sep) = c else { unreachable!("splitting methods are compiled separable") };
-            let mut s = match m.name {
-                "leapfrog" | "verlet" => Splitting::leapfrog(dt),
-                "yoshida4" => Splitting::yoshida4(dt),
-                "yoshida6" => Splitting::yoshida6(dt),
-                "yoshida8" => Splitting::yoshida8(dt),
-                "blanes_moan" => Splitting::blanes_moan4(dt),
-                _ => Splitting::symplectic_euler(dt),
-            };
-            if p.compensated {
-                s = s.compensated();
-            }
-            drive(&s, sep as &dyn Separable, y0, p, ctl)
-        }
-        Family::Implicit => {
-            let mut g = match m.name {
-                "midpoint" => Gauss::midpoint(dt),
-                "gauss4" => Gauss::gauss4(dt),
-                _ => Gauss::gauss6(dt),
-            };
-            if p.compensated {
-                g = g.compensated();
-            }
-            drive(&g, c.rhs(), y0, p, ctl)
-        }
-        Family::Explicit => {
-            let mut r = if m.name == "euler" { ExplicitRk::euler(dt) } else { ExplicitRk::rk4(dt) };
-            if p.compensated {
-                r = r.compensated();
-            }
-            drive(&r, c.rhs(), y0, p, ctl)
-        }
-        Family::Adaptive if m.name == "taylor" => {
-            let Compiled::Taylor(ode, _) = c else { unreachable!("the Taylor method is compiled to its Taylor form") };
-            let mut t = Taylor::with_tolerances(p.rtol, p.atol);
-            if p.compensated {
-                t = t.compensated();
-            }
-            t.validate().map_err(|msg| {
-                RunError::Failed(IntegrateError {
-                    t: p.t0,
-                    state: y0.to_vec(),
-                    reason: lagrangian::integrate::FailureReason::InvalidInput(msg),
-                    steps: 0,
-                })
-            })?;
-            drive(&t, ode, y0, p, ctl)
-        }
-        Family::Variational => Err(RunError::Failed(IntegrateError {
-            t: p.t0,
-            state: y0.to_vec(),
-            reason: lagrangian::integrate::FailureReason::InvalidInput(format!(
-                "`{}` runs in scenes, not in the Python binding",
-                m.name
-            )),
-            steps: 0,
-        })),
-        Family::Adaptive => {
-            let mut d = Dop853::new(p.rtol, p.atol);
-            if p.compensated {
-                d = d.compensated();
-            }
-            drive(&d, c.rhs(), y0, p, ctl)
-        }
-    }
+/// The first-order right-hand side of a compiled system (every form Python compiles has one).
+fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
+    c.system.rhs().ok_or_else(|| PyValueError::new_err("a discrete variational map has no right-hand side f(t, y)"))
 }
 
 /// How a progress bar is shown.
@@ -753,7 +451,10 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
     f64_vec(&a)
 }
 
-/// Checks the arguments shared by `integrate` and `ensemble`.
+/// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
+/// with the compiled system (its events compiled in) and the state's names. The engine
+/// checks them (`dt` or `tol` as the method needs, its tolerance floor, the span, the step
+/// budget) and refuses a method that cannot run this system.
 #[allow(clippy::too_many_arguments)]
 fn run_spec(
     py: Python<'_>,
@@ -761,50 +462,24 @@ fn run_spec(
     method_name: &str,
     t_span: (f64, f64),
     dt: Option<f64>,
-    tol: f64,
+    tol: Option<f64>,
     atol: Option<f64>,
     max_steps: Option<usize>,
     events: Option<&Bound<'_, PyList>>,
     compensated: bool,
-) -> PyResult<(RunSpec, Arc<Compiled>, Vec<String>)> {
+) -> PyResult<(RunOptions, Arc<Compiled>)> {
     let m = method(method_name)?;
     let (t0, t1) = t_span;
-    if !t0.is_finite() || !t1.is_finite() {
-        return Err(PyValueError::new_err(format!("t_span ({t0}, {t1}) is not finite")));
-    }
-    match (m.family, dt) {
-        (Family::Adaptive, Some(_)) => {
-            return Err(PyValueError::new_err(format!(
-                "`{}` chooses its own steps: give `tol` instead of `dt` (or pick a fixed-step method such as gauss6)",
-                m.name
-            )))
-        }
-        (Family::Adaptive, None) => {}
-        (_, None) => {
-            return Err(PyValueError::new_err(format!(
-                "`{}` is a fixed-step method and needs a step: pass dt=…",
-                m.name
-            )))
-        }
-        (_, Some(h)) if !(h.is_finite() && h > 0.0) => {
-            return Err(PyValueError::new_err(format!("dt = {h} must be positive and finite")))
-        }
-        (_, Some(h)) if (t1 - t0).abs() / h > 1e10 => {
-            return Err(PyValueError::new_err(format!(
-                "{:.3e} steps of dt = {h} is more than the limit of 10¹⁰",
-                (t1 - t0).abs() / h
-            )))
-        }
-        _ => {}
-    }
-    if !(tol.is_finite() && tol > 0.0) {
-        return Err(PyValueError::new_err(format!("tol = {tol} must be positive and finite")));
-    }
-    let f = Formulation::for_method(&s.sys, m);
-    let names = f.state_names(&s.sys);
-    let c = compiled(py, s, f)?;
-    let mut evs = Vec::new();
-    let params: Vec<(String, f64)> = s.sys.param_values().iter().map(|(k, v)| (k.name().to_string(), *v)).collect();
+    let mut opts = RunOptions::new(m, t0, t1);
+    opts.dt = dt;
+    opts.rtol = tol;
+    opts.atol = atol;
+    opts.max_steps = max_steps;
+    opts.compensated = compensated;
+    opts.sampling = Sampling::Every(1);
+    opts.check().map_err(|e| simulate_error(py, e))?;
+    let c = compiled_for_method(py, s, m)?;
+    let mut exprs = Vec::new();
     for ev in events.into_iter().flatten() {
         let (expr_obj, direction, terminal) = if let Ok(e) = ev.downcast::<PyEvent>() {
             let e = e.get();
@@ -812,37 +487,16 @@ fn run_spec(
         } else {
             (ev.clone(), 0, false)
         };
-        let e = to_expr(&expr_obj, s.sys.declarations(), true)?;
-        let mut inputs: Vec<&str> = names.iter().map(String::as_str).collect();
-        inputs.push("t");
-        let refs: Vec<(&str, f64)> = params
-            .iter()
-            .filter(|(k, _)| e.free_symbols().iter().any(|s| s.name() == k))
-            .map(|(k, v)| (k.as_str(), *v))
-            .collect();
-        let tape = Tape::compile(&[e], &inputs, &refs).py()?;
+        exprs.push(to_expr(&expr_obj, s.sys.declarations(), true)?);
         let crossing = match direction.signum() {
             1 => Crossing::Rising,
             -1 => Crossing::Falling,
             _ => Crossing::Either,
         };
-        evs.push(EventSpec { tape: Arc::new(tape), crossing, terminal });
+        opts.events.push(EventSpec { index: opts.events.len(), crossing, terminal });
     }
-    let spec = RunSpec {
-        method: m,
-        t0,
-        t1,
-        dt,
-        rtol: tol,
-        atol: atol.unwrap_or(tol),
-        max_steps: max_steps.unwrap_or(100_000_000),
-        every: 1,
-        final_only: false,
-        compensated,
-        t_eval: None,
-        events: evs,
-    };
-    Ok((spec, c, names))
+    let c = if exprs.is_empty() { c } else { Arc::new(c.with_events(&exprs).map_err(|e| simulate_error(py, e))?) };
+    Ok((opts, c))
 }
 
 /// A zero crossing to detect during :meth:`System.integrate`: ``expr`` is an expression in
@@ -935,14 +589,20 @@ impl Solution {
     }
 }
 
-fn solution(py: Python<'_>, out: Out, names: Vec<String>, n_events: usize, method: &'static str) -> PyResult<Solution> {
+fn solution(
+    py: Python<'_>,
+    out: Trajectory,
+    names: Vec<String>,
+    n_events: usize,
+    method: &'static str,
+) -> PyResult<Solution> {
     let n = names.len();
-    let k = out.times.len();
-    // (k, n) row-major → (n, k): one row per state variable.
+    let k = out.t.len();
+    // One row per state variable: SciPy's (n, k).
     let mut y = vec![0.0; n * k];
-    for j in 0..k {
-        for i in 0..n {
-            y[i * k + j] = out.states[j * n + i];
+    for (j, state) in out.y.iter().enumerate() {
+        for (i, v) in state.iter().enumerate() {
+            y[i * k + j] = *v;
         }
     }
     let t_events = PyList::empty(py);
@@ -955,12 +615,12 @@ fn solution(py: Python<'_>, out: Out, names: Vec<String>, n_events: usize, metho
         y_events.append(PyArray1::from_vec(py, ys).reshape([recs.len(), n])?)?;
     }
     Ok(Solution {
-        t: PyArray1::from_vec(py, out.times).into_any().unbind(),
+        t: PyArray1::from_vec(py, out.t).into_any().unbind(),
         y: PyArray1::from_vec(py, y).reshape([n, k])?.into_any().unbind(),
         names,
         t_events: t_events.into_any().unbind(),
         y_events: y_events.into_any().unbind(),
-        status: if out.stop.is_some() { "event" } else { "end" },
+        status: if out.stopped_by.is_some() { "event" } else { "end" },
         method,
         steps: out.steps,
         rejected: out.rejected,
@@ -1007,25 +667,25 @@ impl PySystem {
     fn compile(slf: &Bound<'_, Self>, formulation: Option<&str>) -> PyResult<CompiledRhs> {
         let py = slf.py();
         let this = slf.get();
-        let lagrangian = matches!(this.sys.kind(), Kind::Lagrangian(_));
-        let f = match formulation {
-            None if lagrangian => Formulation::Lagrangian,
-            None => Formulation::Hamiltonian,
-            Some("lagrangian") => Formulation::Lagrangian,
-            Some("hamiltonian") => Formulation::Hamiltonian,
-            Some("separable") => Formulation::Separable,
+        let lagrangian = this.sys.lagrangian().is_some();
+        let equations = match formulation {
+            None if lagrangian => Equations::Lagrangian,
+            None => Equations::Hamiltonian,
+            Some("lagrangian") => Equations::Lagrangian,
+            Some("hamiltonian") => Equations::Hamiltonian,
+            Some("separable") => Equations::Separable,
             Some(other) => {
                 return Err(PyValueError::new_err(format!(
                     "unknown formulation `{other}` (lagrangian, hamiltonian or separable)"
                 )))
             }
         };
-        let c = compiled(py, this, f)?;
+        let c = compiled_for(py, this, CompiledKey::Named(equations, Form::Rhs))?;
         Ok(CompiledRhs {
+            names: c.state.clone(),
             c,
-            names: f.state_names(&this.sys),
             system: slf.clone().unbind(),
-            formulation: f,
+            equations,
             jac: std::sync::OnceLock::new(),
         })
     }
@@ -1045,7 +705,7 @@ impl PySystem {
     /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=1e-10, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=None, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
@@ -1054,7 +714,7 @@ impl PySystem {
         y0: &Bound<'_, PyAny>,
         method: &str,
         dt: Option<f64>,
-        tol: f64,
+        tol: Option<f64>,
         atol: Option<f64>,
         t_eval: Option<&Bound<'_, PyAny>>,
         events: Option<&Bound<'_, PyList>>,
@@ -1063,40 +723,30 @@ impl PySystem {
         compensated: bool,
         progress: Option<bool>,
     ) -> PyResult<Solution> {
-        let (mut spec, c, names) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
+        let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
+        let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
-        spec.every = every.max(1);
+        opts.sampling = Sampling::Every(every.max(1));
         if let Some(te) = t_eval {
             let a = float_array(te)?;
-            let te: Vec<f64> = f64_vec(&a.call_method0("ravel")?)?;
-            let (t0, t1) = t_span;
-            let dir = if t1 >= t0 { 1.0 } else { -1.0 };
-            if let Some(x) = te.iter().find(|x| !(dir * (**x - t0) >= 0.0 && dir * (t1 - **x) >= 0.0)) {
-                return Err(PyValueError::new_err(format!("t_eval value {x} is outside t_span ({t0}, {t1})")));
-            }
-            if te.windows(2).any(|w| dir * (w[1] - w[0]) < 0.0) {
-                return Err(PyValueError::new_err("t_eval must be sorted in the direction of integration"));
-            }
-            spec.t_eval = Some(te);
+            opts.sampling = Sampling::Times(f64_vec(&a.call_method0("ravel")?)?);
+            opts.check().map_err(|e| simulate_error(py, e))?;
         }
         let ctl = Control::default();
-        let n_events = spec.events.len();
-        let (t0, t1) = t_span;
-        let frac = || {
-            let t = f64::from_bits(ctl.t.load(Ordering::Relaxed));
-            if t1 == t0 {
-                1.0
-            } else {
-                (t - t0) / (t1 - t0)
-            }
-        };
-        ctl.t.store(t0.to_bits(), Ordering::Relaxed);
-        let result =
-            with_progress(py, progress_mode(progress), spec.method.name, &ctl, frac, || run(&c, &y0, &spec, &ctl))?;
+        opts.cancel = Some(ctl.cancel.clone());
+        let n_events = opts.events.len();
+        let name = opts.method.name();
+        let result = with_progress(
+            py,
+            progress_mode(progress),
+            name,
+            &ctl,
+            || ctl.fraction(),
+            || simulate::integrate(&c, &y0, &opts, &mut |f| ctl.fraction.store(f.to_bits(), Ordering::Relaxed)),
+        )?;
         match result {
-            Ok(out) => solution(py, out, names, n_events, spec.method.name),
-            Err(RunError::Failed(e)) => Err(integration_error(py, e)),
-            Err(RunError::Cancelled) => Err(PyKeyboardInterrupt::new_err("integration interrupted")),
+            Ok(out) => solution(py, out, names, n_events, name),
+            Err(e) => Err(simulate_error(py, e)),
         }
     }
 
@@ -1105,7 +755,7 @@ impl PySystem {
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
     /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
     /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, tol=1e-10, atol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, tol=None, atol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
@@ -1114,7 +764,7 @@ impl PySystem {
         t_span: (f64, f64),
         method: &str,
         dt: Option<f64>,
-        tol: f64,
+        tol: Option<f64>,
         atol: Option<f64>,
         events: Option<&Bound<'_, PyList>>,
         max_steps: Option<usize>,
@@ -1122,8 +772,9 @@ impl PySystem {
         threads: Option<usize>,
         progress: Option<bool>,
     ) -> PyResult<EnsembleResult> {
-        let (mut spec, c, names) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
-        spec.final_only = true;
+        let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
+        opts.sampling = Sampling::Final;
+        let names = c.state.clone();
         let n = names.len();
         let a = float_array(y0)?;
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
@@ -1135,36 +786,35 @@ impl PySystem {
         }
         let k = shape[0];
         let flat = f64_vec(&a)?;
+        let starts: Vec<Vec<f64>> = flat.chunks(n.max(1)).take(k).map(<[f64]>::to_vec).collect();
         let ctl = Control::default();
-        let frac = || if k == 0 { 1.0 } else { ctl.done.load(Ordering::Relaxed) as f64 / k as f64 };
-        let one = |y: &[f64]| -> Result<Vec<f64>, String> {
-            if ctl.cancel.is_cancelled() {
-                return Err("cancelled".into());
-            }
-            let r = match run(&c, y, &spec, &ctl) {
-                Ok(out) => {
-                    let last = out.times.len() - 1;
-                    let mut v = out.states[last * n..(last + 1) * n].to_vec();
-                    v.push(out.times[last]);
-                    Ok(v)
-                }
-                Err(RunError::Failed(e)) => Err(e.to_string()),
-                Err(RunError::Cancelled) => Err("cancelled".into()),
-            };
-            ctl.done.fetch_add(1, Ordering::Relaxed);
-            r
-        };
-        let results = with_progress(py, progress_mode(progress), "ensemble", &ctl, frac, || match threads {
-            Some(th) => lagrangian::compile::ensemble_with_threads(th.max(1), &flat, n, one),
-            None => lagrangian::compile::ensemble(&flat, n, one),
-        })?;
+        opts.cancel = Some(ctl.cancel.clone());
+        let results = with_progress(
+            py,
+            progress_mode(progress),
+            "ensemble",
+            &ctl,
+            || ctl.fraction(),
+            || {
+                simulate::ensemble(&c, &starts, &opts, threads, &mut |f| {
+                    ctl.fraction.store(f.to_bits(), Ordering::Relaxed)
+                })
+            },
+        )?;
         if ctl.cancel.is_cancelled() {
             return Err(PyKeyboardInterrupt::new_err("ensemble interrupted"));
         }
-        let results = match results {
-            Ok(r) => r,
-            Err(e) => return Err(crate::errors::ToPyErr::py_err(e)),
-        };
+        let results: Vec<Result<Vec<f64>, String>> = results
+            .into_iter()
+            .map(|r| match r {
+                Ok(tr) => {
+                    let mut v = tr.y.last().cloned().unwrap_or_default();
+                    v.push(tr.t.last().copied().unwrap_or(f64::NAN));
+                    Ok(v)
+                }
+                Err(e) => Err(e.to_string()),
+            })
+            .collect();
         let mut ys = Vec::with_capacity(k * n);
         let mut ts = Vec::with_capacity(k);
         let mut ok = Vec::with_capacity(k);

@@ -15,7 +15,7 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::errors::PyResultExt;
 use crate::expr::{declarations, to_expr, to_symbol, PyExpr};
-use crate::sim::{CompiledCache, Formulation};
+use crate::sim::CompiledCache;
 
 /// A mechanical system given by a Lagrangian ``L(q, q', t)`` or a Hamiltonian
 /// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation and
@@ -580,8 +580,11 @@ impl PySystem {
     /// Hamiltonian system or a splitting method.
     #[pyo3(signature = (method="dop853"))]
     fn state_names(&self, method: &str) -> PyResult<Vec<String>> {
-        let f = Formulation::for_method(&self.sys, crate::sim::method(method)?);
-        Ok(f.state_names(&self.sys))
+        let m = crate::sim::method(method)?;
+        let route = lagrangian::simulate::route(m, &lagrangian::simulate::shape_of(&self.sys))
+            .map_err(|r| pyo3::exceptions::PyValueError::new_err(format!("{r} ({})", r.hint())))?;
+        let second = if route.has_velocities() { self.sys.velocities() } else { self.sys.momenta() };
+        Ok(self.sys.coordinates().iter().chain(second).map(|s| s.to_string()).collect())
     }
 }
 

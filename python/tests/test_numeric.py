@@ -102,10 +102,10 @@ def test_bad_integration_requests(pendulum):
         pendulum.integrate((0, 1), [0.1, 0.0], "dop853", dt=0.1)
     with pytest.raises(ValueError, match="unknown method `rk45`"):
         pendulum.integrate((0, 1), [0.1, 0.0], "rk45")
-    # The discrete variational maps are scene methods; the binding names them and says where.
-    with pytest.raises(ValueError, match="runs in scenes"):
-        pendulum.integrate((0, 1), [0.1, 0.0], "variational", dt=0.1)
-    assert "variational" not in lg.METHODS
+    # Every method of the engine's registry runs here; the discrete variational maps in their
+    # own state, the coordinates and the discrete momenta.
+    assert "variational" in lg.METHODS and "taylor" in lg.METHODS
+    assert pendulum.state_names("variational") == ["θ", "p_θ"]
     with pytest.raises(ValueError, match="positive"):
         pendulum.integrate((0, 1), [0.1, 0.0], "rk4", dt=-0.1)
     with pytest.raises(ValueError, match="outside"):

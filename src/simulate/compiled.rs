@@ -75,27 +75,51 @@ impl CompiledSystem {
             _ => None,
         }
     }
+
+    /// Writes `∂f_i/∂y_j` into `jac[i * dim + j]`, reporting a state where it has no value;
+    /// `None` where this form carries no Jacobian.
+    pub fn try_jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> Option<Result<(), crate::compile::RhsError>> {
+        match self {
+            CompiledSystem::LagrangianJacobian(r) => Some(r.try_jacobian(t, y, jac)),
+            CompiledSystem::Hamiltonian(r) => Some(r.try_jacobian(t, y, jac)),
+            _ => None,
+        }
+    }
 }
 
 /// A compiled system, its state's names and its compiled event functions.
 #[derive(Debug)]
 pub struct Compiled {
-    /// The numeric system.
-    pub system: CompiledSystem,
+    /// The numeric system (shared by compiled values that differ only in their events).
+    pub system: Arc<CompiledSystem>,
     /// The form it was compiled for.
     pub form: Form,
     /// Plain names of the state's entries (`x`, then `x'` or `p_x`).
     pub state: Vec<String>,
     /// The event functions `g(state…, t)`, one tape each.
     pub events: Vec<Arc<Tape>>,
+    /// The parameter values bound into it.
+    pub params: Vec<(String, f64)>,
 }
 
 impl Compiled {
+    /// The same system with the event functions `events` (expressions in the state's
+    /// variables and `t`) in place of its own: the system is shared, only the events compile.
+    pub fn with_events(&self, events: &[Expr]) -> Result<Compiled, SimulateError> {
+        Ok(Compiled {
+            system: self.system.clone(),
+            form: self.form,
+            state: self.state.clone(),
+            events: compile_events(events, &self.state, &self.params)?,
+            params: self.params.clone(),
+        })
+    }
+
     /// Whether `method` can run on this compiled system (it was compiled for its form).
     pub fn serves(&self, method: MethodId) -> bool {
         self.form == method.form()
             || (self.form == Form::RhsWithJacobian && method.form() == Form::Rhs)
-            || (matches!(self.system, CompiledSystem::Constrained(_) | CompiledSystem::FirstOrder(_))
+            || (matches!(*self.system, CompiledSystem::Constrained(_) | CompiledSystem::FirstOrder(_))
                 && matches!(method.form(), Form::Rhs | Form::RhsWithJacobian))
     }
 }
@@ -189,21 +213,31 @@ pub fn compile(req: &CompileRequest) -> Result<Compiled, SimulateError> {
     let velocities = req.formulation.has_velocities();
     let mut state: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
     state.extend(coords.iter().map(|q| if velocities { format!("{q}'") } else { format!("p_{q}") }));
+    let events = compile_events(&req.events, &state, &req.params)?;
+    Ok(Compiled { system: Arc::new(system), form: req.form, state, events, params: req.params.clone() })
+}
+
+/// Each event function as a tape over the state's names and `t`, with the parameters it uses
+/// bound.
+fn compile_events(
+    events: &[Expr],
+    state: &[String],
+    params: &[(String, f64)],
+) -> Result<Vec<Arc<Tape>>, SimulateError> {
     let mut inputs: Vec<&str> = state.iter().map(String::as_str).collect();
     inputs.push("t");
-    let events = req
-        .events
+    events
         .iter()
         .map(|e| {
+            let free = e.free_symbols();
             let used: Vec<(&str, f64)> = params
                 .iter()
-                .copied()
-                .filter(|(k, _)| e.free_symbols().iter().any(|s| s.name() == *k && s.primes() == 0))
+                .filter(|(k, _)| free.iter().any(|s| s.name() == k && s.primes() == 0))
+                .map(|(k, v)| (k.as_str(), *v))
                 .collect();
-            Tape::compile(std::slice::from_ref(e), &inputs, &used).map(Arc::new)
+            Ok(Arc::new(Tape::compile(std::slice::from_ref(e), &inputs, &used)?))
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(Compiled { system, form: req.form, state, events })
+        .collect()
 }
 
 /// A constrained run's initial state must lie on the constraints (positions and velocities),

@@ -59,6 +59,13 @@ pub enum SimulateError {
         /// The budget.
         limit: f64,
     },
+    /// Equations asked for by name that would leave out part of the system (Hamilton's
+    /// equations of `H` without its forces, dissipation or constraints).
+    #[error("{equations} leave out the forces, dissipation and constraints of this system")]
+    DropsTerms {
+        /// The equations asked for (`Hamilton's equations of H`).
+        equations: &'static str,
+    },
     /// An invalid run request (empty or backward span, a bad sampling grid, a wrong state size).
     #[error("{0}")]
     InvalidRun(String),
@@ -117,6 +124,9 @@ impl SimulateError {
                 Some("write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)".into())
             }
             SimulateError::TooManySteps { .. } => Some("use a larger `dt` or a shorter time span".into()),
+            SimulateError::DropsTerms { .. } => {
+                Some("use the Lagrangian formulation (W q'' = F, or the augmented system with constraints), which includes them".into())
+            }
             _ => None,
         }
     }

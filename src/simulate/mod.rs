@@ -44,4 +44,7 @@ pub use run::{
     default_every, ensemble, integrate, par_map_with_progress, EventSpec, RunOptions, Sampling, Trajectory,
     WorkerPanicked, MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS,
 };
-pub use system::{compile_system, compile_system_with, formulation_for, is_first_order, shape_of, Derivations, Fresh};
+pub use system::{
+    compile_formulation, compile_system, compile_system_with, formulation_for, formulation_of, is_first_order,
+    shape_of, Derivations, Equations, Fresh,
+};

@@ -239,7 +239,7 @@ pub fn integrate(
     let count = AtomicUsize::new(0);
     let (dt, tol) = (opts.dt.unwrap_or(f64::NAN), opts.tolerance());
     let atol = opts.atol.unwrap_or(tol);
-    let mut traj = match &c.system {
+    let mut traj = match &*c.system {
         CompiledSystem::Taylor(ode, _) => {
             let mut m = Taylor::with_tolerances(tol, atol);
             if opts.compensated {

@@ -101,6 +101,46 @@ pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations)
     })
 }
 
+/// Equations a caller names directly (a right-hand side for SciPy, say) rather than through
+/// a method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Equations {
+    /// `W q'' = F` with forces and dissipation, or the augmented constrained system; state `(q, q')`.
+    Lagrangian,
+    /// Hamilton's equations of `H`; state `(q, p)`.
+    Hamiltonian,
+    /// Hamilton's equations of a separable `H = T(p) + V(q, t)`; state `(q, p)`.
+    Separable,
+}
+
+/// The formulation of `equations` for `sys`, refusing equations that would leave out part of
+/// the system (Hamilton's equations drop forces, dissipation and constraints).
+pub fn formulation_of(
+    sys: &System,
+    equations: Equations,
+    derive: &dyn Derivations,
+) -> Result<Formulation, SimulateError> {
+    let shape = shape_of(sys);
+    let conservative = !shape.forces && !shape.constraints;
+    match equations {
+        Equations::Lagrangian => match sys.kind() {
+            Kind::Hamiltonian(_) => Err(SimulateError::InvalidRun(
+                "a system given by its Hamiltonian has no Lagrangian formulation here: ask for the Hamiltonian one"
+                    .into(),
+            )),
+            Kind::Lagrangian(_) => formulation_for(sys, MethodId::Dop853, derive),
+        },
+        Equations::Hamiltonian if !conservative => {
+            Err(SimulateError::DropsTerms { equations: "Hamilton's equations of H" })
+        }
+        Equations::Hamiltonian => Ok(Formulation::Hamiltonian(derive.hamiltonian(sys)?)),
+        Equations::Separable if !conservative => {
+            Err(SimulateError::DropsTerms { equations: "a drift/kick split of H" })
+        }
+        Equations::Separable => formulation_for(sys, MethodId::Leapfrog, derive),
+    }
+}
+
 /// Compiles `sys` for `method` with its bound parameters and the event functions `events`
 /// (expressions in the state's variables and `t`).
 pub fn compile_system(sys: &System, method: MethodId, events: &[Expr]) -> Result<Compiled, SimulateError> {
@@ -114,13 +154,16 @@ pub fn compile_system_with(
     events: &[Expr],
     derive: &dyn Derivations,
 ) -> Result<Compiled, SimulateError> {
-    let formulation = formulation_for(sys, method, derive)?;
+    compile_formulation(sys, formulation_for(sys, method, derive)?, method.form(), events)
+}
+
+/// Compiles `formulation` of `sys` (its coordinates and bound parameters) for `form`.
+pub fn compile_formulation(
+    sys: &System,
+    formulation: Formulation,
+    form: super::method::Form,
+    events: &[Expr],
+) -> Result<Compiled, SimulateError> {
     let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.name().to_string(), *v)).collect();
-    compile(&CompileRequest {
-        coords: sys.coordinates().to_vec(),
-        formulation,
-        params,
-        form: method.form(),
-        events: events.to_vec(),
-    })
+    compile(&CompileRequest { coords: sys.coordinates().to_vec(), formulation, params, form, events: events.to_vec() })
 }
