@@ -259,6 +259,35 @@ impl MethodId {
     }
 }
 
+/// One line per method for `help simulate` and Python's `lagrangian.METHODS` table: name
+/// (aliases), order and properties, what it needs and what it integrates.
+pub fn method_table() -> Vec<String> {
+    METHODS
+        .iter()
+        .map(|m| {
+            let mut name = m.name.to_string();
+            for a in m.aliases {
+                name.push_str(&format!(" (= {a})"));
+            }
+            let what = match m.id.family() {
+                Family::Splitting => "splitting of a conservative, separable H = T(p) + V(q, t); state (q, p)",
+                Family::Implicit => "implicit collocation of any system",
+                Family::Explicit => "explicit Runge–Kutta of any system",
+                Family::Adaptive if m.id == MethodId::Taylor => {
+                    "Taylor series of any unconstrained, second-order system; tol defaults to machine precision"
+                }
+                Family::Adaptive => "embedded Runge–Kutta of any system (the default)",
+                Family::Variational => "map of the discrete Lagrangian of a conservative L; state (q, p); no events",
+            };
+            let needs = match m.id.needs() {
+                Needs::Step => "dt",
+                Needs::Tolerance => "tol",
+            };
+            format!("{:<28} {}; {needs}; {what}", name, m.id.describe().trim_start_matches(m.name).trim())
+        })
+        .collect()
+}
+
 /// Every method's name, comma-separated, for messages.
 pub fn method_names() -> String {
     METHODS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
