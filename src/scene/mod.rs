@@ -50,7 +50,6 @@ mod sections;
 pub mod session;
 pub mod sim;
 mod simulate;
-mod symmetries;
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};
