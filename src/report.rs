@@ -213,11 +213,8 @@ pub fn constraints(s: &System) -> Result<Vec<Line>, MechanicsError> {
 /// `q'' = …` per coordinate; with constraints the constrained accelerations and then each
 /// multiplier `λ_j = …`, `λ` eliminated with the twice-differentiated constraints.
 pub fn accelerations(s: &System) -> Result<Vec<Line>, MechanicsError> {
-    let (acc, lambdas) = if s.constraints().is_empty() {
-        (s.accelerations()?, Vec::new())
-    } else {
-        s.constrained_accelerations()?
-    };
+    let (acc, lambdas) =
+        if s.constraints().is_empty() { (s.accelerations()?, Vec::new()) } else { s.constrained_accelerations()? };
     let mut lines: Vec<Line> =
         s.coordinates().iter().zip(acc).map(|(q, a)| Line::new(Expr::sym(q.with_primes(2)), a)).collect();
     lines.extend(s.multipliers().into_iter().zip(lambdas).map(|(l, v)| Line::new(Expr::sym(l), v)));
@@ -334,11 +331,9 @@ pub fn conserved(s: &System) -> Vec<Line> {
         let rate = drive[i].clone();
         let found = listed.iter().find(|c| c.name == name);
         match found {
-            Some(c) if rate.is_zero() => known.push(ConservedLine {
-                name: c.name.clone(),
-                value: c.expr.clone(),
-                note: c.reason.to_string(),
-            }),
+            Some(c) if rate.is_zero() => {
+                known.push(ConservedLine { name: c.name.clone(), value: c.expr.clone(), note: c.reason.to_string() })
+            }
             _ if rate.is_zero() => {}
             _ => {
                 let value = match s.kind() {
@@ -391,8 +386,7 @@ pub fn conserved(s: &System) -> Vec<Line> {
         dissipative: s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some(),
     };
     let (found, unattached) = conserved_lines(known, &input);
-    let mut lines: Vec<Line> =
-        found.into_iter().map(|c| Line::named(&c.name, c.value).with_note(c.note)).collect();
+    let mut lines: Vec<Line> = found.into_iter().map(|c| Line::named(&c.name, c.value).with_note(c.note)).collect();
     for (name, value, rate, who) in broken {
         let by = if who.is_empty() { String::new() } else { format!(", broken by {}", who.join(" and ")) };
         lines.push(Line::named(&name, value).with_note(format!("not conserved: d{name}/dt = {}{by}", plain(&rate))));

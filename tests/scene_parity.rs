@@ -398,7 +398,8 @@ fn derivations_print_the_same_bytes_in_scenes_and_on_the_command_line() {
 }
 
 fn rhs_of(lines: &[String], prefix: &str, d: &Declarations) -> lagrangian::Expr {
-    let line = lines.iter().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` in {lines:#?}"));
+    let line =
+        lines.iter().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` in {lines:#?}"));
     parse_with(line.split("   (").next().unwrap(), d).unwrap_or_else(|e| panic!("`{line}`: {e}"))
 }
 
@@ -478,7 +479,11 @@ fn constrained_accelerations_and_multipliers() {
             .collect();
     // SymPy, 17 digits: x'' = −5.0461628959276021, y'' = −4.1074253393665163,
     // λ1 = −5.3666764705882377 (the same by hand: λ = (m g y − m v² + b (x x' + y y'))/(2 r²)).
-    for (name, want) in [("x'' = ", -5.046_162_895_927_602_1), ("y'' = ", -4.107_425_339_366_516_3), ("λ1 = ", -5.366_676_470_588_237_7)] {
+    for (name, want) in [
+        ("x'' = ", -5.046_162_895_927_602_1),
+        ("y'' = ", -4.107_425_339_366_516_3),
+        ("λ1 = ", -5.366_676_470_588_237_7),
+    ] {
         let got = lagrangian::eval::eval(&rhs_of(&out, name, &d), &env).unwrap();
         assert!((got - want).abs() < 1e-13 * want.abs(), "{name}{got} vs {want}");
     }

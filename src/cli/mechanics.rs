@@ -204,8 +204,10 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
             per_coordinate_json(&mut out, "equations", s.coordinates(), &eqs);
             out.report(&report::mass_matrix_split(&s).map_err(fail)?);
             let (w, f) = s.mass_matrix_split().map_err(fail)?;
-            let rows: Vec<Value> =
-                w.iter().map(|row| Value::Array(row.iter().map(|e| json!(lagrangian::print::plain(e))).collect())).collect();
+            let rows: Vec<Value> = w
+                .iter()
+                .map(|row| Value::Array(row.iter().map(|e| json!(lagrangian::print::plain(e))).collect()))
+                .collect();
             out.json.insert("mass_matrix".into(), Value::Array(rows));
             per_coordinate_json(&mut out, "forcing", s.coordinates(), &f);
             out.json.insert("note".into(), json!(s.hessian_note().map_err(fail)?));
