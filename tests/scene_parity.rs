@@ -371,8 +371,9 @@ const TWINS: [&Twin; 6] = [&PENDULUM, &KEPLER, &DRIVEN_DAMPED, &SPIRAL_DRAG, &DI
 
 /// Every derivation statement with a command-line twin prints the same bytes both ways, in
 /// plain and Unicode, on conservative, forced, damped and constrained systems: `el` (the
-/// command line's first lines, before `W`), `legendre` (its `H` line, after the momenta),
-/// `hamilton` and `conserved` (all lines).
+/// command line's first lines, before `W`), `accelerations` (the last lines of
+/// `el --accelerations`), `legendre` (its `H` line, after the momenta), `hamilton` and
+/// `conserved` (all lines).
 #[test]
 fn derivations_print_the_same_bytes_in_scenes_and_on_the_command_line() {
     for twin in TWINS {
@@ -390,6 +391,11 @@ fn derivations_print_the_same_bytes_in_scenes_and_on_the_command_line() {
 
             let ham = twin.scene(&format!("hamilton as {format}"));
             assert_eq!(ham, twin.cli("hamilton", &["--lagrangian"], format), "{}: hamilton, {format}", twin.l);
+
+            let acc = twin.scene(&format!("accelerations as {format}"));
+            let cli_acc = twin.cli("el", &["--accelerations"], format);
+            assert!(!acc.is_empty() && acc.len() < cli_acc.len());
+            assert_eq!(acc[..], cli_acc[cli_acc.len() - acc.len()..], "{}: accelerations, {format}", twin.l);
 
             let cons = twin.scene(&format!("conserved as {format}"));
             assert_eq!(cons, twin.cli("conserved", &[], format), "{}: conserved, {format}", twin.l);
@@ -479,11 +485,9 @@ fn constrained_accelerations_and_multipliers() {
             .collect();
     // SymPy, 17 digits: x'' = −5.0461628959276021, y'' = −4.1074253393665163,
     // λ1 = −5.3666764705882377 (the same by hand: λ = (m g y − m v² + b (x x' + y y'))/(2 r²)).
-    for (name, want) in [
-        ("x'' = ", -5.046_162_895_927_602),
-        ("y'' = ", -4.107_425_339_366_516),
-        ("λ1 = ", -5.366_676_470_588_238),
-    ] {
+    for (name, want) in
+        [("x'' = ", -5.046_162_895_927_602), ("y'' = ", -4.107_425_339_366_516), ("λ1 = ", -5.366_676_470_588_238)]
+    {
         let got = lagrangian::eval::eval(&rhs_of(&out, name, &d), &env).unwrap();
         assert!((got - want).abs() < 1e-13 * want.abs(), "{name}{got} vs {want}");
     }

@@ -242,6 +242,13 @@ pub trait Backend {
     /// Conserved quantities of `L` (`is_hamiltonian` false) or `H`, each with its reason, and
     /// the candidates the forces break ([`crate::report::conserved`]).
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError>;
+    /// The accelerations `q'' = …` of `L` with the system's forces and dissipation; with
+    /// constraints the constrained ones and the multipliers `λ_j = …`
+    /// ([`crate::report::accelerations`]).
+    fn accelerations(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
+        let _ = (sys, l);
+        Err(BackendError::NotYetAvailable { what: "the accelerations".into(), stage: "mechanics" })
+    }
     /// The energy function `h = Σ q' ∂L/∂q' − L` of a Lagrangian.
     fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError>;
     /// The Poisson bracket `{f, g}` over the coordinates and their momenta `p_q`.
@@ -377,6 +384,10 @@ impl Backend for NativeBackend {
     }
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         lagrangian_system(sys, l)?.hamiltonian().map_err(mechanics_error)
+    }
+    fn accelerations(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
+        let system = with_dynamics(lagrangian_system(sys, l)?, sys)?;
+        crate::report::accelerations(&system).map_err(mechanics_error)
     }
     fn hamilton(&self, sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError> {
         let system = with_dynamics(hamiltonian_system(sys, h)?, sys)?;

@@ -818,7 +818,7 @@ impl Session {
         }
         if args.is_empty() {
             match kind {
-                DerivKind::El | DerivKind::Legendre => args.push(self.lagrangian()?),
+                DerivKind::El | DerivKind::Legendre | DerivKind::Accelerations => args.push(self.lagrangian()?),
                 DerivKind::Hamilton => args.push(self.hamiltonian()?),
                 DerivKind::Conserved | DerivKind::Energy => {
                     if self.def_names.contains_key("L") {
@@ -846,7 +846,8 @@ impl Session {
         // constraints; the cache key then holds them too (after the inputs, their layout in
         // `extra`), so a result without them is never reused for one with them.
         let with_dynamics =
-            matches!(kind, DerivKind::El | DerivKind::Hamilton | DerivKind::Conserved) && !self.dynamics.is_empty();
+            matches!(kind, DerivKind::El | DerivKind::Hamilton | DerivKind::Conserved | DerivKind::Accelerations)
+                && !self.dynamics.is_empty();
         let (forces, rayleigh, constraints) =
             if with_dynamics { self.resolved_dynamics()? } else { (Vec::new(), None, Vec::new()) };
         let sys = SystemRef {
@@ -886,6 +887,7 @@ impl Session {
             DerivKind::Conserved => backend.conserved(&sys, &args[0], hamiltonian_input).map(Value::Lines),
             DerivKind::Pb => backend.bracket(&sys, &args[0], &args[1]).map(Value::Expr),
             DerivKind::Energy => backend.energy(&sys, &args[0]).map(Value::Expr),
+            DerivKind::Accelerations => backend.accelerations(&sys, &args[0]).map(Value::Lines),
         };
         self.record(step, what, key, built.map_err(|e| backend_error(e, span)))
     }
@@ -1038,6 +1040,7 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
         DerivKind::Conserved => Step::Conserved,
         DerivKind::Pb => Step::Bracket,
         DerivKind::Energy => Step::Energy,
+        DerivKind::Accelerations => Step::Accelerations,
     }
 }
 
