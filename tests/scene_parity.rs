@@ -492,3 +492,23 @@ fn constrained_accelerations_and_multipliers() {
         assert!((got - want).abs() < 1e-13 * want.abs(), "{name}{got} vs {want}");
     }
 }
+
+/// `pb f, g` prints `{f, g} = …`, the command line `lagrangian pb f g` the value alone (its
+/// documented output, like `diff`): the value is the same bytes in plain and Unicode. By hand,
+/// {L_x, L_y} = L_z = x p_y − y p_x, and {x p_x, p_x²/2 + x²} = p_x² − 2 x².
+#[test]
+fn pb_prints_the_same_value() {
+    let d = Declarations::new();
+    for (f, g, coords, hand) in
+        [("y p_z - z p_y", "z p_x - x p_z", "x,y,z", "x p_y - y p_x"), ("x p_x", "p_x^2/2 + x^2", "x", "p_x^2 - 2 x^2")]
+    {
+        for format in ["plain", "unicode"] {
+            let s = scene(&format!("coordinates {}\npb {f}, {g} as {format}", coords.replace(',', ", ")));
+            let c = cli(&["pb", f, g, "--coords", coords, "--format", format]);
+            assert_eq!(s, vec![format!("{{{f}, {g}}} = {}", c[0])], "pb {f}, {g} as {format}");
+        }
+        let v = cli(&["pb", f, g, "--coords", coords]);
+        let got = parse_with(&v[0], &d).unwrap();
+        assert_eq!(decide_zero(&got.minus(&parse_with(hand, &d).unwrap())), ZeroCheck::Proven, "{}", v[0]);
+    }
+}
