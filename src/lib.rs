@@ -45,6 +45,7 @@ pub mod mechanics;
 pub mod parse;
 pub mod plot;
 pub mod print;
+pub mod report;
 pub mod scene;
 pub mod simplify;
 pub mod simulate;

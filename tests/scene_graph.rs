@@ -28,7 +28,7 @@ struct Counting(Counts);
 impl Backend for Counting {
     fn euler_lagrange(&self, _sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
         self.0.bump("el");
-        Ok(vec![Line { label: None, lhs: l.clone(), rhs: Expr::zero(), note: None }])
+        Ok(vec![Line::new(l.clone(), Expr::zero())])
     }
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         self.0.bump("legendre");
@@ -42,11 +42,11 @@ impl Backend for Counting {
     }
     fn hamilton(&self, _sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError> {
         self.0.bump("hamilton");
-        Ok(vec![Line { label: None, lhs: h.clone(), rhs: Expr::zero(), note: None }])
+        Ok(vec![Line::new(h.clone(), Expr::zero())])
     }
     fn conserved(&self, _sys: &SystemRef, f: &Expr, _h: bool) -> Result<Vec<Line>, BackendError> {
         self.0.bump("conserved");
-        Ok(vec![Line { label: None, lhs: f.clone(), rhs: Expr::zero(), note: None }])
+        Ok(vec![Line::new(f.clone(), Expr::zero())])
     }
     fn energy(&self, _sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         self.0.bump("energy");

@@ -266,3 +266,249 @@ fn help_examples_of_the_new_statements_parse() {
         assert!(matches!(&parsed, Ok(v) if v.len() == 1), "`{}`: {parsed:?}", t.example);
     }
 }
+
+/// A system given both ways: scene declarations and the command line's flags.
+struct Twin {
+    coords: &'static str,
+    positive: &'static str,
+    l: &'static str,
+    /// `(coordinate, Q)` pairs.
+    forces: &'static [(&'static str, &'static str)],
+    rayleigh: Option<&'static str>,
+    constraints: &'static [&'static str],
+}
+
+impl Twin {
+    fn scene(&self, statement: &str) -> Vec<String> {
+        let mut text = format!(
+            "coordinates {}\nparameters {} positive\nL = {}\n",
+            self.coords.replace(',', ", "),
+            self.positive.replace(',', ", "),
+            self.l
+        );
+        for (q, f) in self.forces {
+            text.push_str(&format!("force {q} = {f}\n"));
+        }
+        if let Some(r) = self.rayleigh {
+            text.push_str(&format!("rayleigh {r}\n"));
+        }
+        for c in self.constraints {
+            text.push_str(&format!("constraint {c}\n"));
+        }
+        text.push_str(statement);
+        scene(&text)
+    }
+
+    fn cli(&self, command: &str, extra: &[&str], format: &str) -> Vec<String> {
+        let mut args: Vec<String> = vec![command.into(), self.l.into()];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        args.extend(["--coords".into(), self.coords.into(), "--positive".into(), self.positive.into()]);
+        for (q, f) in self.forces {
+            args.extend(["--force".into(), format!("{q}={f}")]);
+        }
+        if let Some(r) = self.rayleigh {
+            args.extend(["--rayleigh".into(), r.into()]);
+        }
+        for c in self.constraints {
+            args.extend(["--constraint".into(), c.to_string()]);
+        }
+        args.extend(["--format".into(), format.into()]);
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        cli(&refs)
+    }
+}
+
+const PENDULUM: Twin = Twin {
+    coords: "θ",
+    positive: "m,l,g",
+    l: "1/2 m l^2 θ'^2 + m g l cos(θ)",
+    forces: &[],
+    rayleigh: None,
+    constraints: &[],
+};
+const KEPLER: Twin = Twin {
+    coords: "r,φ",
+    positive: "m,k",
+    l: "1/2 m (r'^2 + r^2 φ'^2) + k/r",
+    forces: &[],
+    rayleigh: None,
+    constraints: &[],
+};
+const DRIVEN_DAMPED: Twin = Twin {
+    coords: "x",
+    positive: "m,k,b,A,Ω",
+    l: "1/2 m x'^2 - 1/2 k x^2",
+    forces: &[("x", "A cos(Ω t)")],
+    rayleigh: Some("1/2 b x'^2"),
+    constraints: &[],
+};
+const SPIRAL_DRAG: Twin = Twin {
+    coords: "r,φ",
+    positive: "m,k,c",
+    l: "1/2 m (r'^2 + r^2 φ'^2) + k/r",
+    forces: &[("φ", "-c φ'")],
+    rayleigh: None,
+    constraints: &[],
+};
+const DISC: Twin = Twin {
+    coords: "y,θ",
+    positive: "m,R,g,α",
+    l: "1/2 m y'^2 + 1/4 m R^2 θ'^2 + m g y sin(α)",
+    forces: &[],
+    rayleigh: None,
+    constraints: &["y - R θ"],
+};
+const DAMPED_CARTESIAN_PENDULUM: Twin = Twin {
+    coords: "x,y",
+    positive: "m,g,b,l",
+    l: "1/2 m (x'^2 + y'^2) - m g y",
+    forces: &[],
+    rayleigh: Some("1/2 b (x'^2 + y'^2)"),
+    constraints: &["x^2 + y^2 = l^2"],
+};
+
+const TWINS: [&Twin; 6] = [&PENDULUM, &KEPLER, &DRIVEN_DAMPED, &SPIRAL_DRAG, &DISC, &DAMPED_CARTESIAN_PENDULUM];
+
+/// Every derivation statement with a command-line twin prints the same bytes both ways, in
+/// plain and Unicode, on conservative, forced, damped and constrained systems: `el` (the
+/// command line's first lines, before `W`), `accelerations` (the last lines of
+/// `el --accelerations`), `legendre` (its `H` line, after the momenta), `hamilton` and
+/// `conserved` (all lines).
+#[test]
+fn derivations_print_the_same_bytes_in_scenes_and_on_the_command_line() {
+    for twin in TWINS {
+        for format in ["plain", "unicode"] {
+            let el = twin.scene(&format!("el as {format}"));
+            let cli_el = twin.cli("el", &[], format);
+            assert!(!el.is_empty());
+            assert_eq!(el[..], cli_el[..el.len()], "{}: el, {format}", twin.l);
+            assert!(cli_el[el.len()].starts_with("W["), "{}: el section ends before W: {cli_el:#?}", twin.l);
+
+            let h = twin.scene(&format!("legendre as {format}"));
+            let cli_h = twin.cli("legendre", &[], format);
+            assert_eq!(h.len(), 1);
+            assert_eq!(h[0], cli_h[cli_h.len() - 1], "{}: legendre, {format}", twin.l);
+
+            let ham = twin.scene(&format!("hamilton as {format}"));
+            assert_eq!(ham, twin.cli("hamilton", &["--lagrangian"], format), "{}: hamilton, {format}", twin.l);
+
+            let acc = twin.scene(&format!("accelerations as {format}"));
+            let cli_acc = twin.cli("el", &["--accelerations"], format);
+            assert!(!acc.is_empty() && acc.len() < cli_acc.len());
+            assert_eq!(acc[..], cli_acc[cli_acc.len() - acc.len()..], "{}: accelerations, {format}", twin.l);
+
+            let cons = twin.scene(&format!("conserved as {format}"));
+            assert_eq!(cons, twin.cli("conserved", &[], format), "{}: conserved, {format}", twin.l);
+        }
+    }
+}
+
+fn rhs_of(lines: &[String], prefix: &str, d: &Declarations) -> lagrangian::Expr {
+    let line =
+        lines.iter().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` in {lines:#?}"));
+    parse_with(line.split("   (").next().unwrap(), d).unwrap_or_else(|e| panic!("`{line}`: {e}"))
+}
+
+/// Scene `el` with a constraint shows the multiplier terms, with a force and a Rayleigh
+/// function the generalized forces (they were dropped before): the disc's `E_y = λ1`,
+/// `E_θ = −R λ1` (L + λ (y − R θ)), the driven damped oscillator's `E_x = A cos(Ω t) − b x'`.
+#[test]
+fn scene_el_shows_multipliers_and_generalized_forces() {
+    let d = Declarations::new().with_positive(["m", "R", "g", "α", "k", "b", "A", "Ω"]);
+    let out = DISC.scene("el as plain");
+    let lhs_rhs = |line: &str| {
+        let (lhs, rhs) = line.split_once(": ").unwrap().1.split_once(" = ").unwrap();
+        (parse_with(lhs, &d).unwrap(), parse_with(rhs, &d).unwrap())
+    };
+    let proven = |a: &lagrangian::Expr, b: &str| {
+        assert_eq!(decide_zero(&a.minus(&parse_with(b, &d).unwrap())), ZeroCheck::Proven, "{a} vs {b}")
+    };
+    let (e, r) = lhs_rhs(&out[0]);
+    proven(&e, "m y'' - m g sin(α)");
+    proven(&r, "λ1");
+    let (e, r) = lhs_rhs(&out[1]);
+    proven(&e, "1/2 m R^2 θ''");
+    proven(&r, "-R λ1");
+    let out = DRIVEN_DAMPED.scene("el as plain");
+    let (e, r) = lhs_rhs(&out[0]);
+    proven(&e, "m x'' + k x");
+    proven(&r, "A cos(Ω t) - b x'");
+}
+
+/// Scene and command-line `conserved` with a force say which candidate breaks and why, with
+/// its rate of change: for the driven damped oscillator dh/dt = x' (Q − ∂R/∂x') =
+/// x' (A cos Ω t − b x'); for a central force with a drag on φ, p_φ changes at Q_φ = −c φ'
+/// and h at φ' Q_φ = −c φ'² (PHYSICS.md §1: E_i = Q_i, dh/dt = Σ q' Q − ∂L/∂t).
+#[test]
+fn conserved_says_what_breaks_each_candidate() {
+    let d = Declarations::new().with_positive(["m", "k", "b", "A", "Ω", "c"]);
+    let rate = |line: &str| {
+        let after = line.split("not conserved: ").nth(1).unwrap_or_else(|| panic!("{line}"));
+        let value = after.split_once(" = ").unwrap().1.split(", broken by").next().unwrap();
+        parse_with(value, &d).unwrap()
+    };
+    let proven = |a: &lagrangian::Expr, b: &str| {
+        assert_eq!(decide_zero(&a.minus(&parse_with(b, &d).unwrap())), ZeroCheck::Proven, "{a} vs {b}")
+    };
+    let out = DRIVEN_DAMPED.scene("conserved as plain");
+    assert_eq!(out.len(), 1, "{out:#?}");
+    assert!(out[0].starts_with("h = ") && out[0].contains("force on x") && out[0].contains("Rayleigh"), "{}", out[0]);
+    proven(&rate(&out[0]), "x' (A cos(Ω t) - b x')");
+    let out = SPIRAL_DRAG.scene("conserved as plain");
+    assert_eq!(out.len(), 2, "{out:#?}");
+    assert!(out[0].starts_with("p_φ = ") && out[0].contains("broken by the force on φ"), "{}", out[0]);
+    proven(&rate(&out[0]), "-c φ'");
+    proven(&rate(&out[1]), "-c φ'^2");
+    assert_eq!(out, SPIRAL_DRAG.cli("conserved", &[], "plain"));
+}
+
+/// `lagrangian el --accelerations` with a constraint solves the augmented system (λ eliminated
+/// by the twice-differentiated constraint): the disc rolls down with y'' = 2 g sin α/3 (not the
+/// free g sin α), θ'' = y''/R, λ1 = −m g sin α/3; the damped pendulum on x² + y² = l² matches
+/// SymPy's LagrangesMethod-style solve (scripts/report_constrained_sympy.py) at a sample state.
+#[test]
+fn constrained_accelerations_and_multipliers() {
+    let d = Declarations::new().with_positive(["m", "R", "g", "α", "b", "l"]);
+    let out = DISC.cli("el", &["--accelerations"], "plain");
+    let proven = |e: lagrangian::Expr, b: &str| {
+        assert_eq!(decide_zero(&e.minus(&parse_with(b, &d).unwrap())), ZeroCheck::Proven, "{e} vs {b}")
+    };
+    proven(rhs_of(&out, "y'' = ", &d), "2 g sin(α)/3");
+    proven(rhs_of(&out, "θ'' = ", &d), "2 g sin(α)/(3 R)");
+    proven(rhs_of(&out, "λ1 = ", &d), "-m g sin(α)/3");
+
+    let out = DAMPED_CARTESIAN_PENDULUM.cli("el", &["--accelerations"], "plain");
+    let env: lagrangian::eval::Env =
+        [("x", 0.6), ("y", -0.7), ("x'", 0.3), ("y'", 0.25), ("m", 1.3), ("g", 9.81), ("b", 0.4), ("l", 1.0)]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+    // SymPy, 17 digits: x'' = −5.0461628959276021, y'' = −4.1074253393665163,
+    // λ1 = −5.3666764705882377 (the same by hand: λ = (m g y − m v² + b (x x' + y y'))/(2 r²)).
+    for (name, want) in
+        [("x'' = ", -5.046_162_895_927_602), ("y'' = ", -4.107_425_339_366_516), ("λ1 = ", -5.366_676_470_588_238)]
+    {
+        let got = lagrangian::eval::eval(&rhs_of(&out, name, &d), &env).unwrap();
+        assert!((got - want).abs() < 1e-13 * want.abs(), "{name}{got} vs {want}");
+    }
+}
+
+/// `pb f, g` prints `{f, g} = …`, the command line `lagrangian pb f g` the value alone (its
+/// documented output, like `diff`): the value is the same bytes in plain and Unicode. By hand,
+/// {L_x, L_y} = L_z = x p_y − y p_x, and {x p_x, p_x²/2 + x²} = p_x² − 2 x².
+#[test]
+fn pb_prints_the_same_value() {
+    let d = Declarations::new();
+    for (f, g, coords, hand) in
+        [("y p_z - z p_y", "z p_x - x p_z", "x,y,z", "x p_y - y p_x"), ("x p_x", "p_x^2/2 + x^2", "x", "p_x^2 - 2 x^2")]
+    {
+        for format in ["plain", "unicode"] {
+            let s = scene(&format!("coordinates {}\npb {f}, {g} as {format}", coords.replace(',', ", ")));
+            let c = cli(&["pb", f, g, "--coords", coords, "--format", format]);
+            assert_eq!(s, vec![format!("{{{f}, {g}}} = {}", c[0])], "pb {f}, {g} as {format}");
+        }
+        let v = cli(&["pb", f, g, "--coords", coords]);
+        let got = parse_with(&v[0], &d).unwrap();
+        assert_eq!(decide_zero(&got.minus(&parse_with(hand, &d).unwrap())), ZeroCheck::Proven, "{}", v[0]);
+    }
+}

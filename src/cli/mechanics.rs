@@ -1,10 +1,10 @@
 //! `el`, `legendre`, `hamilton`, `conserved`, `transform`: the mechanics commands.
 
 use clap::{Args, Subcommand};
-use lagrangian::canonical::report::{conserved_lines, noted_line, ConservedLine, SymmetryInput};
 use lagrangian::expr::{Expr, Symbol};
 use lagrangian::mechanics::{MechanicsError, System};
 use lagrangian::print::{render, symbol};
+use lagrangian::report::{self, Line};
 use serde_json::{json, Value};
 
 use super::{bad_input, read_expr_arg, Common, Failure, OutFormat};
@@ -121,28 +121,6 @@ fn build(text: &str, args: &SystemArgs, hamiltonian: bool) -> Result<System, Fai
     Ok(s)
 }
 
-/// `conserved`'s lines, through the function that prints scene `conserved` too: the Noether
-/// quantities of the mechanics stage, then the point symmetries the search finds (each
-/// verified by its bracket with `H`), and the search's bound; the bound is returned apart
-/// when there is no line to carry it.
-fn conserved_report(s: &System) -> (Vec<ConservedLine>, Option<String>) {
-    let known: Vec<ConservedLine> = s
-        .conserved()
-        .into_iter()
-        .map(|c| ConservedLine { name: c.name, value: c.expr, note: c.reason.to_string() })
-        .collect();
-    let h = s.hamiltonian().ok();
-    let l = s.inverse_legendre().ok().and_then(|s| s.lagrangian().cloned());
-    let input = SymmetryInput {
-        lagrangian_hamiltonian: l.as_ref().zip(h.as_ref()),
-        coords: s.coordinates(),
-        in_momenta: s.hamiltonian_expr().is_some(),
-        constraints: s.constraints(),
-        dissipative: s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some(),
-    };
-    conserved_lines(known, &input)
-}
-
 /// Printed output: named expressions, in order, plus the JSON object (also the notes
 /// commands' output, `cli/notes.rs`).
 pub(super) struct Report {
@@ -173,32 +151,18 @@ impl Report {
         symbol(q, self.format.expr_format())
     }
 
+    /// Lines of a [`report`] builder, rendered as every front end renders them; in JSON they
+    /// are listed under `lines` too.
+    fn report(&mut self, lines: &[Line]) {
+        self.lines.extend(report::render_lines(lines, self.format.expr_format()));
+        let all = self.json.entry("lines").or_insert_with(|| Value::Array(Vec::new()));
+        if let (Value::Array(a), Value::Array(new)) = (all, report::lines_json(lines)) {
+            a.extend(new);
+        }
+    }
+
     pub(super) fn line(&mut self, name: String, e: &Expr) {
         self.lines.push(format!("{name} = {}", self.r(e)));
-    }
-
-    fn per_coordinate(&mut self, key: &str, prefix: &str, coords: &[Symbol], exprs: &[Expr]) {
-        let mut arr = Vec::new();
-        for (q, e) in coords.iter().zip(exprs) {
-            let name = format!("{prefix}_{}", self.s(q));
-            self.line(name, e);
-            arr.push(json!({ "coordinate": q.to_string(), "expr": lagrangian::print::plain(e) }));
-        }
-        self.json.insert(key.into(), Value::Array(arr));
-    }
-
-    fn matrix(&mut self, key: &str, name: &str, coords: &[Symbol], m: &[Vec<Expr>]) {
-        let mut rows = Vec::new();
-        for (i, row) in m.iter().enumerate() {
-            for (j, e) in row.iter().enumerate() {
-                if j >= i {
-                    let label = format!("{name}[{},{}]", self.s(&coords[i]), self.s(&coords[j]));
-                    self.line(label, e);
-                }
-            }
-            rows.push(Value::Array(row.iter().map(|e| json!(lagrangian::print::plain(e))).collect()));
-        }
-        self.json.insert(key.into(), Value::Array(rows));
     }
 
     fn single(&mut self, key: &str, name: &str, e: &Expr) {
@@ -217,56 +181,63 @@ impl Report {
     }
 }
 
+/// `[{coordinate, expr}]` under `key` in the JSON output.
+fn per_coordinate_json(out: &mut Report, key: &str, coords: &[Symbol], exprs: &[Expr]) {
+    let arr: Vec<Value> = coords
+        .iter()
+        .zip(exprs)
+        .map(|(q, e)| json!({ "coordinate": q.to_string(), "expr": lagrangian::print::plain(e) }))
+        .collect();
+    out.json.insert(key.into(), Value::Array(arr));
+}
+
 pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
     match cmd {
         MechanicsCommand::El { lagrangian, accelerations, system } => {
             let text = read_expr_arg(&lagrangian)?;
             let s = build(&text, &system, false)?;
-            if accelerations {
-                // Nothing is printed when the accelerations asked for do not exist.
-                s.check_regular().map_err(fail)?;
-            }
+            // Nothing is printed when the accelerations asked for do not exist.
+            let acc = if accelerations { Some(report::accelerations(&s).map_err(fail)?) } else { None };
             let mut out = Report::new(system.common.format, &s, &text);
+            out.report(&report::euler_lagrange(&s).map_err(fail)?);
             let eqs = s.equations().map_err(fail)?;
-            out.per_coordinate("equations", "E", s.coordinates(), &eqs);
+            per_coordinate_json(&mut out, "equations", s.coordinates(), &eqs);
+            out.report(&report::mass_matrix_split(&s).map_err(fail)?);
             let (w, f) = s.mass_matrix_split().map_err(fail)?;
-            out.matrix("mass_matrix", "W", s.coordinates(), &w);
-            out.per_coordinate("forcing", "F", s.coordinates(), &f);
-            // A singular W still has its E_i (they are printed above); say why the
-            // accelerations are missing instead of failing.
-            let note = s.hessian_note().map_err(fail)?;
-            if let Some(n) = &note {
-                out.lines.push(n.clone());
-            }
-            out.json.insert("note".into(), json!(note));
+            let rows: Vec<Value> = w
+                .iter()
+                .map(|row| Value::Array(row.iter().map(|e| json!(lagrangian::print::plain(e))).collect()))
+                .collect();
+            out.json.insert("mass_matrix".into(), Value::Array(rows));
+            per_coordinate_json(&mut out, "forcing", s.coordinates(), &f);
+            out.json.insert("note".into(), json!(s.hessian_note().map_err(fail)?));
             if !s.constraints().is_empty() {
                 let c = s.constrained_equations().map_err(fail)?;
                 let lam: Vec<String> = c.multipliers.iter().map(|l| l.to_string()).collect();
                 out.json.insert("multipliers".into(), json!(lam));
-                let mut rows = Vec::new();
-                for (j, (row, cj)) in c.phi.iter().zip(&c.c).enumerate() {
-                    for (q, e) in s.coordinates().iter().zip(row) {
-                        let label = format!("Φ[{},{}]", j + 1, out.s(q));
-                        out.line(label, e);
-                    }
-                    out.line(format!("c_{}", j + 1), cj);
-                    rows.push(json!({
-                        "phi": row.iter().map(lagrangian::print::plain).collect::<Vec<_>>(),
-                        "c": lagrangian::print::plain(cj),
-                    }));
-                }
+                out.report(&report::constraints(&s).map_err(fail)?);
+                let rows: Vec<Value> = c
+                    .phi
+                    .iter()
+                    .zip(&c.c)
+                    .map(|(row, cj)| {
+                        json!({
+                            "phi": row.iter().map(lagrangian::print::plain).collect::<Vec<_>>(),
+                            "c": lagrangian::print::plain(cj),
+                        })
+                    })
+                    .collect();
                 out.json.insert("constraints".into(), Value::Array(rows));
             }
-            if accelerations {
-                let acc = s.accelerations().map_err(fail)?;
-                let names: Vec<Symbol> = s.coordinates().to_vec();
-                let mut arr = Vec::new();
-                for (q, a) in names.iter().zip(&acc) {
-                    let label = out.s(&Symbol::new(q.name()).with_primes(2));
-                    out.line(label, a);
-                    arr.push(json!({ "coordinate": q.to_string(), "expr": lagrangian::print::plain(a) }));
+            if let Some(acc) = acc {
+                let n = s.coordinates().len();
+                let rhs: Vec<Expr> = acc.iter().filter_map(|l| l.rhs().cloned()).collect();
+                per_coordinate_json(&mut out, "accelerations", s.coordinates(), &rhs[..n]);
+                if !s.constraints().is_empty() {
+                    let values: Vec<String> = rhs[n..].iter().map(lagrangian::print::plain).collect();
+                    out.json.insert("multiplier_values".into(), json!(values));
                 }
-                out.json.insert("accelerations".into(), Value::Array(arr));
+                out.report(&acc);
             }
             out.print();
         }
@@ -281,15 +252,17 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
                 }
             } else {
                 let p = s.canonical_momenta().map_err(fail)?;
-                let mut arr = Vec::new();
-                for (m, e) in s.momenta().iter().zip(&p) {
-                    let label = out.s(m);
-                    out.line(label, e);
-                    arr.push(json!({ "momentum": m.to_string(), "expr": lagrangian::print::plain(e) }));
-                }
+                let arr: Vec<Value> = s
+                    .momenta()
+                    .iter()
+                    .zip(&p)
+                    .map(|(m, e)| json!({ "momentum": m.to_string(), "expr": lagrangian::print::plain(e) }))
+                    .collect();
                 out.json.insert("momenta".into(), Value::Array(arr));
                 let h = s.hamiltonian().map_err(fail)?;
-                out.single("hamiltonian", "H", &h);
+                out.json.insert("hamiltonian".into(), json!(lagrangian::print::plain(&h)));
+                out.report(&report::momenta(&s).map_err(fail)?);
+                out.report(&[report::hamiltonian(&h)]);
             }
             out.print();
         }
@@ -298,45 +271,46 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
             let s = build(&text, &system, !lagrangian)?;
             let mut out = Report::new(system.common.format, &s, &text);
             let eqs = s.hamilton_equations().map_err(fail)?;
+            let lines = report::hamilton(&s).map_err(fail)?;
+            let n = s.coordinates().len();
+            let rhs: Vec<&Expr> = lines.iter().filter_map(Line::rhs).collect();
             out.json.insert("hamiltonian".into(), json!(lagrangian::print::plain(&eqs.hamiltonian)));
-            let mut arr = Vec::new();
-            for (i, q) in s.coordinates().iter().enumerate() {
-                let p = &s.momenta()[i];
-                let qd = out.s(&Symbol::new(q.name()).with_primes(1));
-                let pd = format!("{}'", out.s(p));
-                out.line(qd, &eqs.qdot[i]);
-                out.line(pd, &eqs.pdot[i]);
-                arr.push(json!({
-                    "coordinate": q.to_string(),
-                    "momentum": p.to_string(),
-                    "qdot": lagrangian::print::plain(&eqs.qdot[i]),
-                    "pdot": lagrangian::print::plain(&eqs.pdot[i]),
-                }));
-            }
+            let arr: Vec<Value> = s
+                .coordinates()
+                .iter()
+                .zip(s.momenta())
+                .enumerate()
+                .map(|(i, (q, p))| {
+                    json!({
+                        "coordinate": q.to_string(),
+                        "momentum": p.to_string(),
+                        "qdot": lagrangian::print::plain(rhs[i]),
+                        "pdot": lagrangian::print::plain(rhs[n + i]),
+                    })
+                })
+                .collect();
             out.json.insert("equations".into(), Value::Array(arr));
+            out.report(&lines);
             out.print();
         }
         MechanicsCommand::Conserved { lagrangian, hamiltonian, system } => {
             let text = read_expr_arg(&lagrangian)?;
             let s = build(&text, &system, hamiltonian)?;
             let mut out = Report::new(system.common.format, &s, &text);
-            let (lines, unattached) = conserved_report(&s);
-            let mut arr = Vec::new();
-            for c in &lines {
-                // The name rendered as the scene renders it, so both print the same line.
-                let name = out.r(&Expr::var(&c.name));
-                out.lines.push(noted_line(&name, &out.r(&c.value), Some(&c.note)));
-                arr.push(json!({
-                    "name": c.name,
-                    "expr": lagrangian::print::plain(&c.value),
-                    "reason": c.note,
-                }));
-            }
-            if lines.is_empty() {
-                let bound = unattached.map(|b| format!("; {b}")).unwrap_or_default();
-                out.lines.push(format!("(no conserved quantity found by Noether's theorem{bound})"));
-            }
+            let lines = report::conserved(&s);
+            let arr: Vec<Value> = lines
+                .iter()
+                .filter_map(|l| match l {
+                    Line::Equation { lhs, rhs, note, .. } => Some(json!({
+                        "name": lagrangian::print::plain(lhs),
+                        "expr": lagrangian::print::plain(rhs),
+                        "reason": note,
+                    })),
+                    Line::Text(_) => None,
+                })
+                .collect();
             out.json.insert("conserved".into(), Value::Array(arr));
+            out.report(&lines);
             out.print();
         }
         MechanicsCommand::Transform { lagrangian, map, to, gauge, system } => {

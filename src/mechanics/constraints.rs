@@ -3,6 +3,8 @@
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 
+use super::euler_lagrange::null_direction;
+use super::linalg::{adjugate, determinant, MAX_CLOSED_FORM};
 use super::system::System;
 use super::tidy::tidy;
 use super::MechanicsError;
@@ -49,5 +51,49 @@ impl System {
             phi.push(row);
         }
         Ok(ConstrainedEquations { multipliers: self.multipliers(), equations, w, f, phi, c })
+    }
+
+    /// The accelerations `q''` and the multipliers `λ` of a constrained system, in closed
+    /// form: `λ` is eliminated with the constraints differentiated twice, that is the
+    /// augmented system `W q'' − Φᵀ λ = F`, `Φ q'' = c` is solved by the fraction-free
+    /// adjugate of `[W −Φᵀ; Φ 0]` (up to four unknowns in all). A singular augmented matrix
+    /// (redundant constraints) is an error naming its null direction.
+    pub fn constrained_accelerations(&self) -> Result<(Vec<Expr>, Vec<Expr>), MechanicsError> {
+        let c = self.constrained_equations()?;
+        let n = self.coords.len();
+        let k = c.phi.len();
+        let mut m = vec![vec![Expr::zero(); n + k]; n + k];
+        for i in 0..n {
+            for j in 0..n {
+                m[i][j] = c.w[i][j].clone();
+            }
+        }
+        for (j, row) in c.phi.iter().enumerate() {
+            for (i, x) in row.iter().enumerate() {
+                m[i][n + j] = x.neg();
+                m[n + j][i] = x.clone();
+            }
+        }
+        let mut unknowns: Vec<Symbol> = self.accelerations_symbols();
+        unknowns.extend(c.multipliers.iter().cloned());
+        if let Some(direction) = null_direction(&m, &unknowns) {
+            return Err(MechanicsError::SingularConstraints { direction });
+        }
+        if n + k > MAX_CLOSED_FORM {
+            return Err(MechanicsError::TooLarge { n: n + k, limit: MAX_CLOSED_FORM });
+        }
+        let b: Vec<Expr> = c.f.iter().chain(&c.c).cloned().collect();
+        let det = determinant(&m);
+        let adj = adjugate(&m);
+        let solved: Vec<Expr> = (0..n + k)
+            .map(|i| {
+                let num = tidy(&Expr::add((0..n + k).map(|j| adj[i][j].times(&b[j]))));
+                tidy(&crate::algebra::cancel(&num.over(&det)))
+            })
+            .collect();
+        let lambdas = solved[n..].to_vec();
+        let mut acc = solved;
+        acc.truncate(n);
+        Ok((acc, lambdas))
     }
 }

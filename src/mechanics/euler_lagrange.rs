@@ -220,7 +220,13 @@ impl System {
     /// The accelerations `q'' = W⁻¹ F` in closed form: directly when `W` is diagonal, through
     /// the fraction-free adjugate `adj(W) F / det(W)` for up to four coupled coordinates.
     /// A singular `W` is an error naming the velocity or the null direction (Remark 3.1).
+    /// With holonomic constraints these are the constrained accelerations, the multipliers
+    /// eliminated ([`System::constrained_accelerations`]): `W⁻¹ F` alone would ignore the
+    /// constraint forces.
     pub fn accelerations(&self) -> Result<Vec<Expr>, MechanicsError> {
+        if !self.constraints.is_empty() {
+            return self.constrained_accelerations().map(|(acc, _)| acc);
+        }
         let (w, f) = self.mass_matrix_split()?;
         check_hessian(&w, &self.velocities, "L")?;
         let n = w.len();

@@ -144,6 +144,11 @@ pub enum MechanicsError {
     /// A line element, metric or embedding that does not define a (regular, symmetric) metric.
     #[error("error: bad metric: {0}")]
     BadMetric(String),
+    /// The constraints do not determine the accelerations together with `W`: the augmented
+    /// matrix `[W −Φᵀ; Φ 0]` is singular (redundant constraints, or a direction that neither
+    /// the inertia nor a constraint fixes).
+    #[error("error: the constrained system is singular: [W −Φᵀ; Φ 0] has the null direction {direction} (are two constraints the same, or does a coordinate have neither inertia nor a constraint?)")]
+    SingularConstraints { direction: String },
     /// The system is too large for a closed-form symbolic inverse.
     #[error("error: {n} coupled velocities: the closed-form inverse of the mass matrix is not formed beyond n = {limit} (its size grows like n!); use the numeric solve of W q'' = F")]
     TooLarge { n: usize, limit: usize },

@@ -39,6 +39,8 @@ pub enum DerivKind {
     Pb,
     /// The energy function `h = Σ q' ∂L/∂q' − L` (or `H`).
     Energy,
+    /// The accelerations `q'' = …` of `L` (with constraints, and the multipliers).
+    Accelerations,
 }
 
 impl DerivKind {
@@ -51,6 +53,7 @@ impl DerivKind {
             DerivKind::Conserved => "conserved",
             DerivKind::Pb => "pb",
             DerivKind::Energy => "energy",
+            DerivKind::Accelerations => "accelerations",
         }
     }
 
@@ -63,6 +66,7 @@ impl DerivKind {
             "conserved" => DerivKind::Conserved,
             "pb" => DerivKind::Pb,
             "energy" => DerivKind::Energy,
+            "accelerations" => DerivKind::Accelerations,
             _ => return None,
         })
     }

@@ -14,18 +14,7 @@ use crate::simulate::{self, RunOptions, SimulateError};
 
 pub use crate::simulate::{CompileRequest, ExtendedLagrangian, Formulation, Trajectory};
 
-/// One printed line of a derivation: `lhs = rhs`, with an optional label (`E_θ`, a reason).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Line {
-    /// A label printed before the equation (`E_θ`), if any.
-    pub label: Option<String>,
-    /// The left side.
-    pub lhs: Expr,
-    /// The right side.
-    pub rhs: Expr,
-    /// A note printed after it (why a quantity is conserved).
-    pub note: Option<String>,
-}
+pub use crate::report::Line;
 
 /// Why a backend could not do something.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +53,20 @@ pub struct SystemRef<'a> {
     pub coords: &'a [Symbol],
     /// How the text was parsed (functions, positive symbols).
     pub decls: &'a Declarations,
+    /// The generalized force on each coordinate (empty, or one per coordinate, zero where
+    /// none): `el`, `hamilton` and `conserved` include them.
+    pub forces: &'a [Expr],
+    /// The Rayleigh dissipation function, if declared.
+    pub rayleigh: Option<&'a Expr>,
+    /// Holonomic constraints `f_j(q, t) = 0`.
+    pub constraints: &'a [Expr],
+}
+
+impl<'a> SystemRef<'a> {
+    /// A system with no forces, dissipation or constraints.
+    pub fn closed(coords: &'a [Symbol], decls: &'a Declarations) -> SystemRef<'a> {
+        SystemRef { coords, decls, forces: &[], rayleigh: None, constraints: &[] }
+    }
 }
 
 /// What the chaos statements compile: the variational equations of `H` (Hamilton's
@@ -100,14 +103,25 @@ pub type CompiledVariational = Arc<crate::compile::Variational>;
 
 /// The library stages as the scene sees them.
 pub trait Backend {
-    /// Euler–Lagrange expressions `E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i`, one line per coordinate.
+    /// The Euler–Lagrange equations `E_i = Q_i − ∂R/∂q'_i + Σ λ_j ∂f_j/∂q_i`, one line per
+    /// coordinate ([`crate::report::euler_lagrange`]), with the system's forces, dissipation and
+    /// constraints.
     fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError>;
     /// The Legendre transform `H(q, p, t)` of `L`.
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError>;
-    /// Hamilton's equations `q' = ∂H/∂p`, `p' = −∂H/∂q`.
+    /// Hamilton's equations `q' = ∂H/∂p`, `p' = −∂H/∂q` (+ the driving terms)
+    /// ([`crate::report::hamilton`]).
     fn hamilton(&self, sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError>;
-    /// Conserved quantities of `L` (`is_hamiltonian` false) or `H`, each with its reason.
+    /// Conserved quantities of `L` (`is_hamiltonian` false) or `H`, each with its reason, and
+    /// the candidates the forces break ([`crate::report::conserved`]).
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError>;
+    /// The accelerations `q'' = …` of `L` with the system's forces and dissipation; with
+    /// constraints the constrained ones and the multipliers `λ_j = …`
+    /// ([`crate::report::accelerations`]).
+    fn accelerations(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
+        let _ = (sys, l);
+        Err(BackendError::NotYetAvailable { what: "the accelerations".into(), stage: "mechanics" })
+    }
     /// The energy function `h = Σ q' ∂L/∂q' − L` of a Lagrangian.
     fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError>;
     /// The Poisson bracket `{f, g}` over the coordinates and their momenta `p_q`.
@@ -198,46 +212,44 @@ fn hamiltonian_system(sys: &SystemRef, h: &Expr) -> Result<crate::mechanics::Sys
     crate::mechanics::System::from_hamiltonian_expr(h.clone(), sys.coords).map_err(mechanics_error)
 }
 
-fn momentum(q: &Symbol) -> Symbol {
-    Symbol::new(&format!("p_{}", q.name()))
+/// `system` with the forces, Rayleigh function and constraints of `sys`.
+fn with_dynamics(
+    mut system: crate::mechanics::System,
+    sys: &SystemRef,
+) -> Result<crate::mechanics::System, BackendError> {
+    for (q, force) in sys.coords.iter().zip(sys.forces) {
+        if !force.is_zero() {
+            system = system.with_force_expr(q.name(), force.clone()).map_err(mechanics_error)?;
+        }
+    }
+    if let Some(r) = sys.rayleigh {
+        system = system.with_rayleigh_expr(r.clone()).map_err(mechanics_error)?;
+    }
+    for f in sys.constraints {
+        system = system.with_constraint_expr(f.clone()).map_err(mechanics_error)?;
+    }
+    Ok(system)
 }
 
 impl Backend for NativeBackend {
     fn euler_lagrange(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
-        let system = lagrangian_system(sys, l)?;
-        let eqs = system.euler_lagrange().map_err(mechanics_error)?;
-        let mut lines: Vec<Line> = sys
-            .coords
-            .iter()
-            .zip(eqs)
-            .map(|(q, e)| Line { label: Some(format!("E_{}", q.name())), lhs: e, rhs: Expr::zero(), note: None })
-            .collect();
-        // A singular W: the E_i stand, the last one carries the note saying why no
-        // accelerations follow from them.
-        if let Some(note) = system.hessian_note().map_err(mechanics_error)? {
-            if let Some(last) = lines.last_mut() {
-                last.note = Some(note.trim_start_matches("note: ").to_string());
-            }
-        }
-        Ok(lines)
+        let system = with_dynamics(lagrangian_system(sys, l)?, sys)?;
+        crate::report::euler_lagrange(&system).map_err(mechanics_error)
     }
     fn legendre(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         lagrangian_system(sys, l)?.hamiltonian().map_err(mechanics_error)
     }
+    fn accelerations(&self, sys: &SystemRef, l: &Expr) -> Result<Vec<Line>, BackendError> {
+        let system = with_dynamics(lagrangian_system(sys, l)?, sys)?;
+        crate::report::accelerations(&system).map_err(mechanics_error)
+    }
     fn hamilton(&self, sys: &SystemRef, h: &Expr) -> Result<Vec<Line>, BackendError> {
-        let eqs = hamiltonian_system(sys, h)?.hamilton_equations().map_err(mechanics_error)?;
-        let mut lines = Vec::new();
-        for (q, e) in sys.coords.iter().zip(&eqs.qdot) {
-            lines.push(Line { label: None, lhs: Expr::sym(q.prime()), rhs: e.clone(), note: None });
-        }
-        for (q, e) in sys.coords.iter().zip(&eqs.pdot) {
-            lines.push(Line { label: None, lhs: Expr::sym(momentum(q).prime()), rhs: e.clone(), note: None });
-        }
-        Ok(lines)
+        let system = with_dynamics(hamiltonian_system(sys, h)?, sys)?;
+        crate::report::hamilton(&system).map_err(mechanics_error)
     }
     fn conserved(&self, sys: &SystemRef, f: &Expr, is_hamiltonian: bool) -> Result<Vec<Line>, BackendError> {
         let system = if is_hamiltonian { hamiltonian_system(sys, f)? } else { lagrangian_system(sys, f)? };
-        Ok(super::symmetries::conserved_of(&system))
+        Ok(crate::report::conserved(&with_dynamics(system, sys)?))
     }
     fn energy(&self, sys: &SystemRef, l: &Expr) -> Result<Expr, BackendError> {
         Ok(lagrangian_system(sys, l)?.energy_function())

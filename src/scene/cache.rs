@@ -28,8 +28,8 @@ use crate::parse::{parse_with, Declarations};
 use crate::print::plain;
 
 /// The on-disk format; entries of another version are ignored. (2: entries carry a checksum
-/// of their value.)
-pub const CACHE_FORMAT: u32 = 2;
+/// of their value; 3: derivation lines may be lines of text.)
+pub const CACHE_FORMAT: u32 = 3;
 
 /// The largest cache entry read, in bytes; a larger file is a miss, like a damaged one.
 pub const MAX_ENTRY_BYTES: u64 = 64 << 20;
@@ -282,13 +282,14 @@ fn file_name(text: &str) -> String {
 }
 
 fn encode(value: &Value, key: &str) -> Option<String> {
-    let line = |l: &Line| {
-        json!({
-            "label": l.label,
-            "lhs": lhs_json(&l.lhs),
-            "rhs": plain(&l.rhs),
-            "note": l.note,
-        })
+    let line = |l: &Line| match l {
+        Line::Equation { label, lhs, rhs, note } => json!({
+            "label": label,
+            "lhs": lhs_json(lhs),
+            "rhs": plain(rhs),
+            "note": note,
+        }),
+        Line::Text(s) => json!({ "text": s }),
     };
     let v = match value {
         Value::Expr(e) => json!({ "expr": plain(e) }),
@@ -340,6 +341,10 @@ fn decode(bytes: &[u8], key: &str, decls: &Declarations) -> Option<Value> {
                 _ => None,
             }
         };
+        if let Some(t) = l.get("text") {
+            out.push(Line::Text(t.as_str()?.to_string()));
+            continue;
+        }
         let lhs = match l.get("lhs")? {
             Json::Object(o) => {
                 let name = o.get("symbol")?.as_str()?;
@@ -349,7 +354,7 @@ fn decode(bytes: &[u8], key: &str, decls: &Declarations) -> Option<Value> {
             }
             j => expr(j)?,
         };
-        out.push(Line { label: text("label")?, lhs, rhs: expr(l.get("rhs")?)?, note: text("note")? });
+        out.push(Line::Equation { label: text("label")?, lhs, rhs: expr(l.get("rhs")?)?, note: text("note")? });
     }
     Some(Value::Lines(out))
 }
@@ -381,7 +386,11 @@ mod tests {
         let decls = Declarations::new().with_positive(["m"]);
         let l = parse_with("1/2 m x'^2 - x^4/4", &decls).unwrap();
         let h = parse_with("p_x^2/(2 m) + x^4/4", &decls).unwrap();
-        let lines = vec![Line { label: Some("E_x".into()), lhs: Expr::var("⟨L⟩"), rhs: h.clone(), note: None }];
+        let lines = vec![
+            Line::labelled("E_x", Expr::var("⟨L⟩"), h.clone()),
+            Line::text("note: a line of text"),
+            Line::named("h", h.clone()).with_note("a note"),
+        ];
         let mut c = Cache::with_dir(dir.path());
         c.insert(key(vec![l.clone()]), Value::Expr(h.clone()));
         c.insert(key(vec![h.clone()]), Value::Lines(lines.clone()));

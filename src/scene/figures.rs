@@ -566,19 +566,7 @@ impl Session {
                 };
                 let value = match self.printed_item(item)? {
                     Printed::Named(_, e) | Printed::Value(e) => serde_json::json!(crate::print::plain(&e)),
-                    Printed::Lines(lines) => serde_json::Value::Array(
-                        lines
-                            .iter()
-                            .map(|l| {
-                                serde_json::json!({
-                                    "label": l.label,
-                                    "lhs": crate::print::plain(&l.lhs),
-                                    "rhs": crate::print::plain(&l.rhs),
-                                    "note": l.note,
-                                })
-                            })
-                            .collect(),
-                    ),
+                    Printed::Lines(lines) => crate::report::lines_json(&lines),
                 };
                 entries.push(serde_json::json!({ "name": label, "value": value }));
             }

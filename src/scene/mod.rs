@@ -49,7 +49,6 @@ pub mod repl;
 mod sections;
 pub mod session;
 mod simulate;
-mod symmetries;
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};

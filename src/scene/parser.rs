@@ -31,6 +31,7 @@ pub const STATEMENTS: &[&str] = &[
     "conserved",
     "pb",
     "energy",
+    "accelerations",
     "average",
     "transform",
     "lie",

@@ -18,6 +18,8 @@ pub enum Step {
     Bracket,
     /// The energy function.
     Energy,
+    /// The accelerations `q'' = …` (and the multipliers of constraints).
+    Accelerations,
     /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
     Momenta,
     /// The split `H = T(p) + V(q)`.
@@ -38,6 +40,7 @@ impl Step {
             Step::Conserved => "conserved quantities",
             Step::Bracket => "Poisson bracket",
             Step::Energy => "energy function",
+            Step::Accelerations => "accelerations",
             Step::Momenta => "canonical momenta",
             Step::Split => "separable split H = T(p) + V(q)",
             Step::Compile => "compiled right-hand side",

@@ -80,7 +80,11 @@ pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>
         _ => names
             .iter()
             .cloned()
-            .chain(["el", "legendre", "hamilton", "conserved", "pb", "energy"].iter().map(|s| s.to_string()))
+            .chain(
+                ["el", "legendre", "hamilton", "conserved", "pb", "energy", "accelerations"]
+                    .iter()
+                    .map(|s| s.to_string()),
+            )
             .collect(),
     };
     let mut out: Vec<String> = pool.into_iter().filter(|c| c.starts_with(word) && c != word).collect();

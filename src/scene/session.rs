@@ -820,7 +820,7 @@ impl Session {
         }
         if args.is_empty() {
             match kind {
-                DerivKind::El | DerivKind::Legendre => args.push(self.lagrangian()?),
+                DerivKind::El | DerivKind::Legendre | DerivKind::Accelerations => args.push(self.lagrangian()?),
                 DerivKind::Hamilton => args.push(self.hamiltonian()?),
                 DerivKind::Conserved | DerivKind::Energy => {
                     if self.def_names.contains_key("L") {
@@ -844,17 +844,39 @@ impl Session {
         let is_h = |e: &Expr| e.free_symbols().iter().any(|s| s.name().starts_with("p_") && s.primes() == 0);
         let decls = self.declarations();
         let coords = self.coords.clone();
-        let sys = SystemRef { coords: &coords, decls: &decls };
+        // `el`, `hamilton` and `conserved` include the declared forces, dissipation and
+        // constraints; the cache key then holds them too (after the inputs, their layout in
+        // `extra`), so a result without them is never reused for one with them.
+        let with_dynamics =
+            matches!(kind, DerivKind::El | DerivKind::Hamilton | DerivKind::Conserved | DerivKind::Accelerations)
+                && !self.dynamics.is_empty();
+        let (forces, rayleigh, constraints) =
+            if with_dynamics { self.resolved_dynamics()? } else { (Vec::new(), None, Vec::new()) };
+        let sys = SystemRef {
+            coords: &coords,
+            decls: &decls,
+            forces: &forces,
+            rayleigh: rayleigh.as_ref(),
+            constraints: &constraints,
+        };
         let what = format!("of {}", short(&args[0]));
         let step = deriv_step(kind);
-        let key = CacheKey::symbolic(step, &coords, args.clone());
+        let mut key = CacheKey::symbolic(step, &coords, args.clone());
+        if with_dynamics {
+            key.inputs.extend(forces.iter().cloned());
+            key.inputs.extend(rayleigh.iter().cloned());
+            key.inputs.extend(constraints.iter().cloned());
+            key.extra = format!(
+                "dynamics: {} forces, {} Rayleigh, {} constraints",
+                forces.len(),
+                usize::from(rayleigh.is_some()),
+                constraints.len()
+            );
+        }
         let hamiltonian_input = is_h(&args[0]);
         if kind == DerivKind::Energy && hamiltonian_input {
             // The energy of a Hamiltonian system is `H` itself: nothing to derive.
             return Ok(Value::Expr(args[0].clone()));
-        }
-        if kind == DerivKind::Conserved && !hamiltonian_input && !self.dynamics.is_empty() {
-            return self.conserved_with_dynamics(&args[0], span).map(Value::Lines);
         }
         if let Some(v) = self.lookup(&key, step, &what) {
             return Ok(v);
@@ -867,6 +889,7 @@ impl Session {
             DerivKind::Conserved => backend.conserved(&sys, &args[0], hamiltonian_input).map(Value::Lines),
             DerivKind::Pb => backend.bracket(&sys, &args[0], &args[1]).map(Value::Expr),
             DerivKind::Energy => backend.energy(&sys, &args[0]).map(Value::Expr),
+            DerivKind::Accelerations => backend.accelerations(&sys, &args[0]).map(Value::Lines),
         };
         self.record(step, what, key, built.map_err(|e| backend_error(e, span)))
     }
@@ -960,7 +983,7 @@ impl Session {
                 Printed::Value(e) => self.output.push(render(e, f)),
                 Printed::Lines(lines) => {
                     for l in lines {
-                        self.output.push(render_line(l, f));
+                        self.output.push(crate::report::render_line(l, f));
                     }
                 }
             }
@@ -1019,6 +1042,7 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
         DerivKind::Conserved => Step::Conserved,
         DerivKind::Pb => Step::Bracket,
         DerivKind::Energy => Step::Energy,
+        DerivKind::Accelerations => Step::Accelerations,
     }
 }
 
@@ -1039,16 +1063,6 @@ pub(super) fn format_name(f: Format) -> &'static str {
         Format::Unicode => "unicode",
         Format::Latex => "latex",
     }
-}
-
-pub(super) fn render_line(l: &Line, f: Format) -> String {
-    let mut s = String::new();
-    if let Some(label) = &l.label {
-        s.push_str(label);
-        s.push_str(": ");
-    }
-    s.push_str(&crate::canonical::report::noted_line(&render(&l.lhs, f), &render(&l.rhs, f), l.note.as_deref()));
-    s
 }
 
 /// A number for messages: short, deterministic.
