@@ -32,7 +32,9 @@
 //! [`print`](mod@print) / [`eval`].
 
 pub mod algebra;
+#[cfg(feature = "frontends")]
 pub mod animate;
+pub mod cache;
 pub mod cancel;
 pub mod canonical;
 pub mod chaos;
@@ -43,9 +45,11 @@ pub mod expr;
 pub mod integrate;
 pub mod mechanics;
 pub mod parse;
+#[cfg(feature = "frontends")]
 pub mod plot;
 pub mod print;
 pub mod report;
+#[cfg(feature = "frontends")]
 pub mod scene;
 pub mod simplify;
 pub mod simulate;

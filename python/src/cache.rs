@@ -1,6 +1,6 @@
 //! The binding's derivation cache: the symbolic results that compiling needs (`W q'' = F` of
 //! a Lagrangian, the Hamiltonian by the Legendre transform) are kept in the engine's
-//! derivation cache ([`lagrangian::scene::cache::Cache`]), in memory for the process and on
+//! derivation cache ([`lagrangian::cache::Cache`]), in memory for the process and on
 //! disk in the directory the command line uses (`$LAGRANGIAN_CACHE_DIR`, `off` for none,
 //! else `$XDG_CACHE_HOME/lagrangian` or `~/.cache/lagrangian`).
 //!
@@ -20,8 +20,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 use lagrangian::mechanics::{Kind, MechanicsError, System};
-use lagrangian::scene::cache::{configured_dir, Cache};
-use lagrangian::scene::Step;
+use lagrangian::cache::{configured_dir, Cache, Step};
 use lagrangian::Expr;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

@@ -61,7 +61,7 @@ impl CacheArgs {
         if self.no_cache {
             return Cache::new();
         }
-        let dir = self.cache_dir.clone().or_else(lagrangian::scene::cache::configured_dir);
+        let dir = self.cache_dir.clone().or_else(lagrangian::cache::configured_dir);
         dir.map_or_else(Cache::new, Cache::with_dir)
     }
 }

@@ -21,7 +21,7 @@ use std::collections::HashMap;
 
 use super::ast::{ChaosSpec, LevelSpec, Src};
 use super::backend::{CompiledVariational, VariationalRequest};
-use super::cache::{CacheKey, Value};
+use crate::cache::{CacheKey, Value};
 use super::error::{ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;

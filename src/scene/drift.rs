@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use super::ast::{DerivKind, SimSpec};
 use super::backend::{Formulation, Trajectory};
-use super::cache::Value;
+use crate::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::{fmt_num, Layout, Session};
 use crate::compile::Tape;

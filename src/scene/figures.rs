@@ -3,7 +3,7 @@
 use std::path::{Component, PathBuf};
 
 use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
-use super::cache::Value;
+use crate::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::fmt_num;
 use super::session::{Layout, Mode, Printed, RunResult, Session};

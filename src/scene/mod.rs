@@ -31,7 +31,6 @@
 mod animate;
 pub mod ast;
 pub mod backend;
-pub mod cache;
 mod chaos;
 pub mod drift;
 mod dynamics;

@@ -3,51 +3,7 @@
 
 use super::session::{deriv_step, DefBody, Session};
 
-/// One kind of work the plan reports.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Step {
-    /// Euler–Lagrange equations.
-    EulerLagrange,
-    /// Legendre transform.
-    Legendre,
-    /// Hamilton's equations.
-    Hamilton,
-    /// Conserved quantities.
-    Conserved,
-    /// A Poisson bracket.
-    Bracket,
-    /// The energy function.
-    Energy,
-    /// The accelerations `q'' = …` (and the multipliers of constraints).
-    Accelerations,
-    /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
-    Momenta,
-    /// The split `H = T(p) + V(q)`.
-    Split,
-    /// A compiled right-hand side.
-    Compile,
-    /// An integration.
-    Integrate,
-}
-
-impl Step {
-    /// A short name for the plan.
-    pub fn name(self) -> &'static str {
-        match self {
-            Step::EulerLagrange => "Euler–Lagrange equations",
-            Step::Legendre => "Legendre transform",
-            Step::Hamilton => "Hamilton's equations",
-            Step::Conserved => "conserved quantities",
-            Step::Bracket => "Poisson bracket",
-            Step::Energy => "energy function",
-            Step::Accelerations => "accelerations",
-            Step::Momenta => "canonical momenta",
-            Step::Split => "separable split H = T(p) + V(q)",
-            Step::Compile => "compiled right-hand side",
-            Step::Integrate => "integration",
-        }
-    }
-}
+pub use crate::cache::Step;
 
 /// What happened to one piece of work.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -18,7 +18,7 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
-use super::cache::Cache;
+use crate::cache::Cache;
 use super::help::TOPICS;
 use super::parser::{is_incomplete, STATEMENTS};
 use super::session::{Mode, Options, Session};

@@ -81,8 +81,8 @@ impl Options {
     }
 }
 
-pub use super::cache::Cache;
-use super::cache::{CacheKey, Value};
+pub use crate::cache::Cache;
+use crate::cache::{CacheKey, Value};
 pub use super::plan::{PlanEntry, Status, Step};
 
 /// A parameter: a symbol with an optional value.

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
 use super::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
-use super::cache::{CacheKey, Value};
+use crate::cache::{CacheKey, Value};
 use super::drift::EnergyPlan;
 use super::dynamics::Dynamics;
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};

@@ -18,14 +18,60 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use serde_json::{json, Value as Json};
 
-use super::backend::{Compiled, CompiledVariational, Line};
-use super::plan::Step;
+use crate::report::Line;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::plain;
+
+/// One kind of work the plan reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Step {
+    /// Euler–Lagrange equations.
+    EulerLagrange,
+    /// Legendre transform.
+    Legendre,
+    /// Hamilton's equations.
+    Hamilton,
+    /// Conserved quantities.
+    Conserved,
+    /// A Poisson bracket.
+    Bracket,
+    /// The energy function.
+    Energy,
+    /// The accelerations `q'' = …` (and the multipliers of constraints).
+    Accelerations,
+    /// Canonical momenta `p = ∂L/∂q'` (for initial states and plots).
+    Momenta,
+    /// The split `H = T(p) + V(q)`.
+    Split,
+    /// A compiled right-hand side.
+    Compile,
+    /// An integration.
+    Integrate,
+}
+
+impl Step {
+    /// A short name for the plan.
+    pub fn name(self) -> &'static str {
+        match self {
+            Step::EulerLagrange => "Euler–Lagrange equations",
+            Step::Legendre => "Legendre transform",
+            Step::Hamilton => "Hamilton's equations",
+            Step::Conserved => "conserved quantities",
+            Step::Bracket => "Poisson bracket",
+            Step::Energy => "energy function",
+            Step::Accelerations => "accelerations",
+            Step::Momenta => "canonical momenta",
+            Step::Split => "separable split H = T(p) + V(q)",
+            Step::Compile => "compiled right-hand side",
+            Step::Integrate => "integration",
+        }
+    }
+}
 
 /// The on-disk format; entries of another version are ignored. (2: entries carry a checksum
 /// of their value; 3: derivation lines may be lines of text.)
@@ -75,33 +121,36 @@ pub struct Cache {
 /// Everything a derivation depends on. Symbols carry their positivity, so equal keys mean
 /// equal assumptions too.
 #[derive(Clone, PartialEq, Eq, Hash)]
-pub(super) struct CacheKey {
-    pub(super) step: Step,
-    pub(super) coords: Vec<Symbol>,
-    pub(super) inputs: Vec<Expr>,
+pub(crate) struct CacheKey {
+    pub(crate) step: Step,
+    pub(crate) coords: Vec<Symbol>,
+    pub(crate) inputs: Vec<Expr>,
     /// Numbers that are part of the content (compiled code binds parameter values).
-    pub(super) numbers: Vec<u64>,
-    pub(super) extra: String,
+    pub(crate) numbers: Vec<u64>,
+    pub(crate) extra: String,
 }
 
 impl CacheKey {
     /// The key of a symbolic derivation: it depends on its inputs and coordinates only (no
     /// bound numbers, nothing extra).
-    pub(super) fn symbolic(step: Step, coords: &[Symbol], inputs: Vec<Expr>) -> CacheKey {
+    pub(crate) fn symbolic(step: Step, coords: &[Symbol], inputs: Vec<Expr>) -> CacheKey {
         CacheKey { step, coords: coords.to_vec(), inputs, numbers: vec![], extra: String::new() }
     }
 }
 
 /// A cached result.
 #[derive(Clone)]
-pub(super) enum Value {
+pub(crate) enum Value {
     Expr(Expr),
     Lines(Vec<Line>),
     Exprs(Vec<Expr>),
     /// Compiled code lives in memory only (it binds parameter values and holds tapes).
-    Compiled(Compiled),
+    // Compiled values are cached by scenes only (an engine-only build never constructs them).
+    #[cfg_attr(not(feature = "frontends"), allow(dead_code))]
+    Compiled(Arc<crate::simulate::Compiled>),
     /// The variational equations of the chaos statements (memory only, like `Compiled`).
-    Variational(CompiledVariational),
+    #[cfg_attr(not(feature = "frontends"), allow(dead_code))]
+    Variational(Arc<crate::compile::Variational>),
 }
 
 impl Cache {
@@ -167,12 +216,12 @@ impl Cache {
     }
 
     /// A result held in memory.
-    pub(super) fn get(&self, key: &CacheKey) -> Option<Value> {
+    pub(crate) fn get(&self, key: &CacheKey) -> Option<Value> {
         self.map.get(key).cloned()
     }
 
     /// A result from the disk, re-parsed with `decls`; it is then held in memory too.
-    pub(super) fn load(&mut self, key: &CacheKey, decls: &Declarations) -> Option<Value> {
+    pub(crate) fn load(&mut self, key: &CacheKey, decls: &Declarations) -> Option<Value> {
         let text = disk_key(key, self.build.as_deref())?;
         let path = self.dir.as_ref()?.join(file_name(&text));
         let bytes = read_entry(&path)?;
@@ -182,7 +231,7 @@ impl Cache {
     }
 
     /// Keeps a result in memory, and on disk when it is symbolic and a directory is set.
-    pub(super) fn insert(&mut self, key: CacheKey, value: Value) {
+    pub(crate) fn insert(&mut self, key: CacheKey, value: Value) {
         if let (Some(dir), Some(text)) = (&self.dir, disk_key(&key, self.build.as_deref())) {
             if let Some(entry) = encode(&value, &text) {
                 // A failed write only means the next run builds again.
