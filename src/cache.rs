@@ -22,10 +22,10 @@ use std::sync::Arc;
 
 use serde_json::{json, Value as Json};
 
-use crate::report::Line;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::plain;
+use crate::report::Line;
 
 /// One kind of work the plan reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -166,7 +166,7 @@ impl crate::mechanics::System {
     /// assert_eq!(dz, [1.0 / 2.0, -3.0 * 0.5]); // Hamilton's equations x' = p/m, p' = −k x
     /// ```
     pub fn compile_first_order(&self) -> Result<FirstOrderRhs, CompileError> {
-        let mech = |e: crate::mechanics::MechanicsError| CompileError::Mechanics(e.to_string());
+        let mech = |e: crate::mechanics::MechanicsError| CompileError::Mechanics(e);
         let f = self.first_order().map_err(mech)?;
         f.check_nondegenerate().map_err(mech)?;
         let coords: Vec<String> = self.coordinates().iter().map(|s| s.to_string()).collect();

@@ -85,9 +85,9 @@ pub enum CompileError {
     /// Inputs of inconsistent sizes (a mass matrix that is not `n × n`, …).
     #[error("{what}: expected {expected}, got {got}")]
     Shape { what: &'static str, expected: usize, got: usize },
-    /// The mechanics stage could not provide the equations (its message).
+    /// The mechanics stage could not provide the equations (its typed error).
     #[error("{0}")]
-    Mechanics(String),
+    Mechanics(#[from] crate::mechanics::MechanicsError),
     /// The system has a feature the compiled right-hand sides do not handle yet.
     #[error("compiling {what} is not supported")]
     Unsupported { what: &'static str },

@@ -21,11 +21,11 @@ use std::collections::HashMap;
 
 use super::ast::{ChaosSpec, LevelSpec, Src};
 use super::backend::{CompiledVariational, VariationalRequest};
-use crate::cache::{CacheKey, Value};
 use super::error::{ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
 use super::session::{backend_error, fmt_num, Layout, Session};
+use crate::cache::{CacheKey, Value};
 use crate::chaos::{Indicator, Indicators};
 use crate::expr::{Expr, Symbol};
 

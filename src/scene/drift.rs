@@ -12,9 +12,9 @@ use std::sync::Arc;
 
 use super::ast::{DerivKind, SimSpec};
 use super::backend::{Formulation, Trajectory};
-use crate::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::{fmt_num, Layout, Session};
+use crate::cache::Value;
 use crate::compile::Tape;
 use crate::expr::{Expr, Symbol};
 

@@ -3,11 +3,11 @@
 use std::path::{Component, PathBuf};
 
 use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
-use crate::cache::Value;
 use super::error::{ErrorKind, SceneError, Span};
 use super::session::fmt_num;
 use super::session::{Layout, Mode, Printed, RunResult, Session};
 use super::simulate::state_names;
+use crate::cache::Value;
 use crate::expr::Symbol;
 use crate::print::Format;
 

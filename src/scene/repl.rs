@@ -18,10 +18,10 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
-use crate::cache::Cache;
 use super::help::TOPICS;
 use super::parser::{is_incomplete, STATEMENTS};
 use super::session::{Mode, Options, Session};
+use crate::cache::Cache;
 use crate::simulate::METHODS;
 
 /// The prompt.

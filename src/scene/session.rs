@@ -81,9 +81,9 @@ impl Options {
     }
 }
 
+pub use super::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;
 use crate::cache::{CacheKey, Value};
-pub use super::plan::{PlanEntry, Status, Step};
 
 /// A parameter: a symbol with an optional value.
 #[derive(Clone, Debug)]

@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use super::ast::{DerivKind, EventSpec, SimSpec, Src};
 use super::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
-use crate::cache::{CacheKey, Value};
 use super::drift::EnergyPlan;
 use super::dynamics::Dynamics;
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
 use super::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
+use crate::cache::{CacheKey, Value};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 use crate::simulate::{
