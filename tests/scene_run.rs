@@ -81,6 +81,18 @@ fn diagnostics_point_at_the_mistake() {
         "the time span runs backwards",
         "for t in 0..10",
     );
+    // `steps = N` fixes the step, which an adaptive method chooses itself: refused, not ignored.
+    check_error(
+        &format!("{base}H = p_θ^2/2 + θ^2\nsimulate θ = 1, p_θ = 0 for t in 0..10 with dop853 steps = 100\nplot phase"),
+        "`dop853` chooses its own steps",
+        "tol = 1e-10",
+    );
+    // A splitting method on a damped system: refused, naming the methods that run it.
+    check_error(
+        &format!("{base}L = 1/2 θ'^2 - θ^2/2\nrayleigh 1/2 θ'^2\nsimulate θ = 1, θ' = 0 for t in 0..10 with leapfrog dt = 0.1\nplot phase"),
+        "`leapfrog` splits a conservative H",
+        "`gauss6`",
+    );
     check_error(&format!("{base}m = 3"), "`m` is already a parameter", "another name");
     check_error(&format!("{base}coordinates θ"), "coordinate `θ` is declared twice", "");
     check_error(&format!("{base}el"), "no Lagrangian defined", "define it first");
