@@ -106,7 +106,7 @@ fn checksum(key: &str, value: &Json) -> String {
 }
 
 /// The derivation cache: symbolic results keyed by their symbolic inputs. Keep one alive
-/// across runs (the REPL does, and [`Session::with_cache`](super::Session::with_cache) lets
+/// across runs (the REPL does, and `scene::Session::with_cache` lets
 /// callers do it) to reuse work; give it a directory ([`Cache::with_dir`]) to reuse work
 /// across processes.
 #[derive(Default)]

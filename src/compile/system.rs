@@ -52,7 +52,7 @@ impl System {
                 what: "a Hamiltonian system as W q'' = F (use compile_hamiltonian)",
             });
         }
-        let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e))?;
+        let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
         let coords = names(self.coordinates());
         self.with_param_refs(|p| LagrangianRhs::new(&w, &f, &strs(&coords), p))
     }
@@ -79,14 +79,14 @@ impl System {
         if let Kind::Hamiltonian(_) = self.kind() {
             return Err(CompileError::Unsupported { what: "constraints on a Hamiltonian system" });
         }
-        let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e))?;
+        let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
         self.with_param_refs(|p| ConstrainedRhs::new(&w, &f, self.constraints(), self.coordinates(), p, stabilization))
     }
 
     /// Hamilton's equations (with their exact Jacobian) of the system's Hamiltonian (derived by
     /// the Legendre transform for a Lagrangian system); state `(q, p)`.
     pub fn compile_hamiltonian(&self) -> Result<HamiltonianRhs, CompileError> {
-        let h = self.hamiltonian().map_err(|e| CompileError::Mechanics(e))?;
+        let h = self.hamiltonian().map_err(CompileError::Mechanics)?;
         let (q, p) = (names(self.coordinates()), names(self.momenta()));
         self.with_param_refs(|params| HamiltonianRhs::new(&h, &strs(&q), &strs(&p), params))
     }
@@ -94,7 +94,7 @@ impl System {
     /// The drift/kick split of a separable Hamiltonian `T(p) + V(q, t)`;
     /// [`CompileError::NotSeparable`] otherwise.
     pub fn compile_separable(&self) -> Result<SeparableHamiltonian, CompileError> {
-        let h = self.hamiltonian().map_err(|e| CompileError::Mechanics(e))?;
+        let h = self.hamiltonian().map_err(CompileError::Mechanics)?;
         let (q, p) = (names(self.coordinates()), names(self.momenta()));
         self.with_param_refs(|params| SeparableHamiltonian::new(&h, &strs(&q), &strs(&p), params))
     }

@@ -1627,7 +1627,7 @@ impl System {
                         what: "holonomic constraints in the Taylor method (use the augmented system of compile_constrained with another method)",
                     });
                 }
-                let (w, f) = self.mass_matrix_split().map_err(|e| CompileError::Mechanics(e))?;
+                let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
                 let n = w.len();
                 let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
                 outputs.extend(f.iter().cloned());

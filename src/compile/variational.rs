@@ -110,7 +110,7 @@ impl Variational {
     /// The variational system of a mechanics [`System`] in canonical coordinates `(q, p)`
     /// (through its Hamiltonian, derived by the Legendre transform for a Lagrangian system).
     pub fn of_system(sys: &System, tangents: usize, megno: bool) -> Result<Variational, CompileError> {
-        let h = sys.hamiltonian().map_err(|e| CompileError::Mechanics(e))?;
+        let h = sys.hamiltonian().map_err(CompileError::Mechanics)?;
         let q: Vec<String> = sys.coordinates().iter().map(|s| s.to_string()).collect();
         let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
         let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();

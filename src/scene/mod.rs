@@ -14,7 +14,7 @@
 //! * `chaos`: `lyapunov`, `megno`, `fli` and `chaos_map` (chaos indicators of the
 //!   Hamiltonian flow, through [`crate::chaos`]).
 //! * `sections`: Poincaré sections (`record when …` points) as data for plots and exports.
-//! * [`cache`]: derivations keyed by symbolic content, in memory and on disk.
+//! * [`crate::cache`]: derivations keyed by symbolic content, in memory and on disk.
 //! * [`progress`]: progress bars of long simulations, only on a terminal.
 //! * [`backend`]: the one place that calls the mechanics, canonical, compile and integrate
 //!   stages.

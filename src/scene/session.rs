@@ -9,7 +9,7 @@
 //! (the kind, the coordinates and the input expressions, which are hash-consed, so the key
 //! compares in O(1)); numbers (parameter values, initial states, time spans) are not part of
 //! a derivation's key, so re-running a scene with other numbers reuses the derivations —
-//! from memory in the same process, from the disk cache ([`super::cache`]) in another.
+//! from memory in the same process, from the disk cache ([`crate::cache`]) in another.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};

@@ -162,7 +162,7 @@ fn named_state(names: &[String], y: &[f64]) -> String {
 
 /// `10⁹` for the default fixed-step budget, the plain number for a budget the caller set.
 fn limit_text(limit: f64) -> String {
-    if limit == super::run::MAX_FIXED_STEPS {
+    if limit == super::limits::MAX_FIXED_STEPS {
         "10⁹".to_string()
     } else {
         format!("{limit:.0}")

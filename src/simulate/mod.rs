@@ -31,6 +31,7 @@ pub mod compiled;
 pub mod energy;
 mod error;
 pub mod formulation;
+mod limits;
 pub mod method;
 pub mod run;
 mod system;

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use super::compiled::{check_constrained_start, Compiled, CompiledSystem};
 use super::energy::{EnergyCheck, Ledger};
 use super::error::SimulateError;
+pub use super::limits::{MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS};
 use super::method::{Family, MethodId, Needs, Scheme};
 use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
@@ -17,19 +18,6 @@ use crate::integrate::{
     Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError, Jacobian,
     Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
 };
-
-/// The most states a run keeps by default ([`Sampling::Auto`]): fixed-step runs keep every
-/// k-th step for a k chosen up front, adaptive runs thin as they go, so the memory of a run is
-/// bounded whatever its length.
-pub const MAX_POINTS: usize = 20_000;
-
-/// The step budget of an adaptive run that sets none: it cannot know its count in advance, so
-/// it stops here with an error that says where it got to and why (typically stiffness).
-pub const MAX_ADAPTIVE_STEPS: usize = 1_000_000;
-
-/// The most fixed steps a run that sets no budget may take; more is refused before the
-/// first step.
-pub const MAX_FIXED_STEPS: f64 = 1e9;
 
 /// Which states a run keeps.
 #[derive(Clone, Debug, PartialEq)]
