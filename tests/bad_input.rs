@@ -174,7 +174,7 @@ fn issue_16_unclear_errors_are_clear() {
     assert_eq!(out.code, Some(2), "{}", out.stderr);
     assert!(out.stderr.contains("\\u{1}") && !out.stderr.contains('\u{1}'), "{:?}", out.stderr);
     // Look-alike letters: Cyrillic, full-width, combining marks.
-    check_bad(&["simplify", "x + \u{445}"], None, &["`х` (U+0445, column 5) is a Cyrillic letter", "ASCII or Greek"]);
+    check_bad(&["simplify", "x + \u{445}"], None, &["`х` (U+0445) is a Cyrillic letter", "column 5", "ASCII or Greek"]);
     check_bad(&["simplify", "\u{ff58} + 1"], None, &["U+FF58", "full-width"]);
     check_bad(&["simplify", "x\u{301} + 1"], None, &["U+0301", "combining mark"]);
     check_bad(&["diff", "x^2", "\u{445}"], None, &["Cyrillic"]);
@@ -207,4 +207,68 @@ fn issue_16_constant_constraints_canonical_detail_and_latex_braces() {
 
     let repl = run(&["repl"], Some(b"coordinates x\npb x^2, p_x\nlatex\n"));
     assert!(repl.stdout.contains(r"\{x^2, p_x\} = 2 x"), "{}", repl.stdout);
+}
+
+/// The message `simplify` gives for a Cyrillic `х` (issue 31, D3): every command says the same.
+const CYRILLIC: &str = "`х` (U+0445) is a Cyrillic letter that looks like another; names are ASCII or Greek";
+
+/// Issue 31, D3: a look-alike letter is refused by every command, in the expression or in a
+/// name list, with `simplify`'s message. Before, `el "1/2 m x'^2 - 1/2 k х^2" --coords x`
+/// printed `E_x = m x''`: the Cyrillic `х` was a new constant.
+#[test]
+fn lookalike_letters_are_refused_by_every_command() {
+    let l = "1/2 m x'^2 - 1/2 k \u{445}^2";
+    let h = "p_x^2/(2 m) + 1/2 k \u{445}^2";
+    let cases: &[&[&str]] = &[
+        &["simplify", l],
+        &["el", l, "--coords", "x"],
+        &["legendre", l, "--coords", "x"],
+        &["hamilton", h, "--coords", "x"],
+        &["conserved", l, "--coords", "x"],
+        &["transform", l, "--coords", "x", "--map", "x=r", "--to", "r"],
+        &["transform", "1/2 x'^2", "--coords", "x", "--map", "x=\u{445}", "--to", "\u{445}"],
+        &["discretize", l, "--coords", "x"],
+        &["discretize", "1/2 x'^2", "--coords", "x", "--step", "\u{445}"],
+        &["phase-space", "p x' - p^2/2 - \u{445} x^2", "--coords", "x,p"],
+        &["ritz", l, "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "a", "--span", "0,1", "--from", "0", "--to", "1"],
+        &["geodesic", "dx^2 + \u{445}^2 dy^2", "--coords", "x,y"],
+        &["pb", "x", "\u{445} p_x", "--coords", "x"],
+        // A look-alike in a coordinate name.
+        &["el", "1/2 \u{445}'^2", "--coords", "\u{445}"],
+        &["hamilton", "p_\u{445}^2/2", "--coords", "\u{445}"],
+        &["geodesic", "d\u{445}^2", "--coords", "\u{445}"],
+        &["pb", "x", "p_x", "--coords", "\u{445}"],
+        &["ritz", "1/2 x'^2", "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "\u{445}", "--span", "0,1", "--from", "0", "--to", "1"],
+    ];
+    for args in cases {
+        check_bad(args, None, &[CYRILLIC]);
+    }
+}
+
+/// Issue 31, D3: control bytes from the input (an ESC sequence that would clear the screen,
+/// a NUL) are escaped in every diagnostic: the command line's, a scene's and the REPL's.
+#[test]
+fn control_bytes_never_reach_the_terminal() {
+    let raw = |s: &str| s.contains('\u{1b}') || s.contains('\u{0}');
+    for args in [
+        &["simplify", "x + \u{1b}[2J"][..],
+        &["el", "1/2 x'^2 \u{1b}[2J", "--coords", "x"],
+        &["el", "1/2 x'^2", "--coords", "x\u{1b}[2J"],
+        &["geodesic", "dx^2", "--coords", "x", "--set", "\u{1b}[2J=1", "--from", "0", "--to", "1"],
+    ] {
+        let out = run(args, None);
+        assert_eq!(out.code, Some(2), "{args:?}: {}", out.stderr);
+        assert!(!raw(&out.stderr) && out.stderr.contains("\\u{1b}"), "{args:?}: {:?}", out.stderr);
+    }
+    let dir = std::env::temp_dir().join(format!("lagrangian-ctl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let scene = dir.join("esc.scene");
+    std::fs::write(&scene, "coordinates x\nL = 1/2 x'^2 \u{1b}[2J\u{0}\nprint el\n").expect("scene written");
+    let out = run(&["run", scene.to_str().expect("UTF-8 path")], None);
+    assert_eq!(out.code, Some(2), "{}", out.stderr);
+    assert!(!raw(&out.stderr) && out.stderr.contains("\\u{1b}"), "{:?}", out.stderr);
+    std::fs::remove_dir_all(&dir).expect("temporary directory removed");
+    let repl = run(&["repl"], Some("coordinates x\nL = x'^2 \u{1b}[2J\n".as_bytes()));
+    assert!(!raw(&repl.stderr) && !raw(&repl.stdout), "{:?} {:?}", repl.stdout, repl.stderr);
+    assert!(repl.stdout.contains("\\u{1b}") || repl.stderr.contains("\\u{1b}"), "{:?}", repl.stdout);
 }

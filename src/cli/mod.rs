@@ -101,24 +101,34 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
 
 /// The first character of `text` that only looks like the Latin or Greek letter a reader
 /// sees (Cyrillic `х`, full-width `ｘ`) or is a combining mark, as an error message with its
-/// position. Names are ASCII or Greek (README); a look-alike would make a second symbol that
-/// prints like the first, so `x + х` would not simplify and nothing would say why.
+/// column: the parser's message ([`lagrangian::parse::lookalike_message`]), for names given
+/// in lists (`--positive`), which are not parsed as expressions.
 pub fn lookalike(text: &str) -> Option<String> {
     let (col, c, what) =
         text.chars().enumerate().find_map(|(i, c)| lagrangian::parse::lookalike_kind(c).map(|w| (i, c, w)))?;
-    let u = u32::from(c);
-    Some(format!("`{c}` (U+{u:04X}, column {}) is {what} that looks like another; names are ASCII or Greek", col + 1))
+    Some(format!("{} (column {})", lagrangian::parse::lookalike_message(c, what), col + 1))
 }
 
 /// A failure with its exit code.
 pub struct Failure {
     pub code: u8,
     pub message: String,
+    /// The message is a rendered diagnostic whose only escape sequences are its own colours
+    /// (the user's text in it is already escaped); any other message has every control
+    /// character escaped when printed.
+    pub styled: bool,
+}
+
+impl Failure {
+    /// A failure whose message is printed with its control characters escaped.
+    pub fn new(code: u8, message: impl Into<String>) -> Failure {
+        Failure { code, message: message.into(), styled: false }
+    }
 }
 
 /// Bad input from the user: exit code 2.
 pub fn bad_input(message: impl Into<String>) -> Failure {
-    Failure { code: 2, message: message.into() }
+    Failure::new(2, message)
 }
 
 impl Common {
@@ -162,18 +172,13 @@ pub fn read_expr_arg(arg: &str) -> Result<String, Failure> {
 pub fn parse_arg(arg: &str, decls: &Declarations) -> Result<(String, Expr), Failure> {
     let text = read_expr_arg(arg)?;
     let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
-    if let Some(msg) = lookalike(&text) {
-        return Err(bad_input(format!("error: {msg}")));
-    }
+    // Look-alike letters are refused by the parser, with their location.
     let e = parse_with(&text, decls).map_err(|e| bad_input(e.to_string()))?;
     Ok((text, e))
 }
 
 /// Parses a variable name (`θ`, `x'`, `p_x`).
 pub fn parse_var(text: &str, decls: &Declarations) -> Result<Symbol, Failure> {
-    if let Some(msg) = lookalike(text) {
-        return Err(bad_input(format!("error: {msg}")));
-    }
     let e = parse_with(text, decls).map_err(|e| bad_input(e.to_string()))?;
     e.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{text}` is not a variable")))
 }
@@ -203,21 +208,6 @@ fn default_sigpipe() {
     }
 }
 
-/// A message with control characters (a NUL byte from the input) shown as `\u{0}` instead of
-/// sent raw to the terminal; newlines, tabs and the escape sequences of coloured diagnostics
-/// stay.
-fn printable(message: &str) -> String {
-    let mut out = String::with_capacity(message.len());
-    for c in message.chars() {
-        if c.is_control() && !matches!(c, '\n' | '\t' | '\u{1b}') {
-            out.push_str(&format!("\\u{{{:x}}}", u32::from(c)));
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
-
 pub fn main() -> ExitCode {
     default_sigpipe();
     let cli = Cli::parse();
@@ -232,7 +222,8 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("{}", printable(&f.message));
+            let message = if f.styled { f.message } else { lagrangian::print::escape_controls(&f.message) };
+            eprintln!("{message}");
             ExitCode::from(f.code)
         }
     }

@@ -1133,15 +1133,9 @@ fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
             _ if in_comment || in_quote => {}
             _ => {
                 if let Some(what) = crate::parse::lookalike_kind(c) {
-                    return Err(SceneError::new(
-                        ErrorKind::Syntax,
-                        format!(
-                            "`{c}` (U+{:04X}) is {what} that looks like another; names are ASCII or Greek",
-                            u32::from(c)
-                        ),
-                    )
-                    .at((i, i + c.len_utf8()))
-                    .hint("retype the name with a Latin or Greek keyboard layout"));
+                    return Err(SceneError::new(ErrorKind::Syntax, crate::parse::lookalike_message(c, what))
+                        .at((i, i + c.len_utf8()))
+                        .hint(crate::parse::LOOKALIKE_HINT));
                 }
             }
         }
