@@ -2,6 +2,7 @@
 //! `W q'' = F` (first-order Lagrangians, §3.4; discrete mechanics, §4.7.2). They parse, call the library, and print.
 
 use clap::Subcommand;
+use lagrangian::compile::{ShootBudget, ShootError};
 use lagrangian::expr::Expr;
 use lagrangian::mechanics::{MechanicsError, Rule, System};
 use lagrangian::print::plain;
@@ -58,6 +59,12 @@ pub enum NotesCommand {
         /// Parameter values for the shooting (`R=2`).
         #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
         set: Vec<String>,
+        /// The shooting's budget of integration steps, all trial paths together.
+        #[arg(long, value_name = "N", default_value_t = lagrangian::compile::ShootBudget::DEFAULT_STEPS)]
+        max_steps: usize,
+        /// The shooting's budget of wall-clock seconds.
+        #[arg(long, value_name = "SECONDS", default_value_t = lagrangian::compile::ShootBudget::DEFAULT_SECONDS, value_parser = super::finite_f64)]
+        time_limit: f64,
         #[command(flatten)]
         common: Common,
     },
@@ -200,9 +207,13 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
-        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, common } => {
+        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, max_steps, time_limit, common } => {
             let values = set_values(&set)?;
-            geodesic(line_element, metric, embedding, coords, (from, to), &values, common)?
+            if max_steps == 0 || time_limit <= 0.0 {
+                return Err(bad_input("error: --max-steps and --time-limit must be positive"));
+            }
+            let budget = ShootBudget { max_steps, time_limit: std::time::Duration::from_secs_f64(time_limit) };
+            geodesic(line_element, metric, embedding, coords, (from, to), &values, budget, common)?
         }
         NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
@@ -293,6 +304,7 @@ fn set_values(set: &[String]) -> Result<Vec<(String, f64)>, Failure> {
     Ok(values)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn geodesic(
     line_element: Option<String>,
     metric: Option<String>,
@@ -300,6 +312,7 @@ fn geodesic(
     coords: Vec<String>,
     (from, to): (Vec<f64>, Vec<f64>),
     values: &[(String, f64)],
+    budget: ShootBudget,
     common: Common,
 ) -> Result<(), Failure> {
     use lagrangian::mechanics::{embedded, geodesic, geodesic_from_metric};
@@ -357,8 +370,14 @@ fn geodesic(
             return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
         }
         let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        let shot =
-            lagrangian::compile::shoot(&g, &from, &to, &bound, 1).map_err(|e| bad_input(format!("error: {e}")))?;
+        let shot = lagrangian::compile::shoot_with(&g, &from, &to, &bound, 1, budget).map_err(|e| {
+            let raise = match &e {
+                ShootError::Budget { steps: true, .. } => "; to search longer, raise --max-steps",
+                ShootError::Budget { steps: false, .. } => "; to search longer, raise --time-limit (seconds)",
+                _ => "",
+            };
+            bad_input(format!("error: {e}{raise}"))
+        })?;
         out.lines.push(shot.report_line());
         out.json.insert("initial_velocity".into(), json!(shot.velocity));
     }
