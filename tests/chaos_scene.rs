@@ -310,7 +310,7 @@ impl Counting {
 
 mod counting {
     use super::Counting;
-    use lagrangian::chaos::{Indicator, Indicators};
+    use lagrangian::chaos::{Budget, Indicator, Indicators};
     use lagrangian::expr::Expr;
     use lagrangian::scene::backend::{CompileRequest, Compiled, RunRequest, SystemRef, VariationalRequest};
     use lagrangian::scene::{Backend, BackendError, Line, NativeBackend, Trajectory};
@@ -349,9 +349,16 @@ mod counting {
             self.bump("compile_variational");
             NativeBackend.compile_variational(req)
         }
-        fn indicators(&self, c: &Compiled, x0: &[f64], t: f64, tol: f64) -> Result<Indicators, BackendError> {
+        fn indicators(
+            &self,
+            c: &Compiled,
+            x0: &[f64],
+            t: f64,
+            tol: f64,
+            budget: &Budget,
+        ) -> Result<Indicators, BackendError> {
             self.bump("indicators");
-            NativeBackend.indicators(c, x0, t, tol)
+            NativeBackend.indicators(c, x0, t, tol, budget)
         }
         fn chaos_map(
             &self,
@@ -359,11 +366,12 @@ mod counting {
             starts: &[Vec<f64>],
             t: f64,
             tol: f64,
+            budget: &Budget,
             which: Indicator,
             progress: &mut dyn FnMut(f64),
         ) -> Vec<Result<f64, BackendError>> {
             self.bump("chaos_map");
-            NativeBackend.chaos_map(c, starts, t, tol, which, progress)
+            NativeBackend.chaos_map(c, starts, t, tol, budget, which, progress)
         }
     }
 }

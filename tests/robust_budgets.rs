@@ -116,3 +116,79 @@ fn the_shooting_budget_counts_steps_of_every_trial_path() {
     let b = shoot_with(&sphere, &[1.0, 0.0], &[1.2, 0.5], &[], 1, ShootBudget::default()).expect("found");
     assert_eq!(a.velocity, b.velocity);
 }
+
+/// A pendulum, `H = p²/2 − cos θ`.
+const PENDULUM_SCENE: &str = "coordinates θ\nparameters g = 1, l = 1\nL = 1/2 l^2 θ'^2 + g l cos(θ)\n";
+
+/// Runs `scene` (a pendulum and one more statement) in a fresh directory under the cap.
+fn run_scene(statement: &str, limit: Duration) -> Capped {
+    let dir = std::env::temp_dir().join(format!("lagrangian-budget-{}-{}", std::process::id(), statement.len()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    std::fs::write(dir.join("s.scene"), format!("{PENDULUM_SCENE}{statement}\n")).expect("scene written");
+    let r = run_capped(&["run", "s.scene"], Some(&dir), limit);
+    std::fs::remove_dir_all(&dir).expect("temporary directory removed");
+    r
+}
+
+#[test]
+fn chaos_indicators_stop_at_their_step_budget_in_bounded_memory() {
+    // The hostile case itself, to t = 1e9: 10⁷ Taylor steps (about 14 s in the dev profile),
+    // then an error naming the budget. Before, it grew 31 MB/s until the cap aborted it.
+    let r = run_scene("megno θ = 1, θ' = 0 for t in 0..1e9", Duration::from_secs(300));
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("step limit of 10000000 steps"), "{}", r.stderr);
+    assert!(r.stderr.contains("`max_steps = N` (now 10000000)"), "{}", r.stderr);
+    for (stmt, needle) in [
+        ("lyapunov θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1000", "step limit of 1000 steps"),
+        ("fli θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1000", "step limit of 1000 steps"),
+        ("megno θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1e12 time_limit = 0.5", "time limit of 0.5 s"),
+        // A map whose starts run out of the budget is refused, not drawn with blank cells.
+        ("chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 max_steps = 1000 to m.csv", "step limit of 1000"),
+        ("chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 time_limit = 0.5 to m.csv", "time limit of 0.5 s"),
+    ] {
+        let r = run_scene(stmt, Duration::from_secs(120));
+        assert_eq!(r.code, Some(2), "{stmt}: {}", r.stderr);
+        assert!(r.stderr.contains(needle), "{stmt}: {}", r.stderr);
+        let raise = if needle.starts_with("time") { "`time_limit = SECONDS`" } else { "`max_steps = N`" };
+        assert!(r.stderr.contains(raise), "{stmt}: {}", r.stderr);
+        assert!(!r.stdout.contains("wrote"), "{stmt}: {}", r.stdout);
+    }
+    for (stmt, needle) in [
+        ("megno θ = 1, θ' = 0 for t in 0..10 max_steps = 2.5", "whole number of steps"),
+        ("megno θ = 1, θ' = 0 for t in 0..10 max_steps = 0", "whole number of steps"),
+        ("megno θ = 1, θ' = 0 for t in 0..10 time_limit = -1", "positive number of seconds"),
+    ] {
+        let r = run_scene(stmt, Duration::from_secs(60));
+        assert_eq!(r.code, Some(2), "{stmt}: {}", r.stderr);
+        assert!(r.stderr.contains(needle), "{stmt}: {}", r.stderr);
+    }
+    // Within its budget the statement prints what it printed without one (the budget only
+    // bounds; here 1096 Taylor steps).
+    let with = run_scene("megno θ = 1, θ' = 0 for t in 0..200 max_steps = 100000", Duration::from_secs(60));
+    let without = run_scene("megno θ = 1, θ' = 0 for t in 0..200", Duration::from_secs(60));
+    assert_eq!((with.code, without.code), (Some(0), Some(0)), "{} {}", with.stderr, without.stderr);
+    assert!(with.stdout.contains("MEGNO ⟨Y⟩ = "), "{}", with.stdout);
+    assert_eq!(with.stdout, without.stdout);
+}
+
+#[test]
+fn chaos_samples_are_thinned_evenly_to_their_budget() {
+    use lagrangian::chaos::{indicators, indicators_with, Budget};
+    let h = parse("p^2/2 - cos(q)").unwrap();
+    let var = lagrangian::compile::Variational::hamiltonian(&h, &["q"], &["p"], &[], 1, true).unwrap();
+    let full = indicators(&var, &[1.0, 0.0], 2000.0, 1e-12).unwrap();
+    let budget = Budget { max_samples: 100, ..Budget::default() };
+    let thin = indicators_with(&var, &[1.0, 0.0], 2000.0, 1e-12, &budget).unwrap();
+    // The same orbit and the same indicators at the end; only the kept samples differ.
+    assert_eq!((thin.steps, thin.megno, thin.fli), (full.steps, full.megno, full.fli));
+    assert!(full.samples.len() == full.steps && full.steps > 400, "{} steps", full.steps);
+    assert!((50..=101).contains(&thin.samples.len()), "{} samples", thin.samples.len());
+    // Every kept sample is one of the full run's, at an even stride, and the last is the end.
+    let stride = full.samples.iter().position(|s| *s == thin.samples[0]).unwrap() + 1;
+    assert!(stride.is_power_of_two() && stride >= full.steps / 101, "stride {stride}");
+    for (k, s) in thin.samples.iter().enumerate().take(thin.samples.len() - 1) {
+        assert_eq!(*s, full.samples[(k + 1) * stride - 1], "sample {k}");
+    }
+    assert_eq!(thin.samples.last(), full.samples.last());
+    assert_eq!(thin.samples.last().unwrap().t, 2000.0);
+}

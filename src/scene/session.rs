@@ -203,7 +203,7 @@ pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
     let kind = match &e {
         BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
         BackendError::Failed(_) => ErrorKind::Derivation,
-        BackendError::Numeric(_) => ErrorKind::Numeric,
+        BackendError::Numeric(_) | BackendError::Budget(_) => ErrorKind::Numeric,
     };
     let mut err = SceneError::new(kind, e.to_string()).at(span);
     if kind == ErrorKind::NotAvailable {
