@@ -272,3 +272,38 @@ fn control_bytes_never_reach_the_terminal() {
     assert!(!raw(&repl.stderr) && !raw(&repl.stdout), "{:?} {:?}", repl.stdout, repl.stderr);
     assert!(repl.stdout.contains("\\u{1b}") || repl.stderr.contains("\\u{1b}"), "{:?}", repl.stdout);
 }
+
+/// Issue 31, D6: a `--set` value is checked against `--positive`, as a scene's parameters are.
+/// The symbolic stages simplify with the assumption (`sqrt(R^2) = R`), so a negative value used
+/// to give an answer for another problem, silently (exit 0). Non-finite values are refused too.
+#[test]
+fn set_values_are_checked_against_positive() {
+    let sphere = ["geodesic", "R^2 dθ^2 + R^2 sin(θ)^2 dφ^2", "--coords", "θ,φ", "--from", "1,0", "--to", "2,1.5"];
+    let ritz = [
+        "ritz", "1/2 m x'^2 - 1/2 x^2", "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "a", "--span",
+        "0,1", "--from", "0", "--to", "1",
+    ];
+    for (base, name) in [(&sphere[..], "R"), (&ritz[..], "m")] {
+        let neg = format!("{name}=-2");
+        check_bad(
+            &[base, &["--positive", name, "--set", &neg]].concat(),
+            None,
+            &[&format!("`{name}` is declared positive (--positive) but its value is -2")],
+        );
+        let zero = format!("{name}=0");
+        check_bad(&[base, &["--positive", name, "--set", &zero]].concat(), None, &["declared positive"]);
+        let nan = format!("{name}=nan");
+        check_bad(&[base, &["--set", &nan]].concat(), None, &["is not a finite number"]);
+        // A positive value is accepted, and without the assumption a negative one too.
+        let pos = format!("{name}=2");
+        let ok = run(&[base, &["--positive", name, "--set", &pos]].concat(), None);
+        assert_eq!(ok.code, Some(0), "{}", ok.stderr);
+        let ok = run(&[base, &["--set", &neg]].concat(), None);
+        assert_eq!(ok.code, Some(0), "{}", ok.stderr);
+    }
+    let action = ["action", "--hamiltonian", "p^2/(2 m) + q^2/2", "--coord", "q", "--momentum", "p", "--energy", "1"];
+    check_bad(&[&action[..], &["--positive", "m", "--params", "m=-1"]].concat(), None, &["declared positive"]);
+    // Non-finite points and guesses.
+    check_bad(&[&sphere[..4], &["--from", "nan,0", "--to", "2,1.5"]].concat(), None, &["not a finite number"]);
+    check_bad(&[&ritz[..], &["--set", "m=1", "--guess", "inf"]].concat(), None, &["not a finite number"]);
+}

@@ -99,6 +99,34 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `name=value` pairs of a numeric option (`--set m=1,k=2`, `--params`): a plain name and a
+/// finite number each, and a name declared `--positive` must have a positive value, as a
+/// scene's `parameters positive m = -1` is refused: the symbolic stages simplified with
+/// `m > 0` (`sqrt(m^2) = m`), so a negative value would give a silently wrong number.
+pub fn name_values(flag: &str, pairs: &[String], positive: &[String]) -> Result<Vec<(String, f64)>, Failure> {
+    let mut values = Vec::new();
+    for kv in pairs {
+        let Some((k, v)) = kv.split_once('=') else {
+            return Err(bad_input(format!("error: {flag} takes name=value, got `{kv}`")));
+        };
+        let k = plain_name(k).map_err(|e| bad_input(format!("error: {flag} `{kv}`: {e}")))?;
+        let x: f64 =
+            v.trim().parse().map_err(|_| bad_input(format!("error: {flag} {k}: `{}` is not a number", v.trim())))?;
+        if !x.is_finite() {
+            return Err(bad_input(format!("error: {flag} {k}: `{}` is not a finite number", v.trim())));
+        }
+        if x <= 0.0 && positive.iter().any(|p| p.trim() == k) {
+            return Err(bad_input(format!(
+                "error: {flag} {k}={}: `{k}` is declared positive (--positive) but its value is {x}; \
+                 give a positive value, or drop `{k}` from --positive",
+                v.trim()
+            )));
+        }
+        values.push((k, x));
+    }
+    Ok(values)
+}
+
 /// The first character of `text` that only looks like the Latin or Greek letter a reader
 /// sees (Cyrillic `х`, full-width `ｘ`) or is a combining mark, as an error message with its
 /// column: the parser's message ([`lagrangian::parse::lookalike_message`]), for names given

@@ -51,10 +51,10 @@ pub enum NotesCommand {
         #[arg(long, value_delimiter = ',', required = true)]
         coords: Vec<String>,
         /// Start point (numbers, in coordinate order).
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         from: Vec<f64>,
         /// End point.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         to: Vec<f64>,
         /// Parameter values for the shooting (`R=2`).
         #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
@@ -97,7 +97,7 @@ pub enum NotesCommand {
         #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
         set: Vec<String>,
         /// Starting values of the unknowns for Newton (default 0).
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         guess: Vec<f64>,
         #[command(flatten)]
         common: Common,
@@ -208,7 +208,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             out.print();
         }
         NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, max_steps, time_limit, common } => {
-            let values = set_values(&set)?;
+            let values = super::name_values("--set", &set, &common.positive)?;
             if max_steps == 0 || time_limit <= 0.0 {
                 return Err(bad_input("error: --max-steps and --time-limit must be positive"));
             }
@@ -289,19 +289,6 @@ fn split_top(text: &str, sep: char) -> Vec<String> {
         }
     }
     out
-}
-
-/// `--set name=value,…` as pairs.
-fn set_values(set: &[String]) -> Result<Vec<(String, f64)>, Failure> {
-    let mut values = Vec::new();
-    for kv in set {
-        let Some((k, v)) = kv.split_once('=') else {
-            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
-        };
-        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
-        values.push((k.trim().to_string(), v));
-    }
-    Ok(values)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -417,7 +404,7 @@ fn ritz(
             _ => return Err(bad_input(format!("error: the unknown `{u}` must be a plain name"))),
         }
     }
-    let values = set_values(&set)?;
+    let values = super::name_values("--set", &set, &common.positive)?;
     let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
     let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let sol = r.solve(&guess, &bound).map_err(fail)?;
