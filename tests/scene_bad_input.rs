@@ -117,3 +117,17 @@ fn lookalike_identifiers() {
     let (code, err) = run_bytes(dir.path(), &with("# комментарий ｘ\nprint 1\n"));
     assert_eq!(code, 0, "{err}");
 }
+
+/// Issue 31, D11: a chaos map's range wider than f64 holds is refused at the range. Before,
+/// `θ = -1e308..1e308` wrote `inf` cell centres, reported every start failed, and exited 0.
+#[test]
+fn chaos_map_range_wider_than_f64() {
+    check(
+        &with("chaos_map megno θ = -1e308..1e308, p_θ = -1..1 for t in 0..1 points 2 to m.csv\n"),
+        &["the range of `θ` is wider than f64 can hold (1e308 − (-1e308) overflows)", "5 │ chaos_map", "narrow the range"],
+    );
+    check(
+        &with("chaos_map megno θ = -1..1, p_θ = -1e308..1.7e308 for t in 0..1 points 2 to m.csv\n"),
+        &["the range of `p_θ` is wider than f64 can hold"],
+    );
+}

@@ -291,6 +291,19 @@ impl Session {
                 )
                 .at((lo.span.0, hi.span.1)));
             }
+            // The cells' centres are a + (b − a)(k + ½)/N: a range wider than f64 holds
+            // (−1e308..1e308) would make them infinite, and every start would fail.
+            if !(b - a).is_finite() {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!(
+                        "the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)",
+                        sym.text
+                    ),
+                )
+                .at((lo.span.0, hi.span.1))
+                .hint("narrow the range so that its width is below 1.8e308"));
+            }
             axes.push((sym.clone(), a, b));
         }
         let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
