@@ -307,3 +307,25 @@ fn set_values_are_checked_against_positive() {
     check_bad(&[&sphere[..4], &["--from", "nan,0", "--to", "2,1.5"]].concat(), None, &["not a finite number"]);
     check_bad(&[&ritz[..], &["--set", "m=1", "--guess", "inf"]].concat(), None, &["not a finite number"]);
 }
+
+/// Issue 31, D12: the step of `discretize` is a constant. Before, `--step t` (or a
+/// coordinate) was substituted into L with the time and positions and printed
+/// `DEL_x: undefined = 0` with exit 0.
+#[test]
+fn discretize_step_is_a_constant() {
+    let base = ["discretize", "1/2 x'^2 - x^2/2", "--coords", "x", "--step"];
+    for (step, what) in [
+        ("t", "the time `t`"),
+        ("2 t", "the time `t`"),
+        ("x", "the coordinate `x`"),
+        ("x'", "the velocity `x'`"),
+        ("h x_1", "the point `x_1` of the scheme"),
+    ] {
+        check_bad(&[&base[..], &[step]].concat(), None, &["the step of discretize is a constant", what]);
+    }
+    for step in ["h", "1/10", "h/2"] {
+        let out = run(&[&base[..], &[step]].concat(), None);
+        assert_eq!(out.code, Some(0), "{step}: {}", out.stderr);
+        assert!(out.stdout.contains("DEL_x: ") && !out.stdout.contains("undefined"), "{}", out.stdout);
+    }
+}
