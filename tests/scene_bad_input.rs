@@ -131,3 +131,26 @@ fn chaos_map_range_wider_than_f64() {
         &["the range of `p_θ` is wider than f64 can hold"],
     );
 }
+
+/// Issue 31, D13: `rayleigh L = …` made the dissipation function the Lagrangian (the run
+/// integrated R as L, exit 0); a Rayleigh function's name must be its own.
+#[test]
+fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
+    let scene = |stmt: &str| {
+        format!(
+            "coordinates x\nparameters b = 1\nL = 1/2 x'^2 - 1/2 x^2\nV = x^2\n{stmt}\n\
+             simulate x = 1, x' = 0 for t in 0..1 with rk4 dt = 0.1\nexport x to out.csv\n"
+        )
+        .into_bytes()
+    };
+    check(&scene("rayleigh L = 1/2 b x'^2"), &["`L` is the name of the Lagrangian", "5 │ rayleigh L", "rayleigh R = …"]);
+    check(&scene("rayleigh H = 1/2 b x'^2"), &["`H` is the name of the Hamiltonian"]);
+    check(&scene("rayleigh V = 1/2 b x'^2"), &["`V` is already a definition"]);
+    check(&scene("rayleigh x = 1/2 b x'^2"), &["`x` is already a coordinate"]);
+    // A name of its own is defined, and no name is fine.
+    for stmt in ["rayleigh R = 1/2 b x'^2\nprint R", "rayleigh 1/2 b x'^2"] {
+        let dir = tempfile::tempdir().unwrap();
+        let (code, err) = run_bytes(dir.path(), &scene(stmt));
+        assert_eq!(code, 0, "{stmt}: {err}");
+    }
+}
