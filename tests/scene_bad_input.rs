@@ -154,3 +154,38 @@ fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
         assert_eq!(code, 0, "{stmt}: {err}");
     }
 }
+
+/// Issue 31, D14: a figure of an expression that is not finite anywhere along the run is
+/// refused at the expression (exports refuse such values too); before, the plot or GIF was
+/// written with nothing on it and exit 0. Partly non-finite values are drawn with a note.
+#[test]
+fn figures_of_nowhere_finite_expressions() {
+    let run = "coordinates x\nL = 1/2 x'^2 - 1/2 x^2\nsimulate x = 1, x' = 0 for t in 0..10 with rk4 dt = 0.1\n";
+    let with_run = |stmt: &str| format!("{run}{stmt}\n").into_bytes();
+    for (stmt, what) in [
+        ("plot sqrt(-1 - x^2) vs t to a.svg", "`sqrt(-1 - x^2)` is not finite at any of the 101 stored states of run1"),
+        ("plot x, log(x - 2) vs t to a.svg", "`log(x - 2)` is not finite at any"),
+        ("plot path x, sqrt(-1 - x^2) to a.svg", "`sqrt(-1 - x^2)` is not finite at any"),
+        ("animate (x, sqrt(-1 - x^2)) to a.gif", "`sqrt(-1 - x^2)` is not finite at any"),
+    ] {
+        check(&with_run(stmt), &[what, "nothing to draw", "leaves its domain"]);
+    }
+    // Partly finite: drawn, with a note counting the points left out. x = cos t, so
+    // sqrt(x − 1/2) is NaN where cos t < 1/2: from t = 1.1 (the first stored t past π/3).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("p.scene"), with_run("plot path x, sqrt(x - 0.5) to b.svg")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .args(["run", "p.scene"])
+        .env("LAGRANGIAN_CACHE_DIR", "off")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let expected = (0..=100).filter(|k| (f64::from(*k) * 0.1).cos() < 0.5).count();
+    assert!(
+        stdout.contains(&format!("note: `sqrt(x - 0.5)` is not finite at {expected} of the 101 stored states of run1 (the first at t = 1.1)")),
+        "{stdout}"
+    );
+    assert!(dir.path().join("b.svg").exists());
+}

@@ -186,6 +186,43 @@ impl Session {
         Ok(())
     }
 
+    /// Refuses values of `what` along a run that are not finite at any stored state (a
+    /// figure of nothing, which exports refuse too), and notes how many are not drawn when
+    /// only some are not finite. `times` are the stored states' times.
+    pub(super) fn drawable(
+        &mut self,
+        values: &[f64],
+        what: &str,
+        run: &str,
+        times: &[f64],
+        span: Span,
+    ) -> Result<(), SceneError> {
+        let bad = values.iter().filter(|v| !v.is_finite()).count();
+        if bad == 0 {
+            return Ok(());
+        }
+        let what = what.trim();
+        if bad == values.len() {
+            return Err(SceneError::new(
+                ErrorKind::Numeric,
+                format!(
+                    "`{what}` is not finite at any of the {} stored states of {run} (the first is {}): there is nothing to draw",
+                    values.len(),
+                    values[0]
+                ),
+            )
+            .at(span)
+            .hint("the expression leaves its domain (a square root or logarithm of a negative number, a division by zero) or overflows f64 all along the run; draw another expression, or change the run"));
+        }
+        let first = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        self.output.push(format!(
+            "note: `{what}` is not finite at {bad} of the {} stored states of {run} (the first at t = {}); those points are not drawn",
+            values.len(),
+            times.get(first).map_or_else(|| "?".to_string(), |t| format!("{t}"))
+        ));
+        Ok(())
+    }
+
     /// Announces an output file. The line is withdrawn if the file is not moved into place
     /// (a later statement of the scene fails), so "wrote" is never printed for a file that
     /// does not exist.
@@ -206,6 +243,8 @@ impl Session {
                     for (src, label) in exprs.iter().zip(&labels) {
                         let e = self.resolved(src)?;
                         let ys = self.along(&r, &e, src.span)?;
+                        let run = self.runs[id].name.clone();
+                        self.drawable(&ys, &src.text, &run, &r.traj.t, src.span)?;
                         let label =
                             if ids.len() > 1 { format!("{label}, {}", self.runs[id].name) } else { label.clone() };
                         series.push(Series { label, points: r.traj.t.iter().copied().zip(ys).collect() });
@@ -235,14 +274,19 @@ impl Session {
                     let r = self.demand_run(id)?;
                     let ex = self.resolved(x)?;
                     let ey = self.resolved(y)?;
+                    let run = self.runs[id].name.clone();
                     let pts = if poincare {
                         let sub = self.section_of(&r)?;
                         let xs = self.along(&sub, &ex, x.span)?;
                         let ys = self.along(&sub, &ey, y.span)?;
+                        self.drawable(&xs, &x.text, &run, &sub.traj.t, x.span)?;
+                        self.drawable(&ys, &y.text, &run, &sub.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     } else {
                         let xs = self.along(&r, &ex, x.span)?;
                         let ys = self.along(&r, &ey, y.span)?;
+                        self.drawable(&xs, &x.text, &run, &r.traj.t, x.span)?;
+                        self.drawable(&ys, &y.text, &run, &r.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     };
                     let label = match &group {
@@ -266,6 +310,9 @@ impl Session {
                 for &id in &ids {
                     let r = self.demand_run(id)?;
                     let errors = self.energy_errors(&r)?;
+                    let run = self.runs[id].name.clone();
+                    let at = self.span;
+                    self.drawable(&errors, "|ΔE/E₀|", &run, &r.traj.t, at)?;
                     let pts = r.traj.t.iter().copied().zip(errors).collect();
                     series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name), points: pts });
                 }
