@@ -329,3 +329,47 @@ fn discretize_step_is_a_constant() {
         assert!(out.stdout.contains("DEL_x: ") && !out.stdout.contains("undefined"), "{}", out.stdout);
     }
 }
+
+/// Issue 31: with `--format json` an error is one JSON object on standard output,
+/// `{"error": {"kind", "message", "span", "hints"}}`, with the same exit code as without, and
+/// nothing on standard error (the shape is documented in the README). Before, stdout was
+/// empty and the error was plain text on stderr.
+#[test]
+fn errors_are_json_objects_with_format_json() {
+    let json = |args: &[&str]| -> serde_json::Value {
+        let with = run(&[args, &["--format", "json"]].concat(), None);
+        let without = run(args, None);
+        assert_eq!(with.code, without.code, "{args:?}: the exit code changed with --format json");
+        assert_ne!(with.code, Some(0), "{args:?} succeeded");
+        assert!(with.stderr.is_empty(), "{args:?}: stderr {}", with.stderr);
+        assert_eq!(with.stdout.lines().count(), 1, "{args:?}: {}", with.stdout);
+        let v: serde_json::Value = serde_json::from_str(&with.stdout).expect("stdout is JSON");
+        let e = &v["error"];
+        let keys: Vec<&String> = e.as_object().expect("an object").keys().collect();
+        assert_eq!(keys, ["hints", "kind", "message", "span"], "{v}");
+        // The message is the terminal's sentence, without its `error: ` prefix.
+        let message = e["message"].as_str().unwrap();
+        assert!(!message.starts_with("error:") && without.stderr.contains(message), "{v}\n{}", without.stderr);
+        v
+    };
+    // A parse error: where, in characters and bytes (`х` is two bytes, at byte 4).
+    let v = json(&["simplify", "x + \u{445}"]);
+    assert_eq!(v["error"]["kind"], "parse");
+    assert_eq!(v["error"]["span"], serde_json::json!({"line": 1, "column": 5, "start": 4, "end": 6}));
+    assert_eq!(v["error"]["hints"], serde_json::json!(["retype the name with a Latin or Greek keyboard layout"]));
+    let v = json(&["el", "1/2 x'^2 + (x", "--coords", "x"]);
+    assert_eq!((v["error"]["kind"].as_str(), v["error"]["span"]["column"].as_u64()), (Some("parse"), Some(14)), "{v}");
+    // A derivation refused: no location.
+    let v = json(&["el", "1/2 y'^2", "--coords", "x"]);
+    assert_eq!((v["error"]["kind"].as_str(), &v["error"]["span"]), (Some("mechanics"), &serde_json::Value::Null));
+    assert!(v["error"]["message"].as_str().unwrap().contains("`y` is not a coordinate"), "{v}");
+    // A numeric failure, and a bad argument.
+    let v = json(&["geodesic", "dx^2/(x-1/2)^2 + dy^2", "--coords", "x,y", "--from", "0,0", "--to", "1,0", "--max-steps", "1000"]);
+    assert_eq!(v["error"]["kind"], "numeric");
+    let v = json(&["ritz", "1/2 x'^2", "--coords", "x", "--trial", "t", "--unknowns", "a", "--span", "0,1,2", "--from", "0", "--to", "1"]);
+    assert_eq!(v["error"]["kind"], "input");
+    // A usage error clap reports before anything runs is an object too.
+    let v = json(&["simplify", "x", "--bogus"]);
+    assert_eq!(v["error"]["kind"], "usage");
+    assert!(v["error"]["message"].as_str().unwrap().contains("--bogus"), "{v}");
+}

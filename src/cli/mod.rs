@@ -145,18 +145,71 @@ pub struct Failure {
     /// (the user's text in it is already escaped); any other message has every control
     /// character escaped when printed.
     pub styled: bool,
+    /// What the failure is, for `--format json` (`parse`, `mechanics`, `input`, `usage`, …).
+    pub kind: &'static str,
+    /// Where in the input, for `--format json`: a parse error's location.
+    pub span: Option<lagrangian::parse::ParseError>,
 }
 
 impl Failure {
     /// A failure whose message is printed with its control characters escaped.
     pub fn new(code: u8, message: impl Into<String>) -> Failure {
-        Failure { code, message: message.into(), styled: false }
+        let kind = match code {
+            2 => "input",
+            130 => "interrupted",
+            _ => "internal",
+        };
+        Failure { code, message: message.into(), styled: false, kind, span: None }
+    }
+
+    /// A parse error, with its location kept for `--format json`.
+    pub fn parse(e: lagrangian::parse::ParseError) -> Failure {
+        Failure { kind: "parse", ..Failure::new(2, e.to_string()) }.at(e)
+    }
+
+    fn at(mut self, e: lagrangian::parse::ParseError) -> Failure {
+        self.span = Some(e);
+        self
+    }
+
+    /// The error as the JSON object `--format json` prints on standard output:
+    /// `{"error": {"kind", "message", "span", "hints"}}` (documented in the README, under the command line).
+    /// `message` is the sentence without the terminal's `error: ` prefix, source line and
+    /// caret; `span` is `{"line", "column", "start", "end"}` (1-based line and column in
+    /// characters, byte offsets `start..end` in the argument) or `null`.
+    pub fn json(&self) -> serde_json::Value {
+        let (message, span, hints) = match &self.span {
+            Some(e) => (
+                e.message.clone(),
+                serde_json::json!({ "line": e.line, "column": e.column, "start": e.span.0, "end": e.span.1 }),
+                e.hint.iter().cloned().collect::<Vec<_>>(),
+            ),
+            None => {
+                let text = self.message.trim();
+                let text = text.strip_prefix("error: ").unwrap_or(text);
+                // A trailing `= hint: …` line of a message becomes a hint.
+                let (message, hint) = match text.split_once("\n  = hint: ") {
+                    Some((m, h)) => (m.to_string(), vec![h.trim().to_string()]),
+                    None => (text.to_string(), Vec::new()),
+                };
+                (message, serde_json::Value::Null, hint)
+            }
+        };
+        serde_json::json!({ "error": { "kind": self.kind, "message": message, "span": span, "hints": hints } })
     }
 }
 
 /// Bad input from the user: exit code 2.
 pub fn bad_input(message: impl Into<String>) -> Failure {
     Failure::new(2, message)
+}
+
+/// A mechanics error: a parse error keeps its location, any other is of kind `mechanics`.
+pub fn mechanics_failure(e: lagrangian::mechanics::MechanicsError) -> Failure {
+    match e {
+        lagrangian::mechanics::MechanicsError::Parse(p) => Failure::parse(p),
+        other => Failure { kind: "mechanics", ..bad_input(other.to_string()) },
+    }
 }
 
 impl Common {
@@ -201,13 +254,13 @@ pub fn parse_arg(arg: &str, decls: &Declarations) -> Result<(String, Expr), Fail
     let text = read_expr_arg(arg)?;
     let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
     // Look-alike letters are refused by the parser, with their location.
-    let e = parse_with(&text, decls).map_err(|e| bad_input(e.to_string()))?;
+    let e = parse_with(&text, decls).map_err(Failure::parse)?;
     Ok((text, e))
 }
 
 /// Parses a variable name (`θ`, `x'`, `p_x`).
 pub fn parse_var(text: &str, decls: &Declarations) -> Result<Symbol, Failure> {
-    let e = parse_with(text, decls).map_err(|e| bad_input(e.to_string()))?;
+    let e = parse_with(text, decls).map_err(Failure::parse)?;
     e.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{text}` is not a variable")))
 }
 
@@ -236,9 +289,33 @@ fn default_sigpipe() {
     }
 }
 
+/// Whether the command line asks for `--format json` (read from the raw arguments, for a
+/// usage error clap reports before anything is parsed).
+fn asks_for_json(args: &[std::ffi::OsString]) -> bool {
+    args.windows(2).any(|w| w[0] == "--format" && w[1] == "json") || args.iter().any(|a| a == "--format=json")
+}
+
 pub fn main() -> ExitCode {
+    use clap::{CommandFactory, FromArgMatches};
     default_sigpipe();
-    let cli = Cli::parse();
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let parsed = Cli::command().try_get_matches_from(&args).and_then(|m| Ok((Cli::from_arg_matches(&m)?, m)));
+    let (cli, matches) = match parsed {
+        Ok(p) => p,
+        Err(e) if asks_for_json(&args) && e.use_stderr() => {
+            // A usage error is an error object too when JSON was asked for (exit 2, as clap).
+            let message = e.render().to_string();
+            let message = message.lines().next().unwrap_or_default().to_string();
+            let f = Failure { kind: "usage", ..bad_input(message) };
+            println!("{}", f.json());
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
+    let json = matches
+        .subcommand()
+        .and_then(|(_, m)| m.try_get_one::<OutFormat>("format").ok().flatten())
+        .is_some_and(|f| *f == OutFormat::Json);
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
         Some(Command::Mechanics(c)) => mechanics::run(c),
@@ -249,6 +326,11 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if json => {
+            // One JSON object on standard output, nothing on standard error; the same exit code.
+            println!("{}", f.json());
+            ExitCode::from(f.code)
+        }
         Err(f) => {
             let message = if f.styled { f.message } else { lagrangian::print::escape_controls(&f.message) };
             eprintln!("{message}");

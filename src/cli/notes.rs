@@ -126,7 +126,7 @@ pub enum NotesCommand {
 }
 
 fn fail(e: MechanicsError) -> Failure {
-    bad_input(e.to_string())
+    super::mechanics_failure(e)
 }
 
 pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
@@ -306,7 +306,7 @@ fn geodesic(
     let decls = common.declarations();
     let mut z = Vec::new();
     for c in &coords {
-        let e = lagrangian::parse_with(c.trim(), &decls).map_err(|e| bad_input(e.to_string()))?;
+        let e = lagrangian::parse_with(c.trim(), &decls).map_err(Failure::parse)?;
         match e.as_sym() {
             Some(s) if s.primes() == 0 && !s.is_time() => z.push(s.clone()),
             _ => return Err(fail(MechanicsError::BadCoordinate(c.clone()))),
@@ -363,7 +363,7 @@ fn geodesic(
                 ShootError::Budget { steps: false, .. } => "; to search longer, raise --time-limit (seconds)",
                 _ => "",
             };
-            bad_input(format!("error: {e}{raise}"))
+            Failure { kind: "numeric", ..bad_input(format!("error: {e}{raise}")) }
         })?;
         out.lines.push(shot.report_line());
         out.json.insert("initial_velocity".into(), json!(shot.velocity));

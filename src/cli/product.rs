@@ -69,7 +69,7 @@ impl CacheArgs {
 fn report(e: &SceneError) -> Failure {
     let code = if e.kind == ErrorKind::NotAvailable { 1 } else { 2 };
     let color = std::io::stderr().is_terminal();
-    Failure { code, message: e.render(color), styled: color }
+    Failure { styled: color, kind: "scene", ..Failure::new(code, e.render(color)) }
 }
 
 pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
