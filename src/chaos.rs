@@ -20,10 +20,57 @@
 //! Floquet multipliers: the linear stability of a periodic orbit, or of a periodically
 //! forced linear system such as Mathieu's equation.
 
+use std::time::{Duration, Instant};
+
 use rayon::prelude::*;
 
 use crate::compile::Variational;
-use crate::integrate::{Integrate, IntegrateError, Status, Taylor};
+use crate::integrate::{FailureReason, Integrate, IntegrateError, Status, Taylor};
+
+/// What a chaos statement may spend: Taylor steps per orbit, wall-clock time for all its
+/// orbits together, and samples kept along an orbit. An indicator over `0..1e9` would
+/// otherwise step for hours and keep every step's sample (31 MB/s); past the step or time
+/// budget the orbit ends with [`FailureReason::StepLimit`] or [`FailureReason::TimeLimit`],
+/// and past `max_samples` the kept samples are thinned evenly (every other one dropped and
+/// the stride doubled, as [`crate::integrate::Output::AtMost`] does), so memory is bounded
+/// whatever the span.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Budget {
+    /// Taylor steps of one orbit.
+    pub max_steps: usize,
+    /// When every orbit of the statement must have ended (`None`: no time budget).
+    pub deadline: Option<Instant>,
+    /// The time budget the deadline came from, for the error message.
+    pub time_limit: Option<Duration>,
+    /// Samples kept along one orbit (at least 2).
+    pub max_samples: usize,
+}
+
+impl Budget {
+    /// The default step budget of an orbit: 10⁷ Taylor steps (seconds for a small system).
+    pub const DEFAULT_STEPS: usize = 10_000_000;
+    /// The default time budget of a statement: 600 s.
+    pub const DEFAULT_SECONDS: f64 = 600.0;
+    /// The default number of samples kept along an orbit.
+    pub const DEFAULT_SAMPLES: usize = 20_000;
+
+    /// A budget of `max_steps` steps per orbit and `time_limit` from now.
+    pub fn new(max_steps: usize, time_limit: Duration) -> Budget {
+        Budget {
+            max_steps,
+            deadline: Instant::now().checked_add(time_limit),
+            time_limit: Some(time_limit),
+            max_samples: Budget::DEFAULT_SAMPLES,
+        }
+    }
+}
+
+impl Default for Budget {
+    /// The default budgets, the time counted from now.
+    fn default() -> Budget {
+        Budget::new(Budget::DEFAULT_STEPS, Duration::from_secs_f64(Budget::DEFAULT_SECONDS))
+    }
+}
 
 /// Gauss–Legendre nodes and weights on `[−1, 1]`, 5 points (exact for degree 9; Abramowitz &
 /// Stegun, Table 25.4).
@@ -58,7 +105,8 @@ pub struct Indicators {
     pub fli: f64,
     /// The mean MEGNO `Ȳ` at the end time (NaN without the accumulator).
     pub megno: f64,
-    /// The indicators along the run, one sample per step.
+    /// The indicators along the run: one sample per step, thinned evenly to at most
+    /// [`Budget::max_samples`] (the last step's sample is always kept).
     pub samples: Vec<Sample>,
     /// Taylor steps taken.
     pub steps: usize,
@@ -66,8 +114,19 @@ pub struct Indicators {
 
 /// Integrates the variational system from `x0` (tangents start as unit vectors) over
 /// `0..t_end` with the Taylor method at `tol`, re-orthonormalising the tangent vectors after
-/// every step.
+/// every step, within the default [`Budget`].
 pub fn indicators(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result<Indicators, IntegrateError> {
+    indicators_with(sys, x0, t_end, tol, &Budget::default())
+}
+
+/// [`indicators`] within `budget`.
+pub fn indicators_with(
+    sys: &Variational,
+    x0: &[f64],
+    t_end: f64,
+    tol: f64,
+    budget: &Budget,
+) -> Result<Indicators, IntegrateError> {
     let (n, m) = (sys.n(), sys.tangents());
     let dim = sys.dim();
     let method = Taylor::new(tol);
@@ -78,7 +137,22 @@ pub fn indicators(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result
     let mut y = vec![0.0; dim];
     let mut buf = vec![0.0; dim];
     let mut samples = Vec::new();
+    let max_samples = budget.max_samples.max(2);
+    let (mut stride, mut taken) = (1usize, 0usize);
+    let stop = |solver: &crate::integrate::Solver<'_, Variational, Taylor>, reason: FailureReason| IntegrateError {
+        t: solver.t(),
+        state: solver.y()[..n].to_vec(),
+        reason,
+        steps: solver.steps(),
+    };
     loop {
+        if solver.steps() >= budget.max_steps {
+            return Err(stop(&solver, FailureReason::StepLimit { max_steps: budget.max_steps }));
+        }
+        if solver.steps() % 64 == 0 && budget.deadline.is_some_and(|d| Instant::now() >= d) {
+            let seconds = budget.time_limit.map_or(0.0, |l| l.as_secs_f64());
+            return Err(stop(&solver, FailureReason::TimeLimit { seconds }));
+        }
         let status = solver.step()?;
         let (t0, t1) = (solver.previous().0, solver.t());
         if sys.has_megno() {
@@ -107,13 +181,27 @@ pub fn indicators(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result
         }
         fli = fli.max(logs[0]);
         solver.set_state(t1, &y);
-        samples.push(Sample {
-            t: t1,
-            lyapunov: logs[0] / t1,
-            log_norm: logs[0],
-            megno: if sys.has_megno() { ybar_int / t1 } else { f64::NAN },
-        });
-        if status == Status::Finished {
+        let finished = status == Status::Finished;
+        taken += 1;
+        if taken % stride == 0 || finished {
+            samples.push(Sample {
+                t: t1,
+                lyapunov: logs[0] / t1,
+                log_norm: logs[0],
+                megno: if sys.has_megno() { ybar_int / t1 } else { f64::NAN },
+            });
+            if samples.len() > max_samples && !finished {
+                // Keep the 2nd, 4th, … sample: those are the steps that are multiples of the
+                // doubled stride, so the kept ones stay evenly spaced in steps.
+                let mut k = 0;
+                samples.retain(|_| {
+                    k += 1;
+                    k % 2 == 0
+                });
+                stride *= 2;
+            }
+        }
+        if finished {
             break;
         }
     }
@@ -149,10 +237,17 @@ pub enum Indicator {
     Megno,
 }
 
-/// An indicator over many initial conditions, in parallel (rayon). A start whose
-/// integration fails (escapes to infinity, hits a singularity) gets NaN.
+/// An indicator over many initial conditions, in parallel (rayon), within the default
+/// [`Budget`]. A start whose integration fails (escapes to infinity, hits a singularity, runs
+/// out of the budget) gets NaN; the scene's `chaos_map` goes through [`indicators_with`] and
+/// refuses a map whose starts ran out of the budget ([`is_budget`]).
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
     starts.par_iter().map(|x0| indicators(sys, x0, t_end, tol).map_or(f64::NAN, |r| r.value(which))).collect()
+}
+
+/// Whether `e` is an orbit stopped by its [`Budget`] (steps or time), not by its dynamics.
+pub fn is_budget(e: &IntegrateError) -> bool {
+    matches!(e.reason, FailureReason::StepLimit { .. } | FailureReason::TimeLimit { .. })
 }
 
 /// The state transition matrix `Φ(t_end)` (row-major, `n × n`) and the state at `t_end`, by

@@ -274,6 +274,27 @@ pub fn lookalike_kind(c: char) -> Option<&'static str> {
     }
 }
 
+/// The one message for a look-alike character `c` of kind `what` ([`lookalike_kind`]): the
+/// parser, the command line's name lists, coordinate names and scenes all say the same.
+pub fn lookalike_message(c: char, what: &str) -> String {
+    format!("`{c}` (U+{:04X}) is {what} that looks like another; names are ASCII or Greek", u32::from(c))
+}
+
+/// What to do about a look-alike character.
+pub const LOOKALIKE_HINT: &str = "retype the name with a Latin or Greek keyboard layout";
+
+/// Refuses the first look-alike character of `input` ([`lookalike_kind`]) at its location.
+/// Every expression and every name the engine reads goes through this, so no command can
+/// take Cyrillic `х` for a new constant beside `x`.
+pub fn refuse_lookalikes(input: &str) -> Result<(), ParseError> {
+    match input.char_indices().find_map(|(i, c)| lookalike_kind(c).map(|w| (i, c, w))) {
+        None => Ok(()),
+        Some((i, c, what)) => {
+            Err(ParseError::new(input, (i, i + c.len_utf8()), lookalike_message(c, what)).with_hint(LOOKALIKE_HINT))
+        }
+    }
+}
+
 /// Parses an expression with no declared functions or assumptions.
 pub fn parse(input: &str) -> Result<Expr, ParseError> {
     parse_with(input, &Declarations::default())
@@ -291,6 +312,7 @@ pub fn parse_with(input: &str, decls: &Declarations) -> Result<Expr, ParseError>
     if input.trim().is_empty() {
         return Err(ParseError::new(input, (0, input.len()), "empty input: expected an expression"));
     }
+    refuse_lookalikes(input)?;
     let depth = check_paren_depth(input)?;
     with_stack_for_depth(depth, || parse_checked(input, decls))
 }

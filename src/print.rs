@@ -43,6 +43,43 @@ pub fn render(e: &Expr, format: Format) -> String {
     Printer { format }.expr(e).text
 }
 
+/// `text` with every control character written as `\u{1b}` instead of sent raw, for
+/// diagnostics that echo the user's input: an escape sequence in an input (`\x1b[2J`) must
+/// not clear the user's screen, and a NUL must not vanish. Newlines, tabs and the `\r` of a
+/// `\r\n` pair stay. Coloured diagnostics add their own escapes after this.
+pub fn escape_controls(text: &str) -> String {
+    escape_controls_at(text, &mut [])
+}
+
+/// [`escape_controls`], also moving each byte offset of `offsets` (a diagnostic's span) to the
+/// same place in the escaped text.
+pub fn escape_controls_at(text: &str, offsets: &mut [usize]) -> String {
+    let original: Vec<usize> = offsets.to_vec();
+    let mut moved = vec![false; offsets.len()];
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        for (k, &o) in original.iter().enumerate() {
+            if !moved[k] && o <= i {
+                offsets[k] = out.len();
+                moved[k] = true;
+            }
+        }
+        let keep = matches!(c, '\n' | '\t') || (c == '\r' && chars.peek().map(|p| p.1) == Some('\n'));
+        if c.is_control() && !keep {
+            out.push_str(&format!("\\u{{{:x}}}", u32::from(c)));
+        } else {
+            out.push(c);
+        }
+    }
+    for (k, m) in moved.iter().enumerate() {
+        if !m {
+            offsets[k] = out.len();
+        }
+    }
+    out
+}
+
 /// Renders a symbol on its own (coordinate names in tables and JSON).
 pub fn symbol(s: &Symbol, format: Format) -> String {
     Printer { format }.symbol(s)

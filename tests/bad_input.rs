@@ -174,7 +174,7 @@ fn issue_16_unclear_errors_are_clear() {
     assert_eq!(out.code, Some(2), "{}", out.stderr);
     assert!(out.stderr.contains("\\u{1}") && !out.stderr.contains('\u{1}'), "{:?}", out.stderr);
     // Look-alike letters: Cyrillic, full-width, combining marks.
-    check_bad(&["simplify", "x + \u{445}"], None, &["`х` (U+0445, column 5) is a Cyrillic letter", "ASCII or Greek"]);
+    check_bad(&["simplify", "x + \u{445}"], None, &["`х` (U+0445) is a Cyrillic letter", "column 5", "ASCII or Greek"]);
     check_bad(&["simplify", "\u{ff58} + 1"], None, &["U+FF58", "full-width"]);
     check_bad(&["simplify", "x\u{301} + 1"], None, &["U+0301", "combining mark"]);
     check_bad(&["diff", "x^2", "\u{445}"], None, &["Cyrillic"]);
@@ -207,4 +207,237 @@ fn issue_16_constant_constraints_canonical_detail_and_latex_braces() {
 
     let repl = run(&["repl"], Some(b"coordinates x\npb x^2, p_x\nlatex\n"));
     assert!(repl.stdout.contains(r"\{x^2, p_x\} = 2 x"), "{}", repl.stdout);
+}
+
+/// The message `simplify` gives for a Cyrillic `х` (issue 31, D3): every command says the same.
+const CYRILLIC: &str = "`х` (U+0445) is a Cyrillic letter that looks like another; names are ASCII or Greek";
+
+/// Issue 31, D3: a look-alike letter is refused by every command, in the expression or in a
+/// name list, with `simplify`'s message. Before, `el "1/2 m x'^2 - 1/2 k х^2" --coords x`
+/// printed `E_x = m x''`: the Cyrillic `х` was a new constant.
+#[test]
+fn lookalike_letters_are_refused_by_every_command() {
+    let l = "1/2 m x'^2 - 1/2 k \u{445}^2";
+    let h = "p_x^2/(2 m) + 1/2 k \u{445}^2";
+    let cases: &[&[&str]] = &[
+        &["simplify", l],
+        &["el", l, "--coords", "x"],
+        &["legendre", l, "--coords", "x"],
+        &["hamilton", h, "--coords", "x"],
+        &["conserved", l, "--coords", "x"],
+        &["transform", l, "--coords", "x", "--map", "x=r", "--to", "r"],
+        &["transform", "1/2 x'^2", "--coords", "x", "--map", "x=\u{445}", "--to", "\u{445}"],
+        &["discretize", l, "--coords", "x"],
+        &["discretize", "1/2 x'^2", "--coords", "x", "--step", "\u{445}"],
+        &["phase-space", "p x' - p^2/2 - \u{445} x^2", "--coords", "x,p"],
+        &[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            "t + a t (1 - t)",
+            "--unknowns",
+            "a",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+        ],
+        &["geodesic", "dx^2 + \u{445}^2 dy^2", "--coords", "x,y"],
+        &["pb", "x", "\u{445} p_x", "--coords", "x"],
+        // A look-alike in a coordinate name.
+        &["el", "1/2 \u{445}'^2", "--coords", "\u{445}"],
+        &["hamilton", "p_\u{445}^2/2", "--coords", "\u{445}"],
+        &["geodesic", "d\u{445}^2", "--coords", "\u{445}"],
+        &["pb", "x", "p_x", "--coords", "\u{445}"],
+        &[
+            "ritz",
+            "1/2 x'^2",
+            "--coords",
+            "x",
+            "--trial",
+            "t + a t (1 - t)",
+            "--unknowns",
+            "\u{445}",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+        ],
+    ];
+    for args in cases {
+        check_bad(args, None, &[CYRILLIC]);
+    }
+}
+
+/// Issue 31, D3: control bytes from the input (an ESC sequence that would clear the screen,
+/// a NUL) are escaped in every diagnostic: the command line's, a scene's and the REPL's.
+#[test]
+fn control_bytes_never_reach_the_terminal() {
+    let raw = |s: &str| s.contains('\u{1b}') || s.contains('\u{0}');
+    for args in [
+        &["simplify", "x + \u{1b}[2J"][..],
+        &["el", "1/2 x'^2 \u{1b}[2J", "--coords", "x"],
+        &["el", "1/2 x'^2", "--coords", "x\u{1b}[2J"],
+        &["geodesic", "dx^2", "--coords", "x", "--set", "\u{1b}[2J=1", "--from", "0", "--to", "1"],
+    ] {
+        let out = run(args, None);
+        assert_eq!(out.code, Some(2), "{args:?}: {}", out.stderr);
+        assert!(!raw(&out.stderr) && out.stderr.contains("\\u{1b}"), "{args:?}: {:?}", out.stderr);
+    }
+    let dir = std::env::temp_dir().join(format!("lagrangian-ctl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let scene = dir.join("esc.scene");
+    std::fs::write(&scene, "coordinates x\nL = 1/2 x'^2 \u{1b}[2J\u{0}\nprint el\n").expect("scene written");
+    let out = run(&["run", scene.to_str().expect("UTF-8 path")], None);
+    assert_eq!(out.code, Some(2), "{}", out.stderr);
+    assert!(!raw(&out.stderr) && out.stderr.contains("\\u{1b}"), "{:?}", out.stderr);
+    std::fs::remove_dir_all(&dir).expect("temporary directory removed");
+    let repl = run(&["repl"], Some("coordinates x\nL = x'^2 \u{1b}[2J\n".as_bytes()));
+    assert!(!raw(&repl.stderr) && !raw(&repl.stdout), "{:?} {:?}", repl.stdout, repl.stderr);
+    assert!(repl.stdout.contains("\\u{1b}") || repl.stderr.contains("\\u{1b}"), "{:?}", repl.stdout);
+}
+
+/// Issue 31, D6: a `--set` value is checked against `--positive`, as a scene's parameters are.
+/// The symbolic stages simplify with the assumption (`sqrt(R^2) = R`), so a negative value used
+/// to give an answer for another problem, silently (exit 0). Non-finite values are refused too.
+#[test]
+fn set_values_are_checked_against_positive() {
+    let sphere = ["geodesic", "R^2 dθ^2 + R^2 sin(θ)^2 dφ^2", "--coords", "θ,φ", "--from", "1,0", "--to", "2,1.5"];
+    let ritz = [
+        "ritz",
+        "1/2 m x'^2 - 1/2 x^2",
+        "--coords",
+        "x",
+        "--trial",
+        "t + a t (1 - t)",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1",
+        "--from",
+        "0",
+        "--to",
+        "1",
+    ];
+    for (base, name) in [(&sphere[..], "R"), (&ritz[..], "m")] {
+        let neg = format!("{name}=-2");
+        check_bad(
+            &[base, &["--positive", name, "--set", &neg]].concat(),
+            None,
+            &[&format!("`{name}` is declared positive (--positive) but its value is -2")],
+        );
+        let zero = format!("{name}=0");
+        check_bad(&[base, &["--positive", name, "--set", &zero]].concat(), None, &["declared positive"]);
+        let nan = format!("{name}=nan");
+        check_bad(&[base, &["--set", &nan]].concat(), None, &["is not a finite number"]);
+        // A positive value is accepted, and without the assumption a negative one too.
+        let pos = format!("{name}=2");
+        let ok = run(&[base, &["--positive", name, "--set", &pos]].concat(), None);
+        assert_eq!(ok.code, Some(0), "{}", ok.stderr);
+        let ok = run(&[base, &["--set", &neg]].concat(), None);
+        assert_eq!(ok.code, Some(0), "{}", ok.stderr);
+    }
+    let action = ["action", "--hamiltonian", "p^2/(2 m) + q^2/2", "--coord", "q", "--momentum", "p", "--energy", "1"];
+    check_bad(&[&action[..], &["--positive", "m", "--params", "m=-1"]].concat(), None, &["declared positive"]);
+    // Non-finite points and guesses.
+    check_bad(&[&sphere[..4], &["--from", "nan,0", "--to", "2,1.5"]].concat(), None, &["not a finite number"]);
+    check_bad(&[&ritz[..], &["--set", "m=1", "--guess", "inf"]].concat(), None, &["not a finite number"]);
+}
+
+/// Issue 31, D12: the step of `discretize` is a constant. Before, `--step t` (or a
+/// coordinate) was substituted into L with the time and positions and printed
+/// `DEL_x: undefined = 0` with exit 0.
+#[test]
+fn discretize_step_is_a_constant() {
+    let base = ["discretize", "1/2 x'^2 - x^2/2", "--coords", "x", "--step"];
+    for (step, what) in [
+        ("t", "the time `t`"),
+        ("2 t", "the time `t`"),
+        ("x", "the coordinate `x`"),
+        ("x'", "the velocity `x'`"),
+        ("h x_1", "the point `x_1` of the scheme"),
+    ] {
+        check_bad(&[&base[..], &[step]].concat(), None, &["the step of discretize is a constant", what]);
+    }
+    for step in ["h", "1/10", "h/2"] {
+        let out = run(&[&base[..], &[step]].concat(), None);
+        assert_eq!(out.code, Some(0), "{step}: {}", out.stderr);
+        assert!(out.stdout.contains("DEL_x: ") && !out.stdout.contains("undefined"), "{}", out.stdout);
+    }
+}
+
+/// Issue 31: with `--format json` an error is one JSON object on standard output,
+/// `{"error": {"kind", "message", "span", "hints"}}`, with the same exit code as without, and
+/// nothing on standard error (the shape is documented in the README). Before, stdout was
+/// empty and the error was plain text on stderr.
+#[test]
+fn errors_are_json_objects_with_format_json() {
+    let json = |args: &[&str]| -> serde_json::Value {
+        let with = run(&[args, &["--format", "json"]].concat(), None);
+        let without = run(args, None);
+        assert_eq!(with.code, without.code, "{args:?}: the exit code changed with --format json");
+        assert_ne!(with.code, Some(0), "{args:?} succeeded");
+        assert!(with.stderr.is_empty(), "{args:?}: stderr {}", with.stderr);
+        assert_eq!(with.stdout.lines().count(), 1, "{args:?}: {}", with.stdout);
+        let v: serde_json::Value = serde_json::from_str(&with.stdout).expect("stdout is JSON");
+        let e = &v["error"];
+        let keys: Vec<&String> = e.as_object().expect("an object").keys().collect();
+        assert_eq!(keys, ["hints", "kind", "message", "span"], "{v}");
+        // The message is the terminal's sentence, without its `error: ` prefix.
+        let message = e["message"].as_str().unwrap();
+        assert!(!message.starts_with("error:") && without.stderr.contains(message), "{v}\n{}", without.stderr);
+        v
+    };
+    // A parse error: where, in characters and bytes (`х` is two bytes, at byte 4).
+    let v = json(&["simplify", "x + \u{445}"]);
+    assert_eq!(v["error"]["kind"], "parse");
+    assert_eq!(v["error"]["span"], serde_json::json!({"line": 1, "column": 5, "start": 4, "end": 6}));
+    assert_eq!(v["error"]["hints"], serde_json::json!(["retype the name with a Latin or Greek keyboard layout"]));
+    let v = json(&["el", "1/2 x'^2 + (x", "--coords", "x"]);
+    assert_eq!((v["error"]["kind"].as_str(), v["error"]["span"]["column"].as_u64()), (Some("parse"), Some(14)), "{v}");
+    // A derivation refused: no location.
+    let v = json(&["el", "1/2 y'^2", "--coords", "x"]);
+    assert_eq!((v["error"]["kind"].as_str(), &v["error"]["span"]), (Some("mechanics"), &serde_json::Value::Null));
+    assert!(v["error"]["message"].as_str().unwrap().contains("`y` is not a coordinate"), "{v}");
+    // A numeric failure, and a bad argument.
+    let v = json(&[
+        "geodesic",
+        "dx^2/(x-1/2)^2 + dy^2",
+        "--coords",
+        "x,y",
+        "--from",
+        "0,0",
+        "--to",
+        "1,0",
+        "--max-steps",
+        "1000",
+    ]);
+    assert_eq!(v["error"]["kind"], "numeric");
+    let v = json(&[
+        "ritz",
+        "1/2 x'^2",
+        "--coords",
+        "x",
+        "--trial",
+        "t",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1,2",
+        "--from",
+        "0",
+        "--to",
+        "1",
+    ]);
+    assert_eq!(v["error"]["kind"], "input");
+    // A usage error clap reports before anything runs is an object too.
+    let v = json(&["simplify", "x", "--bogus"]);
+    assert_eq!(v["error"]["kind"], "usage");
+    assert!(v["error"]["message"].as_str().unwrap().contains("--bogus"), "{v}");
 }

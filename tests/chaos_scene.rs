@@ -310,7 +310,7 @@ impl Counting {
 
 mod counting {
     use super::Counting;
-    use lagrangian::chaos::{Indicator, Indicators};
+    use lagrangian::chaos::{Budget, Indicator, Indicators};
     use lagrangian::expr::Expr;
     use lagrangian::scene::backend::{
         CompileRequest, Compiled, CompiledVariational, RunRequest, SystemRef, VariationalRequest,
@@ -357,9 +357,10 @@ mod counting {
             x0: &[f64],
             t: f64,
             tol: f64,
+            budget: &Budget,
         ) -> Result<Indicators, BackendError> {
             self.bump("indicators");
-            NativeBackend.indicators(c, x0, t, tol)
+            NativeBackend.indicators(c, x0, t, tol, budget)
         }
         fn chaos_map(
             &self,
@@ -367,11 +368,12 @@ mod counting {
             starts: &[Vec<f64>],
             t: f64,
             tol: f64,
+            budget: &Budget,
             which: Indicator,
             progress: &mut dyn FnMut(f64),
         ) -> Vec<Result<f64, BackendError>> {
             self.bump("chaos_map");
-            NativeBackend.chaos_map(c, starts, t, tol, which, progress)
+            NativeBackend.chaos_map(c, starts, t, tol, budget, which, progress)
         }
     }
 }

@@ -296,3 +296,47 @@ fn numbers_that_underflow_or_overflow_f64_say_so() {
         assert!(err.contains(piece), "{value}: {err}");
     }
 }
+
+/// Issue 31, D15: `export from ENSEMBLE` writes every member, as the docs say (before, only
+/// the first member was written, with no note). Each member's rows are the rows the member
+/// exported alone gives, after a `run` column naming it; JSON holds one object per member;
+/// `export poincare` does the same.
+#[test]
+fn exports_of_an_ensemble_write_every_member() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "coordinates x, y\nH = (p_x^2 + p_y^2)/2 + (x^2 + y^2)/2\n\
+        simulate x = 0, p_y = 0 for each y in 0..0.2 step 0.1 on H = 1/8 solve p_x > 0 for t in 0..10 \
+        with rk4 dt = 0.1 record when x = 0 rising as e\n\
+        export from e to e.csv\nexport from e_1 to e1.csv\nexport from e_2 to e2.csv\nexport from e_3 to e3.csv\n\
+        export x, y from e to e.json\nexport poincare from e to p.csv\nexport poincare from e_3 to p3.csv\n";
+    std::fs::write(dir.path().join("e.scene"), scene).unwrap();
+    let out = bin().args(["run", "e.scene"]).current_dir(dir.path()).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap();
+    let all = read("e.csv");
+    let mut lines = all.lines();
+    assert_eq!(lines.next(), Some("run,t,x,y,p_x,p_y"));
+    let rows: Vec<&str> = lines.collect();
+    let mut expected = Vec::new();
+    for k in 1..=3 {
+        let alone = read(&format!("e{k}.csv"));
+        assert_eq!(alone.lines().next(), Some("t,x,y,p_x,p_y"));
+        expected.extend(alone.lines().skip(1).map(|l| format!("e_{k},{l}")));
+    }
+    assert_eq!(expected.len(), 3 * 101);
+    assert_eq!(rows, expected);
+    let json: serde_json::Value = serde_json::from_str(&read("e.json")).unwrap();
+    let runs = json["runs"].as_array().expect("one object per member");
+    let names: Vec<&str> = runs.iter().map(|r| r["run"].as_str().unwrap()).collect();
+    assert_eq!(names, ["e_1", "e_2", "e_3"]);
+    for (k, r) in runs.iter().enumerate() {
+        // Each member starts at its own y: 0, 0.1, 0.2.
+        let ys = r["columns"][2]["values"].as_array().unwrap();
+        assert_eq!((r["columns"][2]["name"].as_str(), ys.len()), (Some("y"), 101));
+        assert!((ys[0].as_f64().unwrap() - 0.1 * k as f64).abs() < 1e-15, "{k}");
+    }
+    let section = read("p.csv");
+    let members: Vec<&str> = section.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(members, ["e_1", "e_2", "e_3"], "{section}");
+    assert_eq!(section.lines().nth(3).unwrap(), format!("e_3,{}", read("p3.csv").lines().nth(1).unwrap()));
+}

@@ -117,3 +117,84 @@ fn lookalike_identifiers() {
     let (code, err) = run_bytes(dir.path(), &with("# комментарий ｘ\nprint 1\n"));
     assert_eq!(code, 0, "{err}");
 }
+
+/// Issue 31, D11: a chaos map's range wider than f64 holds is refused at the range. Before,
+/// `θ = -1e308..1e308` wrote `inf` cell centres, reported every start failed, and exited 0.
+#[test]
+fn chaos_map_range_wider_than_f64() {
+    check(
+        &with("chaos_map megno θ = -1e308..1e308, p_θ = -1..1 for t in 0..1 points 2 to m.csv\n"),
+        &[
+            "the range of `θ` is wider than f64 can hold (1e308 − (-1e308) overflows)",
+            "5 │ chaos_map",
+            "narrow the range",
+        ],
+    );
+    check(
+        &with("chaos_map megno θ = -1..1, p_θ = -1e308..1.7e308 for t in 0..1 points 2 to m.csv\n"),
+        &["the range of `p_θ` is wider than f64 can hold"],
+    );
+}
+
+/// Issue 31, D13: `rayleigh L = …` made the dissipation function the Lagrangian (the run
+/// integrated R as L, exit 0); a Rayleigh function's name must be its own.
+#[test]
+fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
+    let scene = |stmt: &str| {
+        format!(
+            "coordinates x\nparameters b = 1\nL = 1/2 x'^2 - 1/2 x^2\nV = x^2\n{stmt}\n\
+             simulate x = 1, x' = 0 for t in 0..1 with rk4 dt = 0.1\nexport x to out.csv\n"
+        )
+        .into_bytes()
+    };
+    check(
+        &scene("rayleigh L = 1/2 b x'^2"),
+        &["`L` is the name of the Lagrangian", "5 │ rayleigh L", "rayleigh R = …"],
+    );
+    check(&scene("rayleigh H = 1/2 b x'^2"), &["`H` is the name of the Hamiltonian"]);
+    check(&scene("rayleigh V = 1/2 b x'^2"), &["`V` is already a definition"]);
+    check(&scene("rayleigh x = 1/2 b x'^2"), &["`x` is already a coordinate"]);
+    // A name of its own is defined, and no name is fine.
+    for stmt in ["rayleigh R = 1/2 b x'^2\nprint R", "rayleigh 1/2 b x'^2"] {
+        let dir = tempfile::tempdir().unwrap();
+        let (code, err) = run_bytes(dir.path(), &scene(stmt));
+        assert_eq!(code, 0, "{stmt}: {err}");
+    }
+}
+
+/// Issue 31, D14: a figure of an expression that is not finite anywhere along the run is
+/// refused at the expression (exports refuse such values too); before, the plot or GIF was
+/// written with nothing on it and exit 0. Partly non-finite values are drawn with a note.
+#[test]
+fn figures_of_nowhere_finite_expressions() {
+    let run = "coordinates x\nL = 1/2 x'^2 - 1/2 x^2\nsimulate x = 1, x' = 0 for t in 0..10 with rk4 dt = 0.1\n";
+    let with_run = |stmt: &str| format!("{run}{stmt}\n").into_bytes();
+    for (stmt, what) in [
+        ("plot sqrt(-1 - x^2) vs t to a.svg", "`sqrt(-1 - x^2)` is not finite at any of the 101 stored states of run1"),
+        ("plot x, log(x - 2) vs t to a.svg", "`log(x - 2)` is not finite at any"),
+        ("plot path x, sqrt(-1 - x^2) to a.svg", "`sqrt(-1 - x^2)` is not finite at any"),
+        ("animate (x, sqrt(-1 - x^2)) to a.gif", "`sqrt(-1 - x^2)` is not finite at any"),
+    ] {
+        check(&with_run(stmt), &[what, "nothing to draw", "leaves its domain"]);
+    }
+    // Partly finite: drawn, with a note counting the points left out. x = cos t, so
+    // sqrt(x − 1/2) is NaN where cos t < 1/2: from t = 1.1 (the first stored t past π/3).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("p.scene"), with_run("plot path x, sqrt(x - 0.5) to b.svg")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
+        .args(["run", "p.scene"])
+        .env("LAGRANGIAN_CACHE_DIR", "off")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let expected = (0..=100).filter(|k| (f64::from(*k) * 0.1).cos() < 0.5).count();
+    assert!(
+        stdout.contains(&format!(
+            "note: `sqrt(x - 0.5)` is not finite at {expected} of the 101 stored states of run1 (the first at t = 1.1)"
+        )),
+        "{stdout}"
+    );
+    assert!(dir.path().join("b.svg").exists());
+}

@@ -77,6 +77,9 @@ pub enum PhaseSpaceError {
     /// No variables at all.
     #[error("a phase space needs at least one coordinate")]
     Empty,
+    /// A name with a look-alike character (Cyrillic `х`): the parser's message.
+    #[error("{0}")]
+    Lookalike(String),
 }
 
 impl PhaseSpace {
@@ -94,6 +97,11 @@ impl PhaseSpace {
     ) -> Result<PhaseSpace, PhaseSpaceError> {
         let coords: Vec<Symbol> = coords.into_iter().map(|s| Symbol::new(s.as_ref())).collect();
         let momenta: Vec<Symbol> = momenta.into_iter().map(|s| Symbol::new(s.as_ref())).collect();
+        for s in coords.iter().chain(&momenta) {
+            if let Some((c, what)) = s.name().chars().find_map(|c| crate::parse::lookalike_kind(c).map(|w| (c, w))) {
+                return Err(PhaseSpaceError::Lookalike(crate::parse::lookalike_message(c, what)));
+            }
+        }
         if coords.is_empty() {
             return Err(PhaseSpaceError::Empty);
         }

@@ -278,7 +278,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             let t = g.transform(h.as_ref()).map_err(|e| bad_input(format!("error: {e}")))?;
             print_transform(&t, common.format);
             if !at.is_empty() {
-                let env = parse_params(&params)?;
+                let env = parse_params(&params, &common.positive)?;
                 let guess = if guess.is_empty() { vec![1.0; g.old.dof()] } else { guess };
                 let vals = g.numeric_inverse(&at, &env, &guess).map_err(|e| bad_input(format!("error: {e}")))?;
                 let names = g.old.variables();
@@ -352,7 +352,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 Some(m) => parse_var(&m, &decls)?,
                 None => Symbol::new(&format!("p_{coord}")),
             };
-            let env = parse_params(&params)?;
+            let env = parse_params(&params, &common.positive)?;
             let mut rows = Vec::new();
             for e in energy {
                 let r = canonical::action_frequency(&h, &q, &p, e, &env, near)
@@ -441,17 +441,9 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
     Ok(())
 }
 
-/// `name=value` pairs.
-fn parse_params(params: &[String]) -> Result<lagrangian::eval::Env, Failure> {
-    let mut env = lagrangian::eval::Env::new();
-    for kv in params {
-        let (k, v) = kv
-            .split_once('=')
-            .ok_or_else(|| bad_input(format!("error: parameter `{kv}` is not of the form name=value")))?;
-        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: `{v}` in `{kv}` is not a number")))?;
-        env.insert(k.trim().to_string(), v);
-    }
-    Ok(env)
+/// `name=value` pairs, checked against `--positive` ([`super::name_values`]).
+fn parse_params(params: &[String], positive: &[String]) -> Result<lagrangian::eval::Env, Failure> {
+    Ok(super::name_values("--params", params, positive)?.into_iter().collect())
 }
 
 /// The new phase space from `--new` (coordinates then momenta), or `Q,P` / `Q1..Qn,P1..Pn`.

@@ -94,7 +94,7 @@ pub enum MechanicsCommand {
 }
 
 fn fail(e: MechanicsError) -> Failure {
-    bad_input(e.to_string())
+    super::mechanics_failure(e)
 }
 
 fn build(text: &str, args: &SystemArgs, hamiltonian: bool) -> Result<System, Failure> {

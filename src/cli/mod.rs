@@ -99,26 +99,117 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `name=value` pairs of a numeric option (`--set m=1,k=2`, `--params`): a plain name and a
+/// finite number each, and a name declared `--positive` must have a positive value, as a
+/// scene's `parameters positive m = -1` is refused: the symbolic stages simplified with
+/// `m > 0` (`sqrt(m^2) = m`), so a negative value would give a silently wrong number.
+pub fn name_values(flag: &str, pairs: &[String], positive: &[String]) -> Result<Vec<(String, f64)>, Failure> {
+    let mut values = Vec::new();
+    for kv in pairs {
+        let Some((k, v)) = kv.split_once('=') else {
+            return Err(bad_input(format!("error: {flag} takes name=value, got `{kv}`")));
+        };
+        let k = plain_name(k).map_err(|e| bad_input(format!("error: {flag} `{kv}`: {e}")))?;
+        let x: f64 =
+            v.trim().parse().map_err(|_| bad_input(format!("error: {flag} {k}: `{}` is not a number", v.trim())))?;
+        if !x.is_finite() {
+            return Err(bad_input(format!("error: {flag} {k}: `{}` is not a finite number", v.trim())));
+        }
+        if x <= 0.0 && positive.iter().any(|p| p.trim() == k) {
+            return Err(bad_input(format!(
+                "error: {flag} {k}={}: `{k}` is declared positive (--positive) but its value is {x}; \
+                 give a positive value, or drop `{k}` from --positive",
+                v.trim()
+            )));
+        }
+        values.push((k, x));
+    }
+    Ok(values)
+}
+
 /// The first character of `text` that only looks like the Latin or Greek letter a reader
 /// sees (Cyrillic `х`, full-width `ｘ`) or is a combining mark, as an error message with its
-/// position. Names are ASCII or Greek (README); a look-alike would make a second symbol that
-/// prints like the first, so `x + х` would not simplify and nothing would say why.
+/// column: the parser's message ([`lagrangian::parse::lookalike_message`]), for names given
+/// in lists (`--positive`), which are not parsed as expressions.
 pub fn lookalike(text: &str) -> Option<String> {
     let (col, c, what) =
         text.chars().enumerate().find_map(|(i, c)| lagrangian::parse::lookalike_kind(c).map(|w| (i, c, w)))?;
-    let u = u32::from(c);
-    Some(format!("`{c}` (U+{u:04X}, column {}) is {what} that looks like another; names are ASCII or Greek", col + 1))
+    Some(format!("{} (column {})", lagrangian::parse::lookalike_message(c, what), col + 1))
 }
 
 /// A failure with its exit code.
 pub struct Failure {
     pub code: u8,
     pub message: String,
+    /// The message is a rendered diagnostic whose only escape sequences are its own colours
+    /// (the user's text in it is already escaped); any other message has every control
+    /// character escaped when printed.
+    pub styled: bool,
+    /// What the failure is, for `--format json` (`parse`, `mechanics`, `input`, `usage`, …).
+    pub kind: &'static str,
+    /// Where in the input, for `--format json`: a parse error's location.
+    pub span: Option<lagrangian::parse::ParseError>,
+}
+
+impl Failure {
+    /// A failure whose message is printed with its control characters escaped.
+    pub fn new(code: u8, message: impl Into<String>) -> Failure {
+        let kind = match code {
+            2 => "input",
+            130 => "interrupted",
+            _ => "internal",
+        };
+        Failure { code, message: message.into(), styled: false, kind, span: None }
+    }
+
+    /// A parse error, with its location kept for `--format json`.
+    pub fn parse(e: lagrangian::parse::ParseError) -> Failure {
+        Failure { kind: "parse", ..Failure::new(2, e.to_string()) }.at(e)
+    }
+
+    fn at(mut self, e: lagrangian::parse::ParseError) -> Failure {
+        self.span = Some(e);
+        self
+    }
+
+    /// The error as the JSON object `--format json` prints on standard output:
+    /// `{"error": {"kind", "message", "span", "hints"}}` (documented in the README, under the command line).
+    /// `message` is the sentence without the terminal's `error: ` prefix, source line and
+    /// caret; `span` is `{"line", "column", "start", "end"}` (1-based line and column in
+    /// characters, byte offsets `start..end` in the argument) or `null`.
+    pub fn json(&self) -> serde_json::Value {
+        let (message, span, hints) = match &self.span {
+            Some(e) => (
+                e.message.clone(),
+                serde_json::json!({ "line": e.line, "column": e.column, "start": e.span.0, "end": e.span.1 }),
+                e.hint.iter().cloned().collect::<Vec<_>>(),
+            ),
+            None => {
+                let text = self.message.trim();
+                let text = text.strip_prefix("error: ").unwrap_or(text);
+                // A trailing `= hint: …` line of a message becomes a hint.
+                let (message, hint) = match text.split_once("\n  = hint: ") {
+                    Some((m, h)) => (m.to_string(), vec![h.trim().to_string()]),
+                    None => (text.to_string(), Vec::new()),
+                };
+                (message, serde_json::Value::Null, hint)
+            }
+        };
+        serde_json::json!({ "error": { "kind": self.kind, "message": message, "span": span, "hints": hints } })
+    }
 }
 
 /// Bad input from the user: exit code 2.
 pub fn bad_input(message: impl Into<String>) -> Failure {
-    Failure { code: 2, message: message.into() }
+    Failure::new(2, message)
+}
+
+/// A mechanics error: a parse error keeps its location, any other is of kind `mechanics`.
+pub fn mechanics_failure(e: lagrangian::mechanics::MechanicsError) -> Failure {
+    match e {
+        lagrangian::mechanics::MechanicsError::Parse(p) => Failure::parse(p),
+        other => Failure { kind: "mechanics", ..bad_input(other.to_string()) },
+    }
 }
 
 impl Common {
@@ -162,19 +253,14 @@ pub fn read_expr_arg(arg: &str) -> Result<String, Failure> {
 pub fn parse_arg(arg: &str, decls: &Declarations) -> Result<(String, Expr), Failure> {
     let text = read_expr_arg(arg)?;
     let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
-    if let Some(msg) = lookalike(&text) {
-        return Err(bad_input(format!("error: {msg}")));
-    }
-    let e = parse_with(&text, decls).map_err(|e| bad_input(e.to_string()))?;
+    // Look-alike letters are refused by the parser, with their location.
+    let e = parse_with(&text, decls).map_err(Failure::parse)?;
     Ok((text, e))
 }
 
 /// Parses a variable name (`θ`, `x'`, `p_x`).
 pub fn parse_var(text: &str, decls: &Declarations) -> Result<Symbol, Failure> {
-    if let Some(msg) = lookalike(text) {
-        return Err(bad_input(format!("error: {msg}")));
-    }
-    let e = parse_with(text, decls).map_err(|e| bad_input(e.to_string()))?;
+    let e = parse_with(text, decls).map_err(Failure::parse)?;
     e.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{text}` is not a variable")))
 }
 
@@ -203,24 +289,33 @@ fn default_sigpipe() {
     }
 }
 
-/// A message with control characters (a NUL byte from the input) shown as `\u{0}` instead of
-/// sent raw to the terminal; newlines, tabs and the escape sequences of coloured diagnostics
-/// stay.
-fn printable(message: &str) -> String {
-    let mut out = String::with_capacity(message.len());
-    for c in message.chars() {
-        if c.is_control() && !matches!(c, '\n' | '\t' | '\u{1b}') {
-            out.push_str(&format!("\\u{{{:x}}}", u32::from(c)));
-        } else {
-            out.push(c);
-        }
-    }
-    out
+/// Whether the command line asks for `--format json` (read from the raw arguments, for a
+/// usage error clap reports before anything is parsed).
+fn asks_for_json(args: &[std::ffi::OsString]) -> bool {
+    args.windows(2).any(|w| w[0] == "--format" && w[1] == "json") || args.iter().any(|a| a == "--format=json")
 }
 
 pub fn main() -> ExitCode {
+    use clap::{CommandFactory, FromArgMatches};
     default_sigpipe();
-    let cli = Cli::parse();
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let parsed = Cli::command().try_get_matches_from(&args).and_then(|m| Ok((Cli::from_arg_matches(&m)?, m)));
+    let (cli, matches) = match parsed {
+        Ok(p) => p,
+        Err(e) if asks_for_json(&args) && e.use_stderr() => {
+            // A usage error is an error object too when JSON was asked for (exit 2, as clap).
+            let message = e.render().to_string();
+            let message = message.lines().next().unwrap_or_default().to_string();
+            let f = Failure { kind: "usage", ..bad_input(message) };
+            println!("{}", f.json());
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
+    let json = matches
+        .subcommand()
+        .and_then(|(_, m)| m.try_get_one::<OutFormat>("format").ok().flatten())
+        .is_some_and(|f| *f == OutFormat::Json);
     let result = match cli.command {
         Some(Command::Core(c)) => core::run(c),
         Some(Command::Mechanics(c)) => mechanics::run(c),
@@ -231,8 +326,14 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if json => {
+            // One JSON object on standard output, nothing on standard error; the same exit code.
+            println!("{}", f.json());
+            ExitCode::from(f.code)
+        }
         Err(f) => {
-            eprintln!("{}", printable(&f.message));
+            let message = if f.styled { f.message } else { lagrangian::print::escape_controls(&f.message) };
+            eprintln!("{message}");
             ExitCode::from(f.code)
         }
     }

@@ -2,6 +2,7 @@
 //! `W q'' = F` (first-order Lagrangians, §3.4; discrete mechanics, §4.7.2). They parse, call the library, and print.
 
 use clap::Subcommand;
+use lagrangian::compile::{ShootBudget, ShootError};
 use lagrangian::expr::Expr;
 use lagrangian::mechanics::{MechanicsError, Rule, System};
 use lagrangian::print::plain;
@@ -50,14 +51,20 @@ pub enum NotesCommand {
         #[arg(long, value_delimiter = ',', required = true)]
         coords: Vec<String>,
         /// Start point (numbers, in coordinate order).
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         from: Vec<f64>,
         /// End point.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         to: Vec<f64>,
         /// Parameter values for the shooting (`R=2`).
         #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
         set: Vec<String>,
+        /// The shooting's budget of integration steps, all trial paths together.
+        #[arg(long, value_name = "N", default_value_t = lagrangian::compile::ShootBudget::DEFAULT_STEPS)]
+        max_steps: usize,
+        /// The shooting's budget of wall-clock seconds.
+        #[arg(long, value_name = "SECONDS", default_value_t = lagrangian::compile::ShootBudget::DEFAULT_SECONDS, value_parser = super::finite_f64)]
+        time_limit: f64,
         #[command(flatten)]
         common: Common,
     },
@@ -90,7 +97,7 @@ pub enum NotesCommand {
         #[arg(long = "set", value_delimiter = ',', allow_hyphen_values = true)]
         set: Vec<String>,
         /// Starting values of the unknowns for Newton (default 0).
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = super::finite_f64)]
         guess: Vec<f64>,
         #[command(flatten)]
         common: Common,
@@ -119,7 +126,7 @@ pub enum NotesCommand {
 }
 
 fn fail(e: MechanicsError) -> Failure {
-    bad_input(e.to_string())
+    super::mechanics_failure(e)
 }
 
 pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
@@ -200,9 +207,24 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
-        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, common } => {
-            let values = set_values(&set)?;
-            geodesic(line_element, metric, embedding, coords, (from, to), &values, common)?
+        NotesCommand::Geodesic {
+            line_element,
+            metric,
+            embedding,
+            coords,
+            from,
+            to,
+            set,
+            max_steps,
+            time_limit,
+            common,
+        } => {
+            let values = super::name_values("--set", &set, &common.positive)?;
+            if max_steps == 0 || time_limit <= 0.0 {
+                return Err(bad_input("error: --max-steps and --time-limit must be positive"));
+            }
+            let budget = ShootBudget { max_steps, time_limit: std::time::Duration::from_secs_f64(time_limit) };
+            geodesic(line_element, metric, embedding, coords, (from, to), &values, budget, common)?
         }
         NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
@@ -280,19 +302,7 @@ fn split_top(text: &str, sep: char) -> Vec<String> {
     out
 }
 
-/// `--set name=value,…` as pairs.
-fn set_values(set: &[String]) -> Result<Vec<(String, f64)>, Failure> {
-    let mut values = Vec::new();
-    for kv in set {
-        let Some((k, v)) = kv.split_once('=') else {
-            return Err(bad_input(format!("error: --set takes name=value, got `{kv}`")));
-        };
-        let v: f64 = v.trim().parse().map_err(|_| bad_input(format!("error: --set {k}: `{v}` is not a number")))?;
-        values.push((k.trim().to_string(), v));
-    }
-    Ok(values)
-}
-
+#[allow(clippy::too_many_arguments)]
 fn geodesic(
     line_element: Option<String>,
     metric: Option<String>,
@@ -300,13 +310,14 @@ fn geodesic(
     coords: Vec<String>,
     (from, to): (Vec<f64>, Vec<f64>),
     values: &[(String, f64)],
+    budget: ShootBudget,
     common: Common,
 ) -> Result<(), Failure> {
     use lagrangian::mechanics::{embedded, geodesic, geodesic_from_metric};
     let decls = common.declarations();
     let mut z = Vec::new();
     for c in &coords {
-        let e = lagrangian::parse_with(c.trim(), &decls).map_err(|e| bad_input(e.to_string()))?;
+        let e = lagrangian::parse_with(c.trim(), &decls).map_err(Failure::parse)?;
         match e.as_sym() {
             Some(s) if s.primes() == 0 && !s.is_time() => z.push(s.clone()),
             _ => return Err(fail(MechanicsError::BadCoordinate(c.clone()))),
@@ -357,8 +368,14 @@ fn geodesic(
             return Err(bad_input(format!("error: --from and --to need {} numbers each", z.len())));
         }
         let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        let shot =
-            lagrangian::compile::shoot(&g, &from, &to, &bound, 1).map_err(|e| bad_input(format!("error: {e}")))?;
+        let shot = lagrangian::compile::shoot_with(&g, &from, &to, &bound, 1, budget).map_err(|e| {
+            let raise = match &e {
+                ShootError::Budget { steps: true, .. } => "; to search longer, raise --max-steps",
+                ShootError::Budget { steps: false, .. } => "; to search longer, raise --time-limit (seconds)",
+                _ => "",
+            };
+            Failure { kind: "numeric", ..bad_input(format!("error: {e}{raise}")) }
+        })?;
         out.lines.push(shot.report_line());
         out.json.insert("initial_velocity".into(), json!(shot.velocity));
     }
@@ -398,7 +415,7 @@ fn ritz(
             _ => return Err(bad_input(format!("error: the unknown `{u}` must be a plain name"))),
         }
     }
-    let values = set_values(&set)?;
+    let values = super::name_values("--set", &set, &common.positive)?;
     let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
     let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let sol = r.solve(&guess, &bound).map_err(fail)?;

@@ -68,14 +68,15 @@ impl CacheArgs {
 
 fn report(e: &SceneError) -> Failure {
     let code = if e.kind == ErrorKind::NotAvailable { 1 } else { 2 };
-    Failure { code, message: e.render(std::io::stderr().is_terminal()) }
+    let color = std::io::stderr().is_terminal();
+    Failure { styled: color, kind: "scene", ..Failure::new(code, e.render(color)) }
 }
 
 pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
     match cmd {
         ProductCommand::Run { scene, explain, out_dir, allow_outside, drift, strict, cache } => {
             if drift <= 0.0 {
-                return Err(Failure { code: 2, message: format!("error: --drift must be positive, found {drift}") });
+                return Err(Failure::new(2, format!("error: --drift must be positive, found {drift}")));
             }
             // Ctrl-C stops the running statement at its next check; the staged files are
             // removed and the exit status is 130 (128 + SIGINT). A second Ctrl-C exits at once.
@@ -94,9 +95,8 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
             if let Some(d) = out_dir {
                 // A missing output directory is created (with its parents), as a user naming
                 // a fresh directory for a scene's figures expects.
-                std::fs::create_dir_all(&d).map_err(|e| Failure {
-                    code: 2,
-                    message: format!("error: cannot create the output directory `{}`: {e}", d.display()),
+                std::fs::create_dir_all(&d).map_err(|e| {
+                    Failure::new(2, format!("error: cannot create the output directory `{}`: {e}", d.display()))
                 })?;
                 opts.out_dir = d;
             }
@@ -110,13 +110,13 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
                 println!("{line}");
             }
             for line in session.take_warnings() {
-                eprintln!("{line}");
+                eprintln!("{}", lagrangian::print::escape_controls(&line));
             }
             if explain {
                 print!("{}", session.explain());
             }
             result.map_err(|e| match e.kind {
-                ErrorKind::Interrupted => Failure { code: 130, message: "interrupted".into() },
+                ErrorKind::Interrupted => Failure::new(130, "interrupted"),
                 _ => report(&e),
             })
         }

@@ -3,9 +3,16 @@
 //! point, with the Jacobian `∂q(1)/∂v₀` by central differences. The metric must be regular
 //! at the start point; a start where `det g = 0` (the pole of spherical coordinates) is
 //! refused, not integrated into NaN.
+//!
+//! Every shooting has a budget ([`ShootBudget`]: integration steps over all trial paths, and
+//! wall-clock time) and keeps only the end state of a trial path, so a metric singular
+//! between the points (a trial path creeping towards a pole of `g`) ends in a typed error
+//! naming the budget, not in memory growing until the process is killed.
+
+use std::time::{Duration, Instant};
 
 use crate::eval::eval_with;
-use crate::integrate::{Dop853, Integrate};
+use crate::integrate::{Dop853, FailureReason, Integrate, IntegrateError, Options};
 use crate::mechanics::Geodesic;
 
 use super::first_order::solve_in_place;
@@ -25,6 +32,51 @@ pub enum ShootError {
     /// Ctrl-C (the process-wide [`crate::cancel`] token) stopped the shooting.
     #[error("interrupted after {iterations} Newton steps")]
     Interrupted { iterations: usize },
+    /// The trial paths used up the step or time budget ([`ShootBudget`]).
+    #[error(
+        "geodesic shooting stopped at Newton step {iteration}: the trial paths used up the budget of {limit} \
+         (a trial path had reached t = {t:.6} of 1 at q = {state}); the metric may be singular or \
+         degenerate between the points, so that no geodesic joins them in unit time"
+    )]
+    Budget {
+        /// The budget that ran out, as words ("1000000 integration steps", "60 s").
+        limit: String,
+        /// The Newton step of the trial that used it up.
+        iteration: usize,
+        /// How far in the unit time that trial path got.
+        t: f64,
+        /// Its coordinates there, printed.
+        state: String,
+        /// `true` for the step budget, `false` for the time budget.
+        steps: bool,
+    },
+}
+
+/// What one shooting may spend: accepted DOP853 steps over all its trial paths, and
+/// wall-clock time. A smooth geodesic takes a few hundred steps a trial path and about
+/// ten trials; the defaults are far above that and stop a singular metric in seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShootBudget {
+    /// Accepted integration steps, all trial paths together.
+    pub max_steps: usize,
+    /// Wall-clock time of the whole shooting.
+    pub time_limit: Duration,
+}
+
+impl ShootBudget {
+    /// The default step budget: 10⁶ steps.
+    pub const DEFAULT_STEPS: usize = 1_000_000;
+    /// The default time budget: 60 s.
+    pub const DEFAULT_SECONDS: f64 = 60.0;
+}
+
+impl Default for ShootBudget {
+    fn default() -> Self {
+        ShootBudget {
+            max_steps: ShootBudget::DEFAULT_STEPS,
+            time_limit: Duration::from_secs_f64(ShootBudget::DEFAULT_SECONDS),
+        }
+    }
 }
 
 /// A geodesic from `from` to `to` in unit time: the initial velocity and the path sampled at
@@ -48,13 +100,26 @@ impl Shot {
     }
 }
 
-/// Shoots from `from` to `to`; `params` binds the metric's parameters.
+/// Shoots from `from` to `to` within the default [`ShootBudget`]; `params` binds the
+/// metric's parameters.
 pub fn shoot(
     g: &Geodesic,
     from: &[f64],
     to: &[f64],
     params: &[(&str, f64)],
     samples: usize,
+) -> Result<Shot, ShootError> {
+    shoot_with(g, from, to, params, samples, ShootBudget::default())
+}
+
+/// [`shoot`] within `budget`.
+pub fn shoot_with(
+    g: &Geodesic,
+    from: &[f64],
+    to: &[f64],
+    params: &[(&str, f64)],
+    samples: usize,
+    budget: ShootBudget,
 ) -> Result<Shot, ShootError> {
     let n = g.coords.len();
     let lookup = |s: &crate::expr::Symbol| {
@@ -89,11 +154,23 @@ pub fn shoot(
         g.system().map_err(|e| numeric(e.to_string()))?.with_params(params).map_err(|e| numeric(e.to_string()))?;
     let rhs = sys.compile_rhs().map_err(|e| numeric(e.to_string()))?;
     let method = Dop853::new(1e-13, 1e-13);
+    let started = Instant::now();
+    let used = std::cell::Cell::new(0usize);
+    let iteration = std::cell::Cell::new(0usize);
+    // One trial path to t = 1, keeping only its end, within what is left of the budget.
     let end = |v: &[f64]| -> Result<Vec<f64>, ShootError> {
         let mut y0 = from.to_vec();
         y0.extend_from_slice(v);
-        let t = method.integrate(&rhs, 0.0..1.0, &y0).map_err(|e| numeric(e.to_string()))?;
-        Ok(t.last_state()[..n].to_vec())
+        let left_steps = budget.max_steps.saturating_sub(used.get()).max(1);
+        let left_time = budget.time_limit.saturating_sub(started.elapsed()).max(Duration::from_millis(1));
+        let opts = Options::new().final_only().max_steps(left_steps).time_limit(left_time);
+        match method.integrate_with(&rhs, 0.0..1.0, &y0, opts) {
+            Ok(t) => {
+                used.set(used.get() + t.stats.steps);
+                Ok(t.last_state()[..n].to_vec())
+            }
+            Err(e) => Err(over_budget(&e, budget, iteration.get(), n).unwrap_or_else(|| numeric(e.to_string()))),
+        }
     };
     let mut v: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
     let mut miss = f64::INFINITY;
@@ -101,6 +178,7 @@ pub fn shoot(
         if crate::cancel::interrupted() {
             return Err(ShootError::Interrupted { iterations: it - 1 });
         }
+        iteration.set(it);
         let q1 = end(&v)?;
         let mut r: Vec<f64> = (0..n).map(|i| to[i] - q1[i]).collect();
         miss = r.iter().fold(0.0f64, |s, x| s.max(x.abs()));
@@ -128,6 +206,22 @@ pub fn shoot(
     Err(ShootError::NoConvergence { iterations: 30, miss })
 }
 
+/// The budget error for an integration stopped by its step or time limit.
+fn over_budget(e: &IntegrateError, budget: ShootBudget, iteration: usize, n: usize) -> Option<ShootError> {
+    let steps = match e.reason {
+        FailureReason::StepLimit { .. } => true,
+        FailureReason::TimeLimit { .. } => false,
+        _ => return None,
+    };
+    let limit = if steps {
+        format!("{} integration steps", budget.max_steps)
+    } else {
+        format!("{} s", budget.time_limit.as_secs_f64())
+    };
+    let state = crate::integrate::fmt_state(&e.state[..n.min(e.state.len())]);
+    Some(ShootError::Budget { limit, iteration, t: e.t, state, steps })
+}
+
 fn sample(
     method: &Dop853,
     rhs: &super::LagrangianRhs,
@@ -142,7 +236,8 @@ fn sample(
     let samples = samples.max(1);
     for k in 1..=samples {
         let (t0, t1) = ((k - 1) as f64 / samples as f64, k as f64 / samples as f64);
-        let tr = method.integrate(rhs, t0..t1, &y).map_err(|e| ShootError::Numeric(e.to_string()))?;
+        let opts = Options::new().final_only();
+        let tr = method.integrate_with(rhs, t0..t1, &y, opts).map_err(|e| ShootError::Numeric(e.to_string()))?;
         y = tr.last_state().to_vec();
         out.push((t1, y[..n].to_vec()));
     }

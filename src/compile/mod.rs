@@ -40,7 +40,7 @@ pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use discrete::{DiscretePoint, StepperWork, VariationalError, VariationalMap, VariationalStepper, MAX_NEWTON};
 pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
-pub use geodesic::{shoot, ShootError, Shot};
+pub use geodesic::{shoot, shoot_with, ShootBudget, ShootError, Shot};
 pub use native::NO_JIT_ENV;
 pub use rhs::{
     split_separable, HamiltonianRhs, ImplicitLegendreRhs, LagrangianJacobian, LagrangianRhs, RhsError,

@@ -118,7 +118,28 @@ impl System {
         if h.is_zero() {
             return Err(MechanicsError::WrongKind("the step h of discretize must not be zero".into()));
         }
+        // The step is a constant of the scheme: a step in t, or in a coordinate, would be
+        // substituted into L with the time and the positions and mean nothing (`--step t`
+        // printed `DEL_x: undefined = 0`).
         let (q0, q1, q2) = (point_names(&self.coords, 0), point_names(&self.coords, 1), point_names(&self.coords, 2));
+        for s in h.free_symbols() {
+            let what = if s.is_time() {
+                Some("the time `t`".to_string())
+            } else if s.primes() > 0 {
+                Some(format!("the velocity `{s}`"))
+            } else if self.coords.contains(&s) || self.coords.iter().any(|q| q.name() == s.name()) {
+                Some(format!("the coordinate `{s}`"))
+            } else if q0.iter().chain(&q1).chain(&q2).any(|p| p.name() == s.name()) {
+                Some(format!("the point `{s}` of the scheme"))
+            } else {
+                None
+            };
+            if let Some(what) = what {
+                return Err(MechanicsError::WrongKind(format!(
+                    "the step of discretize is a constant (a symbol such as `h`, or a number), but it contains {what}"
+                )));
+            }
+        }
         let inner = if rule == Rule::Gauss2 { point_names_tagged(&self.coords, "m") } else { Vec::new() };
         let stage_names = if rule == Rule::Gauss2 {
             [point_names_tagged(&self.coords, "m0"), point_names_tagged(&self.coords, "m1")].concat()

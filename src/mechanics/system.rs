@@ -103,6 +103,7 @@ impl System {
             if c.is_empty() {
                 return Err(MechanicsError::EmptyCoordinate);
             }
+            crate::parse::refuse_lookalikes(c)?;
             let ok = !c.is_empty()
                 && c != "t"
                 && c.chars().next().is_some_and(char::is_alphabetic)

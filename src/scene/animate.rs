@@ -39,7 +39,11 @@ impl Session {
         for (x, y) in &spec.points {
             let ex = self.resolved(x)?;
             let ey = self.resolved(y)?;
-            coords.push((self.along(&r, &ex, x.span)?, self.along(&r, &ey, y.span)?));
+            let (xs, ys) = (self.along(&r, &ex, x.span)?, self.along(&r, &ey, y.span)?);
+            let run = self.runs[id].name.clone();
+            self.drawable(&xs, &x.text, &run, &r.traj.t, x.span)?;
+            self.drawable(&ys, &y.text, &run, &r.traj.t, y.span)?;
+            coords.push((xs, ys));
         }
         let ts = &r.traj.t;
         let (Some(&t0), Some(&t1)) = (ts.first(), ts.last()) else {

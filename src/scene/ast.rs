@@ -148,6 +148,10 @@ pub struct SimSpec {
     pub points: Option<Src>,
     /// `drift = …`: the relative energy drift above which the run is reported.
     pub drift: Option<Src>,
+    /// `max_steps = …`: a chaos statement's step budget per orbit.
+    pub max_steps: Option<Src>,
+    /// `time_limit = …`: a chaos statement's time budget, in seconds.
+    pub time_limit: Option<Src>,
     /// `for each y in A..B step H on E = VALUE solve p > 0`: an ensemble of runs.
     pub ensemble: Option<EnsembleSpec>,
 }

@@ -32,6 +32,8 @@ pub enum BackendError {
     Numeric(String),
     /// The simulation layer refused or failed, with its typed reason.
     Simulate(SimulateError),
+    /// A step or time budget ran out ([`crate::chaos::Budget`]); the message names it.
+    Budget(String),
 }
 
 impl fmt::Display for BackendError {
@@ -40,7 +42,7 @@ impl fmt::Display for BackendError {
             BackendError::NotYetAvailable { what, stage } => {
                 write!(f, "{what} is not yet available (it needs the {stage} stage, which is still being built)")
             }
-            BackendError::Failed(m) | BackendError::Numeric(m) => f.write_str(m),
+            BackendError::Failed(m) | BackendError::Numeric(m) | BackendError::Budget(m) => f.write_str(m),
             BackendError::Simulate(e) => write!(f, "{e}"),
         }
     }
@@ -142,15 +144,16 @@ pub trait Backend {
         Err(BackendError::NotYetAvailable { what: "the variational equations".into(), stage: "chaos" })
     }
     /// The chaos indicators of one orbit from the canonical start `x0` over `0..t_end`, by the
-    /// Taylor method at `tol`, on a system from [`Backend::compile_variational`].
+    /// Taylor method at `tol` within `budget`, on a system from [`Backend::compile_variational`].
     fn indicators(
         &self,
         compiled: &CompiledVariational,
         x0: &[f64],
         t_end: f64,
         tol: f64,
+        budget: &crate::chaos::Budget,
     ) -> Result<crate::chaos::Indicators, BackendError> {
-        let _ = (compiled, x0, t_end, tol);
+        let _ = (compiled, x0, t_end, tol, budget);
         Err(BackendError::NotYetAvailable { what: "chaos indicators".into(), stage: "chaos" })
     }
     /// One indicator from each of many starts (a chaos map); `progress` receives the fraction
@@ -162,6 +165,7 @@ pub trait Backend {
         starts: &[Vec<f64>],
         t_end: f64,
         tol: f64,
+        budget: &crate::chaos::Budget,
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<f64, BackendError>> {
@@ -170,7 +174,7 @@ pub trait Backend {
             .iter()
             .enumerate()
             .map(|(k, x0)| {
-                let out = self.indicators(compiled, x0, t_end, tol).map(|r| r.value(which));
+                let out = self.indicators(compiled, x0, t_end, tol, budget).map(|r| r.value(which));
                 progress((k + 1) as f64 / n);
                 out
             })
@@ -287,10 +291,9 @@ impl Backend for NativeBackend {
         x0: &[f64],
         t_end: f64,
         tol: f64,
+        budget: &crate::chaos::Budget,
     ) -> Result<crate::chaos::Indicators, BackendError> {
-        let var = &**compiled;
-        crate::chaos::indicators(var, x0, t_end, tol)
-            .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
+        crate::chaos::indicators_with(compiled, x0, t_end, tol, budget).map_err(chaos_error)
     }
 
     /// The starts in parallel on rayon's pool (each start on one thread, so the values do not
@@ -301,14 +304,13 @@ impl Backend for NativeBackend {
         starts: &[Vec<f64>],
         t_end: f64,
         tol: f64,
+        budget: &crate::chaos::Budget,
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<f64, BackendError>> {
         let var = &**compiled;
         simulate::par_map_with_progress(starts, None, progress, |x0| {
-            crate::chaos::indicators(var, x0, t_end, tol)
-                .map(|r| r.value(which))
-                .map_err(|e| BackendError::Numeric(format!("the variational equations failed: {e}")))
+            crate::chaos::indicators_with(var, x0, t_end, tol, budget).map(|r| r.value(which)).map_err(chaos_error)
         })
         .unwrap_or_else(|_| {
             starts.iter().map(|_| Err(BackendError::Failed("internal: a chaos map worker panicked".into()))).collect()
@@ -329,5 +331,15 @@ impl Backend for NativeBackend {
             .into_iter()
             .map(|r| r.map_err(BackendError::Simulate))
             .collect()
+    }
+}
+
+/// An orbit's failure: a budget that ran out ([`crate::chaos::is_budget`]) apart from the
+/// dynamics' own failures, so that a chaos map refuses it instead of leaving the cell blank.
+fn chaos_error(e: crate::integrate::IntegrateError) -> BackendError {
+    if crate::chaos::is_budget(&e) {
+        BackendError::Budget(format!("the variational equations stopped: {e}"))
+    } else {
+        BackendError::Numeric(format!("the variational equations failed: {e}"))
     }
 }

@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 
 use super::ast::{ChaosSpec, LevelSpec, Src};
-use super::backend::{CompiledVariational, VariationalRequest};
+use super::backend::{BackendError, CompiledVariational, VariationalRequest};
 use super::error::{ErrorKind, SceneError, Span};
 use super::plan::{PlanEntry, Status, Step};
 use super::progress::Progress;
@@ -74,10 +74,29 @@ struct Setup {
     env: HashMap<String, f64>,
     t1: f64,
     tol: f64,
+    /// Steps per orbit and time for the statement ([`crate::chaos::Budget`]).
+    budget: crate::chaos::Budget,
     span: Span,
 }
 
 impl Setup {
+    /// A budget error at the statement, with how to raise the budget that ran out.
+    fn budget_error(&self, e: BackendError) -> SceneError {
+        let steps = e.to_string().contains("step limit");
+        let hint = if steps {
+            format!(
+                "to integrate longer, raise the step budget of each orbit: `max_steps = N` (now {})",
+                self.budget.max_steps
+            )
+        } else {
+            format!(
+                "to integrate longer, raise the time budget of the statement: `time_limit = SECONDS` (now {})",
+                self.budget.time_limit.map_or(0.0, |l| l.as_secs_f64())
+            )
+        };
+        backend_error(e, self.span).hint(hint)
+    }
+
     /// The canonical start `(q, p)` from values of the coordinates and their velocities or
     /// momenta (named `q`, `q'` or `p_q`).
     fn start(&self, given: &HashMap<String, f64>) -> Result<Vec<f64>, crate::eval::EvalError> {
@@ -206,8 +225,10 @@ impl Session {
             Some(n) => n.text.clone(),
             None => format!("{}{}", spec.indicator.text, self.chaos_runs.len() + 1),
         };
-        let r =
-            self.backend.indicators(&setup.var, &x0, setup.t1, setup.tol).map_err(|e| backend_error(e, setup.span))?;
+        let r = self.backend.indicators(&setup.var, &x0, setup.t1, setup.tol, &setup.budget).map_err(|e| match e {
+            BackendError::Budget(_) => setup.budget_error(e),
+            e => backend_error(e, setup.span),
+        })?;
         self.plan.push(PlanEntry {
             step: Step::Integrate,
             what: format!(
@@ -270,6 +291,16 @@ impl Session {
                 )
                 .at((lo.span.0, hi.span.1)));
             }
+            // The cells' centres are a + (b − a)(k + ½)/N: a range wider than f64 holds
+            // (−1e308..1e308) would make them infinite, and every start would fail.
+            if !(b - a).is_finite() {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)", sym.text),
+                )
+                .at((lo.span.0, hi.span.1))
+                .hint("narrow the range so that its width is below 1.8e308"));
+            }
             axes.push((sym.clone(), a, b));
         }
         let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
@@ -315,8 +346,19 @@ impl Session {
                 .hint("check the level's value against the energy over the grid"));
         }
         let mut bar = Progress::new("chaos map", self.opts.progress);
-        let computed = self.backend.chaos_map(&setup.var, &starts, setup.t1, setup.tol, which, &mut |x| bar.update(x));
+        let computed =
+            self.backend
+                .chaos_map(&setup.var, &starts, setup.t1, setup.tol, &setup.budget, which, &mut |x| bar.update(x));
         bar.finish();
+        // A start that ran out of the budget has no value, and a blank there would read as a
+        // failed (escaping) orbit: the map is refused, naming the budget.
+        let computed = match computed.iter().position(|r| matches!(r, Err(BackendError::Budget(_)))) {
+            Some(k) => match computed.into_iter().nth(k) {
+                Some(Err(e)) => return Err(setup.budget_error(e)),
+                _ => unreachable!("position found a budget error at {k}"),
+            },
+            None => computed,
+        };
         // A start whose integration fails (escapes, meets a singularity) is blank too, but
         // counted apart from the cells off the level set.
         let mut computed = computed.into_iter().map(|r| r.unwrap_or(f64::NAN));
@@ -621,7 +663,45 @@ impl Session {
             }
         };
         let env = params.into_iter().collect();
-        Ok(Setup { var, coords, momenta, env, t1, tol, span })
+        let budget = self.chaos_budget(sim)?;
+        Ok(Setup { var, coords, momenta, env, t1, tol, budget, span })
+    }
+
+    /// `max_steps = N` and `time_limit = S` of a chaos statement, checked, as its budget; the
+    /// time counts from here.
+    fn chaos_budget(&mut self, sim: &super::ast::SimSpec) -> Result<crate::chaos::Budget, SceneError> {
+        use crate::chaos::Budget;
+        let max_steps = match &sim.max_steps {
+            None => Budget::DEFAULT_STEPS,
+            Some(src) => {
+                let e = self.resolved(src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x >= 1.0 && x.fract() == 0.0 && x < usize::MAX as f64) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`max_steps` is a whole number of steps, at least 1; found {}", fmt_num(x)),
+                    )
+                    .at(src.span));
+                }
+                x as usize
+            }
+        };
+        let seconds = match &sim.time_limit {
+            None => Budget::DEFAULT_SECONDS,
+            Some(src) => {
+                let e = self.resolved(src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x > 0.0 && x.is_finite() && x < 1e9) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`time_limit` is a positive number of seconds below 10⁹; found {}", fmt_num(x)),
+                    )
+                    .at(src.span));
+                }
+                x
+            }
+        };
+        Ok(Budget::new(max_steps, std::time::Duration::from_secs_f64(seconds)))
     }
 
     /// `plot lyapunov | megno | fli [from NAME, …]`: the indicator against time.

@@ -127,6 +127,24 @@ impl Session {
                 .at(value.span)
                 .hint(format!("add the terms to the first one: `{}`", old.src.text)));
         }
+        if let Some(n) = name {
+            // `rayleigh L = …` would make the dissipation function the Lagrangian (the run
+            // integrated R as L), and a name already defined would be silently replaced.
+            let what = match n.text.as_str() {
+                "L" => Some("the name of the Lagrangian".to_string()),
+                "H" => Some("the name of the Hamiltonian".to_string()),
+                other => self.name_in_use(other).map(|w| format!("already {w}")),
+            };
+            if let Some(what) = what {
+                return Err(SceneError::new(
+                    ErrorKind::Redeclared,
+                    format!("`{}` is {what}; a Rayleigh function needs a name of its own", n.text),
+                )
+                .at(n.span)
+                .label("already has a meaning")
+                .hint("name it `R` (`rayleigh R = …`), or leave the name out (`rayleigh …`)"));
+            }
+        }
         let d = self.dynamics_expr(value, "Rayleigh function", true)?;
         if let Some(n) = name {
             self.define(n, &super::ast::DefValue::Expr(value.clone()))?;

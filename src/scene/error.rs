@@ -104,11 +104,38 @@ impl SceneError {
     pub fn render(&self, color: bool) -> String {
         let theme = if color { GraphicalTheme::unicode() } else { GraphicalTheme::unicode_nocolor() };
         let handler = GraphicalReportHandler::new_themed(theme).with_width(100);
+        let safe = self.terminal_safe();
         let mut out = String::new();
-        if handler.render_report(&mut out, self).is_err() {
-            out = self.to_string();
+        if handler.render_report(&mut out, &safe).is_err() {
+            out = safe.to_string();
         }
         out
+    }
+
+    /// This error with the control characters of its texts and source escaped
+    /// ([`crate::print::escape_controls`]) and its span moved to match: a scene or REPL line
+    /// holding `\x1b[2J` is shown, not executed by the terminal.
+    fn terminal_safe(&self) -> SceneError {
+        use crate::print::{escape_controls, escape_controls_at};
+        let mut span = self.span;
+        let source = self.source.as_ref().map(|src| {
+            let text = src.inner();
+            if !text.chars().any(char::is_control) || escape_controls(text) == *text {
+                return src.clone();
+            }
+            let mut at = [span.map_or(0, |s| s.0), span.map_or(0, |s| s.1)];
+            let safe = escape_controls_at(text, &mut at);
+            span = span.map(|_| (at[0], at[1]));
+            Arc::new(NamedSource::new(src.name(), safe))
+        });
+        SceneError {
+            kind: self.kind,
+            message: escape_controls(&self.message),
+            span,
+            label: self.label.as_deref().map(escape_controls),
+            hint: self.hint.as_deref().map(escape_controls),
+            source,
+        }
     }
 }
 

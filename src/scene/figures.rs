@@ -34,6 +34,46 @@ pub(super) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str,
     }
 }
 
+/// The columns of one run or of several (an ensemble's members): one run as
+/// [`columns_text`]; several as one CSV table with the run's name in a first column `run`
+/// (each member's rows in order), or JSON `{"runs": [{"run", "method", "columns"}, …]}`.
+pub(super) fn members_text(members: &[(String, String, Vec<(String, Vec<f64>)>)], ext: &str) -> String {
+    if let [(run, method, columns)] = members {
+        return columns_text(columns, ext, run, method);
+    }
+    if ext == "csv" {
+        let Some((_, _, first)) = members.first() else { return String::new() };
+        let mut s = std::iter::once("run".to_string())
+            .chain(first.iter().map(|c| csv_field(&c.0)))
+            .collect::<Vec<_>>()
+            .join(",");
+        s.push('\n');
+        for (run, _, columns) in members {
+            let rows = columns.first().map_or(0, |c| c.1.len());
+            let name = csv_field(run);
+            for i in 0..rows {
+                let row: Vec<String> =
+                    std::iter::once(name.clone()).chain(columns.iter().map(|c| format!("{:e}", c.1[i]))).collect();
+                s.push_str(&row.join(","));
+                s.push('\n');
+            }
+        }
+        s
+    } else {
+        let runs: Vec<serde_json::Value> = members
+            .iter()
+            .map(|(run, method, columns)| {
+                let cols: Vec<serde_json::Value> =
+                    columns.iter().map(|(n, v)| serde_json::json!({ "name": n, "values": v })).collect();
+                serde_json::json!({ "run": run, "method": method, "columns": cols })
+            })
+            .collect();
+        let mut s = serde_json::to_string_pretty(&serde_json::json!({ "runs": runs })).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+}
+
 impl Session {
     // ----- outputs -------------------------------------------------------------------------
 
@@ -186,6 +226,43 @@ impl Session {
         Ok(())
     }
 
+    /// Refuses values of `what` along a run that are not finite at any stored state (a
+    /// figure of nothing, which exports refuse too), and notes how many are not drawn when
+    /// only some are not finite. `times` are the stored states' times.
+    pub(super) fn drawable(
+        &mut self,
+        values: &[f64],
+        what: &str,
+        run: &str,
+        times: &[f64],
+        span: Span,
+    ) -> Result<(), SceneError> {
+        let bad = values.iter().filter(|v| !v.is_finite()).count();
+        if bad == 0 {
+            return Ok(());
+        }
+        let what = what.trim();
+        if bad == values.len() {
+            return Err(SceneError::new(
+                ErrorKind::Numeric,
+                format!(
+                    "`{what}` is not finite at any of the {} stored states of {run} (the first is {}): there is nothing to draw",
+                    values.len(),
+                    values[0]
+                ),
+            )
+            .at(span)
+            .hint("the expression leaves its domain (a square root or logarithm of a negative number, a division by zero) or overflows f64 all along the run; draw another expression, or change the run"));
+        }
+        let first = values.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        self.output.push(format!(
+            "note: `{what}` is not finite at {bad} of the {} stored states of {run} (the first at t = {}); those points are not drawn",
+            values.len(),
+            times.get(first).map_or_else(|| "?".to_string(), |t| format!("{t}"))
+        ));
+        Ok(())
+    }
+
     /// Announces an output file. The line is withdrawn if the file is not moved into place
     /// (a later statement of the scene fails), so "wrote" is never printed for a file that
     /// does not exist.
@@ -206,6 +283,8 @@ impl Session {
                     for (src, label) in exprs.iter().zip(&labels) {
                         let e = self.resolved(src)?;
                         let ys = self.along(&r, &e, src.span)?;
+                        let run = self.runs[id].name.clone();
+                        self.drawable(&ys, &src.text, &run, &r.traj.t, src.span)?;
                         let label =
                             if ids.len() > 1 { format!("{label}, {}", self.runs[id].name) } else { label.clone() };
                         series.push(Series { label, points: r.traj.t.iter().copied().zip(ys).collect() });
@@ -235,14 +314,19 @@ impl Session {
                     let r = self.demand_run(id)?;
                     let ex = self.resolved(x)?;
                     let ey = self.resolved(y)?;
+                    let run = self.runs[id].name.clone();
                     let pts = if poincare {
                         let sub = self.section_of(&r)?;
                         let xs = self.along(&sub, &ex, x.span)?;
                         let ys = self.along(&sub, &ey, y.span)?;
+                        self.drawable(&xs, &x.text, &run, &sub.traj.t, x.span)?;
+                        self.drawable(&ys, &y.text, &run, &sub.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     } else {
                         let xs = self.along(&r, &ex, x.span)?;
                         let ys = self.along(&r, &ey, y.span)?;
+                        self.drawable(&xs, &x.text, &run, &r.traj.t, x.span)?;
+                        self.drawable(&ys, &y.text, &run, &r.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     };
                     let label = match &group {
@@ -266,6 +350,9 @@ impl Session {
                 for &id in &ids {
                     let r = self.demand_run(id)?;
                     let errors = self.energy_errors(&r)?;
+                    let run = self.runs[id].name.clone();
+                    let at = self.span;
+                    self.drawable(&errors, "|ΔE/E₀|", &run, &r.traj.t, at)?;
                     let pts = r.traj.t.iter().copied().zip(errors).collect();
                     series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name()), points: pts });
                 }
@@ -574,63 +661,87 @@ impl Session {
             s.push('\n');
             s
         } else {
+            // Every run the `from` names: all members of an ensemble (the docs say so; only
+            // the first used to be written, with no note).
             let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
-            let r = self.demand_run(ids[0])?;
-            let mut columns: Vec<(String, Vec<f64>)> = vec![("t".to_string(), r.traj.t.clone())];
-            if items.is_empty() {
-                let names = state_names(&r.coords, r.layout);
-                for (i, n) in names.iter().enumerate() {
-                    columns.push((n.clone(), r.traj.y.iter().map(|y| y[i]).collect()));
-                }
-            } else {
-                for item in items {
-                    if let Item::Expr(src) = item {
-                        if src.text.trim() == "t" {
-                            continue;
+            let mut members = Vec::new();
+            for &id in &ids {
+                let r = self.demand_run(id)?;
+                let mut columns: Vec<(String, Vec<f64>)> = vec![("t".to_string(), r.traj.t.clone())];
+                if items.is_empty() {
+                    let names = state_names(&r.coords, r.layout);
+                    for (i, n) in names.iter().enumerate() {
+                        columns.push((n.clone(), r.traj.y.iter().map(|y| y[i]).collect()));
+                    }
+                } else {
+                    for item in items {
+                        if let Item::Expr(src) = item {
+                            if src.text.trim() == "t" {
+                                continue;
+                            }
+                            let e = self.resolved(src)?;
+                            columns.push((src.text.trim().to_string(), self.along(&r, &e, src.span)?));
                         }
-                        let e = self.resolved(src)?;
-                        columns.push((src.text.trim().to_string(), self.along(&r, &e, src.span)?));
                     }
                 }
+                let name = self.runs[id].name.clone();
+                self.check_exported(&columns, &r.traj.t, &file, &ext, &name, ids.len() > 1, pspan)?;
+                members.push((name, r.method.name().to_string(), columns));
             }
-            // inf and NaN would land in the file silently (NaN as `null` in JSON): refused,
-            // naming the column, the row and the time, unless `allow nonfinite` asked to keep
-            // them in a CSV (JSON has no spelling for them).
-            for (name, values) in &columns {
-                if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                    if self.allow_nonfinite && ext == "csv" {
-                        let count: usize = columns.iter().map(|c| c.1.iter().filter(|v| !v.is_finite()).count()).sum();
-                        self.output.push(format!(
-                            "note: {} keeps {count} non-finite value{} (`allow nonfinite`); the first is column `{name}` at row {}",
-                            file.display(),
-                            if count == 1 { "" } else { "s" },
-                            i + 1
-                        ));
-                        break;
-                    }
-                    return Err(SceneError::new(
-                        ErrorKind::Numeric,
-                        format!(
-                            "column `{name}` is {} at t = {} (row {}): exported numbers must be finite",
-                            values[i],
-                            r.traj.t.get(i).copied().unwrap_or(f64::NAN),
-                            i + 1
-                        ),
-                    )
-                    .at(pspan)
-                    .hint(if self.allow_nonfinite {
-                        "JSON has no spelling for inf or NaN: export to `.csv` to keep them".to_string()
-                    } else {
-                        "the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column, or write `allow nonfinite` before the export to keep it".to_string()
-                    }));
-                }
-            }
-            columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name())
+            members_text(&members, &ext)
         };
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)
             .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
         self.wrote(&file);
+        Ok(())
+    }
+
+    /// Refuses inf and NaN in exported columns (they would land in the file silently, NaN as
+    /// `null` in JSON), naming the column, the row and the time (and the member of an
+    /// ensemble), unless `allow nonfinite` asked to keep them in a CSV (JSON has no spelling
+    /// for them).
+    #[allow(clippy::too_many_arguments)]
+    fn check_exported(
+        &mut self,
+        columns: &[(String, Vec<f64>)],
+        times: &[f64],
+        file: &std::path::Path,
+        ext: &str,
+        run: &str,
+        several: bool,
+        pspan: Span,
+    ) -> Result<(), SceneError> {
+        let of_run = if several { format!(" of {run}") } else { String::new() };
+        for (name, values) in columns {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                if self.allow_nonfinite && ext == "csv" {
+                    let count: usize = columns.iter().map(|c| c.1.iter().filter(|v| !v.is_finite()).count()).sum();
+                    self.output.push(format!(
+                        "note: {} keeps {count} non-finite value{}{of_run} (`allow nonfinite`); the first is column `{name}` at row {}",
+                        file.display(),
+                        if count == 1 { "" } else { "s" },
+                        i + 1
+                    ));
+                    break;
+                }
+                return Err(SceneError::new(
+                    ErrorKind::Numeric,
+                    format!(
+                        "column `{name}`{of_run} is {} at t = {} (row {}): exported numbers must be finite",
+                        values[i],
+                        times.get(i).copied().unwrap_or(f64::NAN),
+                        i + 1
+                    ),
+                )
+                .at(pspan)
+                .hint(if self.allow_nonfinite {
+                    "JSON has no spelling for inf or NaN: export to `.csv` to keep them".to_string()
+                } else {
+                    "the value overflows f64 or leaves the domain of its expression; change the initial state, the parameters or the column, or write `allow nonfinite` before the export to keep it".to_string()
+                }));
+            }
+        }
         Ok(())
     }
 }

@@ -169,7 +169,14 @@ impl Session {
                     crate::compile::ShootError::Interrupted { .. } => ErrorKind::Interrupted,
                     _ => ErrorKind::Numeric,
                 };
-                SceneError::new(kind, e.to_string()).at((from[0].span.0, to[to.len() - 1].span.1))
+                let err = SceneError::new(kind, e.to_string()).at((from[0].span.0, to[to.len() - 1].span.1));
+                match e {
+                    crate::compile::ShootError::Budget { .. } => err.hint(
+                        "the scene statement shoots within the default budget; `lagrangian geodesic … --max-steps N \
+                         --time-limit S` shoots with a larger one",
+                    ),
+                    _ => err,
+                }
             })?;
             lines.push(shot.report_line());
         }

@@ -239,6 +239,8 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::steps => "`steps = …`",
         Rule::every => "`every N`",
         Rule::drift => "`drift = …`",
+        Rule::max_steps => "`max_steps = …`",
+        Rule::time_limit => "`time_limit = …`",
         Rule::points => "`points N`",
         Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
         Rule::direction => "`rising` or `falling`",
@@ -735,6 +737,8 @@ impl Builder {
         let mut every = None;
         let mut points = None;
         let mut drift = None;
+        let mut max_steps = None;
+        let mut time_limit = None;
         let mut ensemble = None;
         for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
             match q.as_rule() {
@@ -760,6 +764,8 @@ impl Builder {
                 Rule::every => every = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::points => points = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::drift => drift = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::max_steps => max_steps = q.into_inner().last().map(|n| self.src(&n)),
+                Rule::time_limit => time_limit = q.into_inner().last().map(|n| self.src(&n)),
                 Rule::stabilize => {
                     let sspan = self.span(&q);
                     let mut kind = String::new();
@@ -811,6 +817,8 @@ impl Builder {
             every,
             points,
             drift,
+            max_steps,
+            time_limit,
             ensemble,
         })
     }

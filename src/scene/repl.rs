@@ -147,7 +147,7 @@ impl Repl {
         }
         if trimmed == "history" {
             for (i, h) in self.history.iter().enumerate() {
-                let _ = writeln!(out, "{:>4}  {}", i + 1, h.replace('\n', " "));
+                let _ = writeln!(out, "{:>4}  {}", i + 1, crate::print::escape_controls(&h.replace('\n', " ")));
             }
             return Entry::Ok;
         }
@@ -159,7 +159,7 @@ impl Repl {
         }
         let _ = out.flush();
         for line in self.session.take_warnings() {
-            eprintln!("{line}");
+            eprintln!("{}", crate::print::escape_controls(&line));
         }
         match result {
             Ok(()) => Entry::Ok,
@@ -275,6 +275,8 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         let text = std::mem::take(&mut pending);
         let mut out = stdout.lock();
         for (i, l) in text.lines().enumerate() {
+            // The echo is the input as read: its control bytes are shown, not executed.
+            let l = crate::print::escape_controls(l);
             let _ = writeln!(out, "{}{l}", if i == 0 { PROMPT } else { CONTINUATION });
         }
         if !text.trim().is_empty() {
@@ -292,7 +294,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     }
     if !pending.trim().is_empty() {
         let mut out = stdout.lock();
-        let _ = writeln!(out, "{PROMPT}{pending}");
+        let _ = writeln!(out, "{PROMPT}{}", crate::print::escape_controls(&pending));
         let _ = repl.entry(&pending, &mut out);
     }
     errors

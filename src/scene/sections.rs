@@ -6,7 +6,7 @@ use std::sync::Arc;
 use super::ast::Src;
 use super::backend::Trajectory;
 use super::error::{ErrorKind, SceneError};
-use super::figures::columns_text;
+use super::figures::members_text;
 use super::session::{RunResult, Session};
 use super::simulate::state_names;
 
@@ -40,31 +40,39 @@ impl Session {
             &["csv", "json"],
             "export Poincaré points to `.csv` or `.json`",
         )?;
+        // Every run the `from` names: all members of an ensemble, each with its own rows.
         let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
-        let r = self.demand_run(ids[0])?;
-        let sub = self.section_of(&r)?;
-        let mut columns: Vec<(String, Vec<f64>)> = vec![
-            ("t".to_string(), sub.traj.t.clone()),
-            ("event".to_string(), r.traj.events.iter().map(|e| (e.index + 1) as f64).collect()),
-        ];
-        if items.is_empty() {
-            for (i, n) in state_names(&r.coords, r.layout).iter().enumerate() {
-                columns.push((n.clone(), sub.traj.y.iter().map(|y| y[i]).collect()));
-            }
-        } else {
-            for src in items {
-                if src.text.trim() == "t" {
-                    continue;
+        let mut members = Vec::new();
+        let mut points = 0;
+        for &id in &ids {
+            let r = self.demand_run(id)?;
+            let sub = self.section_of(&r)?;
+            let mut columns: Vec<(String, Vec<f64>)> = vec![
+                ("t".to_string(), sub.traj.t.clone()),
+                ("event".to_string(), r.traj.events.iter().map(|e| (e.index + 1) as f64).collect()),
+            ];
+            if items.is_empty() {
+                for (i, n) in state_names(&r.coords, r.layout).iter().enumerate() {
+                    columns.push((n.clone(), sub.traj.y.iter().map(|y| y[i]).collect()));
                 }
-                let e = self.resolved(src)?;
-                columns.push((src.text.trim().to_string(), self.along(&sub, &e, src.span)?));
+            } else {
+                for src in items {
+                    if src.text.trim() == "t" {
+                        continue;
+                    }
+                    let e = self.resolved(src)?;
+                    columns.push((src.text.trim().to_string(), self.along(&sub, &e, src.span)?));
+                }
             }
+            points += sub.traj.t.len();
+            members.push((self.runs[id].name.clone(), r.method.name().to_string(), columns));
         }
-        let text = columns_text(&columns, &ext, &self.runs[ids[0]].name, r.method.name());
+        let text = members_text(&members, &ext);
         let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
         std::fs::write(&tmp, text)
             .map_err(|e| SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan))?;
-        self.output.push(format!("wrote {} ({} points)", file.display(), sub.traj.t.len()));
+        let of = if ids.len() > 1 { format!(" of {} runs", ids.len()) } else { String::new() };
+        self.output.push(format!("wrote {} ({points} points{of})", file.display()));
         Ok(())
     }
 }

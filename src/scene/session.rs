@@ -203,7 +203,7 @@ pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
     let kind = match &e {
         BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
         BackendError::Failed(_) => ErrorKind::Derivation,
-        BackendError::Numeric(_) => ErrorKind::Numeric,
+        BackendError::Numeric(_) | BackendError::Budget(_) => ErrorKind::Numeric,
         BackendError::Simulate(crate::simulate::SimulateError::Integrate { .. }) => ErrorKind::Numeric,
         BackendError::Simulate(_) => ErrorKind::Derivation,
     };
@@ -1149,15 +1149,9 @@ fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
             _ if in_comment || in_quote => {}
             _ => {
                 if let Some(what) = crate::parse::lookalike_kind(c) {
-                    return Err(SceneError::new(
-                        ErrorKind::Syntax,
-                        format!(
-                            "`{c}` (U+{:04X}) is {what} that looks like another; names are ASCII or Greek",
-                            u32::from(c)
-                        ),
-                    )
-                    .at((i, i + c.len_utf8()))
-                    .hint("retype the name with a Latin or Greek keyboard layout"));
+                    return Err(SceneError::new(ErrorKind::Syntax, crate::parse::lookalike_message(c, what))
+                        .at((i, i + c.len_utf8()))
+                        .hint(crate::parse::LOOKALIKE_HINT));
                 }
             }
         }
