@@ -94,7 +94,7 @@ pub fn render_line(line: &Line, format: Format) -> String {
                 out.push_str(&name(l, format));
                 out.push_str(": ");
             }
-            out.push_str(&render(lhs, format));
+            out.push_str(&side(lhs, format));
             out.push_str(" = ");
             out.push_str(&render(rhs, format));
             if let Some(n) = note {
@@ -136,6 +136,20 @@ fn name(n: &str, format: Format) -> String {
         Format::Latex => render(&Expr::var(n), format),
         _ => n.to_string(),
     }
+}
+
+/// A left side: an indexed name `W[x,θ1]` has its indices printed as names (`\theta_{1}` in
+/// LaTeX), anything else is an expression.
+fn side(lhs: &Expr, format: Format) -> String {
+    if let Some(s) = lhs.as_sym().filter(|s| s.primes() == 0) {
+        if let Some((base, rest)) = s.name().split_once('[') {
+            if let Some(indices) = rest.strip_suffix(']') {
+                let parts: Vec<String> = indices.split(',').map(|i| name(i, format)).collect();
+                return format!("{}[{}]", name(base, format), parts.join(","));
+            }
+        }
+    }
+    render(lhs, format)
 }
 
 /// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i`, in the
@@ -263,6 +277,9 @@ fn has_dynamics(s: &System) -> bool {
     s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some() || !s.constraints().is_empty()
 }
 
+/// How the note of a [`conserved`] line that is *not* conserved begins.
+pub const NOT_CONSERVED: &str = "not conserved: ";
+
 /// `conserved`: the mechanics stage's Noether quantities, then the point symmetries the search
 /// finds ([`conserved_lines`]), then every candidate that the forces, the dissipation or a
 /// constraint break, as `p_x = …   (not conserved: dp_x/dt = …, by …)`. A system with
@@ -389,7 +406,7 @@ pub fn conserved(s: &System) -> Vec<Line> {
     let mut lines: Vec<Line> = found.into_iter().map(|c| Line::named(&c.name, c.value).with_note(c.note)).collect();
     for (name, value, rate, who) in broken {
         let by = if who.is_empty() { String::new() } else { format!(", broken by {}", who.join(" and ")) };
-        lines.push(Line::named(&name, value).with_note(format!("not conserved: d{name}/dt = {}{by}", plain(&rate))));
+        lines.push(Line::named(&name, value).with_note(format!("{NOT_CONSERVED}d{name}/dt = {}{by}", plain(&rate))));
     }
     if let Some(bound) = unattached {
         match lines.last_mut() {
@@ -435,6 +452,9 @@ mod tests {
         assert!(unicode.contains("θ̈"), "{unicode}");
         let latex = render_line(&lines[0], Format::Latex);
         assert!(latex.starts_with("E_{\\theta}: ") && latex.contains("\\ddot{\\theta}"), "{latex}");
+        let w = mass_matrix_split(&lagrangian("1/2 m (θ1'^2 + x'^2)", &["θ1", "x"])).unwrap();
+        assert_eq!(render_line(&w[1], Format::Latex), "W[\\theta_{1},x] = 0");
+        assert_eq!(render_line(&w[1], Format::Unicode), "W[θ1,x] = 0");
         // JSON carries the plain forms, which re-parse to the same expressions.
         let j = line_json(&lines[0]);
         assert_eq!(j["label"], "E_θ");
