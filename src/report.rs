@@ -152,31 +152,12 @@ fn side(lhs: &Expr, format: Format) -> String {
     render(lhs, format)
 }
 
-/// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i`, in the
-/// system's own variables (velocities).
-fn driving_terms(s: &System, d: &mut Differentiator) -> Vec<Expr> {
-    let lambdas = s.multipliers();
-    (0..s.coordinates().len())
-        .map(|i| {
-            let mut terms = vec![s.forces()[i].clone()];
-            if let Some(r) = s.rayleigh() {
-                terms.push(d.diff(r, &s.velocities()[i]).neg());
-            }
-            for (f, lam) in s.constraints().iter().zip(&lambdas) {
-                terms.push(Expr::sym(lam.clone()).times(&d.diff(f, &s.coordinates()[i])));
-            }
-            tidy(&Expr::add(terms))
-        })
-        .collect()
-}
-
 /// `el`: one line `E_q: E_q = Q_q − ∂R/∂q' + Σ λ_j ∂f_j/∂q` per coordinate, and when `W` is
 /// singular one `note:` line saying why no accelerations follow (the `E_q` exist for every
 /// Lagrangian; Remark 3.1).
 pub fn euler_lagrange(s: &System) -> Result<Vec<Line>, MechanicsError> {
     let el = s.euler_lagrange()?;
-    let mut d = Differentiator::new();
-    let rhs = driving_terms(s, &mut d);
+    let rhs = s.driving_forces();
     let mut lines: Vec<Line> = s
         .coordinates()
         .iter()
@@ -258,23 +239,10 @@ pub fn legendre(s: &System) -> Result<Vec<Line>, MechanicsError> {
 /// so the right sides are in `q, p, t` and the multipliers `λ_j`): they are never dropped.
 pub fn hamilton(s: &System) -> Result<Vec<Line>, MechanicsError> {
     let eqs = s.hamilton_equations()?;
-    let mut pdot = eqs.pdot.clone();
-    if has_dynamics(s) {
-        let mut d = Differentiator::new();
-        let drive = driving_terms(s, &mut d);
-        let to_momenta: HashMap<Symbol, Expr> = s.velocities().iter().cloned().zip(eqs.qdot.iter().cloned()).collect();
-        for (p, x) in pdot.iter_mut().zip(drive) {
-            *p = tidy(&p.plus(&x.subs(&to_momenta)));
-        }
-    }
     let mut lines: Vec<Line> =
-        s.coordinates().iter().zip(&eqs.qdot).map(|(q, e)| Line::new(Expr::sym(q.prime()), e.clone())).collect();
-    lines.extend(s.momenta().iter().zip(pdot).map(|(p, e)| Line::new(Expr::sym(p.prime()), e)));
+        s.coordinates().iter().zip(eqs.qdot).map(|(q, e)| Line::new(Expr::sym(q.prime()), e)).collect();
+    lines.extend(s.momenta().iter().zip(eqs.pdot).map(|(p, e)| Line::new(Expr::sym(p.prime()), e)));
     Ok(lines)
-}
-
-fn has_dynamics(s: &System) -> bool {
-    s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some() || !s.constraints().is_empty()
 }
 
 /// How the note of a [`conserved`] line that is *not* conserved begins.
@@ -292,9 +260,9 @@ pub fn conserved(s: &System) -> Vec<Line> {
         Kind::Hamiltonian(h) => h.clone(),
     };
     let hamiltonian_kind = matches!(s.kind(), Kind::Hamiltonian(_));
-    let drive = driving_terms(s, &mut d);
+    let drive = s.driving_forces();
     // In a Hamiltonian system the velocities in the forces are `∂H/∂p`.
-    let to_momenta: HashMap<Symbol, Expr> = if hamiltonian_kind && has_dynamics(s) {
+    let to_momenta: HashMap<Symbol, Expr> = if hamiltonian_kind && s.has_driving_forces() {
         match s.hamilton_equations() {
             Ok(eqs) => s.velocities().iter().cloned().zip(eqs.qdot).collect(),
             Err(_) => HashMap::new(),
