@@ -199,7 +199,7 @@ def test_report_prints_the_command_line_lines():
         "θ'' = 2 g sin(α)/(3 R)",
         "λ1 = -g m sin(α)/3",
     ]
-    assert s.report("el").splitlines() == ["E_y: m (ÿ - g sin(α)) = λ1", "E_θ: R² m θ̈/2 = -R λ1"]
+    assert s.report("el").splitlines() == ["E_y: m (y\u0308 - g sin(α)) = λ1", "E_θ: R² m θ\u0308/2 = -R λ1"]
     lines = json.loads(s.report("el", "json"))
     assert lines[0] == {"label": "E_y", "lhs": "m (y'' - g sin(α))", "rhs": "λ1", "note": None}
     with pytest.raises(ValueError, match="unknown derivation `eel`"):
