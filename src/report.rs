@@ -94,7 +94,7 @@ pub fn render_line(line: &Line, format: Format) -> String {
                 out.push_str(&name(l, format));
                 out.push_str(": ");
             }
-            out.push_str(&render(lhs, format));
+            out.push_str(&side(lhs, format));
             out.push_str(" = ");
             out.push_str(&render(rhs, format));
             if let Some(n) = note {
@@ -138,22 +138,18 @@ fn name(n: &str, format: Format) -> String {
     }
 }
 
-/// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i`, in the
-/// system's own variables (velocities).
-fn driving_terms(s: &System, d: &mut Differentiator) -> Vec<Expr> {
-    let lambdas = s.multipliers();
-    (0..s.coordinates().len())
-        .map(|i| {
-            let mut terms = vec![s.forces()[i].clone()];
-            if let Some(r) = s.rayleigh() {
-                terms.push(d.diff(r, &s.velocities()[i]).neg());
+/// A left side: an indexed name `W[x,θ1]` has its indices printed as names (`\theta_{1}` in
+/// LaTeX), anything else is an expression.
+fn side(lhs: &Expr, format: Format) -> String {
+    if let Some(s) = lhs.as_sym().filter(|s| s.primes() == 0) {
+        if let Some((base, rest)) = s.name().split_once('[') {
+            if let Some(indices) = rest.strip_suffix(']') {
+                let parts: Vec<String> = indices.split(',').map(|i| name(i, format)).collect();
+                return format!("{}[{}]", name(base, format), parts.join(","));
             }
-            for (f, lam) in s.constraints().iter().zip(&lambdas) {
-                terms.push(Expr::sym(lam.clone()).times(&d.diff(f, &s.coordinates()[i])));
-            }
-            tidy(&Expr::add(terms))
-        })
-        .collect()
+        }
+    }
+    render(lhs, format)
 }
 
 /// `el`: one line `E_q: E_q = Q_q − ∂R/∂q' + Σ λ_j ∂f_j/∂q` per coordinate, and when `W` is
@@ -161,8 +157,7 @@ fn driving_terms(s: &System, d: &mut Differentiator) -> Vec<Expr> {
 /// Lagrangian; Remark 3.1).
 pub fn euler_lagrange(s: &System) -> Result<Vec<Line>, MechanicsError> {
     let el = s.euler_lagrange()?;
-    let mut d = Differentiator::new();
-    let rhs = driving_terms(s, &mut d);
+    let rhs = s.driving_forces();
     let mut lines: Vec<Line> = s
         .coordinates()
         .iter()
@@ -244,24 +239,14 @@ pub fn legendre(s: &System) -> Result<Vec<Line>, MechanicsError> {
 /// so the right sides are in `q, p, t` and the multipliers `λ_j`): they are never dropped.
 pub fn hamilton(s: &System) -> Result<Vec<Line>, MechanicsError> {
     let eqs = s.hamilton_equations()?;
-    let mut pdot = eqs.pdot.clone();
-    if has_dynamics(s) {
-        let mut d = Differentiator::new();
-        let drive = driving_terms(s, &mut d);
-        let to_momenta: HashMap<Symbol, Expr> = s.velocities().iter().cloned().zip(eqs.qdot.iter().cloned()).collect();
-        for (p, x) in pdot.iter_mut().zip(drive) {
-            *p = tidy(&p.plus(&x.subs(&to_momenta)));
-        }
-    }
     let mut lines: Vec<Line> =
-        s.coordinates().iter().zip(&eqs.qdot).map(|(q, e)| Line::new(Expr::sym(q.prime()), e.clone())).collect();
-    lines.extend(s.momenta().iter().zip(pdot).map(|(p, e)| Line::new(Expr::sym(p.prime()), e)));
+        s.coordinates().iter().zip(eqs.qdot).map(|(q, e)| Line::new(Expr::sym(q.prime()), e)).collect();
+    lines.extend(s.momenta().iter().zip(eqs.pdot).map(|(p, e)| Line::new(Expr::sym(p.prime()), e)));
     Ok(lines)
 }
 
-fn has_dynamics(s: &System) -> bool {
-    s.forces().iter().any(|f| !f.is_zero()) || s.rayleigh().is_some() || !s.constraints().is_empty()
-}
+/// How the note of a [`conserved`] line that is *not* conserved begins.
+pub const NOT_CONSERVED: &str = "not conserved: ";
 
 /// `conserved`: the mechanics stage's Noether quantities, then the point symmetries the search
 /// finds ([`conserved_lines`]), then every candidate that the forces, the dissipation or a
@@ -275,9 +260,9 @@ pub fn conserved(s: &System) -> Vec<Line> {
         Kind::Hamiltonian(h) => h.clone(),
     };
     let hamiltonian_kind = matches!(s.kind(), Kind::Hamiltonian(_));
-    let drive = driving_terms(s, &mut d);
+    let drive = s.driving_forces();
     // In a Hamiltonian system the velocities in the forces are `∂H/∂p`.
-    let to_momenta: HashMap<Symbol, Expr> = if hamiltonian_kind && has_dynamics(s) {
+    let to_momenta: HashMap<Symbol, Expr> = if hamiltonian_kind && s.has_driving_forces() {
         match s.hamilton_equations() {
             Ok(eqs) => s.velocities().iter().cloned().zip(eqs.qdot).collect(),
             Err(_) => HashMap::new(),
@@ -389,7 +374,7 @@ pub fn conserved(s: &System) -> Vec<Line> {
     let mut lines: Vec<Line> = found.into_iter().map(|c| Line::named(&c.name, c.value).with_note(c.note)).collect();
     for (name, value, rate, who) in broken {
         let by = if who.is_empty() { String::new() } else { format!(", broken by {}", who.join(" and ")) };
-        lines.push(Line::named(&name, value).with_note(format!("not conserved: d{name}/dt = {}{by}", plain(&rate))));
+        lines.push(Line::named(&name, value).with_note(format!("{NOT_CONSERVED}d{name}/dt = {}{by}", plain(&rate))));
     }
     if let Some(bound) = unattached {
         match lines.last_mut() {
@@ -435,6 +420,9 @@ mod tests {
         assert!(unicode.contains("θ̈"), "{unicode}");
         let latex = render_line(&lines[0], Format::Latex);
         assert!(latex.starts_with("E_{\\theta}: ") && latex.contains("\\ddot{\\theta}"), "{latex}");
+        let w = mass_matrix_split(&lagrangian("1/2 m (θ1'^2 + x'^2)", &["θ1", "x"])).unwrap();
+        assert_eq!(render_line(&w[1], Format::Latex), "W[\\theta_{1},x] = 0");
+        assert_eq!(render_line(&w[1], Format::Unicode), "W[θ1,x] = 0");
         // JSON carries the plain forms, which re-parse to the same expressions.
         let j = line_json(&lines[0]);
         assert_eq!(j["label"], "E_θ");

@@ -460,6 +460,11 @@ fn conserved_says_what_breaks_each_candidate() {
     proven(&rate(&out[0]), "-c φ'");
     proven(&rate(&out[1]), "-c φ'^2");
     assert_eq!(out, SPIRAL_DRAG.cli("conserved", &[], "plain"));
+    // JSON lists the broken candidates apart from the conserved quantities.
+    let json: serde_json::Value = serde_json::from_str(&SPIRAL_DRAG.cli("conserved", &[], "json").join("\n")).unwrap();
+    assert_eq!(json["conserved"].as_array().map(Vec::len), Some(0), "{json}");
+    let broken = json["not_conserved"].as_array().expect("an array");
+    assert_eq!(broken.iter().map(|b| b["name"].as_str().unwrap()).collect::<Vec<_>>(), ["p_φ", "h"]);
 }
 
 /// `lagrangian el --accelerations` with a constraint solves the augmented system (λ eliminated

@@ -94,8 +94,9 @@ fn scene_conserved_reports_lz_for_cartesian_kepler() {
 }
 
 /// The ring: a particle on x² + y² = l² in Cartesian coordinates. The constraint acts
-/// on x and y, so neither momentum is conserved and no boost survives; the rotation preserves
-/// the constraint, so L_z is found.
+/// on x and y, so neither momentum is conserved (each is listed as broken by the constraint,
+/// d/dt p = λ1 ∂f/∂q = 2 x λ1, 2 y λ1) and no boost survives; the rotation preserves the
+/// constraint, so L_z is found.
 #[test]
 fn a_particle_on_a_ring_keeps_only_lz_and_the_energy() {
     let mut session = Session::new(Options::new(Mode::Scene));
@@ -107,7 +108,14 @@ fn a_particle_on_a_ring_keeps_only_lz_and_the_energy() {
         )
         .unwrap_or_else(|e| panic!("{e:?}"));
     let out: Vec<String> = session.take_output().into_iter().filter(|l| !l.starts_with("constraint ")).collect();
-    assert!(!out.iter().any(|l| l.starts_with("p_x") || l.starts_with("p_y") || l.contains("boost")), "{out:?}");
+    // The momenta are listed as broken by the constraint (dp_x/dt = 2 x λ1), not as conserved.
+    let conserved_momentum =
+        |l: &String| (l.starts_with("p_x") || l.starts_with("p_y")) && !l.contains("not conserved");
+    assert!(!out.iter().any(|l| conserved_momentum(l) || l.contains("boost")), "{out:?}");
+    let broken: Vec<&String> = out.iter().filter(|l| l.contains("not conserved")).collect();
+    assert_eq!(broken.len(), 2, "{out:?}");
+    assert!(broken.iter().all(|l| l.contains("broken by constraint 1 (multiplier λ1)")), "{broken:?}");
+    assert!(broken[0].contains("dp_x/dt = 2 x λ1") && broken[1].contains("dp_y/dt = 2 y λ1"), "{broken:?}");
     assert!(out.iter().any(|l| l.starts_with("h = ")), "{out:?}");
     let q: Vec<&String> = out.iter().filter(|l| l.starts_with('Q')).collect();
     assert_eq!(q.len(), 1, "{out:?}");

@@ -375,6 +375,49 @@ impl PySystem {
         self.ex(self.sys.energy_function())
     }
 
+    /// The printed lines of a derivation, the same text as ``lagrangian el|legendre|hamilton|
+    /// conserved`` and the scene statements print (one builder and one renderer serve all three),
+    /// joined by newlines. ``what`` is ``el`` (``E_q: E_q = Q_q − ∂R/∂q' + Σ λ ∂f/∂q``),
+    /// ``mass_matrix`` (``W`` and ``F``), ``constraints`` (``Φ`` and ``c``), ``accelerations``
+    /// (with constraints the constrained ones and the multipliers), ``momenta``, ``legendre``
+    /// (the momenta and ``H``), ``hamilton`` or ``conserved`` (with what breaks each candidate);
+    /// ``format`` is ``plain``, ``unicode``, ``latex`` or ``json`` (a JSON array of the lines).
+    #[pyo3(signature = (what, format = "unicode"))]
+    fn report(&self, py: Python<'_>, what: &str, format: &str) -> PyResult<String> {
+        use lagrangian::report;
+        const WHAT: &str = "el, mass_matrix, constraints, accelerations, momenta, legendre, hamilton, conserved";
+        let fmt = match format {
+            "plain" => Some(Format::Plain),
+            "unicode" => Some(Format::Unicode),
+            "latex" => Some(Format::Latex),
+            "json" => None,
+            other => {
+                return Err(PyValueError::new_err(format!("unknown format `{other}`: plain, unicode, latex or json")))
+            }
+        };
+        let sys = &self.sys;
+        let lines = py
+            .allow_threads(|| match what {
+                "el" => report::euler_lagrange(sys).map(Some),
+                "mass_matrix" => report::mass_matrix_split(sys).map(Some),
+                "constraints" => report::constraints(sys).map(Some),
+                "accelerations" => report::accelerations(sys).map(Some),
+                "momenta" => report::momenta(sys).map(Some),
+                "legendre" => report::legendre(sys).map(Some),
+                "hamilton" => report::hamilton(sys).map(Some),
+                "conserved" => Ok(Some(report::conserved(sys))),
+                _ => Ok(None),
+            })
+            .py()?;
+        let Some(lines) = lines else {
+            return Err(PyValueError::new_err(format!("unknown derivation `{what}`: one of {WHAT}")));
+        };
+        Ok(match fmt {
+            Some(f) => report::render_lines(&lines, f).join("\n"),
+            None => report::lines_json(&lines).to_string(),
+        })
+    }
+
     /// Conserved quantities found by Noether's theorem: a list of ``(name, expr, reason)``.
     fn conserved(&self, py: Python<'_>) -> Vec<(String, PyExpr, String)> {
         let sys = &self.sys;

@@ -1,6 +1,7 @@
 """System: every derivation, checked numerically against formulas derived by hand (textbook
 forms in PHYSICS.md), and the errors for bad input."""
 
+import json
 import math
 import pickle
 import random
@@ -183,3 +184,25 @@ def test_params_and_names(double_pendulum):
     assert double_pendulum.state_names("yoshida8") == ["θ1", "θ2", "p_θ1", "p_θ2"]
     with pytest.raises(ValueError, match="unknown method"):
         double_pendulum.state_names("rk45")
+
+
+def test_report_prints_the_command_line_lines():
+    # The disc rolling down an incline, y = R θ (L + λ (y − R θ)): by hand and by SymPy's
+    # LagrangesMethod (scripts/report_constrained_sympy.py) y'' = 2 g sin α / 3, θ'' = y''/R,
+    # λ1 = −m g sin α / 3; the lines are those of `lagrangian el --accelerations` and of the
+    # scene statement `accelerations` (one builder, one renderer).
+    s = System.from_lagrangian(
+        "1/2 m y'^2 + 1/4 m R^2 θ'^2 + m g y sin(α)", ["y", "θ"], positive=["m", "R", "g", "α"]
+    ).with_constraint("y - R θ")
+    assert s.report("accelerations", "plain").splitlines() == [
+        "y'' = 2 g sin(α)/3",
+        "θ'' = 2 g sin(α)/(3 R)",
+        "λ1 = -g m sin(α)/3",
+    ]
+    assert s.report("el").splitlines() == ["E_y: m (y\u0308 - g sin(α)) = λ1", "E_θ: R² m θ\u0308/2 = -R λ1"]
+    lines = json.loads(s.report("el", "json"))
+    assert lines[0] == {"label": "E_y", "lhs": "m (y'' - g sin(α))", "rhs": "λ1", "note": None}
+    with pytest.raises(ValueError, match="unknown derivation `eel`"):
+        s.report("eel")
+    with pytest.raises(ValueError, match="unknown format"):
+        s.report("el", "html")

@@ -298,18 +298,24 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
             let s = build(&text, &system, hamiltonian)?;
             let mut out = Report::new(system.common.format, &s, &text);
             let lines = report::conserved(&s);
-            let arr: Vec<Value> = lines
-                .iter()
-                .filter_map(|l| match l {
-                    Line::Equation { lhs, rhs, note, .. } => Some(json!({
+            // The candidates a force breaks are listed apart from the conserved quantities.
+            let (mut kept, mut broken) = (Vec::new(), Vec::new());
+            for l in &lines {
+                if let Line::Equation { lhs, rhs, note, .. } = l {
+                    let entry = json!({
                         "name": lagrangian::print::plain(lhs),
                         "expr": lagrangian::print::plain(rhs),
                         "reason": note,
-                    })),
-                    Line::Text(_) => None,
-                })
-                .collect();
-            out.json.insert("conserved".into(), Value::Array(arr));
+                    });
+                    if note.as_deref().is_some_and(|n| n.starts_with(report::NOT_CONSERVED)) {
+                        broken.push(entry);
+                    } else {
+                        kept.push(entry);
+                    }
+                }
+            }
+            out.json.insert("conserved".into(), Value::Array(kept));
+            out.json.insert("not_conserved".into(), Value::Array(broken));
             out.report(&lines);
             out.print();
         }

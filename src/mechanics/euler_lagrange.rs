@@ -32,6 +32,32 @@ impl System {
             .collect())
     }
 
+    /// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i` (the
+    /// forces (2.12), the Rayleigh dissipation, the constraint forces with multipliers `λ1, λ2,
+    /// …` (1.25–1.29)), in `q, q', t` and the multipliers; zero for a closed system. The
+    /// equations of motion are `E_i = ` this.
+    pub fn driving_forces(&self) -> Vec<Expr> {
+        let mut d = Differentiator::new();
+        let lambdas = self.multipliers();
+        (0..self.coords.len())
+            .map(|i| {
+                let mut terms = vec![self.forces[i].clone()];
+                if let Some(r) = &self.rayleigh {
+                    terms.push(d.diff(r, &self.velocities[i]).neg());
+                }
+                for (f, lam) in self.constraints.iter().zip(&lambdas) {
+                    terms.push(Expr::sym(lam.clone()).times(&d.diff(f, &self.coords[i])));
+                }
+                tidy(&Expr::add(terms))
+            })
+            .collect()
+    }
+
+    /// Whether forces, a Rayleigh function or constraints are declared.
+    pub fn has_driving_forces(&self) -> bool {
+        self.forces.iter().any(|f| !f.is_zero()) || self.rayleigh.is_some() || !self.constraints.is_empty()
+    }
+
     /// The full left-hand sides of the equations of motion, each `= 0`:
     /// `E_i − Q_i + ∂R/∂q'_i − Σ_j λ_j ∂f_j/∂q_i` (forces (2.12), Rayleigh dissipation,
     /// constraint multipliers `λ1, λ2, …` (1.25–1.29)).

@@ -1,7 +1,9 @@
 //! Hamilton's equations (3.12) and the phase-space Lagrangian (3.31).
 
+use std::collections::HashMap;
+
 use crate::diff::Differentiator;
-use crate::expr::Expr;
+use crate::expr::{Expr, Symbol};
 
 use super::system::System;
 use super::tidy::tidy;
@@ -14,17 +16,28 @@ pub struct HamiltonEquations {
     pub hamiltonian: Expr,
     /// `∂H/∂p_i`, one per coordinate.
     pub qdot: Vec<Expr>,
-    /// `−∂H/∂q_i`, one per coordinate.
+    /// `−∂H/∂q_i`, one per coordinate, plus what drives it (forces, dissipation, constraint
+    /// forces; see [`System::hamilton_equations`]).
     pub pdot: Vec<Expr>,
 }
 
 impl System {
     /// Hamilton's equations of the system's Hamiltonian (a Lagrangian is transformed first).
+    /// Generalized forces, the Rayleigh function and constraints add their
+    /// [`System::driving_forces`] `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i` to `p'_i`, with every
+    /// velocity written as `∂H/∂p` (so `p'` is in `q, p, t` and the multipliers): they are never
+    /// dropped.
     pub fn hamilton_equations(&self) -> Result<HamiltonEquations, MechanicsError> {
         let h = self.hamiltonian()?;
         let mut d = Differentiator::new();
-        let qdot = self.momenta.iter().map(|p| tidy(&d.diff(&h, p))).collect();
-        let pdot = self.coords.iter().map(|q| tidy(&d.diff(&h, q).neg())).collect();
+        let qdot: Vec<Expr> = self.momenta.iter().map(|p| tidy(&d.diff(&h, p))).collect();
+        let mut pdot: Vec<Expr> = self.coords.iter().map(|q| tidy(&d.diff(&h, q).neg())).collect();
+        if self.has_driving_forces() {
+            let to_momenta: HashMap<Symbol, Expr> = self.velocities.iter().cloned().zip(qdot.iter().cloned()).collect();
+            for (p, x) in pdot.iter_mut().zip(self.driving_forces()) {
+                *p = tidy(&p.plus(&x.subs(&to_momenta)));
+            }
+        }
         Ok(HamiltonEquations { hamiltonian: h, qdot, pdot })
     }
 
