@@ -1199,18 +1199,6 @@ fn fold_num_pow(b: &Rational, e: &Rational) -> Option<Expr> {
     None
 }
 
-impl fmt::Debug for Expr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", crate::print::plain(self))
-    }
-}
-
-impl fmt::Display for Expr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", crate::print::plain(self))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

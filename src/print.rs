@@ -523,3 +523,17 @@ fn latex_name(name: &str) -> String {
         _ => out,
     }
 }
+
+// An expression shows as its plain form, which re-parses to it: the printer owns how an
+// expression looks, so the core type knows nothing of printing.
+impl std::fmt::Debug for Expr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&plain(self))
+    }
+}
+
+impl std::fmt::Display for Expr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&plain(self))
+    }
+}
