@@ -18,7 +18,7 @@
 //! * [`explicit`]: canonicity of explicit maps `Q(q,p,t)`, `P(q,p,t)`;
 //! * [`lie`]: Lie series `exp(ε{·,G}) f` and the flow of `H` as a series in `t`;
 //! * [`action_angle`]: `J(E)` and `ω(E)` by quadrature, with turning points by root finding;
-//! * [`rotation`]: `J` and `ω` of a rotation (an angle turning over the top, no turning points);
+//! * rotations (an angle turning over the top, no turning points) are part of [`action_angle`];
 //! * [`report`]: the printed lines of `integral`, `action`, `average`, one text for the CLI and scenes;
 //! * [`symmetry`]: point symmetries of `L` by a polynomial ansatz, each charge checked by `{Q, H}`;
 //! * [`average`]: the exact phase average of a trial-function Lagrangian.
@@ -36,7 +36,6 @@ pub mod lie;
 pub mod poisson;
 pub mod reduce;
 pub mod report;
-pub mod rotation;
 pub mod solve;
 pub mod symmetry;
 
