@@ -230,7 +230,22 @@ fn lookalike_letters_are_refused_by_every_command() {
         &["discretize", l, "--coords", "x"],
         &["discretize", "1/2 x'^2", "--coords", "x", "--step", "\u{445}"],
         &["phase-space", "p x' - p^2/2 - \u{445} x^2", "--coords", "x,p"],
-        &["ritz", l, "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "a", "--span", "0,1", "--from", "0", "--to", "1"],
+        &[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            "t + a t (1 - t)",
+            "--unknowns",
+            "a",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+        ],
         &["geodesic", "dx^2 + \u{445}^2 dy^2", "--coords", "x,y"],
         &["pb", "x", "\u{445} p_x", "--coords", "x"],
         // A look-alike in a coordinate name.
@@ -238,7 +253,22 @@ fn lookalike_letters_are_refused_by_every_command() {
         &["hamilton", "p_\u{445}^2/2", "--coords", "\u{445}"],
         &["geodesic", "d\u{445}^2", "--coords", "\u{445}"],
         &["pb", "x", "p_x", "--coords", "\u{445}"],
-        &["ritz", "1/2 x'^2", "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "\u{445}", "--span", "0,1", "--from", "0", "--to", "1"],
+        &[
+            "ritz",
+            "1/2 x'^2",
+            "--coords",
+            "x",
+            "--trial",
+            "t + a t (1 - t)",
+            "--unknowns",
+            "\u{445}",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+        ],
     ];
     for args in cases {
         check_bad(args, None, &[CYRILLIC]);
@@ -280,8 +310,20 @@ fn control_bytes_never_reach_the_terminal() {
 fn set_values_are_checked_against_positive() {
     let sphere = ["geodesic", "R^2 dθ^2 + R^2 sin(θ)^2 dφ^2", "--coords", "θ,φ", "--from", "1,0", "--to", "2,1.5"];
     let ritz = [
-        "ritz", "1/2 m x'^2 - 1/2 x^2", "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "a", "--span",
-        "0,1", "--from", "0", "--to", "1",
+        "ritz",
+        "1/2 m x'^2 - 1/2 x^2",
+        "--coords",
+        "x",
+        "--trial",
+        "t + a t (1 - t)",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1",
+        "--from",
+        "0",
+        "--to",
+        "1",
     ];
     for (base, name) in [(&sphere[..], "R"), (&ritz[..], "m")] {
         let neg = format!("{name}=-2");
@@ -364,9 +406,35 @@ fn errors_are_json_objects_with_format_json() {
     assert_eq!((v["error"]["kind"].as_str(), &v["error"]["span"]), (Some("mechanics"), &serde_json::Value::Null));
     assert!(v["error"]["message"].as_str().unwrap().contains("`y` is not a coordinate"), "{v}");
     // A numeric failure, and a bad argument.
-    let v = json(&["geodesic", "dx^2/(x-1/2)^2 + dy^2", "--coords", "x,y", "--from", "0,0", "--to", "1,0", "--max-steps", "1000"]);
+    let v = json(&[
+        "geodesic",
+        "dx^2/(x-1/2)^2 + dy^2",
+        "--coords",
+        "x,y",
+        "--from",
+        "0,0",
+        "--to",
+        "1,0",
+        "--max-steps",
+        "1000",
+    ]);
     assert_eq!(v["error"]["kind"], "numeric");
-    let v = json(&["ritz", "1/2 x'^2", "--coords", "x", "--trial", "t", "--unknowns", "a", "--span", "0,1,2", "--from", "0", "--to", "1"]);
+    let v = json(&[
+        "ritz",
+        "1/2 x'^2",
+        "--coords",
+        "x",
+        "--trial",
+        "t",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1,2",
+        "--from",
+        "0",
+        "--to",
+        "1",
+    ]);
     assert_eq!(v["error"]["kind"], "input");
     // A usage error clap reports before anything runs is an object too.
     let v = json(&["simplify", "x", "--bogus"]);

@@ -160,7 +160,22 @@ fn dependent_trial_coefficients_are_refused_as_a_singular_hessian() {
 #[test]
 fn ritz_quadrature_refines_or_refuses() {
     let ritz = |l: &str| {
-        run(&["ritz", l, "--coords", "x", "--trial", "a t (1 - t)", "--unknowns", "a", "--span", "0,1", "--from", "0", "--to", "0"])
+        run(&[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            "a t (1 - t)",
+            "--unknowns",
+            "a",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "0",
+        ])
     };
     for w in [10.0f64, 100.0, 1000.0] {
         let (code, out, err) = ritz(&format!("1/2 x'^2 + x sin({w} t)"));
@@ -172,6 +187,9 @@ fn ritz_quadrature_refines_or_refuses() {
     for l in ["1/2 x'^2 + x sin(1000000 t)", "1/2 x'^2 + x/(t - 1/3)", "1/2 x'^2 + x/(t - 1/2)"] {
         let (code, out, err) = ritz(l);
         assert_eq!((code, out.as_str()), (2, ""), "{l}: {err}");
-        assert!(err.contains("is not reliable at the solution") && err.contains("not integrable inside the span"), "{l}: {err}");
+        assert!(
+            err.contains("is not reliable at the solution") && err.contains("not integrable inside the span"),
+            "{l}: {err}"
+        );
     }
 }

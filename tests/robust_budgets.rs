@@ -143,8 +143,14 @@ fn chaos_indicators_stop_at_their_step_budget_in_bounded_memory() {
         ("fli θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1000", "step limit of 1000 steps"),
         ("megno θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1e12 time_limit = 0.5", "time limit of 0.5 s"),
         // A map whose starts run out of the budget is refused, not drawn with blank cells.
-        ("chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 max_steps = 1000 to m.csv", "step limit of 1000"),
-        ("chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 time_limit = 0.5 to m.csv", "time limit of 0.5 s"),
+        (
+            "chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 max_steps = 1000 to m.csv",
+            "step limit of 1000",
+        ),
+        (
+            "chaos_map megno θ = -1..1, θ' = -1..1 for t in 0..1e7 points 2 time_limit = 0.5 to m.csv",
+            "time limit of 0.5 s",
+        ),
     ] {
         let r = run_scene(stmt, Duration::from_secs(120));
         assert_eq!(r.code, Some(2), "{stmt}: {}", r.stderr);

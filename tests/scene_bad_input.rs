@@ -124,7 +124,11 @@ fn lookalike_identifiers() {
 fn chaos_map_range_wider_than_f64() {
     check(
         &with("chaos_map megno θ = -1e308..1e308, p_θ = -1..1 for t in 0..1 points 2 to m.csv\n"),
-        &["the range of `θ` is wider than f64 can hold (1e308 − (-1e308) overflows)", "5 │ chaos_map", "narrow the range"],
+        &[
+            "the range of `θ` is wider than f64 can hold (1e308 − (-1e308) overflows)",
+            "5 │ chaos_map",
+            "narrow the range",
+        ],
     );
     check(
         &with("chaos_map megno θ = -1..1, p_θ = -1e308..1.7e308 for t in 0..1 points 2 to m.csv\n"),
@@ -143,7 +147,10 @@ fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
         )
         .into_bytes()
     };
-    check(&scene("rayleigh L = 1/2 b x'^2"), &["`L` is the name of the Lagrangian", "5 │ rayleigh L", "rayleigh R = …"]);
+    check(
+        &scene("rayleigh L = 1/2 b x'^2"),
+        &["`L` is the name of the Lagrangian", "5 │ rayleigh L", "rayleigh R = …"],
+    );
     check(&scene("rayleigh H = 1/2 b x'^2"), &["`H` is the name of the Hamiltonian"]);
     check(&scene("rayleigh V = 1/2 b x'^2"), &["`V` is already a definition"]);
     check(&scene("rayleigh x = 1/2 b x'^2"), &["`x` is already a coordinate"]);
@@ -184,7 +191,9 @@ fn figures_of_nowhere_finite_expressions() {
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     let expected = (0..=100).filter(|k| (f64::from(*k) * 0.1).cos() < 0.5).count();
     assert!(
-        stdout.contains(&format!("note: `sqrt(x - 0.5)` is not finite at {expected} of the 101 stored states of run1 (the first at t = 1.1)")),
+        stdout.contains(&format!(
+            "note: `sqrt(x - 0.5)` is not finite at {expected} of the 101 stored states of run1 (the first at t = 1.1)"
+        )),
         "{stdout}"
     );
     assert!(dir.path().join("b.svg").exists());

@@ -207,7 +207,18 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             }
             out.print();
         }
-        NotesCommand::Geodesic { line_element, metric, embedding, coords, from, to, set, max_steps, time_limit, common } => {
+        NotesCommand::Geodesic {
+            line_element,
+            metric,
+            embedding,
+            coords,
+            from,
+            to,
+            set,
+            max_steps,
+            time_limit,
+            common,
+        } => {
             let values = super::name_values("--set", &set, &common.positive)?;
             if max_steps == 0 || time_limit <= 0.0 {
                 return Err(bad_input("error: --max-steps and --time-limit must be positive"));

@@ -296,10 +296,7 @@ impl Session {
             if !(b - a).is_finite() {
                 return Err(SceneError::new(
                     ErrorKind::BadNumber,
-                    format!(
-                        "the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)",
-                        sym.text
-                    ),
+                    format!("the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)", sym.text),
                 )
                 .at((lo.span.0, hi.span.1))
                 .hint("narrow the range so that its width is below 1.8e308"));
@@ -349,9 +346,9 @@ impl Session {
                 .hint("check the level's value against the energy over the grid"));
         }
         let mut bar = Progress::new("chaos map", self.opts.progress);
-        let computed = self.backend.chaos_map(&setup.var, &starts, setup.t1, setup.tol, &setup.budget, which, &mut |x| {
-            bar.update(x)
-        });
+        let computed =
+            self.backend
+                .chaos_map(&setup.var, &starts, setup.t1, setup.tol, &setup.budget, which, &mut |x| bar.update(x));
         bar.finish();
         // A start that ran out of the budget has no value, and a blank there would read as a
         // failed (escaping) orbit: the map is refused, naming the budget.
