@@ -150,3 +150,46 @@ fn dependent_trial_coefficients_are_refused_as_a_singular_hessian() {
     assert_eq!((code, out.as_str()), (2, ""));
     assert!(err.contains("the Hessian of S(a) is singular: the trial coefficients are not independent"), "{err}");
 }
+
+/// Issue 31, D7: the quadrature checks itself. `L = x'^2/2 + x sin(ω t)` with the trial
+/// `a t (1 − t)` on 0..1, from 0 to 0: `∂S/∂a = a/3 + ∫ t(1 − t) sin(ωt) dt = 0`, and by parts
+/// `∫₀¹ t(1 − t) sin(ωt) dt = (2(1 − cos ω) − ω sin ω)/ω³`, so `a = −3 (2(1 − cos ω) − ω sin ω)/ω³`.
+/// Resolved oscillation (ω up to 1000) is refined until the quadrature agrees with itself and
+/// matches that to 1e-10; ω = 10⁶ (before: a ≈ 1.05e-2, exact −1.05e-12) and a pole inside the
+/// span (before: a principal value with no note) are refused, naming the two estimates.
+#[test]
+fn ritz_quadrature_refines_or_refuses() {
+    let ritz = |l: &str| {
+        run(&[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            "a t (1 - t)",
+            "--unknowns",
+            "a",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "0",
+        ])
+    };
+    for w in [10.0f64, 100.0, 1000.0] {
+        let (code, out, err) = ritz(&format!("1/2 x'^2 + x sin({w} t)"));
+        assert_eq!(code, 0, "{err}");
+        let a: f64 = out.lines().find_map(|l| l.strip_prefix("a ≈ ")).unwrap().parse().unwrap();
+        let exact = -3.0 * (2.0 * (1.0 - w.cos()) - w * w.sin()) / w.powi(3);
+        assert!((a - exact).abs() <= 1e-10 * exact.abs(), "ω = {w}: a = {a}, exact {exact}");
+    }
+    for l in ["1/2 x'^2 + x sin(1000000 t)", "1/2 x'^2 + x/(t - 1/3)", "1/2 x'^2 + x/(t - 1/2)"] {
+        let (code, out, err) = ritz(l);
+        assert_eq!((code, out.as_str()), (2, ""), "{l}: {err}");
+        assert!(
+            err.contains("is not reliable at the solution") && err.contains("not integrable inside the span"),
+            "{l}: {err}"
+        );
+    }
+}

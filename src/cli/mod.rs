@@ -148,7 +148,7 @@ pub struct Failure {
     /// What the failure is, for `--format json` (`parse`, `mechanics`, `input`, `usage`, …).
     pub kind: &'static str,
     /// Where in the input, for `--format json`: a parse error's location.
-    pub span: Option<lagrangian::parse::ParseError>,
+    pub span: Option<Box<lagrangian::parse::ParseError>>,
 }
 
 impl Failure {
@@ -168,7 +168,7 @@ impl Failure {
     }
 
     fn at(mut self, e: lagrangian::parse::ParseError) -> Failure {
-        self.span = Some(e);
+        self.span = Some(Box::new(e));
         self
     }
 

@@ -26,6 +26,8 @@ const MAX_EXACT_DEGREE: usize = 40;
 /// loses only its last `2⁻⁴⁰` of the span), each with `NODES` points.
 const GRADED: usize = 40;
 const NODES: usize = 12;
+/// The finest subdivision of every panel the quadrature tries (see `Ritz::solve`).
+const MAX_SPLIT: usize = 64;
 /// The quadrature's number of points.
 const QUADRATURE_POINTS: usize = 2 * GRADED * NODES;
 
@@ -200,33 +202,83 @@ impl Ritz {
         let (t0, t1) = (num(&self.t0).map_err(|e| bad(e.to_string()))?, num(&self.t1).map_err(|e| bad(e.to_string()))?);
         let exact = self.action.is_some();
         let nodes = gauss_legendre(NODES);
-        let value = |e: &Expr, a: &[f64]| -> Result<f64, MechanicsError> {
+        // ∫ e dt and ∫ e² dt over the graded panels, each panel split in `split` equal parts.
+        let quad = |e: &Expr, a: &[f64], split: usize| -> Result<(f64, f64), MechanicsError> {
             let ev = |tt: f64| {
                 eval_with(e, &bind(a, tt)).map_err(|err| bad(format!("evaluating the Ritz conditions: {err}")))
             };
             if exact {
-                return ev(t0);
+                let v = ev(t0)?;
+                return Ok((v, v * v));
             }
             let w = t1 - t0;
-            let mut s = 0.0;
+            let (mut s, mut sq) = (0.0, 0.0);
             // Panels [2^-(k+1), 2^-k]·w/… from each end towards the middle.
             for k in 0..GRADED {
                 let (lo, hi) = (0.5f64.powi(k as i32 + 2), 0.5f64.powi(k as i32 + 1));
                 for (a, b) in [(t0 + lo * w, t0 + hi * w), (t1 - hi * w, t1 - lo * w)] {
-                    let (mid, half) = (0.5 * (a + b), 0.5 * (b - a));
-                    for (x, wt) in &nodes {
-                        s += wt * half * ev(mid + half * x)?;
+                    let part = (b - a) / split as f64;
+                    for j in 0..split {
+                        let (pa, pb) = (a + part * j as f64, a + part * (j + 1) as f64);
+                        let (mid, half) = (0.5 * (pa + pb), 0.5 * (pb - pa));
+                        for (x, wt) in &nodes {
+                            let f = ev(mid + half * x)?;
+                            s += wt * half * f;
+                            sq += wt * half * f * f;
+                        }
                     }
                 }
             }
-            Ok(s)
+            Ok((s, sq))
+        };
+        let value = |e: &Expr, a: &[f64], split: usize| quad(e, a, split).map(|(v, _)| v);
+        // The quadrature's own error estimate at the solution: the same integrals with every
+        // panel halved, of the integrand and of its square (smooth where the integrand is, and
+        // divergent at a pole inside the span even where the signed sum is a principal value).
+        // A smooth integrand (or an integrable end singularity, which the grading resolves)
+        // agrees to rounding; one oscillating faster than the panels resolve, or not
+        // integrable inside the span, does not, and the solution is refused instead of printed
+        // as if it were right. The signed integral is compared on the scale √(T ∫ e²) ≥ ∫ |e|.
+        // `Ok(false)`: not yet reliable, but a finer split may be.
+        let check = |a: &[f64], split: usize| -> Result<bool, MechanicsError> {
+            if exact {
+                return Ok(true);
+            }
+            for (what, e) in std::iter::once(("L(trial)".to_string(), &self.integrand))
+                .chain(self.unknowns.iter().zip(&self.conditions).map(|(u, c)| (format!("∂L/∂{u}"), c)))
+            {
+                let ((q1, s1), (q2, s2)) = (quad(e, a, split)?, quad(e, a, 2 * split)?);
+                let scale = ((t1 - t0).abs() * s2).sqrt();
+                if scale == 0.0 {
+                    continue;
+                }
+                if !((q1 - q2).abs() <= 1e-6 * scale && (s1 - s2).abs() <= 1e-6 * s2) {
+                    if split < MAX_SPLIT {
+                        return Ok(false);
+                    }
+                    return Err(bad(format!(
+                        "the quadrature of ∫ {what} dt is not reliable at the solution: with {} and {} \
+                         points it gives {q1:e} and {q2:e} (∫ ({what})² dt: {s1:e} and {s2:e}); the integrand \
+                         oscillates faster than the quadrature resolves, or is not integrable inside the span \
+                         (a singular point). A trial path and span on which L(trial) is smooth would work",
+                        split * QUADRATURE_POINTS,
+                        2 * split * QUADRATURE_POINTS
+                    )));
+                }
+            }
+            Ok(true)
         };
         let mut a = guess.to_vec();
         a.resize(k, 0.0);
-        for it in 1..=50 {
+        // Each panel split in `split` parts; doubled (and Newton resumed from where it
+        // stopped) while the check finds the quadrature unresolved, up to `MAX_SPLIT`.
+        let mut split = 1;
+        let mut it = 0;
+        while it < 50 {
+            it += 1;
             crate::cancel::check().map_err(|_| bad(format!("interrupted after {} Newton steps", it - 1)))?;
-            let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
-            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a)).collect::<Result<_, _>>()?;
+            let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
+            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if !gmax.is_finite() {
                 break;
@@ -242,9 +294,13 @@ impl Ritz {
                 scale = scale.max(a[i].abs());
             }
             if step <= 1e-13 * scale {
+                if !check(&a, split)? {
+                    split *= 2;
+                    continue;
+                }
                 let action = match &self.action {
-                    Some(s) => value(s, &a)?,
-                    None => value(&self.integrand, &a)?,
+                    Some(s) => value(s, &a, split)?,
+                    None => value(&self.integrand, &a, split)?,
                 };
                 return Ok(RitzSolution { values: a, action, iterations: it });
             }

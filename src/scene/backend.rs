@@ -159,6 +159,9 @@ pub trait Backend {
     /// One indicator from each of many starts (a chaos map); `progress` receives the fraction
     /// of starts finished. Only the final value is kept per start (a 200 × 200 map would not
     /// hold every start's samples). One at a time unless a backend does better.
+    // The statement's settings (span, tolerance, budget, indicator) and the progress sink
+    // are the request; a struct for them would be one more type for each backend to build.
+    #[allow(clippy::too_many_arguments)]
     fn chaos_map(
         &self,
         compiled: &CompiledVariational,

@@ -34,10 +34,13 @@ pub(super) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str,
     }
 }
 
+/// One run's exported columns: its name, its method's name and the named columns.
+pub(super) type Member = (String, String, Vec<(String, Vec<f64>)>);
+
 /// The columns of one run or of several (an ensemble's members): one run as
 /// [`columns_text`]; several as one CSV table with the run's name in a first column `run`
 /// (each member's rows in order), or JSON `{"runs": [{"run", "method", "columns"}, …]}`.
-pub(super) fn members_text(members: &[(String, String, Vec<(String, Vec<f64>)>)], ext: &str) -> String {
+pub(super) fn members_text(members: &[Member], ext: &str) -> String {
     if let [(run, method, columns)] = members {
         return columns_text(columns, ext, run, method);
     }
