@@ -77,6 +77,12 @@ pub enum RefusalReason {
     Constrained,
     /// Neither `L` nor `H` is given.
     NothingToIntegrate,
+    /// A splitting method needs `H = T(p) + V(q, t)`, and this term mixes coordinates and
+    /// momenta (found when `H` is known, after [`route`]).
+    NotSeparable {
+        /// The first term that does not split, in plain form.
+        term: String,
+    },
 }
 
 /// A method refused for a system, with the methods that can run it.
@@ -120,6 +126,10 @@ impl fmt::Display for Refusal {
                 write!(f, "`{m}` does not integrate constrained systems (the augmented system [W Φᵀ; Φ 0])")
             }
             (RefusalReason::NothingToIntegrate, _) => f.write_str("nothing to simulate: no `L` or `H` defined"),
+            (RefusalReason::NotSeparable { term }, _) => write!(
+                f,
+                "`{m}` needs a separable H = T(p) + V(q), but the term `{term}` mixes coordinates and momenta"
+            ),
         }
     }
 }
@@ -135,6 +145,18 @@ impl Refusal {
         }
         let names: Vec<String> = self.alternatives.iter().map(|m| format!("`{}`", m.name())).collect();
         format!("these methods can run this system: {}", names.join(", "))
+    }
+}
+
+/// The refusal of splitting `method` for a system of this shape whose `H` does not split at
+/// `term`: every method that routes and does not split is an alternative.
+pub fn not_separable(method: MethodId, shape: &Shape, term: String) -> Refusal {
+    Refusal {
+        method,
+        reason: RefusalReason::NotSeparable { term },
+        alternatives: MethodId::all()
+            .filter(|m| m.family() != Family::Splitting && route_reason(*m, shape).is_ok())
+            .collect(),
     }
 }
 

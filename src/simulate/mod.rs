@@ -39,7 +39,7 @@ mod system;
 pub use compiled::{compile, CompileRequest, Compiled, CompiledSystem};
 pub use energy::{EnergyCheck, Ledger};
 pub use error::SimulateError;
-pub use formulation::{route, ExtendedLagrangian, Formulation, Refusal, RefusalReason, Route, Shape};
+pub use formulation::{not_separable, route, ExtendedLagrangian, Formulation, Refusal, RefusalReason, Route, Shape};
 pub use method::{Family, Form, MethodId, MethodSpec, Needs, Scheme, DEFAULT_METHOD, METHODS};
 pub use run::{
     default_every, ensemble, integrate, par_map_with_progress, EventSpec, RunOptions, Sampling, Trajectory,

@@ -4,9 +4,9 @@
 
 use super::compiled::{compile, CompileRequest, Compiled};
 use super::error::SimulateError;
-use super::formulation::{route, ExtendedLagrangian, Formulation, Route, Shape};
+use super::formulation::{not_separable, route, ExtendedLagrangian, Formulation, Route, Shape};
 use super::method::MethodId;
-use crate::compile::{split_separable, CompileError, Stabilization};
+use crate::compile::{split_separable, Stabilization};
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::mechanics::{Kind, MechanicsError, System};
@@ -60,7 +60,17 @@ impl Derivations for Fresh {}
 
 /// The formulation `method` integrates for `sys`, or the typed refusal naming what can.
 pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations) -> Result<Formulation, SimulateError> {
-    let r = route(method, &shape_of(sys)).map_err(SimulateError::Refused)?;
+    let shape = shape_of(sys);
+    let r = route(method, &shape).map_err(|mut refusal| {
+        // `route` knows the shape, not `H`: a given `H` that does not split leaves the
+        // splitting methods out of the alternatives.
+        if let Kind::Hamiltonian(h) = sys.kind() {
+            if split_of(sys, h).is_none() {
+                refusal.alternatives.retain(|m| m.family() != super::method::Family::Splitting);
+            }
+        }
+        SimulateError::Refused(refusal)
+    })?;
     Ok(match r {
         Route::Lagrangian => {
             let (w, f) = derive.mass_matrix(sys)?;
@@ -92,10 +102,10 @@ pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations)
         Route::Hamiltonian => Formulation::Hamiltonian(derive.hamiltonian(sys)?),
         Route::Separable => {
             let h = derive.hamiltonian(sys)?;
-            let q: Vec<&str> = sys.coordinates().iter().map(|s| s.name()).collect();
-            let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
-            let p: Vec<&str> = p.iter().map(String::as_str).collect();
-            let (t, v) = split_separable(&h, &q, &p).ok_or(SimulateError::Compile(CompileError::NotSeparable))?;
+            let Some((t, v)) = split_of(sys, &h) else {
+                let term = h.terms().into_iter().find(|x| split_of(sys, x).is_none()).unwrap_or(h);
+                return Err(SimulateError::Refused(not_separable(method, &shape, crate::print::plain(&term))));
+            };
             Formulation::Separable { t, v }
         }
     })
@@ -139,6 +149,14 @@ pub fn formulation_of(
         }
         Equations::Separable => formulation_for(sys, MethodId::Leapfrog, derive),
     }
+}
+
+/// `h = T(p) + V(q, t)` over the coordinates and momenta of `sys`, if it splits.
+fn split_of(sys: &System, h: &Expr) -> Option<(Expr, Expr)> {
+    let q: Vec<&str> = sys.coordinates().iter().map(|s| s.name()).collect();
+    let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
+    let p: Vec<&str> = p.iter().map(String::as_str).collect();
+    split_separable(h, &q, &p)
 }
 
 /// Compiles `sys` for `method` with its bound parameters and the event functions `events`
