@@ -198,3 +198,14 @@ fn figures_of_nowhere_finite_expressions() {
     );
     assert!(dir.path().join("b.svg").exists());
 }
+
+/// Issue 31 (unclear messages): numbers in messages are short and say what they are. Before,
+/// `1e308` printed as 309 digits, `1.0000001` as `1.` and `2.5e-7` as `0.`.
+#[test]
+fn numbers_in_messages_are_short_and_exact_enough() {
+    for (span, shown) in
+        [("5..1e308", "found 5..1e308"), ("1.0000001..2", "found 1.0000001..2"), ("2.5e-7..1", "found 2.5e-7..1")]
+    {
+        check(&with(&format!("megno θ = 1, p_θ = 0 for t in {span}\n")), &[shown]);
+    }
+}

@@ -177,6 +177,9 @@ pub struct RitzSolution {
     pub action: f64,
     /// Newton steps used.
     pub iterations: usize,
+    /// Quadrature points the integrals took (refined until two estimates agree; 0 when `S`
+    /// is exact).
+    pub points: usize,
 }
 
 impl Ritz {
@@ -302,7 +305,8 @@ impl Ritz {
                     Some(s) => value(s, &a, split)?,
                     None => value(&self.integrand, &a, split)?,
                 };
-                return Ok(RitzSolution { values: a, action, iterations: it });
+                let points = if exact { 0 } else { split * QUADRATURE_POINTS };
+                return Ok(RitzSolution { values: a, action, iterations: it, points });
             }
         }
         Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
@@ -387,7 +391,8 @@ impl Ritz {
             }
             None => {
                 out.push(format!(
-                    "note: L(trial) is not a polynomial in t; S and ∂S/∂a are integrated numerically (Gauss–Legendre, {QUADRATURE_POINTS} points graded towards the ends)"
+                    "note: L(trial) is not a polynomial in t; S and ∂S/∂a are integrated numerically (Gauss–Legendre, {} points graded towards the ends)",
+                    sol.points
                 ));
                 for (u, c) in self.unknowns.iter().zip(&self.conditions) {
                     out.push(format!("∂S/∂{}: ∫ {} dt = 0", symbol(u, format), r(c)));
