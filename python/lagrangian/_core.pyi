@@ -97,11 +97,20 @@ class Solution:
     names: list[str]
     t_events: list[np.ndarray]
     y_events: list[np.ndarray]
-    status: str
+    status: int
+    stop: str
+    success: bool
+    message: str
+    nfev: int
+    sol: None
     method: str
     steps: int
     rejected: int
     def __getitem__(self, name: str) -> np.ndarray: ...
+    def to_pandas(self) -> Any:
+        """A ``pandas.DataFrame`` indexed by ``t``, one column per state name."""
+    def to_xarray(self) -> Any:
+        """An ``xarray.Dataset`` over ``t``, one variable per state name."""
 
 class EnsembleResult:
     """Final ``t`` ``(k,)`` and ``y`` ``(k, n)``, ``ok`` ``(k,)`` and per-trajectory ``errors``."""
@@ -111,6 +120,10 @@ class EnsembleResult:
     ok: np.ndarray
     errors: list[Optional[str]]
     names: list[str]
+    def to_pandas(self) -> Any:
+        """A ``pandas.DataFrame``, one row per trajectory."""
+    def to_xarray(self) -> Any:
+        """An ``xarray.Dataset`` over ``trajectory``."""
 
 class System:
     """A mechanical system from a Lagrangian or a Hamiltonian, with every derivation."""
@@ -175,13 +188,14 @@ class System:
     def compile(self, formulation: Optional[str] = None) -> CompiledRhs: ...
     def integrate(
         self,
-        t_span: tuple[float, float],
+        t_span: ArrayLike,
         y0: Union[ArrayLike, Mapping[str, float]],
         method: str = "dop853",
         *,
         dt: Optional[float] = None,
-        tol: float = 1e-10,
+        rtol: Optional[float] = None,
         atol: Optional[float] = None,
+        tol: Optional[float] = None,
         t_eval: Optional[ArrayLike] = None,
         events: Optional[list[Union[Expr, str, Event]]] = None,
         every: int = 1,
@@ -192,12 +206,13 @@ class System:
     def ensemble(
         self,
         y0: ArrayLike,
-        t_span: tuple[float, float],
+        t_span: ArrayLike,
         method: str = "dop853",
         *,
         dt: Optional[float] = None,
-        tol: float = 1e-10,
+        rtol: Optional[float] = None,
         atol: Optional[float] = None,
+        tol: Optional[float] = None,
         events: Optional[list[Union[Expr, str, Event]]] = None,
         max_steps: Optional[int] = None,
         compensated: bool = False,

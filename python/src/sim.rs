@@ -453,6 +453,37 @@ fn with_progress<R: Send>(
     result.ok_or_else(|| PyRuntimeError::new_err("the integration thread ended without a result (it panicked)"))
 }
 
+/// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
+fn time_span(t_span: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+    let bad = || {
+        PyValueError::new_err(format!(
+            "t_span must be two numbers (t0, t1): a tuple, a list or an array; got {}",
+            t_span.repr().map(|r| r.to_string()).unwrap_or_else(|_| "an unprintable object".into())
+        ))
+    };
+    if t_span.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let a = float_array(t_span).map_err(|_| bad())?;
+    let v = f64_vec(&a.call_method0("ravel")?).map_err(|_| bad())?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    match (shape.as_slice(), v.as_slice()) {
+        ([2], [t0, t1]) => Ok((*t0, *t1)),
+        _ => Err(bad()),
+    }
+}
+
+/// SciPy's names for the tolerances: ``rtol`` (``tol`` is its older name here, kept as an
+/// alias) and ``atol``. Both names at once must agree.
+fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f64>> {
+    match (rtol, tol) {
+        (Some(r), Some(t)) if r != t => Err(PyValueError::new_err(format!(
+            "rtol={r} and tol={t} disagree: tol is another name for rtol, so give one of them"
+        ))),
+        (r, t) => Ok(r.or(t)),
+    }
+}
+
 /// Reads `y0`: an array of `n` numbers, or a dict by state name.
 fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> {
     if let Ok(d) = y0.downcast::<PyDict>() {
@@ -592,24 +623,64 @@ pub struct Solution {
     y_events: PyObject,
     /// ``"end"`` (the end of ``t_span`` was reached) or ``"event"`` (a terminal event).
     #[pyo3(get)]
-    status: &'static str,
+    stop: &'static str,
     #[pyo3(get)]
     method: &'static str,
     #[pyo3(get)]
     steps: usize,
     #[pyo3(get)]
     rejected: usize,
+    /// Right-hand-side evaluations (SciPy's ``nfev``; for a splitting method the force
+    /// evaluations, for the Taylor method the series expansions).
+    #[pyo3(get)]
+    nfev: usize,
 }
+
+/// SciPy's message for each way a run ends.
+const END_MESSAGE: &str = "The solver successfully reached the end of the integration interval.";
+const EVENT_MESSAGE: &str = "A termination event occurred.";
 
 #[pymethods]
 impl Solution {
+    /// SciPy's ``status``: ``0`` the end of ``t_span`` was reached, ``1`` a terminal event
+    /// stopped the run. (SciPy's ``-1``, a failed step, is raised as
+    /// :class:`IntegrationError` instead, with where it stopped.)
+    #[getter]
+    fn status(&self) -> i32 {
+        i32::from(self.stop == "event")
+    }
+
+    /// Always ``True``: a run that fails raises :class:`IntegrationError` instead of returning.
+    #[getter]
+    fn success(&self) -> bool {
+        true
+    }
+
+    /// SciPy's description of why the run ended.
+    #[getter]
+    fn message(&self) -> &'static str {
+        if self.stop == "event" {
+            EVENT_MESSAGE
+        } else {
+            END_MESSAGE
+        }
+    }
+
+    /// ``None``, as SciPy's without ``dense_output=True``: the drive loop does not keep its
+    /// steps' interpolants after a run. Ask for the states at chosen times with ``t_eval``,
+    /// which samples those interpolants during the run.
+    #[getter]
+    fn sol(&self, py: Python<'_>) -> PyObject {
+        py.None()
+    }
+
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let n: usize = self.t.bind(py).len()?;
         Ok(format!(
             "Solution(method={}, points={n}, steps={}, status={}, state=({}))",
             self.method,
             self.steps,
-            self.status,
+            self.status(),
             self.names.join(", ")
         ))
     }
@@ -657,10 +728,11 @@ fn solution(
         names,
         t_events: t_events.into_any().unbind(),
         y_events: y_events.into_any().unbind(),
-        status: if out.stopped_by.is_some() { "event" } else { "end" },
+        stop: if out.stopped_by.is_some() { "event" } else { "end" },
         method,
         steps: out.steps,
         rejected: out.rejected,
+        nfev: out.evaluations,
     })
 }
 
@@ -742,17 +814,18 @@ impl PySystem {
     /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=None, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
         py: Python<'_>,
-        t_span: (f64, f64),
+        t_span: &Bound<'_, PyAny>,
         y0: &Bound<'_, PyAny>,
         method: &str,
         dt: Option<f64>,
-        tol: Option<f64>,
+        rtol: Option<f64>,
         atol: Option<f64>,
+        tol: Option<f64>,
         t_eval: Option<&Bound<'_, PyAny>>,
         events: Option<&Bound<'_, PyList>>,
         every: usize,
@@ -760,6 +833,7 @@ impl PySystem {
         compensated: bool,
         progress: Option<bool>,
     ) -> PyResult<Solution> {
+        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
@@ -792,23 +866,25 @@ impl PySystem {
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
     /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
     /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, tol=None, atol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
         py: Python<'_>,
         y0: &Bound<'_, PyAny>,
-        t_span: (f64, f64),
+        t_span: &Bound<'_, PyAny>,
         method: &str,
         dt: Option<f64>,
-        tol: Option<f64>,
+        rtol: Option<f64>,
         atol: Option<f64>,
+        tol: Option<f64>,
         events: Option<&Bound<'_, PyList>>,
         max_steps: Option<usize>,
         compensated: bool,
         threads: Option<usize>,
         progress: Option<bool>,
     ) -> PyResult<EnsembleResult> {
+        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         opts.sampling = Sampling::Final;
         let names = c.state.clone();
