@@ -207,6 +207,20 @@ impl CompiledRhs {
         format!("CompiledRhs(state = ({}))", self.names.join(", "))
     }
 
+    /// Pickles as its system and formulation, compiled again where it is unpickled (compiled
+    /// code does not cross a process boundary; the derivation cache makes it cheap).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py>> {
+        let f = py.import("lagrangian._pickle")?.getattr("_compiled")?;
+        Ok((f, (self.system.clone_ref(py), formulation_name(self.equations))))
+    }
+
+    /// Equal when compiled from the same system (source, options and values) and formulation.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> bool {
+        let Ok(o) = other.downcast::<CompiledRhs>() else { return false };
+        let o = o.get();
+        self.equations == o.equations && self.system.bind(py).get().spec() == o.system.bind(py).get().spec()
+    }
+
     /// The exact Jacobian ``J[i, j] = ∂f_i/∂y_j`` at ``(t, y)``, shape ``(n, n)``, from the
     /// symbolic derivatives of the equations compiled into a tape (on the first call; the
     /// same Jacobian the engine's implicit methods use). Pass it as
@@ -304,6 +318,18 @@ impl CompiledRhs {
                 self.names.join(", ")
             ))),
         }
+    }
+}
+
+/// What a `CompiledRhs` pickles as: the unpickling function, the system and the formulation.
+type Reduced<'py> = (Bound<'py, PyAny>, (Py<PySystem>, &'static str));
+
+/// The name `System.compile(formulation=…)` takes for the equations.
+fn formulation_name(eq: Equations) -> &'static str {
+    match eq {
+        Equations::Hamiltonian => "hamiltonian",
+        Equations::Separable => "separable",
+        Equations::Lagrangian => "lagrangian",
     }
 }
 
@@ -451,6 +477,27 @@ fn with_progress<R: Send>(
         return Err(e);
     }
     result.ok_or_else(|| PyRuntimeError::new_err("the integration thread ended without a result (it panicked)"))
+}
+
+/// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
+/// (a failed ensemble row is NaN).
+fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if let (Ok(a), Ok(b)) = (a.downcast::<PyList>(), b.downcast::<PyList>()) {
+        if a.len() != b.len() {
+            return Ok(false);
+        }
+        for (x, y) in a.iter().zip(b.iter()) {
+            if !arrays_equal(py, &x, &y)? {
+                return Ok(false);
+            }
+        }
+        return Ok(true);
+    }
+    let np = py.import("numpy")?;
+    let kw = PyDict::new(py);
+    let nan_ok = a.getattr("dtype").and_then(|d| d.getattr("kind")).and_then(|k| k.extract::<String>())? == "f";
+    kw.set_item("equal_nan", nan_ok)?;
+    np.call_method("array_equal", (a, b), Some(&kw))?.extract()
 }
 
 /// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
@@ -685,6 +732,63 @@ impl Solution {
         ))
     }
 
+    /// Pickles as its arrays and counts (a Dask worker's result travels back whole).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_solution")?;
+        let d = PyDict::new(py);
+        d.set_item("t", self.t.clone_ref(py))?;
+        d.set_item("y", self.y.clone_ref(py))?;
+        d.set_item("names", self.names.clone())?;
+        d.set_item("t_events", self.t_events.clone_ref(py))?;
+        d.set_item("y_events", self.y_events.clone_ref(py))?;
+        d.set_item("stop", self.stop)?;
+        d.set_item("method", self.method)?;
+        d.set_item("steps", self.steps)?;
+        d.set_item("rejected", self.rejected)?;
+        d.set_item("nfev", self.nfev)?;
+        Ok((f, (d,)))
+    }
+
+    /// Rebuilds a pickled solution (see ``__reduce__``).
+    #[staticmethod]
+    fn _restore(d: &Bound<'_, PyDict>) -> PyResult<Solution> {
+        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled Solution without `{k}`")))
+        };
+        let method: String = get("method")?.extract()?;
+        let method = MethodId::from_name(&method)
+            .ok_or_else(|| PyValueError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
+            .name();
+        let stop: String = get("stop")?.extract()?;
+        Ok(Solution {
+            t: get("t")?.unbind(),
+            y: get("y")?.unbind(),
+            names: get("names")?.extract()?,
+            t_events: get("t_events")?.unbind(),
+            y_events: get("y_events")?.unbind(),
+            stop: if stop == "event" { "event" } else { "end" },
+            method,
+            steps: get("steps")?.extract()?,
+            rejected: get("rejected")?.extract()?,
+            nfev: get("nfev")?.extract()?,
+        })
+    }
+
+    /// Equal when every array, name and count is (what a pickle round trip keeps).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.downcast::<Solution>() else { return Ok(false) };
+        let o = o.get();
+        let same = |a: &PyObject, b: &PyObject| -> PyResult<bool> { arrays_equal(py, a.bind(py), b.bind(py)) };
+        Ok(self.names == o.names
+            && self.stop == o.stop
+            && self.method == o.method
+            && (self.steps, self.rejected, self.nfev) == (o.steps, o.rejected, o.nfev)
+            && same(&self.t, &o.t)?
+            && same(&self.y, &o.y)?
+            && same(&self.t_events, &o.t_events)?
+            && same(&self.y_events, &o.y_events)?)
+    }
+
     /// The row of ``y`` for the state variable ``name`` (``sol["θ1"]``).
     fn __getitem__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let Some(i) = self.names.iter().position(|n| n == name) else {
@@ -755,6 +859,44 @@ pub struct EnsembleResult {
 
 #[pymethods]
 impl EnsembleResult {
+    /// Pickles as its arrays, messages and names.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_ensemble_result")?;
+        let d = PyDict::new(py);
+        d.set_item("t", self.t.clone_ref(py))?;
+        d.set_item("y", self.y.clone_ref(py))?;
+        d.set_item("ok", self.ok.clone_ref(py))?;
+        d.set_item("errors", self.errors.clone())?;
+        d.set_item("names", self.names.clone())?;
+        Ok((f, (d,)))
+    }
+
+    /// Rebuilds a pickled result (see ``__reduce__``).
+    #[staticmethod]
+    fn _restore(d: &Bound<'_, PyDict>) -> PyResult<EnsembleResult> {
+        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled EnsembleResult without `{k}`")))
+        };
+        Ok(EnsembleResult {
+            t: get("t")?.unbind(),
+            y: get("y")?.unbind(),
+            ok: get("ok")?.unbind(),
+            errors: get("errors")?.extract()?,
+            names: get("names")?.extract()?,
+        })
+    }
+
+    /// Equal when every array, message and name is (NaN rows of failed trajectories too).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.downcast::<EnsembleResult>() else { return Ok(false) };
+        let o = o.get();
+        Ok(self.names == o.names
+            && self.errors == o.errors
+            && arrays_equal(py, self.t.bind(py), o.t.bind(py))?
+            && arrays_equal(py, self.y.bind(py), o.y.bind(py))?
+            && arrays_equal(py, self.ok.bind(py), o.ok.bind(py))?)
+    }
+
     fn __repr__(&self) -> String {
         let failed = self.errors.iter().filter(|e| e.is_some()).count();
         format!(
@@ -799,9 +941,11 @@ impl PySystem {
         })
     }
 
-    /// Integrates from ``y0`` over ``t_span = (t0, t1)`` and returns a :class:`Solution`.
+    /// Integrates from ``y0`` over ``t_span = (t0, t1)`` (any two numbers: a tuple, a list,
+    /// an array) and returns a :class:`Solution`.
     ///
-    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
+    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerances ``rtol`` and
+    /// ``atol`` as SciPy names them; ``tol`` is another name for ``rtol``), ``rk4``,
     /// ``euler``, ``midpoint``, ``gauss4``, ``gauss6`` (symplectic collocation),
     /// ``leapfrog``/``verlet``, ``yoshida4``/``6``/``8``, ``blanes_moan``,
     /// ``symplectic_euler`` (splitting methods, which need ``H = T(p) + V(q)`` and use the

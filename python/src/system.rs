@@ -89,6 +89,7 @@ impl PySystem {
 }
 
 /// See [`PySystem::spec`].
+#[derive(PartialEq)]
 pub struct Spec {
     pub kind: &'static str,
     pub text: String,
