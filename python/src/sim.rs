@@ -531,6 +531,20 @@ fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f6
     }
 }
 
+/// Refuses a start with a NaN or an infinite component: an argument error (`ValueError`),
+/// not a failed integration.
+fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
+    match y0.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(PyValueError::new_err(format!(
+            "the initial value of `{}` is {}: every component of y0 must be a finite number (the state is {})",
+            names[i],
+            y0[i],
+            names.join(", ")
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Reads `y0`: an array of `n` numbers, or a dict by state name.
 fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> {
     if let Ok(d) = y0.downcast::<PyDict>() {
@@ -545,6 +559,7 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
             };
             out[i] = v.extract()?;
         }
+        finite_state(&out, names)?;
         if let Some(i) = out.iter().position(|v| v.is_nan()) {
             return Err(PyValueError::new_err(format!(
                 "no initial value for `{}` (the state is {})",
@@ -563,7 +578,9 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
             names.join(", ")
         )));
     }
-    f64_vec(&a)
+    let v = f64_vec(&a)?;
+    finite_state(&v, names)?;
+    Ok(v)
 }
 
 /// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
@@ -589,6 +606,9 @@ fn run_spec(
     opts.dt = dt;
     opts.rtol = tol;
     opts.atol = atol;
+    if max_steps == Some(0) {
+        return Err(PyValueError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
+    }
     opts.max_steps = max_steps;
     opts.compensated = compensated;
     opts.sampling = Sampling::Every(1);
@@ -981,7 +1001,10 @@ impl PySystem {
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
-        opts.sampling = Sampling::Every(every.max(1));
+        if every == 0 {
+            return Err(PyValueError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
+        }
+        opts.sampling = Sampling::Every(every);
         if let Some(te) = t_eval {
             let a = float_array(te)?;
             opts.sampling = Sampling::Times(f64_vec(&a.call_method0("ravel")?)?);

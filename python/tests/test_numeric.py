@@ -90,9 +90,11 @@ def test_singular_mass_matrix_at_a_state():
     assert info.value.t == 0.0 and info.value.state == [0.0, 1.0, 0.0, 0.0]
 
 
-def test_nan_state_is_an_integration_error(pendulum):
-    with pytest.raises(lg.IntegrationError, match="NaN"):
+def test_nan_start_is_an_argument_error(pendulum):
+    # A NaN start is a bad argument (ValueError), not a run that failed (IntegrationError).
+    with pytest.raises(ValueError, match="initial value of `θ` is NaN") as e:
         pendulum.integrate((0, 1), [float("nan"), 0.0])
+    assert not isinstance(e.value, lg.IntegrationError)
 
 
 def test_bad_integration_requests(pendulum):

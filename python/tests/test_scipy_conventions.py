@@ -101,3 +101,20 @@ def test_an_ensemble_as_pandas_and_xarray(oscillator):
     np.testing.assert_array_equal(ds["x"].values, ens.y[:, 0])
     np.testing.assert_array_equal(ds["t"].values, ens.t)
     assert list(ds["trajectory"].values) == [0, 1, 2]
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(y0=[float("nan"), 0.0]), "initial value of `x` is NaN"),
+        (dict(y0={"x": 1.0, "x'": float("inf")}), "initial value of `x'` is inf"),
+        (dict(max_steps=0), "max_steps must be at least 1"),
+        (dict(every=0), "every must be at least 1"),
+    ],
+)
+def test_bad_arguments_are_value_errors_not_integration_errors(oscillator, kw, match):
+    kw = dict(kw)
+    y0 = kw.pop("y0", [1.0, 0.0])
+    with pytest.raises(ValueError, match=match) as e:
+        oscillator.integrate((0, 1), y0, **kw)
+    assert not isinstance(e.value, lg.IntegrationError)
