@@ -55,6 +55,13 @@ impl PySystem {
         PhaseSpace::with_momenta(q, p).py()
     }
 
+    /// Refuses names outside this system's phase space and parameters (see [`check_phase_space`]).
+    fn check_names(&self, exprs: &[&Expr]) -> PyResult<()> {
+        let coords: Vec<String> = self.sys.coordinates().iter().map(|s| s.name().to_string()).collect();
+        let params: Vec<String> = self.sys.parameters().iter().map(|s| s.name().to_string()).collect();
+        check_phase_space(exprs, &coords, &params, true)
+    }
+
     fn h(&self, py: Python<'_>) -> PyResult<Expr> {
         let sys = &self.sys;
         py.allow_threads(|| sys.hamiltonian()).py()
@@ -480,6 +487,7 @@ impl PySystem {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
         let g = to_expr(g, self.decls(), true)?;
+        self.check_names(&[&f, &g])?;
         Ok(self.ex(canonical::poisson(&f, &g, &ps)))
     }
 
@@ -487,6 +495,7 @@ impl PySystem {
     fn time_derivative(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<PyExpr> {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
+        self.check_names(&[&f])?;
         let h = self.h(py)?;
         Ok(self.ex(canonical::time_derivative(&f, &h, &ps)))
     }
@@ -495,6 +504,7 @@ impl PySystem {
     fn is_integral(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<(bool, String)> {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
+        self.check_names(&[&f])?;
         let h = self.h(py)?;
         let z = canonical::is_integral(&f, &h, &ps);
         Ok((z.is_zero(), z.describe()))
@@ -664,7 +674,14 @@ pub fn poisson(
     };
     let ps = PhaseSpace::new(&coords).py()?;
     let (f, g) = (to_expr(f, &decls, true)?, to_expr(g, &decls, true)?);
-    let params = params.unwrap_or_default();
+    check_phase_space(&[&f, &g], &coords, &params.unwrap_or_default(), false)?;
+    Ok(PyExpr::new(canonical::poisson(&f, &g, &ps), &decls))
+}
+
+/// Refuses names in `exprs` that are neither a coordinate, a momentum `p_q`, `t` nor one of
+/// `params`: a bracket reads any other name as a constant, so a name meant as a coordinate
+/// would silently drop its part (`{x p_x, y}` over `q` came out 0).
+fn check_phase_space(exprs: &[&Expr], coords: &[String], params: &[String], system: bool) -> PyResult<()> {
     let known = |s: &Symbol| {
         let n = s.name();
         s.primes() == 0
@@ -672,22 +689,24 @@ pub fn poisson(
                 || params.iter().any(|p| p == n)
                 || coords.iter().any(|q| q == n || n.strip_prefix("p_") == Some(q.as_str())))
     };
-    let mut unknown: BTreeSet<String> = BTreeSet::new();
-    for s in f.free_symbols().iter().chain(g.free_symbols().iter()) {
-        if !known(s) {
-            unknown.insert(s.to_string());
-        }
+    let unknown: BTreeSet<String> =
+        exprs.iter().flat_map(|e| e.free_symbols()).filter(|s| !known(s)).map(|s| s.to_string()).collect();
+    if unknown.is_empty() {
+        return Ok(());
     }
-    if !unknown.is_empty() {
-        let list: Vec<String> = unknown.iter().map(|n| format!("`{n}`")).collect();
-        let momenta: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
-        return Err(PyValueError::new_err(format!(
-            "{} {} neither a coordinate nor a momentum of the phase space ({}; {}); add the coordinates to `coords` (`p_x` is the momentum of `x`), or list constants in params=[…]",
-            list.join(", "),
-            if list.len() == 1 { "is" } else { "are" },
-            coords.join(", "),
-            momenta.join(", ")
-        )));
-    }
-    Ok(PyExpr::new(canonical::poisson(&f, &g, &ps), &decls))
+    let list: Vec<String> = unknown.iter().map(|n| format!("`{n}`")).collect();
+    let momenta: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
+    let fix = if system {
+        "use the system's coordinates, momenta and parameters".to_string()
+    } else {
+        "add the coordinates to `coords` (`p_x` is the momentum of `x`), list constants in params=[…], or use System.poisson, which knows its system's parameters".to_string()
+    };
+    Err(PyValueError::new_err(format!(
+        "{} {} neither a coordinate nor a momentum of the phase space ({}; {}){}; {fix}",
+        list.join(", "),
+        if list.len() == 1 { "is" } else { "are" },
+        coords.join(", "),
+        momenta.join(", "),
+        if system { " nor a parameter of the system" } else { "" },
+    )))
 }

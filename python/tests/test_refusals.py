@@ -61,3 +61,19 @@ def test_a_bracket_over_names_outside_the_phase_space_is_refused():
     # Constants are named, and bracket to nothing: {p_q^2/(2m), q} = -p_q/m.
     assert lg.poisson("p_q^2/(2 m)", "q", ["q"], params=["m"]) == lg.Expr("-p_q/m")
     assert lg.poisson("t q", "p_q", ["q"]) == lg.Expr("t")
+
+
+def test_a_systems_brackets_refuse_names_outside_its_phase_space_and_parameters():
+    kepler = lg.System.from_hamiltonian("(p_x^2 + p_y^2)/(2 m) - k/sqrt(x^2 + y^2)", ["x", "y"])
+    # z is not a coordinate, so p_z would be read as a constant and its bracket dropped.
+    with pytest.raises(ValueError, match="`p_z` is neither a coordinate nor a momentum"):
+        kepler.is_integral("x p_z")
+    with pytest.raises(ValueError, match="`z`"):
+        kepler.poisson("z", "p_x")
+    with pytest.raises(ValueError, match="`w`"):
+        kepler.time_derivative("w x")
+    # The system's parameters are known: {p_x, H} = -k x / r^3 at (x, y) = (3, 4) is -3k/125.
+    bracket = kepler.poisson("p_x", kepler.hamiltonian())
+    assert bracket.evaluate({"x": 3.0, "y": 4.0, "k": 2.0, "m": 1.0}) == pytest.approx(-6.0 / 125, rel=1e-14)
+    ok, how = kepler.is_integral("x p_y - y p_x")
+    assert ok, how
