@@ -545,6 +545,23 @@ fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
     }
 }
 
+/// Refuses a start where a coordinate declared positive (`positive=["r"]`) is not: the
+/// equations were simplified on that assumption (`sqrt(r²) = r`). Only the start is checked;
+/// a trajectory that later crosses zero is the equations' business.
+fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
+    let positive = &sys.declarations().positive;
+    for q in sys.coordinates() {
+        let Some(i) = names.iter().position(|n| n == q.name()) else { continue };
+        if positive.contains(q.name()) && y0[i] <= 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "`{q}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot start at {}; start it above 0, or build the system without `{q}` in positive=",
+                y0[i]
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Reads `y0`: an array of `n` numbers, or a dict by state name.
 fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> {
     if let Ok(d) = y0.downcast::<PyDict>() {
@@ -1001,6 +1018,7 @@ impl PySystem {
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
+        positive_start(&self.sys, &names, &y0)?;
         if every == 0 {
             return Err(PyValueError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
         }
@@ -1067,6 +1085,9 @@ impl PySystem {
         let k = shape[0];
         let flat = f64_vec(&a)?;
         let starts: Vec<Vec<f64>> = flat.chunks(n.max(1)).take(k).map(<[f64]>::to_vec).collect();
+        for s in &starts {
+            positive_start(&self.sys, &names, s)?;
+        }
         let ctl = Control::default();
         opts.cancel = Some(ctl.cancel.clone());
         let results = with_progress(

@@ -77,3 +77,15 @@ def test_a_systems_brackets_refuse_names_outside_its_phase_space_and_parameters(
     assert bracket.evaluate({"x": 3.0, "y": 4.0, "k": 2.0, "m": 1.0}) == pytest.approx(-6.0 / 125, rel=1e-14)
     ok, how = kepler.is_integral("x p_y - y p_x")
     assert ok, how
+
+
+def test_a_coordinate_declared_positive_cannot_start_at_or_below_zero():
+    # Central force in polar coordinates with r declared positive.
+    s = lg.System.from_lagrangian("1/2 (r'^2 + r^2 φ'^2) + 1/r", ["r", "φ"], positive=["r"])
+    with pytest.raises(ValueError, match="`r` was declared positive .* cannot start at -1"):
+        s.integrate((0, 1), [-1.0, 0.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="cannot start at 0"):
+        s.ensemble([[1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]], (0, 1))
+    # A circular orbit (r = 1, φ' = 1: r φ'^2 = 1/r^2) stays at r = 1.
+    sol = s.integrate((0, 1), [1.0, 0.0, 0.0, 1.0], rtol=1e-12)
+    assert sol.y[0, -1] == pytest.approx(1.0, abs=1e-9) and sol.y[1, -1] == pytest.approx(1.0, abs=1e-9)
