@@ -45,6 +45,7 @@ from ._core import (
     poisson,
     set_cache_dir,
 )
+from ._frames import ensemble_to_pandas, ensemble_to_xarray, solution_to_pandas, solution_to_xarray
 from ._sympy import from_sympy, to_sympy
 from ._sweep import SweepResult, sweep
 
@@ -83,3 +84,9 @@ __all__ = [
 # `Expr.to_sympy()` / `Expr.from_sympy(...)` as methods too (the conversion is pure Python).
 Expr.to_sympy = to_sympy  # type: ignore[attr-defined]
 Expr.from_sympy = staticmethod(from_sympy)  # type: ignore[attr-defined]
+
+# pandas and xarray views of the results, imported only when called.
+Solution.to_pandas = solution_to_pandas  # type: ignore[attr-defined]
+Solution.to_xarray = solution_to_xarray  # type: ignore[attr-defined]
+EnsembleResult.to_pandas = ensemble_to_pandas  # type: ignore[attr-defined]
+EnsembleResult.to_xarray = ensemble_to_xarray  # type: ignore[attr-defined]

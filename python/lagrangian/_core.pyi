@@ -66,7 +66,7 @@ class Expr:
     def __hash__(self) -> int: ...
 
 def parse(text: str, *, positive: Optional[Sequence[str]] = None, functions: Optional[Sequence[str]] = None) -> Expr: ...
-def poisson(f: Union[Expr, str], g: Union[Expr, str], coords: Sequence[str]) -> Expr: ...
+def poisson(f: Union[Expr, str], g: Union[Expr, str], coords: Sequence[str], *, params: Optional[Sequence[str]] = None) -> Expr: ...
 def cache_info() -> dict[str, Any]:
     """The derivation cache's ``dir`` (``None``: memory only) and this process's ``derived`` and ``hits`` counts."""
 def set_cache_dir(path: Union[str, "os.PathLike[str]", None]) -> None:
@@ -88,6 +88,8 @@ class CompiledRhs:
     def __call__(self, t: float, y: ArrayLike) -> np.ndarray: ...
     def jac(self, t: float, y: ArrayLike) -> np.ndarray:
         """The exact Jacobian ``(n, n)``: ``solve_ivp(f, ..., method="Radau", jac=f.jac)``."""
+    def __reduce__(self) -> tuple[Any, ...]: ...
+    def __eq__(self, other: object) -> bool: ...
 
 class Solution:
     """``t`` ``(k,)``, ``y`` ``(n, k)``, events per event function; like ``solve_ivp``'s result."""
@@ -97,11 +99,24 @@ class Solution:
     names: list[str]
     t_events: list[np.ndarray]
     y_events: list[np.ndarray]
-    status: str
+    status: int
+    stop: str
+    success: bool
+    message: str
+    nfev: int
+    sol: None
     method: str
     steps: int
     rejected: int
     def __getitem__(self, name: str) -> np.ndarray: ...
+    def __reduce__(self) -> tuple[Any, ...]: ...
+    def __eq__(self, other: object) -> bool: ...
+    @staticmethod
+    def _restore(state: dict[str, Any]) -> "Solution": ...
+    def to_pandas(self) -> Any:
+        """A ``pandas.DataFrame`` indexed by ``t``, one column per state name."""
+    def to_xarray(self) -> Any:
+        """An ``xarray.Dataset`` over ``t``, one variable per state name."""
 
 class EnsembleResult:
     """Final ``t`` ``(k,)`` and ``y`` ``(k, n)``, ``ok`` ``(k,)`` and per-trajectory ``errors``."""
@@ -111,6 +126,14 @@ class EnsembleResult:
     ok: np.ndarray
     errors: list[Optional[str]]
     names: list[str]
+    def __reduce__(self) -> tuple[Any, ...]: ...
+    def __eq__(self, other: object) -> bool: ...
+    @staticmethod
+    def _restore(state: dict[str, Any]) -> "EnsembleResult": ...
+    def to_pandas(self) -> Any:
+        """A ``pandas.DataFrame``, one row per trajectory."""
+    def to_xarray(self) -> Any:
+        """An ``xarray.Dataset`` over ``trajectory``."""
 
 class System:
     """A mechanical system from a Lagrangian or a Hamiltonian, with every derivation."""
@@ -176,13 +199,14 @@ class System:
     def compile(self, formulation: Optional[str] = None) -> CompiledRhs: ...
     def integrate(
         self,
-        t_span: tuple[float, float],
+        t_span: ArrayLike,
         y0: Union[ArrayLike, Mapping[str, float]],
         method: str = "dop853",
         *,
         dt: Optional[float] = None,
-        tol: float = 1e-10,
+        rtol: Optional[float] = None,
         atol: Optional[float] = None,
+        tol: Optional[float] = None,
         t_eval: Optional[ArrayLike] = None,
         events: Optional[list[Union[Expr, str, Event]]] = None,
         every: int = 1,
@@ -193,12 +217,13 @@ class System:
     def ensemble(
         self,
         y0: ArrayLike,
-        t_span: tuple[float, float],
+        t_span: ArrayLike,
         method: str = "dop853",
         *,
         dt: Optional[float] = None,
-        tol: float = 1e-10,
+        rtol: Optional[float] = None,
         atol: Optional[float] = None,
+        tol: Optional[float] = None,
         events: Optional[list[Union[Expr, str, Event]]] = None,
         max_steps: Optional[int] = None,
         compensated: bool = False,

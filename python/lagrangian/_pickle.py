@@ -1,6 +1,7 @@
 """Unpickling. ``Expr`` and ``System`` pickle as their printed source and options (see their
-``__reduce__``), and are parsed and derived again here; nothing compiled crosses a process
-boundary, so a Dask worker needs only this package.
+``__reduce__``), and are parsed and derived again here; a ``CompiledRhs`` as its system and
+formulation, compiled again here; nothing compiled crosses a process boundary, so a Dask worker
+needs only this package. ``Solution`` and ``EnsembleResult`` pickle as their arrays.
 
 Systems are cached per process by their source, so the many chunks of a sweep that a worker
 receives derive and compile the system once (the compiled right-hand sides live on the
@@ -12,7 +13,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from ._core import Event, Expr, System
+from ._core import CompiledRhs, EnsembleResult, Event, Expr, Solution, System
 
 _cache: dict[Any, System] = {}
 _lock = threading.Lock()
@@ -25,6 +26,18 @@ def _expr(text: str, positive: list[str], functions: list[str]) -> Expr:
 
 def _event(expr: object, direction: int, terminal: bool) -> Event:
     return Event(expr, direction=direction, terminal=terminal)
+
+
+def _solution(state: dict[str, Any]) -> Solution:
+    return Solution._restore(state)
+
+
+def _ensemble_result(state: dict[str, Any]) -> EnsembleResult:
+    return EnsembleResult._restore(state)
+
+
+def _compiled(system: System, formulation: str) -> CompiledRhs:
+    return system.compile(formulation)
 
 
 def _key(source: dict[str, Any]) -> Any:

@@ -19,8 +19,8 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
 
-use lagrangian::mechanics::{Kind, MechanicsError, System};
 use lagrangian::cache::{configured_dir, Cache, Step};
+use lagrangian::mechanics::{Kind, MechanicsError, System};
 use lagrangian::Expr;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

@@ -26,7 +26,7 @@ use lagrangian::simulate::{
 };
 use lagrangian::Expr;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -207,6 +207,20 @@ impl CompiledRhs {
         format!("CompiledRhs(state = ({}))", self.names.join(", "))
     }
 
+    /// Pickles as its system and formulation, compiled again where it is unpickled (compiled
+    /// code does not cross a process boundary; the derivation cache makes it cheap).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py>> {
+        let f = py.import("lagrangian._pickle")?.getattr("_compiled")?;
+        Ok((f, (self.system.clone_ref(py), formulation_name(self.equations))))
+    }
+
+    /// Equal when compiled from the same system (source, options and values) and formulation.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> bool {
+        let Ok(o) = other.downcast::<CompiledRhs>() else { return false };
+        let o = o.get();
+        self.equations == o.equations && self.system.bind(py).get().spec() == o.system.bind(py).get().spec()
+    }
+
     /// The exact Jacobian ``J[i, j] = ∂f_i/∂y_j`` at ``(t, y)``, shape ``(n, n)``, from the
     /// symbolic derivatives of the equations compiled into a tape (on the first call; the
     /// same Jacobian the engine's implicit methods use). Pass it as
@@ -307,6 +321,18 @@ impl CompiledRhs {
     }
 }
 
+/// What a `CompiledRhs` pickles as: the unpickling function, the system and the formulation.
+type Reduced<'py> = (Bound<'py, PyAny>, (Py<PySystem>, &'static str));
+
+/// The name `System.compile(formulation=…)` takes for the equations.
+fn formulation_name(eq: Equations) -> &'static str {
+    match eq {
+        Equations::Hamiltonian => "hamiltonian",
+        Equations::Separable => "separable",
+        Equations::Lagrangian => "lagrangian",
+    }
+}
+
 /// Where an integration is, shared between the integrating thread and the one drawing the
 /// progress bar.
 #[derive(Default)]
@@ -330,7 +356,7 @@ fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
 /// How a progress bar is shown.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub enum ProgressMode {
-    /// No bar and no polling thread (the fastest path, for short runs and benchmarks).
+    /// No bar (Ctrl-C is still polled).
     Off,
     /// A bar once the run has taken more than a second.
     Auto,
@@ -346,8 +372,41 @@ pub fn progress_mode(p: Option<bool>) -> ProgressMode {
     }
 }
 
-/// Runs `work` with the GIL released. Unless `mode` is `Off`, `work` runs on a scoped thread
-/// while this one draws the bar (`fraction()` in [0, 1]) and turns Ctrl-C into a cancel.
+/// How often the waiting thread checks for Ctrl-C (and redraws the bar): well inside the
+/// 0.2 s in which an interrupt must reach the caller.
+const POLL: Duration = Duration::from_millis(40);
+
+/// What the waiting thread does with the result of one call into Python (the bar's creation,
+/// update or close). A `KeyboardInterrupt` raised inside that Python code (the interpreter
+/// runs its signal handlers there) is the user's Ctrl-C: it cancels the run and is kept to be
+/// raised. Any other failure of the bar only turns the bar off: a display problem must not
+/// stop a computation.
+fn bar_result<T>(
+    py: Python<'_>,
+    r: PyResult<T>,
+    ctl: &Control,
+    interrupted: &mut Option<PyErr>,
+    broken: &mut bool,
+) -> Option<T> {
+    match r {
+        Ok(v) => Some(v),
+        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
+            ctl.cancel.cancel();
+            interrupted.get_or_insert(e);
+            None
+        }
+        Err(_) => {
+            *broken = true;
+            None
+        }
+    }
+}
+
+/// Runs `work` with the GIL released on a scoped thread while this one waits, checking for
+/// Ctrl-C every [`POLL`] (a signal cancels the run through `ctl` and is raised once `work`
+/// has stopped, leaving every object usable) and, unless `mode` is `Off`, drawing the bar
+/// (`fraction()` in [0, 1]). Every path polls: with `progress=False` too, and while the bar is
+/// created, updated and closed.
 fn with_progress<R: Send>(
     py: Python<'_>,
     mode: ProgressMode,
@@ -356,9 +415,6 @@ fn with_progress<R: Send>(
     fraction: impl Fn() -> f64 + Send + Sync,
     work: impl FnOnce() -> R + Send,
 ) -> PyResult<R> {
-    if mode == ProgressMode::Off {
-        return Ok(py.allow_threads(work));
-    }
     let (result, interrupted) = py.allow_threads(|| {
         std::thread::scope(|s| {
             let (tx, rx) = mpsc::channel();
@@ -367,53 +423,143 @@ fn with_progress<R: Send>(
             });
             let start = Instant::now();
             let mut bar: Option<PyObject> = None;
+            let mut broken = mode == ProgressMode::Off;
             let mut interrupted: Option<PyErr> = None;
             let delay = if mode == ProgressMode::On { Duration::ZERO } else { Duration::from_secs(1) };
-            let show = |bar: &mut Option<PyObject>| {
-                Python::with_gil(|py| {
-                    if bar.is_none() && start.elapsed() >= delay {
-                        *bar = py
-                            .import("lagrangian._progress")
-                            .and_then(|m| m.getattr("Bar")?.call1((label,)))
-                            .map(|b| b.unbind())
-                            .ok();
-                    }
-                })
-            };
-            if mode == ProgressMode::On {
-                show(&mut bar);
-            }
-            loop {
-                match rx.recv_timeout(Duration::from_millis(100)) {
-                    Ok(r) => {
-                        Python::with_gil(|py| {
-                            if let Some(b) = &bar {
-                                let _ = b.call_method1(py, "update", (1.0,));
-                                let _ = b.call_method0(py, "close");
-                            }
-                        });
-                        return (Some(r), interrupted);
-                    }
-                    Err(mpsc::RecvTimeoutError::Disconnected) => return (None, interrupted),
-                    Err(mpsc::RecvTimeoutError::Timeout) => {}
-                }
-                show(&mut bar);
+            let poll = |bar: &mut Option<PyObject>, broken: &mut bool, interrupted: &mut Option<PyErr>| {
                 Python::with_gil(|py| {
                     if let Err(e) = py.check_signals() {
                         ctl.cancel.cancel();
                         interrupted.get_or_insert(e);
                     }
-                    if let Some(b) = &bar {
-                        let _ = b.call_method1(py, "update", (fraction().clamp(0.0, 1.0),));
+                    if interrupted.is_some() || *broken {
+                        return;
                     }
+                    if bar.is_none() && start.elapsed() >= delay {
+                        let made = py
+                            .import("lagrangian._progress")
+                            .and_then(|m| m.getattr("Bar")?.call1((label,)))
+                            .map(Bound::unbind);
+                        *bar = bar_result(py, made, ctl, interrupted, broken);
+                    }
+                    if let Some(b) = bar.as_ref() {
+                        let r = b.call_method1(py, "update", (fraction().clamp(0.0, 1.0),));
+                        bar_result(py, r, ctl, interrupted, broken);
+                    }
+                })
+            };
+            if mode == ProgressMode::On {
+                poll(&mut bar, &mut broken, &mut interrupted);
+            }
+            let result = loop {
+                match rx.recv_timeout(POLL) {
+                    Ok(r) => break Some(r),
+                    Err(mpsc::RecvTimeoutError::Disconnected) => break None,
+                    Err(mpsc::RecvTimeoutError::Timeout) => poll(&mut bar, &mut broken, &mut interrupted),
+                }
+            };
+            if let Some(b) = bar {
+                Python::with_gil(|py| {
+                    if interrupted.is_none() {
+                        let r = b.call_method1(py, "update", (1.0,));
+                        bar_result(py, r, ctl, &mut interrupted, &mut broken);
+                    }
+                    let r = b.call_method0(py, "close");
+                    bar_result(py, r, ctl, &mut interrupted, &mut broken);
                 });
             }
+            (result, interrupted)
         })
     });
+    // A signal that arrived after the last poll is raised now, not left for a later call.
+    py.check_signals()?;
     if let Some(e) = interrupted {
         return Err(e);
     }
-    result.ok_or_else(|| PyKeyboardInterrupt::new_err("the integration thread ended without a result"))
+    result.ok_or_else(|| PyRuntimeError::new_err("the integration thread ended without a result (it panicked)"))
+}
+
+/// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
+/// (a failed ensemble row is NaN).
+fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if let (Ok(a), Ok(b)) = (a.downcast::<PyList>(), b.downcast::<PyList>()) {
+        if a.len() != b.len() {
+            return Ok(false);
+        }
+        for (x, y) in a.iter().zip(b.iter()) {
+            if !arrays_equal(py, &x, &y)? {
+                return Ok(false);
+            }
+        }
+        return Ok(true);
+    }
+    let np = py.import("numpy")?;
+    let kw = PyDict::new(py);
+    let nan_ok = a.getattr("dtype").and_then(|d| d.getattr("kind")).and_then(|k| k.extract::<String>())? == "f";
+    kw.set_item("equal_nan", nan_ok)?;
+    np.call_method("array_equal", (a, b), Some(&kw))?.extract()
+}
+
+/// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
+fn time_span(t_span: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+    let bad = || {
+        PyValueError::new_err(format!(
+            "t_span must be two numbers (t0, t1): a tuple, a list or an array; got {}",
+            t_span.repr().map(|r| r.to_string()).unwrap_or_else(|_| "an unprintable object".into())
+        ))
+    };
+    if t_span.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let a = float_array(t_span).map_err(|_| bad())?;
+    let v = f64_vec(&a.call_method0("ravel")?).map_err(|_| bad())?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    match (shape.as_slice(), v.as_slice()) {
+        ([2], [t0, t1]) => Ok((*t0, *t1)),
+        _ => Err(bad()),
+    }
+}
+
+/// SciPy's names for the tolerances: ``rtol`` (``tol`` is its older name here, kept as an
+/// alias) and ``atol``. Both names at once must agree.
+fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f64>> {
+    match (rtol, tol) {
+        (Some(r), Some(t)) if r != t => Err(PyValueError::new_err(format!(
+            "rtol={r} and tol={t} disagree: tol is another name for rtol, so give one of them"
+        ))),
+        (r, t) => Ok(r.or(t)),
+    }
+}
+
+/// Refuses a start with a NaN or an infinite component: an argument error (`ValueError`),
+/// not a failed integration.
+fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
+    match y0.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(PyValueError::new_err(format!(
+            "the initial value of `{}` is {}: every component of y0 must be a finite number (the state is {})",
+            names[i],
+            y0[i],
+            names.join(", ")
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a start where a coordinate declared positive (`positive=["r"]`) is not: the
+/// equations were simplified on that assumption (`sqrt(r²) = r`). Only the start is checked;
+/// a trajectory that later crosses zero is the equations' business.
+fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
+    let positive = &sys.declarations().positive;
+    for q in sys.coordinates() {
+        let Some(i) = names.iter().position(|n| n == q.name()) else { continue };
+        if positive.contains(q.name()) && y0[i] <= 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "`{q}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot start at {}; start it above 0, or build the system without `{q}` in positive=",
+                y0[i]
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Reads `y0`: an array of `n` numbers, or a dict by state name.
@@ -430,6 +576,7 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
             };
             out[i] = v.extract()?;
         }
+        finite_state(&out, names)?;
         if let Some(i) = out.iter().position(|v| v.is_nan()) {
             return Err(PyValueError::new_err(format!(
                 "no initial value for `{}` (the state is {})",
@@ -448,7 +595,9 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
             names.join(", ")
         )));
     }
-    f64_vec(&a)
+    let v = f64_vec(&a)?;
+    finite_state(&v, names)?;
+    Ok(v)
 }
 
 /// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
@@ -474,6 +623,9 @@ fn run_spec(
     opts.dt = dt;
     opts.rtol = tol;
     opts.atol = atol;
+    if max_steps == Some(0) {
+        return Err(PyValueError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
+    }
     opts.max_steps = max_steps;
     opts.compensated = compensated;
     opts.sampling = Sampling::Every(1);
@@ -555,26 +707,123 @@ pub struct Solution {
     y_events: PyObject,
     /// ``"end"`` (the end of ``t_span`` was reached) or ``"event"`` (a terminal event).
     #[pyo3(get)]
-    status: &'static str,
+    stop: &'static str,
     #[pyo3(get)]
     method: &'static str,
     #[pyo3(get)]
     steps: usize,
     #[pyo3(get)]
     rejected: usize,
+    /// Right-hand-side evaluations (SciPy's ``nfev``; for a splitting method the force
+    /// evaluations, for the Taylor method the series expansions).
+    #[pyo3(get)]
+    nfev: usize,
 }
+
+/// SciPy's message for each way a run ends.
+const END_MESSAGE: &str = "The solver successfully reached the end of the integration interval.";
+const EVENT_MESSAGE: &str = "A termination event occurred.";
 
 #[pymethods]
 impl Solution {
+    /// SciPy's ``status``: ``0`` the end of ``t_span`` was reached, ``1`` a terminal event
+    /// stopped the run. (SciPy's ``-1``, a failed step, is raised as
+    /// :class:`IntegrationError` instead, with where it stopped.)
+    #[getter]
+    fn status(&self) -> i32 {
+        i32::from(self.stop == "event")
+    }
+
+    /// Always ``True``: a run that fails raises :class:`IntegrationError` instead of returning.
+    #[getter]
+    fn success(&self) -> bool {
+        true
+    }
+
+    /// SciPy's description of why the run ended.
+    #[getter]
+    fn message(&self) -> &'static str {
+        if self.stop == "event" {
+            EVENT_MESSAGE
+        } else {
+            END_MESSAGE
+        }
+    }
+
+    /// ``None``, as SciPy's without ``dense_output=True``: the drive loop does not keep its
+    /// steps' interpolants after a run. Ask for the states at chosen times with ``t_eval``,
+    /// which samples those interpolants during the run.
+    #[getter]
+    fn sol(&self, py: Python<'_>) -> PyObject {
+        py.None()
+    }
+
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let n: usize = self.t.bind(py).len()?;
         Ok(format!(
             "Solution(method={}, points={n}, steps={}, status={}, state=({}))",
             self.method,
             self.steps,
-            self.status,
+            self.status(),
             self.names.join(", ")
         ))
+    }
+
+    /// Pickles as its arrays and counts (a Dask worker's result travels back whole).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_solution")?;
+        let d = PyDict::new(py);
+        d.set_item("t", self.t.clone_ref(py))?;
+        d.set_item("y", self.y.clone_ref(py))?;
+        d.set_item("names", self.names.clone())?;
+        d.set_item("t_events", self.t_events.clone_ref(py))?;
+        d.set_item("y_events", self.y_events.clone_ref(py))?;
+        d.set_item("stop", self.stop)?;
+        d.set_item("method", self.method)?;
+        d.set_item("steps", self.steps)?;
+        d.set_item("rejected", self.rejected)?;
+        d.set_item("nfev", self.nfev)?;
+        Ok((f, (d,)))
+    }
+
+    /// Rebuilds a pickled solution (see ``__reduce__``).
+    #[staticmethod]
+    fn _restore(d: &Bound<'_, PyDict>) -> PyResult<Solution> {
+        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled Solution without `{k}`")))
+        };
+        let method: String = get("method")?.extract()?;
+        let method = MethodId::from_name(&method)
+            .ok_or_else(|| PyValueError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
+            .name();
+        let stop: String = get("stop")?.extract()?;
+        Ok(Solution {
+            t: get("t")?.unbind(),
+            y: get("y")?.unbind(),
+            names: get("names")?.extract()?,
+            t_events: get("t_events")?.unbind(),
+            y_events: get("y_events")?.unbind(),
+            stop: if stop == "event" { "event" } else { "end" },
+            method,
+            steps: get("steps")?.extract()?,
+            rejected: get("rejected")?.extract()?,
+            nfev: get("nfev")?.extract()?,
+        })
+    }
+
+    /// Equal when every array, name and count is (what a pickle round trip keeps).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.downcast::<Solution>() else { return Ok(false) };
+        let o = o.get();
+        let same = |a: &PyObject, b: &PyObject| -> PyResult<bool> { arrays_equal(py, a.bind(py), b.bind(py)) };
+        Ok(self.names == o.names
+            && self.stop == o.stop
+            && self.method == o.method
+            && (self.steps, self.rejected, self.nfev) == (o.steps, o.rejected, o.nfev)
+            && same(&self.t, &o.t)?
+            && same(&self.y, &o.y)?
+            && same(&self.t_events, &o.t_events)?
+            && same(&self.y_events, &o.y_events)?)
     }
 
     /// The row of ``y`` for the state variable ``name`` (``sol["θ1"]``).
@@ -620,10 +869,11 @@ fn solution(
         names,
         t_events: t_events.into_any().unbind(),
         y_events: y_events.into_any().unbind(),
-        status: if out.stopped_by.is_some() { "event" } else { "end" },
+        stop: if out.stopped_by.is_some() { "event" } else { "end" },
         method,
         steps: out.steps,
         rejected: out.rejected,
+        nfev: out.evaluations,
     })
 }
 
@@ -646,6 +896,44 @@ pub struct EnsembleResult {
 
 #[pymethods]
 impl EnsembleResult {
+    /// Pickles as its arrays, messages and names.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let f = py.import("lagrangian._pickle")?.getattr("_ensemble_result")?;
+        let d = PyDict::new(py);
+        d.set_item("t", self.t.clone_ref(py))?;
+        d.set_item("y", self.y.clone_ref(py))?;
+        d.set_item("ok", self.ok.clone_ref(py))?;
+        d.set_item("errors", self.errors.clone())?;
+        d.set_item("names", self.names.clone())?;
+        Ok((f, (d,)))
+    }
+
+    /// Rebuilds a pickled result (see ``__reduce__``).
+    #[staticmethod]
+    fn _restore(d: &Bound<'_, PyDict>) -> PyResult<EnsembleResult> {
+        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled EnsembleResult without `{k}`")))
+        };
+        Ok(EnsembleResult {
+            t: get("t")?.unbind(),
+            y: get("y")?.unbind(),
+            ok: get("ok")?.unbind(),
+            errors: get("errors")?.extract()?,
+            names: get("names")?.extract()?,
+        })
+    }
+
+    /// Equal when every array, message and name is (NaN rows of failed trajectories too).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.downcast::<EnsembleResult>() else { return Ok(false) };
+        let o = o.get();
+        Ok(self.names == o.names
+            && self.errors == o.errors
+            && arrays_equal(py, self.t.bind(py), o.t.bind(py))?
+            && arrays_equal(py, self.y.bind(py), o.y.bind(py))?
+            && arrays_equal(py, self.ok.bind(py), o.ok.bind(py))?)
+    }
+
     fn __repr__(&self) -> String {
         let failed = self.errors.iter().filter(|e| e.is_some()).count();
         format!(
@@ -690,9 +978,11 @@ impl PySystem {
         })
     }
 
-    /// Integrates from ``y0`` over ``t_span = (t0, t1)`` and returns a :class:`Solution`.
+    /// Integrates from ``y0`` over ``t_span = (t0, t1)`` (any two numbers: a tuple, a list,
+    /// an array) and returns a :class:`Solution`.
     ///
-    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerance ``tol``/``atol``), ``rk4``,
+    /// ``method`` is one of ``dop853`` and ``taylor`` (adaptive, tolerances ``rtol`` and
+    /// ``atol`` as SciPy names them; ``tol`` is another name for ``rtol``), ``rk4``,
     /// ``euler``, ``midpoint``, ``gauss4``, ``gauss6`` (symplectic collocation),
     /// ``leapfrog``/``verlet``, ``yoshida4``/``6``/``8``, ``blanes_moan``,
     /// ``symplectic_euler`` (splitting methods, which need ``H = T(p) + V(q)`` and use the
@@ -705,17 +995,18 @@ impl PySystem {
     /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, tol=None, atol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
         py: Python<'_>,
-        t_span: (f64, f64),
+        t_span: &Bound<'_, PyAny>,
         y0: &Bound<'_, PyAny>,
         method: &str,
         dt: Option<f64>,
-        tol: Option<f64>,
+        rtol: Option<f64>,
         atol: Option<f64>,
+        tol: Option<f64>,
         t_eval: Option<&Bound<'_, PyAny>>,
         events: Option<&Bound<'_, PyList>>,
         every: usize,
@@ -723,10 +1014,15 @@ impl PySystem {
         compensated: bool,
         progress: Option<bool>,
     ) -> PyResult<Solution> {
+        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
-        opts.sampling = Sampling::Every(every.max(1));
+        positive_start(&self.sys, &names, &y0)?;
+        if every == 0 {
+            return Err(PyValueError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
+        }
+        opts.sampling = Sampling::Every(every);
         if let Some(te) = t_eval {
             let a = float_array(te)?;
             opts.sampling = Sampling::Times(f64_vec(&a.call_method0("ravel")?)?);
@@ -755,23 +1051,25 @@ impl PySystem {
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
     /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
     /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, tol=None, atol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
         py: Python<'_>,
         y0: &Bound<'_, PyAny>,
-        t_span: (f64, f64),
+        t_span: &Bound<'_, PyAny>,
         method: &str,
         dt: Option<f64>,
-        tol: Option<f64>,
+        rtol: Option<f64>,
         atol: Option<f64>,
+        tol: Option<f64>,
         events: Option<&Bound<'_, PyList>>,
         max_steps: Option<usize>,
         compensated: bool,
         threads: Option<usize>,
         progress: Option<bool>,
     ) -> PyResult<EnsembleResult> {
+        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         opts.sampling = Sampling::Final;
         let names = c.state.clone();
@@ -787,6 +1085,9 @@ impl PySystem {
         let k = shape[0];
         let flat = f64_vec(&a)?;
         let starts: Vec<Vec<f64>> = flat.chunks(n.max(1)).take(k).map(<[f64]>::to_vec).collect();
+        for s in &starts {
+            positive_start(&self.sys, &names, s)?;
+        }
         let ctl = Control::default();
         opts.cancel = Some(ctl.cancel.clone());
         let results = with_progress(

@@ -1,7 +1,7 @@
 //! `lagrangian.System`: a mechanical system and every derivation of the library on it. The
 //! numeric side (compile, integrate, ensemble) is in `sim.rs`.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::{Arc, Mutex};
 
 use lagrangian::canonical::{self, Generator, GeneratorKind, PhaseSpace, Trial};
@@ -55,6 +55,13 @@ impl PySystem {
         PhaseSpace::with_momenta(q, p).py()
     }
 
+    /// Refuses names outside this system's phase space and parameters (see [`check_phase_space`]).
+    fn check_names(&self, exprs: &[&Expr]) -> PyResult<()> {
+        let coords: Vec<String> = self.sys.coordinates().iter().map(|s| s.name().to_string()).collect();
+        let params: Vec<String> = self.sys.parameters().iter().map(|s| s.name().to_string()).collect();
+        check_phase_space(exprs, &coords, &params, true)
+    }
+
     fn h(&self, py: Python<'_>) -> PyResult<Expr> {
         let sys = &self.sys;
         py.allow_threads(|| sys.hamiltonian()).py()
@@ -89,6 +96,7 @@ impl PySystem {
 }
 
 /// See [`PySystem::spec`].
+#[derive(PartialEq)]
 pub struct Spec {
     pub kind: &'static str,
     pub text: String,
@@ -134,16 +142,72 @@ fn build(
     for c in constraints.unwrap_or_default() {
         sys = sys.with_constraint(&c).py()?;
     }
+    if hamiltonian {
+        check_momenta(&sys)?;
+    }
     if let Some(p) = params {
         sys = with_params(sys, p)?;
     }
     Ok(PySystem::wrap(sys))
 }
 
+/// Refuses a Hamiltonian whose momenta are not named after its coordinates. Any other name is
+/// a parameter, so `p^2/2 + q^2/2` over `q` would make `p` a constant and freeze `q`
+/// (`q' = ∂H/∂p_q = 0`) without a word; a parameter `p_y` beside no coordinate `y` is the
+/// same mistake the other way round.
+fn check_momenta(sys: &System) -> PyResult<()> {
+    let coords: Vec<&str> = sys.coordinates().iter().map(Symbol::name).collect();
+    let lookalike = |name: &str| {
+        name == "p"
+            || name == "P"
+            || name.starts_with("p_")
+            || name.starts_with("P_")
+            || coords.iter().any(|q| name == format!("p{q}"))
+    };
+    let params: Vec<&str> = sys.parameters().iter().map(Symbol::name).filter(|n| lookalike(n)).collect();
+    let free: BTreeSet<String> = match sys.kind() {
+        Kind::Hamiltonian(h) => h.free_symbols().iter().map(|s| s.name().to_string()).collect(),
+        Kind::Lagrangian(_) => return Ok(()),
+    };
+    let absent: Vec<(&str, &str)> = coords
+        .iter()
+        .zip(sys.momenta())
+        .filter(|(_, p)| !free.contains(p.name()))
+        .map(|(q, p)| (*q, p.name()))
+        .collect();
+    let momenta: Vec<&str> = sys.momenta().iter().map(Symbol::name).collect();
+    let named = format!("momenta are named after their coordinates: {}", momenta.join(", "));
+    if let Some((q, p)) = absent.first() {
+        let took = match params.first() {
+            Some(n) => format!("; `{n}` is not one of them, so it was taken as a parameter"),
+            None => String::new(),
+        };
+        return Err(PyValueError::new_err(format!(
+            "H does not contain `{p}`, the momentum of `{q}`, so {q}' = ∂H/∂{p} = 0 and `{q}` would never move ({named}{took}); write `{p}` for the momentum of `{q}`, or leave `{q}` out of the coordinates if it is a fixed quantity"
+        )));
+    }
+    if let Some(n) = params.iter().find(|n| n.starts_with("p_") || n.starts_with("P_")) {
+        let base = &n[2..];
+        return Err(PyValueError::new_err(format!(
+            "`{n}` in H looks like the momentum of `{base}`, but `{base}` is not a coordinate, so `{n}` would be a constant parameter ({named}); add `{base}` to the coordinates, or rename the parameter"
+        )));
+    }
+    Ok(())
+}
+
+/// Parameter values, checked against the system's `positive=` declaration: the engine
+/// simplified with `sqrt(m²) = m` and `|m| = m` for such a symbol, so `m = -1` would integrate
+/// other equations (`cosh` where `cos` is right) without a word.
 fn with_params(sys: System, values: &Bound<'_, PyDict>) -> PyResult<System> {
     let mut owned: Vec<(String, f64)> = Vec::new();
     for (k, v) in values.iter() {
-        owned.push((k.extract()?, v.extract()?));
+        let (name, value): (String, f64) = (k.extract()?, v.extract()?);
+        if value <= 0.0 && sys.declarations().positive.contains(&name) {
+            return Err(PyValueError::new_err(format!(
+                "`{name}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot be {value}; give a positive value, or build the system without `{name}` in positive="
+            )));
+        }
+        owned.push((name, value));
     }
     let refs: Vec<(&str, f64)> = owned.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     sys.with_params(&refs).py()
@@ -466,6 +530,7 @@ impl PySystem {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
         let g = to_expr(g, self.decls(), true)?;
+        self.check_names(&[&f, &g])?;
         Ok(self.ex(canonical::poisson(&f, &g, &ps)))
     }
 
@@ -473,6 +538,7 @@ impl PySystem {
     fn time_derivative(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<PyExpr> {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
+        self.check_names(&[&f])?;
         let h = self.h(py)?;
         Ok(self.ex(canonical::time_derivative(&f, &h, &ps)))
     }
@@ -481,6 +547,7 @@ impl PySystem {
     fn is_integral(&self, py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<(bool, String)> {
         let ps = self.phase_space()?;
         let f = to_expr(f, self.decls(), true)?;
+        self.check_names(&[&f])?;
         let h = self.h(py)?;
         let z = canonical::is_integral(&f, &h, &ps);
         Ok((z.is_zero(), z.describe()))
@@ -632,13 +699,57 @@ impl PySystem {
 }
 
 /// The Poisson bracket ``{f, g}`` over the phase space of ``coords`` (momenta ``p_q``).
+/// Every other name in ``f`` and ``g`` must be listed in ``params`` (constants, whose
+/// bracket with everything is 0): a name that is neither is refused, since reading it as a
+/// constant would silently drop its part of the bracket (``{x p_x, y}`` over ``q`` is not 0
+/// if ``x`` and ``y`` were meant as coordinates).
 #[pyfunction]
-pub fn poisson(f: &Bound<'_, PyAny>, g: &Bound<'_, PyAny>, coords: Vec<String>) -> PyResult<PyExpr> {
+#[pyo3(signature = (f, g, coords, *, params=None))]
+pub fn poisson(
+    f: &Bound<'_, PyAny>,
+    g: &Bound<'_, PyAny>,
+    coords: Vec<String>,
+    params: Option<Vec<String>>,
+) -> PyResult<PyExpr> {
     let decls = match f.downcast::<PyExpr>() {
         Ok(e) => e.get().decls.0.clone(),
         Err(_) => Declarations::new(),
     };
     let ps = PhaseSpace::new(&coords).py()?;
     let (f, g) = (to_expr(f, &decls, true)?, to_expr(g, &decls, true)?);
+    check_phase_space(&[&f, &g], &coords, &params.unwrap_or_default(), false)?;
     Ok(PyExpr::new(canonical::poisson(&f, &g, &ps), &decls))
+}
+
+/// Refuses names in `exprs` that are neither a coordinate, a momentum `p_q`, `t` nor one of
+/// `params`: a bracket reads any other name as a constant, so a name meant as a coordinate
+/// would silently drop its part (`{x p_x, y}` over `q` came out 0).
+fn check_phase_space(exprs: &[&Expr], coords: &[String], params: &[String], system: bool) -> PyResult<()> {
+    let known = |s: &Symbol| {
+        let n = s.name();
+        s.primes() == 0
+            && (s.is_time()
+                || params.iter().any(|p| p == n)
+                || coords.iter().any(|q| q == n || n.strip_prefix("p_") == Some(q.as_str())))
+    };
+    let unknown: BTreeSet<String> =
+        exprs.iter().flat_map(|e| e.free_symbols()).filter(|s| !known(s)).map(|s| s.to_string()).collect();
+    if unknown.is_empty() {
+        return Ok(());
+    }
+    let list: Vec<String> = unknown.iter().map(|n| format!("`{n}`")).collect();
+    let momenta: Vec<String> = coords.iter().map(|q| format!("p_{q}")).collect();
+    let fix = if system {
+        "use the system's coordinates, momenta and parameters".to_string()
+    } else {
+        "add the coordinates to `coords` (`p_x` is the momentum of `x`), list constants in params=[…], or use System.poisson, which knows its system's parameters".to_string()
+    };
+    Err(PyValueError::new_err(format!(
+        "{} {} neither a coordinate nor a momentum of the phase space ({}; {}){}; {fix}",
+        list.join(", "),
+        if list.len() == 1 { "is" } else { "are" },
+        coords.join(", "),
+        momenta.join(", "),
+        if system { " nor a parameter of the system" } else { "" },
+    )))
 }

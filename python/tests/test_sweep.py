@@ -210,3 +210,18 @@ def test_sweep_example_script(tmp_path):
     assert run.returncode == 0, run.stderr[-2000:]
     assert "36 trajectories" in run.stdout and "0 failed" in run.stdout
     assert out.stat().st_size > 1000
+
+
+def test_integrate_ensemble_and_compile_run_on_workers(client):
+    # The results come back pickled from worker processes and equal the local ones.
+    sys = pendulum()
+    sol = client.submit(sys.integrate, [0, 5], [1.0, 0.0], rtol=1e-10).result(timeout=120)
+    assert sol == sys.integrate([0, 5], [1.0, 0.0], rtol=1e-10)
+    starts = np.array([[0.5, 0.0], [1.0, 0.0]])
+    ens = client.submit(sys.ensemble, starts, (0, 5), rtol=1e-10).result(timeout=120)
+    assert ens == sys.ensemble(starts, (0, 5), rtol=1e-10)
+    f = client.submit(sys.compile).result(timeout=120)
+    assert f == sys.compile()
+    np.testing.assert_allclose(f(0.0, np.array([0.5, 0.0])), [0.0, -np.sin(0.5)], rtol=1e-15)
+    finals = client.gather(client.map(lambda y0: sys.integrate((0, 5), y0, rtol=1e-10).y[:, -1], list(starts)))
+    np.testing.assert_array_equal(np.array(finals), ens.y)
