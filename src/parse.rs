@@ -678,6 +678,16 @@ mod tests {
         assert_eq!(p("m (x+1)"), p("m*(x+1)"));
     }
 
+    /// Python's `**` is the power operator, as `^` (the grammar lists both; the power rule
+    /// is tried before `*`, which would otherwise take the first star and fail on the second).
+    #[test]
+    fn double_star_is_a_power() {
+        assert_eq!(p("x**2"), p("x^2"));
+        assert_eq!(p("2*x**3*y"), p("2 x^3 y"));
+        assert_eq!(p("2**3**2"), Expr::int(512));
+        assert_eq!(p("-x**2"), p("-(x^2)"));
+    }
+
     #[test]
     fn decimals_are_exact() {
         assert_eq!(p("0.5"), Expr::frac(1, 2));

@@ -108,23 +108,9 @@ pub trait ToPyErr {
 }
 
 impl ToPyErr for lagrangian::parse::ParseError {
-    fn py_err(mut self) -> PyErr {
-        if self.hint.is_none() && at_double_star(&self) {
-            self.hint = Some(
-                "write `^` for a power (`x^2`, `m l^2 θ'^2`): the expression language does not read Python's `**`"
-                    .into(),
-            );
-        }
+    fn py_err(self) -> PyErr {
         exc::ParseError::new_err(self.to_string())
     }
-}
-
-/// Whether the error points at the second `*` of `**`: Python's power, which the parser
-/// reads as a product followed by a stray `*`.
-fn at_double_star(e: &lagrangian::parse::ParseError) -> bool {
-    let chars: Vec<char> = e.source_line.chars().collect();
-    let c = e.column.saturating_sub(1);
-    c >= 1 && chars.get(c) == Some(&'*') && chars.get(c - 1) == Some(&'*')
 }
 
 impl ToPyErr for lagrangian::mechanics::MechanicsError {
