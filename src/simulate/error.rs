@@ -131,11 +131,6 @@ impl SimulateError {
         }
     }
 
-    /// Whether the user's request was at fault (bad input) rather than the run (numerics).
-    pub fn is_bad_request(&self) -> bool {
-        !matches!(self, SimulateError::Integrate { .. } | SimulateError::Cancelled | SimulateError::Internal(_))
-    }
-
     /// The integrator's error as a simulation error: Ctrl-C is [`SimulateError::Cancelled`].
     pub(super) fn integration(error: IntegrateError, names: &[String], hint: Option<String>) -> SimulateError {
         if error.reason == FailureReason::Interrupted {
