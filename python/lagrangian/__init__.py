@@ -19,6 +19,7 @@ see :func:`cache_info` and :func:`set_cache_dir`).
 """
 
 from ._core import (
+    DEFAULT_METHOD,
     METHODS,
     ActionAngleError,
     AverageError,
@@ -50,6 +51,7 @@ from ._sympy import from_sympy, to_sympy
 from ._sweep import SweepResult, sweep
 
 __all__ = [
+    "DEFAULT_METHOD",
     "METHODS",
     "ActionAngleError",
     "AverageError",

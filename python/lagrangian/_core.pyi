@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 METHODS: list[str]
+DEFAULT_METHOD: str
 
 ArrayLike = npt.ArrayLike
 Operand = Union["Expr", int, float]
@@ -195,13 +196,13 @@ class System:
     def lie_series(self, f: Union[Expr, str], g: Union[Expr, str], epsilon: Union[Expr, str], order: int) -> Expr: ...
     def action_frequency(self, energy: float, inside: float) -> dict[str, Any]: ...
     def average(self, trials: Mapping[str, str], phase: str, frequency: str, amplitudes: Sequence[str]) -> dict[str, Any]: ...
-    def state_names(self, method: str = "dop853") -> list[str]: ...
+    def state_names(self, method: Optional[str] = None) -> list[str]: ...
     def compile(self, formulation: Optional[str] = None) -> CompiledRhs: ...
     def integrate(
         self,
         t_span: ArrayLike,
         y0: Union[ArrayLike, Mapping[str, float]],
-        method: str = "dop853",
+        method: Optional[str] = None,
         *,
         dt: Optional[float] = None,
         rtol: Optional[float] = None,
@@ -218,7 +219,7 @@ class System:
         self,
         y0: ArrayLike,
         t_span: ArrayLike,
-        method: str = "dop853",
+        method: Optional[str] = None,
         *,
         dt: Optional[float] = None,
         rtol: Optional[float] = None,

@@ -20,7 +20,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from ._core import System
+from ._core import DEFAULT_METHOD, System
 
 
 @dataclass
@@ -100,11 +100,11 @@ def sweep(
     system: System,
     grid: Union[np.ndarray, Mapping[str, Sequence[float]]],
     t_span: tuple[float, float],
-    method: str = "dop853",
+    method: Optional[str] = None,
     *,
     y0: Union[None, Sequence[float], Mapping[str, float]] = None,
     dt: Optional[float] = None,
-    tol: float = 1e-10,
+    tol: Optional[float] = None,
     atol: Optional[float] = None,
     events: Optional[list[Any]] = None,
     max_steps: Optional[int] = None,
@@ -124,6 +124,8 @@ def sweep(
     ``chunk_size`` points with ``threads`` threads (1 by default: Dask runs one task per
     worker thread already); a task that raises is retried ``retries`` times by Dask.
     """
+    # The engine's registry decides the default method and tolerance.
+    method = method or DEFAULT_METHOD
     names = system.state_names(method)
     n = len(names)
     params_list = set(system.parameters)

@@ -28,6 +28,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cache::cache_info, m)?)?;
     m.add_function(wrap_pyfunction!(cache::set_cache_dir, m)?)?;
     m.add("METHODS", sim::binding_methods().map(|m| m.name()).collect::<Vec<_>>())?;
+    m.add("DEFAULT_METHOD", lagrangian::simulate::DEFAULT_METHOD.name())?;
     errors::register(m)?;
     Ok(())
 }

@@ -79,36 +79,39 @@ pub fn simulate_error(py: Python<'_>, e: SimulateError) -> PyErr {
 }
 
 /// The compiled system of `s` under `key`, from its cache or compiled now (GIL released).
-fn compiled_for(py: Python<'_>, s: &PySystem, key: CompiledKey) -> PyResult<Arc<Compiled>> {
+fn compiled_with(
+    py: Python<'_>,
+    s: &PySystem,
+    key: CompiledKey,
+    build: impl FnOnce(&System) -> Result<Compiled, SimulateError> + Send,
+) -> PyResult<Arc<Compiled>> {
     if let Some(c) = s.compiled.lock().ok().and_then(|m| m.get(&key).cloned()) {
         return Ok(c);
     }
     let sys = &s.sys;
     crate::cache::init(py);
-    let c = py
-        .allow_threads(|| match key {
-            CompiledKey::Method(form) => {
-                let method = MethodId::all().find(|m| m.form() == form).expect("every form has a method");
-                simulate::compile_system_with(sys, method, &[], &Cached)
-            }
-            CompiledKey::Named(eq, form) => {
-                let f = simulate::formulation_of(sys, eq, &Cached)?;
-                simulate::compile_formulation(sys, f, form, &[])
-            }
-        })
-        .map_err(|e| simulate_error(py, e))?;
-    let c = Arc::new(c);
+    let c = Arc::new(py.allow_threads(|| build(sys)).map_err(|e| simulate_error(py, e))?);
     if let Ok(mut m) = s.compiled.lock() {
         m.insert(key, c.clone());
     }
     Ok(c)
 }
 
-/// The compiled system `method` integrates for `s`, after the engine's check that the method
-/// can run this kind of system (a typed refusal naming the methods that can).
+/// The compiled system of the equations `eq` named by `System.compile(formulation=…)`.
+fn compiled_for(py: Python<'_>, s: &PySystem, eq: Equations, form: Form) -> PyResult<Arc<Compiled>> {
+    compiled_with(py, s, CompiledKey::Named(eq, form), |sys| {
+        let f = simulate::formulation_of(sys, eq, &Cached)?;
+        simulate::compile_formulation(sys, f, form, &[])
+    })
+}
+
+/// The compiled system `method` integrates for `s`, or the engine's typed refusal naming the
+/// methods that can run it. Cached by the method's form: the methods sharing a form share the
+/// route, so a cached value was refused or accepted for them all alike.
 pub fn compiled_for_method(py: Python<'_>, s: &PySystem, method: MethodId) -> PyResult<Arc<Compiled>> {
-    simulate::route(method, &simulate::shape_of(&s.sys)).map_err(|r| simulate_error(py, SimulateError::Refused(r)))?;
-    compiled_for(py, s, CompiledKey::Method(method.form()))
+    compiled_with(py, s, CompiledKey::Method(method.form()), |sys| {
+        simulate::compile_system_with(sys, method, &[], &Cached)
+    })
 }
 
 /// The methods the binding runs: every method of the registry.
@@ -179,7 +182,7 @@ impl CompiledRhs {
             Equations::Separable => Equations::Hamiltonian,
             other => other,
         };
-        let c = compiled_for(py, self.system.bind(py).get(), CompiledKey::Named(eq, Form::RhsWithJacobian))?;
+        let c = compiled_for(py, self.system.bind(py).get(), eq, Form::RhsWithJacobian)?;
         let _ = self.jac.set(c.clone());
         Ok(c)
     }
@@ -608,7 +611,7 @@ fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> 
 fn run_spec(
     py: Python<'_>,
     s: &PySystem,
-    method_name: &str,
+    method_name: Option<&str>,
     t_span: (f64, f64),
     dt: Option<f64>,
     tol: Option<f64>,
@@ -617,7 +620,7 @@ fn run_spec(
     events: Option<&Bound<'_, PyList>>,
     compensated: bool,
 ) -> PyResult<(RunOptions, Arc<Compiled>)> {
-    let m = method(method_name)?;
+    let m = method_name.map_or(Ok(simulate::DEFAULT_METHOD), method)?;
     let (t0, t1) = t_span;
     let mut opts = RunOptions::new(m, t0, t1);
     opts.dt = dt;
@@ -968,7 +971,7 @@ impl PySystem {
                 )))
             }
         };
-        let c = compiled_for(py, this, CompiledKey::Named(equations, Form::Rhs))?;
+        let c = compiled_for(py, this, equations, Form::Rhs)?;
         Ok(CompiledRhs {
             names: c.state.clone(),
             c,
@@ -995,14 +998,14 @@ impl PySystem {
     /// The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
         py: Python<'_>,
         t_span: &Bound<'_, PyAny>,
         y0: &Bound<'_, PyAny>,
-        method: &str,
+        method: Option<&str>,
         dt: Option<f64>,
         rtol: Option<f64>,
         atol: Option<f64>,
@@ -1051,14 +1054,14 @@ impl PySystem {
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
     /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
     /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method="dop853", *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    #[pyo3(signature = (y0, t_span, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
         py: Python<'_>,
         y0: &Bound<'_, PyAny>,
         t_span: &Bound<'_, PyAny>,
-        method: &str,
+        method: Option<&str>,
         dt: Option<f64>,
         rtol: Option<f64>,
         atol: Option<f64>,

@@ -688,9 +688,9 @@ impl PySystem {
     /// The state variable names of the formulation ``method`` integrates: ``(q…, q'…)`` for a
     /// Lagrangian system with a Runge–Kutta or collocation method, ``(q…, p_q…)`` for a
     /// Hamiltonian system or a splitting method.
-    #[pyo3(signature = (method="dop853"))]
-    fn state_names(&self, method: &str) -> PyResult<Vec<String>> {
-        let m = crate::sim::method(method)?;
+    #[pyo3(signature = (method=None))]
+    fn state_names(&self, method: Option<&str>) -> PyResult<Vec<String>> {
+        let m = method.map_or(Ok(lagrangian::simulate::DEFAULT_METHOD), crate::sim::method)?;
         let route = lagrangian::simulate::route(m, &lagrangian::simulate::shape_of(&self.sys))
             .map_err(|r| pyo3::exceptions::PyValueError::new_err(format!("{r} ({})", r.hint())))?;
         let second = if route.has_velocities() { self.sys.velocities() } else { self.sys.momenta() };

@@ -352,13 +352,9 @@ impl Session {
         bar.finish();
         // A start that ran out of the budget has no value, and a blank there would read as a
         // failed (escaping) orbit: the map is refused, naming the budget.
-        let computed = match computed.iter().position(|r| matches!(r, Err(BackendError::Budget(_)))) {
-            Some(k) => match computed.into_iter().nth(k) {
-                Some(Err(e)) => return Err(setup.budget_error(e)),
-                _ => unreachable!("position found a budget error at {k}"),
-            },
-            None => computed,
-        };
+        if let Some(Err(e)) = computed.iter().find(|r| matches!(r, Err(BackendError::Budget(_)))) {
+            return Err(setup.budget_error(e.clone()));
+        }
         // A start whose integration fails (escapes, meets a singularity) is blank too, but
         // counted apart from the cells off the level set.
         let mut computed = computed.into_iter().map(|r| r.unwrap_or(f64::NAN));
