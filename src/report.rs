@@ -308,25 +308,26 @@ pub fn conserved(s: &System) -> Vec<Line> {
     let mut known = Vec::new();
     let mut broken = Vec::new();
     let listed = s.conserved();
+    // A candidate the forces leave alone keeps the mechanics stage's own line and reason.
+    let kept = |c: &crate::mechanics::Conserved| ConservedLine {
+        name: c.name.clone(),
+        value: c.expr.clone(),
+        note: c.reason.to_string(),
+    };
     for (i, q) in coords.iter().enumerate() {
         if !tidy(&d.diff(&kind_expr, q)).is_zero() {
             continue;
         }
         let name = s.momenta()[i].to_string();
         let rate = drive[i].clone();
-        let found = listed.iter().find(|c| c.name == name);
-        match found {
-            Some(c) if rate.is_zero() => {
-                known.push(ConservedLine { name: c.name.clone(), value: c.expr.clone(), note: c.reason.to_string() })
-            }
-            _ if rate.is_zero() => {}
-            _ => {
-                let value = match s.kind() {
-                    Kind::Lagrangian(l) => tidy(&d.diff(l, &s.velocities()[i])),
-                    Kind::Hamiltonian(_) => Expr::sym(s.momenta()[i].clone()),
-                };
-                broken.push((name, value, rate, culprits(Some(i), &mut d)));
-            }
+        if !rate.is_zero() {
+            let value = match s.kind() {
+                Kind::Lagrangian(l) => tidy(&d.diff(l, &s.velocities()[i])),
+                Kind::Hamiltonian(_) => Expr::sym(s.momenta()[i].clone()),
+            };
+            broken.push((name, value, rate, culprits(Some(i), &mut d)));
+        } else if let Some(c) = listed.iter().find(|c| c.name == name) {
+            known.push(kept(c));
         }
     }
     if !kind_expr.contains(&t) {
@@ -346,19 +347,14 @@ pub fn conserved(s: &System) -> Vec<Line> {
             terms.push(Expr::sym(lam.clone()).times(&d2.diff(f, &t)).neg());
         }
         let rate = tidy(&Expr::add(terms));
-        let found = listed.iter().find(|c| c.name == name);
-        match found {
-            Some(c) if rate.is_zero() => {
-                known.push(ConservedLine { name: c.name.clone(), value: c.expr.clone(), note: c.reason.to_string() })
-            }
-            _ if rate.is_zero() => {}
-            _ => {
-                let value = match s.kind() {
-                    Kind::Lagrangian(_) => tidy(&s.energy_function()),
-                    Kind::Hamiltonian(h) => h.clone(),
-                };
-                broken.push((name.to_string(), value, rate, culprits(None, &mut d)));
-            }
+        if !rate.is_zero() {
+            let value = match s.kind() {
+                Kind::Lagrangian(_) => tidy(&s.energy_function()),
+                Kind::Hamiltonian(h) => h.clone(),
+            };
+            broken.push((name.to_string(), value, rate, culprits(None, &mut d)));
+        } else if let Some(c) = listed.iter().find(|c| c.name == name) {
+            known.push(kept(c));
         }
     }
     let h = s.hamiltonian().ok();
