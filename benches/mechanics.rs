@@ -25,7 +25,7 @@ use lagrangian::expr::Expr;
 use lagrangian::mechanics::System;
 use lagrangian::{parse_with, Declarations};
 
-#[path = "../tests/mechanics_support/n_link.rs"]
+#[path = "../tests/it/support/n_link.rs"]
 mod n_link;
 use n_link::n_link;
 

@@ -34,7 +34,7 @@ use lagrangian::integrate::{Dop853, Integrate, Options, Rhs, Separable, Splittin
 use lagrangian::mechanics::System;
 use lagrangian::Declarations;
 
-#[path = "../tests/mechanics_support/n_link.rs"]
+#[path = "../tests/it/support/n_link.rs"]
 mod n_link;
 use n_link::n_link_system;
 

@@ -5,7 +5,7 @@
 //! cargo bench --bench rhs
 //! ```
 
-#[path = "../tests/compile_common/mod.rs"]
+#[path = "../tests/it/support/compile.rs"]
 mod compile_common;
 
 use std::hint::black_box;

@@ -21,7 +21,7 @@ use lagrangian::integrate::problems::{DoublePendulum, Kepler};
 use lagrangian::integrate::{Dop853, Integrate, Method, Options, Rhs, Status, Taylor, TaylorSystem};
 use lagrangian::mechanics::System;
 
-#[path = "../tests/mechanics_support/n_link.rs"]
+#[path = "../tests/it/support/n_link.rs"]
 mod n_link;
 use n_link::unit_n_link_system;
 
@@ -124,7 +124,7 @@ fn kepler() {
             if native { format!("native ({:.1} ms to compile)", compile * 1e3) } else { "interpreted".into() },
             t * 1e3
         );
-        // The interpreter gives the native code's bits (tests/taylor_native.rs): same errors.
+        // The interpreter gives the native code's bits (tests/it/taylor/native.rs): same errors.
         let (t, (_, steps)) = best(3, || kepler_orbits(&m, &interp));
         println!("| {name} (order {p}), interpreted | {:.1} ms | (as native) | {steps} |", t * 1e3);
     }

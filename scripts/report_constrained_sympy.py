@@ -1,4 +1,4 @@
-"""Independent reference for tests/scene_parity.rs (constrained accelerations and multipliers).
+"""Independent reference for tests/it/scene/parity.rs (constrained accelerations and multipliers).
 
 SymPy's LagrangesMethod on the two constrained systems the tests print with
 `lagrangian el --accelerations --constraint …`:

@@ -112,7 +112,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
                 let steps = k.to_u128().unwrap_or(u128::MAX);
                 // The k-th power of a coefficient of B bits has about k·B bits, and exact
                 // rational arithmetic on such numbers costs their size squared: (x + 10^-3201)^19
-                // took minutes, and (x^2 + 10^20)^100 half a minute (found by tests/fuzz.rs), so
+                // took minutes, and (x^2 + 10^20)^100 half a minute (found by tests/it/robust/fuzz.rs), so
                 // the work counts machine words of coefficient as well as terms.
                 let base_bits = ts.iter().map(numeric_bits).max().unwrap_or(0);
                 let bits = base_bits.saturating_mul(k.to_u64().unwrap_or(u64::MAX));
@@ -148,7 +148,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
 /// The bits of exact number a term carries: its rational coefficient and its surds
 /// (`sqrt(99999999999)` has a coefficient of 1, but its 50th power folds to a 1,800-bit
 /// integer: `(x^2 + sqrt(99999999999) a)^100` took 8 s before surds were counted; found by
-/// tests/fuzz.rs).
+/// tests/it/robust/fuzz.rs).
 fn numeric_bits(t: &Expr) -> u64 {
     let surd_bits = |f: &Expr| match f.node() {
         Node::Pow(b, x) => match (b.as_num(), x.as_num()) {
@@ -453,7 +453,7 @@ fn univariate_gcd(a: &SparsePoly, b: &SparsePoly, var: u32) -> Option<SparsePoly
     // subresultants' (degree times the input size plus log of the degree). The guard allows
     // that for the small coefficients of mechanics and stops the runaway growth of a divisor
     // with huge coefficients: (x^100 − 1) mod (10^308 x − 1) forms 10^30800 (found by
-    // tests/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
+    // tests/it/robust/fuzz.rs), and a linear divisor has a gcd of 1 or itself anyway.
     let max_bits = 4 * (a.coefficient_bits() + b.coefficient_bits()) + 64 * (degree(a) + degree(b)) as u64 + 256;
     // And a budget for the arithmetic, as in `SparsePoly::div_exact` (b²/64 word operations per
     // gcd-normalised product of b-bit numbers): under the bit guard, (x^100 − 10^-3201) mod
@@ -1392,7 +1392,7 @@ impl SparsePoly {
     ///
     /// Also gives up when a quotient coefficient outgrows [`SparsePoly::coefficient_bits_bound`]:
     /// dividing `x^10000 − 1` by `10^308 x − 1` would otherwise form coefficients of millions of
-    /// digits, one step slower than the last (a hang found by `tests/fuzz.rs`).
+    /// digits, one step slower than the last (a hang found by `tests/it/robust/fuzz.rs`).
     ///
     /// And it gives up when the arithmetic itself grows too costly: each step normalises
     /// rationals by a binary gcd, about b²/64 word operations for b-bit numbers, once per term

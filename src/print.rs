@@ -256,7 +256,7 @@ impl Printer {
         let lone_sum_last = coeff_on_sums && numer_sums.len() == 1;
         // `1/1000 (a + b)/(c + d)` would distribute `1/1000` over `a + b` on re-parsing: when
         // the numerator is only sums, a coefficient `1/q` goes last, `(a + b)/(c + d)/1000`
-        // (found by tests/fuzz.rs).
+        // (found by tests/it/robust/fuzz.rs).
         let coeff_trails = plain
             && coeff.numer().is_one()
             && !coeff.denom().is_one()

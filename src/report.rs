@@ -5,7 +5,7 @@
 //! (`el`, `legendre`, `hamilton`, `conserved`) call the same builder on the same
 //! [`mechanics::System`](crate::mechanics::System) (forces, Rayleigh function and constraints
 //! included) and render its [`Line`]s with the same [`render_line`], so both print the same
-//! text for the same input; `tests/scene_parity.rs` compares them byte for byte.
+//! text for the same input; `tests/it/scene/parity.rs` compares them byte for byte.
 //!
 //! Conventions (PHYSICS.md §1–3):
 //! - `E_q: E_q = R_q`: the Euler–Lagrange expression `E_q = d/dt ∂L/∂q' − ∂L/∂q` on the left,

@@ -6,7 +6,8 @@
 //! measure (the count of live interned nodes returns to where it was after a warm-up) and
 //! the one a user sees (resident memory grows by less than a fixed bound).
 //!
-//! It is the only test in this binary, so no other thread interns nodes meanwhile.
+//! It is the only test in its own binary (not the `it` binary of the other tests), so no other
+//! thread interns nodes or allocates meanwhile.
 
 use lagrangian::mechanics::System;
 

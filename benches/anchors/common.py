@@ -65,7 +65,7 @@ def note(text):
 
 def n_link_positions(n, sin, cos, th, l):
     """Bob positions of the planar n-link pendulum, r_k = sum_{i<=k} l_i (sin th_i, -cos th_i):
-    the formulation of tests/mechanics_support/n_link.rs."""
+    the formulation of tests/it/support/n_link.rs."""
     xs, ys = [], []
     x = y = 0
     for k in range(n):

@@ -32,7 +32,7 @@ pub fn time_derivative(f: &Expr, h: &Expr, ps: &PhaseSpace) -> Expr {
 /// simplification cannot decide) checked numerically, as the [`ZeroCheck`] says.
 ///
 /// Poisson's theorem follows: if `f` and `g` are integrals, `is_integral(&poisson(f, g), h)`
-/// holds too (tested in `tests/canonical_poisson.rs`).
+/// holds too (tested in `tests/it/canonical/poisson.rs`).
 pub fn is_integral(f: &Expr, h: &Expr, ps: &PhaseSpace) -> ZeroCheck {
     let mut d = Differentiator::new();
     decide_zero(&poisson_raw(f, h, ps, &mut d).plus(&d.diff(f, &time())))

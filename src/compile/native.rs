@@ -23,7 +23,7 @@
 //! fuses floating-point operations (no FMA contraction), so they agree bit for bit. Every
 //! transcendental calls one of the `extern "C"` wrappers below, which call the same Rust
 //! functions (`Func::eval`, `f64::sin_cos`, `powf`, `atan2`) the interpreter calls, so those
-//! agree bit for bit too. `tests/compile_native.rs` checks both claims on random inputs.
+//! agree bit for bit too. `tests/it/compile/native.rs` checks both claims on random inputs.
 //!
 //! **Failure is not an error.** An unsupported host, a Cranelift error, an allocation or
 //! `mprotect` failure, or a tape larger than [`MAX_NATIVE_INSTRS`] makes [`NativeCode::compile`]
@@ -1075,7 +1075,7 @@ impl TaylorEmitter<'_, '_> {
     /// straight-line block, in which a pure value is placed no earlier than its first use,
     /// and that use follows the store of the coefficient, which is never written again. The
     /// bit-for-bit comparisons with the interpreter on reused buffers
-    /// (`tests/taylor_native.rs`) would catch a load moved above its store.
+    /// (`tests/it/taylor/native.rs`) would catch a load moved above its store.
     fn reload(&mut self, i: usize) -> Value {
         self.pure_load(types::F64, MemFlags::trusted(), i)
     }

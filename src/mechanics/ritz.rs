@@ -315,7 +315,7 @@ impl Ritz {
 
 /// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
 /// Written out rather than nalgebra's LU: with nalgebra's rounding, the four-coefficient
-/// oscillator of the notes (`tests/notes_examples.rs`, `ritz_oscillator`) took 4 Newton steps
+/// oscillator of the notes (`tests/it/notes/examples.rs`, `ritz_oscillator`) took 4 Newton steps
 /// instead of 2, its second step staying above the `1e-13` stopping threshold.
 fn solve_dense(m: &mut [f64], b: &mut [f64], n: usize) -> Option<()> {
     for j in 0..n {

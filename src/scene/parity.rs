@@ -4,7 +4,7 @@
 //! Each calls the same library function as the matching command and prints the same lines
 //! (the text comes from [`crate::canonical::report`] or the same `name = value` shape), so a
 //! scene and `lagrangian pb|lie|integral|action|average|transform` agree line for line in the
-//! same format (tested in `tests/scene_parity.rs`). These are quick symbolic steps or a
+//! same format (tested in `tests/it/scene/parity.rs`). These are quick symbolic steps or a
 //! quadrature, so they go straight to the library instead of through the cached, counted
 //! [`super::backend::Backend`] stages that simulations need.
 

@@ -1,0 +1,148 @@
+//! The averaged Lagrangian (PHYSICS.md §2.5) and the anharmonic oscillator of notes 2.8.2.
+//!
+//! Hand derivation (checked independently with SymPy, `integrate(L, (θ, 0, 2π))/(2π)` of the
+//! same trial): with `x = l0 (A cos θ + B cos 3θ + C sin 3θ)`, `x' ≈ ω ∂x/∂θ`,
+//! `⟨x²⟩ = l0² (A² + B² + C²)/2`, `⟨x'²⟩ = ω² l0² (A² + 9B² + 9C²)/2`, and
+//! `⟨x⁴⟩ = l0⁴ [3A⁴ + 4A³B + 12A²B² + 12A²C² + 3B⁴ + 6B²C² + 3C⁴]/8`.
+//! To leading order in σ the relations give `C = 0`, `B = σ A³/16` and
+//! `ω² = ω0² (1 + (3/2) σ A²)`, i.e. `ω = ω0 (1 + (3/4) σ A²)` (the Lindstedt result for
+//! `y'' + ω0² (y + 2σ y³) = 0`).
+
+use lagrangian::canonical::{
+    average_lagrangian, decide_zero, leading_order, phase_average, AverageError, LeadingOrderError, Trial, ZeroCheck,
+};
+use lagrangian::eval::eval_with;
+use lagrangian::{parse, Expr, Symbol};
+
+fn p(s: &str) -> Expr {
+    parse(s).expect("test input parses")
+}
+
+use crate::support::snapshot as snap;
+
+fn sym(s: &str) -> Symbol {
+    Symbol::new(s)
+}
+
+fn anharmonic() -> lagrangian::canonical::Averaged {
+    average_lagrangian(
+        &p("1/2 m x'^2 - 1/2 m w0^2 (x^2 + σ x^4/l0^2)"),
+        &[Trial { coord: sym("x"), expr: p("l0 (A cos(θ) + B cos(3θ) + C sin(3θ))") }],
+        &sym("θ"),
+        &sym("w"),
+        &[sym("A"), sym("B"), sym("C")],
+    )
+    .expect("periodic trigonometric trial")
+}
+
+#[test]
+fn anharmonic_oscillator_averaged_relations() {
+    let avg = anharmonic();
+    let hand = p("1/2 m w^2 l0^2 (A^2 + 9 B^2 + 9 C^2)/2 - 1/2 m w0^2 l0^2 (A^2 + B^2 + C^2)/2 \
+                  - 1/2 m w0^2 σ l0^2 (3 A^4 + 4 A^3 B + 12 A^2 B^2 + 12 A^2 C^2 + 3 B^4 + 6 B^2 C^2 + 3 C^4)/8");
+    assert_eq!(decide_zero(&avg.lagrangian.minus(&hand)), ZeroCheck::Proven, "⟨L⟩ = {}", avg.lagrangian);
+    // J = ∂⟨L⟩/∂ω = m ω l0² (A² + 9B² + 9C²)/2.
+    assert_eq!(decide_zero(&avg.action.minus(&p("m w l0^2 (A^2 + 9 B^2 + 9 C^2)/2"))), ZeroCheck::Proven);
+    // C = 0 solves ∂⟨L⟩/∂C = 0 exactly (every term carries a factor C).
+    let rel_c = &avg.relations[2].1;
+    assert!(rel_c.subs1(&sym("C"), &Expr::zero()).is_zero());
+    // Leading order: with ω² = ω0²(1 + 3σA²/2), B = σA³/16, C = 0 the A and B relations are O(σ²):
+    // their values at σ and σ/2 fall by a factor 4.
+    let residual = |rel: &Expr, s: f64, b_coeff: f64| {
+        let (a, w0) = (0.8, 1.3);
+        let w = w0 * (1.0 + 1.5 * s * a * a).sqrt();
+        eval_with(rel, &|x: &Symbol| match x.name() {
+            "A" => Some(a),
+            "B" => Some(b_coeff * s * a * a * a),
+            "C" => Some(0.0),
+            "w" => Some(w),
+            "w0" => Some(w0),
+            "σ" => Some(s),
+            "m" => Some(1.7),
+            "l0" => Some(0.6),
+            _ => None,
+        })
+        .expect("evaluates")
+    };
+    for (name, rel) in [("A", &avg.relations[0].1), ("B", &avg.relations[1].1)] {
+        let (r1, r2) = (residual(rel, 1e-3, 1.0 / 16.0), residual(rel, 5e-4, 1.0 / 16.0));
+        let ratio = r1 / r2;
+        assert!((ratio - 4.0).abs() < 0.05, "∂⟨L⟩/∂{name}: residual ratio {ratio} ({r1:e}, {r2:e})");
+    }
+    // The check can fail: a wrong coefficient (B = σA³/8) leaves an O(σ) residual.
+    let rel_b = &avg.relations[1].1;
+    let ratio = residual(rel_b, 1e-3, 1.0 / 8.0) / residual(rel_b, 5e-4, 1.0 / 8.0);
+    assert!((ratio - 2.0).abs() < 0.05, "wrong B: ratio {ratio}");
+    let mut lines = vec![format!("<L> = {}", avg.lagrangian)];
+    lines.extend(avg.relations.iter().map(|(a, e)| format!("d<L>/d{a} = {e}")));
+    lines.push(format!("J = {}", avg.action));
+    snap("canonical_anharmonic_average", lines.join("\n"));
+}
+
+#[test]
+fn anharmonic_oscillator_solved_to_leading_order() {
+    let avg = anharmonic();
+    let lo = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A")).expect("solvable");
+    // The hand result of the module comment: ω = ω0 (1 + 3σA²/4), B = σA³/16, C = 0.
+    assert_eq!(decide_zero(&lo.frequency.minus(&p("w0 (1 + 3 σ A^2/4)"))), ZeroCheck::Proven, "ω = {}", lo.frequency);
+    assert_eq!(lo.amplitudes[0].0, sym("B"));
+    assert_eq!(decide_zero(&lo.amplitudes[0].1.minus(&p("σ A^3/16"))), ZeroCheck::Proven, "B = {}", lo.amplitudes[0].1);
+    assert!(lo.amplitudes[1].1.is_zero(), "C = {}", lo.amplitudes[1].1);
+    snap(
+        "canonical_anharmonic_leading_order",
+        format!("w = {}\nB = {}\nC = {}", lo.frequency, lo.amplitudes[0].1, lo.amplitudes[1].1),
+    );
+    // A wrong unperturbed frequency is refused at zeroth order.
+    let err = leading_order(&avg, &sym("w"), &p("2 w0"), &sym("σ"), &sym("A")).expect_err("wrong ω0");
+    assert!(matches!(err, LeadingOrderError::ZerothOrder { .. }), "{err}");
+}
+
+#[test]
+fn harmonic_average_gives_j_equal_e_over_omega() {
+    // ⟨L⟩ = m A² (ω² − ω0²)/4; at ω = ω0 the action m ω A²/2 equals E/ω0 with E = m ω0² A²/2.
+    let avg = average_lagrangian(
+        &p("1/2 m x'^2 - 1/2 m w0^2 x^2"),
+        &[Trial { coord: sym("x"), expr: p("A cos(θ + δ)") }],
+        &sym("θ"),
+        &sym("w"),
+        &[sym("A")],
+    )
+    .expect("periodic");
+    assert_eq!(decide_zero(&avg.lagrangian.minus(&p("m A^2 (w^2 - w0^2)/4"))), ZeroCheck::Proven);
+    assert_eq!(avg.action.subs1(&sym("w"), &p("w0")), p("(m w0^2 A^2/2)/w0"));
+}
+
+#[test]
+fn phase_average_of_products_uses_product_to_sum() {
+    // ⟨cos⁴θ⟩ = 3/8, ⟨sin²θ cos²θ⟩ = 1/8, ⟨sin θ cos 2θ⟩ = 0, ⟨cos θ cos(θ + a)⟩ = cos(a)/2.
+    let th = sym("θ");
+    assert_eq!(phase_average(&p("cos(θ)^4"), &th).expect("ok"), p("3/8"));
+    assert_eq!(phase_average(&p("sin(θ)^2 cos(θ)^2"), &th).expect("ok"), p("1/8"));
+    assert_eq!(phase_average(&p("sin(θ) cos(2 θ)"), &th).expect("ok"), Expr::zero());
+    assert_eq!(phase_average(&p("cos(θ) cos(θ + a)"), &th).expect("ok"), p("cos(a)/2"));
+}
+
+#[test]
+fn non_periodic_or_non_polynomial_trials_are_refused() {
+    let l = p("1/2 x'^2 - 1/2 x^2");
+    let run = |trial: &str| {
+        average_lagrangian(&l, &[Trial { coord: sym("x"), expr: p(trial) }], &sym("θ"), &sym("w"), &[sym("A")])
+    };
+    let half = run("A cos(θ/2)").expect_err("period 4π");
+    assert!(matches!(half, AverageError::NotPeriodic { .. }), "{half}");
+    assert!(half.to_string().contains("not 2π-periodic"), "{half}");
+    let secular = run("A θ").expect_err("secular");
+    assert!(matches!(secular, AverageError::NotPeriodic { .. }), "{secular}");
+    let symbolic = run("A cos(k θ)").expect_err("unknown frequency");
+    assert!(matches!(symbolic, AverageError::NotPeriodic { .. }), "{symbolic}");
+    let rational = run("A/(2 + cos(θ))").expect_err("not a trigonometric polynomial");
+    assert!(matches!(rational, AverageError::NotTrigPolynomial { .. }), "{rational}");
+    let missing = average_lagrangian(
+        &p("x'^2 + y'^2"),
+        &[Trial { coord: sym("x"), expr: p("A cos(θ)") }],
+        &sym("θ"),
+        &sym("w"),
+        &[],
+    );
+    assert!(matches!(missing, Err(AverageError::UnreplacedVelocity(_))));
+}

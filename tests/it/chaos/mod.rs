@@ -1,0 +1,4 @@
+//! Variational equations and chaos indicators (`src/chaos.rs`, scene `megno`/`lyapunov`/`fli`/`chaos_map`).
+
+mod indicators;
+mod scene;

@@ -1,0 +1,8 @@
+//! What the lecture notes ask of the engine: singular and first-order Lagrangians, geodesics, Ritz, discrete mechanics.
+
+mod discrete;
+mod examples;
+mod first_order;
+mod geodesic;
+mod ritz;
+mod singular;

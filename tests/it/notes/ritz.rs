@@ -1,0 +1,199 @@
+//! The trial-function (Ritz) method (issue 11, item 4; §1.4.2): the oscillator's Ritz
+//! relations between fixed end points (snapshot; checked against SymPy: for
+//! x = t + t(1 − t)(a + b t) on [0, 1], ∂S/∂a = 3a/10 + 3b/20 − 1/12, ∂S/∂b = 3a/20 + 13b/105
+//! − 1/20, solution a = 71/369, b = 7/41), convergence to the exact path sin t / sin 1 as
+//! trial functions are added, the brachistochrone's time approaching the cycloid's from
+//! above, and a trial path that misses an end condition refused.
+
+use crate::support::notes as notes_support;
+
+use notes_support::{run, snapshot};
+
+const OSC: &str = "1/2 x'^2 - 1/2 x^2";
+
+fn value(out: &str, name: &str) -> f64 {
+    let prefix = format!("{name} ≈ ");
+    out.lines()
+        .find_map(|l| l.strip_prefix(prefix.as_str()))
+        .and_then(|v| v.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no `{prefix}` in\n{out}"))
+        .parse()
+        .unwrap()
+}
+
+/// The polynomial trial path with `k` coefficients: t + t(1 − t)(a1 + a2 t + …).
+fn trial(k: usize) -> (String, Vec<String>) {
+    let names: Vec<String> = (1..=k).map(|i| format!("a{i}")).collect();
+    let sum: Vec<String> = names.iter().enumerate().map(|(i, a)| format!("{a} t^{i}")).collect();
+    (format!("t + t (1 - t) ({})", sum.join(" + ")), names)
+}
+
+#[test]
+fn oscillator_ritz_relations_and_convergence() {
+    let args = ["ritz", OSC, "--coords", "x", "--trial", "t + t (1 - t) (a + b t)", "--unknowns", "a,b"];
+    let tail = ["--span", "0,1", "--from", "0", "--to", "1"];
+    let (code, out, err) = run(&[&args[..], &tail[..]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("∂S/∂a: 3 a/10 + 3 b/20 - 1/12 = 0"), "{out}");
+    assert!(out.contains("∂S/∂b: 3 a/20 + 13 b/105 - 1/20 = 0"), "{out}");
+    assert!((value(&out, "a") - 71.0 / 369.0).abs() < 1e-14 && (value(&out, "b") - 7.0 / 41.0).abs() < 1e-14, "{out}");
+    snapshot(
+        "notes_ritz_oscillator",
+        format!("# (1.21)-(1.22), §1.4.2: Ritz relations of the oscillator between x(0) = 0 and x(1) = 1\n$ lagrangian {}\n{out}", [&args[..], &tail[..]].concat().join(" ")),
+    );
+    // Convergence: the largest distance from sin t / sin 1 on [0, 1] shrinks with every added
+    // trial function, and S tends to the exact action ½ cot 1 (= ½ [x x'] at the ends) from above.
+    let exact_s = 0.5 / 1f64.tan();
+    let mut last = (f64::INFINITY, f64::INFINITY);
+    for k in 1..=4 {
+        let (path, names) = trial(k);
+        let (code, out, err) = run(&[
+            "ritz",
+            OSC,
+            "--coords",
+            "x",
+            "--trial",
+            &path,
+            "--unknowns",
+            &names.join(","),
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let a: Vec<f64> = names.iter().map(|n| value(&out, n)).collect();
+        let x = |t: f64| t + t * (1.0 - t) * a.iter().enumerate().map(|(i, c)| c * t.powi(i as i32)).sum::<f64>();
+        let err = (0..=100).map(|i| i as f64 / 100.0).map(|t| (x(t) - t.sin() / 1f64.sin()).abs()).fold(0.0, f64::max);
+        let s = value(&out, "S");
+        eprintln!("{k} trial functions: max |x − exact| = {err:e}, S − S_exact = {:e}", s - exact_s);
+        assert!(err < last.0 / 5.0, "{k}: error {err:e} after {:e}", last.0);
+        assert!(s >= exact_s - 1e-15 && s - exact_s < last.1, "{k}: S = {s}, exact {exact_s}");
+        last = (err, s - exact_s);
+    }
+    assert!(last.0 < 1e-6, "four trial functions: {:e}", last.0);
+}
+
+#[test]
+fn brachistochrone_time_approaches_the_cycloid() {
+    // y downward, L = sqrt((1 + y'^2)/y) (time × sqrt(2 g)) from (0, 0) to (1, 1). The cycloid
+    // x = r(θ − sin θ), y = r(1 − cos θ) through (1, 1) has (θ − sin θ)/(1 − cos θ) = 1, and
+    // its S = θ sqrt(2 r).
+    let mut th: f64 = 2.0;
+    for _ in 0..50 {
+        let f = (th - th.sin()) / (1.0 - th.cos()) - 1.0;
+        let df = ((1.0 - th.cos()).powi(2) - (th - th.sin()) * th.sin()) / (1.0 - th.cos()).powi(2);
+        th -= f / df;
+    }
+    let r = 1.0 / (1.0 - th.cos());
+    let exact = th * (2.0 * r).sqrt();
+    let mut gaps = Vec::new();
+    for k in 1..=3 {
+        let (path, names) = trial(k);
+        let guess = vec!["0.5"; k].join(",");
+        let (code, out, err) = run(&[
+            "ritz",
+            "sqrt((1 + y'^2)/y)",
+            "--coords",
+            "y",
+            "--trial",
+            &path.replace('x', "y"),
+            "--unknowns",
+            &names.join(","),
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "1",
+            "--guess",
+            &guess,
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains("integrated numerically"), "{out}");
+        gaps.push(value(&out, "S") - exact);
+    }
+    eprintln!("brachistochrone: S − S_cycloid = {gaps:?} (S_cycloid = {exact})");
+    assert!(gaps.iter().all(|g| *g > -1e-3), "below the cycloid: {gaps:?}");
+    assert!(gaps.windows(2).all(|w| w[1] < w[0]) && gaps[2] < 0.02, "{gaps:?}");
+}
+
+#[test]
+fn a_trial_path_that_misses_an_end_condition_is_refused() {
+    let (code, out, err) = run(&[
+        "ritz",
+        OSC,
+        "--coords",
+        "x",
+        "--trial",
+        "t + a t^2",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1",
+        "--from",
+        "0",
+        "--to",
+        "1",
+    ]);
+    assert_eq!((code, out.as_str()), (2, ""));
+    assert!(err.contains("misses the end condition x(1) = 1"), "{err}");
+}
+
+#[test]
+fn dependent_trial_coefficients_are_refused_as_a_singular_hessian() {
+    // a and b multiply the same function: S depends on a + b alone, so ∂²S/∂a∂b has equal rows.
+    let args = ["ritz", OSC, "--coords", "x", "--trial", "t + t (1 - t) (a + b)", "--unknowns", "a,b"];
+    let (code, out, err) = run(&[&args[..], &["--span", "0,1", "--from", "0", "--to", "1"]].concat());
+    assert_eq!((code, out.as_str()), (2, ""));
+    assert!(err.contains("the Hessian of S(a) is singular: the trial coefficients are not independent"), "{err}");
+}
+
+/// Issue 31, D7: the quadrature checks itself. `L = x'^2/2 + x sin(ω t)` with the trial
+/// `a t (1 − t)` on 0..1, from 0 to 0: `∂S/∂a = a/3 + ∫ t(1 − t) sin(ωt) dt = 0`, and by parts
+/// `∫₀¹ t(1 − t) sin(ωt) dt = (2(1 − cos ω) − ω sin ω)/ω³`, so `a = −3 (2(1 − cos ω) − ω sin ω)/ω³`.
+/// Resolved oscillation (ω up to 1000) is refined until the quadrature agrees with itself and
+/// matches that to 1e-10; ω = 10⁶ (before: a ≈ 1.05e-2, exact −1.05e-12) and a pole inside the
+/// span (before: a principal value with no note) are refused, naming the two estimates.
+#[test]
+fn ritz_quadrature_refines_or_refuses() {
+    let ritz = |l: &str| {
+        run(&[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            "a t (1 - t)",
+            "--unknowns",
+            "a",
+            "--span",
+            "0,1",
+            "--from",
+            "0",
+            "--to",
+            "0",
+        ])
+    };
+    for w in [10.0f64, 100.0, 1000.0] {
+        let (code, out, err) = ritz(&format!("1/2 x'^2 + x sin({w} t)"));
+        assert_eq!(code, 0, "{err}");
+        let a: f64 = out.lines().find_map(|l| l.strip_prefix("a ≈ ")).unwrap().parse().unwrap();
+        let exact = -3.0 * (2.0 * (1.0 - w.cos()) - w * w.sin()) / w.powi(3);
+        assert!((a - exact).abs() <= 1e-10 * exact.abs(), "ω = {w}: a = {a}, exact {exact}");
+        // The note gives the points the quadrature took: 960 when ω = 10 is resolved at once,
+        // more once refined.
+        let points: usize = out.split("Gauss–Legendre, ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(points % 960 == 0 && (w > 10.0) == (points > 960), "ω = {w}: {points} points");
+    }
+    for l in ["1/2 x'^2 + x sin(1000000 t)", "1/2 x'^2 + x/(t - 1/3)", "1/2 x'^2 + x/(t - 1/2)"] {
+        let (code, out, err) = ritz(l);
+        assert_eq!((code, out.as_str()), (2, ""), "{l}: {err}");
+        assert!(
+            err.contains("is not reliable at the solution") && err.contains("not integrable inside the span"),
+            "{l}: {err}"
+        );
+    }
+}

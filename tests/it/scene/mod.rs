@@ -1,0 +1,16 @@
+//! Scenes and the REPL: statements, examples, diagnostics, cache, progress, figures, parity with the command line (`src/scene/`).
+
+mod bad_input;
+mod cache;
+mod dynamics;
+mod examples;
+mod figures;
+mod graph;
+mod parity;
+mod print;
+mod progress;
+mod repl;
+#[cfg(unix)]
+mod repl_pty;
+mod run;
+mod symmetry;

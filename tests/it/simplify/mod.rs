@@ -1,0 +1,5 @@
+//! The algebra: properties over random expressions, the simplification table, determinism (`src/simplify.rs`, `src/algebra.rs`).
+
+mod determinism;
+mod properties;
+mod table;

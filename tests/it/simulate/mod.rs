@@ -1,0 +1,3 @@
+//! The simulate layer: every method × every kind of system (`src/simulate/`).
+
+mod matrix;

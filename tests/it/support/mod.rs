@@ -1,0 +1,111 @@
+//! The one support module of the test binary. Here: running the `lagrangian` binary on scenes
+//! (with the derivation cache off, so every run derives afresh), running an example scene into
+//! a temporary directory with its printed output snapshotted, reading what it wrote, and the one
+//! snapshot function. Beside it: `mechanics` (systems, random states, the snapshot report),
+//! `n_link` (the n-link pendulum, also read by the benchmarks), `notes` (a numeric route to the
+//! Euler–Lagrange expressions) and `compile` (model systems with hand-written right-hand sides).
+
+#![allow(dead_code)]
+
+pub mod compile;
+pub mod mechanics;
+pub mod n_link;
+pub mod notes;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Runs the binary with `args`: exit code, stdout, stderr.
+pub fn run(args: &[&str]) -> (i32, String, String) {
+    run_in_dir(None, args)
+}
+
+/// Runs the binary with `args` in `dir` (when given): exit code, stdout, stderr.
+pub fn run_in_dir(dir: Option<&Path>, args: &[&str]) -> (i32, String, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_lagrangian"));
+    cmd.args(args).env("LAGRANGIAN_CACHE_DIR", "off");
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
+    let out = cmd.output().expect("the binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Writes `scene` to `dir/test.scene` and runs it there with `args` after it: exit code,
+/// stdout, stderr.
+pub fn run_scene_in(dir: &Path, scene: &str, args: &[&str]) -> (i32, String, String) {
+    let path = dir.join("test.scene");
+    std::fs::write(&path, scene).expect("the scene is written");
+    let mut all = vec!["run", path.to_str().expect("a UTF-8 path")];
+    all.extend_from_slice(args);
+    run_in_dir(Some(dir), &all)
+}
+
+/// Snapshot under the repository's `snapshots/` with the project's naming (no module prefix):
+/// the one place that says where snapshots live, so a test file moving does not move them.
+pub fn snapshot(name: &str, text: impl AsRef<str>) {
+    let text = text.as_ref();
+    insta::with_settings!({snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/snapshots"), prepend_module_to_snapshot => false}, {
+        insta::assert_snapshot!(name, text);
+    });
+}
+
+/// The columns of a CSV file, by header name.
+pub fn read_csv(path: &Path) -> HashMap<String, Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().expect("a header").split(',').map(String::from).collect();
+    let mut cols: HashMap<String, Vec<f64>> = header.iter().map(|h| (h.clone(), Vec::new())).collect();
+    for line in lines {
+        for (h, v) in header.iter().zip(line.split(',')) {
+            cols.get_mut(h).expect("a header column").push(v.parse().expect("a number"));
+        }
+    }
+    cols
+}
+
+/// An example scene that ran: where its files went and what it printed (with the output
+/// directory written `OUT`).
+pub struct Example {
+    pub out: PathBuf,
+    _dir: tempfile::TempDir,
+    pub stdout: String,
+}
+
+/// Runs `examples/NAME.scene` into a temporary directory, asserts it succeeds, and snapshots
+/// its printed output as `scene_example_NAME`.
+pub fn example(name: &str) -> Example {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(format!("{name}.scene"));
+    let (code, stdout, err) =
+        run(&["run", scene.to_str().expect("a UTF-8 path"), "--out-dir", dir.path().to_str().expect("a UTF-8 path")]);
+    assert_eq!(code, 0, "{name}: {err}\n{stdout}");
+    let stdout = stdout.replace(&dir.path().display().to_string(), "OUT");
+    snapshot(&format!("scene_example_{name}"), &stdout);
+    Example { out: dir.path().to_path_buf(), _dir: dir, stdout }
+}
+
+impl Example {
+    /// The columns of a CSV output, by header name.
+    pub fn csv(&self, file: &str) -> HashMap<String, Vec<f64>> {
+        read_csv(&self.out.join(file))
+    }
+
+    /// An SVG output's text, checked to be SVG and announced by a `wrote` line.
+    pub fn svg(&self, file: &str) -> String {
+        let text = std::fs::read_to_string(self.out.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"), "{file} is not SVG");
+        assert!(self.stdout.contains(&format!("wrote OUT/{file}")));
+        text
+    }
+
+    /// The printed line starting with `prefix`, without it.
+    pub fn line(&self, prefix: &str) -> String {
+        self.stdout.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}`")).to_string()
+    }
+}

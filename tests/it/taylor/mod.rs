@@ -1,0 +1,6 @@
+//! The Taylor method: recurrences, the native emitter, the integrator and its scene statement.
+
+mod integrate;
+mod native;
+mod recurrences;
+mod scene;
