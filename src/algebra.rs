@@ -86,8 +86,20 @@ pub fn expand(e: &Expr) -> Result<Expr, AlgebraError> {
 
 /// [`expand`] with an explicit term budget.
 pub fn expand_with_limit(e: &Expr, limit: usize) -> Result<Expr, AlgebraError> {
-    let mut memo = HashMap::new();
-    expand_rec(e, limit, &mut memo)
+    expand_with_memo(e, limit, &mut ExpandMemo::default())
+}
+
+/// Expansions already computed, kept across calls by a caller that expands many nested
+/// subexpressions of one expression (the simplifier's bottom-up pass): each call then pays
+/// only for the nodes not seen before. Without it, expanding every level of a Horner form
+/// `1 + x (2 + x (…))` re-expanded all the levels below, cubic in the depth.
+/// Valid for one `limit`: results depend on it.
+#[derive(Default)]
+pub struct ExpandMemo(HashMap<Expr, Expr>);
+
+/// [`expand_with_limit`] with a memo shared between calls (see [`ExpandMemo`]).
+pub fn expand_with_memo(e: &Expr, limit: usize, memo: &mut ExpandMemo) -> Result<Expr, AlgebraError> {
+    expand_rec(e, limit, &mut memo.0)
 }
 
 fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<Expr, AlgebraError> {

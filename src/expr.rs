@@ -235,6 +235,10 @@ pub enum Node {
 struct ExprData {
     node: Node,
     hash: u64,
+    /// [`Expr::op_count`], computed once when the node is made: the simplifier compares the
+    /// cost of candidates at every node of a bottom-up pass, and a walk per comparison made
+    /// that pass quadratic in the depth (and exponential on a DAG with shared subtrees).
+    ops: usize,
 }
 
 impl Drop for ExprData {
@@ -271,7 +275,7 @@ impl Node {
 /// built without touching the interner, so dropping never takes the interner's lock.
 fn placeholder() -> Expr {
     static PLACEHOLDER: OnceLock<Expr> = OnceLock::new();
-    PLACEHOLDER.get_or_init(|| Expr(Arc::new(ExprData { node: Node::Undefined, hash: 0 }))).clone()
+    PLACEHOLDER.get_or_init(|| Expr(Arc::new(ExprData { node: Node::Undefined, hash: 0, ops: 0 }))).clone()
 }
 
 /// A shared, immutable, canonical expression. Cloning is a reference-count increment.
@@ -365,8 +369,21 @@ impl BuildHasher for FixedState {
     }
 }
 
+/// The operations the printed tree of `node` spells out, from its children's counts
+/// (saturating: a DAG with shared subtrees can print exponentially long).
+fn ops_of(node: &Node) -> usize {
+    let sum = |xs: &[Expr]| xs.iter().fold(0usize, |acc, x| acc.saturating_add(x.0.ops));
+    match node {
+        Node::Num(_) | Node::Sym(_) | Node::Undefined => 0,
+        Node::Add(xs) | Node::Mul(xs) => (xs.len() - 1).saturating_add(sum(xs)),
+        Node::Pow(b, e) => 1usize.saturating_add(b.0.ops).saturating_add(e.0.ops),
+        Node::Call(_, xs) | Node::Apply { args: xs, .. } => 1usize.saturating_add(sum(xs)),
+    }
+}
+
 fn intern(node: Node) -> Expr {
     let hash = FixedState.hash_one(&node);
+    let ops = ops_of(&node);
     let mut guard = match interner().lock() {
         Ok(guard) => guard,
         Err(poisoned) => poisoned.into_inner(),
@@ -389,7 +406,7 @@ fn intern(node: Node) -> Expr {
         interner.entries -= removed;
         return found;
     }
-    let data = Arc::new(ExprData { node, hash });
+    let data = Arc::new(ExprData { node, hash, ops });
     bucket.push(Arc::downgrade(&data));
     interner.entries = interner.entries - removed + 1;
     if interner.entries > interner.sweep_at {
@@ -1069,13 +1086,9 @@ impl Expr {
 
     /// The number of arithmetic operations the printed tree spells out (each `+`, `−`, `·`,
     /// `/`, `^` and function call counts one): the figure compared against other systems.
+    /// Kept with the node (saturating at `usize::MAX`), so this is O(1).
     pub fn op_count(&self) -> usize {
-        match self.node() {
-            Node::Num(_) | Node::Sym(_) | Node::Undefined => 0,
-            Node::Add(xs) | Node::Mul(xs) => xs.len() - 1 + xs.iter().map(Expr::op_count).sum::<usize>(),
-            Node::Pow(b, e) => 1 + b.op_count() + e.op_count(),
-            Node::Call(_, xs) | Node::Apply { args: xs, .. } => 1 + xs.iter().map(Expr::op_count).sum::<usize>(),
-        }
+        self.0.ops
     }
 
     // ----- ordering ---------------------------------------------------------------------

@@ -351,8 +351,24 @@ fn cost(e: &Expr) -> (usize, usize, usize) {
 }
 
 /// Picks the cheapest expression, ties broken by the canonical order.
+///
+/// The same choice as the minimum of [`cost`], but the walks behind its second and third
+/// parts run only for the distinct candidates tied on the first, which is kept with each node:
+/// the bottom-up pass asks this at every node, and walking every candidate there made the pass
+/// quadratic in the depth of a nested input.
 fn cheapest(cands: impl IntoIterator<Item = Expr>) -> Option<Expr> {
-    cands.into_iter().min_by(|a, b| cost(a).cmp(&cost(b)).then_with(|| a.canonical_cmp(b)))
+    let cands: Vec<Expr> = cands.into_iter().collect();
+    let fewest = cands.iter().map(Expr::op_count).min()?;
+    let mut tied: Vec<Expr> = Vec::new();
+    for c in cands {
+        if c.op_count() == fewest && !tied.contains(&c) {
+            tied.push(c);
+        }
+    }
+    if tied.len() == 1 {
+        return tied.pop();
+    }
+    tied.into_iter().min_by(|a, b| cost(a).cmp(&cost(b)).then_with(|| a.canonical_cmp(b)))
 }
 
 /// Candidate forms of `e` from the algebra tools.
@@ -399,7 +415,7 @@ fn candidates(e: &Expr, budget: &Budget) -> Vec<Expr> {
 
 /// The deepest nesting the simplifier creates on its own: a Horner form keeps at most this
 /// many levels (`algebra::collect_common` stops at 64 per call; repeated rounds could stack).
-const MAX_NESTING: usize = 64;
+pub(crate) const MAX_NESTING: usize = 64;
 
 /// The depth of `e` as a tree (a leaf is 1), counted once per shared node.
 fn nesting(e: &Expr) -> usize {
@@ -433,7 +449,11 @@ fn has_denominator(e: &Expr) -> bool {
 /// Rewrites every sum bottom-up into the cheapest of itself, its expansion, its
 /// Pythagorean normal form and its factored content.
 fn local_best(e: &Expr, budget: &Budget) -> Expr {
+    let mut expansions = algebra::ExpandMemo::default();
     e.map_bottom_up(&mut |x| match x.node() {
+        // Ctrl-C: the nodes not yet visited stay as they are (the e-graph round that follows
+        // reports the interrupt).
+        _ if crate::cancel::interrupted() => None,
         Node::Add(_) | Node::Pow(..) | Node::Mul(_) => {
             let mut cands = vec![x.clone()];
             if matches!(x.node(), Node::Add(_)) {
@@ -441,7 +461,7 @@ fn local_best(e: &Expr, budget: &Budget) -> Expr {
                 cands.push(algebra::factor_content(x));
                 cands.push(algebra::collect_common(x));
             }
-            if let Ok(ex) = algebra::expand_with_limit(x, budget.expand_terms.min(200)) {
+            if let Ok(ex) = algebra::expand_with_memo(x, budget.expand_terms.min(200), &mut expansions) {
                 cands.push(algebra::trig_normalize(&ex));
                 cands.push(ex);
             }

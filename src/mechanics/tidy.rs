@@ -574,7 +574,7 @@ impl Ctx {
         if terms.is_empty() {
             return Expr::zero();
         }
-        Expr::mul(self.collect_factors(terms))
+        Expr::mul(self.collect_factors(terms, 0))
     }
 
     fn mono(&self, key: &Key, c: &Rational) -> Expr {
@@ -585,7 +585,8 @@ impl Ctx {
 
     /// Content, then Horner, as a list of factors (rational content first) so that a caller
     /// multiplying in more factors keeps `g·2·(1 − cos θ)` from distributing the `2`.
-    fn collect_factors(&self, mut terms: Vec<(Key, Rational)>) -> Vec<Expr> {
+    /// `depth` counts the Horner levels above this sum (see [`HORNER_LEVELS`]).
+    fn collect_factors(&self, mut terms: Vec<(Key, Rational)>, depth: usize) -> Vec<Expr> {
         if terms.len() <= 1 {
             return vec![terms.first().map_or_else(Expr::zero, |(k, c)| self.mono(k, c))];
         }
@@ -628,14 +629,17 @@ impl Ctx {
             }
         }
         content.insert(0, Expr::num(g));
-        content.push(self.horner(terms));
+        content.push(self.horner(terms, depth));
         content
     }
 
-    /// Greedy factoring of a content-free list of monomials.
-    fn horner(&self, terms: Vec<(Key, Rational)>) -> Expr {
+    /// Greedy factoring of a content-free list of monomials, at most [`HORNER_LEVELS`] deep.
+    fn horner(&self, terms: Vec<(Key, Rational)>, depth: usize) -> Expr {
         if terms.len() <= 1 {
             return terms.first().map_or_else(Expr::zero, |(k, c)| self.mono(k, c));
+        }
+        if depth >= HORNER_LEVELS {
+            return merge_cofactors(terms.iter().map(|(k, c)| self.mono(k, c)).collect());
         }
         let mut counts: FxMap<(u32, bool), usize> = FxMap::default();
         for (k, _) in &terms {
@@ -657,15 +661,21 @@ impl Ctx {
         for t in with.iter_mut() {
             t.0 = merge_keys(&t.0, &[(a, -e)]);
         }
-        let mut inner = self.collect_factors(with);
+        let mut inner = self.collect_factors(with, depth + 1);
         inner.push(Expr::pow(self.atoms[a].clone(), Expr::num(big(e))));
         let mut parts = Expr::mul(inner).terms();
         if !without.is_empty() {
-            parts.extend(self.horner(without).terms());
+            parts.extend(self.horner(without, depth).terms());
         }
         merge_cofactors(parts)
     }
 }
+
+/// The deepest Horner nesting the tidy form builds; below it a sum stays a plain sum of
+/// monomials. The same bound as the simplifier's ([`crate::simplify::MAX_NESTING`]): a
+/// degree-1010 polynomial potential used to give `E_x` nested 1008 levels deep, past what the
+/// parser reads back (`parse::MAX_DEPTH`), so an exported equation did not re-parse.
+const HORNER_LEVELS: usize = crate::simplify::MAX_NESTING;
 
 /// Whether a sum contains a time derivative or a sin/cos, so its powers should be expanded.
 fn worth_expanding(b: &Expr) -> bool {
@@ -739,7 +749,7 @@ fn merge_cofactors(terms: Vec<Expr>) -> Expr {
             let cof = Expr::add(members);
             let mut ctx = Ctx::default();
             let p = ctx.expand(&cof);
-            let mut fs = ctx.collect_factors(p.sorted());
+            let mut fs = ctx.collect_factors(p.sorted(), 0);
             fs.push(s);
             out.push(Expr::mul(fs));
         }
