@@ -19,7 +19,7 @@ use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
 use super::help::TOPICS;
-use super::parser::{is_incomplete, STATEMENTS};
+use super::parser::{is_incomplete, Unfinished, STATEMENTS};
 use super::session::{Mode, Options, Session};
 use crate::cache::Cache;
 use crate::simulate::METHODS;
@@ -250,6 +250,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     let stdin = std::io::stdin();
     let mut input = stdin.lock();
     let mut pending = String::new();
+    let mut open = Unfinished::default();
     loop {
         let line = match read_line_bounded(&mut input, MAX_LINE_BYTES) {
             Ok(Some(l)) => l,
@@ -269,9 +270,11 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
             pending.push('\n');
         }
         pending.push_str(&line);
-        if is_incomplete(&pending) && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+        open.push_line(&line);
+        if open.is_incomplete() && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
             continue;
         }
+        open = Unfinished::default();
         let text = std::mem::take(&mut pending);
         let mut out = stdout.lock();
         for (i, l) in text.lines().enumerate() {

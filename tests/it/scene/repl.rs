@@ -115,3 +115,19 @@ fn a_loaded_scene_runs_in_the_session() {
     assert!(out.contains("{x, H} = p_x"), "{out}");
     assert!(out.contains("cannot read `./missing.scene`"), "{out}");
 }
+
+/// A statement continued over 100 000 piped lines is one entry, evaluated whole: the sum
+/// 1 + 0 + 1 + … + 99 999 = 4 999 950 001. (The reader used to rescan the whole statement on
+/// every line, so this took over a minute; it now reads each line once.)
+#[test]
+fn a_statement_of_a_hundred_thousand_piped_lines_is_one_entry() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut input = String::from("print (1\n");
+    for i in 0..100_000 {
+        input += &format!("+ {i}\n");
+    }
+    input += ")\n";
+    let (code, out) = session(&input, &dir.path().join("history"), dir.path());
+    assert_eq!(code, 0, "{}", &out[out.len().saturating_sub(500)..]);
+    assert_eq!(out.lines().last(), Some("4999950001"), "{}", &out[out.len().saturating_sub(500)..]);
+}
