@@ -15,7 +15,7 @@
 //! [`MAX_ENTRY_BYTES`] are ignored unread. Nothing here is ever an error:
 //! a cache that cannot be read or written only costs the time of building again.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -105,6 +105,12 @@ fn checksum(key: &str, value: &Json) -> String {
     name
 }
 
+/// The results a cache holds in memory at most. A REPL, a notebook kernel or a Dask worker lives
+/// long and derives system after system; every result held keeps its expressions' nodes alive
+/// (about 6 kB a derivation), so an unbounded map grew without end. Past this count the oldest
+/// results are dropped (an on-disk cache still has them). A scene needs far fewer.
+pub const MAX_IN_MEMORY: usize = 1024;
+
 /// The derivation cache: symbolic results keyed by their symbolic inputs. Keep one alive
 /// across runs (the REPL does, and `scene::Session::with_cache` lets
 /// callers do it) to reuse work; give it a directory ([`Cache::with_dir`]) to reuse work
@@ -112,6 +118,8 @@ fn checksum(key: &str, value: &Json) -> String {
 #[derive(Default)]
 pub struct Cache {
     map: HashMap<CacheKey, Value>,
+    /// The keys of `map`, oldest first: past [`MAX_IN_MEMORY`] the oldest results are dropped.
+    order: VecDeque<CacheKey>,
     dir: Option<PathBuf>,
     /// The engine build named in on-disk keys, when not the running executable (see
     /// [`Cache::for_build`]).
@@ -161,7 +169,7 @@ impl Cache {
 
     /// An empty in-memory cache backed by the directory `dir` (created when first written).
     pub fn with_dir(dir: impl Into<PathBuf>) -> Cache {
-        Cache { map: HashMap::new(), dir: Some(dir.into()), build: None }
+        Cache { dir: Some(dir.into()), ..Cache::default() }
     }
 
     /// Names the engine build whose entries this cache reads and writes, in place of the
@@ -226,7 +234,7 @@ impl Cache {
         let path = self.dir.as_ref()?.join(file_name(&text));
         let bytes = read_entry(&path)?;
         let value = decode(&bytes, &text, decls)?;
-        self.map.insert(key.clone(), value.clone());
+        self.hold(key.clone(), value.clone());
         Some(value)
     }
 
@@ -238,7 +246,18 @@ impl Cache {
                 let _ = write_atomically(dir, &file_name(&text), entry.as_bytes());
             }
         }
-        self.map.insert(key, value);
+        self.hold(key, value);
+    }
+
+    /// Keeps a result in memory, dropping the oldest past [`MAX_IN_MEMORY`].
+    fn hold(&mut self, key: CacheKey, value: Value) {
+        if self.map.insert(key.clone(), value).is_none() {
+            self.order.push_back(key);
+        }
+        while self.map.len() > MAX_IN_MEMORY {
+            let Some(oldest) = self.order.pop_front() else { break };
+            self.map.remove(&oldest);
+        }
     }
 }
 
@@ -427,6 +446,21 @@ mod tests {
 
     fn key(inputs: Vec<Expr>) -> CacheKey {
         CacheKey::symbolic(Step::Legendre, &[Symbol::new("x")], inputs)
+    }
+
+    #[test]
+    fn memory_holds_at_most_its_bound_and_drops_the_oldest() {
+        let mut c = Cache::new();
+        let nth = |i: usize| key(vec![Expr::int(i as i64)]);
+        for i in 0..MAX_IN_MEMORY + 10 {
+            c.insert(nth(i), Value::Expr(Expr::int(i as i64)));
+        }
+        // Inserting a key already held neither grows the map nor evicts.
+        c.insert(nth(MAX_IN_MEMORY + 9), Value::Expr(Expr::zero()));
+        assert_eq!(c.len(), MAX_IN_MEMORY);
+        assert!(c.get(&nth(9)).is_none(), "the oldest ten are dropped");
+        assert!(matches!(c.get(&nth(10)), Some(Value::Expr(e)) if e == Expr::int(10)));
+        assert!(matches!(c.get(&nth(MAX_IN_MEMORY + 9)), Some(Value::Expr(e)) if e.is_zero()));
     }
 
     #[test]

@@ -13,7 +13,15 @@ use crate::expr::{Expr, Func, Node, Symbol};
 #[derive(Default)]
 pub struct Differentiator {
     memo: HashMap<(Expr, Symbol), Expr>,
+    /// Calls of [`Differentiator::diff`] in progress (it recurses through itself).
+    depth: usize,
 }
+
+/// The memo entries a [`Differentiator`] keeps at most between outermost calls. A REPL's or a
+/// kernel's session keeps one for its whole life, and each entry holds its nodes alive; past
+/// this many the table starts afresh (only ever between derivatives, never during one, so a
+/// DAG's sharing is kept within each).
+const MAX_MEMO: usize = 1 << 16;
 
 impl Differentiator {
     /// An empty memo table.
@@ -27,7 +35,12 @@ impl Differentiator {
         if let Some(d) = self.memo.get(&key) {
             return d.clone();
         }
+        if self.depth == 0 && self.memo.len() > MAX_MEMO {
+            self.memo.clear();
+        }
+        self.depth += 1;
         let d = self.diff_node(e, var);
+        self.depth -= 1;
         self.memo.insert(key, d.clone());
         d
     }
@@ -166,4 +179,25 @@ pub fn dt(e: &Expr, coordinates: &BTreeSet<String>) -> Expr {
     let mut all = primed_names(e);
     all.extend(coordinates.iter().cloned());
     Differentiator::new().dt(e, &all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A long-lived differentiator (a REPL session's) keeps at most `MAX_MEMO` entries between
+    /// derivatives, and still gives the same derivatives.
+    #[test]
+    fn the_memo_starts_afresh_past_its_bound_between_derivatives() {
+        let x = Symbol::new("x");
+        let mut d = Differentiator::new();
+        for i in 0..(MAX_MEMO / 2 + 10) as i64 {
+            // Three nodes each (the sum, its product, the power): past the bound by the end.
+            let e = Expr::add([Expr::mul([Expr::int(i), Expr::pow(Expr::var("x"), Expr::int(i + 2))]), Expr::var("y")]);
+            let want = Expr::mul([Expr::int(i * (i + 2)), Expr::pow(Expr::var("x"), Expr::int(i + 1))]);
+            assert_eq!(d.diff(&e, &x), want);
+            assert!(d.memo.len() <= MAX_MEMO + 8, "{} entries", d.memo.len());
+        }
+        assert_eq!(d.depth, 0);
+    }
 }

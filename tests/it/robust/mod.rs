@@ -6,6 +6,5 @@ mod fuzz;
 mod interrupt;
 mod io;
 mod roundtrip;
-mod scaling;
 mod terminate;
 mod values;

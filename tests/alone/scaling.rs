@@ -28,6 +28,7 @@ fn least(runs: usize, mut f: impl FnMut()) -> Duration {
 
 #[test]
 fn parsing_a_sum_grows_about_linearly() {
+    let _alone = crate::alone();
     let n = 16_000;
     let (a, b) = (sum(n), sum(4 * n));
     let small = least(3, || drop(parse(&a).unwrap()));
@@ -46,6 +47,7 @@ fn parsing_a_sum_grows_about_linearly() {
 /// still becomes 1.
 #[test]
 fn simplifying_a_wide_sum_grows_about_linearly() {
+    let _alone = crate::alone();
     let wide = |n: usize| {
         let mut s: Vec<String> = vec!["sin(x0)^2".into()];
         s.extend((0..n / 2).map(|i| format!("{} x{i}^2 + sin(y{i})", i + 1)));

@@ -6,8 +6,8 @@
 //! measure (the count of live interned nodes returns to where it was after a warm-up) and
 //! the one a user sees (resident memory grows by less than a fixed bound).
 //!
-//! It is the only test in its own binary (not the `it` binary of the other tests), so no other
-//! thread interns nodes or allocates meanwhile.
+//! It runs in the `alone` binary, one test at a time, so no other thread interns nodes or
+//! allocates meanwhile.
 
 use lagrangian::mechanics::System;
 
@@ -31,6 +31,7 @@ fn resident_bytes() -> Option<usize> {
 
 #[test]
 fn ten_thousand_derivations_hold_no_memory_once_dropped() {
+    let _alone = crate::alone();
     // Warm-up: the rule table, small numbers and allocator pools reach their steady size.
     for i in 0..200 {
         assert!(derive(i) > 0);
