@@ -246,8 +246,8 @@ impl Session {
                 r.steps
             ),
             Indicator::Megno => format!(
-                "{name}: MEGNO ⟨Y⟩ = {:.4} at t = {t} (λ = {:.6}; {} Taylor steps)",
-                r.megno, r.lyapunov[0], r.steps
+                "{name}: MEGNO ⟨Y⟩ = {:.4} at t = {t} (λ = {:.6} from the slope of Y; {} Taylor steps)",
+                r.megno, r.megno_lyapunov, r.steps
             ),
             Indicator::Fli => format!("{name}: FLI = {:.4} at t = {t} ({} Taylor steps)", r.fli, r.steps),
         };

@@ -290,3 +290,39 @@ fn gauss_tangent_flow_matches_taylor_and_stays_symplectic() {
     // Halving h divides the error by about 2⁶ = 64.
     assert!(errors[0] < 1e-5 && errors[0] / errors[1] > 40.0, "{errors:?}");
 }
+
+/// The exponent from MEGNO's slope (`Indicators::megno_lyapunov`): exact on a saddle, near zero
+/// on a Kepler ellipse where the finite-time exponent still reads ~ln t / t, and the same as
+/// the finite-time one on a chaotic orbit.
+#[test]
+fn lyapunov_exponent_from_the_slope_of_megno() {
+    // H = q p: q(t) = q0 eᵗ, and a tangent started along q grows as eᵗ exactly, so
+    // ẇ·w/w·w = 1, Y(s) = (2/s) ∫₀ˢ u du = s, a line of slope 1 (by hand).
+    let saddle = Variational::hamiltonian(&parse("q p").unwrap(), &["q"], &["p"], &[], 1, true).unwrap();
+    let r = indicators(&saddle, &[1.0, 1.0], 20.0, 1e-14).unwrap();
+    assert!((r.megno_lyapunov - 1.0).abs() < 1e-9, "slope {}", r.megno_lyapunov);
+    // Ȳ = (1/t) ∫ s ds = t/2 for the same line.
+    assert!((r.megno - 10.0).abs() < 1e-8, "Ȳ = {}", r.megno);
+
+    // Kepler, e = 0.5 (period 2π a^{3/2} with a = 1): regular, shear makes w grow linearly.
+    let kepler = Variational::hamiltonian(
+        &parse("1/2 (p_x^2 + p_y^2) - 1/sqrt(x^2 + y^2)").unwrap(),
+        &["x", "y"],
+        &["p_x", "p_y"],
+        &[],
+        1,
+        true,
+    )
+    .unwrap();
+    // Perihelion r = a (1 − e) = 0.5, speed sqrt((1 + e)/(1 − e)) = sqrt(3).
+    let r = indicators(&kepler, &[0.5, 0.0, 0.0, 3f64.sqrt()], 2000.0, 1e-13).unwrap();
+    assert!(r.lyapunov[0] > 2e-3, "the finite-time exponent still decays slowly: {:?}", r.lyapunov);
+    assert!(r.megno_lyapunov.abs() < 1e-3, "slope {}", r.megno_lyapunov);
+    assert!((r.megno - 2.0).abs() < 0.1, "Ȳ = {}", r.megno);
+
+    // A chaotic Hénon–Heiles orbit: both estimate the same exponent.
+    let hh = henon_heiles(1, true);
+    let r = indicators(&hh, &hh_start(1.0 / 6.0, -0.1, 0.05), 1000.0, 1e-14).unwrap();
+    let ratio = r.megno_lyapunov / r.lyapunov[0];
+    assert!((0.5..2.0).contains(&ratio), "slope {} against λ {:?}", r.megno_lyapunov, r.lyapunov);
+}
