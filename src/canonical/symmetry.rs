@@ -214,12 +214,17 @@ pub fn point_symmetries(l: &Expr, coords: &[Symbol], h: &Expr) -> SymmetrySearch
     let mut sampled = vec![l.clone(), dl_dt.clone()];
     sampled.extend(dl_dq.iter().cloned());
     sampled.extend(dl_dv.iter().cloned());
+    let applications = opaque_applications(&mut sampled);
     let mut rows = Vec::new();
     let mut attempts = 0;
     while rows.len() < SAMPLES_PER_UNKNOWN * unknowns && attempts < 20 * unknowns {
         attempts += 1;
         let point: Vec<f64> = (0..2 * n + 1).map(|_| 2.0 * next() - 1.0).collect();
+        let applied: Vec<f64> = applications.iter().map(|_| 2.0 * next() - 1.0).collect();
         let lookup = |s: &Symbol| {
+            if let Some(i) = applications.iter().position(|a| a == s) {
+                return Some(applied[i]);
+            }
             if let Some(i) = coords.iter().position(|q| q == s) {
                 return Some(point[i]);
             }
@@ -259,6 +264,32 @@ pub fn point_symmetries(l: &Expr, coords: &[Symbol], h: &Expr) -> SymmetrySearch
     let ctx = Context { l, h, coords, vel, x, xdot, dl_dq, dl_dv, dl_dt, energy, basis };
     let found = null_space(rows, unknowns).into_iter().filter_map(|v| exact_symmetry(&ctx, &v[nf..])).collect();
     SymmetrySearch { found, bound: ansatz() }
+}
+
+/// Replaces every application of a declared function in `exprs` (`U(r)`, `U'(r)`, innermost
+/// first) by a fresh symbol, and returns those symbols. Why: a declared `U` stands for any
+/// function, so a symmetry must hold whatever values `U` and its derivatives take. At sample
+/// points where the arguments differ, any values are those of some smooth `U` (Hermite
+/// interpolation), so drawing them at random, independently at each point, samples the
+/// condition for all `U` at once, and a generator found this way holds for every `U` (the
+/// exact stage then proves it with `U` left symbolic). A central potential `U(√(x² + y²))`
+/// yields its rotation this way.
+fn opaque_applications(exprs: &mut [Expr]) -> Vec<Symbol> {
+    let mut fresh: Vec<(Expr, Symbol)> = Vec::new();
+    for e in exprs.iter_mut() {
+        *e = e.map_bottom_up(&mut |x| {
+            if !matches!(x.node(), Node::Apply { .. }) {
+                return None;
+            }
+            if let Some((_, s)) = fresh.iter().find(|(a, _)| a == x) {
+                return Some(Expr::sym(s.clone()));
+            }
+            let s = Symbol::new(&format!("⟪applied {}⟫", fresh.len()));
+            fresh.push((x.clone(), s.clone()));
+            Some(Expr::sym(s))
+        });
+    }
+    fresh.into_iter().map(|(_, s)| s).collect()
 }
 
 /// Null vectors of the sampled system, one per free column, with that column set to 1.

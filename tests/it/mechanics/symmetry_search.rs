@@ -209,3 +209,42 @@ fn the_oscillator_has_only_time_translation() {
     assert_eq!(kinds, ["time translation"]);
     assert_eq!(decide_zero(&s.found[0].charge.minus(&h)), ZeroCheck::Proven, "Q = H: {}", s.found[0].charge);
 }
+
+/// Symmetries through declared functions: `U` stands for any function, so the search samples
+/// its values at random and keeps what holds for all of them. A central potential
+/// `U(√(x² + y² + z²))` gives the three rotations (charges `±(m (y z' − y' z))` …, by hand) and
+/// time translation, and nothing else; `U(x)` in the plane keeps only the translation along
+/// `y` and time translation (no rotation); `U` of `x − y` keeps the translation along (1, 1).
+#[test]
+fn declared_functions_of_invariant_combinations_keep_their_symmetries() {
+    let d = decls(&["m"]).with_functions(["U"]);
+    let search = |text: &str, coords: &[&str]| {
+        let l = parse_with(text, &d).unwrap();
+        let q: Vec<Symbol> = coords.iter().map(|c| Symbol::new(c)).collect();
+        let h = System::from_lagrangian_expr(l.clone(), &q).unwrap().hamiltonian().unwrap();
+        point_symmetries(&l, &q, &h)
+    };
+    let central = search("1/2 m (x'^2 + y'^2 + z'^2) - U(sqrt(x^2 + y^2 + z^2))", &["x", "y", "z"]);
+    let mut kinds: Vec<&str> = central.found.iter().map(|f| f.kind.as_str()).collect();
+    kinds.sort();
+    assert_eq!(kinds.len(), 4, "{kinds:?}");
+    assert_eq!(kinds.iter().filter(|k| k.starts_with("rotation")).count(), 3, "{kinds:?}");
+    assert!(kinds.contains(&"time translation"), "{kinds:?}");
+    assert!(central.found.iter().all(|f| f.check == ZeroCheck::Proven), "{kinds:?}");
+    for hand in ["m (y z' - y' z)", "m (z x' - z' x)", "m (x y' - x' y)"] {
+        let hand = parse_with(hand, &d).unwrap();
+        assert!(
+            central.found.iter().any(|f| equal_up_to_sign(&f.charge_velocities, &hand)),
+            "{hand} not among {:?}",
+            central.found.iter().map(|f| f.charge_velocities.to_string()).collect::<Vec<_>>()
+        );
+    }
+    let wall = search("1/2 m (x'^2 + y'^2) - U(x)", &["x", "y"]);
+    let kinds: Vec<&str> = wall.found.iter().map(|f| f.kind.as_str()).collect();
+    assert!(!kinds.iter().any(|k| k.starts_with("rotation")), "{kinds:?}");
+    let py = parse_with("m y'", &d).unwrap();
+    assert!(wall.found.iter().any(|f| equal_up_to_sign(&f.charge_velocities, &py)), "{kinds:?}");
+    let pair = search("1/2 m (x'^2 + y'^2) - U(x - y)", &["x", "y"]);
+    let total = parse_with("m (x' + y')", &d).unwrap();
+    assert!(pair.found.iter().any(|f| equal_up_to_sign(&f.charge_velocities, &total)), "{:?}", pair.found.len());
+}
