@@ -4,3 +4,4 @@ mod integrate;
 mod native;
 mod recurrences;
 mod scene;
+mod solar_system;
