@@ -13,7 +13,7 @@ mod canonical;
 mod core;
 mod mechanics;
 mod notes;
-mod product;
+mod scene;
 
 #[derive(Parser)]
 #[command(name = "lagrangian", version, about = "Exact Lagrangian and Hamiltonian mechanics")]
@@ -35,7 +35,7 @@ enum Command {
     #[command(flatten)]
     Notes(notes::NotesCommand),
     #[command(flatten)]
-    Product(product::ProductCommand),
+    Scene(scene::SceneCommand),
 }
 
 /// Options every expression command takes.
@@ -321,8 +321,8 @@ pub fn main() -> ExitCode {
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
         Some(Command::Notes(c)) => notes::run(c),
-        Some(Command::Product(c)) => product::run(c),
-        None => product::repl(&product::CacheArgs::default()),
+        Some(Command::Scene(c)) => scene::run(c),
+        None => scene::repl(&scene::CacheArgs::default()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

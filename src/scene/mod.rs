@@ -28,26 +28,15 @@
 //! assert_eq!(s.take_output(), ["m x'^2/2 - k x^2/2"]);
 //! ```
 
-mod animate;
-pub mod ast;
-pub mod backend;
-mod chaos;
-pub mod drift;
-mod dynamics;
-mod ensemble;
-pub mod error;
-mod figures;
-pub mod help;
-mod notes;
-pub mod output;
-mod parity;
-pub mod parser;
-mod plan;
-pub mod progress;
+pub mod engine;
 pub mod repl;
-mod sections;
 pub mod session;
-mod simulate;
+mod statements;
+pub mod syntax;
+
+pub use engine::{backend, output, progress};
+pub use statements::drift;
+pub use syntax::{ast, error, help, parser};
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};

@@ -18,9 +18,9 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
-use super::help::TOPICS;
-use super::parser::{is_incomplete, Unfinished, STATEMENTS};
 use super::session::{Mode, Options, Session};
+use super::syntax::help::TOPICS;
+use super::syntax::parser::{is_incomplete, Unfinished, STATEMENTS};
 use crate::cache::Cache;
 use crate::simulate::METHODS;
 
@@ -176,7 +176,7 @@ impl Repl {
 /// on-disk cache makes them outlive the session). Returns the number of entries that failed.
 pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     let mut opts = Options::new(Mode::Repl);
-    opts.progress = super::progress::Draw::from_env();
+    opts.progress = super::engine::progress::Draw::from_env();
     opts.stem = "repl".to_string();
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
     let mut repl = Repl { session: Session::new(opts).with_cache(cache), history: Vec::new(), color: interactive };

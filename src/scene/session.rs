@@ -17,12 +17,12 @@ use std::sync::Arc;
 
 use miette::NamedSource;
 
-use super::ast::{DefValue, DerivCall, DerivKind, Item, SimSpec, Src, Statement, StmtKind};
-use super::backend::{Backend, BackendError, Line, NativeBackend, SystemRef, Trajectory};
-use super::error::{did_you_mean, ErrorKind, SceneError, Span};
-use super::output::Staging;
-use super::parser;
-use super::progress::Draw;
+use super::engine::backend::{Backend, BackendError, Line, NativeBackend, SystemRef, Trajectory};
+use super::engine::output::Staging;
+use super::engine::progress::Draw;
+use super::syntax::ast::{DefValue, DerivCall, DerivKind, Item, SimSpec, Src, Statement, StmtKind};
+use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
+use super::syntax::parser;
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
@@ -57,7 +57,7 @@ pub struct Options {
     /// Let a scene write outside `out_dir` (absolute paths, `..`, links): `--allow-outside`.
     pub allow_outside: bool,
     /// The relative energy drift above which a run is reported (`--drift`; a `simulate`
-    /// statement's `drift = …` overrides it). See [`super::drift`].
+    /// statement's `drift = …` overrides it). See [`super::statements::drift`].
     pub drift_threshold: f64,
     /// Excess drift (or an energy jump in one step) is an error instead of a warning:
     /// `--strict`.
@@ -81,7 +81,7 @@ impl Options {
     }
 }
 
-pub use super::plan::{PlanEntry, Status, Step};
+pub use super::engine::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;
 use crate::cache::{CacheKey, Value};
 
@@ -122,7 +122,7 @@ pub(super) struct RunEntry {
     pub(super) line: usize,
     pub(super) result: Option<RunResult>,
     /// The forces, Rayleigh function and constraints declared before the `simulate`.
-    pub(super) dynamics: super::dynamics::Dynamics,
+    pub(super) dynamics: super::statements::dynamics::Dynamics,
 }
 
 #[derive(Clone)]
@@ -173,14 +173,14 @@ pub struct Session {
     /// `average`), accepted in its expressions.
     pub(super) local_names: Vec<String>,
     /// `force`, `rayleigh` and `constraint` statements so far.
-    pub(super) dynamics: super::dynamics::Dynamics,
+    pub(super) dynamics: super::statements::dynamics::Dynamics,
     /// Ensembles: a name for several runs (`from NAME` means all of them), with what they
     /// share (the level set they start on), in statement order.
-    pub(super) groups: Vec<super::ensemble::Group>,
+    pub(super) groups: Vec<super::statements::ensemble::Group>,
     /// What every figure drawn so far shows, by file.
     pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
     /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
-    pub(super) chaos_runs: Vec<super::chaos::ChaosRun>,
+    pub(super) chaos_runs: Vec<super::statements::chaos::ChaosRun>,
     /// `allow nonfinite` was given: exports keep inf and NaN.
     pub(super) allow_nonfinite: bool,
 }
@@ -425,7 +425,7 @@ impl Session {
             StmtKind::Constraint { lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
-                let text = super::help::help(word.as_ref().map(|w| w.text.as_str()));
+                let text = super::syntax::help::help(word.as_ref().map(|w| w.text.as_str()));
                 self.output.push(text);
                 Ok(())
             }
@@ -694,6 +694,35 @@ impl Session {
     pub(super) fn resolved(&mut self, src: &Src) -> Result<Expr, SceneError> {
         let (raw, refs) = self.expr(src)?;
         self.resolve(&raw, &refs)
+    }
+
+    /// `src` resolved with `names` accepted as free symbols (differentials, unknowns).
+    pub(super) fn resolved_local(&mut self, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
+        self.local_names = names.to_vec();
+        let r = self.resolved(src);
+        self.local_names.clear();
+        r
+    }
+
+    pub(super) fn need_coordinates(&self, what: &str) -> Result<Vec<Symbol>, SceneError> {
+        if self.coords.is_empty() {
+            return Err(SceneError::new(
+                ErrorKind::Undeclared,
+                format!("`{what}` needs coordinates, and none are declared"),
+            )
+            .at(self.span)
+            .hint("declare them first, for example `coordinates θ, φ`"));
+        }
+        Ok(self.coords.clone())
+    }
+
+    pub(super) fn numbers(&mut self, srcs: &[Src]) -> Result<Vec<f64>, SceneError> {
+        let mut out = Vec::new();
+        for src in srcs {
+            let e = self.resolved(src)?;
+            out.push(self.number(&e, src.span)?);
+        }
+        Ok(out)
     }
 
     // ----- definitions ---------------------------------------------------------------------

@@ -4,17 +4,17 @@
 use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
-use super::ast::{DerivKind, EventSpec, SimSpec, Src};
-use super::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
 use super::drift::EnergyPlan;
 use super::dynamics::Dynamics;
-use super::error::{did_you_mean, ErrorKind, SceneError, Span};
-use super::plan::{PlanEntry, Status, Step};
-use super::progress::Progress;
-use super::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
 use crate::cache::{CacheKey, Value};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
+use crate::scene::engine::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
+use crate::scene::engine::plan::{PlanEntry, Status, Step};
+use crate::scene::engine::progress::Progress;
+use crate::scene::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
+use crate::scene::syntax::ast::{DerivKind, EventSpec, SimSpec, Src};
+use crate::scene::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::simulate::{
     self as sim, route, EventSpec as RunEvent, Family, MethodId, Refusal, RefusalReason, Route, RunOptions, Sampling,
     Shape, SimulateError,
@@ -23,7 +23,7 @@ use crate::simulate::{
 impl Session {
     // ----- simulation ----------------------------------------------------------------------
 
-    pub(super) fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
         if spec.ensemble.is_some() {
             return self.simulate_ensemble(spec);
         }
@@ -53,7 +53,7 @@ impl Session {
         Ok(())
     }
 
-    pub(super) fn check_method(&self, spec: &SimSpec) -> Result<MethodId, SceneError> {
+    pub(in crate::scene) fn check_method(&self, spec: &SimSpec) -> Result<MethodId, SceneError> {
         if spec.time_var.text != "t" {
             return Err(SceneError::new(
                 ErrorKind::Syntax,
@@ -75,7 +75,7 @@ impl Session {
         }
     }
 
-    pub(super) fn run_summary(&self, id: usize) -> String {
+    pub(in crate::scene) fn run_summary(&self, id: usize) -> String {
         let run = &self.runs[id];
         let Some(r) = &run.result else { return String::new() };
         let tr = &r.traj;
@@ -108,7 +108,7 @@ impl Session {
         s
     }
 
-    pub(super) fn demand_run(&mut self, id: usize) -> Result<RunResult, SceneError> {
+    pub(in crate::scene) fn demand_run(&mut self, id: usize) -> Result<RunResult, SceneError> {
         if let Some(r) = &self.runs[id].result {
             return Ok(r.clone());
         }
@@ -123,7 +123,7 @@ impl Session {
         Ok(r)
     }
 
-    pub(super) fn run_simulation(
+    pub(in crate::scene) fn run_simulation(
         &mut self,
         spec: &SimSpec,
         name: &str,
@@ -147,7 +147,7 @@ impl Session {
     /// initial state and the energy check), the result without its trajectory, and which
     /// energy is checked (or why none is). `self.span` is left at the
     /// statement.
-    pub(super) fn prepare_run(
+    pub(in crate::scene) fn prepare_run(
         &mut self,
         spec: &SimSpec,
         name: &str,
@@ -223,7 +223,7 @@ impl Session {
                 .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
         }
         if method.family() == Family::Variational && dynamics.is_empty() {
-            super::notes::check_variational_run(method.name(), spec, has_l, stmt_span)?;
+            super::variational::check_variational_run(method.name(), spec, has_l, stmt_span)?;
         }
         // Whether L is first order matters unless a splitting method runs the user's own H.
         let l_if_needed =
@@ -320,7 +320,7 @@ impl Session {
         let mom = |q: &Symbol| format!("p_{}", q.name());
         let first_order = matches!(formulation, Formulation::FirstOrder(_));
         if first_order {
-            super::notes::check_first_order_inits(&coords, &given)?;
+            super::first_order::check_first_order_inits(&coords, &given)?;
         }
         match layout {
             Layout::Velocities if first_order => {}
@@ -400,7 +400,7 @@ impl Session {
         for (index, ev) in spec.events.iter().enumerate() {
             let e = self.event_expr(ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
             if first_order {
-                super::notes::check_first_order_event(&e, ev.span)?;
+                super::first_order::check_first_order_event(&e, ev.span)?;
             }
             event_exprs.push(e);
             let crossing = match ev.rising {
@@ -511,7 +511,7 @@ impl Session {
     }
 
     /// Which steps a run keeps: `every N`, `points N`, or by default at most
-    /// [`super::backend::MAX_POINTS`] states of a fixed-step run, with a printed note when that
+    /// [`crate::scene::engine::backend::MAX_POINTS`] states of a fixed-step run, with a printed note when that
     /// thins it (no data is dropped without a word).
     fn thinning(
         &mut self,
@@ -569,7 +569,7 @@ impl Session {
         Ok(Some(every))
     }
 
-    pub(super) fn integrate(
+    pub(in crate::scene) fn integrate(
         &mut self,
         compiled: &Compiled,
         run: &RunRequest,
@@ -594,7 +594,7 @@ impl Session {
         Ok(traj)
     }
 
-    pub(super) fn value_error(&self, e: crate::eval::EvalError, span: Span) -> SceneError {
+    pub(in crate::scene) fn value_error(&self, e: crate::eval::EvalError, span: Span) -> SceneError {
         match e {
             crate::eval::EvalError::Unbound(name) => {
                 SceneError::new(ErrorKind::MissingValue, format!("`{name}` has no value"))
@@ -605,11 +605,11 @@ impl Session {
         }
     }
 
-    pub(super) fn param_values(&self) -> HashMap<String, f64> {
+    pub(in crate::scene) fn param_values(&self) -> HashMap<String, f64> {
         self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect()
     }
 
-    pub(super) fn bound(&mut self, src: &Src) -> Result<f64, SceneError> {
+    pub(in crate::scene) fn bound(&mut self, src: &Src) -> Result<f64, SceneError> {
         let e = self.resolved(src)?;
         self.number(&e, src.span)
     }
@@ -618,7 +618,7 @@ impl Session {
     /// that what the session accepts is what [`crate::compile::SeparableHamiltonian`]
     /// compiles. When `H` is not separable, the first term that mixes coordinates and
     /// momenta is named in the error.
-    pub(super) fn split(&mut self, h: &Expr, method: MethodId) -> Result<(Expr, Expr), SceneError> {
+    pub(in crate::scene) fn split(&mut self, h: &Expr, method: MethodId) -> Result<(Expr, Expr), SceneError> {
         let key = CacheKey::symbolic(Step::Split, &self.coords, vec![h.clone()]);
         let what = format!("of {}", short(h));
         if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &what) {
@@ -646,7 +646,7 @@ impl Session {
         Ok((t, v))
     }
 
-    pub(super) fn event_expr(
+    pub(in crate::scene) fn event_expr(
         &mut self,
         ev: &EventSpec,
         layout: Layout,
@@ -663,7 +663,7 @@ impl Session {
 
     /// Rewrites an expression into the state variables of a layout: momenta become
     /// `∂L/∂q'` in a velocity layout, velocities become `∂H/∂p` in a momentum layout.
-    pub(super) fn in_layout(
+    pub(in crate::scene) fn in_layout(
         &mut self,
         e: &Expr,
         layout: Layout,
@@ -704,7 +704,7 @@ impl Session {
         Ok(if map.is_empty() { e.clone() } else { e.subs(&map) })
     }
 
-    pub(super) fn run_ids(&mut self, names: &[Src]) -> Result<Vec<usize>, SceneError> {
+    pub(in crate::scene) fn run_ids(&mut self, names: &[Src]) -> Result<Vec<usize>, SceneError> {
         if names.is_empty() {
             return match self.runs.len() {
                 0 => Err(SceneError::new(ErrorKind::Undeclared, "no simulation to use")
@@ -741,7 +741,7 @@ impl Session {
     }
 
     /// Values of `e` along a run.
-    pub(super) fn along(&mut self, r: &RunResult, e: &Expr, span: Span) -> Result<Vec<f64>, SceneError> {
+    pub(in crate::scene) fn along(&mut self, r: &RunResult, e: &Expr, span: Span) -> Result<Vec<f64>, SceneError> {
         let e = self.in_layout(e, r.layout, r.lagrangian.as_ref(), r.hamiltonian.as_ref(), span)?;
         let names = state_names(&r.coords, r.layout);
         let mut out = Vec::with_capacity(r.traj.t.len());
@@ -750,7 +750,7 @@ impl Session {
             // Ctrl-C: a long run evaluated for a plot or an export stops here (about 4096
             // evaluations, well under a millisecond, between checks).
             if k % 4096 == 0 {
-                super::session::interruption(span)?;
+                crate::scene::session::interruption(span)?;
             }
             let lookup = |s: &Symbol| -> Option<f64> {
                 if s.is_time() {
@@ -771,7 +771,7 @@ impl Session {
         Ok(out)
     }
 
-    pub(super) fn energy_of_run(&mut self, r: &RunResult) -> Result<Expr, SceneError> {
+    pub(in crate::scene) fn energy_of_run(&mut self, r: &RunResult) -> Result<Expr, SceneError> {
         match r.layout {
             Layout::Momenta => match &r.hamiltonian {
                 Some(h) => Ok(h.clone()),
@@ -823,7 +823,7 @@ fn refusal_error(r: Refusal, spec: &SimSpec, stmt: Span) -> SceneError {
     SceneError::new(kind, r.to_string()).at(span).hint(r.hint())
 }
 
-pub(super) fn state_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
+pub(in crate::scene) fn state_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
     let mut names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
     for q in coords {
         names.push(match layout {

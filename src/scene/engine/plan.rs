@@ -1,7 +1,7 @@
 //! The plan: what each piece of work was (built, reused, loaded from the disk cache or
 //! skipped, and why), and its text for `lagrangian run --explain`.
 
-use super::session::{deriv_step, DefBody, Session};
+use crate::scene::session::{deriv_step, DefBody, Session};
 
 pub use crate::cache::Step;
 
@@ -35,7 +35,7 @@ pub struct PlanEntry {
 impl Session {
     // ----- the plan ------------------------------------------------------------------------
 
-    pub(super) fn finish_plan(&mut self) {
+    pub(in crate::scene) fn finish_plan(&mut self) {
         // Lazy definitions and simulations nothing asked for.
         for d in &self.defs {
             if let (DefBody::Deriv { kind, .. }, false) = (&d.body, d.demanded) {

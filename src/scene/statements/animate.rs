@@ -3,13 +3,13 @@
 //! frames per second; each frame's points are the expressions linearly interpolated between
 //! stored states at the frame's time (drawing only: the run's numbers are untouched).
 
-use super::ast::{AnimateSpec, Src};
-use super::error::{ErrorKind, SceneError};
-use super::session::{fmt_num, Session};
 use crate::animate::{Animation, Frame};
+use crate::scene::session::{fmt_num, Session};
+use crate::scene::syntax::ast::{AnimateSpec, Src};
+use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// The error hint for a file that is not a GIF.
-pub(super) const ANIMATION_FORMATS: &str = "animations are written as `.gif`";
+pub(in crate::scene) const ANIMATION_FORMATS: &str = "animations are written as `.gif`";
 
 /// Limits: frames per second, duration in seconds, size in pixels, frames in all.
 const FPS: (f64, f64, f64) = (10.0, 1.0, 50.0);
@@ -18,7 +18,7 @@ const SIZE: (f64, f64, f64) = (320.0, 64.0, 1024.0);
 const MAX_FRAMES: f64 = 1500.0;
 
 impl Session {
-    pub(super) fn animate(&mut self, spec: &AnimateSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn animate(&mut self, spec: &AnimateSpec) -> Result<(), SceneError> {
         let (path, pspan, _) =
             self.out_file(Some(&spec.path), "animation", "animation", &["gif"], ANIMATION_FORMATS)?;
         let fps = self.setting(spec.fps.as_ref(), "fps", FPS)?;

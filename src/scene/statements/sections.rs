@@ -3,17 +3,17 @@
 
 use std::sync::Arc;
 
-use super::ast::Src;
-use super::backend::Trajectory;
-use super::error::{ErrorKind, SceneError};
 use super::figures::members_text;
-use super::session::{RunResult, Session};
 use super::simulate::state_names;
+use crate::scene::engine::backend::Trajectory;
+use crate::scene::session::{RunResult, Session};
+use crate::scene::syntax::ast::Src;
+use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 impl Session {
     /// The run's recorded event states as a trajectory (time = the crossing's time), or an
     /// error when it recorded none.
-    pub(super) fn section_of(&self, r: &RunResult) -> Result<RunResult, SceneError> {
+    pub(in crate::scene) fn section_of(&self, r: &RunResult) -> Result<RunResult, SceneError> {
         if r.traj.events.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "the run recorded no events for a Poincaré section")
                 .at(self.span)
@@ -32,7 +32,12 @@ impl Session {
     /// `export poincare [EXPR, …] [from RUN] to FILE`: one row per recorded event, with the
     /// event's time, which event it was (numbered from 1 in the `simulate` statement), and the
     /// expressions (default: the state) at the crossing.
-    pub(super) fn export_poincare(&mut self, items: &[Src], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
+    pub(in crate::scene) fn export_poincare(
+        &mut self,
+        items: &[Src],
+        run: Option<&Src>,
+        path: &Src,
+    ) -> Result<(), SceneError> {
         let (file, pspan, ext) = self.out_file(
             Some(path),
             "poincare",

@@ -10,7 +10,7 @@ use lagrangian::scene::{read_scene, Cache, ErrorKind, Mode, Options, SceneError,
 use super::Failure;
 
 #[derive(Subcommand)]
-pub enum ProductCommand {
+pub enum SceneCommand {
     /// Run a scene file: derive what its outputs need, integrate, write plots and exports.
     Run {
         /// The scene file.
@@ -72,9 +72,9 @@ fn report(e: &SceneError) -> Failure {
     Failure { styled: color, kind: "scene", ..Failure::new(code, e.render(color)) }
 }
 
-pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
+pub fn run(cmd: SceneCommand) -> Result<(), Failure> {
     match cmd {
-        ProductCommand::Run { scene, explain, out_dir, allow_outside, drift, strict, cache } => {
+        SceneCommand::Run { scene, explain, out_dir, allow_outside, drift, strict, cache } => {
             if drift <= 0.0 {
                 return Err(Failure::new(2, format!("error: --drift must be positive, found {drift}")));
             }
@@ -120,7 +120,7 @@ pub fn run(cmd: ProductCommand) -> Result<(), Failure> {
                 _ => report(&e),
             })
         }
-        ProductCommand::Repl { cache } => repl(&cache),
+        SceneCommand::Repl { cache } => repl(&cache),
     }
 }
 

@@ -10,13 +10,13 @@
 
 use std::sync::Arc;
 
-use super::ast::{DerivKind, SimSpec};
-use super::backend::{Formulation, Trajectory};
-use super::error::{ErrorKind, SceneError, Span};
-use super::session::{fmt_num, Layout, Session};
 use crate::cache::Value;
 use crate::compile::Tape;
 use crate::expr::{Expr, Symbol};
+use crate::scene::engine::backend::{Formulation, Trajectory};
+use crate::scene::session::{fmt_num, Layout, Session};
+use crate::scene::syntax::ast::{DerivKind, SimSpec};
+use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 fn has_t(e: &Expr) -> bool {
     e.free_symbols().iter().any(Symbol::is_time)
@@ -53,7 +53,7 @@ pub fn summary_clause(ledger: &Ledger) -> String {
 impl Session {
     /// The energy check of a run, or why there is none. `l`/`h` are the run's Lagrangian or
     /// Hamiltonian; `names` the state's input names in order.
-    pub(super) fn energy_check(
+    pub(in crate::scene) fn energy_check(
         &mut self,
         spec: &SimSpec,
         formulation: &Formulation,
@@ -119,7 +119,7 @@ impl Session {
     }
 
     /// Names the ledger the backend filled for `traj` after the plan, then judges it.
-    pub(super) fn settle_energy(
+    pub(in crate::scene) fn settle_energy(
         &mut self,
         name: &str,
         plan: &EnergyPlan,
@@ -136,7 +136,12 @@ impl Session {
 
     /// Reports a run whose energy drifted or jumped beyond its threshold: a warning for
     /// standard error naming the run and the time, or under `--strict` an error.
-    pub(super) fn judge_drift(&mut self, name: &str, traj: &Trajectory, span: Span) -> Result<(), SceneError> {
+    pub(in crate::scene) fn judge_drift(
+        &mut self,
+        name: &str,
+        traj: &Trajectory,
+        span: Span,
+    ) -> Result<(), SceneError> {
         let Ledger::Checked { symbol, report } = &traj.energy else { return Ok(()) };
         if !report.exceeded() {
             return Ok(());
@@ -179,7 +184,7 @@ impl Session {
 }
 
 /// The state's plain input names for a layout (`x`, `x'` or `p_x`), as the backend compiles them.
-pub(super) fn input_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
+pub(in crate::scene) fn input_names(coords: &[Symbol], layout: Layout) -> Vec<String> {
     let mut v: Vec<String> = coords.iter().map(|q| q.to_string()).collect();
     v.extend(coords.iter().map(|q| match layout {
         Layout::Velocities => format!("{q}'"),

@@ -10,22 +10,22 @@
 
 use std::collections::{BTreeSet, HashMap};
 
-use super::ast::{SimSpec, Src};
-use super::backend::ExtendedLagrangian;
-use super::error::{ErrorKind, SceneError, Span};
-use super::session::{fmt_num, symbol_span, Mode, Refs, Session};
 use crate::compile::Stabilization;
 use crate::expr::{Expr, Symbol};
+use crate::scene::engine::backend::ExtendedLagrangian;
+use crate::scene::session::{fmt_num, symbol_span, Mode, Refs, Session};
+use crate::scene::syntax::ast::{SimSpec, Src};
+use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// Forces per coordinate, the Rayleigh function and the constraints, resolved.
-pub(super) type ResolvedDynamics = (Vec<Expr>, Option<Expr>, Vec<Expr>);
+pub(in crate::scene) type ResolvedDynamics = (Vec<Expr>, Option<Expr>, Vec<Expr>);
 
 /// The default Baumgarte rate `α = β` (1/time) when `stabilize baumgarte` gives none.
-pub(super) const DEFAULT_BAUMGARTE_RATE: f64 = 10.0;
+pub(in crate::scene) const DEFAULT_BAUMGARTE_RATE: f64 = 10.0;
 
 /// A declared expression: as parsed, the definitions it refers to, and its source.
 #[derive(Clone)]
-pub(super) struct Declared {
+pub(in crate::scene) struct Declared {
     raw: Expr,
     refs: Refs,
     src: Src,
@@ -33,7 +33,7 @@ pub(super) struct Declared {
 
 /// The forces, Rayleigh function and constraints declared so far.
 #[derive(Clone, Default)]
-pub(super) struct Dynamics {
+pub(in crate::scene) struct Dynamics {
     /// Coordinate index and force.
     forces: Vec<(usize, Declared)>,
     rayleigh: Option<Declared>,
@@ -42,22 +42,22 @@ pub(super) struct Dynamics {
 
 impl Dynamics {
     /// Nothing beyond `L`.
-    pub(super) fn is_empty(&self) -> bool {
+    pub(in crate::scene) fn is_empty(&self) -> bool {
         self.forces.is_empty() && self.rayleigh.is_none() && self.constraints.is_empty()
     }
 
     /// Whether forces or a Rayleigh function act on the coordinates.
-    pub(super) fn forced(&self) -> bool {
+    pub(in crate::scene) fn forced(&self) -> bool {
         !self.forces.is_empty() || self.rayleigh.is_some()
     }
 
     /// Whether there are constraints.
-    pub(super) fn constrained(&self) -> bool {
+    pub(in crate::scene) fn constrained(&self) -> bool {
         !self.constraints.is_empty()
     }
 
     /// `λ1…λm` and `residual1…residualm` name values along a constrained run.
-    pub(super) fn is_aux_name(&self, s: &Symbol) -> bool {
+    pub(in crate::scene) fn is_aux_name(&self, s: &Symbol) -> bool {
         if s.primes() != 0 {
             return false;
         }
@@ -100,7 +100,7 @@ impl Session {
     }
 
     /// `force x = Q`.
-    pub(super) fn declare_force(&mut self, coord: &Src, value: &Src) -> Result<(), SceneError> {
+    pub(in crate::scene) fn declare_force(&mut self, coord: &Src, value: &Src) -> Result<(), SceneError> {
         let Some(i) = self.coords.iter().position(|q| q.name() == coord.text) else {
             let known: Vec<&str> = self.coords.iter().map(|q| q.name()).collect();
             let err = SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not a coordinate", coord.text))
@@ -121,7 +121,7 @@ impl Session {
     }
 
     /// `rayleigh [R =] …`.
-    pub(super) fn declare_rayleigh(&mut self, name: Option<&Src>, value: &Src) -> Result<(), SceneError> {
+    pub(in crate::scene) fn declare_rayleigh(&mut self, name: Option<&Src>, value: &Src) -> Result<(), SceneError> {
         if let Some(old) = &self.dynamics.rayleigh {
             return Err(SceneError::new(ErrorKind::Redeclared, "a Rayleigh function is already declared")
                 .at(value.span)
@@ -147,7 +147,7 @@ impl Session {
         }
         let d = self.dynamics_expr(value, "Rayleigh function", true)?;
         if let Some(n) = name {
-            self.define(n, &super::ast::DefValue::Expr(value.clone()))?;
+            self.define(n, &crate::scene::syntax::ast::DefValue::Expr(value.clone()))?;
         }
         if self.opts.mode == Mode::Repl && name.is_none() {
             self.output.push(format!("R = {}", d.raw));
@@ -157,7 +157,7 @@ impl Session {
     }
 
     /// `constraint f = g`.
-    pub(super) fn declare_constraint(&mut self, lhs: &Src, rhs: Option<&Src>) -> Result<(), SceneError> {
+    pub(in crate::scene) fn declare_constraint(&mut self, lhs: &Src, rhs: Option<&Src>) -> Result<(), SceneError> {
         let mut d = self.dynamics_expr(lhs, "constraint", false)?;
         if let Some(r) = rhs {
             let b = self.dynamics_expr(r, "constraint", false)?;
@@ -181,7 +181,7 @@ impl Session {
 
     /// The declared forces (per coordinate), Rayleigh function and constraints, resolved
     /// against the current definitions (what `conserved` must respect).
-    pub(super) fn resolved_dynamics(&mut self) -> Result<ResolvedDynamics, SceneError> {
+    pub(in crate::scene) fn resolved_dynamics(&mut self) -> Result<ResolvedDynamics, SceneError> {
         let dynamics = self.dynamics.clone();
         let mut forces = vec![Expr::zero(); self.coords.len()];
         for (i, d) in &dynamics.forces {
@@ -200,7 +200,7 @@ impl Session {
 
     /// The extended Lagrangian of a run: `L` with the run's forces, Rayleigh function and
     /// constraints resolved.
-    pub(super) fn extended(
+    pub(in crate::scene) fn extended(
         &mut self,
         l: Expr,
         dynamics: &Dynamics,
@@ -264,7 +264,7 @@ impl Session {
 
     /// Refuses an initial state off the constraints: each `f_j(q0, t0)` and
     /// `ḟ_j = Φ q0' + ∂f/∂t` must vanish (to 1e-9 of the coordinates' scale).
-    pub(super) fn check_initial_constraints(
+    pub(in crate::scene) fn check_initial_constraints(
         &mut self,
         dynamics: &Dynamics,
         ext: &ExtendedLagrangian,

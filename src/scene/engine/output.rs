@@ -5,7 +5,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use super::error::{ErrorKind, SceneError};
+use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// Files written so far and not yet moved into place, the paths claimed by the outputs of
 /// the current scene or REPL entry, and the output lines that announce them.

@@ -1,7 +1,7 @@
 //! Ensembles: `simulate x = 0, p_y = 0 for each y in 0..0.4 step 0.02 on H = 1/8 solve p_x > 0
 //! for t in …` starts one run per value of the swept variable, each on the level set
 //! `H = 1/8`, by solving for the named variable on the given side of zero. The system is
-//! compiled once; the runs are integrated in parallel ([`super::backend::Backend::integrate_many`])
+//! compiled once; the runs are integrated in parallel ([`crate::scene::engine::backend::Backend::integrate_many`])
 //! behind one progress bar, and named as a group: `from NAME` (or no `from` after it) means
 //! all of them, and `NAME_k` is the k-th. Values for which the level set has no point on that
 //! side are skipped with a note, never started off the surface.
@@ -12,34 +12,34 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use super::ast::{SimSpec, Src};
-use super::error::{ErrorKind, SceneError};
-use super::plan::{PlanEntry, Status, Step};
-use super::progress::Progress;
-use super::session::{fmt_num, RunEntry, RunResult, Session};
 use super::simulate::state_names;
 use crate::expr::Symbol;
+use crate::scene::engine::plan::{PlanEntry, Status, Step};
+use crate::scene::engine::progress::Progress;
+use crate::scene::session::{fmt_num, RunEntry, RunResult, Session};
+use crate::scene::syntax::ast::{SimSpec, Src};
+use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// The most members one ensemble may have.
 pub const MAX_MEMBERS: usize = 10_000;
 
 /// A named set of runs from one `simulate … for each …` statement.
 #[derive(Clone, Debug)]
-pub(super) struct Group {
+pub(in crate::scene) struct Group {
     /// The statement's run name.
-    pub(super) name: String,
+    pub(in crate::scene) name: String,
     /// Its members' run ids, in order of the swept value.
-    pub(super) ids: Vec<usize>,
+    pub(in crate::scene) ids: Vec<usize>,
     /// The swept variable's values, one per member.
-    pub(super) values: Vec<f64>,
+    pub(in crate::scene) values: Vec<f64>,
     /// The swept variable as written.
-    pub(super) var: String,
+    pub(in crate::scene) var: String,
     /// `H = 1/8`, as written.
-    pub(super) level: String,
+    pub(in crate::scene) level: String,
 }
 
 impl Session {
-    pub(super) fn simulate_ensemble(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn simulate_ensemble(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
         let Some(ens) = spec.ensemble.clone() else { return Ok(()) };
         self.check_method(spec)?;
         let (a, b, h) = (self.bound(&ens.from)?, self.bound(&ens.to)?, self.bound(&ens.step)?);
@@ -137,7 +137,7 @@ impl Session {
             match solve_level(&f, &mut y0, i_solve, level, ens.positive)? {
                 true => {
                     kept.push(v);
-                    requests.push(super::backend::RunRequest { y0, ..run.clone() });
+                    requests.push(crate::scene::engine::backend::RunRequest { y0, ..run.clone() });
                 }
                 false => skipped.push(v),
             }
@@ -166,7 +166,7 @@ impl Session {
         let mut ids = Vec::new();
         for (k, r) in results.into_iter().enumerate() {
             let traj = r.map_err(|e| {
-                super::session::backend_error(e, stmt_span).hint(format!(
+                crate::scene::session::backend_error(e, stmt_span).hint(format!(
                     "in the ensemble member {} = {}",
                     ens.var.text,
                     fmt_num(kept[k])
@@ -245,7 +245,7 @@ impl Session {
     }
 
     /// The group whose members are exactly `ids`, if any.
-    pub(super) fn group_of(&self, ids: &[usize]) -> Option<&Group> {
+    pub(in crate::scene) fn group_of(&self, ids: &[usize]) -> Option<&Group> {
         self.groups.iter().find(|g| g.ids == ids)
     }
 }
@@ -255,7 +255,7 @@ impl Session {
 /// floats, keeping the end with the smaller residual. `false` when no sign change is found
 /// up to |y[i]| = 10⁶ (the level set has no point there). Also the level clause of a chaos
 /// map ([`super::chaos`]).
-pub(super) fn solve_level(
+pub(in crate::scene) fn solve_level(
     f: &dyn Fn(&[f64]) -> Result<f64, SceneError>,
     y: &mut [f64],
     i: usize,

@@ -7,7 +7,7 @@
 //! into momenta through `p = ∂L/∂q'` like `simulate` does. The variational system is
 //! compiled here ([`crate::compile::Variational`]) and integrated by [`crate::chaos`] with the
 //! Taylor method. Both go through the backend like a `simulate` run's stages
-//! ([`super::backend::Backend::compile_variational`], `indicators`, `chaos_map`): the compiled
+//! ([`crate::scene::engine::backend::Backend::compile_variational`], `indicators`, `chaos_map`): the compiled
 //! system is cached by the content of `H`, the parameter values and the tangent count, so a
 //! second statement on the same system reuses it, and `--explain` lists what was compiled
 //! and integrated. They are outputs: in a scene file they run when reached, like `print`.
@@ -19,21 +19,21 @@
 
 use std::collections::HashMap;
 
-use super::ast::{ChaosSpec, LevelSpec, Src};
-use super::backend::{BackendError, CompiledVariational, VariationalRequest};
-use super::error::{ErrorKind, SceneError, Span};
-use super::plan::{PlanEntry, Status, Step};
-use super::progress::Progress;
-use super::session::{backend_error, fmt_num, Layout, Session};
 use crate::cache::{CacheKey, Value};
 use crate::chaos::{Indicator, Indicators};
 use crate::expr::{Expr, Symbol};
+use crate::scene::engine::backend::{BackendError, CompiledVariational, VariationalRequest};
+use crate::scene::engine::plan::{PlanEntry, Status, Step};
+use crate::scene::engine::progress::Progress;
+use crate::scene::session::{backend_error, fmt_num, Layout, Session};
+use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, Src};
+use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// A finished one-orbit chaos statement, for `plot megno` and its kin.
-pub(super) struct ChaosRun {
-    pub(super) name: String,
-    pub(super) which: Indicator,
-    pub(super) result: Indicators,
+pub(in crate::scene) struct ChaosRun {
+    pub(in crate::scene) name: String,
+    pub(in crate::scene) which: Indicator,
+    pub(in crate::scene) result: Indicators,
 }
 
 /// The default tolerance of chaos statements: the tangent vectors grow like `e^{λt}`, so
@@ -47,7 +47,7 @@ const DEFAULT_GRID: usize = 32;
 const MAX_GRID: usize = 2000;
 
 /// The indicator a keyword names.
-pub(super) fn indicator(word: &str) -> Option<Indicator> {
+pub(in crate::scene) fn indicator(word: &str) -> Option<Indicator> {
     match word {
         "lyapunov" => Some(Indicator::Lyapunov),
         "megno" => Some(Indicator::Megno),
@@ -203,7 +203,7 @@ impl Session {
     }
 
     /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
-    pub(super) fn chaos(&mut self, spec: &ChaosSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn chaos(&mut self, spec: &ChaosSpec) -> Result<(), SceneError> {
         let which = indicator(&spec.indicator.text)
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`"))?;
         if spec.map {
@@ -665,7 +665,7 @@ impl Session {
 
     /// `max_steps = N` and `time_limit = S` of a chaos statement, checked, as its budget; the
     /// time counts from here.
-    fn chaos_budget(&mut self, sim: &super::ast::SimSpec) -> Result<crate::chaos::Budget, SceneError> {
+    fn chaos_budget(&mut self, sim: &crate::scene::syntax::ast::SimSpec) -> Result<crate::chaos::Budget, SceneError> {
         use crate::chaos::Budget;
         let max_steps = match &sim.max_steps {
             None => Budget::DEFAULT_STEPS,
@@ -701,7 +701,11 @@ impl Session {
     }
 
     /// `plot lyapunov | megno | fli [from NAME, …]`: the indicator against time.
-    pub(super) fn chaos_figure(&mut self, word: &Src, runs: &[Src]) -> Result<crate::plot::Figure, SceneError> {
+    pub(in crate::scene) fn chaos_figure(
+        &mut self,
+        word: &Src,
+        runs: &[Src],
+    ) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
         let which = indicator(&word.text)
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`").at(word.span))?;

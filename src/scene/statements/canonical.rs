@@ -6,17 +6,17 @@
 //! scene and `lagrangian pb|lie|integral|action|average|transform` agree line for line in the
 //! same format (tested in `tests/it/scene/parity.rs`). These are quick symbolic steps or a
 //! quadrature, so they go straight to the library instead of through the cached, counted
-//! [`super::backend::Backend`] stages that simulations need.
+//! [`crate::scene::engine::backend::Backend`] stages that simulations need.
 
 use crate::canonical::{self, PhaseSpace, Trial};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 
-use super::ast::{LieGenerator, Src, StmtKind};
-use super::error::{ErrorKind, SceneError};
-use super::session::Session;
+use crate::scene::session::Session;
+use crate::scene::syntax::ast::{LieGenerator, Src, StmtKind};
+use crate::scene::syntax::error::{ErrorKind, SceneError};
 
-fn failed(what: &str, e: impl std::fmt::Display, span: super::ast::Span) -> SceneError {
+fn failed(what: &str, e: impl std::fmt::Display, span: crate::scene::syntax::ast::Span) -> SceneError {
     SceneError::new(ErrorKind::Derivation, format!("{what}: {e}")).at(span)
 }
 
@@ -66,7 +66,7 @@ impl Session {
     }
 
     /// `transform [L] with x = r cos(φ), … [to r, φ]`: `lagrangian transform L --map … --to …`.
-    pub(super) fn point_transform(
+    pub(in crate::scene) fn point_transform(
         &mut self,
         l: Option<&Src>,
         map: &[(Src, Src)],
@@ -129,7 +129,7 @@ impl Session {
     }
 
     /// `lie f with G [order N] [in ε]` / `lie f flow [H] [order N]`: `lagrangian lie`.
-    pub(super) fn lie(
+    pub(in crate::scene) fn lie(
         &mut self,
         f: &Src,
         generator: &LieGenerator,
@@ -167,7 +167,12 @@ impl Session {
     }
 
     /// `integral f [with H]`: `lagrangian integral f --hamiltonian H`.
-    pub(super) fn integral(&mut self, f: &Src, h: Option<&Src>, format: Option<Format>) -> Result<(), SceneError> {
+    pub(in crate::scene) fn integral(
+        &mut self,
+        f: &Src,
+        h: Option<&Src>,
+        format: Option<Format>,
+    ) -> Result<(), SceneError> {
         let ps = self.phase_space()?;
         let fe = self.resolved(f)?;
         let he = match h {
@@ -182,7 +187,12 @@ impl Session {
     }
 
     /// `action [H] at E = … [near q0]`: `lagrangian action`, librations and rotations.
-    pub(super) fn action(&mut self, h: Option<&Src>, energies: &[Src], near: Option<&Src>) -> Result<(), SceneError> {
+    pub(in crate::scene) fn action(
+        &mut self,
+        h: Option<&Src>,
+        energies: &[Src],
+        near: Option<&Src>,
+    ) -> Result<(), SceneError> {
         let ps = self.phase_space()?;
         if ps.dof() != 1 {
             return Err(SceneError::new(
@@ -218,7 +228,7 @@ impl Session {
 
     /// `average [L] with x = … phase θ frequency ω amplitudes A… [small σ unperturbed ω0
     /// [principal A]]`: `lagrangian average`, with `--small` the relations solved to first order.
-    pub(super) fn average_statement(&mut self, st: &StmtKind) -> Result<(), SceneError> {
+    pub(in crate::scene) fn average_statement(&mut self, st: &StmtKind) -> Result<(), SceneError> {
         let StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format } = st else {
             return Ok(());
         };
@@ -269,7 +279,7 @@ impl Session {
 
     /// `transform [H] with F1 = … new Q, P`: `lagrangian canonical --f1 … --new Q,P
     /// --hamiltonian H`, the same lines (relations, inverse and forward maps, branches, `K`).
-    pub(super) fn generating_transform(
+    pub(in crate::scene) fn generating_transform(
         &mut self,
         h: Option<&Src>,
         kind: &str,

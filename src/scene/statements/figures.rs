@@ -2,18 +2,18 @@
 
 use std::path::{Component, PathBuf};
 
-use super::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
-use super::error::{ErrorKind, SceneError, Span};
-use super::session::fmt_num;
-use super::session::{Layout, Mode, Printed, RunResult, Session};
 use super::simulate::state_names;
 use crate::cache::Value;
 use crate::expr::Symbol;
 use crate::print::Format;
+use crate::scene::session::fmt_num;
+use crate::scene::session::{Layout, Mode, Printed, RunResult, Session};
+use crate::scene::syntax::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
+use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// Columns of numbers as CSV (a header of names, one row per index) or as JSON (the run, its
 /// method and the named columns). Every column has the same length.
-pub(super) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str, method: &str) -> String {
+pub(in crate::scene) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str, method: &str) -> String {
     let rows = columns.first().map_or(0, |c| c.1.len());
     if ext == "csv" {
         let mut s = columns.iter().map(|c| csv_field(&c.0)).collect::<Vec<_>>().join(",");
@@ -35,12 +35,12 @@ pub(super) fn columns_text(columns: &[(String, Vec<f64>)], ext: &str, run: &str,
 }
 
 /// One run's exported columns: its name, its method's name and the named columns.
-pub(super) type Member = (String, String, Vec<(String, Vec<f64>)>);
+pub(in crate::scene) type Member = (String, String, Vec<(String, Vec<f64>)>);
 
 /// The columns of one run or of several (an ensemble's members): one run as
 /// [`columns_text`]; several as one CSV table with the run's name in a first column `run`
 /// (each member's rows in order), or JSON `{"runs": [{"run", "method", "columns"}, …]}`.
-pub(super) fn members_text(members: &[Member], ext: &str) -> String {
+pub(in crate::scene) fn members_text(members: &[Member], ext: &str) -> String {
     if let [(run, method, columns)] = members {
         return columns_text(columns, ext, run, method);
     }
@@ -148,7 +148,7 @@ impl Session {
     /// Checks every output of `stmts` before any of them runs: each path is allowed
     /// ([`Session::out_path`]) and has a known format, and no two outputs of this scene (or
     /// REPL entry) write the same file, where the second would silently replace the first.
-    pub(super) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
+    pub(in crate::scene) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
         for st in stmts {
             let (file, span) = match &st.kind {
                 StmtKind::Plot(spec) => {
@@ -195,7 +195,7 @@ impl Session {
 
     /// The output file of a plot or an export, its span and its lower-case extension, which
     /// must be one of `formats` (otherwise an error naming the file, with `hint`).
-    pub(super) fn out_file(
+    pub(in crate::scene) fn out_file(
         &self,
         path: Option<&Src>,
         default: &str,
@@ -216,7 +216,7 @@ impl Session {
         Ok((file, span, ext))
     }
 
-    pub(super) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
         let (path, pspan, _) =
             self.out_file(spec.path.as_ref(), plot_default(&spec.kind), "image", &["svg", "png"], PLOT_FORMATS)?;
         let figure = self.figure(spec)?;
@@ -232,7 +232,7 @@ impl Session {
     /// Refuses values of `what` along a run that are not finite at any stored state (a
     /// figure of nothing, which exports refuse too), and notes how many are not drawn when
     /// only some are not finite. `times` are the stored states' times.
-    pub(super) fn drawable(
+    pub(in crate::scene) fn drawable(
         &mut self,
         values: &[f64],
         what: &str,
@@ -269,12 +269,12 @@ impl Session {
     /// Announces an output file. The line is withdrawn if the file is not moved into place
     /// (a later statement of the scene fails), so "wrote" is never printed for a file that
     /// does not exist.
-    pub(super) fn wrote(&mut self, path: &std::path::Path) {
+    pub(in crate::scene) fn wrote(&mut self, path: &std::path::Path) {
         self.output.push(format!("wrote {}", path.display()));
         self.staging.announced(self.output.len() - 1);
     }
 
-    pub(super) fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
+    pub(in crate::scene) fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
         match &spec.kind {
             PlotKind::Series(exprs) => {
@@ -384,7 +384,7 @@ impl Session {
     /// runs in order of work. The error is the largest distance of the final coordinates from
     /// those of the reference run, or without one the largest relative energy error along
     /// the run. Without `from`, every run but the reference is drawn.
-    pub(super) fn work_precision(
+    pub(in crate::scene) fn work_precision(
         &mut self,
         reference: Option<&Src>,
         runs: &[Src],
@@ -446,7 +446,7 @@ impl Session {
 
     /// An expression as written, in Unicode (`θ2` → `θ₂`, `θ'` → `θ̇`); the text itself when
     /// it does not parse on its own.
-    pub(super) fn unicode(&mut self, src: &Src) -> String {
+    pub(in crate::scene) fn unicode(&mut self, src: &Src) -> String {
         let text = match self.expr(src) {
             Ok((e, _)) => crate::print::render(&e, Format::Unicode),
             Err(_) => src.text.trim().to_string(),
@@ -455,7 +455,7 @@ impl Session {
     }
 
     /// `run a`, `runs a, b`, or `21 runs of sea on H = 1/8` for an ensemble.
-    pub(super) fn runs_phrase(&self, ids: &[usize]) -> String {
+    pub(in crate::scene) fn runs_phrase(&self, ids: &[usize]) -> String {
         if let Some(g) = self.group_of(ids) {
             return format!("{} runs of {} on {}", ids.len(), g.name, g.level);
         }
@@ -534,7 +534,7 @@ impl Session {
         Ok(Figure::lines(&title, "t", "log₁₀ |Δz|", series))
     }
 
-    pub(super) fn phase_figure(
+    pub(in crate::scene) fn phase_figure(
         &mut self,
         coord: Option<&Src>,
         runs: &[Src],
@@ -641,7 +641,7 @@ impl Session {
         Ok(Figure::phase(&format!("phase portrait of {qs}"), &qs, &vlabel, orbits, contours))
     }
 
-    pub(super) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
+    pub(in crate::scene) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
         let (file, pspan, ext) = self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
         let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
         let text = if symbolic {
@@ -766,7 +766,7 @@ fn plot_default(kind: &PlotKind) -> &'static str {
     }
 }
 
-pub(super) fn csv_field(s: &str) -> String {
+pub(in crate::scene) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
@@ -796,7 +796,7 @@ fn fmt_sig(x: f64) -> String {
 /// The least-squares line `(slope, intercept, t_end)` through `(t, log₁₀ d)` from the start
 /// to the first point within one decade of the largest value; `None` with fewer than three
 /// points there.
-pub(super) fn growth_fit(pts: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+pub(in crate::scene) fn growth_fit(pts: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
     let top = pts.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
     let end = pts.iter().position(|p| p.1 >= top - 1.0)?;
     let window = &pts[..=end];
@@ -816,7 +816,7 @@ pub(super) fn growth_fit(pts: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
 
 /// Digits that end a name become subscripts (`θ2` → `θ₂`, `θ̇1` → `θ̇₁`, `p_θ2` → `p_θ₂`);
 /// numbers standing alone (`0.5`, `2 y`) are left as they are.
-pub(super) fn subscript_indices(s: &str) -> String {
+pub(in crate::scene) fn subscript_indices(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     let mut in_name = false;
     for c in s.chars() {
