@@ -59,6 +59,17 @@ pub enum SimulateError {
         /// The budget.
         limit: f64,
     },
+    /// More kept states than [`super::limits::MAX_STORED_STATES`].
+    #[error("the run would keep {states:.3e} states, more than the limit of {limit}")]
+    TooManyStates {
+        /// States the run would keep.
+        states: f64,
+        /// The limit.
+        limit: usize,
+        /// The smallest `every` that keeps the run within the limit, when stepping is what
+        /// keeps states.
+        every: Option<u64>,
+    },
     /// Equations asked for by name that would leave out part of the system (Hamilton's
     /// equations of `H` without its forces, dissipation or constraints).
     #[error("{equations} leave out the forces, dissipation and constraints of this system")]
@@ -124,6 +135,10 @@ impl SimulateError {
                 Some("write `tol = 1e-14` (DOP853 at 1e-14 is already near the rounding floor)".into())
             }
             SimulateError::TooManySteps { .. } => Some("use a larger `dt` or a shorter time span".into()),
+            SimulateError::TooManyStates { every: Some(k), .. } => {
+                Some(format!("keep fewer states: `every {k}` (or more), or `points N` for N evenly spaced ones"))
+            }
+            SimulateError::TooManyStates { every: None, .. } => Some("ask for fewer sample times".into()),
             SimulateError::DropsTerms { .. } => {
                 Some("use the Lagrangian formulation (W q'' = F, or the augmented system with constraints), which includes them".into())
             }

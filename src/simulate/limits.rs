@@ -12,3 +12,10 @@ pub const MAX_ADAPTIVE_STEPS: usize = 1_000_000;
 /// The most fixed steps a run that sets no budget may take; more is refused before the
 /// first step.
 pub const MAX_FIXED_STEPS: f64 = 1e9;
+
+/// The most states a run may keep when it asks for them (`every N`, `points N`, sample times).
+/// A kept state costs about 230 bytes for a small system (its vector and the time), so this
+/// is about half a gigabyte; more is refused before the first step with the smallest `every`
+/// that fits, where it used to run until the process was killed (10⁸ RK4 steps with
+/// `every 1`: 2.46 GB, then an abort).
+pub const MAX_STORED_STATES: usize = 2_000_000;

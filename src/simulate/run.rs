@@ -10,7 +10,7 @@ use std::sync::Arc;
 use super::compiled::{check_constrained_start, Compiled, CompiledSystem};
 use super::energy::{EnergyCheck, Ledger};
 use super::error::SimulateError;
-pub use super::limits::{MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS};
+pub use super::limits::{MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS, MAX_STORED_STATES};
 use super::method::{Family, MethodId, Needs, Scheme};
 use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
@@ -157,7 +157,32 @@ impl RunOptions {
         if let Sampling::Every(0) | Sampling::AtMost(0) = self.sampling {
             return Err(SimulateError::InvalidRun("keep at least every step (every ≥ 1, at most ≥ 2 states)".into()));
         }
-        Ok(())
+        self.check_stored_states()
+    }
+
+    /// Refuses a run that would keep more than [`MAX_STORED_STATES`] states, before the first
+    /// step: a fixed-step run's count is known from its span, an adaptive run's is bounded by
+    /// its step budget.
+    fn check_stored_states(&self) -> Result<(), SimulateError> {
+        let limit = MAX_STORED_STATES;
+        let too_many = |states: f64, every: Option<u64>| Err(SimulateError::TooManyStates { states, limit, every });
+        match &self.sampling {
+            Sampling::Times(times) if times.len() > limit => too_many(times.len() as f64, None),
+            Sampling::AtMost(n) if *n > limit => too_many(*n as f64, None),
+            Sampling::Every(k) => {
+                let steps = match self.dt {
+                    Some(h) => ((self.t1 - self.t0) / h).abs().ceil(),
+                    None => self.budget() as f64,
+                };
+                let states = steps / *k as f64;
+                if states > limit as f64 {
+                    too_many(states, Some((steps / limit as f64).ceil() as u64))
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Ok(()),
+        }
     }
 
     fn budget(&self) -> usize {

@@ -496,6 +496,8 @@ impl Session {
         let energy = check.as_ref().ok().map(|(_, c)| c.clone());
         options.events = events;
         options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
+        // Again with the sampling: what it keeps must fit (`every 1` over 10⁸ steps does not).
+        options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
         options.energy = energy;
         let run = RunRequest { y0, options };
         let template = RunResult {
@@ -802,6 +804,7 @@ fn run_option_error(e: SimulateError, spec: &SimSpec, stmt: Span) -> SceneError 
         }
         SimulateError::ToleranceBelowFloor { .. } => (ErrorKind::BadNumber, at(&spec.tol), Some("too small")),
         SimulateError::TooManySteps { .. } => (ErrorKind::BadNumber, at(&spec.dt), None),
+        SimulateError::TooManyStates { .. } => (ErrorKind::BadNumber, at(&spec.every), Some("too many states to keep")),
         _ => (ErrorKind::BadNumber, stmt, None),
     };
     let mut err = SceneError::new(kind, e.to_string()).at(span);

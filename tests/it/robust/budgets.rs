@@ -198,3 +198,27 @@ fn chaos_samples_are_thinned_evenly_to_their_budget() {
     assert_eq!(thin.samples.last(), full.samples.last());
     assert_eq!(thin.samples.last().unwrap().t, 2000.0);
 }
+
+/// `every 1` over 10⁸ fixed steps would keep 10⁸ states (it used to run until the address
+/// space ran out): refused before the first step, at `every`, with the smallest `every` that
+/// fits (10⁸ / 2·10⁶ = 50). Within the limit the same run is accepted and keeps every state.
+#[test]
+fn keeping_more_states_than_memory_allows_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |span: &str| {
+        format!(
+            "coordinates x\nL = 1/2 x'^2 - 1/2 x^2\nsimulate x = 1, x' = 0 for t in 0..{span} with rk4 dt = 1 every 1 as r\nexport from r to r.csv\n"
+        )
+    };
+    let path = dir.path().join("every.scene");
+    std::fs::write(&path, scene("1e8")).unwrap();
+    let r = run_capped(&["run", path.to_str().unwrap()], Some(dir.path()), Duration::from_secs(20));
+    assert_eq!(r.code, Some(2), "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("would keep 1.000e8 states") && r.stderr.contains("`every 50`"), "{}", r.stderr);
+    assert!(!dir.path().join("r.csv").exists());
+    std::fs::write(&path, scene("1000")).unwrap();
+    let r = run_capped(&["run", path.to_str().unwrap()], Some(dir.path()), Duration::from_secs(20));
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let rows = std::fs::read_to_string(dir.path().join("r.csv")).unwrap().lines().count();
+    assert_eq!(rows, 1 + 1001, "a header and every step from t = 0 to 1000");
+}
