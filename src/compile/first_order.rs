@@ -12,8 +12,8 @@
 use crate::expr::Expr;
 use crate::integrate::{Rhs, RhsError};
 
+use super::error::CompileError;
 use super::tape::{CompileOptions, Tape};
-use super::CompileError;
 
 /// The largest number of phase-space variables the stack solve takes.
 pub const MAX_FIRST_ORDER_DIM: usize = 16;

@@ -15,9 +15,10 @@ use crate::diff::Differentiator;
 use crate::expr::{Expr, Node, Symbol};
 use crate::integrate::{Jacobian, Rhs, RhsError as StepError, Separable};
 
-use super::native::{Epilogue, NativeCode};
+use super::error::CompileError;
 use super::tape::{with_scratch, CompileOptions, Tape, LANES};
-use super::{velocity_name, CompileError};
+use super::tape::{Epilogue, NativeCode};
+use super::velocity_name;
 
 /// Why a right-hand side has no value at a state.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
