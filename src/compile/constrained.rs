@@ -29,8 +29,9 @@ use crate::expr::{Expr, Symbol};
 use crate::integrate::{Jacobian, Method, MethodInfo, Rhs, RhsError as StepError, StepFailure};
 
 use super::error::CompileError;
-use super::rhs::{factor, solve, state_inputs, RhsError};
+use super::rhs::{state_inputs, RhsError};
 use super::tape::{CompileOptions, Tape};
+use crate::linalg::{factor, solve};
 
 /// How a constrained right-hand side keeps the solution on the constraint manifold.
 #[derive(Clone, Copy, Debug, PartialEq)]

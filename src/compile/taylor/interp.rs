@@ -363,8 +363,8 @@ fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_l
     }
     s
 }
-/// Solves `L Lᵀ x = b` in place (`x` holds `b`) with the factor `L` of `rhs::factor` and its
-/// diagonal's reciprocals `inv`: `rhs::solve`'s substitutions with multiplications where it
+/// Solves `L Lᵀ x = b` in place (`x` holds `b`) with the factor `L` of `linalg::factor` and its
+/// diagonal's reciprocals `inv`: `linalg::solve`'s substitutions with multiplications where it
 /// divides. Each order of a `W q'' = F` expansion runs one solve on its dependency chain from
 /// one order to the next, and the `2n` divisions (13 cycles or more each) were most of that
 /// chain's latency. The whole native expansion does the same operations (the same bits).

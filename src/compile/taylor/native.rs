@@ -33,7 +33,7 @@ pub(crate) struct Expansion {
     pub len: usize,
 }
 /// Order `k` of the accelerations `a` of `W q'' = F`, from `W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`
-/// with `W₀ = L Lᵀ` factored at order 0 (by `rhs::factor`, in the buffer after the rows). The
+/// with `W₀ = L Lᵀ` factored at order 0 (by `linalg::factor`, in the buffer after the rows). The
 /// accelerations are rows `acc_row + l` of the buffer.
 pub(crate) struct CholeskySolve {
     pub n: usize,
@@ -926,7 +926,7 @@ impl TaylorEmitter<'_, '_> {
     }
 
     /// Order 0 of `W q'' = F`: the Cholesky factor `L` of `W₀` into the buffer at
-    /// `factor_at`, operation for operation as `rhs::factor` (so the bits are the
+    /// `factor_at`, operation for operation as `linalg::factor` (so the bits are the
     /// interpreter's), and a flag (`i8`) set when an entry of `W₀` is not finite or a pivot is
     /// at most `n ε max|W₀|`: then the interpreter redoes the expansion, which factors by LU
     /// or reports the error. The code runs on regardless (one straight-line block), on

@@ -12,9 +12,9 @@ use super::native::Ran;
 use super::tiers::NativeCache;
 use super::TaylorTape;
 use crate::compile::error::CompileError;
-use crate::compile::rhs::{factor, solve, Factor};
 use crate::compile::tape::Tape;
 use crate::compile::{HamiltonianRhs, LagrangianRhs};
+use crate::linalg::{factor, solve, Factor};
 
 /// Why a Taylor expansion has no value.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
