@@ -150,7 +150,7 @@ pub struct CompileOptions {
     /// Compile the tape to machine code (Cranelift) when the host allows it, and evaluate it
     /// there; the interpreter remains the fallback when it does not. The native code computes
     /// the same bits as the interpreter. On by default unless the environment variable
-    /// [`NO_JIT_ENV`](super::NO_JIT_ENV) is set (to anything but `0`).
+    /// [`NO_JIT_ENV`](crate::compile::NO_JIT_ENV) is set (to anything but `0`).
     pub native: bool,
 }
 impl Default for CompileOptions {

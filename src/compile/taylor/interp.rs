@@ -12,7 +12,7 @@ pub struct KinkAt;
 impl TaylorTape {
     /// Whether the argument of some `abs` changes sign between the expansion point and `h`
     /// (its polynomial, orders `0..=order` of a buffer filled by [`TaylorTape::expand`] or
-    /// [`TaylorOde::expand`], evaluated at `h`): the series is then not the solution there.
+    /// [`TaylorOde::expand`](super::TaylorOde::expand), evaluated at `h`): the series is then not the solution there.
     pub fn kink_within(&self, c: &[f64], stride: usize, order: usize, h: f64) -> bool {
         self.abs_args.iter().any(|&r| {
             let row = &c[r as usize * stride..r as usize * stride + order + 1];
@@ -50,7 +50,6 @@ impl TaylorTape {
         // which do not wait for order `k` of anything.
         let s = stride;
         let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
-        let rk = 1.0 / k as f64;
         // Writes order `k` of row `r` and, if it has one, of its weighted row.
         let put = |c: &mut [f64], r: u32, v: f64| {
             c[r as usize * s + k] = v;
@@ -102,90 +101,18 @@ impl TaylorTape {
                     let v = (at(c, a, k) - acc) * (1.0 / (2.0 * rd[0]));
                     put(c, d, v);
                 }
-                Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
-                    let (wa, rs, rc) = (self.weighted_of(c, s, a), row(c, si, s), row(c, co, s));
-                    let sv = weighted(wa, rc, k) * rk;
-                    let cv = weighted(wa, rs, k) * rk;
-                    let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
-                    put(c, si, sv);
-                    let v = sign * cv;
-                    put(c, co, v);
-                }
-                Op::Exp { d, a } => {
-                    let (wa, rd) = (self.weighted_of(c, s, a), row(c, d, s));
-                    let v = weighted(wa, rd, k) * rk;
-                    put(c, d, v);
-                }
-                Op::Log { d, a } => {
-                    // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
-                    let (ra, wd) = (row(c, a, s), self.weighted_of(c, s, d));
-                    let acc = weighted_short(wd, ra, k);
-                    let v = (ra[k] - acc * rk) * (1.0 / ra[0]);
-                    put(c, d, v);
-                }
-                Op::Tan { d, a, u, hyp } => {
-                    let (wa, ru) = (self.weighted_of(c, s, a), row(c, u, s));
-                    let dv = weighted(wa, ru, k) * rk;
-                    put(c, d, dv);
-                    let sq = square(row(c, d, s), k);
-                    let v = if hyp { -sq } else { sq };
-                    put(c, u, v);
-                }
-                Op::Asin { d, a, r, neg } => {
-                    // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
-                    let (ra, rr) = (row(c, a, s), row(c, r, s));
-                    let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
-                    // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
-                    let wd = self.weighted_of(c, s, d);
-                    let ak = if neg { -ra[k] } else { ra[k] };
-                    let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
-                    put(c, r, rv);
-                    put(c, d, dv);
-                }
-                Op::Atan { d, a, u } => {
-                    let (ra, ru) = (row(c, a, s), row(c, u, s));
-                    let uv = square(ra, k);
-                    let wd = self.weighted_of(c, s, d);
-                    let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
-                    put(c, u, uv);
-                    put(c, d, dv);
-                }
-                Op::Atan2 { d, a, b, u } => {
-                    let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
-                    let uv = square(ra, k) + square(rb, k);
-                    // u d' = b a' − a b'.
-                    let (wa, wb) = (self.weighted_of(c, s, a), self.weighted_of(c, s, b));
-                    let num = weighted(wa, rb, k) - weighted(wb, ra, k);
-                    let wd = self.weighted_of(c, s, d);
-                    let dv = (num - weighted_short(wd, ru, k)) * (1.0 / (k as f64 * ru[0]));
-                    put(c, u, uv);
-                    put(c, d, dv);
-                }
-                // `higher_order_ops` turns roots and constant powers into `Power`; these two arms
-                // keep `run_order` right for any tape.
-                Op::Root { d, a, q } => {
-                    let v = constant_power(row(c, a, s), row(c, d, s), 1.0 / f64::from(q), k);
-                    put(c, d, v);
-                }
-                Op::PowConst { d, a, e } => {
-                    let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
-                    put(c, d, v);
-                }
-                Op::Power { d, a, e } => {
-                    let v = constant_power(row(c, a, s), row(c, d, s), e, k);
-                    put(c, d, v);
-                }
-                Op::PowVar { d, a, b, l, m } => {
-                    let (ra, wl) = (row(c, a, s), self.weighted_of(c, s, l));
-                    let lv = (ra[k] - weighted_short(wl, ra, k) * rk) * (1.0 / ra[0]);
-                    put(c, l, lv);
-                    let (rb, rl) = (row(c, b, s), row(c, l, s));
-                    let v = cauchy(rb, rl, k);
-                    put(c, m, v);
-                    let (wm, rd) = (self.weighted_of(c, s, m), row(c, d, s));
-                    let v = weighted(wm, rd, k) * rk;
-                    put(c, d, v);
-                }
+                Op::SinCos { .. }
+                | Op::SinhCosh { .. }
+                | Op::Exp { .. }
+                | Op::Log { .. }
+                | Op::Tan { .. }
+                | Op::Asin { .. }
+                | Op::Atan { .. }
+                | Op::Atan2 { .. }
+                | Op::Root { .. }
+                | Op::PowConst { .. }
+                | Op::Power { .. }
+                | Op::PowVar { .. } => self.function_order(op, c, s, k),
                 Op::Abs { d, a } => {
                     let (a0, ak) = (at(c, a, 0), at(c, a, k));
                     let v = if a0 > 0.0 {
@@ -202,6 +129,116 @@ impl TaylorTape {
             }
         }
         Ok(())
+    }
+
+    /// Order `k` of a function's recurrence (the operations `run_order` leaves to it), with
+    /// `run_order`'s reciprocals and writes.
+    #[inline(always)]
+    fn function_order(&self, op: &Op, c: &mut [f64], s: usize, k: usize) {
+        let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
+        let rk = 1.0 / k as f64;
+        let put = |c: &mut [f64], r: u32, v: f64| {
+            c[r as usize * s + k] = v;
+            if let Some(w) = self.weighted[r as usize] {
+                c[w as usize * s + k] = v * k as f64;
+            }
+        };
+        match *op {
+            Op::SinCos { s: si, c: co, a } | Op::SinhCosh { s: si, c: co, a } => {
+                let (wa, rs, rc) = (self.weighted_of(c, s, a), row(c, si, s), row(c, co, s));
+                let sv = weighted(wa, rc, k) * rk;
+                let cv = weighted(wa, rs, k) * rk;
+                let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
+                put(c, si, sv);
+                let v = sign * cv;
+                put(c, co, v);
+            }
+            Op::Exp { d, a } => {
+                let (wa, rd) = (self.weighted_of(c, s, a), row(c, d, s));
+                let v = weighted(wa, rd, k) * rk;
+                put(c, d, v);
+            }
+            Op::Log { d, a } => {
+                // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
+                let (ra, wd) = (row(c, a, s), self.weighted_of(c, s, d));
+                let acc = weighted_short(wd, ra, k);
+                let v = (ra[k] - acc * rk) * (1.0 / ra[0]);
+                put(c, d, v);
+            }
+            Op::Tan { d, a, u, hyp } => {
+                let (wa, ru) = (self.weighted_of(c, s, a), row(c, u, s));
+                let dv = weighted(wa, ru, k) * rk;
+                put(c, d, dv);
+                let sq = square(row(c, d, s), k);
+                let v = if hyp { -sq } else { sq };
+                put(c, u, v);
+            }
+            Op::Asin { d, a, r, neg } => {
+                // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
+                let (ra, rr) = (row(c, a, s), row(c, r, s));
+                let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
+                // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
+                let wd = self.weighted_of(c, s, d);
+                let ak = if neg { -ra[k] } else { ra[k] };
+                let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
+                put(c, r, rv);
+                put(c, d, dv);
+            }
+            Op::Atan { d, a, u } => {
+                let (ra, ru) = (row(c, a, s), row(c, u, s));
+                let uv = square(ra, k);
+                let wd = self.weighted_of(c, s, d);
+                let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
+                put(c, u, uv);
+                put(c, d, dv);
+            }
+            Op::Atan2 { d, a, b, u } => {
+                let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
+                let uv = square(ra, k) + square(rb, k);
+                // u d' = b a' − a b'.
+                let (wa, wb) = (self.weighted_of(c, s, a), self.weighted_of(c, s, b));
+                let num = weighted(wa, rb, k) - weighted(wb, ra, k);
+                let wd = self.weighted_of(c, s, d);
+                let dv = (num - weighted_short(wd, ru, k)) * (1.0 / (k as f64 * ru[0]));
+                put(c, u, uv);
+                put(c, d, dv);
+            }
+            // `higher_order_ops` turns roots and constant powers into `Power`; these two arms
+            // keep `run_order` right for any tape.
+            Op::Root { d, a, q } => {
+                let v = constant_power(row(c, a, s), row(c, d, s), 1.0 / f64::from(q), k);
+                put(c, d, v);
+            }
+            Op::PowConst { d, a, e } => {
+                let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
+                put(c, d, v);
+            }
+            Op::Power { d, a, e } => {
+                let v = constant_power(row(c, a, s), row(c, d, s), e, k);
+                put(c, d, v);
+            }
+            Op::PowVar { d, a, b, l, m } => {
+                let (ra, wl) = (row(c, a, s), self.weighted_of(c, s, l));
+                let lv = (ra[k] - weighted_short(wl, ra, k) * rk) * (1.0 / ra[0]);
+                put(c, l, lv);
+                let (rb, rl) = (row(c, b, s), row(c, l, s));
+                let v = cauchy(rb, rl, k);
+                put(c, m, v);
+                let (wm, rd) = (self.weighted_of(c, s, m), row(c, d, s));
+                let v = weighted(wm, rd, k) * rk;
+                put(c, d, v);
+            }
+            Op::Add { .. }
+            | Op::Sub { .. }
+            | Op::Neg { .. }
+            | Op::Scale { .. }
+            | Op::Weigh { .. }
+            | Op::Mul { .. }
+            | Op::Sqr { .. }
+            | Op::Div { .. }
+            | Op::Sqrt { .. }
+            | Op::Abs { .. } => unreachable!("`run_order` runs the arithmetic and `abs` itself"),
+        }
     }
 
     /// Order 0: the interpreter's operations, plus the auxiliary rows.
@@ -270,7 +307,7 @@ impl TaylorTape {
 
     /// Fills orders `0..=order` of every row, with the inputs' coefficients given by
     /// `inputs(k, c)` (called before order `k` is computed, to write order `k` of the inputs).
-    /// For functions of time alone and tests; ODEs use [`TaylorOde`].
+    /// For functions of time alone and tests; ODEs use [`TaylorOde`](super::TaylorOde).
     pub fn expand(
         &self,
         c: &mut [f64],

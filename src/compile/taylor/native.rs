@@ -1317,113 +1317,18 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.times_recip(num, den);
                     self.put(d, v);
                 }
-                Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
-                    let w = self.weighted(a, c);
-                    let sv = self.times_rk(w);
-                    let w = self.weighted(a, s);
-                    let cv = self.times_rk(w);
-                    self.put(s, sv);
-                    let cv = if matches!(op, Op::SinCos { .. }) {
-                        let m = self.c(-1.0);
-                        self.b.ins().fmul(cv, m)
-                    } else {
-                        cv
-                    };
-                    self.put(c, cv);
-                }
-                Op::Exp { d, a } => {
-                    let w = self.weighted(a, d);
-                    let v = self.times_rk(w);
-                    self.put(d, v);
-                }
-                Op::Log { d, a } => {
-                    let acc = self.weighted_short(d, a);
-                    let q = self.times_rk(acc);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.coef(a, zero);
-                    let v = self.times_recip(num, a0);
-                    self.put(d, v);
-                }
-                Op::Tan { d, a, u, hyp } => {
-                    let w = self.weighted(a, u);
-                    let dv = self.times_rk(w);
-                    self.put(d, dv);
-                    let sq = self.square(d);
-                    let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
-                    self.put(u, uv);
-                }
-                Op::Asin { d, a, r, neg } => {
-                    let sq = self.square(a);
-                    let nsq = self.b.ins().fneg(sq);
-                    let inner = self.square_inner(r);
-                    let num = self.b.ins().fsub(nsq, inner);
-                    let two = self.c(2.0);
-                    let r0 = self.coef(r, zero);
-                    let den = self.b.ins().fmul(r0, two);
-                    let rv = self.times_recip(num, den);
-                    let ak = self.coef(a, k);
-                    let ak = if neg { self.b.ins().fneg(ak) } else { ak };
-                    let w = self.weighted_short(d, r);
-                    let q = self.times_rk(w);
-                    let num = self.b.ins().fsub(ak, q);
-                    let dv = self.times_recip(num, r0);
-                    self.put(r, rv);
-                    self.put(d, dv);
-                }
-                Op::Atan { d, a, u } => {
-                    let uv = self.square(a);
-                    let w = self.weighted_short(d, u);
-                    let q = self.times_rk(w);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let u0 = self.coef(u, zero);
-                    let dv = self.times_recip(num, u0);
-                    self.put(u, uv);
-                    self.put(d, dv);
-                }
-                Op::Atan2 { d, a, b, u } => {
-                    let x = self.square(a);
-                    let y = self.square(b);
-                    let uv = self.b.ins().fadd(x, y);
-                    let x = self.weighted(a, b);
-                    let y = self.weighted(b, a);
-                    let num = self.b.ins().fsub(x, y);
-                    let w = self.weighted_short(d, u);
-                    let num = self.b.ins().fsub(num, w);
-                    let kf = self.kf();
-                    let u0 = self.coef(u, zero);
-                    let den = self.b.ins().fmul(u0, kf);
-                    let dv = self.times_recip(num, den);
-                    self.put(u, uv);
-                    self.put(d, dv);
-                }
-                Op::Root { d, a, q } => {
-                    let v = self.constant_power(a, d, 1.0 / f64::from(q));
-                    self.put(d, v);
-                }
-                Op::PowConst { d, a, e } => {
-                    let v = self.constant_power(a, d, tape.row_constant(e)?);
-                    self.put(d, v);
-                }
-                Op::Power { d, a, e } => {
-                    let v = self.constant_power(a, d, e);
-                    self.put(d, v);
-                }
-                Op::PowVar { d, a, b, l, m } => {
-                    let w = self.weighted_short(l, a);
-                    let q = self.times_rk(w);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.coef(a, zero);
-                    let lv = self.times_recip(num, a0);
-                    self.put(l, lv);
-                    let mv = self.cauchy(b, l);
-                    self.put(m, mv);
-                    let w = self.weighted(m, d);
-                    let dv = self.times_rk(w);
-                    self.put(d, dv);
-                }
+                Op::SinCos { .. }
+                | Op::SinhCosh { .. }
+                | Op::Exp { .. }
+                | Op::Log { .. }
+                | Op::Tan { .. }
+                | Op::Asin { .. }
+                | Op::Atan { .. }
+                | Op::Atan2 { .. }
+                | Op::Root { .. }
+                | Op::PowConst { .. }
+                | Op::Power { .. }
+                | Op::PowVar { .. } => self.function_order(op)?,
                 Op::Abs { d, a } => {
                     // a₀ > 0: a_k; a₀ < 0: −a_k; otherwise (0 or NaN) 0 if a_k == 0, else a kink.
                     let (a0, ak) = (self.coef(a, zero), self.coef(a, k));
@@ -1442,5 +1347,131 @@ impl TaylorEmitter<'_, '_> {
             }
         }
         Some(kink)
+    }
+
+    /// Order `k` of a function's recurrence (the operations `order` leaves to it); `None` when
+    /// a constant exponent's row has no constant.
+    fn function_order(&mut self, op: &Op) -> Option<()> {
+        let (k, zero) = (Ix::K, Ix::at(0));
+        match *op {
+            Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
+                let w = self.weighted(a, c);
+                let sv = self.times_rk(w);
+                let w = self.weighted(a, s);
+                let cv = self.times_rk(w);
+                self.put(s, sv);
+                let cv = if matches!(op, Op::SinCos { .. }) {
+                    let m = self.c(-1.0);
+                    self.b.ins().fmul(cv, m)
+                } else {
+                    cv
+                };
+                self.put(c, cv);
+            }
+            Op::Exp { d, a } => {
+                let w = self.weighted(a, d);
+                let v = self.times_rk(w);
+                self.put(d, v);
+            }
+            Op::Log { d, a } => {
+                let acc = self.weighted_short(d, a);
+                let q = self.times_rk(acc);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let a0 = self.coef(a, zero);
+                let v = self.times_recip(num, a0);
+                self.put(d, v);
+            }
+            Op::Tan { d, a, u, hyp } => {
+                let w = self.weighted(a, u);
+                let dv = self.times_rk(w);
+                self.put(d, dv);
+                let sq = self.square(d);
+                let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
+                self.put(u, uv);
+            }
+            Op::Asin { d, a, r, neg } => {
+                let sq = self.square(a);
+                let nsq = self.b.ins().fneg(sq);
+                let inner = self.square_inner(r);
+                let num = self.b.ins().fsub(nsq, inner);
+                let two = self.c(2.0);
+                let r0 = self.coef(r, zero);
+                let den = self.b.ins().fmul(r0, two);
+                let rv = self.times_recip(num, den);
+                let ak = self.coef(a, k);
+                let ak = if neg { self.b.ins().fneg(ak) } else { ak };
+                let w = self.weighted_short(d, r);
+                let q = self.times_rk(w);
+                let num = self.b.ins().fsub(ak, q);
+                let dv = self.times_recip(num, r0);
+                self.put(r, rv);
+                self.put(d, dv);
+            }
+            Op::Atan { d, a, u } => {
+                let uv = self.square(a);
+                let w = self.weighted_short(d, u);
+                let q = self.times_rk(w);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let u0 = self.coef(u, zero);
+                let dv = self.times_recip(num, u0);
+                self.put(u, uv);
+                self.put(d, dv);
+            }
+            Op::Atan2 { d, a, b, u } => {
+                let x = self.square(a);
+                let y = self.square(b);
+                let uv = self.b.ins().fadd(x, y);
+                let x = self.weighted(a, b);
+                let y = self.weighted(b, a);
+                let num = self.b.ins().fsub(x, y);
+                let w = self.weighted_short(d, u);
+                let num = self.b.ins().fsub(num, w);
+                let kf = self.kf();
+                let u0 = self.coef(u, zero);
+                let den = self.b.ins().fmul(u0, kf);
+                let dv = self.times_recip(num, den);
+                self.put(u, uv);
+                self.put(d, dv);
+            }
+            Op::Root { d, a, q } => {
+                let v = self.constant_power(a, d, 1.0 / f64::from(q));
+                self.put(d, v);
+            }
+            Op::PowConst { d, a, e } => {
+                let v = self.constant_power(a, d, self.tape.row_constant(e)?);
+                self.put(d, v);
+            }
+            Op::Power { d, a, e } => {
+                let v = self.constant_power(a, d, e);
+                self.put(d, v);
+            }
+            Op::PowVar { d, a, b, l, m } => {
+                let w = self.weighted_short(l, a);
+                let q = self.times_rk(w);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let a0 = self.coef(a, zero);
+                let lv = self.times_recip(num, a0);
+                self.put(l, lv);
+                let mv = self.cauchy(b, l);
+                self.put(m, mv);
+                let w = self.weighted(m, d);
+                let dv = self.times_rk(w);
+                self.put(d, dv);
+            }
+            Op::Add { .. }
+            | Op::Sub { .. }
+            | Op::Neg { .. }
+            | Op::Scale { .. }
+            | Op::Weigh { .. }
+            | Op::Mul { .. }
+            | Op::Sqr { .. }
+            | Op::Div { .. }
+            | Op::Sqrt { .. }
+            | Op::Abs { .. } => unreachable!("`order` emits the arithmetic and `abs` itself"),
+        }
+        Some(())
     }
 }
