@@ -43,6 +43,7 @@ pub mod diff;
 pub mod eval;
 pub mod expr;
 pub mod integrate;
+mod linalg;
 pub mod mechanics;
 pub mod parse;
 #[cfg(feature = "frontends")]

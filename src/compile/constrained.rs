@@ -28,9 +28,10 @@ use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::integrate::{Jacobian, Method, MethodInfo, Rhs, RhsError as StepError, StepFailure};
 
-use super::rhs::{factor, solve, state_inputs, RhsError};
+use super::error::CompileError;
+use super::rhs::{state_inputs, RhsError};
 use super::tape::{CompileOptions, Tape};
-use super::CompileError;
+use crate::linalg::{factor, solve};
 
 /// How a constrained right-hand side keeps the solution on the constraint manifold.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -15,9 +15,10 @@ use crate::mechanics::Discrete;
 
 use crate::integrate::{FailureReason, Method, MethodInfo, StepFailure};
 
-use super::first_order::{solve_in_place, MAX_FIRST_ORDER_DIM};
+use super::error::CompileError;
+use super::first_order::MAX_FIRST_ORDER_DIM;
 use super::tape::Tape;
-use super::CompileError;
+use crate::linalg::solve_in_place;
 
 /// The name of the step among the compiled inputs.
 const STEP_INPUT: &str = "h__step";

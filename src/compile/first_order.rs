@@ -12,8 +12,9 @@
 use crate::expr::Expr;
 use crate::integrate::{Rhs, RhsError};
 
+use super::error::CompileError;
 use super::tape::{CompileOptions, Tape};
-use super::CompileError;
+use crate::linalg::solve_in_place;
 
 /// The largest number of phase-space variables the stack solve takes.
 pub const MAX_FIRST_ORDER_DIM: usize = 16;
@@ -93,48 +94,6 @@ impl FirstOrderRhs {
     }
 }
 
-/// Solves `a x = b` in place (`x` into `b`) by Gaussian elimination with partial pivoting.
-/// A pivot no larger than `n·ε·max|a_ij|` is a degenerate matrix; the error is its column.
-pub(super) fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(), usize> {
-    let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
-    let tol = n as f64 * f64::EPSILON * scale;
-    for j in 0..n {
-        let mut piv = j;
-        for i in j + 1..n {
-            if a[i * n + j].abs() > a[piv * n + j].abs() {
-                piv = i;
-            }
-        }
-        if a[piv * n + j].abs() <= tol || scale == 0.0 {
-            return Err(j);
-        }
-        if piv != j {
-            for k in 0..n {
-                a.swap(j * n + k, piv * n + k);
-            }
-            b.swap(j, piv);
-        }
-        let d = a[j * n + j];
-        for i in j + 1..n {
-            let f = a[i * n + j] / d;
-            if f != 0.0 {
-                for k in j..n {
-                    a[i * n + k] -= f * a[j * n + k];
-                }
-                b[i] -= f * b[j];
-            }
-        }
-    }
-    for j in (0..n).rev() {
-        let mut x = b[j];
-        for k in j + 1..n {
-            x -= a[j * n + k] * b[k];
-        }
-        b[j] = x / a[j * n + j];
-    }
-    Ok(())
-}
-
 impl Rhs for FirstOrderRhs {
     fn dim(&self) -> usize {
         self.n
@@ -209,22 +168,5 @@ impl FirstOrderRhs {
         let n = self.n;
         let (z, v) = y.split_at_mut(n);
         self.try_eval(t, z, &mut v[..n])
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::solve_in_place;
-
-    #[test]
-    fn solves_and_reports_the_degenerate_column() {
-        // [[0, -1], [1, 0]] x = [3, 4] → x = [4, -3].
-        let mut a = [0.0, -1.0, 1.0, 0.0];
-        let mut b = [3.0, 4.0];
-        solve_in_place(&mut a, &mut b, 2).unwrap();
-        assert_eq!(b, [4.0, -3.0]);
-        let mut a = [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        let mut b = [1.0, 1.0, 1.0];
-        assert_eq!(solve_in_place(&mut a, &mut b, 3), Err(2));
     }
 }

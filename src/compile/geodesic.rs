@@ -15,7 +15,7 @@ use crate::eval::eval_with;
 use crate::integrate::{Dop853, FailureReason, Integrate, IntegrateError, Options};
 use crate::mechanics::Geodesic;
 
-use super::first_order::solve_in_place;
+use crate::linalg::{determinant, solve_in_place};
 
 /// Why a shooting solution was not found.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -145,7 +145,7 @@ pub fn shoot_with(
             scale = scale.max(m[i * n + j].abs());
         }
     }
-    let det = det_numeric(&m, n);
+    let det = determinant(&m, n);
     if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(n as i32) {
         return Err(ShootError::SingularMetric { point: from.to_vec(), det });
     }
@@ -242,30 +242,4 @@ fn sample(
         out.push((t1, y[..n].to_vec()));
     }
     Ok(out)
-}
-
-/// The determinant of a small row-major matrix by elimination with partial pivoting.
-fn det_numeric(m: &[f64], n: usize) -> f64 {
-    let mut a = m.to_vec();
-    let mut det = 1.0;
-    for j in 0..n {
-        let piv = (j..n).max_by(|&x, &y| a[x * n + j].abs().total_cmp(&a[y * n + j].abs())).unwrap_or(j);
-        if a[piv * n + j] == 0.0 {
-            return 0.0;
-        }
-        if piv != j {
-            for k in 0..n {
-                a.swap(j * n + k, piv * n + k);
-            }
-            det = -det;
-        }
-        det *= a[j * n + j];
-        for i in j + 1..n {
-            let f = a[i * n + j] / a[j * n + j];
-            for k in j..n {
-                a[i * n + k] -= f * a[j * n + k];
-            }
-        }
-    }
-    det
 }

@@ -14,10 +14,12 @@ use std::sync::Mutex;
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Node, Symbol};
 use crate::integrate::{Jacobian, Rhs, RhsError as StepError, Separable};
+use crate::linalg::{factor, solve, Factor};
 
-use super::native::{Epilogue, NativeCode};
+use super::error::CompileError;
 use super::tape::{with_scratch, CompileOptions, Tape, LANES};
-use super::{velocity_name, CompileError};
+use super::tape::{Epilogue, NativeCode};
+use super::velocity_name;
 
 /// Why a right-hand side has no value at a state.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -64,129 +66,6 @@ impl ErrorSlot {
     }
     fn take(&self) -> Option<RhsError> {
         self.0.lock().ok().and_then(|mut g| g.take())
-    }
-}
-
-/// How a matrix was factorised in place.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Factor {
-    /// `A = L Lᵀ`, `L` in the lower triangle.
-    Cholesky,
-    /// `P A = L U` with unit `L` below the diagonal, `U` on and above, `perm` the row order.
-    Lu,
-}
-
-/// Factorises the `n × n` row-major matrix `a` into `m`: Cholesky when `try_cholesky` and the
-/// matrix is positive definite, otherwise LU with partial pivoting. `perm` receives the row
-/// order (as `f64`, exact for any realistic `n`). A pivot no larger than `n·ε·max|a_ij|` means
-/// singular to working precision; the error carries the column of the failing pivot.
-pub(crate) fn factor(
-    a: &[f64],
-    m: &mut [f64],
-    perm: &mut [f64],
-    n: usize,
-    try_cholesky: bool,
-) -> Result<Factor, usize> {
-    let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
-    let tol = n as f64 * f64::EPSILON * scale;
-    if try_cholesky {
-        m[..n * n].copy_from_slice(&a[..n * n]);
-        let mut ok = true;
-        'outer: for j in 0..n {
-            let mut d = m[j * n + j];
-            for k in 0..j {
-                d -= m[j * n + k] * m[j * n + k];
-            }
-            if d <= tol {
-                ok = false;
-                break 'outer;
-            }
-            let l = d.sqrt();
-            m[j * n + j] = l;
-            for i in j + 1..n {
-                let mut x = m[i * n + j];
-                for k in 0..j {
-                    x -= m[i * n + k] * m[j * n + k];
-                }
-                m[i * n + j] = x / l;
-            }
-        }
-        if ok {
-            return Ok(Factor::Cholesky);
-        }
-    }
-    m[..n * n].copy_from_slice(&a[..n * n]);
-    for (i, p) in perm.iter_mut().enumerate().take(n) {
-        *p = i as f64;
-    }
-    for j in 0..n {
-        let mut piv = j;
-        for i in j + 1..n {
-            if m[i * n + j].abs() > m[piv * n + j].abs() {
-                piv = i;
-            }
-        }
-        if m[piv * n + j].abs() <= tol {
-            return Err(j);
-        }
-        if piv != j {
-            for k in 0..n {
-                m.swap(j * n + k, piv * n + k);
-            }
-            perm.swap(j, piv);
-        }
-        let d = m[j * n + j];
-        for i in j + 1..n {
-            let f = m[i * n + j] / d;
-            m[i * n + j] = f;
-            for k in j + 1..n {
-                m[i * n + k] -= f * m[j * n + k];
-            }
-        }
-    }
-    Ok(Factor::Lu)
-}
-
-/// Solves with a factorisation from [`factor`]: `x` holds the right-hand side on entry and the
-/// solution on exit; `tmp` is `n` values of workspace.
-pub(crate) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
-    match kind {
-        Factor::Cholesky => {
-            for i in 0..n {
-                let mut v = x[i];
-                for k in 0..i {
-                    v -= m[i * n + k] * x[k];
-                }
-                x[i] = v / m[i * n + i];
-            }
-            for i in (0..n).rev() {
-                let mut v = x[i];
-                for k in i + 1..n {
-                    v -= m[k * n + i] * x[k];
-                }
-                x[i] = v / m[i * n + i];
-            }
-        }
-        Factor::Lu => {
-            for i in 0..n {
-                tmp[i] = x[perm[i] as usize];
-            }
-            for i in 0..n {
-                let mut v = tmp[i];
-                for k in 0..i {
-                    v -= m[i * n + k] * tmp[k];
-                }
-                tmp[i] = v;
-            }
-            for i in (0..n).rev() {
-                let mut v = tmp[i];
-                for k in i + 1..n {
-                    v -= m[i * n + k] * tmp[k];
-                }
-                tmp[i] = v / m[i * n + i];
-            }
-            x[..n].copy_from_slice(&tmp[..n]);
-        }
     }
 }
 

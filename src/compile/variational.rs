@@ -16,7 +16,8 @@ use crate::expr::{Expr, Symbol};
 use crate::integrate::{Rhs, RhsError as StepError, StepFailure, TaylorSystem};
 use crate::mechanics::System;
 
-use super::{CompileError, Tape, TaylorOde};
+use super::error::CompileError;
+use super::{Tape, TaylorOde};
 
 /// `x' = f(x, t)` with `m` tangent vectors and an optional MEGNO accumulator.
 #[derive(Clone, Debug)]

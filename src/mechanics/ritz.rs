@@ -313,37 +313,19 @@ impl Ritz {
     }
 }
 
-/// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
-/// Written out rather than nalgebra's LU: with nalgebra's rounding, the four-coefficient
-/// oscillator of the notes (`tests/it/notes/examples.rs`, `ritz_oscillator`) took 4 Newton steps
-/// instead of 2, its second step staying above the `1e-13` stopping threshold.
+/// Solves the Newton system `m x = b` in place (`x` into `b`); `None` if singular or not
+/// finite. Elimination is the crate's one ([`crate::linalg`]), with an absolute pivot floor
+/// rather than the relative one of the right-hand sides: a Hessian whose entries span many
+/// orders of magnitude is still solved. Not nalgebra's LU: with its rounding, the
+/// four-coefficient oscillator of the notes (`tests/it/notes/examples.rs`, `ritz_oscillator`)
+/// took 4 Newton steps instead of 2, its second step staying above the `1e-13` stopping
+/// threshold.
 fn solve_dense(m: &mut [f64], b: &mut [f64], n: usize) -> Option<()> {
-    for j in 0..n {
-        let piv = (j..n).max_by(|&x, &y| m[x * n + j].abs().total_cmp(&m[y * n + j].abs()))?;
-        if m[piv * n + j].abs() < 1e-300 || !m[piv * n + j].is_finite() {
-            return None;
-        }
-        if piv != j {
-            for c in 0..n {
-                m.swap(j * n + c, piv * n + c);
-            }
-            b.swap(j, piv);
-        }
-        for i in j + 1..n {
-            let f = m[i * n + j] / m[j * n + j];
-            for c in j..n {
-                m[i * n + c] -= f * m[j * n + c];
-            }
-            b[i] -= f * b[j];
-        }
+    if !m[..n * n].iter().all(|x| x.is_finite()) {
+        return None;
     }
-    for j in (0..n).rev() {
-        let mut s = b[j];
-        for c in j + 1..n {
-            s -= m[j * n + c] * b[c];
-        }
-        b[j] = s / m[j * n + j];
-    }
+    crate::linalg::lu_in_place(m, n, 1e-300, |j, p| b.swap(j, p)).ok()?;
+    crate::linalg::lu_substitute(m, n, b);
     Some(())
 }
 

@@ -1,21 +1,7 @@
-//! The register tape: the demanded outputs of a set of expressions lowered into a flat list of
-//! instructions over numbered slots, evaluated in a tight loop.
-//!
-//! Lowering walks the hash-consed DAG from the demanded outputs only (so dead outputs cost
-//! nothing) and memoises on node identity (so every shared subexpression is one slot). On
-//! top of that it value-numbers the emitted instructions (two different nodes that lower to
-//! the same `a·b` share it) and makes the choices that are cheap in floating point rather than
-//! small as trees: integer powers become multiplication chains, half-integer powers `sqrt`,
-//! negative powers a division (or, when the reciprocal is used more than once, one reciprocal
-//! shared by all its users), `sin` and `cos` of one argument one `sin_cos`, and every
-//! subexpression of bound parameters alone is folded to a constant at compile time.
-//!
-//! Slots are laid out as `inputs | constants | registers`; after lowering, registers are
-//! reassigned by a liveness scan so the scratch a call needs stays small.
+//! Lowering: expressions to a tape (value numbering, power chains, constant folding), then
+//! register allocation by a liveness scan.
 
-use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
-use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -24,238 +10,17 @@ use num_traits::ToPrimitive;
 use crate::eval::eval_with;
 use crate::expr::{Expr, Func, Node, Rational, Symbol};
 
-use super::native::{jit_disabled_by_env, Epilogue, NativeCode};
-use super::CompileError;
+use super::native::{Epilogue, NativeCode};
+use super::{CompileOptions, Instr, Tape};
+use crate::compile::error::CompileError;
 
 /// The deepest expression the (recursive) lowering accepts before reporting an error instead
 /// of risking the stack.
 const MAX_DEPTH: usize = 1_000;
-
 /// Largest integer exponent turned into a multiplication chain; larger ones use `powf`.
 const MAX_CHAIN_EXP: i64 = 64;
-
-/// One tape instruction. Operands and destinations are slot numbers.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Instr {
-    /// `d = a + b`
-    Add { d: u32, a: u32, b: u32 },
-    /// `d = a − b`
-    Sub { d: u32, a: u32, b: u32 },
-    /// `d = a · b`
-    Mul { d: u32, a: u32, b: u32 },
-    /// `d = a / b`
-    Div { d: u32, a: u32, b: u32 },
-    /// `d = −a`
-    Neg { d: u32, a: u32 },
-    /// `d = √a`
-    Sqrt { d: u32, a: u32 },
-    /// `s = sin a`, `c = cos a` in one instruction.
-    SinCos { s: u32, c: u32, a: u32 },
-    /// `d = f(a)` for a one-argument built-in.
-    Call { d: u32, f: Func, a: u32 },
-    /// `d = atan2(a, b)`
-    Atan2 { d: u32, a: u32, b: u32 },
-    /// `d = a ^ b` for a non-integer, non-half-integer exponent.
-    Powf { d: u32, a: u32, b: u32 },
-    /// `d` = the real `q`-th root of `a`, `q` odd ([`crate::eval::real_root`]): negative for
-    /// negative `a`, so `x^(p/q)` is real where the simplifier says it is.
-    Root { d: u32, a: u32, q: u32 },
-}
-
-impl Instr {
-    fn dsts(&self) -> [Option<u32>; 2] {
-        match *self {
-            Instr::SinCos { s, c, .. } => [Some(s), Some(c)],
-            Instr::Add { d, .. }
-            | Instr::Sub { d, .. }
-            | Instr::Mul { d, .. }
-            | Instr::Div { d, .. }
-            | Instr::Neg { d, .. }
-            | Instr::Sqrt { d, .. }
-            | Instr::Call { d, .. }
-            | Instr::Atan2 { d, .. }
-            | Instr::Powf { d, .. }
-            | Instr::Root { d, .. } => [Some(d), None],
-        }
-    }
-
-    fn srcs(&self) -> [Option<u32>; 2] {
-        match *self {
-            Instr::Add { a, b, .. }
-            | Instr::Sub { a, b, .. }
-            | Instr::Mul { a, b, .. }
-            | Instr::Div { a, b, .. }
-            | Instr::Atan2 { a, b, .. }
-            | Instr::Powf { a, b, .. } => [Some(a), Some(b)],
-            Instr::Neg { a, .. }
-            | Instr::Sqrt { a, .. }
-            | Instr::SinCos { a, .. }
-            | Instr::Call { a, .. }
-            | Instr::Root { a, .. } => [Some(a), None],
-        }
-    }
-
-    fn map_slots(&mut self, src: &impl Fn(u32) -> u32, dst: &mut impl FnMut(u32) -> u32) {
-        // Sources are renamed before destinations: a destination may reuse a register freed by
-        // this instruction's own last read.
-        match self {
-            Instr::Add { d, a, b }
-            | Instr::Sub { d, a, b }
-            | Instr::Mul { d, a, b }
-            | Instr::Div { d, a, b }
-            | Instr::Atan2 { d, a, b }
-            | Instr::Powf { d, a, b } => {
-                *a = src(*a);
-                *b = src(*b);
-                *d = dst(*d);
-            }
-            Instr::Neg { d, a } | Instr::Sqrt { d, a } | Instr::Call { d, a, .. } | Instr::Root { d, a, .. } => {
-                *a = src(*a);
-                *d = dst(*d);
-            }
-            Instr::SinCos { s, c, a } => {
-                *a = src(*a);
-                *s = dst(*s);
-                *c = dst(*c);
-            }
-        }
-    }
-}
-
-/// How many instructions of each kind a tape runs per evaluation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct OpCounts {
-    /// Additions and subtractions.
-    pub add: usize,
-    /// Multiplications.
-    pub mul: usize,
-    /// Divisions.
-    pub div: usize,
-    /// Negations.
-    pub neg: usize,
-    /// Square roots.
-    pub sqrt: usize,
-    /// `sin_cos` pairs.
-    pub sin_cos: usize,
-    /// Other built-in calls (`sin`, `exp`, `atan2`, …).
-    pub call: usize,
-    /// General powers `powf`.
-    pub powf: usize,
-}
-
-impl OpCounts {
-    /// All instructions.
-    pub fn total(&self) -> usize {
-        self.add + self.mul + self.div + self.neg + self.sqrt + self.sin_cos + self.call + self.powf
-    }
-}
-
-impl fmt::Display for OpCounts {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} ops: {} add/sub, {} mul, {} div, {} neg, {} sqrt, {} sin_cos, {} call, {} powf",
-            self.total(),
-            self.add,
-            self.mul,
-            self.div,
-            self.neg,
-            self.sqrt,
-            self.sin_cos,
-            self.call,
-            self.powf
-        )
-    }
-}
-
-/// Choices of the code generator.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CompileOptions {
-    /// Compute `sin` and `cos` of differences of inputs `a − b` from `sin_cos(a)` and
-    /// `sin_cos(b)` when that saves calls (more differences than angles). Faster for chains of
-    /// pendulums; the result then has an absolute error of a few ulps of 1 instead of a
-    /// relative one, so `sin(a − b)` for nearly equal `a`, `b` loses relative accuracy (as the
-    /// same formula written by hand does). On by default.
-    pub angle_differences: bool,
-    /// Compile the tape to machine code (Cranelift) when the host allows it, and evaluate it
-    /// there; the interpreter remains the fallback when it does not. The native code computes
-    /// the same bits as the interpreter. On by default unless the environment variable
-    /// [`NO_JIT_ENV`](super::NO_JIT_ENV) is set (to anything but `0`).
-    pub native: bool,
-}
-
-impl Default for CompileOptions {
-    fn default() -> Self {
-        CompileOptions { angle_differences: true, native: !jit_disabled_by_env() }
-    }
-}
-
-impl CompileOptions {
-    /// Sets [`CompileOptions::angle_differences`].
-    pub fn with_angle_differences(mut self, on: bool) -> Self {
-        self.angle_differences = on;
-        self
-    }
-
-    /// Sets [`CompileOptions::native`]; `false` forces the interpreter.
-    pub fn with_native(mut self, on: bool) -> Self {
-        self.native = on;
-        self
-    }
-}
-
-/// A compiled set of expressions: `outputs = f(inputs)` with parameters bound.
-///
-/// Evaluation does not allocate (after a thread's first call, which sizes its scratch) and
-/// the tape is `Sync`: each thread evaluates on its own scratch. When the tape was compiled to
-/// machine code ([`Tape::is_native`]) evaluation calls that instead and needs no scratch.
-#[derive(Clone, Debug)]
-pub struct Tape {
-    input_names: Vec<String>,
-    consts: Vec<f64>,
-    instrs: Vec<Instr>,
-    outputs: Vec<u32>,
-    n_slots: usize,
-    /// Unique per compiled tape (clones share it, and their constants).
-    id: u64,
-    /// The same instructions as machine code, when compiled and available (shared by clones).
-    native: Option<Arc<NativeCode>>,
-}
-
-/// A thread's scratch buffer, and which tape's constants it holds in place.
-struct Scratch {
-    /// The [`Tape::id`] whose constants sit in their slots, or 0 after any other use.
-    owner: u64,
-    buf: Vec<f64>,
-}
-
-thread_local! {
-    static SCRATCH: RefCell<Scratch> = const { RefCell::new(Scratch { owner: 0, buf: Vec::new() }) };
-}
-
 /// Tape identities, so a thread's scratch knows whose constants it holds.
 static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
-
-/// Runs `f` on a per-thread scratch buffer of at least `len` values. The buffer grows on a
-/// thread's first call and is reused after, so steady-state evaluation does not allocate. A
-/// re-entrant call (a closure evaluating a tape inside another evaluation) gets a fresh buffer
-/// instead of panicking.
-pub(crate) fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
-    SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut sc) => {
-            sc.owner = 0;
-            if sc.buf.len() < len {
-                sc.buf.resize(len, 0.0);
-            }
-            f(&mut sc.buf[..len])
-        }
-        Err(_) => f(&mut vec![0.0; len]),
-    })
-}
-
-/// The number of points evaluated together by [`Tape::eval_batch`]: enough to amortise the
-/// instruction dispatch and let the element-wise loops vectorise.
-pub const LANES: usize = 8;
 
 impl Tape {
     /// Compiles `outputs` as functions of the symbols named in `inputs` (plain spelling:
@@ -391,290 +156,6 @@ impl Tape {
         Ok(lower.finish(inputs, outputs, options.native))
     }
 
-    /// The number of inputs.
-    pub fn n_inputs(&self) -> usize {
-        self.input_names.len()
-    }
-
-    /// The number of outputs.
-    pub fn n_outputs(&self) -> usize {
-        self.outputs.len()
-    }
-
-    /// The input names, in order.
-    pub fn input_names(&self) -> &[String] {
-        &self.input_names
-    }
-
-    /// The instructions, in execution order.
-    pub fn instrs(&self) -> &[Instr] {
-        &self.instrs
-    }
-
-    /// The number of instructions one evaluation runs.
-    pub fn op_count(&self) -> usize {
-        self.instrs.len()
-    }
-
-    /// The instructions by kind.
-    pub fn op_counts(&self) -> OpCounts {
-        let mut c = OpCounts::default();
-        for ins in &self.instrs {
-            match ins {
-                Instr::Add { .. } | Instr::Sub { .. } => c.add += 1,
-                Instr::Mul { .. } => c.mul += 1,
-                Instr::Div { .. } => c.div += 1,
-                Instr::Neg { .. } => c.neg += 1,
-                Instr::Sqrt { .. } => c.sqrt += 1,
-                Instr::SinCos { .. } => c.sin_cos += 1,
-                Instr::Call { .. } | Instr::Atan2 { .. } => c.call += 1,
-                Instr::Powf { .. } | Instr::Root { .. } => c.powf += 1,
-            }
-        }
-        c
-    }
-
-    /// The number of `f64` slots (inputs, constants and registers) one evaluation uses.
-    pub fn scratch_len(&self) -> usize {
-        self.n_slots
-    }
-
-    /// The constants, in slot order after the inputs.
-    pub(crate) fn consts(&self) -> &[f64] {
-        &self.consts
-    }
-
-    /// Whether evaluation runs native machine code (see [`CompileOptions::native`]) rather
-    /// than the interpreter.
-    pub fn is_native(&self) -> bool {
-        self.native.is_some()
-    }
-
-    /// The same tape without its machine code: evaluation goes through the interpreter, the
-    /// reference the native back end is tested against.
-    pub fn interpreted(&self) -> Tape {
-        Tape { native: None, ..self.clone() }
-    }
-
-    /// Evaluates with the first `n_inputs − 1` inputs from `head` and the last one (the time,
-    /// in every right-hand side) from `last`, so a state slice is passed without copying.
-    ///
-    /// # Panics
-    /// If `head` or `out` is too short.
-    #[inline]
-    pub(crate) fn eval_split(&self, head: &[f64], last: f64, out: &mut [f64]) {
-        let ni = self.input_names.len();
-        let nh = ni.saturating_sub(1);
-        let no = self.outputs.len();
-        assert!(head.len() >= nh && out.len() >= no, "tape called with too few inputs or outputs");
-        match &self.native {
-            // SAFETY: `head` holds the `nh` inputs read and `out` the `no` outputs written at
-            // stride 1 (asserted above).
-            Some(code) => unsafe { code.call(head.as_ptr(), 1, last, out.as_mut_ptr(), 1) },
-            None => self.with_slots(0, |s, _| {
-                s[..nh].copy_from_slice(&head[..nh]);
-                if ni > 0 {
-                    s[nh] = last;
-                }
-                self.run_slots(s);
-                for (o, &slot) in out.iter_mut().zip(&self.outputs) {
-                    *o = s[slot as usize];
-                }
-            }),
-        }
-    }
-
-    /// Evaluates with the inputs already in `slots[..n_inputs]`, writing the outputs to `out`:
-    /// natively when possible, otherwise by the interpreter on `slots` (at least
-    /// [`Tape::scratch_len`] values; its input slots are left as they were). For callers that
-    /// stage inputs in a buffer they already hold.
-    pub(crate) fn eval_staged(&self, slots: &mut [f64], out: &mut [f64]) {
-        let ni = self.input_names.len();
-        match &self.native {
-            Some(_) => {
-                let last = if ni > 0 { slots[ni - 1] } else { 0.0 };
-                self.eval_split(&slots[..ni.saturating_sub(1)], last, out);
-            }
-            None => {
-                self.run_in_place(slots);
-                for (o, &slot) in out.iter_mut().zip(&self.outputs) {
-                    *o = slots[slot as usize];
-                }
-            }
-        }
-    }
-
-    /// Evaluates natively with input `i < n_inputs − 1` at `x[i · x_stride]`, the last input
-    /// `last`, output `j` to `out[j · out_stride]`: with `x = &y[k..]` and a stride of
-    /// `points`, point `k` of a structure-of-arrays batch in place. Returns `false` (doing
-    /// nothing) when the tape has no native code.
-    ///
-    /// # Panics
-    /// If `x` or `out` is too short for its stride.
-    #[inline]
-    pub(crate) fn eval_strided(
-        &self,
-        x: &[f64],
-        x_stride: usize,
-        last: f64,
-        out: &mut [f64],
-        out_stride: usize,
-    ) -> bool {
-        let Some(code) = &self.native else { return false };
-        let nh = self.input_names.len().saturating_sub(1);
-        let no = self.outputs.len();
-        assert!(
-            (nh == 0 || x.len() > (nh - 1) * x_stride) && (no == 0 || out.len() > (no - 1) * out_stride),
-            "strided tape buffers too short"
-        );
-        // SAFETY: the largest index read is `(nh − 1)·x_stride < x.len()` and the largest
-        // written `(no − 1)·out_stride < out.len()` (asserted above).
-        unsafe { code.call(x.as_ptr(), x_stride, last, out.as_mut_ptr(), out_stride) };
-        true
-    }
-
-    /// Evaluates the tape at `inputs`, writing `outputs`, on a caller-provided `scratch` of at
-    /// least [`Tape::scratch_len`] values. Never allocates.
-    ///
-    /// # Panics
-    /// If a slice is shorter than the tape needs (a programming error, not a data one).
-    pub fn eval_with_scratch(&self, inputs: &[f64], outputs: &mut [f64], scratch: &mut [f64]) {
-        if self.native.is_some() {
-            return self.eval(inputs, outputs);
-        }
-        let s = &mut scratch[..self.n_slots];
-        let ni = self.input_names.len();
-        s[..ni].copy_from_slice(&inputs[..ni]);
-        s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-        run(&self.instrs, s, self.n_slots);
-        for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
-            *o = s[slot as usize];
-        }
-    }
-
-    /// Evaluates the tape at `inputs` into `outputs` (natively, or on this thread's scratch
-    /// buffer).
-    ///
-    /// # Panics
-    /// If `inputs` is shorter than [`Tape::n_inputs`] or `outputs` shorter than
-    /// [`Tape::n_outputs`] (a programming error, not a data one), on either back end.
-    pub fn eval(&self, inputs: &[f64], outputs: &mut [f64]) {
-        let ni = self.input_names.len();
-        assert!(
-            inputs.len() >= ni && outputs.len() >= self.outputs.len(),
-            "tape called with too few inputs or outputs"
-        );
-        if self.native.is_some() {
-            let last = if ni > 0 { inputs[ni - 1] } else { 0.0 };
-            return self.eval_split(&inputs[..ni.saturating_sub(1)], last, outputs);
-        }
-        self.with_slots(0, |s, _| {
-            s[..ni].copy_from_slice(&inputs[..ni]);
-            self.run_slots(s);
-            for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
-                *o = s[slot as usize];
-            }
-        });
-    }
-
-    /// Runs the tape on a scratch whose first [`Tape::n_inputs`] slots the caller has filled,
-    /// leaving the outputs in their slots (see [`Tape::output_slot`]). For callers that keep
-    /// more of their own data after the tape's slots in one buffer.
-    pub(crate) fn run_in_place(&self, s: &mut [f64]) {
-        let ni = self.input_names.len();
-        s[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-        run(&self.instrs, s, self.n_slots);
-    }
-
-    /// Like [`Tape::run_in_place`] with [`LANES`] values per slot (slot `i` at
-    /// `s[i * LANES..(i + 1) * LANES]`).
-    pub(crate) fn run_lanes_in_place(&self, s: &mut [f64]) {
-        let ni = self.input_names.len();
-        for (k, c) in self.consts.iter().enumerate() {
-            s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
-        }
-        run_lanes(&self.instrs, &mut s[..self.n_slots * LANES]);
-    }
-
-    /// Runs `f(slots, extra)` on this thread's scratch: `slots` is the tape's own region with
-    /// its constants in place (copied only when another tape or use had the scratch last, so
-    /// repeated calls of one right-hand side skip the copy), `extra` is `extra` more values for
-    /// the caller. The caller fills the inputs and calls [`Tape::run_slots`].
-    pub(crate) fn with_slots<R>(&self, extra: usize, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
-        let len = self.n_slots + extra;
-        let ni = self.input_names.len();
-        SCRATCH.with(|cell| match cell.try_borrow_mut() {
-            Ok(mut sc) => {
-                if sc.buf.len() < len {
-                    sc.buf.resize(len, 0.0);
-                }
-                if sc.owner != self.id {
-                    sc.buf[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-                    sc.owner = self.id;
-                }
-                let (slots, rest) = sc.buf[..len].split_at_mut(self.n_slots);
-                f(slots, rest)
-            }
-            Err(_) => {
-                let mut buf = vec![0.0; len];
-                buf[ni..ni + self.consts.len()].copy_from_slice(&self.consts);
-                let (slots, rest) = buf.split_at_mut(self.n_slots);
-                f(slots, rest)
-            }
-        })
-    }
-
-    /// Runs the instructions on slots prepared by [`Tape::with_slots`].
-    #[inline]
-    pub(crate) fn run_slots(&self, s: &mut [f64]) {
-        run(&self.instrs, s, self.n_slots);
-    }
-
-    /// The slot holding output `i` after [`Tape::run_in_place`].
-    pub(crate) fn output_slot(&self, i: usize) -> usize {
-        self.outputs[i] as usize
-    }
-
-    /// Evaluates many points at once, structure-of-arrays: input `i` of point `k` is
-    /// `inputs[i * n + k]`, output `j` of point `k` is written to `outputs[j * n + k]`, where
-    /// `n = points`. Points go through the tape [`LANES`] at a time, so each instruction is
-    /// dispatched once per block and its arithmetic runs over contiguous lanes.
-    ///
-    /// # Panics
-    /// If `inputs` or `outputs` is shorter than `points` times the inputs or outputs.
-    pub fn eval_batch(&self, inputs: &[f64], outputs: &mut [f64], points: usize) {
-        assert!(inputs.len() >= points * self.n_inputs() && outputs.len() >= points * self.n_outputs());
-        let ni = self.n_inputs();
-        if self.native.is_some() {
-            for k in 0..points {
-                let last = if ni > 0 { inputs[(ni - 1) * points + k] } else { 0.0 };
-                self.eval_strided(&inputs[k..], points, last, &mut outputs[k..], points);
-            }
-            return;
-        }
-        with_scratch(self.n_slots * LANES, |s| {
-            for (k, c) in self.consts.iter().enumerate() {
-                s[(ni + k) * LANES..(ni + k + 1) * LANES].fill(*c);
-            }
-            let mut start = 0;
-            while start < points {
-                let len = LANES.min(points - start);
-                for i in 0..ni {
-                    let dst = &mut s[i * LANES..(i + 1) * LANES];
-                    dst[..len].copy_from_slice(&inputs[i * points + start..i * points + start + len]);
-                    // Pad a partial block with a harmless value; its lanes are never read back.
-                    dst[len..].fill(0.5);
-                }
-                run_lanes(&self.instrs, s);
-                for (j, &slot) in self.outputs.iter().enumerate() {
-                    let src = &s[slot as usize * LANES..slot as usize * LANES + len];
-                    outputs[j * points + start..j * points + start + len].copy_from_slice(src);
-                }
-                start += len;
-            }
-        });
-    }
-
     /// Reassigns registers by liveness so that a slot is reused once its last reader has run.
     /// Inputs and constants keep their slots; outputs stay live to the end.
     fn allocate_registers(mut self) -> Tape {
@@ -744,122 +225,6 @@ impl Tape {
     }
 }
 
-/// The scalar interpreter loop.
-///
-/// This is the innermost loop of every compiled right-hand side, so it reads and writes slots
-/// without bounds checks. Soundness rests on an invariant of [`Tape`], checked once when a tape
-/// is built ([`Tape::check_slots`]) and unchanged after (the fields are private and never
-/// mutated): every slot an instruction names is below `scratch_len`. Here `s` is sliced to
-/// exactly `scratch_len` values first, which panics rather than reading out of bounds if a
-/// caller passed a shorter buffer.
-#[inline]
-fn run(instrs: &[Instr], s: &mut [f64], n_slots: usize) {
-    let s = &mut s[..n_slots];
-    let p = s.as_mut_ptr();
-    // SAFETY: every index below is < n_slots == s.len() (see above), and `p` is derived from
-    // the exclusive borrow `s`, which is not otherwise used inside the loop.
-    let get = |i: u32| unsafe { *p.add(i as usize) };
-    let set = |i: u32, v: f64| unsafe { *p.add(i as usize) = v };
-    for ins in instrs {
-        match *ins {
-            Instr::Add { d, a, b } => set(d, get(a) + get(b)),
-            Instr::Sub { d, a, b } => set(d, get(a) - get(b)),
-            Instr::Mul { d, a, b } => set(d, get(a) * get(b)),
-            Instr::Div { d, a, b } => set(d, get(a) / get(b)),
-            Instr::Neg { d, a } => set(d, -get(a)),
-            Instr::Sqrt { d, a } => set(d, get(a).sqrt()),
-            Instr::SinCos { s: si, c, a } => {
-                let (sv, cv) = get(a).sin_cos();
-                set(si, sv);
-                set(c, cv);
-            }
-            Instr::Call { d, f, a } => set(d, f.eval(&[get(a)])),
-            Instr::Atan2 { d, a, b } => set(d, get(a).atan2(get(b))),
-            Instr::Powf { d, a, b } => set(d, get(a).powf(get(b))),
-            Instr::Root { d, a, q } => set(d, crate::eval::real_root(get(a), q)),
-        }
-    }
-}
-
-/// The lane interpreter: every slot holds [`LANES`] values.
-fn run_lanes(instrs: &[Instr], s: &mut [f64]) {
-    #[inline(always)]
-    fn bin(s: &mut [f64], d: u32, a: u32, b: u32, f: impl Fn(f64, f64) -> f64) {
-        let mut tmp = [0.0; LANES];
-        let (a, b) = (a as usize * LANES, b as usize * LANES);
-        for l in 0..LANES {
-            tmp[l] = f(s[a + l], s[b + l]);
-        }
-        s[d as usize * LANES..(d as usize + 1) * LANES].copy_from_slice(&tmp);
-    }
-    #[inline(always)]
-    fn un(s: &mut [f64], d: u32, a: u32, f: impl Fn(f64) -> f64) {
-        let mut tmp = [0.0; LANES];
-        let a = a as usize * LANES;
-        for l in 0..LANES {
-            tmp[l] = f(s[a + l]);
-        }
-        s[d as usize * LANES..(d as usize + 1) * LANES].copy_from_slice(&tmp);
-    }
-    for ins in instrs {
-        match *ins {
-            Instr::Add { d, a, b } => bin(s, d, a, b, |x, y| x + y),
-            Instr::Sub { d, a, b } => bin(s, d, a, b, |x, y| x - y),
-            Instr::Mul { d, a, b } => bin(s, d, a, b, |x, y| x * y),
-            Instr::Div { d, a, b } => bin(s, d, a, b, |x, y| x / y),
-            Instr::Neg { d, a } => un(s, d, a, |x| -x),
-            Instr::Sqrt { d, a } => un(s, d, a, f64::sqrt),
-            Instr::SinCos { s: si, c, a } => {
-                let mut sv = [0.0; LANES];
-                let mut cv = [0.0; LANES];
-                let a = a as usize * LANES;
-                for l in 0..LANES {
-                    (sv[l], cv[l]) = s[a + l].sin_cos();
-                }
-                s[si as usize * LANES..(si as usize + 1) * LANES].copy_from_slice(&sv);
-                s[c as usize * LANES..(c as usize + 1) * LANES].copy_from_slice(&cv);
-            }
-            Instr::Call { d, f, a } => un(s, d, a, |x| f.eval(&[x])),
-            Instr::Atan2 { d, a, b } => bin(s, d, a, b, f64::atan2),
-            Instr::Powf { d, a, b } => bin(s, d, a, b, f64::powf),
-            Instr::Root { d, a, q } => un(s, d, a, |x| crate::eval::real_root(x, q)),
-        }
-    }
-}
-
-impl fmt::Display for Tape {
-    /// One line per slot and instruction; constants print in the shortest form that reads
-    /// back to the same `f64`, so the listing is deterministic and snapshot-friendly.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, name) in self.input_names.iter().enumerate() {
-            writeln!(f, "s{i} = input {name}")?;
-        }
-        let ni = self.input_names.len();
-        for (k, c) in self.consts.iter().enumerate() {
-            writeln!(f, "s{} = const {c:?}", ni + k)?;
-        }
-        for ins in &self.instrs {
-            match *ins {
-                Instr::Add { d, a, b } => writeln!(f, "s{d} = s{a} + s{b}")?,
-                Instr::Sub { d, a, b } => writeln!(f, "s{d} = s{a} - s{b}")?,
-                Instr::Mul { d, a, b } => writeln!(f, "s{d} = s{a} * s{b}")?,
-                Instr::Div { d, a, b } => writeln!(f, "s{d} = s{a} / s{b}")?,
-                Instr::Neg { d, a } => writeln!(f, "s{d} = -s{a}")?,
-                Instr::Sqrt { d, a } => writeln!(f, "s{d} = sqrt(s{a})")?,
-                Instr::SinCos { s, c, a } => writeln!(f, "s{s}, s{c} = sin_cos(s{a})")?,
-                Instr::Call { d, f: func, a } => writeln!(f, "s{d} = {}(s{a})", func.name())?,
-                Instr::Atan2 { d, a, b } => writeln!(f, "s{d} = atan2(s{a}, s{b})")?,
-                Instr::Powf { d, a, b } => writeln!(f, "s{d} = s{a} ^ s{b}")?,
-                Instr::Root { d, a, q } => writeln!(f, "s{d} = root{q}(s{a})")?,
-            }
-        }
-        for (j, o) in self.outputs.iter().enumerate() {
-            writeln!(f, "out{j} = s{o}")?;
-        }
-        write!(f, "# {}; {} slots", self.op_counts(), self.n_slots)
-    }
-}
-
 /// A key for value numbering of emitted instructions (operands normalised for commutative
 /// operations).
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
@@ -875,7 +240,6 @@ enum Key {
     Powf(u32, u32),
     Root(u32, u32),
 }
-
 struct Lower {
     inputs: HashMap<String, u32>,
     params: HashMap<String, f64>,
@@ -896,7 +260,6 @@ struct Lower {
     divisions: HashMap<Expr, usize>,
     powers: HashMap<(u32, i64), u32>,
 }
-
 impl Lower {
     /// Checks the names and starts a lowering of `outputs`.
     fn start(
@@ -1470,17 +833,14 @@ impl Lower {
         }
     }
 }
-
 // Provisional numbering during lowering: constants from `CONST_BASE`, instruction results from
 // `REG_BASE`; both are mapped to dense slots when the lowering is done (`finalize_numbering`).
 const CONST_BASE: u32 = 1 << 30;
 const REG_BASE: u32 = 1 << 31;
-
 fn unreachable_const() -> (u32, bool) {
     // `constant_node` is true for every number, so numbers never reach the match.
     (0, false)
 }
-
 /// `(a, b)` when `e` is `a − b` for two input symbols.
 fn input_difference(e: &Expr, inputs: &HashMap<String, u32>) -> Option<(Expr, Expr)> {
     let Node::Add(ts) = e.node() else { return None };
@@ -1498,7 +858,6 @@ fn input_difference(e: &Expr, inputs: &HashMap<String, u32>) -> Option<(Expr, Ex
     }
     None
 }
-
 /// `k` when `x` is `k/2` for an odd `k` within the chain limit.
 fn half_integer(x: &Expr) -> Option<i64> {
     let r = x.as_num()?;
@@ -1507,7 +866,6 @@ fn half_integer(x: &Expr) -> Option<i64> {
     }
     r.numer().to_i64().filter(|k| k.abs() <= 2 * MAX_CHAIN_EXP)
 }
-
 /// `(b, k)` when `f` is `b^(k/2)` with `k < 0` odd.
 fn negative_half_power(f: &Expr) -> Option<(&Expr, i64)> {
     match f.node() {
@@ -1515,7 +873,6 @@ fn negative_half_power(f: &Expr) -> Option<(&Expr, i64)> {
         _ => None,
     }
 }
-
 fn small_int(x: &Expr) -> Option<i64> {
     let r: &Rational = x.as_num()?;
     if !r.is_integer() {
@@ -1524,7 +881,6 @@ fn small_int(x: &Expr) -> Option<i64> {
     let k = r.to_integer().to_i64()?;
     (k != 0 && k.abs() <= MAX_CHAIN_EXP).then_some(k)
 }
-
 /// Maps the provisional constant and register numbers of a lowering to dense slots:
 /// inputs, then constants, then registers in order of definition.
 fn finalize_numbering(n_inputs: u32, n_consts: u32, instrs: &mut [Instr], outputs: &mut [u32]) -> u32 {

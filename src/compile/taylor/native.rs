@@ -1,521 +1,22 @@
-//! The native back end: a [`Tape`] compiled to machine code with Cranelift.
-//!
-//! The tape is already a flat, common-subexpression-eliminated instruction list over slots,
-//! so code generation is a single pass: each slot maps to the SSA value last written to it,
-//! every instruction becomes one Cranelift instruction (or one call), and the whole tape is
-//! one straight-line basic block. Cranelift's register allocator then keeps the slots in
-//! machine registers and spills to the native stack; there is no scratch buffer, no
-//! thread-local state and no instruction dispatch left at run time.
-//!
-//! The generated function has the host's C calling convention and the signature
-//!
-//! ```text
-//! fn(x: *const f64, x_stride: usize, last: f64, out: *mut f64, out_stride: usize)
-//! ```
-//!
-//! Input `i < n_inputs − 1` is read from `x[i · x_stride]`, the last input is the scalar
-//! `last` (the time `t` of every right-hand side, so a state slice is passed as is), and
-//! output `j` is written to `out[j · out_stride]`. Strides of 1 evaluate one contiguous
-//! state; a stride of `points` evaluates one point of a structure-of-arrays batch in place.
-//!
-//! **Same numbers as the interpreter.** `+ − · /`, `√`, negation and `abs` are single IEEE
-//! operations, correctly rounded in both back ends, and Cranelift neither reassociates nor
-//! fuses floating-point operations (no FMA contraction), so they agree bit for bit. Every
-//! transcendental calls one of the `extern "C"` wrappers below, which call the same Rust
-//! functions (`Func::eval`, `f64::sin_cos`, `powf`, `atan2`) the interpreter calls, so those
-//! agree bit for bit too. `tests/it/compile/native.rs` checks both claims on random inputs.
-//!
-//! **Failure is not an error.** An unsupported host, a Cranelift error, an allocation or
-//! `mprotect` failure, or a tape larger than [`MAX_NATIVE_INSTRS`] makes [`NativeCode::compile`]
-//! return `None` and the tape stays interpreted; nothing here panics out to the caller
-//! (a panic inside Cranelift is caught and treated the same way).
+//! The Taylor back end: the recurrences of a [`TaylorTape`] compiled to machine code with
+//! Cranelift, unrolled per order, as one whole expansion, or compact (one function for every
+//! order); the coefficients are the interpreter's, bit for bit (`tests/it/taylor/native.rs`).
 
 use std::mem::ManuallyDrop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{
-    types, AbiParam, InstBuilder, MemFlags, Signature, StackSlot, StackSlotData, StackSlotKind, Value,
-};
+use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Value};
 use cranelift_codegen::isa::CallConv;
-use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
-use cranelift_jit::{JITBuilder, JITModule};
-use cranelift_module::{default_libcall_names, Linkage, Module};
+use cranelift_module::{Linkage, Module};
 
 use crate::expr::Func;
 
-use super::tape::{Instr, Tape};
-use super::taylor::{Op, Weight};
-
-/// The signature of a plain generated function (see the module documentation).
-type NativeFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize);
-
-/// The signature of a [`Epilogue::LagrangianSolve`] function: returns 1 when the fast path's
-/// result is valid.
-type NativeSolveFn = unsafe extern "C" fn(*const f64, usize, f64, *mut f64, usize) -> i32;
-
-/// What the generated function does with the tape's outputs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Epilogue {
-    /// Output `j` to `out[j · out_stride]`.
-    Plain,
-    /// For the unrolled `W q'' = F` solve tape of `n` degrees of freedom (outputs: `q''`, the
-    /// Cholesky pivots, the diagonal of `W`; inputs `q, q', t`): write the whole derivative
-    /// `(q', q'')` to `out` and return whether the pivots are safely positive (above
-    /// `n·ε·max W_jj`, the threshold of the pivoting solve) and `q''` is finite. The caller
-    /// falls back to the pivoting solve otherwise, so a right-hand side call is one call of
-    /// this function and nothing else. `check_pivots: false` leaves the pivot test out (only
-    /// finiteness is checked): the caller has proven it once at compile time, for a constant `W`.
-    LagrangianSolve { n: usize, check_pivots: bool },
-}
-
-/// Tapes longer than this stay interpreted: Cranelift's compile time grows faster than
-/// linearly with one huge basic block, and such tapes (Jacobians of long chains) are not
-/// the hot path.
-pub(crate) const MAX_NATIVE_INSTRS: usize = 60_000;
-
-/// The environment variable that forces the interpreter for every tape compiled while it is
-/// set to anything but `0` or the empty string (for comparisons and for hosts where the JIT
-/// misbehaves).
-pub const NO_JIT_ENV: &str = "LAGRANGIAN_NO_JIT";
-
-/// Whether [`NO_JIT_ENV`] asks for the interpreter.
-pub(crate) fn jit_disabled_by_env() -> bool {
-    std::env::var_os(NO_JIT_ENV).is_some_and(|v| !v.is_empty() && v != "0")
-}
-
-/// Machine code for one tape, and the JIT module that owns the memory it lives in.
-///
-/// The function pointer is only reachable through `&NativeCode` ([`NativeCode::call`]), and
-/// the module is freed only in `Drop`, so no call can outlive the code. Tapes hold this in an
-/// `Arc`, so clones of a tape share one copy of the code.
-pub(crate) struct NativeCode {
-    /// Entry point, of type [`NativeFn`] or [`NativeSolveFn`] according to `epilogue`.
-    func: *const u8,
-    epilogue: Epilogue,
-    /// Never touched after construction; frees the code when dropped.
-    _module: OwnedModule,
-    n_inputs: usize,
-    n_outputs: usize,
-}
-
-// SAFETY: after `compile` returns, the JIT module is never accessed again except by `Drop`
-// (which has exclusive access), so its interior `RefCell` and raw pointers are never used
-// concurrently; freeing its memory from another thread is a plain deallocation. The code pages
-// are read-only and executable, and the generated function only reads `x`, writes `out`
-// (both owned by the caller of each call) and its own stack frame, and calls the wrappers
-// below, which are pure functions of their arguments. So calling it from many threads at once
-// is as safe as calling a pure Rust function.
-unsafe impl Send for NativeCode {}
-// SAFETY: see `Send`; `&NativeCode` allows only `call`, which shares nothing mutable.
-unsafe impl Sync for NativeCode {}
-
-/// A finished JIT module, owned by the compiled code it holds: dropping it frees the code.
-/// Only the owner of a generated function's pointer holds one, so when it drops no `&owner`
-/// exists and no call through that pointer is running or can start.
-struct OwnedModule(ManuallyDrop<JITModule>);
-
-impl Drop for OwnedModule {
-    fn drop(&mut self) {
-        // SAFETY: see the type's comment: the owner is being dropped, so no generated function
-        // of this module is running; the module is taken exactly once.
-        unsafe { ManuallyDrop::take(&mut self.0).free_memory() }
-    }
-}
-
-impl std::fmt::Debug for NativeCode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "NativeCode({} inputs, {} outputs)", self.n_inputs, self.n_outputs)
-    }
-}
-
-impl NativeCode {
-    /// Compiles `tape` for the host, or `None` if that is not possible here.
-    pub(crate) fn compile(tape: &Tape, epilogue: Epilogue) -> Option<NativeCode> {
-        if tape.instrs().len() > MAX_NATIVE_INSTRS {
-            return None;
-        }
-        if let Epilogue::LagrangianSolve { n, .. } = epilogue {
-            if tape.n_inputs() != 2 * n + 1 || tape.n_outputs() != 3 * n {
-                return None;
-            }
-        }
-        // Cranelift reports errors as values, but an internal panic must not take the caller
-        // down either: the interpreter is always there to fall back on.
-        catch_unwind(AssertUnwindSafe(|| compile_inner(tape, epilogue))).ok().flatten()
-    }
-
-    /// Calls a [`Epilogue::Plain`] function.
-    ///
-    /// # Safety
-    /// `x` must be valid for reads of `x[i · x_stride]` for every `i < n_inputs − 1`, and
-    /// `out` valid for writes of `out[j · out_stride]` for every `j < n_outputs`.
-    #[inline(always)]
-    pub(crate) unsafe fn call(&self, x: *const f64, x_stride: usize, last: f64, out: *mut f64, out_stride: usize) {
-        debug_assert_eq!(self.epilogue, Epilogue::Plain);
-        // SAFETY: a `Plain` function has the type `NativeFn` (see `compile_inner`).
-        let f = std::mem::transmute::<*const u8, NativeFn>(self.func);
-        f(x, x_stride, last, out, out_stride)
-    }
-
-    /// Calls a [`Epilogue::LagrangianSolve`] function: `true` when `out` holds a valid
-    /// derivative.
-    ///
-    /// # Safety
-    /// `x` must be valid for reads of `x[i · x_stride]` for every `i < 2n`, and `out` valid for
-    /// writes of `out[j · out_stride]` for every `j < 2n`.
-    #[inline(always)]
-    pub(crate) unsafe fn call_solve(
-        &self,
-        x: *const f64,
-        x_stride: usize,
-        t: f64,
-        out: *mut f64,
-        out_stride: usize,
-    ) -> bool {
-        debug_assert!(matches!(self.epilogue, Epilogue::LagrangianSolve { .. }));
-        // SAFETY: a `LagrangianSolve` function has the type `NativeSolveFn`.
-        let f = std::mem::transmute::<*const u8, NativeSolveFn>(self.func);
-        f(x, x_stride, t, out, out_stride) != 0
-    }
-}
-
-fn compile_inner(tape: &Tape, epilogue: Epilogue) -> Option<NativeCode> {
-    let mut flags = settings::builder();
-    flags.set("opt_level", "speed").ok()?;
-    // Plain absolute addresses: the wrappers are called through pointers baked into the code,
-    // so nothing needs a GOT or a symbol lookup.
-    flags.set("is_pic", "false").ok()?;
-    flags.set("use_colocated_libcalls", "false").ok()?;
-    flags.set("enable_verifier", if cfg!(debug_assertions) { "true" } else { "false" }).ok()?;
-    let isa = cranelift_native::builder().ok()?.finish(settings::Flags::new(flags)).ok()?;
-    let call_conv = isa.default_call_conv();
-    let ptr = isa.pointer_type();
-    let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
-
-    let mut ctx = module.make_context();
-    let sig = &mut ctx.func.signature;
-    sig.call_conv = call_conv;
-    for ty in [ptr, ptr, types::F64, ptr, ptr] {
-        sig.params.push(AbiParam::new(ty));
-    }
-    if epilogue != Epilogue::Plain {
-        sig.returns.push(AbiParam::new(types::I32));
-    }
-    let mut fbc = FunctionBuilderContext::new();
-    let id = {
-        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fbc);
-        let mut em = Emitter::new(&mut b, tape, call_conv, ptr);
-        let emitted = em.body(tape, epilogue);
-        if emitted.is_some() {
-            b.finalize();
-        }
-        emitted
-    }
-    .and_then(|_| module.declare_function("tape", Linkage::Export, &ctx.func.signature).ok());
-    let defined = id.and_then(|id| module.define_function(id, &mut ctx).ok().map(|_| id));
-    module.clear_context(&mut ctx);
-    let finalized = defined.and_then(|id| module.finalize_definitions().ok().map(|_| id));
-    let Some(id) = finalized else {
-        // SAFETY: no pointer into this module was ever handed out.
-        unsafe { module.free_memory() };
-        return None;
-    };
-    // The function has exactly the parameter list of `NativeFn` in the host's C calling
-    // convention (`default_call_conv`), returning nothing (`Plain`) or an `i32`
-    // (`NativeSolveFn`); `call` and `call_solve` transmute it accordingly.
-    let func = module.get_finalized_function(id);
-    Some(NativeCode {
-        func,
-        epilogue,
-        _module: OwnedModule(ManuallyDrop::new(module)),
-        n_inputs: tape.n_inputs(),
-        n_outputs: tape.n_outputs(),
-    })
-}
-
-/// Lowers one tape into the function under construction.
-struct Emitter<'a, 'b> {
-    b: &'a mut FunctionBuilder<'b>,
-    /// The SSA value each slot holds right now (`None`: not yet written).
-    slots: Vec<Option<Value>>,
-    call_conv: CallConv,
-    ptr: types::Type,
-}
-
-impl<'a, 'b> Emitter<'a, 'b> {
-    fn new(b: &'a mut FunctionBuilder<'b>, tape: &Tape, call_conv: CallConv, ptr: types::Type) -> Self {
-        Emitter { b, slots: vec![None; tape.scratch_len()], call_conv, ptr }
-    }
-
-    /// The value in slot `s`. Tapes are in definition order, so every slot read has been
-    /// written (an input, a constant or an earlier result); `None` would be a compiler bug,
-    /// and makes the tape stay interpreted.
-    fn get(&self, s: u32) -> Option<Value> {
-        self.slots.get(s as usize).copied().flatten()
-    }
-
-    fn set(&mut self, s: u32, v: Value) {
-        self.slots[s as usize] = Some(v);
-    }
-
-    fn body(&mut self, tape: &Tape, epilogue: Epilogue) -> Option<()> {
-        let block = self.b.create_block();
-        self.b.append_block_params_for_function_params(block);
-        self.b.switch_to_block(block);
-        self.b.seal_block(block);
-        let params = self.b.block_params(block).to_vec();
-        let (x, xs, last, out, os) = (params[0], params[1], params[2], params[3], params[4]);
-        let flags = MemFlags::trusted();
-        let ni = tape.n_inputs();
-        if ni > 0 {
-            let xs8 = self.b.ins().ishl_imm(xs, 3);
-            let mut p = x;
-            for i in 0..ni - 1 {
-                if i > 0 {
-                    p = self.b.ins().iadd(p, xs8);
-                }
-                let v = self.b.ins().load(types::F64, flags, p, 0);
-                self.set(i as u32, v);
-            }
-            self.set((ni - 1) as u32, last);
-        }
-        for (k, &c) in tape.consts().iter().enumerate() {
-            let v = self.b.ins().f64const(c);
-            self.set((ni + k) as u32, v);
-        }
-        // sin_cos returns through a 16-byte frame slot, made only when needed (a tape without
-        // calls then needs no stack frame at all).
-        let mut pair = None;
-        for ins in tape.instrs() {
-            match *ins {
-                Instr::Add { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.b.ins().fadd(x, y);
-                    self.set(d, v);
-                }
-                Instr::Sub { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.b.ins().fsub(x, y);
-                    self.set(d, v);
-                }
-                Instr::Mul { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.b.ins().fmul(x, y);
-                    self.set(d, v);
-                }
-                Instr::Div { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.b.ins().fdiv(x, y);
-                    self.set(d, v);
-                }
-                Instr::Neg { d, a } => {
-                    let x = self.get(a)?;
-                    let v = self.b.ins().fneg(x);
-                    self.set(d, v);
-                }
-                Instr::Sqrt { d, a } => {
-                    let x = self.get(a)?;
-                    let v = self.b.ins().sqrt(x);
-                    self.set(d, v);
-                }
-                Instr::Call { d, f: Func::Abs, a } => {
-                    let x = self.get(a)?;
-                    let v = self.b.ins().fabs(x);
-                    self.set(d, v);
-                }
-                Instr::Call { d, f, a } => {
-                    let x = self.get(a)?;
-                    let v = self.call(wrapper(f)? as usize, &[x]);
-                    self.set(d, v);
-                }
-                Instr::Atan2 { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.call(atan2 as *const () as usize, &[x, y]);
-                    self.set(d, v);
-                }
-                Instr::Powf { d, a, b } => {
-                    let (x, y) = (self.get(a)?, self.get(b)?);
-                    let v = self.call(powf as *const () as usize, &[x, y]);
-                    self.set(d, v);
-                }
-                Instr::Root { d, a, q } => {
-                    let x = self.get(a)?;
-                    let qv = self.b.ins().f64const(f64::from(q));
-                    let v = self.call(real_root as *const () as usize, &[x, qv]);
-                    self.set(d, v);
-                }
-                Instr::SinCos { s, c, a } => {
-                    let x = self.get(a)?;
-                    let (sv, cv) = call_sin_cos(self.b, self.call_conv, self.ptr, &mut pair, x);
-                    self.set(s, sv);
-                    self.set(c, cv);
-                }
-            }
-        }
-        let os8 = self.b.ins().ishl_imm(os, 3);
-        let (n, check_pivots) = match epilogue {
-            Epilogue::Plain => {
-                let mut p = out;
-                for j in 0..tape.n_outputs() {
-                    if j > 0 {
-                        p = self.b.ins().iadd(p, os8);
-                    }
-                    let v = self.get(tape.output_slot(j) as u32)?;
-                    self.b.ins().store(flags, v, p, 0);
-                }
-                self.b.ins().return_(&[]);
-                return Some(());
-            }
-            Epilogue::LagrangianSolve { n, check_pivots } => (n, check_pivots),
-        };
-        // out = (q', q''): the velocities are input slots n..2n.
-        let mut p = out;
-        for i in 0..2 * n {
-            if i > 0 {
-                p = self.b.ins().iadd(p, os8);
-            }
-            let v = if i < n { self.get((n + i) as u32)? } else { self.get(tape.output_slot(i - n) as u32)? };
-            self.b.ins().store(flags, v, p, 0);
-        }
-        // The check of `LagrangianRhs::fast_ok`, in the same order of operations:
-        // tol = (n·ε)·max_j W_jj; ok = ∧_j (d_j > tol) ∧ (q''_j − q''_j == 0, i.e. finite).
-        // `fmax` propagates a NaN where `f64::max` skips it; a NaN diagonal makes the pivots
-        // NaN as well, so both reject the state and the caller takes the pivoting path.
-        let zero = self.b.ins().f64const(0.0);
-        let mut ok = self.b.ins().iconst(types::I8, 1);
-        if check_pivots {
-            let mut scale = self.b.ins().f64const(0.0);
-            for j in 0..n {
-                let wjj = self.get(tape.output_slot(2 * n + j) as u32)?;
-                scale = self.b.ins().fmax(scale, wjj);
-            }
-            let k = self.b.ins().f64const(n as f64 * f64::EPSILON);
-            let tol = self.b.ins().fmul(k, scale);
-            for j in 0..n {
-                let d = self.get(tape.output_slot(n + j) as u32)?;
-                let pos = self.b.ins().fcmp(FloatCC::GreaterThan, d, tol);
-                ok = self.b.ins().band(ok, pos);
-            }
-        }
-        for j in 0..n {
-            let a = self.get(tape.output_slot(j) as u32)?;
-            let diff = self.b.ins().fsub(a, a);
-            let finite = self.b.ins().fcmp(FloatCC::Equal, diff, zero);
-            ok = self.b.ins().band(ok, finite);
-        }
-        let ok = self.b.ins().uextend(types::I32, ok);
-        self.b.ins().return_(&[ok]);
-        Some(())
-    }
-
-    /// Calls the `extern "C"` function at `addr` with `f64` arguments, returning one `f64`.
-    fn call(&mut self, addr: usize, args: &[Value]) -> Value {
-        call_f64(self.b, self.call_conv, self.ptr, addr, args)
-    }
-}
-
-/// Calls the `extern "C"` function at `addr` with `f64` arguments, returning one `f64`.
-fn call_f64(b: &mut FunctionBuilder, call_conv: CallConv, ptr: types::Type, addr: usize, args: &[Value]) -> Value {
-    let mut sig = Signature::new(call_conv);
-    for _ in args {
-        sig.params.push(AbiParam::new(types::F64));
-    }
-    sig.returns.push(AbiParam::new(types::F64));
-    let sig = b.import_signature(sig);
-    let callee = b.ins().iconst(ptr, addr as i64);
-    let call = b.ins().call_indirect(sig, callee, args);
-    b.inst_results(call)[0]
-}
-
-/// `(sin x, cos x)` by the `sin_cos` wrapper, which writes them to the function's 16-byte
-/// stack slot `pair` (made on first use).
-fn call_sin_cos(
-    b: &mut FunctionBuilder,
-    call_conv: CallConv,
-    ptr: types::Type,
-    pair: &mut Option<StackSlot>,
-    x: Value,
-) -> (Value, Value) {
-    let pair =
-        *pair.get_or_insert_with(|| b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3)));
-    let addr = b.ins().stack_addr(ptr, pair, 0);
-    let mut sig = Signature::new(call_conv);
-    sig.params.push(AbiParam::new(types::F64));
-    sig.params.push(AbiParam::new(ptr));
-    let sig = b.import_signature(sig);
-    let callee = b.ins().iconst(ptr, sin_cos as *const () as usize as i64);
-    b.ins().call_indirect(sig, callee, &[x, addr]);
-    (b.ins().stack_load(types::F64, pair, 0), b.ins().stack_load(types::F64, pair, 8))
-}
-
-// The transcendental wrappers. Each calls exactly what the interpreter calls for the same
-// instruction, so both back ends return the same bits.
-
-macro_rules! unary_wrappers {
-    ($($name:ident => $f:expr),* $(,)?) => {
-        $(extern "C" fn $name(x: f64) -> f64 {
-            $f.eval(&[x])
-        })*
-    };
-}
-
-unary_wrappers! {
-    sin => Func::Sin, cos => Func::Cos, tan => Func::Tan, exp => Func::Exp, ln => Func::Log,
-    sinh => Func::Sinh, cosh => Func::Cosh, tanh => Func::Tanh, asin => Func::Asin,
-    acos => Func::Acos, atan => Func::Atan,
-}
-
-/// The wrapper for a one-argument built-in; `None` for `abs` (one native instruction) and
-/// `atan2`, which the lowering always emits as its own instruction (a tape with a
-/// one-argument `atan2` would stay interpreted).
-fn wrapper(f: Func) -> Option<extern "C" fn(f64) -> f64> {
-    Some(match f {
-        Func::Sin => sin,
-        Func::Cos => cos,
-        Func::Tan => tan,
-        Func::Exp => exp,
-        Func::Log => ln,
-        Func::Sinh => sinh,
-        Func::Cosh => cosh,
-        Func::Tanh => tanh,
-        Func::Asin => asin,
-        Func::Acos => acos,
-        Func::Atan => atan,
-        Func::Abs | Func::Atan2 => return None,
-    })
-}
-
-extern "C" fn atan2(a: f64, b: f64) -> f64 {
-    a.atan2(b)
-}
-
-extern "C" fn powf(a: f64, b: f64) -> f64 {
-    a.powf(b)
-}
-
-/// The real odd root, with `q` passed as an exact small integer in an `f64`.
-extern "C" fn real_root(a: f64, q: f64) -> f64 {
-    crate::eval::real_root(a, q as u32)
-}
-
-/// `out[0] = sin x`, `out[1] = cos x`.
-///
-/// # Safety
-/// Called only by generated code, with `out` pointing at its own 16-byte stack slot.
-extern "C" fn sin_cos(x: f64, out: *mut f64) {
-    let (s, c) = x.sin_cos();
-    // SAFETY: `out` is the generated function's 8-aligned 16-byte stack slot (see `body`).
-    unsafe {
-        *out = s;
-        *out.add(1) = c;
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Taylor recurrences
-// ---------------------------------------------------------------------------------------------
+use super::ir::{Op, Weight};
+use super::TaylorTape;
+use crate::compile::jit::{atan2, call_f64, call_sin_cos, host_module, powf, real_root, wrapper, OwnedModule};
+use crate::compile::tape::MAX_NATIVE_INSTRS;
 
 /// What a whole expansion does after the recurrences of each order `k = 1..=max_order`, as
 /// `TaylorOde::expand` does between orders: for `W q'' = F`, solve for order `k` of the
@@ -531,9 +32,8 @@ pub(crate) struct Expansion {
     /// which owns the layout).
     pub len: usize,
 }
-
 /// Order `k` of the accelerations `a` of `W q'' = F`, from `W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`
-/// with `W₀ = L Lᵀ` factored at order 0 (by `rhs::factor`, in the buffer after the rows). The
+/// with `W₀ = L Lᵀ` factored at order 0 (by `linalg::factor`, in the buffer after the rows). The
 /// accelerations are rows `acc_row + l` of the buffer.
 pub(crate) struct CholeskySolve {
     pub n: usize,
@@ -547,13 +47,11 @@ pub(crate) struct CholeskySolve {
     /// The row of every entry `W_ij` (`i n + j`), for the factorisation at order 0.
     pub w_rows: Vec<u32>,
 }
-
 /// What a whole expansion's return value means: bit 0, an `abs` met its kink; bit 1, `W₀` was
 /// not finite or not positive definite, so the rest is garbage and the interpreter must redo
 /// the expansion (and choose LU, or report the error).
 const STATUS_KINK: i32 = 1;
 const STATUS_REDO: i32 = 2;
-
 /// How a whole native expansion ended ([`NativeTaylor::run_expansion`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Ran {
@@ -562,31 +60,26 @@ pub(crate) enum Ran {
     /// `W₀` needs the interpreter (see [`STATUS_REDO`]).
     Redo,
 }
-
 /// The signature of generated Taylor code, every form: `fn(c: *mut f64, arg: usize) -> i32`,
 /// computing in place in the coefficient buffer `c` and returning its status
 /// ([`STATUS_KINK`], and for a whole expansion [`STATUS_REDO`]). `arg` is the order `k` for
 /// compact code (one function for every order) and [`WINDOW_BYTES`] for unrolled code (see
 /// [`TaylorEmitter::window`]).
 type TaylorFn = unsafe extern "C" fn(*mut f64, usize) -> i32;
-
 /// The lowest order whose whole expansion sums two terms at once ([`TaylorEmitter::pair`]).
 /// Each sum pays two lane extractions and each coefficient a store to its mirror, which the
 /// halved multiplications repay once sums are long: the double pendulum at orders 13–20 ran
 /// 3–12 % faster with pairs, at order 11 the same and at order 8 3 % slower, and the chaos
 /// map's variational system at order 12 2 % slower.
 const PAIRS_FROM_ORDER: usize = 13;
-
 /// The span of the buffer one base register of unrolled code reaches with a one-byte
 /// displacement (`−128..=127` around it): see [`TaylorEmitter::window`].
 const WINDOW_BYTES: usize = 256;
-
 /// How many base registers unrolled code keeps (for the first 3 kB of its buffer): each one
 /// is live through the whole function, and more would crowd out the registers of larger
 /// tapes (the 5-link pendulum, a 26 kB buffer at order 19, ran 3–4 % slower with a base
 /// register every 256 bytes).
 const MAX_WINDOWS: usize = 12;
-
 /// How many orders unrolled code keeps in SSA values (see [`TaylorEmitter::at`]): `k` and
 /// `k − 1` when at most [`SSA_TWO_ORDERS_MAX_ROWS`] rows are written per order, else `k` alone.
 ///
@@ -596,7 +89,7 @@ const MAX_WINDOWS: usize = 12;
 /// from the buffer instead, per expansion: double pendulum (24 rows per order) 8–13 % faster
 /// at orders 11–19, 3-link pendulum 2246 → 2035 ns, 5-link 8376 → 7246 ns, the chaos map's
 /// variational system 2553 → 2404 ns; Kepler (10 rows) 2 % slower, so it keeps both.
-fn ssa_orders(tape: &super::TaylorTape, expansion: Option<&Expansion>) -> usize {
+fn ssa_orders(tape: &TaylorTape, expansion: Option<&Expansion>) -> usize {
     let rows = tape.rows_per_order() + expansion.map_or(0, |g| g.glue.len() + g.solve.as_ref().map_or(0, |m| m.n));
     if rows <= SSA_TWO_ORDERS_MAX_ROWS {
         2
@@ -604,10 +97,8 @@ fn ssa_orders(tape: &super::TaylorTape, expansion: Option<&Expansion>) -> usize 
         1
     }
 }
-
 /// See [`ssa_orders`].
 const SSA_TWO_ORDERS_MAX_ROWS: usize = 12;
-
 /// How a [`NativeTaylor`] lays the recurrences out in machine code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Form {
@@ -619,8 +110,7 @@ enum Form {
     /// ([`NativeTaylor::compile_compact`]).
     Compact,
 }
-
-/// Machine code for the Taylor recurrences of one [`TaylorTape`](super::TaylorTape) at a fixed
+/// Machine code for the Taylor recurrences of one [`TaylorTape`](TaylorTape) at a fixed
 /// stride: one straight-line function per order `k = 1..=max_order` (order 0, which calls the
 /// transcendental functions, stays in the interpreter).
 ///
@@ -660,13 +150,11 @@ pub(crate) struct NativeTaylor {
     /// The length of the buffer the code reads and writes.
     buffer_len: usize,
 }
-
 // SAFETY: as for `NativeCode`: the module is touched only by `Drop`, and each generated
 // function reads and writes only the buffer its caller passes (exclusively, `&mut`).
 unsafe impl Send for NativeTaylor {}
 // SAFETY: see `Send`.
 unsafe impl Sync for NativeTaylor {}
-
 impl std::fmt::Debug for NativeTaylor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
@@ -676,12 +164,10 @@ impl std::fmt::Debug for NativeTaylor {
         )
     }
 }
-
 /// Taylor tapes whose unrolled recurrences would have more terms than this (about
 /// `recurrences · order² / 2`) get compact code instead: Cranelift's compile time grows with
 /// the unrolled code, and code this large runs out of the instruction cache.
 pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
-
 /// Tapes with more recurrences than this stay interpreted rather than run compact code. Compact
 /// code is still a few hundred bytes per recurrence, and the interpreter's is a few kilobytes in
 /// all: measured on this project's machine (1 MB of L2 per core), compact code ran at 0.64–1.04×
@@ -690,22 +176,19 @@ pub(crate) const MAX_NATIVE_TAYLOR_TERMS: usize = 60_000;
 /// longer fit in L2 (BENCHMARKS.md, "Where compact code stops paying"). Past a few hundred
 /// recurrences it gains 18 % at most, so the limit leaves room for smaller caches.
 pub(crate) const MAX_COMPACT_RECURRENCES: usize = 600;
-
 /// Whether compact code pays for `tape` (at most [`MAX_COMPACT_RECURRENCES`] recurrences).
-pub(crate) fn compact_pays(tape: &super::TaylorTape) -> bool {
+pub(crate) fn compact_pays(tape: &TaylorTape) -> bool {
     tape.ops().len() <= MAX_COMPACT_RECURRENCES
 }
-
 /// The terms of `tape`'s recurrences unrolled to `max_order` (about).
-pub(crate) fn unrolled_terms(tape: &super::TaylorTape, max_order: usize) -> usize {
+pub(crate) fn unrolled_terms(tape: &TaylorTape, max_order: usize) -> usize {
     tape.ops().len().saturating_mul(max_order).saturating_mul(max_order) / 2
 }
-
 impl NativeTaylor {
     /// Compiles orders `1..=max_order` of `tape` for coefficient buffers of `stride`
     /// (`max_order < stride`): unrolled per order, or compact past [`MAX_NATIVE_TAYLOR_TERMS`];
     /// `None` when the host has no JIT or the tape is too large even for compact code.
-    pub(crate) fn compile(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+    pub(crate) fn compile(tape: &TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
         if unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
             return compact_pays(tape).then(|| Self::compile_compact(tape, stride, max_order)).flatten();
         }
@@ -714,7 +197,7 @@ impl NativeTaylor {
 
     /// Compact code for orders `1..=max_order` whatever the tape's size (up to
     /// [`MAX_NATIVE_INSTRS`] recurrences; [`MAX_COMPACT_RECURRENCES`] is where it stops paying).
-    pub(crate) fn compile_compact(tape: &super::TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
+    pub(crate) fn compile_compact(tape: &TaylorTape, stride: usize, max_order: usize) -> Option<NativeTaylor> {
         if tape.ops().len() > MAX_NATIVE_INSTRS {
             return None;
         }
@@ -724,7 +207,7 @@ impl NativeTaylor {
     /// The whole expansion of an ODE in one function (see [`Expansion`]); `None` also when
     /// it would be too large to unroll.
     pub(crate) fn compile_expansion(
-        tape: &super::TaylorTape,
+        tape: &TaylorTape,
         stride: usize,
         max_order: usize,
         expansion: &Expansion,
@@ -736,7 +219,7 @@ impl NativeTaylor {
     }
 
     fn compile_with(
-        tape: &super::TaylorTape,
+        tape: &TaylorTape,
         stride: usize,
         max_order: usize,
         form: Form,
@@ -804,22 +287,14 @@ impl NativeTaylor {
         self.call(c, k) == 0
     }
 }
-
 fn compile_taylor_code(
-    tape: &super::TaylorTape,
+    tape: &TaylorTape,
     stride: usize,
     max_order: usize,
     form: Form,
     expansion: Option<&Expansion>,
 ) -> Option<NativeTaylor> {
-    let mut flags = settings::builder();
-    flags.set("opt_level", "speed").ok()?;
-    flags.set("is_pic", "false").ok()?;
-    flags.set("enable_verifier", if cfg!(debug_assertions) { "true" } else { "false" }).ok()?;
-    let isa = cranelift_native::builder().ok()?.finish(settings::Flags::new(flags)).ok()?;
-    let call_conv = isa.default_call_conv();
-    let ptr = isa.pointer_type();
-    let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
+    let (mut module, call_conv, ptr) = host_module(&[])?;
     let mut ctx = module.make_context();
     let mut fbc = FunctionBuilderContext::new();
     let mut ids = Vec::with_capacity(max_order);
@@ -948,7 +423,6 @@ fn compile_taylor_code(
         buffer_len: expansion.map_or(tape.n_rows() * stride, |g| g.len),
     })
 }
-
 /// The order a [`TaylorEmitter`] writes.
 #[derive(Clone, Copy)]
 enum Order {
@@ -958,14 +432,12 @@ enum Order {
     /// computes it) and the address of order `k` of row 0.
     Runtime { k: Value, kf: Value, rk: Value, at_k: Value },
 }
-
 /// A coefficient index `m·k + c` (`m` is 0 or 1), `k` the order being computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Ix {
     m: isize,
     c: isize,
 }
-
 impl Ix {
     /// Order `k` itself.
     const K: Ix = Ix { m: 1, c: 0 };
@@ -992,7 +464,6 @@ impl Ix {
         usize::try_from(self.m * k as isize + self.c).expect("a coefficient index is never negative")
     }
 }
-
 /// The number of terms of a sum.
 #[derive(Clone, Copy)]
 enum Len {
@@ -1000,13 +471,12 @@ enum Len {
     /// `⌈k/2⌉ − 1`: the distinct pairs of a square's inner sum.
     HalfInner,
 }
-
 /// Emits order `k` of every recurrence of a Taylor tape, mirroring
 /// `TaylorTape::run_order` operation for operation.
 struct TaylorEmitter<'a, 'b> {
     b: &'a mut FunctionBuilder<'b>,
     /// The tape whose recurrences are emitted.
-    tape: &'a super::TaylorTape,
+    tape: &'a TaylorTape,
     call_conv: CallConv,
     base: Value,
     /// The integer type of addresses and of the order.
@@ -1029,14 +499,12 @@ struct TaylorEmitter<'a, 'b> {
     /// values and reloads older ones ([`ssa_orders`]).
     ssa_orders: usize,
 }
-
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
 /// `span` is the function's argument [`WINDOW_BYTES`].
 struct Windows {
     span: Value,
     bases: Vec<Option<Value>>,
 }
-
 impl TaylorEmitter<'_, '_> {
     /// Coefficient `j` of row `r` (unrolled code). Order `k` (and for small tapes `k − 1`, see
     /// [`ssa_orders`]) is read as the SSA value that wrote it (it is on the dependency chain
@@ -1260,7 +728,7 @@ impl TaylorEmitter<'_, '_> {
     }
 
     /// `Σ_i w_i · a[a0 + i] · b[b0 − i]`, `i = 0..len`, in the interpreter's order (`sum4` in
-    /// `taylor.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
+    /// `interp.rs`): the terms reading order `k` (`b0 = k` first, `a0 + len − 1 = k` last)
     /// added at the end, the others round-robin into four partial sums (from their first
     /// terms; two terms at a time in vector lanes from [`PAIRS_FROM_ORDER`]), combined as
     /// `(s₀ + s₁) + (s₂ + s₃)`.
@@ -1458,7 +926,7 @@ impl TaylorEmitter<'_, '_> {
     }
 
     /// Order 0 of `W q'' = F`: the Cholesky factor `L` of `W₀` into the buffer at
-    /// `factor_at`, operation for operation as `rhs::factor` (so the bits are the
+    /// `factor_at`, operation for operation as `linalg::factor` (so the bits are the
     /// interpreter's), and a flag (`i8`) set when an entry of `W₀` is not finite or a pivot is
     /// at most `n ε max|W₀|`: then the interpreter redoes the expansion, which factors by LU
     /// or reports the error. The code runs on regardless (one straight-line block), on
@@ -1574,12 +1042,12 @@ impl TaylorEmitter<'_, '_> {
         self.sum(wa, Ix::at(1), b, Ix::k(-1), Len::Ix(Ix::k(-1)), Weight::One)
     }
 
-    /// The weighted row of row `r` (`j · r_j`, `weigh_rows` in `taylor.rs`).
+    /// The weighted row of row `r` (`j · r_j`, `weigh_rows` in `ir.rs`).
     fn weighted_row(&self, r: u32) -> u32 {
         self.tape.weighted_row(r).expect("weigh_rows gives every weighted operand its row")
     }
 
-    /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `taylor.rs`):
+    /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms (`square_inner` in `interp.rs`):
     /// `2 Σ_{1≤j<k−j} a_j a_{k−j} + (a_{k/2}² or 0)`.
     fn square_inner(&mut self, r: u32) -> Value {
         let half = self.sum(r, Ix::at(1), r, Ix::k(-1), Len::HalfInner, Weight::One);
@@ -1849,113 +1317,18 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.times_recip(num, den);
                     self.put(d, v);
                 }
-                Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
-                    let w = self.weighted(a, c);
-                    let sv = self.times_rk(w);
-                    let w = self.weighted(a, s);
-                    let cv = self.times_rk(w);
-                    self.put(s, sv);
-                    let cv = if matches!(op, Op::SinCos { .. }) {
-                        let m = self.c(-1.0);
-                        self.b.ins().fmul(cv, m)
-                    } else {
-                        cv
-                    };
-                    self.put(c, cv);
-                }
-                Op::Exp { d, a } => {
-                    let w = self.weighted(a, d);
-                    let v = self.times_rk(w);
-                    self.put(d, v);
-                }
-                Op::Log { d, a } => {
-                    let acc = self.weighted_short(d, a);
-                    let q = self.times_rk(acc);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.coef(a, zero);
-                    let v = self.times_recip(num, a0);
-                    self.put(d, v);
-                }
-                Op::Tan { d, a, u, hyp } => {
-                    let w = self.weighted(a, u);
-                    let dv = self.times_rk(w);
-                    self.put(d, dv);
-                    let sq = self.square(d);
-                    let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
-                    self.put(u, uv);
-                }
-                Op::Asin { d, a, r, neg } => {
-                    let sq = self.square(a);
-                    let nsq = self.b.ins().fneg(sq);
-                    let inner = self.square_inner(r);
-                    let num = self.b.ins().fsub(nsq, inner);
-                    let two = self.c(2.0);
-                    let r0 = self.coef(r, zero);
-                    let den = self.b.ins().fmul(r0, two);
-                    let rv = self.times_recip(num, den);
-                    let ak = self.coef(a, k);
-                    let ak = if neg { self.b.ins().fneg(ak) } else { ak };
-                    let w = self.weighted_short(d, r);
-                    let q = self.times_rk(w);
-                    let num = self.b.ins().fsub(ak, q);
-                    let dv = self.times_recip(num, r0);
-                    self.put(r, rv);
-                    self.put(d, dv);
-                }
-                Op::Atan { d, a, u } => {
-                    let uv = self.square(a);
-                    let w = self.weighted_short(d, u);
-                    let q = self.times_rk(w);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let u0 = self.coef(u, zero);
-                    let dv = self.times_recip(num, u0);
-                    self.put(u, uv);
-                    self.put(d, dv);
-                }
-                Op::Atan2 { d, a, b, u } => {
-                    let x = self.square(a);
-                    let y = self.square(b);
-                    let uv = self.b.ins().fadd(x, y);
-                    let x = self.weighted(a, b);
-                    let y = self.weighted(b, a);
-                    let num = self.b.ins().fsub(x, y);
-                    let w = self.weighted_short(d, u);
-                    let num = self.b.ins().fsub(num, w);
-                    let kf = self.kf();
-                    let u0 = self.coef(u, zero);
-                    let den = self.b.ins().fmul(u0, kf);
-                    let dv = self.times_recip(num, den);
-                    self.put(u, uv);
-                    self.put(d, dv);
-                }
-                Op::Root { d, a, q } => {
-                    let v = self.constant_power(a, d, 1.0 / f64::from(q));
-                    self.put(d, v);
-                }
-                Op::PowConst { d, a, e } => {
-                    let v = self.constant_power(a, d, tape.row_constant(e)?);
-                    self.put(d, v);
-                }
-                Op::Power { d, a, e } => {
-                    let v = self.constant_power(a, d, e);
-                    self.put(d, v);
-                }
-                Op::PowVar { d, a, b, l, m } => {
-                    let w = self.weighted_short(l, a);
-                    let q = self.times_rk(w);
-                    let ak = self.coef(a, k);
-                    let num = self.b.ins().fsub(ak, q);
-                    let a0 = self.coef(a, zero);
-                    let lv = self.times_recip(num, a0);
-                    self.put(l, lv);
-                    let mv = self.cauchy(b, l);
-                    self.put(m, mv);
-                    let w = self.weighted(m, d);
-                    let dv = self.times_rk(w);
-                    self.put(d, dv);
-                }
+                Op::SinCos { .. }
+                | Op::SinhCosh { .. }
+                | Op::Exp { .. }
+                | Op::Log { .. }
+                | Op::Tan { .. }
+                | Op::Asin { .. }
+                | Op::Atan { .. }
+                | Op::Atan2 { .. }
+                | Op::Root { .. }
+                | Op::PowConst { .. }
+                | Op::Power { .. }
+                | Op::PowVar { .. } => self.function_order(op)?,
                 Op::Abs { d, a } => {
                     // a₀ > 0: a_k; a₀ < 0: −a_k; otherwise (0 or NaN) 0 if a_k == 0, else a kink.
                     let (a0, ak) = (self.coef(a, zero), self.coef(a, k));
@@ -1974,5 +1347,131 @@ impl TaylorEmitter<'_, '_> {
             }
         }
         Some(kink)
+    }
+
+    /// Order `k` of a function's recurrence (the operations `order` leaves to it); `None` when
+    /// a constant exponent's row has no constant.
+    fn function_order(&mut self, op: &Op) -> Option<()> {
+        let (k, zero) = (Ix::K, Ix::at(0));
+        match *op {
+            Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
+                let w = self.weighted(a, c);
+                let sv = self.times_rk(w);
+                let w = self.weighted(a, s);
+                let cv = self.times_rk(w);
+                self.put(s, sv);
+                let cv = if matches!(op, Op::SinCos { .. }) {
+                    let m = self.c(-1.0);
+                    self.b.ins().fmul(cv, m)
+                } else {
+                    cv
+                };
+                self.put(c, cv);
+            }
+            Op::Exp { d, a } => {
+                let w = self.weighted(a, d);
+                let v = self.times_rk(w);
+                self.put(d, v);
+            }
+            Op::Log { d, a } => {
+                let acc = self.weighted_short(d, a);
+                let q = self.times_rk(acc);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let a0 = self.coef(a, zero);
+                let v = self.times_recip(num, a0);
+                self.put(d, v);
+            }
+            Op::Tan { d, a, u, hyp } => {
+                let w = self.weighted(a, u);
+                let dv = self.times_rk(w);
+                self.put(d, dv);
+                let sq = self.square(d);
+                let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
+                self.put(u, uv);
+            }
+            Op::Asin { d, a, r, neg } => {
+                let sq = self.square(a);
+                let nsq = self.b.ins().fneg(sq);
+                let inner = self.square_inner(r);
+                let num = self.b.ins().fsub(nsq, inner);
+                let two = self.c(2.0);
+                let r0 = self.coef(r, zero);
+                let den = self.b.ins().fmul(r0, two);
+                let rv = self.times_recip(num, den);
+                let ak = self.coef(a, k);
+                let ak = if neg { self.b.ins().fneg(ak) } else { ak };
+                let w = self.weighted_short(d, r);
+                let q = self.times_rk(w);
+                let num = self.b.ins().fsub(ak, q);
+                let dv = self.times_recip(num, r0);
+                self.put(r, rv);
+                self.put(d, dv);
+            }
+            Op::Atan { d, a, u } => {
+                let uv = self.square(a);
+                let w = self.weighted_short(d, u);
+                let q = self.times_rk(w);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let u0 = self.coef(u, zero);
+                let dv = self.times_recip(num, u0);
+                self.put(u, uv);
+                self.put(d, dv);
+            }
+            Op::Atan2 { d, a, b, u } => {
+                let x = self.square(a);
+                let y = self.square(b);
+                let uv = self.b.ins().fadd(x, y);
+                let x = self.weighted(a, b);
+                let y = self.weighted(b, a);
+                let num = self.b.ins().fsub(x, y);
+                let w = self.weighted_short(d, u);
+                let num = self.b.ins().fsub(num, w);
+                let kf = self.kf();
+                let u0 = self.coef(u, zero);
+                let den = self.b.ins().fmul(u0, kf);
+                let dv = self.times_recip(num, den);
+                self.put(u, uv);
+                self.put(d, dv);
+            }
+            Op::Root { d, a, q } => {
+                let v = self.constant_power(a, d, 1.0 / f64::from(q));
+                self.put(d, v);
+            }
+            Op::PowConst { d, a, e } => {
+                let v = self.constant_power(a, d, self.tape.row_constant(e)?);
+                self.put(d, v);
+            }
+            Op::Power { d, a, e } => {
+                let v = self.constant_power(a, d, e);
+                self.put(d, v);
+            }
+            Op::PowVar { d, a, b, l, m } => {
+                let w = self.weighted_short(l, a);
+                let q = self.times_rk(w);
+                let ak = self.coef(a, k);
+                let num = self.b.ins().fsub(ak, q);
+                let a0 = self.coef(a, zero);
+                let lv = self.times_recip(num, a0);
+                self.put(l, lv);
+                let mv = self.cauchy(b, l);
+                self.put(m, mv);
+                let w = self.weighted(m, d);
+                let dv = self.times_rk(w);
+                self.put(d, dv);
+            }
+            Op::Add { .. }
+            | Op::Sub { .. }
+            | Op::Neg { .. }
+            | Op::Scale { .. }
+            | Op::Weigh { .. }
+            | Op::Mul { .. }
+            | Op::Sqr { .. }
+            | Op::Div { .. }
+            | Op::Sqrt { .. }
+            | Op::Abs { .. } => unreachable!("`order` emits the arithmetic and `abs` itself"),
+        }
+        Some(())
     }
 }

@@ -1,0 +1,269 @@
+//! When a Taylor tape gets machine code, and which form: the tiering policy between the
+//! interpreter, unrolled, whole-expansion and compact code.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use crate::compile::jit::jit_disabled_by_env;
+
+use super::interp::KinkAt;
+use super::native::{
+    compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, Ran, MAX_NATIVE_TAYLOR_TERMS,
+};
+use super::ode::Derivative;
+use super::{TaylorOde, TaylorTape};
+
+/// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
+/// ([`TaylorTape::compile_native`]); clones share the code.
+#[derive(Clone, Debug)]
+pub struct TaylorNative(Arc<NativeTaylor>);
+impl TaylorNative {
+    /// The stride of the coefficient buffers the code was compiled for.
+    pub fn stride(&self) -> usize {
+        self.0.stride()
+    }
+
+    /// The highest order compiled (orders `1..=max_order`; order 0 is interpreted except in a
+    /// whole expansion).
+    pub fn max_order(&self) -> usize {
+        self.0.max_order()
+    }
+
+    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride (code
+    /// compiled per order).
+    pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
+        if self.0.run_order(c, k) {
+            Ok(())
+        } else {
+            Err(KinkAt)
+        }
+    }
+
+    /// Whether this is the whole expansion of an ODE from order 0 (see
+    /// [`TaylorOde::native_for`]).
+    pub fn is_whole(&self) -> bool {
+        self.0.is_whole()
+    }
+
+    /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
+    pub fn is_compact(&self) -> bool {
+        self.0.is_compact()
+    }
+
+    /// Runs a whole expansion: orders `0..=max_order` and the state's next order after each
+    /// (`c`: the whole scratch of [`TaylorOde::expand`], with the state's order 0 and the
+    /// time's orders given).
+    pub(super) fn run_expansion(&self, c: &mut [f64]) -> Ran {
+        self.0.run_expansion(c)
+    }
+}
+/// How many expansions a [`TaylorOde`] with native code switched on
+/// ([`TaylorOde::with_native`]) runs in the interpreter before compiling, so a cold start
+/// never waits for Cranelift.
+pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
+/// The same for a [`TaylorOde`] left at its default: about the number of expansions after
+/// which unrolled code has repaid its compile time. Measured in BENCHMARKS.md: Kepler at order
+/// 19 takes 8 ms to compile and then saves 0.34 µs per step (even after 2.5 · 10⁴ steps), the
+/// double pendulum at order 15 13 ms and 0.75 µs (1.8 · 10⁴); both costs grow with the
+/// unrolled terms. Waiting that long before compiling at most doubles the time of a run that
+/// ends just after (as renting skis until their price is spent bounds the loss of buying).
+pub const AUTO_NATIVE_AFTER_EXPANSIONS: usize = 1 << 15;
+/// Orders whose unrolled recurrences have more terms than this wait for
+/// [`UNROLL_AFTER_EXPANSIONS`] before unrolled code, not [`AUTO_NATIVE_AFTER_EXPANSIONS`]:
+/// unrolled code's compile time grows faster than its terms (76 ms for the chaos map's
+/// variational double pendulum at order 12, 7,623 terms; 0.45 s for a 5-link pendulum at
+/// order 19, 21,546), compact code's only with the recurrences (8–9 ms for either), and
+/// compact code runs only 15–35 % slower than unrolled code at these sizes (BENCHMARKS.md).
+/// At this size unrolled code compiles in about the time of [`AUTO_NATIVE_AFTER_EXPANSIONS`]
+/// interpreted expansions.
+pub const COMPACT_ABOVE_TERMS: usize = 5_000;
+/// By default every tape (of at most 600 recurrences) gets compact code after this many
+/// interpreted expansions, until its unrolled code exists. Compact code's compile time over
+/// what it saves per expansion against the interpreter is 3,000–5,000 expansions for every
+/// tape measured (Kepler 0.9 ms / 0.19 µs, the chaos map's variational system 8 ms / 1.9 µs,
+/// the 10-link pendulum 38 ms / 8 µs; BENCHMARKS.md), so waiting this long at most doubles
+/// the cost of a run that ends just after, as for [`AUTO_NATIVE_AFTER_EXPANSIONS`]…
+pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 12;
+/// …and a tape past [`COMPACT_ABOVE_TERMS`] gets unrolled code (if it has at most
+/// `native::MAX_NATIVE_TAYLOR_TERMS` terms) after this many expansions in all, when the run
+/// has been long enough to repay its compile time: unrolled code's compile time over what it
+/// saves per expansion against compact code is 0.9–1.7 · 10⁵ expansions for these tapes (the
+/// chaos map's variational system 76 ms / 0.89 µs, the 3-link pendulum 74 ms / 0.43 µs, the
+/// 5-link 445 ms / 2.7 µs; BENCHMARKS.md).
+pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 17;
+/// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
+#[derive(Debug)]
+pub(super) struct NativeCache {
+    allowed: bool,
+    /// Expansions before a small tape's unrolled code is compiled.
+    after: usize,
+    /// Expansions before compact code is compiled (until the unrolled code exists).
+    compact_after: usize,
+    /// Expansions before a large tape's unrolled code is compiled.
+    unroll_after: usize,
+    /// Expansions so far (counted only until the final code exists).
+    uses: AtomicUsize,
+    /// `by_order[p]`: the final code for expansions of order `p` (stride `p + 1`, orders
+    /// `1..p`), the fastest there is.
+    by_order: Vec<OnceLock<Option<TaylorNative>>>,
+    /// `compact[p]`: compact code, run until `by_order[p]` exists.
+    compact: Vec<OnceLock<Option<TaylorNative>>>,
+}
+impl NativeCache {
+    /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
+    /// tapes) or `unroll_after` (large tapes).
+    fn new(allowed: bool, after: usize, compact_after: usize, unroll_after: usize) -> Arc<NativeCache> {
+        let slots = || (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect();
+        Arc::new(NativeCache {
+            allowed,
+            after,
+            compact_after,
+            unroll_after,
+            uses: AtomicUsize::new(0),
+            by_order: slots(),
+            compact: slots(),
+        })
+    }
+
+    /// The default tiers.
+    pub(super) fn auto() -> Arc<NativeCache> {
+        NativeCache::new(true, AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_AFTER_EXPANSIONS, UNROLL_AFTER_EXPANSIONS)
+    }
+}
+/// Orders above this are always interpreted (the integrator's own limit is 100).
+const MAX_NATIVE_ORDER: usize = 100;
+
+impl TaylorTape {
+    /// Machine code for orders `1..=max_order` of this tape's recurrences, for coefficient
+    /// buffers of `stride` (`max_order < stride`): unrolled per order, or compact (see
+    /// [`TaylorTape::compile_native_compact`]) when unrolling would make too much code; `None`
+    /// when [`crate::compile::NO_JIT_ENV`] is set, the host has no JIT, or the tape is too
+    /// large for either form. Its coefficients equal [`TaylorTape::run_order`]'s bit for bit.
+    pub fn compile_native(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
+        if jit_disabled_by_env() {
+            return None;
+        }
+        NativeTaylor::compile(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
+    }
+
+    /// Compact machine code for orders `1..=max_order`: one function taking the order, each
+    /// recurrence's sum a loop, so the code grows with the recurrences alone (not with the
+    /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] and
+    /// [`TaylorOde`] choose it for large tapes of at most 600 recurrences (past that its code
+    /// no longer fits in the caches and the interpreter is faster); this asks for it whatever
+    /// the size. Same bits as the interpreter.
+    pub fn compile_native_compact(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
+        if jit_disabled_by_env() {
+            return None;
+        }
+        NativeTaylor::compile_compact(self, stride, max_order).map(|code| TaylorNative(Arc::new(code)))
+    }
+}
+
+impl TaylorOde {
+    /// Turns the native Taylor code on early or off. By default each order's code is
+    /// compiled when a run has been long enough for it to repay its compile time: compact
+    /// code after [`COMPACT_AFTER_EXPANSIONS`] expansions, then unrolled code after
+    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`], or for a tape past [`COMPACT_ABOVE_TERMS`] after
+    /// [`UNROLL_AFTER_EXPANSIONS`]. On: the fastest code after
+    /// [`NATIVE_AFTER_EXPANSIONS`]; off, never (nor ever when
+    /// [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits whichever code runs.
+    pub fn with_native(mut self, on: bool) -> TaylorOde {
+        let n = NATIVE_AFTER_EXPANSIONS;
+        self.native = NativeCache::new(on, n, n, n);
+        self
+    }
+
+    /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
+    /// native code is off, the host has no JIT, or the tape is too large for unrolled and for
+    /// compact code).
+    ///
+    /// A first-order system, and a `W q'' = F` system with a symmetric `W`, get the whole
+    /// expansion as one function (orders, the Cholesky solve and the steps from each order of
+    /// the right-hand side to the next of the state, see `native.rs`); a non-symmetric `W`,
+    /// whose LU solve stays in Rust, one function per order; a tape too large to unroll at
+    /// this order, compact code called once per order.
+    pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
+        if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        self.native.by_order[order].get_or_init(|| self.compile_native(order)).clone()
+    }
+
+    /// The native code compiled so far for expansions of `order` (the final code if it
+    /// exists, else compact code), compiling nothing.
+    pub fn native_compiled(&self, order: usize) -> Option<TaylorNative> {
+        let cache = &*self.native;
+        let slot = |tier: &[OnceLock<Option<TaylorNative>>]| tier.get(order).and_then(|c| c.get().cloned().flatten());
+        slot(&cache.by_order).or_else(|| slot(&cache.compact))
+    }
+
+    pub(super) fn compile_native(&self, order: usize) -> Option<TaylorNative> {
+        let stride = order + 1;
+        // An LU-factored (non-symmetric) `W` keeps its solve in Rust, between per-order code.
+        if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
+            return self.tape.compile_native(stride, order - 1);
+        }
+        if jit_disabled_by_env() {
+            return None;
+        }
+        let n_rows = self.tape.n_rows();
+        let glue = (0..self.dim)
+            .map(|i| {
+                let src = match self.derivs[i] {
+                    Derivative::Output(j) => self.tape.output_row(j),
+                    Derivative::State(j) => j,
+                    Derivative::Solve(j) => n_rows + j,
+                };
+                (i as u32, src as u32)
+            })
+            .collect();
+        // The accelerations are the `n` rows after the tape's, then comes the factor of `W₀`
+        // (the layout `expand` splits its scratch into).
+        let solve = self.solve.as_ref().map(|m| CholeskySolve {
+            n: m.n,
+            f_rows: m.f.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
+            varying: m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect(),
+            acc_row: n_rows as u32,
+            factor_at: (n_rows + m.n) * stride,
+            w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
+        });
+        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) };
+        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
+            Some(code) => Some(TaylorNative(Arc::new(code))),
+            // Too large to unroll: compact code, one call per order (none past
+            // `MAX_COMPACT_RECURRENCES`).
+            None => self.tape.compile_native(stride, order - 1),
+        }
+    }
+
+    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
+    /// describes: the interpreter (`None`), then compact code, then the final code
+    /// ([`TaylorOde::native_for`]).
+    pub(super) fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
+        let cache = &*self.native;
+        if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        let best = &cache.by_order[order];
+        if let Some(code) = best.get() {
+            return code.as_ref();
+        }
+        let uses = cache.uses.fetch_add(1, Ordering::Relaxed);
+        let terms = unrolled_terms(&self.tape, order - 1);
+        let final_after = match terms {
+            t if t <= COMPACT_ABOVE_TERMS => cache.after,
+            // Too large to unroll at all: the compact code is the final code.
+            t if t > MAX_NATIVE_TAYLOR_TERMS => cache.compact_after,
+            _ => cache.unroll_after,
+        };
+        if uses >= final_after {
+            return best.get_or_init(|| self.compile_native(order)).as_ref();
+        }
+        if uses >= cache.compact_after && compact_pays(&self.tape) {
+            let compact = || self.tape.compile_native_compact(order + 1, order - 1);
+            return cache.compact[order].get_or_init(compact).as_ref();
+        }
+        None
+    }
+}
