@@ -164,6 +164,52 @@ impl Session {
                 .at(stmt_span)
                 .hint("declare them first, for example `coordinates θ`"));
         }
+        let (mut options, dt) = self.run_options(at, spec, method)?;
+        let (t0, t1) = (options.t0, options.t1);
+        // The formulation this method needs: this decides what is derived.
+        let (formulation, layout, l_expr, h_expr) = self.formulation(at, spec, method, dynamics)?;
+        let coords = self.coords.clone();
+        let first_order = matches!(formulation, Formulation::FirstOrder(_));
+        let y0 = self.initial_state(at, spec, layout, first_order, t0)?;
+        if let Formulation::Extended(ext) = &formulation {
+            if dynamics.constrained() {
+                let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
+                self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
+            }
+        }
+
+        let (event_exprs, events) = self.run_events(at, spec, layout, l_expr.as_ref(), h_expr.as_ref(), first_order)?;
+        let params = self.run_params(stmt_span, &formulation, &event_exprs)?;
+        let compiled = self.compile_run(at, method, &coords, &formulation, &params, &event_exprs)?;
+        let every = self.thinning(at, spec, dt, t0, t1, name)?;
+        let names = super::drift::input_names(&coords, layout);
+        let check = self.energy_check(at, spec, &formulation, &names, &params)?;
+        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
+        options.events = events;
+        options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
+        options.energy = energy;
+        let run = RunRequest { y0, options };
+        let template = RunResult {
+            method,
+            layout,
+            coords,
+            params: params.into_iter().collect(),
+            traj: Arc::new(Trajectory::default()),
+            lagrangian: l_expr,
+            hamiltonian: h_expr,
+        };
+        Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
+    }
+
+    /// The library's options of a run from its time span, `dt`, `tol` and `steps` (checked
+    /// by the library), and the fixed step if one was asked.
+    fn run_options(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        method: MethodId,
+    ) -> Result<(RunOptions, Option<f64>), SceneError> {
+        let stmt_span = at.span;
         let t0 = self.bound(at, &spec.t0)?;
         let t1 = self.bound(at, &spec.t1)?;
         if t1 == t0 {
@@ -215,8 +261,19 @@ impl Session {
         options.dt = dt;
         options.rtol = tol;
         options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
+        Ok((options, dt))
+    }
 
-        // The formulation this method needs: this decides what is derived.
+    /// The formulation `method` integrates (the library's route for what the scene
+    /// defines), the state's layout and the `L` and `H` it was built from.
+    fn formulation(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        method: MethodId,
+        dynamics: &Dynamics,
+    ) -> Result<(Formulation, Layout, Option<Expr>, Option<Expr>), SceneError> {
+        let stmt_span = at.span;
         let has_l = self.def_names.contains_key("L");
         let has_h = self.def_names.contains_key("H");
         if spec.stabilize.is_some() && dynamics.is_empty() {
@@ -269,10 +326,13 @@ impl Session {
             }
         };
         let layout = if route.has_velocities() { Layout::Velocities } else { Layout::Momenta };
+        Ok((formulation, layout, l_expr, h_expr))
+    }
 
-        // Initial state.
+    /// The values the `simulate` statement gives (coordinates, velocities or momenta), each
+    /// with its span, checked to be part of the state and given once.
+    fn given_values(&mut self, at: At, spec: &SimSpec) -> Result<HashMap<String, (f64, Span)>, SceneError> {
         let coords = self.coords.clone();
-        let n = coords.len();
         let mut given: HashMap<String, (f64, Span)> = HashMap::new();
         for (sym, val) in &spec.inits {
             let (e, _) = self.expr(sym)?;
@@ -305,6 +365,23 @@ impl Session {
             }
             given.insert(s.to_string(), (x, sym.span));
         }
+        Ok(given)
+    }
+
+    /// The initial state in `layout`: coordinates, then velocities or momenta (velocities
+    /// turned into momenta through `p = ∂L/∂q'` when the method integrates `H`).
+    fn initial_state(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        layout: Layout,
+        first_order: bool,
+        t0: f64,
+    ) -> Result<Vec<f64>, SceneError> {
+        let stmt_span = at.span;
+        let coords = self.coords.clone();
+        let n = coords.len();
+        let given = self.given_values(at, spec)?;
         let mut y0 = vec![0.0; 2 * n];
         for (i, q) in coords.iter().enumerate() {
             y0[i] = match given.get(q.name()) {
@@ -321,7 +398,6 @@ impl Session {
         }
         let vel = |q: &Symbol| format!("{}'", q.name());
         let mom = |q: &Symbol| format!("p_{}", q.name());
-        let first_order = matches!(formulation, Formulation::FirstOrder(_));
         if first_order {
             super::first_order::check_first_order_inits(&coords, &given)?;
         }
@@ -389,19 +465,23 @@ impl Session {
                 }
             }
         }
+        Ok(y0)
+    }
 
-        if let Formulation::Extended(ext) = &formulation {
-            if dynamics.constrained() {
-                let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
-                self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
-            }
-        }
-
-        // Events, in the state's variables.
+    /// The events of a run, in the state's variables, and how each is located.
+    fn run_events(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        layout: Layout,
+        l_expr: Option<&Expr>,
+        h_expr: Option<&Expr>,
+        first_order: bool,
+    ) -> Result<(Vec<Expr>, Vec<RunEvent>), SceneError> {
         let mut event_exprs = Vec::new();
         let mut events = Vec::new();
         for (index, ev) in spec.events.iter().enumerate() {
-            let e = self.event_expr(at, ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
+            let e = self.event_expr(at, ev, layout, l_expr, h_expr)?;
             if first_order {
                 super::first_order::check_first_order_event(&e, ev.span)?;
             }
@@ -413,8 +493,17 @@ impl Session {
             };
             events.push(RunEvent { index, crossing, terminal: ev.terminal });
         }
+        Ok((event_exprs, events))
+    }
 
-        // Every parameter the equations use needs a value.
+    /// The values of the parameters the equations and events use: each needs one, and a
+    /// declared function with no numeric definition cannot be integrated.
+    fn run_params(
+        &self,
+        stmt_span: Span,
+        formulation: &Formulation,
+        event_exprs: &[Expr],
+    ) -> Result<Vec<(String, f64)>, SceneError> {
         let mut needed: BTreeSet<String> = BTreeSet::new();
         let exprs = formulation.exprs();
         for e in exprs.iter().chain(event_exprs.iter()) {
@@ -446,20 +535,32 @@ impl Session {
                 }
             }
         }
+        Ok(params)
+    }
 
-        // Compile (cached by symbolic content and parameter values), then integrate.
+    /// The compiled run, cached by symbolic content and parameter values.
+    fn compile_run(
+        &mut self,
+        at: At,
+        method: MethodId,
+        coords: &[Symbol],
+        formulation: &Formulation,
+        params: &[(String, f64)],
+        event_exprs: &[Expr],
+    ) -> Result<Compiled, SceneError> {
+        let stmt_span = at.span;
         let req = CompileRequest {
-            coords: coords.clone(),
+            coords: coords.to_vec(),
             formulation: formulation.clone(),
-            params: params.clone(),
+            params: params.to_vec(),
             form: method.form(),
-            events: event_exprs.clone(),
+            events: event_exprs.to_vec(),
         };
         let mut inputs: Vec<Expr> = formulation.exprs();
         inputs.extend(event_exprs.iter().cloned());
         let key = CacheKey {
             step: Step::Compile,
-            coords: coords.clone(),
+            coords: coords.to_vec(),
             inputs,
             numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
             extra: format!(
@@ -493,24 +594,7 @@ impl Session {
                 }
             }
         };
-        let every = self.thinning(at, spec, dt, t0, t1, name)?;
-        let names = super::drift::input_names(&coords, layout);
-        let check = self.energy_check(at, spec, &formulation, &names, &params)?;
-        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
-        options.events = events;
-        options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
-        options.energy = energy;
-        let run = RunRequest { y0, options };
-        let template = RunResult {
-            method,
-            layout,
-            coords,
-            params: params.into_iter().collect(),
-            traj: Arc::new(Trajectory::default()),
-            lagrangian: l_expr,
-            hamiltonian: h_expr,
-        };
-        Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
+        Ok(compiled)
     }
 
     /// Which steps a run keeps: `every N`, `points N`, or by default at most
