@@ -18,7 +18,8 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
-use super::session::{Mode, Options, Session};
+use super::session::{Mode, Options};
+use super::state::Session;
 use super::syntax::help::TOPICS;
 use super::syntax::parser::{is_incomplete, Unfinished, STATEMENTS};
 use crate::cache::Cache;

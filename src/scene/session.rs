@@ -1,6 +1,7 @@
-//! Executing statements: the session's declarations, expressions, lazy definitions and
-//! derivations, printing and `load`. Simulations (`simulate.rs`), figures and exports
-//! (`figures.rs`) and the plan (`plan.rs`) are the session's other jobs, in their own files.
+//! Executing statements: `exec` dispatches each to its handler with where it is (an
+//! `At`); here are the declarations, expressions, lazy definitions and derivations,
+//! printing, `load` and the plan's closing. The session's data is in `state.rs`; the other
+//! statement families are in `statements/`, one file each.
 //!
 //! Demand-driven evaluation: a definition (`H = legendre(L)`, `E = el(L)`) and a `simulate`
 //! only record what they would build. Outputs — `print`, a bare derivation (`el`), `plot`,
@@ -11,23 +12,21 @@
 //! a derivation's key, so re-running a scene with other numbers reuses the derivations —
 //! from memory in the same process, from the disk cache ([`crate::cache`]) in another.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use miette::NamedSource;
 
-use super::engine::backend::{Backend, BackendError, Line, NativeBackend, SystemRef, Trajectory};
-use super::engine::output::Staging;
+use super::engine::backend::{BackendError, SystemRef};
 use super::engine::progress::Draw;
-use super::syntax::ast::{DefValue, DerivCall, DerivKind, Item, SimSpec, Src, Statement, StmtKind};
+use super::state::{At, DefBody, DefEntry, Param, Printed, Refs, Session};
+use super::syntax::ast::{DefValue, DerivCall, DerivKind, Item, Src, Statement, StmtKind};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::syntax::parser;
-use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::{render, Format};
-use crate::simulate::MethodId;
 
 /// Where a session's text comes from, which decides when values are computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,106 +84,6 @@ pub use super::engine::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;
 use crate::cache::{CacheKey, Value};
 
-/// A parameter: a symbol with an optional value.
-#[derive(Clone, Debug)]
-pub(super) struct Param {
-    pub(super) value: Option<f64>,
-    pub(super) positive: bool,
-}
-
-/// A reference from an expression to a definition it uses.
-pub(super) type Refs = Vec<(Symbol, usize)>;
-
-#[derive(Clone)]
-pub(super) enum DefBody {
-    Expr { raw: Expr, refs: Refs },
-    Deriv { kind: DerivKind, args: Vec<(Expr, Refs)>, span: Span },
-}
-
-pub(super) struct DefEntry {
-    pub(super) name: String,
-    pub(super) body: DefBody,
-    pub(super) line: usize,
-    pub(super) value: Option<Value>,
-    pub(super) demanded: bool,
-}
-
-/// Which variables a trajectory's state holds after the coordinates.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Layout {
-    Velocities,
-    Momenta,
-}
-
-pub(super) struct RunEntry {
-    pub(super) name: String,
-    pub(super) spec: SimSpec,
-    pub(super) line: usize,
-    pub(super) result: Option<RunResult>,
-    /// The forces, Rayleigh function and constraints declared before the `simulate`.
-    pub(super) dynamics: super::statements::dynamics::Dynamics,
-}
-
-#[derive(Clone)]
-pub(super) struct RunResult {
-    pub(super) method: MethodId,
-    pub(super) layout: Layout,
-    pub(super) coords: Vec<Symbol>,
-    pub(super) params: HashMap<String, f64>,
-    pub(super) traj: Arc<Trajectory>,
-    /// The energy-like function in the state's variables (`H` or `h`), when known.
-    pub(super) lagrangian: Option<Expr>,
-    pub(super) hamiltonian: Option<Expr>,
-}
-
-/// A statement's printed result, kept for `latex` (reprint in another format).
-#[derive(Clone)]
-pub(super) enum Printed {
-    Named(String, Expr),
-    Value(Expr),
-    Lines(Vec<Line>),
-}
-
-/// A scene or REPL session.
-pub struct Session {
-    pub(super) opts: Options,
-    pub(super) backend: Box<dyn Backend>,
-    pub(super) cache: Cache,
-    pub(super) built_here: HashSet<CacheKey>,
-    pub(super) coords: Vec<Symbol>,
-    pub(super) params: BTreeMap<String, Param>,
-    pub(super) functions: BTreeSet<String>,
-    pub(super) defs: Vec<DefEntry>,
-    pub(super) def_names: HashMap<String, usize>,
-    pub(super) runs: Vec<RunEntry>,
-    pub(super) run_names: HashMap<String, usize>,
-    pub(super) plan: Vec<PlanEntry>,
-    pub(super) staging: Staging,
-    pub(super) output: Vec<String>,
-    /// Warnings for standard error (energy drift), in order.
-    pub(super) warnings: Vec<String>,
-    pub(super) last_printed: Vec<Printed>,
-    pub(super) source: Arc<NamedSource<String>>,
-    pub(super) line: usize,
-    pub(super) span: Span,
-    pub(super) load_depth: usize,
-    pub(super) diff: Differentiator,
-    /// Names a statement introduces for itself (the phase, frequency and amplitudes of
-    /// `average`), accepted in its expressions.
-    pub(super) local_names: Vec<String>,
-    /// `force`, `rayleigh` and `constraint` statements so far.
-    pub(super) dynamics: super::statements::dynamics::Dynamics,
-    /// Ensembles: a name for several runs (`from NAME` means all of them), with what they
-    /// share (the level set they start on), in statement order.
-    pub(super) groups: Vec<super::statements::ensemble::Group>,
-    /// What every figure drawn so far shows, by file.
-    pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
-    /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
-    pub(super) chaos_runs: Vec<super::statements::chaos::ChaosRun>,
-    /// `allow nonfinite` was given: exports keep inf and NaN.
-    pub(super) allow_nonfinite: bool,
-}
-
 /// The deepest chain of `load` statements.
 pub(super) const MAX_LOAD_DEPTH: usize = 8;
 
@@ -215,45 +114,6 @@ pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
 }
 
 impl Session {
-    /// A session on the real library.
-    pub fn new(opts: Options) -> Session {
-        Session::with_backend(opts, Box::new(NativeBackend))
-    }
-
-    /// A session on another backend (tests count what is built).
-    pub fn with_backend(opts: Options, backend: Box<dyn Backend>) -> Session {
-        let staging = Staging::new(opts.mode == Mode::Repl);
-        Session {
-            opts,
-            backend,
-            cache: Cache::new(),
-            built_here: HashSet::new(),
-            coords: Vec::new(),
-            params: BTreeMap::new(),
-            functions: BTreeSet::new(),
-            defs: Vec::new(),
-            def_names: HashMap::new(),
-            runs: Vec::new(),
-            run_names: HashMap::new(),
-            plan: Vec::new(),
-            staging,
-            output: Vec::new(),
-            warnings: Vec::new(),
-            last_printed: Vec::new(),
-            source: Arc::new(NamedSource::new("input", String::new())),
-            line: 0,
-            span: (0, 0),
-            load_depth: 0,
-            diff: Differentiator::new(),
-            local_names: Vec::new(),
-            dynamics: Default::default(),
-            groups: Vec::new(),
-            figures: Vec::new(),
-            chaos_runs: Vec::new(),
-            allow_nonfinite: false,
-        }
-    }
-
     /// What each figure drawn so far shows (title, labels, series, ranges, legend), by file,
     /// in the order drawn: the content a test can check without reading pixels.
     pub fn figures(&self) -> &[(PathBuf, crate::plot::Description)] {
@@ -367,15 +227,14 @@ impl Session {
     }
 
     pub(super) fn exec(&mut self, st: &Statement, line: usize) -> Result<(), SceneError> {
-        self.line = line;
-        self.span = st.span;
+        let at = At { line, span: st.span };
         match &st.kind {
             StmtKind::Coordinates(names) => self.declare_coordinates(names),
             StmtKind::Parameters { params, positive } => self.declare_parameters(params, *positive),
             StmtKind::Functions(names) => self.declare_functions(names),
-            StmtKind::Define { name, value } => self.define(name, value),
+            StmtKind::Define { name, value } => self.define(at, name, value),
             StmtKind::Derive { call, format } => {
-                let v = self.derive_call(call)?;
+                let v = self.derive_call(at, call)?;
                 let printed = match v {
                     Value::Expr(e) => {
                         let label = match call.kind {
@@ -397,31 +256,31 @@ impl Session {
             StmtKind::Print { items, format } => {
                 let mut printed = Vec::new();
                 for item in items {
-                    printed.push(self.printed_item(item)?);
+                    printed.push(self.printed_item(at, item)?);
                 }
                 self.print_all(printed, *format);
                 Ok(())
             }
-            StmtKind::Simulate(spec) => self.simulate(spec),
-            StmtKind::Chaos(spec) => self.chaos(spec),
-            StmtKind::Plot(spec) => self.plot(spec),
-            StmtKind::Animate(spec) => self.animate(spec),
-            StmtKind::Export { items, run, path } => self.export(items, run.as_ref(), path),
-            StmtKind::Average { .. } => self.average_statement(&st.kind),
+            StmtKind::Simulate(spec) => self.simulate(at, spec),
+            StmtKind::Chaos(spec) => self.chaos(at, spec),
+            StmtKind::Plot(spec) => self.plot(at, spec),
+            StmtKind::Animate(spec) => self.animate(at, spec),
+            StmtKind::Export { items, run, path } => self.export(at, items, run.as_ref(), path),
+            StmtKind::Average { .. } => self.average_statement(at, &st.kind),
             StmtKind::Transform { h, kind, f, new, format } => {
-                self.generating_transform(h.as_ref(), kind, f, new, *format)
+                self.generating_transform(at, h.as_ref(), kind, f, new, *format)
             }
-            StmtKind::PointTransform { l, map, to, format } => self.point_transform(l.as_ref(), map, to, *format),
+            StmtKind::PointTransform { l, map, to, format } => self.point_transform(at, l.as_ref(), map, to, *format),
             StmtKind::Lie { f, generator, order, epsilon, format } => {
-                self.lie(f, generator, order.as_ref(), epsilon.as_ref(), *format)
+                self.lie(at, f, generator, order.as_ref(), epsilon.as_ref(), *format)
             }
-            StmtKind::Integral { f, h, format } => self.integral(f, h.as_ref(), *format),
-            StmtKind::Action { h, energies, near } => self.action(h.as_ref(), energies, near.as_ref()),
-            StmtKind::Geodesic(spec) => self.geodesic(spec),
-            StmtKind::Ritz(spec) => self.ritz(spec),
-            StmtKind::ExportPoincare { items, run, path } => self.export_poincare(items, run.as_ref(), path),
+            StmtKind::Integral { f, h, format } => self.integral(at, f, h.as_ref(), *format),
+            StmtKind::Action { h, energies, near } => self.action(at, h.as_ref(), energies, near.as_ref()),
+            StmtKind::Geodesic(spec) => self.geodesic(at, spec),
+            StmtKind::Ritz(spec) => self.ritz(at, spec),
+            StmtKind::ExportPoincare { items, run, path } => self.export_poincare(at, items, run.as_ref(), path),
             StmtKind::Force { coord, value } => self.declare_force(coord, value),
-            StmtKind::Rayleigh { name, value } => self.declare_rayleigh(name.as_ref(), value),
+            StmtKind::Rayleigh { name, value } => self.declare_rayleigh(at, name.as_ref(), value),
             StmtKind::Constraint { lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
@@ -667,13 +526,13 @@ impl Session {
         }
     }
 
-    pub(super) fn resolve(&mut self, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
+    pub(super) fn resolve(&mut self, at: At, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
         if refs.is_empty() {
             return Ok(raw.clone());
         }
         let mut map = HashMap::new();
         for (s, id) in refs {
-            match self.demand_def(*id)? {
+            match self.demand_def(at, *id)? {
                 Value::Expr(e) => {
                     map.insert(s.clone(), e);
                 }
@@ -683,7 +542,7 @@ impl Session {
                         ErrorKind::Syntax,
                         format!("`{name}` is a list of equations, not an expression"),
                     )
-                    .at(self.span)
+                    .at(at.span)
                     .hint(format!("print it on its own: `print {name}`")));
                 }
             }
@@ -691,35 +550,35 @@ impl Session {
         Ok(raw.subs(&map))
     }
 
-    pub(super) fn resolved(&mut self, src: &Src) -> Result<Expr, SceneError> {
+    pub(super) fn resolved(&mut self, at: At, src: &Src) -> Result<Expr, SceneError> {
         let (raw, refs) = self.expr(src)?;
-        self.resolve(&raw, &refs)
+        self.resolve(at, &raw, &refs)
     }
 
     /// `src` resolved with `names` accepted as free symbols (differentials, unknowns).
-    pub(super) fn resolved_local(&mut self, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
+    pub(super) fn resolved_local(&mut self, at: At, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
         self.local_names = names.to_vec();
-        let r = self.resolved(src);
+        let r = self.resolved(at, src);
         self.local_names.clear();
         r
     }
 
-    pub(super) fn need_coordinates(&self, what: &str) -> Result<Vec<Symbol>, SceneError> {
+    pub(super) fn need_coordinates(&self, at: At, what: &str) -> Result<Vec<Symbol>, SceneError> {
         if self.coords.is_empty() {
             return Err(SceneError::new(
                 ErrorKind::Undeclared,
                 format!("`{what}` needs coordinates, and none are declared"),
             )
-            .at(self.span)
+            .at(at.span)
             .hint("declare them first, for example `coordinates θ, φ`"));
         }
         Ok(self.coords.clone())
     }
 
-    pub(super) fn numbers(&mut self, srcs: &[Src]) -> Result<Vec<f64>, SceneError> {
+    pub(super) fn numbers(&mut self, at: At, srcs: &[Src]) -> Result<Vec<f64>, SceneError> {
         let mut out = Vec::new();
         for src in srcs {
-            let e = self.resolved(src)?;
+            let e = self.resolved(at, src)?;
             out.push(self.number(&e, src.span)?);
         }
         Ok(out)
@@ -727,7 +586,7 @@ impl Session {
 
     // ----- definitions ---------------------------------------------------------------------
 
-    pub(super) fn define(&mut self, name: &Src, value: &DefValue) -> Result<(), SceneError> {
+    pub(super) fn define(&mut self, at: At, name: &Src, value: &DefValue) -> Result<(), SceneError> {
         let n = name.text.as_str();
         if let Some(what) = self.name_in_use(n).filter(|w| *w != "a definition") {
             return Err(SceneError::new(ErrorKind::Redeclared, format!("`{n}` is already {what}"))
@@ -752,10 +611,10 @@ impl Session {
             }
         };
         let id = self.defs.len();
-        self.defs.push(DefEntry { name: n.to_string(), body, line: self.line, value: None, demanded: false });
+        self.defs.push(DefEntry { name: n.to_string(), body, line: at.line, value: None, demanded: false });
         self.def_names.insert(n.to_string(), id);
         if self.opts.mode == Mode::Repl {
-            let v = self.demand_def(id)?;
+            let v = self.demand_def(at, id)?;
             let printed = match v {
                 Value::Expr(e) => Printed::Named(n.to_string(), e),
                 Value::Lines(l) => Printed::Lines(l),
@@ -766,74 +625,77 @@ impl Session {
         Ok(())
     }
 
-    pub(super) fn demand_def(&mut self, id: usize) -> Result<Value, SceneError> {
+    pub(super) fn demand_def(&mut self, at: At, id: usize) -> Result<Value, SceneError> {
         if let Some(v) = &self.defs[id].value {
             return Ok(v.clone());
         }
         self.defs[id].demanded = true;
         let body = self.defs[id].body.clone();
         let v = match body {
-            DefBody::Expr { raw, refs } => Value::Expr(self.resolve(&raw, &refs)?),
+            DefBody::Expr { raw, refs } => Value::Expr(self.resolve(at, &raw, &refs)?),
             DefBody::Deriv { kind, args, span } => {
-                let saved = self.span;
-                self.span = span;
+                let at = At { span, ..at };
                 let mut resolved = Vec::new();
                 for (raw, refs) in &args {
-                    resolved.push(self.resolve(raw, refs)?);
+                    resolved.push(self.resolve(at, raw, refs)?);
                 }
-                let v = self.derive(kind, resolved, span);
-                self.span = saved;
-                v?
+                self.derive(at, kind, resolved, span)?
             }
         };
         self.defs[id].value = Some(v.clone());
         Ok(v)
     }
 
-    pub(super) fn def_value(&mut self, name: &str) -> Result<Option<Expr>, SceneError> {
+    pub(super) fn def_value(&mut self, at: At, name: &str) -> Result<Option<Expr>, SceneError> {
         let Some(&id) = self.def_names.get(name) else { return Ok(None) };
-        match self.demand_def(id)? {
+        match self.demand_def(at, id)? {
             Value::Expr(e) => Ok(Some(e)),
-            _ => Err(SceneError::new(ErrorKind::Syntax, format!("`{name}` must be an expression")).at(self.span)),
+            _ => Err(SceneError::new(ErrorKind::Syntax, format!("`{name}` must be an expression")).at(at.span)),
         }
     }
 
-    pub(super) fn lagrangian(&mut self) -> Result<Expr, SceneError> {
-        match self.def_value("L")? {
+    pub(super) fn lagrangian(&mut self, at: At) -> Result<Expr, SceneError> {
+        match self.def_value(at, "L")? {
             Some(l) => Ok(l),
             None => Err(SceneError::new(ErrorKind::Undeclared, "no Lagrangian defined")
-                .at(self.span)
+                .at(at.span)
                 .label("needs `L`")
                 .hint("define it first, for example `L = 1/2 m x'^2 - 1/2 k x^2`")),
         }
     }
 
-    pub(super) fn hamiltonian(&mut self) -> Result<Expr, SceneError> {
-        if let Some(h) = self.def_value("H")? {
+    pub(super) fn hamiltonian(&mut self, at: At) -> Result<Expr, SceneError> {
+        if let Some(h) = self.def_value(at, "H")? {
             return Ok(h);
         }
         if self.def_names.contains_key("L") {
-            let l = self.lagrangian()?;
-            return match self.derive(DerivKind::Legendre, vec![l], self.span)? {
+            let l = self.lagrangian(at)?;
+            return match self.derive(at, DerivKind::Legendre, vec![l], at.span)? {
                 Value::Expr(h) => Ok(h),
                 _ => Err(SceneError::new(ErrorKind::Derivation, "the Legendre transform gave no expression")),
             };
         }
         Err(SceneError::new(ErrorKind::Undeclared, "no Hamiltonian or Lagrangian defined")
-            .at(self.span)
+            .at(at.span)
             .label("needs `H` or `L`")
             .hint("define `H = …` or `L = …` first"))
     }
 
-    pub(super) fn derive_call(&mut self, call: &DerivCall) -> Result<Value, SceneError> {
+    pub(super) fn derive_call(&mut self, at: At, call: &DerivCall) -> Result<Value, SceneError> {
         let mut args = Vec::new();
         for a in &call.args {
-            args.push(self.resolved(a)?);
+            args.push(self.resolved(at, a)?);
         }
-        self.derive(call.kind, args, call.span)
+        self.derive(at, call.kind, args, call.span)
     }
 
-    pub(super) fn derive(&mut self, kind: DerivKind, mut args: Vec<Expr>, span: Span) -> Result<Value, SceneError> {
+    pub(super) fn derive(
+        &mut self,
+        at: At,
+        kind: DerivKind,
+        mut args: Vec<Expr>,
+        span: Span,
+    ) -> Result<Value, SceneError> {
         let want = if kind == DerivKind::Pb { 2 } else { 1 };
         if !args.is_empty() && args.len() != want {
             return Err(SceneError::new(
@@ -849,13 +711,13 @@ impl Session {
         }
         if args.is_empty() {
             match kind {
-                DerivKind::El | DerivKind::Legendre | DerivKind::Accelerations => args.push(self.lagrangian()?),
-                DerivKind::Hamilton => args.push(self.hamiltonian()?),
+                DerivKind::El | DerivKind::Legendre | DerivKind::Accelerations => args.push(self.lagrangian(at)?),
+                DerivKind::Hamilton => args.push(self.hamiltonian(at)?),
                 DerivKind::Conserved | DerivKind::Energy => {
                     if self.def_names.contains_key("L") {
-                        args.push(self.lagrangian()?)
+                        args.push(self.lagrangian(at)?)
                     } else {
-                        args.push(self.hamiltonian()?)
+                        args.push(self.hamiltonian(at)?)
                     }
                 }
                 DerivKind::Pb => {
@@ -880,7 +742,7 @@ impl Session {
             matches!(kind, DerivKind::El | DerivKind::Hamilton | DerivKind::Conserved | DerivKind::Accelerations)
                 && !self.dynamics.is_empty();
         let (forces, rayleigh, constraints) =
-            if with_dynamics { self.resolved_dynamics()? } else { (Vec::new(), None, Vec::new()) };
+            if with_dynamics { self.resolved_dynamics(at)? } else { (Vec::new(), None, Vec::new()) };
         let sys = SystemRef {
             coords: &coords,
             decls: &decls,
@@ -907,7 +769,7 @@ impl Session {
             // The energy of a Hamiltonian system is `H` itself: nothing to derive.
             return Ok(Value::Expr(args[0].clone()));
         }
-        if let Some(v) = self.lookup(&key, step, &what) {
+        if let Some(v) = self.lookup(at, &key, step, &what) {
             return Ok(v);
         }
         let backend = &*self.backend;
@@ -920,12 +782,12 @@ impl Session {
             DerivKind::Energy => backend.energy(&sys, &args[0]).map(Value::Expr),
             DerivKind::Accelerations => backend.accelerations(&sys, &args[0]).map(Value::Lines),
         };
-        self.record(step, what, key, built.map_err(|e| backend_error(e, span)))
+        self.record(at, step, what, key, built.map_err(|e| backend_error(e, span)))
     }
 
     /// A cached value, from memory or else from the disk cache, recording in the plan where
     /// it came from (once per session).
-    pub(super) fn lookup(&mut self, key: &CacheKey, step: Step, what: &str) -> Option<Value> {
+    pub(super) fn lookup(&mut self, at: At, key: &CacheKey, step: Step, what: &str) -> Option<Value> {
         let (v, status) = match self.cache.get(key) {
             Some(v) => (v, Status::Reused),
             None => {
@@ -935,7 +797,7 @@ impl Session {
         };
         if !self.built_here.contains(key) {
             self.built_here.insert(key.clone());
-            self.plan.push(PlanEntry { step, what: what.to_string(), line: Some(self.line), status });
+            self.plan.push(PlanEntry { step, what: what.to_string(), line: Some(at.line), status });
         }
         Some(v)
     }
@@ -943,6 +805,7 @@ impl Session {
     /// Caches a value just built (a miss in [`Session::lookup`]) and records it in the plan.
     pub(super) fn record(
         &mut self,
+        at: At,
         step: Step,
         what: String,
         key: CacheKey,
@@ -950,23 +813,23 @@ impl Session {
     ) -> Result<Value, SceneError> {
         // A value computed while Ctrl-C was pending may be cut short (a simplification
         // stopped early): it is never cached.
-        interruption(self.span)?;
+        interruption(at.span)?;
         let v = built?;
         self.cache.insert(key.clone(), v.clone());
         self.built_here.insert(key);
-        self.plan.push(PlanEntry { step, what, line: Some(self.line), status: Status::Built });
+        self.plan.push(PlanEntry { step, what, line: Some(at.line), status: Status::Built });
         Ok(v)
     }
 
     /// Canonical momenta `p_i = ∂L/∂q'_i` (plain derivatives; used to turn initial
     /// velocities into momenta and for plots).
-    pub(super) fn momenta(&mut self, l: &Expr) -> Result<Vec<Expr>, SceneError> {
+    pub(super) fn momenta(&mut self, at: At, l: &Expr) -> Result<Vec<Expr>, SceneError> {
         let key = CacheKey::symbolic(Step::Momenta, &self.coords, vec![l.clone()]);
-        if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Momenta, &format!("of {}", short(l))) {
+        if let Some(Value::Exprs(v)) = self.lookup(at, &key, Step::Momenta, &format!("of {}", short(l))) {
             return Ok(v);
         }
         let ps: Vec<Expr> = self.coords.clone().iter().map(|q| self.diff.diff(l, &q.prime())).collect();
-        match self.record(Step::Momenta, format!("of {}", short(l)), key, Ok(Value::Exprs(ps)))? {
+        match self.record(at, Step::Momenta, format!("of {}", short(l)), key, Ok(Value::Exprs(ps)))? {
             Value::Exprs(v) => Ok(v),
             _ => Ok(vec![]),
         }
@@ -974,9 +837,9 @@ impl Session {
 
     // ----- printing ------------------------------------------------------------------------
 
-    pub(super) fn printed_item(&mut self, item: &Item) -> Result<Printed, SceneError> {
+    pub(super) fn printed_item(&mut self, at: At, item: &Item) -> Result<Printed, SceneError> {
         match item {
-            Item::Derivation(call) => Ok(match self.derive_call(call)? {
+            Item::Derivation(call) => Ok(match self.derive_call(at, call)? {
                 Value::Expr(e) => Printed::Named(call.kind.keyword().to_string(), e),
                 Value::Lines(l) => Printed::Lines(l),
                 _ => Printed::Lines(vec![]),
@@ -985,13 +848,13 @@ impl Session {
                 let (raw, refs) = self.expr(src)?;
                 if let (Some(s), [(_, id)]) = (raw.as_sym(), &refs[..]) {
                     let name = s.name().to_string();
-                    return Ok(match self.demand_def(*id)? {
+                    return Ok(match self.demand_def(at, *id)? {
                         Value::Expr(e) => Printed::Named(name, e),
                         Value::Lines(l) => Printed::Lines(l),
                         _ => Printed::Lines(vec![]),
                     });
                 }
-                Ok(Printed::Value(printable(&self.resolve(&raw, &refs)?)))
+                Ok(Printed::Value(printable(&self.resolve(at, &raw, &refs)?)))
             }
         }
     }
@@ -1039,10 +902,8 @@ impl Session {
         })?;
         let name = full.display().to_string();
         self.load_depth += 1;
-        let saved = (self.line, self.span);
         let r = self.run_text(&name, &text);
         self.load_depth -= 1;
-        (self.line, self.span) = saved;
         r?;
         self.output.push(format!("loaded {name}"));
         Ok(())
@@ -1199,4 +1060,64 @@ fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
         }
     }
     Ok(())
+}
+
+impl Session {
+    /// Lazy definitions and simulations nothing asked for, and the standard derivations
+    /// nothing needed, go into the plan as skipped.
+    pub(super) fn finish_plan(&mut self) {
+        for d in &self.defs {
+            if let (DefBody::Deriv { kind, .. }, false) = (&d.body, d.demanded) {
+                self.plan.push(PlanEntry {
+                    step: deriv_step(*kind),
+                    what: format!("`{}` ({})", d.name, kind.keyword()),
+                    line: Some(d.line),
+                    status: Status::Skipped(format!("no output uses `{}`", d.name)),
+                });
+            }
+        }
+        for r in &self.runs {
+            if r.result.is_none() {
+                self.plan.push(PlanEntry {
+                    step: Step::Integrate,
+                    what: format!(
+                        "{} ({})",
+                        r.name,
+                        r.spec.method.as_ref().map_or(crate::simulate::DEFAULT_METHOD.name(), |m| m.text.as_str())
+                    ),
+                    line: Some(r.line),
+                    status: Status::Skipped(format!("no plot or export uses `{}`", r.name)),
+                });
+            }
+        }
+        // The standard derivations of the system that nothing needed.
+        let has_l = self.def_names.contains_key("L");
+        let has_h = self.def_names.contains_key("H") || has_l;
+        let mut standard = Vec::new();
+        if has_l {
+            standard.push(Step::EulerLagrange);
+            standard.push(Step::Legendre);
+        }
+        if has_h {
+            standard.push(Step::Hamilton);
+            standard.push(Step::Conserved);
+            standard.push(Step::Energy);
+            standard.push(Step::Bracket);
+        }
+        for step in standard {
+            if !self.plan.iter().any(|e| e.step == step) {
+                self.plan.push(PlanEntry {
+                    step,
+                    what: String::new(),
+                    line: None,
+                    status: Status::Skipped("no output needs it".to_string()),
+                });
+            }
+        }
+    }
+
+    /// The plan as text, for `--explain`.
+    pub fn explain(&self) -> String {
+        super::engine::plan::explain(&self.plan)
+    }
 }

@@ -4,7 +4,8 @@
 //! stored states at the frame's time (drawing only: the run's numbers are untouched).
 
 use crate::animate::{Animation, Frame};
-use crate::scene::session::{fmt_num, Session};
+use crate::scene::session::fmt_num;
+use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::{AnimateSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -18,12 +19,12 @@ const SIZE: (f64, f64, f64) = (320.0, 64.0, 1024.0);
 const MAX_FRAMES: f64 = 1500.0;
 
 impl Session {
-    pub(in crate::scene) fn animate(&mut self, spec: &AnimateSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn animate(&mut self, at: At, spec: &AnimateSpec) -> Result<(), SceneError> {
         let (path, pspan, _) =
-            self.out_file(Some(&spec.path), "animation", "animation", &["gif"], ANIMATION_FORMATS)?;
-        let fps = self.setting(spec.fps.as_ref(), "fps", FPS)?;
-        let duration = self.setting(spec.duration.as_ref(), "duration", DURATION)?;
-        let size = self.setting(spec.size.as_ref(), "size", SIZE)?.round() as u32;
+            self.out_file(at.span, Some(&spec.path), "animation", "animation", &["gif"], ANIMATION_FORMATS)?;
+        let fps = self.setting(at, spec.fps.as_ref(), "fps", FPS)?;
+        let duration = self.setting(at, spec.duration.as_ref(), "duration", DURATION)?;
+        let size = self.setting(at, spec.size.as_ref(), "size", SIZE)?.round() as u32;
         let n = (fps * duration).round().max(2.0);
         if n > MAX_FRAMES {
             return Err(SceneError::new(
@@ -33,13 +34,13 @@ impl Session {
             .at(pspan)
             .hint("lower `fps` or `duration`"));
         }
-        let id = self.run_ids(&spec.run.clone().into_iter().collect::<Vec<_>>())?[0];
-        let r = self.demand_run(id)?;
+        let id = self.run_ids(at, &spec.run.clone().into_iter().collect::<Vec<_>>())?[0];
+        let r = self.demand_run(at, id)?;
         let mut coords: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
         for (x, y) in &spec.points {
-            let ex = self.resolved(x)?;
-            let ey = self.resolved(y)?;
-            let (xs, ys) = (self.along(&r, &ex, x.span)?, self.along(&r, &ey, y.span)?);
+            let ex = self.resolved(at, x)?;
+            let ey = self.resolved(at, y)?;
+            let (xs, ys) = (self.along(at, &r, &ex, x.span)?, self.along(at, &r, &ey, y.span)?);
             let run = self.runs[id].name.clone();
             self.drawable(&xs, &x.text, &run, &r.traj.t, x.span)?;
             self.drawable(&ys, &y.text, &run, &r.traj.t, y.span)?;
@@ -84,12 +85,13 @@ impl Session {
     /// An animation setting: its value, or the default, within limits.
     fn setting(
         &mut self,
+        at: At,
         src: Option<&Src>,
         what: &str,
         (default, lo, hi): (f64, f64, f64),
     ) -> Result<f64, SceneError> {
         let Some(src) = src else { return Ok(default) };
-        let x = self.bound(src)?;
+        let x = self.bound(at, src)?;
         if !(lo..=hi).contains(&x) {
             return Err(SceneError::new(
                 ErrorKind::BadNumber,

@@ -12,7 +12,7 @@ use crate::canonical::{self, PhaseSpace, Trial};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 
-use crate::scene::session::Session;
+use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::{LieGenerator, Src, StmtKind};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -21,27 +21,27 @@ fn failed(what: &str, e: impl std::fmt::Display, span: crate::scene::syntax::ast
 }
 
 impl Session {
-    fn phase_space(&self) -> Result<PhaseSpace, SceneError> {
+    fn phase_space(&self, at: At) -> Result<PhaseSpace, SceneError> {
         if self.coords.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
-                .at(self.span)
+                .at(at.span)
                 .hint("declare them first, for example `coordinates q`"));
         }
-        PhaseSpace::new(self.coords.iter().map(|q| q.name())).map_err(|e| failed("phase space", e, self.span))
+        PhaseSpace::new(self.coords.iter().map(|q| q.name())).map_err(|e| failed("phase space", e, at.span))
     }
 
     /// Resolves `src` with `names` accepted as free symbols (a small parameter, new coordinates).
-    fn resolved_with(&mut self, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
+    fn resolved_with(&mut self, at: At, src: &Src, names: &[String]) -> Result<Expr, SceneError> {
         self.local_names = names.to_vec();
-        let r = self.resolved(src);
+        let r = self.resolved(at, src);
         self.local_names.clear();
         r
     }
 
     /// The symbol `src` names, as the scene parses it (a declared parameter carries its
     /// assumptions, so `Symbol::new` would be a different symbol).
-    fn symbol_of(&mut self, src: &Src, names: &[String]) -> Result<Symbol, SceneError> {
-        let e = self.resolved_with(src, names)?;
+    fn symbol_of(&mut self, at: At, src: &Src, names: &[String]) -> Result<Symbol, SceneError> {
+        let e = self.resolved_with(at, src, names)?;
         e.as_sym()
             .cloned()
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, format!("`{}` is not a name", src.text)).at(src.span))
@@ -51,8 +51,8 @@ impl Session {
         self.output.extend(lines);
     }
 
-    fn count(&mut self, src: &Src, what: &str) -> Result<usize, SceneError> {
-        let e = self.resolved(src)?;
+    fn count(&mut self, at: At, src: &Src, what: &str) -> Result<usize, SceneError> {
+        let e = self.resolved(at, src)?;
         let x = self.number(&e, src.span)?;
         if x < 0.0 || x.fract() != 0.0 || x > canonical::lie::MAX_ORDER as f64 {
             return Err(SceneError::new(
@@ -68,6 +68,7 @@ impl Session {
     /// `transform [L] with x = r cos(φ), … [to r, φ]`: `lagrangian transform L --map … --to …`.
     pub(in crate::scene) fn point_transform(
         &mut self,
+        at: At,
         l: Option<&Src>,
         map: &[(Src, Src)],
         to: &[Src],
@@ -97,12 +98,12 @@ impl Session {
         };
         if new.is_empty() {
             return Err(SceneError::new(ErrorKind::Syntax, "the map names no new coordinates")
-                .at(self.span)
+                .at(at.span)
                 .hint("name them: `transform with x = r cos(φ), y = r sin(φ) to r, φ`"));
         }
         let l = match l {
-            Some(src) => self.resolved_with(src, &new)?,
-            None => self.lagrangian()?,
+            Some(src) => self.resolved_with(at, src, &new)?,
+            None => self.lagrangian(at)?,
         };
         let mut pairs = Vec::new();
         for (old, rhs) in map {
@@ -111,16 +112,16 @@ impl Session {
                     .at(old.span)
                     .hint("the map gives each old coordinate in terms of the new ones: `x = r cos(φ)`"));
             }
-            let v = self.resolved_with(rhs, &new)?;
+            let v = self.resolved_with(at, rhs, &new)?;
             pairs.push((old.text.clone(), crate::print::plain(&v)));
         }
         let decls = self.declarations();
         let coords: Vec<&str> = self.coords.iter().map(|q| q.name()).collect();
         let system = crate::mechanics::System::from_lagrangian_with(&crate::print::plain(&l), &coords, &decls)
-            .map_err(|e| failed("point transformation", e, self.span))?;
+            .map_err(|e| failed("point transformation", e, at.span))?;
         let pairs: Vec<(&str, &str)> = pairs.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
         let to: Vec<&str> = new.iter().map(String::as_str).collect();
-        let out = system.transform(&pairs, &to).map_err(|e| failed("point transformation", e, self.span))?;
+        let out = system.transform(&pairs, &to).map_err(|e| failed("point transformation", e, at.span))?;
         let f = format.unwrap_or(self.opts.format);
         if let Some(l) = out.lagrangian() {
             self.emit(vec![format!("L = {}", render(l, f))]);
@@ -131,34 +132,35 @@ impl Session {
     /// `lie f with G [order N] [in ε]` / `lie f flow [H] [order N]`: `lagrangian lie`.
     pub(in crate::scene) fn lie(
         &mut self,
+        at: At,
         f: &Src,
         generator: &LieGenerator,
         order: Option<&Src>,
         epsilon: Option<&Src>,
         format: Option<Format>,
     ) -> Result<(), SceneError> {
-        let ps = self.phase_space()?;
+        let ps = self.phase_space(at)?;
         let order = match order {
-            Some(src) => self.count(src, "the order")?,
+            Some(src) => self.count(at, src, "the order")?,
             None => 3,
         };
         let eps = epsilon.map_or_else(|| "ε".to_string(), |e| e.text.clone());
         let eps_sym = match epsilon {
-            Some(src) => self.symbol_of(src, std::slice::from_ref(&eps))?,
+            Some(src) => self.symbol_of(at, src, std::slice::from_ref(&eps))?,
             None => Symbol::new(&eps),
         };
-        let fe = self.resolved_with(f, std::slice::from_ref(&eps))?;
+        let fe = self.resolved_with(at, f, std::slice::from_ref(&eps))?;
         let series = match generator {
             LieGenerator::With(g) => {
-                let ge = self.resolved_with(g, std::slice::from_ref(&eps))?;
+                let ge = self.resolved_with(at, g, std::slice::from_ref(&eps))?;
                 canonical::lie_series(&fe, &ge, &eps_sym, order, &ps)
             }
             LieGenerator::Flow(h) => {
                 let he = match h {
-                    Some(src) => self.resolved(src)?,
-                    None => self.hamiltonian()?,
+                    Some(src) => self.resolved(at, src)?,
+                    None => self.hamiltonian(at)?,
                 };
-                canonical::lie_flow(&fe, &he, order, &ps).map_err(|e| failed("lie", e, self.span))?
+                canonical::lie_flow(&fe, &he, order, &ps).map_err(|e| failed("lie", e, at.span))?
             }
         };
         let fmt = format.unwrap_or(self.opts.format);
@@ -169,15 +171,16 @@ impl Session {
     /// `integral f [with H]`: `lagrangian integral f --hamiltonian H`.
     pub(in crate::scene) fn integral(
         &mut self,
+        at: At,
         f: &Src,
         h: Option<&Src>,
         format: Option<Format>,
     ) -> Result<(), SceneError> {
-        let ps = self.phase_space()?;
-        let fe = self.resolved(f)?;
+        let ps = self.phase_space(at)?;
+        let fe = self.resolved(at, f)?;
         let he = match h {
-            Some(src) => self.resolved(src)?,
-            None => self.hamiltonian()?,
+            Some(src) => self.resolved(at, src)?,
+            None => self.hamiltonian(at)?,
         };
         let dfdt = canonical::time_derivative(&fe, &he, &ps);
         let check = canonical::is_integral(&fe, &he, &ps);
@@ -189,25 +192,26 @@ impl Session {
     /// `action [H] at E = … [near q0]`: `lagrangian action`, librations and rotations.
     pub(in crate::scene) fn action(
         &mut self,
+        at: At,
         h: Option<&Src>,
         energies: &[Src],
         near: Option<&Src>,
     ) -> Result<(), SceneError> {
-        let ps = self.phase_space()?;
+        let ps = self.phase_space(at)?;
         if ps.dof() != 1 {
             return Err(SceneError::new(
                 ErrorKind::Derivation,
                 format!("`action` needs one degree of freedom; the scene has {}", ps.dof()),
             )
-            .at(self.span));
+            .at(at.span));
         }
         let he = match h {
-            Some(src) => self.resolved(src)?,
-            None => self.hamiltonian()?,
+            Some(src) => self.resolved(at, src)?,
+            None => self.hamiltonian(at)?,
         };
         let inside = match near {
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 self.number(&e, src.span)?
             }
             None => 0.0,
@@ -215,7 +219,7 @@ impl Session {
         let env: crate::eval::Env = self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect();
         let mut rows = Vec::new();
         for src in energies {
-            let e = self.resolved(src)?;
+            let e = self.resolved(at, src)?;
             let energy = self.number(&e, src.span)?;
             let r = canonical::action_frequency(&he, &ps.coords[0], &ps.momenta[0], energy, &env, inside).map_err(
                 |err| SceneError::new(ErrorKind::Derivation, format!("at E = {energy}: {err}")).at(src.span),
@@ -228,7 +232,7 @@ impl Session {
 
     /// `average [L] with x = … phase θ frequency ω amplitudes A… [small σ unperturbed ω0
     /// [principal A]]`: `lagrangian average`, with `--small` the relations solved to first order.
-    pub(in crate::scene) fn average_statement(&mut self, st: &StmtKind) -> Result<(), SceneError> {
+    pub(in crate::scene) fn average_statement(&mut self, at: At, st: &StmtKind) -> Result<(), SceneError> {
         let StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format } = st else {
             return Ok(());
         };
@@ -241,8 +245,8 @@ impl Session {
             .collect();
         local.dedup();
         let l = match l {
-            Some(src) => self.resolved_with(src, &local)?,
-            None => self.lagrangian()?,
+            Some(src) => self.resolved_with(at, src, &local)?,
+            None => self.lagrangian(at)?,
         };
         let mut ts = Vec::new();
         for (q, e) in trials {
@@ -251,28 +255,28 @@ impl Session {
                     .at(q.span)
                     .hint("a trial function replaces a coordinate: `x = A cos(θ)`"));
             }
-            ts.push(Trial { coord: Symbol::new(&q.text), expr: self.resolved_with(e, &local)? });
+            ts.push(Trial { coord: Symbol::new(&q.text), expr: self.resolved_with(at, e, &local)? });
         }
         let w = Symbol::new(&frequency.text);
         let amps: Vec<Symbol> = amplitudes.iter().map(|a| Symbol::new(&a.text)).collect();
         let avg = canonical::average_lagrangian(&l, &ts, &Symbol::new(&phase.text), &w, &amps)
-            .map_err(|e| failed("average", e, self.span))?;
+            .map_err(|e| failed("average", e, at.span))?;
         let fmt = format.unwrap_or(self.opts.format);
         let Some(small) = small else {
             self.emit(canonical::report::average_lines(&avg, &w, None, fmt));
             return Ok(());
         };
-        let w0 = self.resolved_with(&small.unperturbed, &local)?;
+        let w0 = self.resolved_with(at, &small.unperturbed, &local)?;
         let principal = match &small.principal {
             Some(a) => Symbol::new(&a.text),
             None => amps
                 .first()
                 .cloned()
-                .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "no amplitudes to solve for").at(self.span))?,
+                .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "no amplitudes to solve for").at(at.span))?,
         };
-        let sigma = self.symbol_of(&small.small, &local)?;
+        let sigma = self.symbol_of(at, &small.small, &local)?;
         let lo =
-            canonical::leading_order(&avg, &w, &w0, &sigma, &principal).map_err(|e| failed("average", e, self.span))?;
+            canonical::leading_order(&avg, &w, &w0, &sigma, &principal).map_err(|e| failed("average", e, at.span))?;
         self.emit(canonical::report::average_lines(&avg, &w, Some((&small.small.text, &lo)), fmt));
         Ok(())
     }
@@ -281,13 +285,14 @@ impl Session {
     /// --hamiltonian H`, the same lines (relations, inverse and forward maps, branches, `K`).
     pub(in crate::scene) fn generating_transform(
         &mut self,
+        at: At,
         h: Option<&Src>,
         kind: &str,
         f: &Src,
         new: &[Src],
         format: Option<Format>,
     ) -> Result<(), SceneError> {
-        let old = self.phase_space()?;
+        let old = self.phase_space(at)?;
         let n = old.dof();
         if new.len() != 2 * n {
             return Err(SceneError::new(
@@ -297,15 +302,15 @@ impl Session {
                     new.len()
                 ),
             )
-            .at(new.first().map_or(self.span, |s| (s.span.0, new[new.len() - 1].span.1)))
+            .at(new.first().map_or(at.span, |s| (s.span.0, new[new.len() - 1].span.1)))
             .hint("for one coordinate: `new Q, P`"));
         }
         let names: Vec<String> = new.iter().map(|s| s.text.clone()).collect();
         let h = match h {
-            Some(src) => self.resolved_with(src, &names)?,
-            None => self.hamiltonian()?,
+            Some(src) => self.resolved_with(at, src, &names)?,
+            None => self.hamiltonian(at)?,
         };
-        let f_expr = self.resolved_with(f, &names)?;
+        let f_expr = self.resolved_with(at, f, &names)?;
         let kind = match kind {
             "F1" => canonical::GeneratorKind::F1,
             "F2" => canonical::GeneratorKind::F2,
@@ -313,10 +318,10 @@ impl Session {
             _ => canonical::GeneratorKind::F4,
         };
         let new_space = PhaseSpace::with_momenta(names[..n].iter(), names[n..].iter())
-            .map_err(|e| failed("canonical transformation", e, self.span))?;
+            .map_err(|e| failed("canonical transformation", e, at.span))?;
         let g = canonical::Generator::new(kind, f_expr, old, new_space)
-            .map_err(|e| failed("canonical transformation", e, self.span))?;
-        let t = g.transform(Some(&h)).map_err(|e| failed("canonical transformation", e, self.span))?;
+            .map_err(|e| failed("canonical transformation", e, at.span))?;
+        let t = g.transform(Some(&h)).map_err(|e| failed("canonical transformation", e, at.span))?;
         let fmt = format.unwrap_or(self.opts.format);
         self.emit(canonical::report::transform_lines(&t, fmt));
         Ok(())

@@ -25,7 +25,8 @@ use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::{BackendError, CompiledVariational, VariationalRequest};
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::{backend_error, fmt_num, Layout, Session};
+use crate::scene::session::{backend_error, fmt_num};
+use crate::scene::state::{At, Layout, Session};
 use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -178,11 +179,11 @@ impl Level {
 
 impl Session {
     /// The level clause of a chaos map, checked, with its function in `(q, p)`.
-    fn chaos_level(&mut self, l: &LevelSpec, setup: &Setup) -> Result<Level, SceneError> {
+    fn chaos_level(&mut self, at: At, l: &LevelSpec, setup: &Setup) -> Result<Level, SceneError> {
         let key = self.state_key(&l.solve)?;
-        let on = self.resolved(&l.on)?;
-        let on = self.in_layout(&on, Layout::Momenta, None, None, l.on.span)?;
-        let value = self.resolved(&l.value)?;
+        let on = self.resolved(at, &l.on)?;
+        let on = self.in_layout(at, &on, Layout::Momenta, None, None, l.on.span)?;
+        let value = self.resolved(at, &l.value)?;
         let value = self.number(&value, l.value.span)?;
         // Every symbol of the level function must be a state variable or a parameter with a
         // value (as the equations' own parameters are checked).
@@ -203,23 +204,23 @@ impl Session {
     }
 
     /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
-    pub(in crate::scene) fn chaos(&mut self, spec: &ChaosSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn chaos(&mut self, at: At, spec: &ChaosSpec) -> Result<(), SceneError> {
         let which = indicator(&spec.indicator.text)
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`"))?;
         if spec.map {
-            self.chaos_map(spec, which)
+            self.chaos_map(at, spec, which)
         } else {
-            self.chaos_orbit(spec, which)
+            self.chaos_orbit(at, spec, which)
         }
     }
 
-    fn chaos_orbit(&mut self, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
-        let given = self.chaos_values(spec, &[])?;
+    fn chaos_orbit(&mut self, at: At, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
+        let given = self.chaos_values(at, spec, &[])?;
         // The full spectrum for `lyapunov` (2n tangents); one tangent and the MEGNO
         // accumulator otherwise.
         let n = self.coords.len();
         let (tangents, megno) = if which == Indicator::Lyapunov { (2 * n, false) } else { (1, true) };
-        let setup = self.chaos_setup(spec, tangents, megno)?;
+        let setup = self.chaos_setup(at, spec, tangents, megno)?;
         let x0 = setup.start(&given).map_err(|e| self.value_error(e, setup.span))?;
         let name = match &spec.sim.name {
             Some(n) => n.text.clone(),
@@ -235,7 +236,7 @@ impl Session {
                 "{} {name}: one orbit with taylor tol = {:e} ({} steps)",
                 spec.indicator.text, setup.tol, r.steps
             ),
-            line: Some(self.line),
+            line: Some(at.line),
             status: Status::Built,
         });
         let t = fmt_num(setup.t1);
@@ -257,7 +258,7 @@ impl Session {
         Ok(())
     }
 
-    fn chaos_map(&mut self, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
+    fn chaos_map(&mut self, at: At, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
         if spec.ranges.len() != 2 {
             return Err(SceneError::new(
                 ErrorKind::Syntax,
@@ -269,7 +270,7 @@ impl Session {
         let side = match &spec.sim.points {
             None => DEFAULT_GRID,
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 let x = self.number(&e, src.span)?;
                 if !(x.fract() == 0.0 && (2.0..=MAX_GRID as f64).contains(&x)) {
                     return Err(SceneError::new(
@@ -283,7 +284,7 @@ impl Session {
         };
         let mut axes = Vec::new();
         for (sym, lo, hi) in &spec.ranges {
-            let (a, b) = (self.bound(lo)?, self.bound(hi)?);
+            let (a, b) = (self.bound(at, lo)?, self.bound(at, hi)?);
             if !(a < b && a.is_finite() && b.is_finite()) {
                 return Err(SceneError::new(
                     ErrorKind::BadNumber,
@@ -305,13 +306,14 @@ impl Session {
         }
         let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
         names.extend(spec.level.as_ref().map(|l| l.solve.clone()));
-        let base = self.chaos_values(spec, &names)?;
-        let setup = self.chaos_setup(spec, 1, which == Indicator::Megno)?;
+        let base = self.chaos_values(at, spec, &names)?;
+        let setup = self.chaos_setup(at, spec, 1, which == Indicator::Megno)?;
         let level = match &spec.level {
-            Some(l) => Some(self.chaos_level(l, &setup)?),
+            Some(l) => Some(self.chaos_level(at, l, &setup)?),
             None => None,
         };
         let (path, pspan, ext) = self.out_file(
+            at.span,
             spec.path.as_ref(),
             "chaos_map",
             "chaos map",
@@ -370,7 +372,7 @@ impl Session {
                 starts.len(),
                 setup.tol
             ),
-            line: Some(self.line),
+            line: Some(at.line),
             status: Status::Built,
         });
         let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
@@ -460,7 +462,7 @@ impl Session {
 
     /// The fixed starting values of a chaos statement (`axes` are given by the map's grid):
     /// every coordinate, and either every velocity or every momentum, exactly once.
-    fn chaos_values(&mut self, spec: &ChaosSpec, axes: &[Src]) -> Result<HashMap<String, f64>, SceneError> {
+    fn chaos_values(&mut self, at: At, spec: &ChaosSpec, axes: &[Src]) -> Result<HashMap<String, f64>, SceneError> {
         let stmt = spec.indicator.span;
         if self.coords.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
@@ -475,7 +477,7 @@ impl Session {
         }
         for (sym, val) in &spec.sim.inits {
             let k = self.state_key(sym)?;
-            let v = self.resolved(val)?;
+            let v = self.resolved(at, val)?;
             let x = self.number(&v, val.span)?;
             given.insert(k.clone(), x);
             seen.push((k, sym.span));
@@ -508,7 +510,7 @@ impl Session {
     }
 
     /// The checked options, `H`, its parameters and the compiled variational system.
-    fn chaos_setup(&mut self, spec: &ChaosSpec, tangents: usize, megno: bool) -> Result<Setup, SceneError> {
+    fn chaos_setup(&mut self, at: At, spec: &ChaosSpec, tangents: usize, megno: bool) -> Result<Setup, SceneError> {
         let sim = &spec.sim;
         let span = (spec.indicator.span.0, sim.span_span.1);
         let word = &spec.indicator.text;
@@ -535,8 +537,8 @@ impl Session {
         if !spec.map {
             refuse("`points` (only `chaos_map` has a grid)", sim.points.as_ref().map(|e| e.span))?;
         }
-        let t0 = self.bound(&sim.t0)?;
-        let t1 = self.bound(&sim.t1)?;
+        let t0 = self.bound(at, &sim.t0)?;
+        let t1 = self.bound(at, &sim.t1)?;
         if t0 != 0.0 || !(t1 > 0.0 && t1.is_finite()) {
             return Err(SceneError::new(
                 ErrorKind::BadNumber,
@@ -552,7 +554,7 @@ impl Session {
         let tol = match &sim.tol {
             None => DEFAULT_TOL,
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 let x = self.number(&e, src.span)?;
                 if !(x > 0.0 && x.is_finite()) {
                     return Err(SceneError::new(
@@ -587,14 +589,14 @@ impl Session {
             || spec.ranges.iter().any(|(s, _, _)| s.text.trim_end().ends_with('\''))
             || spec.level.as_ref().is_some_and(|l| l.solve.text.trim_end().ends_with('\''));
         let momenta = if velocities {
-            let l = self.lagrangian().map_err(|e| {
+            let l = self.lagrangian(at).map_err(|e| {
                 e.hint("velocities are turned into momenta through `L`: give the momenta `p_q` instead, or define `L`")
             })?;
-            Some(self.momenta(&l)?)
+            Some(self.momenta(at, &l)?)
         } else {
             None
         };
-        let h = self.hamiltonian()?;
+        let h = self.hamiltonian(at)?;
         if let Some(f) = h.applied_functions().into_iter().next() {
             return Err(SceneError::new(
                 ErrorKind::MissingValue,
@@ -646,31 +648,35 @@ impl Session {
             if tangents == 1 { "" } else { "s" },
             if megno { " and MEGNO's accumulator" } else { "" }
         );
-        let var = match self.lookup(&key, Step::Compile, &what) {
+        let var = match self.lookup(at, &key, Step::Compile, &what) {
             Some(Value::Variational(c)) => c,
             _ => {
                 let req = VariationalRequest { coords: coords.clone(), h, params: params.clone(), tangents, megno };
                 let built =
                     self.backend.compile_variational(&req).map(Value::Variational).map_err(|e| backend_error(e, span));
-                match self.record(Step::Compile, what, key, built)? {
+                match self.record(at, Step::Compile, what, key, built)? {
                     Value::Variational(c) => c,
                     _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(span)),
                 }
             }
         };
         let env = params.into_iter().collect();
-        let budget = self.chaos_budget(sim)?;
+        let budget = self.chaos_budget(at, sim)?;
         Ok(Setup { var, coords, momenta, env, t1, tol, budget, span })
     }
 
     /// `max_steps = N` and `time_limit = S` of a chaos statement, checked, as its budget; the
     /// time counts from here.
-    fn chaos_budget(&mut self, sim: &crate::scene::syntax::ast::SimSpec) -> Result<crate::chaos::Budget, SceneError> {
+    fn chaos_budget(
+        &mut self,
+        at: At,
+        sim: &crate::scene::syntax::ast::SimSpec,
+    ) -> Result<crate::chaos::Budget, SceneError> {
         use crate::chaos::Budget;
         let max_steps = match &sim.max_steps {
             None => Budget::DEFAULT_STEPS,
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 let x = self.number(&e, src.span)?;
                 if !(x >= 1.0 && x.fract() == 0.0 && x < usize::MAX as f64) {
                     return Err(SceneError::new(
@@ -685,7 +691,7 @@ impl Session {
         let seconds = match &sim.time_limit {
             None => Budget::DEFAULT_SECONDS,
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 let x = self.number(&e, src.span)?;
                 if !(x > 0.0 && x.is_finite() && x < 1e9) {
                     return Err(SceneError::new(

@@ -14,7 +14,8 @@ use crate::cache::Value;
 use crate::compile::Tape;
 use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::{Formulation, Trajectory};
-use crate::scene::session::{fmt_num, Layout, Session};
+use crate::scene::session::fmt_num;
+use crate::scene::state::{At, Layout, Session};
 use crate::scene::syntax::ast::{DerivKind, SimSpec};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -55,6 +56,7 @@ impl Session {
     /// Hamiltonian; `names` the state's input names in order.
     pub(in crate::scene) fn energy_check(
         &mut self,
+        at: At,
         spec: &SimSpec,
         formulation: &Formulation,
         names: &[String],
@@ -62,7 +64,7 @@ impl Session {
     ) -> Result<EnergyChoice, SceneError> {
         let threshold = match &spec.drift {
             Some(src) => {
-                let e = self.resolved(src)?;
+                let e = self.resolved(at, src)?;
                 let x = self.number(&e, src.span)?;
                 if !(x > 0.0 && x.is_finite()) {
                     return Err(SceneError::new(
@@ -91,7 +93,7 @@ impl Session {
                 if has_t(l) {
                     return Ok(Err("L depends on t explicitly: H is not conserved".into()));
                 }
-                match self.derive(DerivKind::Legendre, vec![l.clone()], self.span)? {
+                match self.derive(at, DerivKind::Legendre, vec![l.clone()], at.span)? {
                     Value::Expr(e) => ("H", e),
                     _ => return Ok(Err("no Hamiltonian".into())),
                 }
@@ -100,7 +102,7 @@ impl Session {
                 if has_t(l) {
                     return Ok(Err("L depends on t explicitly: h is not conserved".into()));
                 }
-                match self.derive(DerivKind::Energy, vec![l.clone()], self.span)? {
+                match self.derive(at, DerivKind::Energy, vec![l.clone()], at.span)? {
                     Value::Expr(e) => ("h", e),
                     _ => return Ok(Err("no energy function".into())),
                 }

@@ -13,7 +13,8 @@ use std::collections::{BTreeSet, HashMap};
 use crate::compile::Stabilization;
 use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::ExtendedLagrangian;
-use crate::scene::session::{fmt_num, symbol_span, Mode, Refs, Session};
+use crate::scene::session::{fmt_num, symbol_span, Mode};
+use crate::scene::state::{At, Refs, Session};
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -121,7 +122,12 @@ impl Session {
     }
 
     /// `rayleigh [R =] …`.
-    pub(in crate::scene) fn declare_rayleigh(&mut self, name: Option<&Src>, value: &Src) -> Result<(), SceneError> {
+    pub(in crate::scene) fn declare_rayleigh(
+        &mut self,
+        at: At,
+        name: Option<&Src>,
+        value: &Src,
+    ) -> Result<(), SceneError> {
         if let Some(old) = &self.dynamics.rayleigh {
             return Err(SceneError::new(ErrorKind::Redeclared, "a Rayleigh function is already declared")
                 .at(value.span)
@@ -147,7 +153,7 @@ impl Session {
         }
         let d = self.dynamics_expr(value, "Rayleigh function", true)?;
         if let Some(n) = name {
-            self.define(n, &crate::scene::syntax::ast::DefValue::Expr(value.clone()))?;
+            self.define(at, n, &crate::scene::syntax::ast::DefValue::Expr(value.clone()))?;
         }
         if self.opts.mode == Mode::Repl && name.is_none() {
             self.output.push(format!("R = {}", d.raw));
@@ -181,19 +187,19 @@ impl Session {
 
     /// The declared forces (per coordinate), Rayleigh function and constraints, resolved
     /// against the current definitions (what `conserved` must respect).
-    pub(in crate::scene) fn resolved_dynamics(&mut self) -> Result<ResolvedDynamics, SceneError> {
+    pub(in crate::scene) fn resolved_dynamics(&mut self, at: At) -> Result<ResolvedDynamics, SceneError> {
         let dynamics = self.dynamics.clone();
         let mut forces = vec![Expr::zero(); self.coords.len()];
         for (i, d) in &dynamics.forces {
-            forces[*i] = forces[*i].plus(&self.resolve(&d.raw, &d.refs)?);
+            forces[*i] = forces[*i].plus(&self.resolve(at, &d.raw, &d.refs)?);
         }
         let rayleigh = match &dynamics.rayleigh {
-            Some(d) => Some(self.resolve(&d.raw, &d.refs)?),
+            Some(d) => Some(self.resolve(at, &d.raw, &d.refs)?),
             None => None,
         };
         let mut constraints = Vec::new();
         for d in &dynamics.constraints {
-            constraints.push(self.resolve(&d.raw, &d.refs)?);
+            constraints.push(self.resolve(at, &d.raw, &d.refs)?);
         }
         Ok((forces, rayleigh, constraints))
     }
@@ -202,6 +208,7 @@ impl Session {
     /// constraints resolved.
     pub(in crate::scene) fn extended(
         &mut self,
+        at: At,
         l: Expr,
         dynamics: &Dynamics,
         spec: &SimSpec,
@@ -209,16 +216,16 @@ impl Session {
         let n = self.coords.len();
         let mut forces = vec![Expr::zero(); n];
         for (i, d) in &dynamics.forces {
-            let q = self.resolve(&d.raw, &d.refs)?;
+            let q = self.resolve(at, &d.raw, &d.refs)?;
             forces[*i] = forces[*i].plus(&q);
         }
         let rayleigh = match &dynamics.rayleigh {
-            Some(d) => Some(self.resolve(&d.raw, &d.refs)?),
+            Some(d) => Some(self.resolve(at, &d.raw, &d.refs)?),
             None => None,
         };
         let mut constraints = Vec::new();
         for d in &dynamics.constraints {
-            let f = self.resolve(&d.raw, &d.refs)?;
+            let f = self.resolve(at, &d.raw, &d.refs)?;
             if f.free_symbols().iter().any(|s| s.primes() > 0) {
                 return Err(SceneError::new(ErrorKind::Syntax, "the constraint is not holonomic: it has a velocity")
                     .at(d.src.span)
@@ -234,7 +241,7 @@ impl Session {
                 _ => {
                     let rate = match &s.rate {
                         Some(src) => {
-                            let e = self.resolved(src)?;
+                            let e = self.resolved(at, src)?;
                             let x = self.number(&e, src.span)?;
                             if x <= 0.0 {
                                 return Err(SceneError::new(

@@ -16,7 +16,8 @@ use super::simulate::state_names;
 use crate::expr::Symbol;
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::{fmt_num, RunEntry, RunResult, Session};
+use crate::scene::session::fmt_num;
+use crate::scene::state::{At, RunEntry, RunResult, Session};
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -39,10 +40,10 @@ pub(in crate::scene) struct Group {
 }
 
 impl Session {
-    pub(in crate::scene) fn simulate_ensemble(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn simulate_ensemble(&mut self, at: At, spec: &SimSpec) -> Result<(), SceneError> {
         let Some(ens) = spec.ensemble.clone() else { return Ok(()) };
         self.check_method(spec)?;
-        let (a, b, h) = (self.bound(&ens.from)?, self.bound(&ens.to)?, self.bound(&ens.step)?);
+        let (a, b, h) = (self.bound(at, &ens.from)?, self.bound(at, &ens.to)?, self.bound(at, &ens.step)?);
         if !(h > 0.0 && h.is_finite()) || b < a {
             return Err(SceneError::new(
                 ErrorKind::BadNumber,
@@ -86,8 +87,10 @@ impl Session {
             None => format!("run{}", self.runs.len() + 1),
         };
         let dynamics = self.dynamics.clone();
-        let (compiled, run, template, energy) = self.prepare_run(&base, &name, &dynamics)?;
-        let stmt_span = self.span;
+        let (compiled, run, template, energy) = self.prepare_run(at, &base, &name, &dynamics)?;
+        // From here on the statement's errors point where the run's do.
+        let stmt_span = super::simulate::run_span(&base);
+        let at = At { span: stmt_span, ..at };
         let names = state_names(&template.coords, template.layout);
         let index = |s: &Symbol, src: &Src| {
             names.iter().position(|n| *n == s.to_string()).ok_or_else(|| {
@@ -101,15 +104,16 @@ impl Session {
         let (i_sweep, i_solve) = (index(&sweep, &ens.var)?, index(&solve, &ens.solve)?);
 
         // The level function in the state's variables, and its value.
-        let on = self.resolved(&ens.on)?;
+        let on = self.resolved(at, &ens.on)?;
         let on = self.in_layout(
+            at,
             &on,
             template.layout,
             template.lagrangian.as_ref(),
             template.hamiltonian.as_ref(),
             ens.on.span,
         )?;
-        let value = self.resolved(&ens.value)?;
+        let value = self.resolved(at, &ens.value)?;
         let level = self.number(&value, ens.value.span)?;
         let mut params: HashMap<String, f64> = self.param_values();
         params.extend(template.params.iter().map(|(k, v)| (k.clone(), *v)));
@@ -181,7 +185,7 @@ impl Session {
             self.runs.push(RunEntry {
                 name: member.clone(),
                 spec: member_spec,
-                line: self.line,
+                line: at.line,
                 result: Some(RunResult { traj: Arc::new(traj), ..template.clone() }),
                 dynamics: dynamics.clone(),
             });
@@ -191,7 +195,7 @@ impl Session {
         self.plan.push(PlanEntry {
             step: Step::Integrate,
             what: format!("ensemble {name}: {} runs with {}", ids.len(), run.options.method.name()),
-            line: Some(self.line),
+            line: Some(at.line),
             status: Status::Built,
         });
         // The largest departure from the level at the start, from the stored initial states.

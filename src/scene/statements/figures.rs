@@ -7,7 +7,8 @@ use crate::cache::Value;
 use crate::expr::Symbol;
 use crate::print::Format;
 use crate::scene::session::fmt_num;
-use crate::scene::session::{Layout, Mode, Printed, RunResult, Session};
+use crate::scene::session::Mode;
+use crate::scene::state::{At, Layout, Printed, RunResult, Session};
 use crate::scene::syntax::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -85,9 +86,9 @@ impl Session {
     /// absolute path is refused too. Both are allowed with `--allow-outside` (and in the
     /// REPL, whose user types the paths). So running a scene someone sent you writes only
     /// under the output directory (issue 13 item 5).
-    fn out_path(&self, path: Option<&Src>, default: &str) -> Result<(PathBuf, Span), SceneError> {
+    fn out_path(&self, stmt: Span, path: Option<&Src>, default: &str) -> Result<(PathBuf, Span), SceneError> {
         let Some(p) = path else {
-            return Ok((self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), self.span));
+            return Ok((self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), stmt));
         };
         let pb = PathBuf::from(&p.text);
         let contained = self.opts.mode == Mode::Scene && !self.opts.allow_outside;
@@ -153,6 +154,7 @@ impl Session {
             let (file, span) = match &st.kind {
                 StmtKind::Plot(spec) => {
                     let (file, span, _) = self.out_file(
+                        st.span,
                         spec.path.as_ref(),
                         plot_default(&spec.kind),
                         "image",
@@ -163,6 +165,7 @@ impl Session {
                 }
                 StmtKind::Chaos(spec) if spec.map => {
                     let (file, span, _) = self.out_file(
+                        st.span,
                         spec.path.as_ref(),
                         "chaos_map",
                         "chaos map",
@@ -173,11 +176,12 @@ impl Session {
                 }
                 StmtKind::Export { path, .. } => {
                     let (file, span, _) =
-                        self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
+                        self.out_file(st.span, Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
                     (file, span)
                 }
                 StmtKind::Animate(spec) => {
                     let (file, span, _) = self.out_file(
+                        st.span,
                         Some(&spec.path),
                         "animation",
                         "animation",
@@ -193,17 +197,18 @@ impl Session {
         Ok(())
     }
 
-    /// The output file of a plot or an export, its span and its lower-case extension, which
-    /// must be one of `formats` (otherwise an error naming the file, with `hint`).
+    /// The output file of a plot or an export, its span (the statement's, `stmt`, when the
+    /// file is the default one) and its lower-case extension, which must be one of `formats` (otherwise an error naming the file, with `hint`).
     pub(in crate::scene) fn out_file(
         &self,
+        stmt: Span,
         path: Option<&Src>,
         default: &str,
         what: &str,
         formats: &[&str],
         hint: &str,
     ) -> Result<(PathBuf, Span, String), SceneError> {
-        let (file, span) = self.out_path(path, default)?;
+        let (file, span) = self.out_path(stmt, path, default)?;
         let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         if !formats.contains(&ext.as_str()) {
             return Err(SceneError::new(
@@ -216,10 +221,16 @@ impl Session {
         Ok((file, span, ext))
     }
 
-    pub(in crate::scene) fn plot(&mut self, spec: &PlotSpec) -> Result<(), SceneError> {
-        let (path, pspan, _) =
-            self.out_file(spec.path.as_ref(), plot_default(&spec.kind), "image", &["svg", "png"], PLOT_FORMATS)?;
-        let figure = self.figure(spec)?;
+    pub(in crate::scene) fn plot(&mut self, at: At, spec: &PlotSpec) -> Result<(), SceneError> {
+        let (path, pspan, _) = self.out_file(
+            at.span,
+            spec.path.as_ref(),
+            plot_default(&spec.kind),
+            "image",
+            &["svg", "png"],
+            PLOT_FORMATS,
+        )?;
+        let figure = self.figure(at, spec)?;
         self.figures.push((path.clone(), figure.describe()));
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         crate::plot::draw(&figure, &tmp).map_err(|e| {
@@ -274,18 +285,18 @@ impl Session {
         self.staging.announced(self.output.len() - 1);
     }
 
-    pub(in crate::scene) fn figure(&mut self, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
+    pub(in crate::scene) fn figure(&mut self, at: At, spec: &PlotSpec) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
         match &spec.kind {
             PlotKind::Series(exprs) => {
-                let ids = self.run_ids(&spec.runs)?;
+                let ids = self.run_ids(at, &spec.runs)?;
                 let labels: Vec<String> = exprs.iter().map(|s| self.unicode(s)).collect();
                 let mut series = Vec::new();
                 for &id in &ids {
-                    let r = self.demand_run(id)?;
+                    let r = self.demand_run(at, id)?;
                     for (src, label) in exprs.iter().zip(&labels) {
-                        let e = self.resolved(src)?;
-                        let ys = self.along(&r, &e, src.span)?;
+                        let e = self.resolved(at, src)?;
+                        let ys = self.along(at, &r, &e, src.span)?;
                         let run = self.runs[id].name.clone();
                         self.drawable(&ys, &src.text, &run, &r.traj.t, src.span)?;
                         let label =
@@ -310,24 +321,24 @@ impl Session {
             }
             PlotKind::Path(x, y) | PlotKind::Poincare(x, y) => {
                 let poincare = matches!(spec.kind, PlotKind::Poincare(..));
-                let ids = self.run_ids(&spec.runs)?;
+                let ids = self.run_ids(at, &spec.runs)?;
                 let group = self.group_of(&ids).cloned();
                 let mut series = Vec::new();
                 for (k, &id) in ids.iter().enumerate() {
-                    let r = self.demand_run(id)?;
-                    let ex = self.resolved(x)?;
-                    let ey = self.resolved(y)?;
+                    let r = self.demand_run(at, id)?;
+                    let ex = self.resolved(at, x)?;
+                    let ey = self.resolved(at, y)?;
                     let run = self.runs[id].name.clone();
                     let pts = if poincare {
-                        let sub = self.section_of(&r)?;
-                        let xs = self.along(&sub, &ex, x.span)?;
-                        let ys = self.along(&sub, &ey, y.span)?;
+                        let sub = self.section_of(at, &r)?;
+                        let xs = self.along(at, &sub, &ex, x.span)?;
+                        let ys = self.along(at, &sub, &ey, y.span)?;
                         self.drawable(&xs, &x.text, &run, &sub.traj.t, x.span)?;
                         self.drawable(&ys, &y.text, &run, &sub.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
                     } else {
-                        let xs = self.along(&r, &ex, x.span)?;
-                        let ys = self.along(&r, &ey, y.span)?;
+                        let xs = self.along(at, &r, &ex, x.span)?;
+                        let ys = self.along(at, &r, &ey, y.span)?;
                         self.drawable(&xs, &x.text, &run, &r.traj.t, x.span)?;
                         self.drawable(&ys, &y.text, &run, &r.traj.t, y.span)?;
                         xs.into_iter().zip(ys).collect()
@@ -348,32 +359,31 @@ impl Session {
                 })
             }
             PlotKind::Energy => {
-                let ids = self.run_ids(&spec.runs)?;
+                let ids = self.run_ids(at, &spec.runs)?;
                 let mut series = Vec::new();
                 for &id in &ids {
-                    let r = self.demand_run(id)?;
-                    let errors = self.energy_errors(&r)?;
+                    let r = self.demand_run(at, id)?;
+                    let errors = self.energy_errors(at, &r)?;
                     let run = self.runs[id].name.clone();
-                    let at = self.span;
-                    self.drawable(&errors, "|ΔE/E₀|", &run, &r.traj.t, at)?;
+                    self.drawable(&errors, "|ΔE/E₀|", &run, &r.traj.t, at.span)?;
                     let pts = r.traj.t.iter().copied().zip(errors).collect();
                     series.push(Series { label: format!("{} ({})", self.runs[id].name, r.method.name()), points: pts });
                 }
                 let title = format!("relative energy error |ΔE/E₀|, {}", self.runs_phrase(&ids));
                 Ok(Figure::log_y(&title, "t", "|ΔE/E₀|", series))
             }
-            PlotKind::Separation(a, b) => self.separation(a, b),
-            PlotKind::Phase(coord) => self.phase_figure(coord.as_ref(), &spec.runs),
-            PlotKind::WorkPrecision(reference) => self.work_precision(reference.as_ref(), &spec.runs),
+            PlotKind::Separation(a, b) => self.separation(at, a, b),
+            PlotKind::Phase(coord) => self.phase_figure(at, coord.as_ref(), &spec.runs),
+            PlotKind::WorkPrecision(reference) => self.work_precision(at, reference.as_ref(), &spec.runs),
             PlotKind::Chaos(word) => self.chaos_figure(word, &spec.runs),
         }
     }
 
     /// The relative energy error `|E(t) − E(0)|/|E(0)|` along a run (absolute when
     /// `E(0) = 0`).
-    fn energy_errors(&mut self, r: &RunResult) -> Result<Vec<f64>, SceneError> {
-        let e = self.energy_of_run(r)?;
-        let es = self.along(r, &e, self.span)?;
+    fn energy_errors(&mut self, at: At, r: &RunResult) -> Result<Vec<f64>, SceneError> {
+        let e = self.energy_of_run(at, r)?;
+        let es = self.along(at, r, &e, at.span)?;
         let e0 = es.first().copied().unwrap_or(0.0);
         let scale = if e0.abs() > 0.0 { e0.abs() } else { 1.0 };
         Ok(es.iter().map(|e| ((e - e0) / scale).abs()).collect())
@@ -386,39 +396,40 @@ impl Session {
     /// the run. Without `from`, every run but the reference is drawn.
     pub(in crate::scene) fn work_precision(
         &mut self,
+        at: At,
         reference: Option<&Src>,
         runs: &[Src],
     ) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
         let reference = match reference {
-            Some(r) => Some(self.run_ids(std::slice::from_ref(r))?[0]),
+            Some(r) => Some(self.run_ids(at, std::slice::from_ref(r))?[0]),
             None => None,
         };
         let ids: Vec<usize> = if runs.is_empty() {
             (0..self.runs.len()).filter(|id| Some(*id) != reference).collect()
         } else {
-            self.run_ids(runs)?
+            self.run_ids(at, runs)?
         };
         if ids.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "a work-precision diagram needs simulations")
-                .at(self.span)
+                .at(at.span)
                 .hint("simulate the system with several methods and steps, then `plot work_precision from a, b, c`"));
         }
         let exact = match reference {
-            Some(id) => Some((self.runs[id].name.clone(), self.demand_run(id)?)),
+            Some(id) => Some((self.runs[id].name.clone(), self.demand_run(at, id)?)),
             None => None,
         };
         let mut by_method: Vec<(&'static str, Vec<(f64, f64)>)> = Vec::new();
         for id in ids {
-            let r = self.demand_run(id)?;
+            let r = self.demand_run(at, id)?;
             let name = self.runs[id].name.clone();
             let error = match &exact {
                 Some((ref_name, x)) => final_distance(&r, x, &name, ref_name).map_err(|m| {
                     SceneError::new(ErrorKind::BadNumber, m)
-                        .at(self.span)
+                        .at(at.span)
                         .hint("compare runs over the same time span that reach its end")
                 })?,
-                None => self.energy_errors(&r)?.into_iter().fold(0.0, f64::max),
+                None => self.energy_errors(at, &r)?.into_iter().fold(0.0, f64::max),
             };
             let point = (r.traj.evaluations as f64, error);
             match by_method.iter_mut().find(|(m, _)| *m == r.method.name()) {
@@ -487,10 +498,10 @@ impl Session {
     /// finite-time Lyapunov estimate, printed. The runs must share their stored times (two
     /// fixed-step runs with the same step and span), since interpolating one of them would
     /// add an error larger than the early separation.
-    fn separation(&mut self, a: &Src, b: &Src) -> Result<crate::plot::Figure, SceneError> {
+    fn separation(&mut self, at: At, a: &Src, b: &Src) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
-        let ids = self.run_ids(&[a.clone(), b.clone()])?;
-        let (ra, rb) = (self.demand_run(ids[0])?, self.demand_run(ids[1])?);
+        let ids = self.run_ids(at, &[a.clone(), b.clone()])?;
+        let (ra, rb) = (self.demand_run(at, ids[0])?, self.demand_run(at, ids[1])?);
         let same_times = ra.traj.t.len() == rb.traj.t.len()
             && ra.traj.t.iter().zip(&rb.traj.t).all(|(x, y)| (x - y).abs() <= 1e-12 * x.abs().max(1.0));
         if ra.layout != rb.layout || ra.coords != rb.coords || !same_times {
@@ -536,6 +547,7 @@ impl Session {
 
     pub(in crate::scene) fn phase_figure(
         &mut self,
+        at: At,
         coord: Option<&Src>,
         runs: &[Src],
     ) -> Result<crate::plot::Figure, SceneError> {
@@ -547,7 +559,7 @@ impl Session {
             })?,
         };
         let Some(q) = self.coords.get(index).cloned() else {
-            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared").at(self.span));
+            return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared").at(at.span));
         };
         let one_dof = self.coords.len() == 1;
         let mut orbits = Vec::new();
@@ -556,10 +568,10 @@ impl Session {
         if has_runs {
             // Without `from`, every run is drawn (those in the latest run's variables: a
             // portrait in (q, q') cannot hold a run in (q, p)).
-            let ids = if runs.is_empty() { (0..self.runs.len()).collect() } else { self.run_ids(runs)? };
+            let ids = if runs.is_empty() { (0..self.runs.len()).collect() } else { self.run_ids(at, runs)? };
             let mut results = Vec::new();
             for id in ids {
-                results.push((id, self.demand_run(id)?));
+                results.push((id, self.demand_run(at, id)?));
             }
             layout = results.last().map_or(Layout::Momenta, |(_, r)| r.layout);
             let mut skipped = Vec::new();
@@ -587,12 +599,12 @@ impl Session {
         let mut contours = None;
         if one_dof {
             let f = match layout {
-                Layout::Momenta => self.hamiltonian()?,
+                Layout::Momenta => self.hamiltonian(at)?,
                 Layout::Velocities => {
-                    let l = self.lagrangian()?;
-                    match self.derive(DerivKind::Energy, vec![l], self.span)? {
+                    let l = self.lagrangian(at)?;
+                    match self.derive(at, DerivKind::Energy, vec![l], at.span)? {
                         Value::Expr(e) => e,
-                        _ => return Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
+                        _ => return Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(at.span)),
                     }
                 }
             };
@@ -618,7 +630,7 @@ impl Session {
                     ErrorKind::MissingValue,
                     "the phase portrait needs numbers for every parameter",
                 )
-                .at(self.span)
+                .at(at.span)
                 .hint(match missing {
                     Some(m) => format!("declare `{m}` with a value before `plot`: `parameters {m} = …`"),
                     None => "give every parameter a value".to_string(),
@@ -630,7 +642,7 @@ impl Session {
                 ErrorKind::Undeclared,
                 "a phase portrait of a system with several coordinates needs a simulation",
             )
-            .at(self.span)
+            .at(at.span)
             .hint("add a `simulate …` statement before `plot phase`"));
         }
         let qs = crate::print::symbol(&q, Format::Unicode);
@@ -641,8 +653,15 @@ impl Session {
         Ok(Figure::phase(&format!("phase portrait of {qs}"), &qs, &vlabel, orbits, contours))
     }
 
-    pub(in crate::scene) fn export(&mut self, items: &[Item], run: Option<&Src>, path: &Src) -> Result<(), SceneError> {
-        let (file, pspan, ext) = self.out_file(Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
+    pub(in crate::scene) fn export(
+        &mut self,
+        at: At,
+        items: &[Item],
+        run: Option<&Src>,
+        path: &Src,
+    ) -> Result<(), SceneError> {
+        let (file, pspan, ext) =
+            self.out_file(at.span, Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
         let symbolic = items.iter().any(|i| matches!(i, Item::Derivation(_)));
         let text = if symbolic {
             if ext == "csv" {
@@ -654,7 +673,7 @@ impl Session {
                     Item::Derivation(c) => c.kind.keyword().to_string(),
                     Item::Expr(s) => s.text.clone(),
                 };
-                let value = match self.printed_item(item)? {
+                let value = match self.printed_item(at, item)? {
                     Printed::Named(_, e) | Printed::Value(e) => serde_json::json!(crate::print::plain(&e)),
                     Printed::Lines(lines) => crate::report::lines_json(&lines),
                 };
@@ -666,10 +685,10 @@ impl Session {
         } else {
             // Every run the `from` names: all members of an ensemble (the docs say so; only
             // the first used to be written, with no note).
-            let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
+            let ids = self.run_ids(at, &run.cloned().into_iter().collect::<Vec<_>>())?;
             let mut members = Vec::new();
             for &id in &ids {
-                let r = self.demand_run(id)?;
+                let r = self.demand_run(at, id)?;
                 let mut columns: Vec<(String, Vec<f64>)> = vec![("t".to_string(), r.traj.t.clone())];
                 if items.is_empty() {
                     let names = state_names(&r.coords, r.layout);
@@ -682,8 +701,8 @@ impl Session {
                             if src.text.trim() == "t" {
                                 continue;
                             }
-                            let e = self.resolved(src)?;
-                            columns.push((src.text.trim().to_string(), self.along(&r, &e, src.span)?));
+                            let e = self.resolved(at, src)?;
+                            columns.push((src.text.trim().to_string(), self.along(at, &r, &e, src.span)?));
                         }
                     }
                 }

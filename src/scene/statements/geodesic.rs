@@ -2,7 +2,7 @@
 //! `lagrangian geodesic` and prints the same lines ([`Geodesic::report`]).
 
 use crate::mechanics::{embedded, geodesic, geodesic_from_metric, Geodesic};
-use crate::scene::session::Session;
+use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::{GeodesicSpec, Geometry};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -11,16 +11,16 @@ impl Session {
     /// conserved quantities of the scene's coordinates (as `lagrangian geodesic`), the
     /// tangential components of the curvature vector for an embedding, and with
     /// `from (…) to (…)` a shooting solution in unit time.
-    pub(in crate::scene) fn geodesic(&mut self, spec: &GeodesicSpec) -> Result<(), SceneError> {
-        let coords = self.need_coordinates("geodesic")?;
-        let span = self.span;
+    pub(in crate::scene) fn geodesic(&mut self, at: At, spec: &GeodesicSpec) -> Result<(), SceneError> {
+        let coords = self.need_coordinates(at, "geodesic")?;
+        let span = at.span;
         let bad = |e: crate::mechanics::MechanicsError, at: Span| {
             SceneError::new(ErrorKind::Derivation, e.to_string().trim_start_matches("error: ").to_string()).at(at)
         };
         let (g, emb): (Geodesic, _) = match &spec.geometry {
             Geometry::LineElement(src) => {
                 let diffs: Vec<String> = coords.iter().map(|q| format!("d{}", q.name())).collect();
-                let ds2 = self.resolved_local(src, &diffs)?;
+                let ds2 = self.resolved_local(at, src, &diffs)?;
                 (geodesic(&ds2, &coords).map_err(|e| bad(e, src.span))?, None)
             }
             Geometry::Metric(rows) => {
@@ -28,7 +28,7 @@ impl Session {
                 for row in rows {
                     let mut r = Vec::new();
                     for src in row {
-                        r.push(self.resolved(src)?);
+                        r.push(self.resolved(at, src)?);
                     }
                     m.push(r);
                 }
@@ -37,7 +37,7 @@ impl Session {
             Geometry::Embedding(xs) => {
                 let mut x = Vec::new();
                 for src in xs {
-                    x.push(self.resolved(src)?);
+                    x.push(self.resolved(at, src)?);
                 }
                 let emb = embedded(&x, &coords).map_err(|e| bad(e, span))?;
                 (emb.geodesic.clone(), Some(emb))
@@ -62,7 +62,7 @@ impl Session {
                     .hint("give one value per coordinate, in the order of `coordinates`"));
                 }
             }
-            let (a, b) = (self.numbers(from)?, self.numbers(to)?);
+            let (a, b) = (self.numbers(at, from)?, self.numbers(at, to)?);
             let values = self.param_values();
             let params: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
             let shot = crate::compile::shoot(&g, &a, &b, &params, 1).map_err(|e| {

@@ -3,16 +3,16 @@
 
 use crate::expr::Expr;
 use crate::mechanics::{Ritz, System};
-use crate::scene::session::Session;
+use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::RitzSpec;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 impl Session {
     /// `ritz [L] with x = TRIAL for t in A..B from x = … to x = … solve a, b [near …]`: the
     /// trial-function method, as `lagrangian ritz`.
-    pub(in crate::scene) fn ritz(&mut self, spec: &RitzSpec) -> Result<(), SceneError> {
-        let coords = self.need_coordinates("ritz")?;
-        let span = self.span;
+    pub(in crate::scene) fn ritz(&mut self, at: At, spec: &RitzSpec) -> Result<(), SceneError> {
+        let coords = self.need_coordinates(at, "ritz")?;
+        let span = at.span;
         if spec.time_var.text != "t" {
             return Err(SceneError::new(ErrorKind::Syntax, "the trial path's variable must be `t`")
                 .at(spec.time_var.span)
@@ -20,12 +20,12 @@ impl Session {
         }
         let local: Vec<String> = spec.unknowns.iter().map(|u| u.text.clone()).collect();
         let l = match &spec.l {
-            Some(src) => self.resolved_local(src, &local)?,
-            None => self.lagrangian()?,
+            Some(src) => self.resolved_local(at, src, &local)?,
+            None => self.lagrangian(at)?,
         };
         let mut unknowns = Vec::new();
         for u in &spec.unknowns {
-            match self.resolved_local(u, &local)?.as_sym() {
+            match self.resolved_local(at, u, &local)?.as_sym() {
                 Some(s) if s.primes() == 0 && !s.is_time() && !coords.contains(s) => unknowns.push(s.clone()),
                 _ => {
                     return Err(SceneError::new(
@@ -57,18 +57,18 @@ impl Session {
                         .at(span)
                         .hint(format!("add `{c} = …` to the {what}s")));
                 };
-                exprs.push(self.resolved_local(e, &local)?);
+                exprs.push(self.resolved_local(at, e, &local)?);
             }
             lists.push(exprs);
         }
-        let t0 = self.resolved(&spec.t0)?;
-        let t1 = self.resolved(&spec.t1)?;
+        let t0 = self.resolved(at, &spec.t0)?;
+        let t1 = self.resolved(at, &spec.t1)?;
         let derivation = |e: crate::mechanics::MechanicsError| {
             SceneError::new(ErrorKind::Derivation, e.to_string().trim_start_matches("error: ").to_string()).at(span)
         };
         let system = System::from_lagrangian_expr(l, &coords).map_err(derivation)?;
         let r: Ritz = system.ritz(&lists[0], &unknowns, (&t0, &t1), (&lists[1], &lists[2])).map_err(derivation)?;
-        let guess = self.numbers(&spec.guess)?;
+        let guess = self.numbers(at, &spec.guess)?;
         let values = self.param_values();
         let params: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let sol = r.solve(&guess, &params).map_err(|e| {

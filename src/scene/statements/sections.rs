@@ -6,17 +6,17 @@ use std::sync::Arc;
 use super::figures::members_text;
 use super::simulate::state_names;
 use crate::scene::engine::backend::Trajectory;
-use crate::scene::session::{RunResult, Session};
+use crate::scene::state::{At, RunResult, Session};
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 impl Session {
     /// The run's recorded event states as a trajectory (time = the crossing's time), or an
     /// error when it recorded none.
-    pub(in crate::scene) fn section_of(&self, r: &RunResult) -> Result<RunResult, SceneError> {
+    pub(in crate::scene) fn section_of(&self, at: At, r: &RunResult) -> Result<RunResult, SceneError> {
         if r.traj.events.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "the run recorded no events for a Poincaré section")
-                .at(self.span)
+                .at(at.span)
                 .hint("add `record when … = 0` to the `simulate` statement"));
         }
         Ok(RunResult {
@@ -34,11 +34,13 @@ impl Session {
     /// expressions (default: the state) at the crossing.
     pub(in crate::scene) fn export_poincare(
         &mut self,
+        at: At,
         items: &[Src],
         run: Option<&Src>,
         path: &Src,
     ) -> Result<(), SceneError> {
         let (file, pspan, ext) = self.out_file(
+            at.span,
             Some(path),
             "poincare",
             "export",
@@ -46,12 +48,12 @@ impl Session {
             "export Poincaré points to `.csv` or `.json`",
         )?;
         // Every run the `from` names: all members of an ensemble, each with its own rows.
-        let ids = self.run_ids(&run.cloned().into_iter().collect::<Vec<_>>())?;
+        let ids = self.run_ids(at, &run.cloned().into_iter().collect::<Vec<_>>())?;
         let mut members = Vec::new();
         let mut points = 0;
         for &id in &ids {
-            let r = self.demand_run(id)?;
-            let sub = self.section_of(&r)?;
+            let r = self.demand_run(at, id)?;
+            let sub = self.section_of(at, &r)?;
             let mut columns: Vec<(String, Vec<f64>)> = vec![
                 ("t".to_string(), sub.traj.t.clone()),
                 ("event".to_string(), r.traj.events.iter().map(|e| (e.index + 1) as f64).collect()),
@@ -65,8 +67,8 @@ impl Session {
                     if src.text.trim() == "t" {
                         continue;
                     }
-                    let e = self.resolved(src)?;
-                    columns.push((src.text.trim().to_string(), self.along(&sub, &e, src.span)?));
+                    let e = self.resolved(at, src)?;
+                    columns.push((src.text.trim().to_string(), self.along(at, &sub, &e, src.span)?));
                 }
             }
             points += sub.traj.t.len();

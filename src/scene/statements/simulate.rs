@@ -12,7 +12,8 @@ use crate::print::{render, Format};
 use crate::scene::engine::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::{backend_error, fmt_num, short, Layout, Mode, RunEntry, RunResult, Session};
+use crate::scene::session::{backend_error, fmt_num, short, Mode};
+use crate::scene::state::{At, Layout, RunEntry, RunResult, Session};
 use crate::scene::syntax::ast::{DerivKind, EventSpec, SimSpec, Src};
 use crate::scene::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::simulate::{
@@ -23,9 +24,9 @@ use crate::simulate::{
 impl Session {
     // ----- simulation ----------------------------------------------------------------------
 
-    pub(in crate::scene) fn simulate(&mut self, spec: &SimSpec) -> Result<(), SceneError> {
+    pub(in crate::scene) fn simulate(&mut self, at: At, spec: &SimSpec) -> Result<(), SceneError> {
         if spec.ensemble.is_some() {
-            return self.simulate_ensemble(spec);
+            return self.simulate_ensemble(at, spec);
         }
         // Validate the parts that need no derivation now, so a typo is reported at once.
         self.check_method(spec)?;
@@ -35,10 +36,10 @@ impl Session {
         };
         let id = self.runs.len();
         let dynamics = self.dynamics.clone();
-        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: self.line, result: None, dynamics });
+        self.runs.push(RunEntry { name: name.clone(), spec: spec.clone(), line: at.line, result: None, dynamics });
         let previous = self.run_names.insert(name.clone(), id);
         if self.opts.mode == Mode::Repl {
-            if let Err(e) = self.demand_run(id) {
+            if let Err(e) = self.demand_run(at, id) {
                 // A run that failed is not a run: its name (or the run it replaced) is as before.
                 self.runs.pop();
                 match previous {
@@ -108,16 +109,15 @@ impl Session {
         s
     }
 
-    pub(in crate::scene) fn demand_run(&mut self, id: usize) -> Result<RunResult, SceneError> {
+    pub(in crate::scene) fn demand_run(&mut self, at: At, id: usize) -> Result<RunResult, SceneError> {
         if let Some(r) = &self.runs[id].result {
             return Ok(r.clone());
         }
         let spec = self.runs[id].spec.clone();
-        let saved = (self.line, self.span);
-        self.line = self.runs[id].line;
+        // The run's work is planned at its own statement's line.
+        let at = At { line: self.runs[id].line, ..at };
         let dynamics = self.runs[id].dynamics.clone();
-        let r = self.run_simulation(&spec, &self.runs[id].name.clone(), &dynamics);
-        (self.line, self.span) = saved;
+        let r = self.run_simulation(at, &spec, &self.runs[id].name.clone(), &dynamics);
         let r = r?;
         self.runs[id].result = Some(r.clone());
         Ok(r)
@@ -125,13 +125,15 @@ impl Session {
 
     pub(in crate::scene) fn run_simulation(
         &mut self,
+        at: At,
         spec: &SimSpec,
         name: &str,
         dynamics: &Dynamics,
     ) -> Result<RunResult, SceneError> {
-        let (compiled, run, template, energy) = self.prepare_run(spec, name, dynamics)?;
-        let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
-        let mut traj = self.integrate(&compiled, &run, name, stmt_span)?;
+        let (compiled, run, template, energy) = self.prepare_run(at, spec, name, dynamics)?;
+        let stmt_span = run_span(spec);
+        let at = At { span: stmt_span, ..at };
+        let mut traj = self.integrate(at, &compiled, &run, name, stmt_span)?;
         self.settle_energy(name, &energy, &mut traj, stmt_span)?;
         // The `--explain` plan carries the ledger too (scenes print no run summary).
         if let Some(entry) = self.plan.iter_mut().rev().find(|e| e.step == Step::Integrate) {
@@ -145,24 +147,73 @@ impl Session {
 
     /// Everything of a run but its integration: the compiled system, the request (with the
     /// initial state and the energy check), the result without its trajectory, and which
-    /// energy is checked (or why none is). `self.span` is left at the
-    /// statement.
+    /// energy is checked (or why none is). Its errors point at the `simulate` statement
+    /// ([`run_span`]), whoever demanded the run.
     pub(in crate::scene) fn prepare_run(
         &mut self,
+        at: At,
         spec: &SimSpec,
         name: &str,
         dynamics: &Dynamics,
     ) -> Result<(Compiled, RunRequest, RunResult, EnergyPlan), SceneError> {
-        let stmt_span = (spec.time_var.span.0.saturating_sub(1), spec.span_span.1);
-        self.span = stmt_span;
+        let stmt_span = run_span(spec);
+        let at = At { span: stmt_span, ..at };
         let method = self.check_method(spec)?;
         if self.coords.is_empty() {
             return Err(SceneError::new(ErrorKind::Undeclared, "no coordinates declared")
                 .at(stmt_span)
                 .hint("declare them first, for example `coordinates θ`"));
         }
-        let t0 = self.bound(&spec.t0)?;
-        let t1 = self.bound(&spec.t1)?;
+        let (mut options, dt) = self.run_options(at, spec, method)?;
+        let (t0, t1) = (options.t0, options.t1);
+        // The formulation this method needs: this decides what is derived.
+        let (formulation, layout, l_expr, h_expr) = self.formulation(at, spec, method, dynamics)?;
+        let coords = self.coords.clone();
+        let first_order = matches!(formulation, Formulation::FirstOrder(_));
+        let y0 = self.initial_state(at, spec, layout, first_order, t0)?;
+        if let Formulation::Extended(ext) = &formulation {
+            if dynamics.constrained() {
+                let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
+                self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
+            }
+        }
+
+        let (event_exprs, events) = self.run_events(at, spec, layout, l_expr.as_ref(), h_expr.as_ref(), first_order)?;
+        let params = self.run_params(stmt_span, &formulation, &event_exprs)?;
+        let compiled = self.compile_run(at, method, &coords, &formulation, &params, &event_exprs)?;
+        let every = self.thinning(at, spec, dt, t0, t1, name)?;
+        let names = super::drift::input_names(&coords, layout);
+        let check = self.energy_check(at, spec, &formulation, &names, &params)?;
+        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
+        options.events = events;
+        options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
+        // Again with the sampling: what it keeps must fit (`every 1` over 10⁸ steps does not).
+        options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
+        options.energy = energy;
+        let run = RunRequest { y0, options };
+        let template = RunResult {
+            method,
+            layout,
+            coords,
+            params: params.into_iter().collect(),
+            traj: Arc::new(Trajectory::default()),
+            lagrangian: l_expr,
+            hamiltonian: h_expr,
+        };
+        Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
+    }
+
+    /// The library's options of a run from its time span, `dt`, `tol` and `steps` (checked
+    /// by the library), and the fixed step if one was asked.
+    fn run_options(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        method: MethodId,
+    ) -> Result<(RunOptions, Option<f64>), SceneError> {
+        let stmt_span = at.span;
+        let t0 = self.bound(at, &spec.t0)?;
+        let t1 = self.bound(at, &spec.t1)?;
         if t1 == t0 {
             return Err(SceneError::new(
                 ErrorKind::BadNumber,
@@ -183,7 +234,7 @@ impl Session {
         }
         let positive = |s: &Option<Src>, this: &mut Session, what: &str| -> Result<Option<f64>, SceneError> {
             let Some(src) = s else { return Ok(None) };
-            let e = this.resolved(src)?;
+            let e = this.resolved(at, src)?;
             let x = this.number(&e, src.span)?;
             if !(x > 0.0 && x.is_finite()) {
                 return Err(SceneError::new(
@@ -212,8 +263,19 @@ impl Session {
         options.dt = dt;
         options.rtol = tol;
         options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
+        Ok((options, dt))
+    }
 
-        // The formulation this method needs: this decides what is derived.
+    /// The formulation `method` integrates (the library's route for what the scene
+    /// defines), the state's layout and the `L` and `H` it was built from.
+    fn formulation(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        method: MethodId,
+        dynamics: &Dynamics,
+    ) -> Result<(Formulation, Layout, Option<Expr>, Option<Expr>), SceneError> {
+        let stmt_span = at.span;
         let has_l = self.def_names.contains_key("L");
         let has_h = self.def_names.contains_key("H");
         if spec.stabilize.is_some() && dynamics.is_empty() {
@@ -227,7 +289,7 @@ impl Session {
         }
         // Whether L is first order matters unless a splitting method runs the user's own H.
         let l_if_needed =
-            if has_l && !(method.family() == Family::Splitting && has_h) { Some(self.lagrangian()?) } else { None };
+            if has_l && !(method.family() == Family::Splitting && has_h) { Some(self.lagrangian(at)?) } else { None };
         let shape = Shape {
             lagrangian: has_l,
             hamiltonian: has_h,
@@ -238,38 +300,41 @@ impl Session {
         let route = route(method, &shape).map_err(|r| refusal_error(r, spec, stmt_span))?;
         let (formulation, l_expr, h_expr) = match route {
             Route::Extended => {
-                let l = self.lagrangian()?;
-                let ext = self.extended(l.clone(), dynamics, spec)?;
+                let l = self.lagrangian(at)?;
+                let ext = self.extended(at, l.clone(), dynamics, spec)?;
                 (Formulation::Extended(Box::new(ext)), Some(l), None)
             }
             Route::Variational => {
-                let l = self.lagrangian()?;
-                let h = self.hamiltonian()?;
+                let l = self.lagrangian(at)?;
+                let h = self.hamiltonian(at)?;
                 (Formulation::Variational(l.clone()), Some(l), Some(h))
             }
             Route::Separable => {
-                let h = self.hamiltonian()?;
-                let (t, v) = self.split(&h, method)?;
+                let h = self.hamiltonian(at)?;
+                let (t, v) = self.split(at, &h, method)?;
                 (Formulation::Separable { t, v }, None, Some(h))
             }
             Route::FirstOrder => {
-                let l = self.lagrangian()?;
+                let l = self.lagrangian(at)?;
                 (Formulation::FirstOrder(l.clone()), Some(l), None)
             }
             Route::Lagrangian => {
-                let l = self.lagrangian()?;
+                let l = self.lagrangian(at)?;
                 (Formulation::Lagrangian(l.clone()), Some(l), None)
             }
             Route::Hamiltonian => {
-                let h = self.hamiltonian()?;
+                let h = self.hamiltonian(at)?;
                 (Formulation::Hamiltonian(h.clone()), None, Some(h))
             }
         };
         let layout = if route.has_velocities() { Layout::Velocities } else { Layout::Momenta };
+        Ok((formulation, layout, l_expr, h_expr))
+    }
 
-        // Initial state.
+    /// The values the `simulate` statement gives (coordinates, velocities or momenta), each
+    /// with its span, checked to be part of the state and given once.
+    fn given_values(&mut self, at: At, spec: &SimSpec) -> Result<HashMap<String, (f64, Span)>, SceneError> {
         let coords = self.coords.clone();
-        let n = coords.len();
         let mut given: HashMap<String, (f64, Span)> = HashMap::new();
         for (sym, val) in &spec.inits {
             let (e, _) = self.expr(sym)?;
@@ -289,7 +354,7 @@ impl Session {
                 .at(sym.span)
                 .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
             }
-            let v = self.resolved(val)?;
+            let v = self.resolved(at, val)?;
             let x = self.number(&v, val.span)?;
             if given.contains_key(&s.to_string()) {
                 return Err(SceneError::new(
@@ -302,6 +367,23 @@ impl Session {
             }
             given.insert(s.to_string(), (x, sym.span));
         }
+        Ok(given)
+    }
+
+    /// The initial state in `layout`: coordinates, then velocities or momenta (velocities
+    /// turned into momenta through `p = ∂L/∂q'` when the method integrates `H`).
+    fn initial_state(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        layout: Layout,
+        first_order: bool,
+        t0: f64,
+    ) -> Result<Vec<f64>, SceneError> {
+        let stmt_span = at.span;
+        let coords = self.coords.clone();
+        let n = coords.len();
+        let given = self.given_values(at, spec)?;
         let mut y0 = vec![0.0; 2 * n];
         for (i, q) in coords.iter().enumerate() {
             y0[i] = match given.get(q.name()) {
@@ -318,7 +400,6 @@ impl Session {
         }
         let vel = |q: &Symbol| format!("{}'", q.name());
         let mom = |q: &Symbol| format!("p_{}", q.name());
-        let first_order = matches!(formulation, Formulation::FirstOrder(_));
         if first_order {
             super::first_order::check_first_order_inits(&coords, &given)?;
         }
@@ -351,12 +432,12 @@ impl Session {
                 }
                 if any_velocity {
                     // Velocities → momenta through p = ∂L/∂q' at the initial state.
-                    let l = self.lagrangian().map_err(|e| {
+                    let l = self.lagrangian(at).map_err(|e| {
                         e.hint(
                             "this method integrates `H`: give the momenta `p_q`, or define `L` to convert velocities",
                         )
                     })?;
-                    let ps = self.momenta(&l)?;
+                    let ps = self.momenta(at, &l)?;
                     let mut env: HashMap<String, f64> = self.param_values();
                     for (i, q) in coords.iter().enumerate() {
                         env.insert(q.name().to_string(), y0[i]);
@@ -386,19 +467,23 @@ impl Session {
                 }
             }
         }
+        Ok(y0)
+    }
 
-        if let Formulation::Extended(ext) = &formulation {
-            if dynamics.constrained() {
-                let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
-                self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
-            }
-        }
-
-        // Events, in the state's variables.
+    /// The events of a run, in the state's variables, and how each is located.
+    fn run_events(
+        &mut self,
+        at: At,
+        spec: &SimSpec,
+        layout: Layout,
+        l_expr: Option<&Expr>,
+        h_expr: Option<&Expr>,
+        first_order: bool,
+    ) -> Result<(Vec<Expr>, Vec<RunEvent>), SceneError> {
         let mut event_exprs = Vec::new();
         let mut events = Vec::new();
         for (index, ev) in spec.events.iter().enumerate() {
-            let e = self.event_expr(ev, layout, l_expr.as_ref(), h_expr.as_ref())?;
+            let e = self.event_expr(at, ev, layout, l_expr, h_expr)?;
             if first_order {
                 super::first_order::check_first_order_event(&e, ev.span)?;
             }
@@ -410,8 +495,17 @@ impl Session {
             };
             events.push(RunEvent { index, crossing, terminal: ev.terminal });
         }
+        Ok((event_exprs, events))
+    }
 
-        // Every parameter the equations use needs a value.
+    /// The values of the parameters the equations and events use: each needs one, and a
+    /// declared function with no numeric definition cannot be integrated.
+    fn run_params(
+        &self,
+        stmt_span: Span,
+        formulation: &Formulation,
+        event_exprs: &[Expr],
+    ) -> Result<Vec<(String, f64)>, SceneError> {
         let mut needed: BTreeSet<String> = BTreeSet::new();
         let exprs = formulation.exprs();
         for e in exprs.iter().chain(event_exprs.iter()) {
@@ -443,20 +537,32 @@ impl Session {
                 }
             }
         }
+        Ok(params)
+    }
 
-        // Compile (cached by symbolic content and parameter values), then integrate.
+    /// The compiled run, cached by symbolic content and parameter values.
+    fn compile_run(
+        &mut self,
+        at: At,
+        method: MethodId,
+        coords: &[Symbol],
+        formulation: &Formulation,
+        params: &[(String, f64)],
+        event_exprs: &[Expr],
+    ) -> Result<Compiled, SceneError> {
+        let stmt_span = at.span;
         let req = CompileRequest {
-            coords: coords.clone(),
+            coords: coords.to_vec(),
             formulation: formulation.clone(),
-            params: params.clone(),
+            params: params.to_vec(),
             form: method.form(),
-            events: event_exprs.clone(),
+            events: event_exprs.to_vec(),
         };
         let mut inputs: Vec<Expr> = formulation.exprs();
         inputs.extend(event_exprs.iter().cloned());
         let key = CacheKey {
             step: Step::Compile,
-            coords: coords.clone(),
+            coords: coords.to_vec(),
             inputs,
             numbers: params.iter().map(|(_, v)| v.to_bits()).collect(),
             extra: format!(
@@ -480,36 +586,17 @@ impl Session {
             ),
         };
         let what = format!("{} for {}", formulation.describe(), method.name());
-        let compiled = match self.lookup(&key, Step::Compile, &what) {
+        let compiled = match self.lookup(at, &key, Step::Compile, &what) {
             Some(Value::Compiled(c)) => c,
             _ => {
                 let built = self.backend.compile(&req).map(Value::Compiled).map_err(|e| backend_error(e, stmt_span));
-                match self.record(Step::Compile, what, key, built)? {
+                match self.record(at, Step::Compile, what, key, built)? {
                     Value::Compiled(c) => c,
                     _ => return Err(SceneError::new(ErrorKind::Numeric, "compilation gave no code").at(stmt_span)),
                 }
             }
         };
-        let every = self.thinning(spec, dt, t0, t1, name)?;
-        let names = super::drift::input_names(&coords, layout);
-        let check = self.energy_check(spec, &formulation, &names, &params)?;
-        let energy = check.as_ref().ok().map(|(_, c)| c.clone());
-        options.events = events;
-        options.sampling = every.map_or(Sampling::Auto, Sampling::Every);
-        // Again with the sampling: what it keeps must fit (`every 1` over 10⁸ steps does not).
-        options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
-        options.energy = energy;
-        let run = RunRequest { y0, options };
-        let template = RunResult {
-            method,
-            layout,
-            coords,
-            params: params.into_iter().collect(),
-            traj: Arc::new(Trajectory::default()),
-            lagrangian: l_expr,
-            hamiltonian: h_expr,
-        };
-        Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
+        Ok(compiled)
     }
 
     /// Which steps a run keeps: `every N`, `points N`, or by default at most
@@ -517,6 +604,7 @@ impl Session {
     /// thins it (no data is dropped without a word).
     fn thinning(
         &mut self,
+        at: At,
         spec: &SimSpec,
         dt: Option<f64>,
         t0: f64,
@@ -524,7 +612,7 @@ impl Session {
         name: &str,
     ) -> Result<Option<usize>, SceneError> {
         let count = |this: &mut Session, src: &Src, what: &str| -> Result<usize, SceneError> {
-            let e = this.resolved(src)?;
+            let e = this.resolved(at, src)?;
             let x = this.number(&e, src.span)?;
             if x < 1.0 || x.fract() != 0.0 || x > 1e12 {
                 return Err(SceneError::new(
@@ -573,6 +661,7 @@ impl Session {
 
     pub(in crate::scene) fn integrate(
         &mut self,
+        at: At,
         compiled: &Compiled,
         run: &RunRequest,
         name: &str,
@@ -590,7 +679,7 @@ impl Session {
         self.plan.push(PlanEntry {
             step: Step::Integrate,
             what: format!("{name} with {} ({} steps)", run.options.method.name(), traj.steps),
-            line: Some(self.line),
+            line: Some(at.line),
             status: Status::Built,
         });
         Ok(traj)
@@ -611,8 +700,8 @@ impl Session {
         self.params.iter().filter_map(|(n, p)| p.value.map(|v| (n.clone(), v))).collect()
     }
 
-    pub(in crate::scene) fn bound(&mut self, src: &Src) -> Result<f64, SceneError> {
-        let e = self.resolved(src)?;
+    pub(in crate::scene) fn bound(&mut self, at: At, src: &Src) -> Result<f64, SceneError> {
+        let e = self.resolved(at, src)?;
         self.number(&e, src.span)
     }
 
@@ -620,10 +709,10 @@ impl Session {
     /// that what the session accepts is what [`crate::compile::SeparableHamiltonian`]
     /// compiles. When `H` is not separable, the first term that mixes coordinates and
     /// momenta is named in the error.
-    pub(in crate::scene) fn split(&mut self, h: &Expr, method: MethodId) -> Result<(Expr, Expr), SceneError> {
+    pub(in crate::scene) fn split(&mut self, at: At, h: &Expr, method: MethodId) -> Result<(Expr, Expr), SceneError> {
         let key = CacheKey::symbolic(Step::Split, &self.coords, vec![h.clone()]);
         let what = format!("of {}", short(h));
-        if let Some(Value::Exprs(v)) = self.lookup(&key, Step::Split, &what) {
+        if let Some(Value::Exprs(v)) = self.lookup(at, &key, Step::Split, &what) {
             if let [t, v] = &v[..] {
                 return Ok((t.clone(), v.clone()));
             }
@@ -641,32 +730,34 @@ impl Session {
                     render(term.as_ref().unwrap_or(h), Format::Plain)
                 ),
             )
-            .at(self.span)
+            .at(at.span)
             .hint("use `gauss6` (symplectic for any H) or `dop853`"));
         };
-        self.record(Step::Split, what, key, Ok(Value::Exprs(vec![t.clone(), v.clone()])))?;
+        self.record(at, Step::Split, what, key, Ok(Value::Exprs(vec![t.clone(), v.clone()])))?;
         Ok((t, v))
     }
 
     pub(in crate::scene) fn event_expr(
         &mut self,
+        at: At,
         ev: &EventSpec,
         layout: Layout,
         l: Option<&Expr>,
         h: Option<&Expr>,
     ) -> Result<Expr, SceneError> {
-        let lhs = self.resolved(&ev.lhs)?;
+        let lhs = self.resolved(at, &ev.lhs)?;
         let e = match &ev.rhs {
-            Some(r) => lhs.minus(&self.resolved(r)?),
+            Some(r) => lhs.minus(&self.resolved(at, r)?),
             None => lhs,
         };
-        self.in_layout(&e, layout, l, h, ev.span)
+        self.in_layout(at, &e, layout, l, h, ev.span)
     }
 
     /// Rewrites an expression into the state variables of a layout: momenta become
     /// `∂L/∂q'` in a velocity layout, velocities become `∂H/∂p` in a momentum layout.
     pub(in crate::scene) fn in_layout(
         &mut self,
+        at: At,
         e: &Expr,
         layout: Layout,
         l: Option<&Expr>,
@@ -693,11 +784,11 @@ impl Session {
             };
             let value = match layout {
                 Layout::Velocities => {
-                    let l = l.cloned().map_or_else(|| self.lagrangian(), Ok)?;
+                    let l = l.cloned().map_or_else(|| self.lagrangian(at), Ok)?;
                     self.diff.diff(&l, &q.prime())
                 }
                 Layout::Momenta => {
-                    let h = h.cloned().map_or_else(|| self.hamiltonian(), Ok)?;
+                    let h = h.cloned().map_or_else(|| self.hamiltonian(at), Ok)?;
                     self.diff.diff(&h, &Symbol::new(&format!("p_{}", q.name())))
                 }
             };
@@ -706,11 +797,11 @@ impl Session {
         Ok(if map.is_empty() { e.clone() } else { e.subs(&map) })
     }
 
-    pub(in crate::scene) fn run_ids(&mut self, names: &[Src]) -> Result<Vec<usize>, SceneError> {
+    pub(in crate::scene) fn run_ids(&mut self, at: At, names: &[Src]) -> Result<Vec<usize>, SceneError> {
         if names.is_empty() {
             return match self.runs.len() {
                 0 => Err(SceneError::new(ErrorKind::Undeclared, "no simulation to use")
-                    .at(self.span)
+                    .at(at.span)
                     .hint("add a `simulate …` statement before it")),
                 // The latest statement's runs: all of an ensemble.
                 n => Ok(self
@@ -743,8 +834,14 @@ impl Session {
     }
 
     /// Values of `e` along a run.
-    pub(in crate::scene) fn along(&mut self, r: &RunResult, e: &Expr, span: Span) -> Result<Vec<f64>, SceneError> {
-        let e = self.in_layout(e, r.layout, r.lagrangian.as_ref(), r.hamiltonian.as_ref(), span)?;
+    pub(in crate::scene) fn along(
+        &mut self,
+        at: At,
+        r: &RunResult,
+        e: &Expr,
+        span: Span,
+    ) -> Result<Vec<f64>, SceneError> {
+        let e = self.in_layout(at, e, r.layout, r.lagrangian.as_ref(), r.hamiltonian.as_ref(), span)?;
         let names = state_names(&r.coords, r.layout);
         let mut out = Vec::with_capacity(r.traj.t.len());
         let params = self.param_values();
@@ -773,20 +870,20 @@ impl Session {
         Ok(out)
     }
 
-    pub(in crate::scene) fn energy_of_run(&mut self, r: &RunResult) -> Result<Expr, SceneError> {
+    pub(in crate::scene) fn energy_of_run(&mut self, at: At, r: &RunResult) -> Result<Expr, SceneError> {
         match r.layout {
             Layout::Momenta => match &r.hamiltonian {
                 Some(h) => Ok(h.clone()),
-                None => self.hamiltonian(),
+                None => self.hamiltonian(at),
             },
             Layout::Velocities => {
                 let l = match &r.lagrangian {
                     Some(l) => l.clone(),
-                    None => self.lagrangian()?,
+                    None => self.lagrangian(at)?,
                 };
-                match self.derive(DerivKind::Energy, vec![l], self.span)? {
+                match self.derive(at, DerivKind::Energy, vec![l], at.span)? {
                     Value::Expr(e) => Ok(e),
-                    _ => Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(self.span)),
+                    _ => Err(SceneError::new(ErrorKind::Derivation, "no energy function").at(at.span)),
                 }
             }
         }
@@ -795,6 +892,12 @@ impl Session {
 
 /// Every expression a formulation compiles from.
 /// A refused `simulate` option as the scene reports it, at the clause it concerns.
+/// The span a run's errors point at: its `simulate` statement from the time variable's
+/// clause to the time span.
+pub(in crate::scene) fn run_span(spec: &SimSpec) -> Span {
+    (spec.time_var.span.0.saturating_sub(1), spec.span_span.1)
+}
+
 fn run_option_error(e: SimulateError, spec: &SimSpec, stmt: Span) -> SceneError {
     let at = |src: &Option<Src>| src.as_ref().map_or(stmt, |s| s.span);
     let (kind, span, label) = match &e {

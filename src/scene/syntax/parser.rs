@@ -437,25 +437,7 @@ impl Builder {
         Ok(match rule {
             Rule::coordinates => StmtKind::Coordinates(inner.into_iter().flat_map(|q| self.names(q)).collect()),
             Rule::functions => StmtKind::Functions(inner.into_iter().flat_map(|q| self.names(q)).collect()),
-            Rule::parameters => {
-                let mut params = Vec::new();
-                let mut positive = false;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::param => {
-                            let mut it = q.into_inner();
-                            let name = it.next().map(|n| self.src(&n));
-                            let value = it.next().map(|v| self.src(&v));
-                            if let Some(name) = name {
-                                params.push((name, value));
-                            }
-                        }
-                        Rule::assumption => positive = true,
-                        _ => {}
-                    }
-                }
-                StmtKind::Parameters { params, positive }
-            }
+            Rule::parameters => self.parameters_stmt(inner)?,
             Rule::definition => {
                 let mut it = inner.into_iter();
                 let name = it.next().map(|n| self.src(&n));
@@ -496,205 +478,13 @@ impl Builder {
                 StmtKind::Print { items, format }
             }
             Rule::simulate => StmtKind::Simulate(Box::new(self.simulate(inner, span)?)),
-            Rule::chaos | Rule::chaos_map => {
-                let map = rule == Rule::chaos_map;
-                let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
-                let mut ranges = Vec::new();
-                let mut path = None;
-                let mut level = None;
-                for q in &inner {
-                    match q.as_rule() {
-                        Rule::map_range => {
-                            let mut it = q.clone().into_inner();
-                            if let (Some(s), Some(r)) = (it.next(), it.next()) {
-                                let mut b = r.into_inner();
-                                if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
-                                    ranges.push((self.src(&s), self.src(&lo), self.src(&hi)));
-                                }
-                            }
-                        }
-                        Rule::path => path = Some(self.path(q.clone())),
-                        Rule::map_level => {
-                            let lspan = self.span(q);
-                            let parts: Vec<Pair<Rule>> =
-                                q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
-                            if let [on, value, solve, sign] = &parts[..] {
-                                level = Some(LevelSpec {
-                                    on: self.src(on),
-                                    value: self.src(value),
-                                    solve: self.src(solve),
-                                    positive: sign.as_str() == ">",
-                                    span: lspan,
-                                });
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                let indicator =
-                    indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
-                let sim = self.simulate(inner, span)?;
-                StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path, level }))
-            }
-            Rule::plot => {
-                let mut kind = None;
-                let mut runs = Vec::new();
-                let mut path = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::plot_phase => {
-                            let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
-                            kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
-                        }
-                        Rule::plot_energy => kind = Some(PlotKind::Energy),
-                        Rule::plot_separation => {
-                            let names: Vec<Src> =
-                                q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| self.src(&s)).collect();
-                            if let [a, b] = &names[..] {
-                                kind = Some(PlotKind::Separation(a.clone(), b.clone()));
-                            }
-                        }
-                        Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(self.src(&k))),
-                        Rule::plot_work_precision => {
-                            let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
-                            kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
-                        }
-                        Rule::plot_path | Rule::plot_poincare => {
-                            let is_path = q.as_rule() == Rule::plot_path;
-                            let xs: Vec<Src> =
-                                q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect();
-                            if let [x, y] = &xs[..] {
-                                kind = Some(if is_path {
-                                    PlotKind::Path(x.clone(), y.clone())
-                                } else {
-                                    PlotKind::Poincare(x.clone(), y.clone())
-                                });
-                            }
-                        }
-                        Rule::plot_series => {
-                            kind = Some(PlotKind::Series(
-                                q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect(),
-                            ));
-                        }
-                        Rule::name_list => runs = self.names(q),
-                        Rule::path => path = Some(self.path(q)),
-                        _ => {}
-                    }
-                }
-                let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
-                StmtKind::Plot(Box::new(PlotSpec { kind, runs, path }))
-            }
-            Rule::animate => {
-                let mut points = Vec::new();
-                let mut run = None;
-                let mut path = None;
-                let (mut fps, mut duration, mut size) = (None, None, None);
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::anim_point => {
-                            let xs: Vec<Src> = q.into_inner().map(|s| self.src(&s)).collect();
-                            if let [x, y] = &xs[..] {
-                                points.push((x.clone(), y.clone()));
-                            }
-                        }
-                        Rule::name => run = Some(self.src(&q)),
-                        Rule::path => path = Some(self.path(q)),
-                        Rule::anim_option => {
-                            let parts: Vec<Pair<Rule>> = q.into_inner().collect();
-                            if let [key, value] = &parts[..] {
-                                let v = Some(self.src(value));
-                                match key.as_str() {
-                                    "fps" => fps = v,
-                                    "duration" => duration = v,
-                                    _ => size = v,
-                                }
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
-                StmtKind::Animate(Box::new(AnimateSpec { points, run, path, fps, duration, size }))
-            }
-            Rule::export => {
-                let mut items = Vec::new();
-                let mut run = None;
-                let mut path = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::print_item => items.push(self.item(q)?),
-                        Rule::name => run = Some(self.src(&q)),
-                        Rule::path => path = Some(self.path(q)),
-                        _ => {}
-                    }
-                }
-                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-                StmtKind::Export { items, run, path }
-            }
-            Rule::export_poincare => {
-                let mut items = Vec::new();
-                let mut run = None;
-                let mut path = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::sexpr => items.push(self.src(&q)),
-                        Rule::name => run = Some(self.src(&q)),
-                        Rule::path => path = Some(self.path(q)),
-                        _ => {}
-                    }
-                }
-                let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-                StmtKind::ExportPoincare { items, run, path }
-            }
-            Rule::average => {
-                let mut l = None;
-                let mut trials = Vec::new();
-                let mut names = Vec::new();
-                let mut amplitudes = Vec::new();
-                let mut small = None;
-                let mut format = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::sexpr => l = Some(self.src(&q)),
-                        Rule::init => {
-                            let mut it = q.into_inner();
-                            if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                                trials.push((self.src(&s), self.src(&v)));
-                            }
-                        }
-                        Rule::name => names.push(self.src(&q)),
-                        Rule::name_list => amplitudes = self.names(q),
-                        Rule::average_small => small = Some(self.small(q)),
-                        Rule::as_format => format = Some(self.format(q)),
-                        _ => {}
-                    }
-                }
-                let mut it = names.into_iter();
-                match (it.next(), it.next()) {
-                    (Some(phase), Some(frequency)) => {
-                        StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format }
-                    }
-                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
-                }
-            }
-            Rule::transform => {
-                let mut exprs = Vec::new();
-                let mut kind = String::new();
-                let mut new = Vec::new();
-                let mut format = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::sexpr => exprs.push(self.src(&q)),
-                        Rule::gen_kind => kind = q.as_str().to_string(),
-                        Rule::name_list => new = self.names(q),
-                        Rule::as_format => format = Some(self.format(q)),
-                        _ => {}
-                    }
-                }
-                let f =
-                    exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
-                StmtKind::Transform { h: exprs.pop(), kind, f, new, format }
-            }
+            Rule::chaos | Rule::chaos_map => self.chaos_stmt(rule == Rule::chaos_map, inner, span)?,
+            Rule::plot => self.plot_stmt(inner, span)?,
+            Rule::animate => self.animate_stmt(inner, span)?,
+            Rule::export => self.export_stmt(inner, span)?,
+            Rule::export_poincare => self.export_poincare_stmt(inner, span)?,
+            Rule::average => self.average_stmt(inner, span)?,
+            Rule::transform => self.transform_stmt(inner, span)?,
             Rule::transform_point => self.point_transform(inner),
             Rule::lie => self.lie(inner, span)?,
             Rule::integral => self.integral(inner, span)?,
@@ -742,6 +532,237 @@ impl Builder {
             }
             _ => return Err(SceneError::new(ErrorKind::Syntax, "unrecognised statement").at(span)),
         })
+    }
+
+    /// `parameters …`: the names, their values if given, and `positive`.
+    fn parameters_stmt(&self, inner: Vec<Pair<Rule>>) -> Result<StmtKind, SceneError> {
+        let mut params = Vec::new();
+        let mut positive = false;
+        for q in inner {
+            match q.as_rule() {
+                Rule::param => {
+                    let mut it = q.into_inner();
+                    let name = it.next().map(|n| self.src(&n));
+                    let value = it.next().map(|v| self.src(&v));
+                    if let Some(name) = name {
+                        params.push((name, value));
+                    }
+                }
+                Rule::assumption => positive = true,
+                _ => {}
+            }
+        }
+        Ok(StmtKind::Parameters { params, positive })
+    }
+
+    /// `lyapunov`/`megno`/`fli` of one orbit, or `chaos_map` (`map`) over a grid of starts.
+    fn chaos_stmt(&self, map: bool, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
+        let mut ranges = Vec::new();
+        let mut path = None;
+        let mut level = None;
+        for q in &inner {
+            match q.as_rule() {
+                Rule::map_range => {
+                    let mut it = q.clone().into_inner();
+                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
+                        let mut b = r.into_inner();
+                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                            ranges.push((self.src(&s), self.src(&lo), self.src(&hi)));
+                        }
+                    }
+                }
+                Rule::path => path = Some(self.path(q.clone())),
+                Rule::map_level => {
+                    let lspan = self.span(q);
+                    let parts: Vec<Pair<Rule>> = q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
+                    if let [on, value, solve, sign] = &parts[..] {
+                        level = Some(LevelSpec {
+                            on: self.src(on),
+                            value: self.src(value),
+                            solve: self.src(solve),
+                            positive: sign.as_str() == ">",
+                            span: lspan,
+                        });
+                    }
+                }
+                _ => {}
+            }
+        }
+        let indicator =
+            indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
+        let sim = self.simulate(inner, span)?;
+        Ok(StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path, level })))
+    }
+
+    /// `plot …`: what is drawn, from which runs, to which file.
+    fn plot_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut kind = None;
+        let mut runs = Vec::new();
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::plot_phase => {
+                    let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
+                    kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
+                }
+                Rule::plot_energy => kind = Some(PlotKind::Energy),
+                Rule::plot_separation => {
+                    let names: Vec<Src> =
+                        q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| self.src(&s)).collect();
+                    if let [a, b] = &names[..] {
+                        kind = Some(PlotKind::Separation(a.clone(), b.clone()));
+                    }
+                }
+                Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(self.src(&k))),
+                Rule::plot_work_precision => {
+                    let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
+                    kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
+                }
+                Rule::plot_path | Rule::plot_poincare => {
+                    let is_path = q.as_rule() == Rule::plot_path;
+                    let xs: Vec<Src> =
+                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect();
+                    if let [x, y] = &xs[..] {
+                        kind = Some(if is_path {
+                            PlotKind::Path(x.clone(), y.clone())
+                        } else {
+                            PlotKind::Poincare(x.clone(), y.clone())
+                        });
+                    }
+                }
+                Rule::plot_series => {
+                    kind = Some(PlotKind::Series(
+                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect(),
+                    ));
+                }
+                Rule::name_list => runs = self.names(q),
+                Rule::path => path = Some(self.path(q)),
+                _ => {}
+            }
+        }
+        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
+        Ok(StmtKind::Plot(Box::new(PlotSpec { kind, runs, path })))
+    }
+
+    /// `animate …`: the points drawn, the run, the file and the frame options.
+    fn animate_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut points = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        let (mut fps, mut duration, mut size) = (None, None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::anim_point => {
+                    let xs: Vec<Src> = q.into_inner().map(|s| self.src(&s)).collect();
+                    if let [x, y] = &xs[..] {
+                        points.push((x.clone(), y.clone()));
+                    }
+                }
+                Rule::name => run = Some(self.src(&q)),
+                Rule::path => path = Some(self.path(q)),
+                Rule::anim_option => {
+                    let parts: Vec<Pair<Rule>> = q.into_inner().collect();
+                    if let [key, value] = &parts[..] {
+                        let v = Some(self.src(value));
+                        match key.as_str() {
+                            "fps" => fps = v,
+                            "duration" => duration = v,
+                            _ => size = v,
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
+        Ok(StmtKind::Animate(Box::new(AnimateSpec { points, run, path, fps, duration, size })))
+    }
+
+    /// `export …`: the items, the run and the file.
+    fn export_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut items = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::print_item => items.push(self.item(q)?),
+                Rule::name => run = Some(self.src(&q)),
+                Rule::path => path = Some(self.path(q)),
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+        Ok(StmtKind::Export { items, run, path })
+    }
+
+    /// `export poincare …`: the section's columns, the run and the file.
+    fn export_poincare_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut items = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => items.push(self.src(&q)),
+                Rule::name => run = Some(self.src(&q)),
+                Rule::path => path = Some(self.path(q)),
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+        Ok(StmtKind::ExportPoincare { items, run, path })
+    }
+
+    /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
+    fn average_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut l = None;
+        let mut trials = Vec::new();
+        let mut names = Vec::new();
+        let mut amplitudes = Vec::new();
+        let mut small = None;
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => l = Some(self.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        trials.push((self.src(&s), self.src(&v)));
+                    }
+                }
+                Rule::name => names.push(self.src(&q)),
+                Rule::name_list => amplitudes = self.names(q),
+                Rule::average_small => small = Some(self.small(q)),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = names.into_iter();
+        Ok(match (it.next(), it.next()) {
+            (Some(phase), Some(frequency)) => {
+                StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format }
+            }
+            _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
+        })
+    }
+
+    /// `transform … with F1 = …`: `H`, the generating function's kind and expression, the new names.
+    fn transform_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let mut exprs = Vec::new();
+        let mut kind = String::new();
+        let mut new = Vec::new();
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(self.src(&q)),
+                Rule::gen_kind => kind = q.as_str().to_string(),
+                Rule::name_list => new = self.names(q),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        let f = exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
+        Ok(StmtKind::Transform { h: exprs.pop(), kind, f, new, format })
     }
 
     fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {

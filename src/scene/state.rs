@@ -1,0 +1,165 @@
+//! The session's data: what a scene has declared, defined and run so far, and what it has
+//! written. Statements read and change it through `impl Session` blocks in `statements/`;
+//! where a statement is (its line and span) is passed to them as an [`At`], never kept here.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use miette::NamedSource;
+
+use super::engine::backend::{Backend, Line, NativeBackend, Trajectory};
+use super::engine::output::Staging;
+use super::engine::plan::PlanEntry;
+use super::session::{Mode, Options};
+use super::syntax::ast::{DerivKind, SimSpec};
+use super::syntax::error::Span;
+use crate::cache::{Cache, CacheKey, Value};
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+use crate::simulate::MethodId;
+
+/// Where the statement being run is: its line (for the plan) and its span (for errors).
+/// Handlers take it as an argument, so what an error points at is visible at the call.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct At {
+    pub(super) line: usize,
+    pub(super) span: Span,
+}
+
+/// A parameter: a symbol with an optional value.
+#[derive(Clone, Debug)]
+pub(super) struct Param {
+    pub(super) value: Option<f64>,
+    pub(super) positive: bool,
+}
+
+/// A reference from an expression to a definition it uses.
+pub(super) type Refs = Vec<(Symbol, usize)>;
+
+#[derive(Clone)]
+pub(super) enum DefBody {
+    Expr { raw: Expr, refs: Refs },
+    Deriv { kind: DerivKind, args: Vec<(Expr, Refs)>, span: Span },
+}
+
+pub(super) struct DefEntry {
+    pub(super) name: String,
+    pub(super) body: DefBody,
+    pub(super) line: usize,
+    pub(super) value: Option<Value>,
+    pub(super) demanded: bool,
+}
+
+/// Which variables a trajectory's state holds after the coordinates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Layout {
+    Velocities,
+    Momenta,
+}
+
+pub(super) struct RunEntry {
+    pub(super) name: String,
+    pub(super) spec: SimSpec,
+    pub(super) line: usize,
+    pub(super) result: Option<RunResult>,
+    /// The forces, Rayleigh function and constraints declared before the `simulate`.
+    pub(super) dynamics: super::statements::dynamics::Dynamics,
+}
+
+#[derive(Clone)]
+pub(super) struct RunResult {
+    pub(super) method: MethodId,
+    pub(super) layout: Layout,
+    pub(super) coords: Vec<Symbol>,
+    pub(super) params: HashMap<String, f64>,
+    pub(super) traj: Arc<Trajectory>,
+    /// The energy-like function in the state's variables (`H` or `h`), when known.
+    pub(super) lagrangian: Option<Expr>,
+    pub(super) hamiltonian: Option<Expr>,
+}
+
+/// A statement's printed result, kept for `latex` (reprint in another format).
+#[derive(Clone)]
+pub(super) enum Printed {
+    Named(String, Expr),
+    Value(Expr),
+    Lines(Vec<Line>),
+}
+
+/// A scene or REPL session.
+pub struct Session {
+    pub(super) opts: Options,
+    pub(super) backend: Box<dyn Backend>,
+    pub(super) cache: Cache,
+    pub(super) built_here: HashSet<CacheKey>,
+    pub(super) coords: Vec<Symbol>,
+    pub(super) params: BTreeMap<String, Param>,
+    pub(super) functions: BTreeSet<String>,
+    pub(super) defs: Vec<DefEntry>,
+    pub(super) def_names: HashMap<String, usize>,
+    pub(super) runs: Vec<RunEntry>,
+    pub(super) run_names: HashMap<String, usize>,
+    pub(super) plan: Vec<PlanEntry>,
+    pub(super) staging: Staging,
+    pub(super) output: Vec<String>,
+    /// Warnings for standard error (energy drift), in order.
+    pub(super) warnings: Vec<String>,
+    pub(super) last_printed: Vec<Printed>,
+    pub(super) source: Arc<NamedSource<String>>,
+    pub(super) load_depth: usize,
+    pub(super) diff: Differentiator,
+    /// Names a statement introduces for itself (the phase, frequency and amplitudes of
+    /// `average`), accepted in its expressions.
+    pub(super) local_names: Vec<String>,
+    /// `force`, `rayleigh` and `constraint` statements so far.
+    pub(super) dynamics: super::statements::dynamics::Dynamics,
+    /// Ensembles: a name for several runs (`from NAME` means all of them), with what they
+    /// share (the level set they start on), in statement order.
+    pub(super) groups: Vec<super::statements::ensemble::Group>,
+    /// What every figure drawn so far shows, by file.
+    pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
+    /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
+    pub(super) chaos_runs: Vec<super::statements::chaos::ChaosRun>,
+    /// `allow nonfinite` was given: exports keep inf and NaN.
+    pub(super) allow_nonfinite: bool,
+}
+
+impl Session {
+    /// A session on the real library.
+    pub fn new(opts: Options) -> Session {
+        Session::with_backend(opts, Box::new(NativeBackend))
+    }
+
+    /// A session on another backend (tests count what is built).
+    pub fn with_backend(opts: Options, backend: Box<dyn Backend>) -> Session {
+        let staging = Staging::new(opts.mode == Mode::Repl);
+        Session {
+            opts,
+            backend,
+            cache: Cache::new(),
+            built_here: HashSet::new(),
+            coords: Vec::new(),
+            params: BTreeMap::new(),
+            functions: BTreeSet::new(),
+            defs: Vec::new(),
+            def_names: HashMap::new(),
+            runs: Vec::new(),
+            run_names: HashMap::new(),
+            plan: Vec::new(),
+            staging,
+            output: Vec::new(),
+            warnings: Vec::new(),
+            last_printed: Vec::new(),
+            source: Arc::new(NamedSource::new("input", String::new())),
+            load_depth: 0,
+            diff: Differentiator::new(),
+            local_names: Vec::new(),
+            dynamics: Default::default(),
+            groups: Vec::new(),
+            figures: Vec::new(),
+            chaos_runs: Vec::new(),
+            allow_nonfinite: false,
+        }
+    }
+}
