@@ -252,7 +252,7 @@ impl PyExpr {
         let mut cols = Vec::with_capacity(b.len());
         for a in &b {
             let flat = np.call_method1("ascontiguousarray", (a.call_method0("ravel")?,))?;
-            let v = crate::sim::f64_vec(&flat)?;
+            let v = crate::convert::f64_vec(&flat)?;
             if v.len() == 1 && shape.is_empty() {
                 cols.push(Column::Scalar(v[0]));
             } else {

@@ -6,12 +6,18 @@
 //! on-disk derivation cache shared with the command line. Errors become one Python exception
 //! class per engine error type (`errors.rs`). The pure-Python parts of the package (pickling
 //! helpers, progress bar, SymPy conversion, Dask sweeps) live in `lagrangian/`.
+//!
+//! Layers, each importing only those before it: `errors` and `convert` (Python arguments into
+//! engine values), `expr`, `system`, then the numeric files (`progress`, `sim`); `cache` stands
+//! alone. No file imports one after it.
 
 use pyo3::prelude::*;
 
 mod cache;
+mod convert;
 mod errors;
 mod expr;
+mod progress;
 mod sim;
 mod system;
 

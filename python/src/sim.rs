@@ -6,17 +6,9 @@
 //! method registry, the choice of equations for the system (with its typed refusal when a
 //! method cannot run it), the compiled system and the drive loop. This file only translates
 //! Python arguments into a [`RunOptions`] and the [`Trajectory`] back into arrays.
-//!
-//! Progress and Ctrl-C: the drive loop reports the fraction done (stored in an atomic that the
-//! progress bar reads) and checks the engine's cancellation token
-//! ([`lagrangian::cancel::CancelToken`]) before every step; the waiting thread sets it on
-//! `KeyboardInterrupt`. The calling thread waits with the GIL released and, a few times a
-//! second, takes the GIL to draw the bar and check for the signal.
+//! Progress bars and Ctrl-C are `progress.rs`'s; reading arguments is `convert.rs`'s.
 
-use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{mpsc, Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
 
 use lagrangian::integrate::{Crossing, EventRecord};
 use lagrangian::mechanics::System;
@@ -26,13 +18,15 @@ use lagrangian::simulate::{
 };
 use lagrangian::Expr;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use crate::convert::{f64_vec, float_array, initial_state, method, relative_tolerance, time_span};
 use crate::errors::{exc, integration_error, PyResultExt};
 use crate::expr::to_expr;
-use crate::system::PySystem;
+use crate::progress::{progress_mode, with_progress, Control};
+use crate::system::{CompiledKey, PySystem};
 
 /// The derivations a formulation needs, from the process's derivation cache (`cache.rs`), so a
 /// worker process or a new parameter set does not derive them again.
@@ -46,19 +40,6 @@ impl Derivations for Cached {
         crate::cache::hamiltonian(sys)
     }
 }
-
-/// What a compiled system of a `System` is cached by: the equations a method (or a named
-/// formulation) integrates, and the form they are compiled to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum CompiledKey {
-    /// What `method` needs.
-    Method(Form),
-    /// The equations named by `System.compile(formulation=…)`, with or without the Jacobian.
-    Named(Equations, Form),
-}
-
-/// Compiled systems of one `System` (compiling is done once per process and key).
-pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
 
 /// A simulation error as Python sees it: a request the engine refuses is a `ValueError` (with
 /// the engine's hint), a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
@@ -117,40 +98,6 @@ pub fn compiled_for_method(py: Python<'_>, s: &PySystem, method: MethodId) -> Py
 /// The methods the binding runs: every method of the registry.
 pub fn binding_methods() -> impl Iterator<Item = MethodId> {
     MethodId::all()
-}
-
-/// The method called `name`, or a `ValueError` with the closest name and the list.
-pub fn method(name: &str) -> PyResult<MethodId> {
-    MethodId::from_name(name).ok_or_else(|| {
-        let e = SimulateError::unknown_method(name);
-        let list = simulate::method::method_names();
-        match &e {
-            SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
-                PyValueError::new_err(format!("unknown method `{name}`: did you mean `{s}`? (the methods are {list})"))
-            }
-            _ => PyValueError::new_err(format!("unknown method `{name}`; the methods are {list}")),
-        }
-    })
-}
-
-/// The elements of an array as float64 in C order. (An empty array is handled apart: its
-/// data pointer need not be aligned, which a slice requires.)
-pub fn f64_vec(a: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-    let a = float_array(a)?;
-    let arr = a.downcast::<numpy::PyArrayDyn<f64>>()?.readonly();
-    if arr.len() == 0 {
-        return Ok(Vec::new());
-    }
-    Ok(arr.as_slice()?.to_vec())
-}
-
-/// Reads a float64 array of any shape (converting lists and integer arrays), C-contiguous
-/// and aligned.
-fn float_array<'py>(y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-    // Aligned as well as C-contiguous: arrays unpickled from a byte stream (a Dask worker's
-    // input) may start at any address, and a slice needs an aligned one.
-    let np = y.py().import("numpy")?;
-    np.call_method1("require", (y, "float64", "CA"))
 }
 
 /// A compiled right-hand side ``f(t, y)`` (returned by :meth:`System.compile`).
@@ -336,150 +283,9 @@ fn formulation_name(eq: Equations) -> &'static str {
     }
 }
 
-/// Where an integration is, shared between the integrating thread and the one drawing the
-/// progress bar.
-#[derive(Default)]
-pub struct Control {
-    /// The fraction of the span done, as `f64` bits.
-    fraction: AtomicU64,
-    cancel: lagrangian::cancel::CancelToken,
-}
-
-impl Control {
-    fn fraction(&self) -> f64 {
-        f64::from_bits(self.fraction.load(Ordering::Relaxed))
-    }
-}
-
 /// The first-order right-hand side of a compiled system (every form Python compiles has one).
 fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
     c.system.rhs().ok_or_else(|| PyValueError::new_err("a discrete variational map has no right-hand side f(t, y)"))
-}
-
-/// How a progress bar is shown.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub enum ProgressMode {
-    /// No bar (Ctrl-C is still polled).
-    Off,
-    /// A bar once the run has taken more than a second.
-    Auto,
-    /// A bar from the start.
-    On,
-}
-
-pub fn progress_mode(p: Option<bool>) -> ProgressMode {
-    match p {
-        None => ProgressMode::Auto,
-        Some(true) => ProgressMode::On,
-        Some(false) => ProgressMode::Off,
-    }
-}
-
-/// How often the waiting thread checks for Ctrl-C (and redraws the bar): well inside the
-/// 0.2 s in which an interrupt must reach the caller.
-const POLL: Duration = Duration::from_millis(40);
-
-/// What the waiting thread does with the result of one call into Python (the bar's creation,
-/// update or close). A `KeyboardInterrupt` raised inside that Python code (the interpreter
-/// runs its signal handlers there) is the user's Ctrl-C: it cancels the run and is kept to be
-/// raised. Any other failure of the bar only turns the bar off: a display problem must not
-/// stop a computation.
-fn bar_result<T>(
-    py: Python<'_>,
-    r: PyResult<T>,
-    ctl: &Control,
-    interrupted: &mut Option<PyErr>,
-    broken: &mut bool,
-) -> Option<T> {
-    match r {
-        Ok(v) => Some(v),
-        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
-            ctl.cancel.cancel();
-            interrupted.get_or_insert(e);
-            None
-        }
-        Err(_) => {
-            *broken = true;
-            None
-        }
-    }
-}
-
-/// Runs `work` with the GIL released on a scoped thread while this one waits, checking for
-/// Ctrl-C every [`POLL`] (a signal cancels the run through `ctl` and is raised once `work`
-/// has stopped, leaving every object usable) and, unless `mode` is `Off`, drawing the bar
-/// (`fraction()` in [0, 1]). Every path polls: with `progress=False` too, and while the bar is
-/// created, updated and closed.
-fn with_progress<R: Send>(
-    py: Python<'_>,
-    mode: ProgressMode,
-    label: &str,
-    ctl: &Control,
-    fraction: impl Fn() -> f64 + Send + Sync,
-    work: impl FnOnce() -> R + Send,
-) -> PyResult<R> {
-    let (result, interrupted) = py.allow_threads(|| {
-        std::thread::scope(|s| {
-            let (tx, rx) = mpsc::channel();
-            s.spawn(move || {
-                let _ = tx.send(work());
-            });
-            let start = Instant::now();
-            let mut bar: Option<PyObject> = None;
-            let mut broken = mode == ProgressMode::Off;
-            let mut interrupted: Option<PyErr> = None;
-            let delay = if mode == ProgressMode::On { Duration::ZERO } else { Duration::from_secs(1) };
-            let poll = |bar: &mut Option<PyObject>, broken: &mut bool, interrupted: &mut Option<PyErr>| {
-                Python::with_gil(|py| {
-                    if let Err(e) = py.check_signals() {
-                        ctl.cancel.cancel();
-                        interrupted.get_or_insert(e);
-                    }
-                    if interrupted.is_some() || *broken {
-                        return;
-                    }
-                    if bar.is_none() && start.elapsed() >= delay {
-                        let made = py
-                            .import("lagrangian._progress")
-                            .and_then(|m| m.getattr("Bar")?.call1((label,)))
-                            .map(Bound::unbind);
-                        *bar = bar_result(py, made, ctl, interrupted, broken);
-                    }
-                    if let Some(b) = bar.as_ref() {
-                        let r = b.call_method1(py, "update", (fraction().clamp(0.0, 1.0),));
-                        bar_result(py, r, ctl, interrupted, broken);
-                    }
-                })
-            };
-            if mode == ProgressMode::On {
-                poll(&mut bar, &mut broken, &mut interrupted);
-            }
-            let result = loop {
-                match rx.recv_timeout(POLL) {
-                    Ok(r) => break Some(r),
-                    Err(mpsc::RecvTimeoutError::Disconnected) => break None,
-                    Err(mpsc::RecvTimeoutError::Timeout) => poll(&mut bar, &mut broken, &mut interrupted),
-                }
-            };
-            if let Some(b) = bar {
-                Python::with_gil(|py| {
-                    if interrupted.is_none() {
-                        let r = b.call_method1(py, "update", (1.0,));
-                        bar_result(py, r, ctl, &mut interrupted, &mut broken);
-                    }
-                    let r = b.call_method0(py, "close");
-                    bar_result(py, r, ctl, &mut interrupted, &mut broken);
-                });
-            }
-            (result, interrupted)
-        })
-    });
-    // A signal that arrived after the last poll is raised now, not left for a later call.
-    py.check_signals()?;
-    if let Some(e) = interrupted {
-        return Err(e);
-    }
-    result.ok_or_else(|| PyRuntimeError::new_err("the integration thread ended without a result (it panicked)"))
 }
 
 /// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
@@ -503,51 +309,6 @@ fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> P
     np.call_method("array_equal", (a, b), Some(&kw))?.extract()
 }
 
-/// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
-fn time_span(t_span: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
-    let bad = || {
-        PyValueError::new_err(format!(
-            "t_span must be two numbers (t0, t1): a tuple, a list or an array; got {}",
-            t_span.repr().map(|r| r.to_string()).unwrap_or_else(|_| "an unprintable object".into())
-        ))
-    };
-    if t_span.is_instance_of::<pyo3::types::PyString>() {
-        return Err(bad());
-    }
-    let a = float_array(t_span).map_err(|_| bad())?;
-    let v = f64_vec(&a.call_method0("ravel")?).map_err(|_| bad())?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    match (shape.as_slice(), v.as_slice()) {
-        ([2], [t0, t1]) => Ok((*t0, *t1)),
-        _ => Err(bad()),
-    }
-}
-
-/// SciPy's names for the tolerances: ``rtol`` (``tol`` is its older name here, kept as an
-/// alias) and ``atol``. Both names at once must agree.
-fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f64>> {
-    match (rtol, tol) {
-        (Some(r), Some(t)) if r != t => Err(PyValueError::new_err(format!(
-            "rtol={r} and tol={t} disagree: tol is another name for rtol, so give one of them"
-        ))),
-        (r, t) => Ok(r.or(t)),
-    }
-}
-
-/// Refuses a start with a NaN or an infinite component: an argument error (`ValueError`),
-/// not a failed integration.
-fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
-    match y0.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(PyValueError::new_err(format!(
-            "the initial value of `{}` is {}: every component of y0 must be a finite number (the state is {})",
-            names[i],
-            y0[i],
-            names.join(", ")
-        ))),
-        None => Ok(()),
-    }
-}
-
 /// Refuses a start where a coordinate declared positive (`positive=["r"]`) is not: the
 /// equations were simplified on that assumption (`sqrt(r²) = r`). Only the start is checked;
 /// a trajectory that later crosses zero is the equations' business.
@@ -563,44 +324,6 @@ fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
         }
     }
     Ok(())
-}
-
-/// Reads `y0`: an array of `n` numbers, or a dict by state name.
-fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> {
-    if let Ok(d) = y0.downcast::<PyDict>() {
-        let mut out = vec![f64::NAN; names.len()];
-        for (k, v) in d.iter() {
-            let k: String = k.extract()?;
-            let Some(i) = names.iter().position(|n| *n == k) else {
-                return Err(PyValueError::new_err(format!(
-                    "`{k}` is not a state variable of this integration (the state is {})",
-                    names.join(", ")
-                )));
-            };
-            out[i] = v.extract()?;
-        }
-        finite_state(&out, names)?;
-        if let Some(i) = out.iter().position(|v| v.is_nan()) {
-            return Err(PyValueError::new_err(format!(
-                "no initial value for `{}` (the state is {})",
-                names[i],
-                names.join(", ")
-            )));
-        }
-        return Ok(out);
-    }
-    let a = float_array(y0)?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    if shape.len() != 1 || shape[0] != names.len() {
-        return Err(PyValueError::new_err(format!(
-            "y0 has shape {shape:?}; expected ({},) for the state ({})",
-            names.len(),
-            names.join(", ")
-        )));
-    }
-    let v = f64_vec(&a)?;
-    finite_state(&v, names)?;
-    Ok(v)
 }
 
 /// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
@@ -1041,7 +764,7 @@ impl PySystem {
             name,
             &ctl,
             || ctl.fraction(),
-            || simulate::integrate(&c, &y0, &opts, &mut |f| ctl.fraction.store(f.to_bits(), Ordering::Relaxed)),
+            || simulate::integrate(&c, &y0, &opts, &mut |f| ctl.report(f)),
         )?;
         match result {
             Ok(out) => solution(py, out, names, n_events, name),
@@ -1099,11 +822,7 @@ impl PySystem {
             "ensemble",
             &ctl,
             || ctl.fraction(),
-            || {
-                simulate::ensemble(&c, &starts, &opts, threads, &mut |f| {
-                    ctl.fraction.store(f.to_bits(), Ordering::Relaxed)
-                })
-            },
+            || simulate::ensemble(&c, &starts, &opts, threads, &mut |f| ctl.report(f)),
         )?;
         if ctl.cancel.is_cancelled() {
             return Err(PyKeyboardInterrupt::new_err("ensemble interrupted"));

@@ -8,6 +8,7 @@ use lagrangian::canonical::{self, Generator, GeneratorKind, PhaseSpace, Trial};
 use lagrangian::mechanics::{Kind, System};
 use lagrangian::parse::{parse_with, Declarations};
 use lagrangian::print::{render, Format};
+use lagrangian::simulate::{Compiled, Equations, Form};
 use lagrangian::{Expr, Symbol};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -15,7 +16,19 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::errors::PyResultExt;
 use crate::expr::{declarations, to_expr, to_symbol, PyExpr};
-use crate::sim::CompiledCache;
+
+/// What a compiled system of a `System` is cached by: the equations a method (or a named
+/// formulation) integrates, and the form they are compiled to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompiledKey {
+    /// What `method` needs.
+    Method(Form),
+    /// The equations named by `System.compile(formulation=…)`, with or without the Jacobian.
+    Named(Equations, Form),
+}
+
+/// Compiled systems of one `System` (compiling is done once per process and key).
+pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
 
 /// A mechanical system given by a Lagrangian ``L(q, q', t)`` or a Hamiltonian
 /// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation and
@@ -690,7 +703,7 @@ impl PySystem {
     /// Hamiltonian system or a splitting method.
     #[pyo3(signature = (method=None))]
     fn state_names(&self, method: Option<&str>) -> PyResult<Vec<String>> {
-        let m = method.map_or(Ok(lagrangian::simulate::DEFAULT_METHOD), crate::sim::method)?;
+        let m = method.map_or(Ok(lagrangian::simulate::DEFAULT_METHOD), crate::convert::method)?;
         let route = lagrangian::simulate::route(m, &lagrangian::simulate::shape_of(&self.sys))
             .map_err(|r| pyo3::exceptions::PyValueError::new_err(format!("{r} ({})", r.hint())))?;
         let second = if route.has_velocities() { self.sys.velocities() } else { self.sys.momenta() };
