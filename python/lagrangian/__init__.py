@@ -16,20 +16,33 @@ exactly and integrates them fast::
 initial states or parameter values over a Dask cluster. Derivations are kept in the same
 on-disk cache as the command line's (``$LAGRANGIAN_CACHE_DIR``, else ``~/.cache/lagrangian``;
 see :func:`cache_info` and :func:`set_cache_dir`).
+
+Errors: every exception is a :class:`LagrangianError`; every one that says an argument was
+wrong (text that does not parse, a method that cannot run the system, a bad ``y0``) is also a
+``ValueError``. Only :class:`IntegrationError`, a run that failed along the way, is not.
 """
 
 from ._core import (
     DEFAULT_METHOD,
     METHODS,
-    ActionAngleError,
-    AverageError,
     CompiledRhs,
-    CompileError,
-    EnsembleError,
     EnsembleResult,
-    EvalError,
     Event,
     Expr,
+    Solution,
+    System,
+    cache_info,
+    parse,
+    poisson,
+    set_cache_dir,
+)
+from ._errors import (
+    ActionAngleError,
+    ArgumentError,
+    AverageError,
+    CompileError,
+    EnsembleError,
+    EvalError,
     IntegrationError,
     LagrangianError,
     LieError,
@@ -37,14 +50,8 @@ from ._core import (
     ParseError,
     PhaseSpaceError,
     RhsError,
-    Solution,
     SolveError,
-    System,
     TransformError,
-    cache_info,
-    parse,
-    poisson,
-    set_cache_dir,
 )
 from ._frames import ensemble_to_pandas, ensemble_to_xarray, solution_to_pandas, solution_to_xarray
 from ._sympy import from_sympy, to_sympy
@@ -54,6 +61,7 @@ __all__ = [
     "DEFAULT_METHOD",
     "METHODS",
     "ActionAngleError",
+    "ArgumentError",
     "AverageError",
     "CompiledRhs",
     "CompileError",

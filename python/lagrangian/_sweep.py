@@ -21,6 +21,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from ._core import DEFAULT_METHOD, System
+from ._errors import ArgumentError
 
 
 @dataclass
@@ -132,16 +133,16 @@ def sweep(
     axes: dict[str, np.ndarray] = {}
     if isinstance(grid, Mapping):
         if not grid:
-            raise ValueError("the grid has no axes")
+            raise ArgumentError("the grid has no axes")
         for k, v in grid.items():
             if k not in names and k not in params_list:
-                raise ValueError(
+                raise ArgumentError(
                     f"`{k}` is neither a state variable ({', '.join(names)}) nor a parameter "
                     f"({', '.join(sorted(params_list)) or 'none'})"
                 )
             a = np.asarray(v, dtype=float).ravel()
             if a.size == 0:
-                raise ValueError(f"the axis `{k}` is empty")
+                raise ArgumentError(f"the axis `{k}` is empty")
             axes[k] = a
         shape = tuple(a.size for a in axes.values())
         base = _base_state(y0, names, required=[x for x in names if x not in axes])
@@ -161,11 +162,11 @@ def sweep(
     else:
         states = np.ascontiguousarray(grid, dtype=float)
         if states.ndim != 2 or states.shape[1] != n:
-            raise ValueError(f"grid has shape {states.shape}; expected (k, {n}): one state ({', '.join(names)}) per row")
+            raise ArgumentError(f"grid has shape {states.shape}; expected (k, {n}): one state ({', '.join(names)}) per row")
         shape = (states.shape[0],)
         param_rows = None
     if chunk_size < 1:
-        raise ValueError("chunk_size must be at least 1")
+        raise ArgumentError("chunk_size must be at least 1")
     run = dict(method=method, dt=dt, tol=tol, atol=atol, events=events, max_steps=max_steps, threads=threads, progress=False)
     # Check the request once here (method, dt, events), not once per chunk on the workers.
     if len(states):
@@ -249,19 +250,19 @@ def _lost(exc: BaseException) -> bool:
 def _base_state(y0: Any, names: list[str], required: list[str]) -> np.ndarray:
     if y0 is None:
         if required:
-            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(required)}")
+            raise ArgumentError(f"y0 must give the state variables the grid does not sweep: {', '.join(required)}")
         return np.zeros(len(names))
     if isinstance(y0, Mapping):
         base = np.full(len(names), np.nan)
         for k, v in y0.items():
             if k not in names:
-                raise ValueError(f"`{k}` is not a state variable ({', '.join(names)})")
+                raise ArgumentError(f"`{k}` is not a state variable ({', '.join(names)})")
             base[names.index(k)] = float(v)
         missing = [x for x in required if np.isnan(base[names.index(x)])]
         if missing:
-            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(missing)}")
+            raise ArgumentError(f"y0 must give the state variables the grid does not sweep: {', '.join(missing)}")
         return np.nan_to_num(base)
     base = np.asarray(y0, dtype=float).ravel()
     if base.size != len(names):
-        raise ValueError(f"y0 has {base.size} entries; the state has {len(names)} ({', '.join(names)})")
+        raise ArgumentError(f"y0 has {base.size} entries; the state has {len(names)} ({', '.join(names)})")
     return base

@@ -5,9 +5,10 @@
 
 use lagrangian::simulate::{self, MethodId, SimulateError};
 use numpy::{PyArrayMethods, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+
+use crate::errors::exc;
 
 /// Reads a float64 array of any shape (converting lists and integer arrays), C-contiguous
 /// and aligned.
@@ -32,7 +33,7 @@ pub fn f64_vec(a: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
 /// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
 pub fn time_span(t_span: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
     let bad = || {
-        PyValueError::new_err(format!(
+        exc::ArgumentError::new_err(format!(
             "t_span must be two numbers (t0, t1): a tuple, a list or an array; got {}",
             t_span.repr().map(|r| r.to_string()).unwrap_or_else(|_| "an unprintable object".into())
         ))
@@ -56,7 +57,7 @@ pub fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f6
         for (k, v) in d.iter() {
             let k: String = k.extract()?;
             let Some(i) = names.iter().position(|n| *n == k) else {
-                return Err(PyValueError::new_err(format!(
+                return Err(exc::ArgumentError::new_err(format!(
                     "`{k}` is not a state variable of this integration (the state is {})",
                     names.join(", ")
                 )));
@@ -65,7 +66,7 @@ pub fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f6
         }
         finite_state(&out, names)?;
         if let Some(i) = out.iter().position(|v| v.is_nan()) {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "no initial value for `{}` (the state is {})",
                 names[i],
                 names.join(", ")
@@ -76,7 +77,7 @@ pub fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f6
     let a = float_array(y0)?;
     let shape: Vec<usize> = a.getattr("shape")?.extract()?;
     if shape.len() != 1 || shape[0] != names.len() {
-        return Err(PyValueError::new_err(format!(
+        return Err(exc::ArgumentError::new_err(format!(
             "y0 has shape {shape:?}; expected ({},) for the state ({})",
             names.len(),
             names.join(", ")
@@ -91,7 +92,7 @@ pub fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f6
 /// not a failed integration.
 pub fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
     match y0.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(PyValueError::new_err(format!(
+        Some(i) => Err(exc::ArgumentError::new_err(format!(
             "the initial value of `{}` is {}: every component of y0 must be a finite number (the state is {})",
             names[i],
             y0[i],
@@ -105,7 +106,7 @@ pub fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
 /// alias) and ``atol``. Both names at once must agree.
 pub fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f64>> {
     match (rtol, tol) {
-        (Some(r), Some(t)) if r != t => Err(PyValueError::new_err(format!(
+        (Some(r), Some(t)) if r != t => Err(exc::ArgumentError::new_err(format!(
             "rtol={r} and tol={t} disagree: tol is another name for rtol, so give one of them"
         ))),
         (r, t) => Ok(r.or(t)),
@@ -118,10 +119,10 @@ pub fn method(name: &str) -> PyResult<MethodId> {
         let e = SimulateError::unknown_method(name);
         let list = simulate::method::method_names();
         match &e {
-            SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
-                PyValueError::new_err(format!("unknown method `{name}`: did you mean `{s}`? (the methods are {list})"))
-            }
-            _ => PyValueError::new_err(format!("unknown method `{name}`; the methods are {list}")),
+            SimulateError::UnknownMethod { suggestion: Some(s), .. } => exc::ArgumentError::new_err(format!(
+                "unknown method `{name}`: did you mean `{s}`? (the methods are {list})"
+            )),
+            _ => exc::ArgumentError::new_err(format!("unknown method `{name}`; the methods are {list}")),
         }
     })
 }

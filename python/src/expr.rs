@@ -9,7 +9,7 @@ use lagrangian::parse::{parse_with, Declarations};
 use lagrangian::print::{render, Format};
 use lagrangian::{Expr, Symbol};
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyFloat, PyInt, PyString, PyTuple};
 
@@ -57,7 +57,9 @@ impl PyExpr {
 /// `0.1` is `1/10`, as if typed).
 fn float_expr(x: f64) -> PyResult<Expr> {
     if !x.is_finite() {
-        return Err(PyValueError::new_err(format!("{x} cannot enter an exact expression (only finite numbers can)")));
+        return Err(exc::ArgumentError::new_err(format!(
+            "{x} cannot enter an exact expression (only finite numbers can)"
+        )));
     }
     lagrangian::parse(&format!("{x:?}")).py()
 }
@@ -99,7 +101,7 @@ pub fn to_symbol(obj: &Bound<'_, PyAny>, decls: &Declarations) -> PyResult<Symbo
     let e = to_expr(obj, decls, true)?;
     match e.as_sym() {
         Some(s) => Ok(s.clone()),
-        None => Err(PyValueError::new_err(format!("expected a symbol name, got `{e}`"))),
+        None => Err(exc::ArgumentError::new_err(format!("expected a symbol name, got `{e}`"))),
     }
 }
 

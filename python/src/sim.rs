@@ -18,7 +18,7 @@ use lagrangian::simulate::{
 };
 use lagrangian::Expr;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -41,22 +41,61 @@ impl Derivations for Cached {
     }
 }
 
-/// A simulation error as Python sees it: a request the engine refuses is a `ValueError` (with
-/// the engine's hint), a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
+/// A simulation error as Python sees it: a request the engine refuses is an `ArgumentError`
+/// (a `ValueError`, with a hint in Python's terms), a start where the equations have no value
+/// an `RhsError`, a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
 pub fn simulate_error(py: Python<'_>, e: SimulateError) -> PyErr {
     match e {
-        SimulateError::Integrate { error, .. } => integration_error(py, error),
+        SimulateError::Integrate { error, names, hint } => {
+            let msg = SimulateError::Integrate { error: error.clone(), names, hint }.to_string();
+            integration_error(py, error, msg)
+        }
         SimulateError::Cancelled => PyKeyboardInterrupt::new_err("integration interrupted"),
         SimulateError::Compile(c) => exc::CompileError::new_err(c.to_string()),
         SimulateError::Mechanics(m) => exc::MechanicsError::new_err(m.to_string()),
+        SimulateError::InitialState(reason) => exc::RhsError::new_err(format!("at the initial state: {reason}")),
         other => {
-            let msg = match other.hint() {
-                Some(h) => format!("{other} ({h})"),
-                None => other.to_string(),
+            let msg = match python_hint(&other).or_else(|| other.hint()) {
+                Some(h) => format!("{} ({h})", python_message(&other)),
+                None => python_message(&other),
             };
-            PyValueError::new_err(msg)
+            exc::ArgumentError::new_err(msg)
         }
     }
+}
+
+/// The engine's message, with the tolerance named as the Python argument (`rtol`).
+fn python_message(e: &SimulateError) -> String {
+    match e {
+        SimulateError::ToleranceBelowFloor { tol, floor, .. } => {
+            format!("rtol={tol:e} is below what f64 can meet; the smallest usable rtol is {floor:.2e}")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// What would work, in this package's keyword arguments, where the engine's hint is written
+/// in the scene language (`dt = 0.01`, `steps = 1000`, `tol = 1e-10`, `help simulate`).
+fn python_hint(e: &SimulateError) -> Option<String> {
+    let list = || simulate::method::method_names();
+    Some(match e {
+        SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
+            format!("did you mean `{s}`? lagrangian.METHODS lists them: {}", list())
+        }
+        SimulateError::UnknownMethod { suggestion: None, .. } => format!("lagrangian.METHODS lists them: {}", list()),
+        SimulateError::NeedsStep { .. } => "pass a step, dt=0.01, or use an adaptive method such as `dop853`".into(),
+        SimulateError::NeedsTolerance { .. } => {
+            "leave out dt= and set rtol= (and atol=) if needed, or pick a fixed-step method such as `gauss6` or `rk4`"
+                .into()
+        }
+        SimulateError::ToleranceBelowFloor { method: MethodId::Taylor, .. } => {
+            "leave out rtol=: the Taylor method defaults to machine precision".into()
+        }
+        SimulateError::ToleranceBelowFloor { .. } => {
+            "use rtol=1e-14 (DOP853 at 1e-14 is already near the rounding floor)".into()
+        }
+        _ => return None,
+    })
 }
 
 /// The compiled system of `s` under `key`, from its cache or compiled now (GIL released).
@@ -180,7 +219,7 @@ impl CompiledRhs {
         let a = float_array(y)?;
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
         if shape != [n] {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
                 self.names.join(", ")
             )));
@@ -190,7 +229,7 @@ impl CompiledRhs {
         let mut j = vec![0.0; n * n];
         match c.system.try_jacobian(t, &v, &mut j) {
             Some(r) => r.py()?,
-            None => return Err(PyValueError::new_err("this formulation has no compiled Jacobian")),
+            None => return Err(exc::ArgumentError::new_err("this formulation has no compiled Jacobian")),
         }
         Ok(PyArray1::from_vec(py, j).reshape([n, n])?.into_any())
     }
@@ -200,7 +239,7 @@ impl CompiledRhs {
         // Fast path: a contiguous float64 vector, as solve_ivp passes.
         if let Ok(v) = y.extract::<PyReadonlyArray1<'py, f64>>() {
             if v.len() != n {
-                return Err(PyValueError::new_err(format!(
+                return Err(exc::ArgumentError::new_err(format!(
                     "y has shape ({},); expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                     v.len(),
                     self.names.join(", ")
@@ -210,7 +249,7 @@ impl CompiledRhs {
             let slice = if aligned { v.as_slice().ok() } else { None };
             if let Some(s) = slice {
                 if s.len() != n {
-                    return Err(PyValueError::new_err(format!(
+                    return Err(exc::ArgumentError::new_err(format!(
                         "y has shape ({},); expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                         s.len(),
                         self.names.join(", ")
@@ -263,7 +302,7 @@ impl CompiledRhs {
                 let out = out.map_err(exc::RhsError::new_err)?;
                 Ok(PyArray1::from_vec(py, out).reshape([n, k])?.into_any())
             }
-            _ => Err(PyValueError::new_err(format!(
+            _ => Err(exc::ArgumentError::new_err(format!(
                 "y has shape {shape:?}; expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                 self.names.join(", ")
             ))),
@@ -285,7 +324,9 @@ fn formulation_name(eq: Equations) -> &'static str {
 
 /// The first-order right-hand side of a compiled system (every form Python compiles has one).
 fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
-    c.system.rhs().ok_or_else(|| PyValueError::new_err("a discrete variational map has no right-hand side f(t, y)"))
+    c.system
+        .rhs()
+        .ok_or_else(|| exc::ArgumentError::new_err("a discrete variational map has no right-hand side f(t, y)"))
 }
 
 /// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
@@ -317,13 +358,29 @@ fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
     for q in sys.coordinates() {
         let Some(i) = names.iter().position(|n| n == q.name()) else { continue };
         if positive.contains(q.name()) && y0[i] <= 0.0 {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "`{q}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot start at {}; start it above 0, or build the system without `{q}` in positive=",
                 y0[i]
             )));
         }
     }
     Ok(())
+}
+
+/// Refuses a start where the equations have no value (a singular mass matrix at `y0`): `y0` is
+/// the bad argument, so it is an `RhsError` (a `ValueError`) naming the start, not an
+/// `IntegrationError` of a run that "stopped" at `t0` before its first step.
+fn admissible_start(c: &Compiled, t0: f64, y0: &[f64], names: &[String]) -> PyResult<()> {
+    let Some(rhs) = c.system.rhs() else { return Ok(()) };
+    let mut dy = vec![0.0; y0.len()];
+    rhs.try_eval(t0, y0, &mut dy).map_err(|e| {
+        let start: Vec<String> = names.iter().zip(y0).map(|(n, v)| format!("{n} = {v:?}")).collect();
+        exc::RhsError::new_err(format!(
+            "at the initial state ({}): {}; start where the equations have a value",
+            start.join(", "),
+            e.reason
+        ))
+    })
 }
 
 /// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
@@ -350,7 +407,7 @@ fn run_spec(
     opts.rtol = tol;
     opts.atol = atol;
     if max_steps == Some(0) {
-        return Err(PyValueError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
+        return Err(exc::ArgumentError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
     }
     opts.max_steps = max_steps;
     opts.compensated = compensated;
@@ -516,11 +573,11 @@ impl Solution {
     #[staticmethod]
     fn _restore(d: &Bound<'_, PyDict>) -> PyResult<Solution> {
         let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled Solution without `{k}`")))
+            d.get_item(k)?.ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled Solution without `{k}`")))
         };
         let method: String = get("method")?.extract()?;
         let method = MethodId::from_name(&method)
-            .ok_or_else(|| PyValueError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
+            .ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
             .name();
         let stop: String = get("stop")?.extract()?;
         Ok(Solution {
@@ -638,7 +695,7 @@ impl EnsembleResult {
     #[staticmethod]
     fn _restore(d: &Bound<'_, PyDict>) -> PyResult<EnsembleResult> {
         let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled EnsembleResult without `{k}`")))
+            d.get_item(k)?.ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled EnsembleResult without `{k}`")))
         };
         Ok(EnsembleResult {
             t: get("t")?.unbind(),
@@ -689,7 +746,7 @@ impl PySystem {
             Some("hamiltonian") => Equations::Hamiltonian,
             Some("separable") => Equations::Separable,
             Some(other) => {
-                return Err(PyValueError::new_err(format!(
+                return Err(exc::ArgumentError::new_err(format!(
                     "unknown formulation `{other}` (lagrangian, hamiltonian or separable)"
                 )))
             }
@@ -745,8 +802,9 @@ impl PySystem {
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
         positive_start(&self.sys, &names, &y0)?;
+        admissible_start(&c, t_span.0, &y0, &names)?;
         if every == 0 {
-            return Err(PyValueError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
+            return Err(exc::ArgumentError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
         }
         opts.sampling = Sampling::Every(every);
         if let Some(te) = t_eval {
@@ -803,7 +861,7 @@ impl PySystem {
         let a = float_array(y0)?;
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
         if shape.len() != 2 || shape[1] != n {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "Y0 has shape {shape:?}; expected (k, {n}): one state ({}) per row",
                 names.join(", ")
             )));

@@ -87,9 +87,9 @@ def test_singular_mass_matrix_at_a_state():
     f = s.compile()
     with pytest.raises(lg.RhsError, match="singular"):
         f(0.0, np.array([0.0, 1.0, 0.0, 0.0]))
-    with pytest.raises(lg.IntegrationError) as info:
+    # The same start given to integrate is a bad y0 (a ValueError), not a failed run.
+    with pytest.raises(lg.RhsError, match="initial state .*singular"):
         s.integrate((0, 1), [0.0, 1.0, 0.0, 0.0], "rk4", dt=0.01)
-    assert info.value.t == 0.0 and info.value.state == [0.0, 1.0, 0.0, 0.0]
 
 
 def test_nan_start_is_an_argument_error(pendulum):
