@@ -133,7 +133,10 @@ class Solution:
         """An ``xarray.Dataset`` over ``t``, one variable per state name."""
 
 class EnsembleResult:
-    """Final ``t`` ``(k,)`` and ``y`` ``(k, n)``, ``ok`` ``(k,)`` and per-trajectory ``errors``."""
+    """Final ``t`` ``(k,)`` and ``y`` ``(k, n)``, ``ok`` ``(k,)`` and per-trajectory ``errors``.
+
+    ``(k, n)``, one row per trajectory, not SciPy's ``(n, k)``: SciPy's columns are the times
+    of one trajectory; here the axis is the trajectories, stacked as NumPy stacks states."""
 
     t: np.ndarray
     y: np.ndarray
@@ -230,8 +233,8 @@ class System:
     ) -> Solution: ...
     def ensemble(
         self,
-        y0: ArrayLike,
         t_span: ArrayLike,
+        y0: ArrayLike,
         method: Optional[str] = None,
         *,
         dt: Optional[float] = None,
@@ -243,4 +246,5 @@ class System:
         compensated: bool = False,
         threads: Optional[int] = None,
         progress: Optional[bool] = None,
-    ) -> EnsembleResult: ...
+    ) -> EnsembleResult:
+        """Final states of many starts ``y0`` ``(k, n)`` over ``t_span`` (``t_span`` first, as in ``integrate``)."""

@@ -28,7 +28,9 @@ from ._errors import ArgumentError
 class SweepResult:
     """Final states of a sweep.
 
-    ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``), ``t`` the final
+    ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``; the grid's axes
+    first, so ``y[i, j]`` is the state at grid point ``(i, j)``, as xarray's dimensions are
+    laid out, rather than SciPy's ``(n, k)``, whose columns are times), ``t`` the final
     times (the end of ``t_span``, or a terminal event's time), ``ok`` whether each point
     integrated, ``errors`` the reason where it did not (``None`` elsewhere). ``axes`` maps each
     swept name to its values when the grid was given as axes. ``failures`` lists the failed
@@ -82,7 +84,7 @@ def _run_chunk(
     """One Dask task: integrates the rows of ``states`` (each with its own parameter values
     when ``params`` is given) and returns their final states and errors."""
     if params is None:
-        r = system.ensemble(states, **run)
+        r = system.ensemble(y0=states, **run)
         return {"y": r.y, "t": r.t, "errors": r.errors}
     k, n = states.shape
     ys = np.full((k, n), np.nan)
@@ -90,17 +92,28 @@ def _run_chunk(
     errors: list[Optional[str]] = [None] * k
     for i in range(k):
         try:
-            r = system.with_params(params[i]).ensemble(states[i : i + 1], **run)
+            r = system.with_params(params[i]).ensemble(y0=states[i : i + 1], **run)
             ys[i], ts[i], errors[i] = r.y[0], r.t[0], r.errors[0]
         except Exception as e:  # a bad parameter value fails its own row only
             errors[i] = f"{type(e).__name__}: {e}"
     return {"y": ys, "t": ts, "errors": errors}
 
 
+def _is_span(x: Any) -> bool:
+    """Whether ``x`` is two numbers, as ``t_span`` is."""
+    if isinstance(x, (str, bytes, Mapping)):
+        return False
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == (2,)
+
+
 def sweep(
     system: System,
+    t_span: Sequence[float],
     grid: Union[np.ndarray, Mapping[str, Sequence[float]]],
-    t_span: tuple[float, float],
     method: Optional[str] = None,
     *,
     y0: Union[None, Sequence[float], Mapping[str, float]] = None,
@@ -114,8 +127,9 @@ def sweep(
     retries: int = 2,
     threads: Optional[int] = 1,
 ) -> SweepResult:
-    """Integrates ``system`` from every point of ``grid`` on a Dask cluster and returns the
-    final states as a :class:`SweepResult`.
+    """Integrates ``system`` over ``t_span`` from every point of ``grid`` on a Dask cluster and
+    returns the final states as a :class:`SweepResult`. ``t_span`` comes first, as in
+    ``System.integrate``, ``System.ensemble`` and SciPy's ``solve_ivp``.
 
     ``grid`` is either an array of initial states, shape ``(k, n)``, or a dict of axes
     ``{name: values}`` whose outer product is swept: names are state variables (their other
@@ -125,6 +139,17 @@ def sweep(
     ``chunk_size`` points with ``threads`` threads (1 by default: Dask runs one task per
     worker thread already); a task that raises is retried ``retries`` times by Dask.
     """
+    if not _is_span(t_span):
+        if _is_span(grid):
+            # The order this function used to take, sweep(system, grid, t_span): refused, never
+            # read with the arguments swapped.
+            raise ArgumentError(
+                "sweep takes t_span first: sweep(system, t_span, grid, …), as System.integrate, "
+                "System.ensemble and scipy's solve_ivp do; the arguments look swapped (the second "
+                "is not two numbers, the third is)"
+            )
+        raise ArgumentError(f"t_span must be two numbers (t0, t1): a tuple, a list or an array; got {t_span!r}")
+    t_span = (float(t_span[0]), float(t_span[1]))
     # The engine's registry decides the default method and tolerance.
     method = method or DEFAULT_METHOD
     names = system.state_names(method)
@@ -170,7 +195,7 @@ def sweep(
     run = dict(method=method, dt=dt, tol=tol, atol=atol, events=events, max_steps=max_steps, threads=threads, progress=False)
     # Check the request once here (method, dt, events), not once per chunk on the workers.
     if len(states):
-        system.ensemble(states[:0], t_span, **run)
+        system.ensemble(t_span, states[:0], **run)
     run["t_span"] = t_span
 
     total = states.shape[0]

@@ -88,6 +88,22 @@ pub fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f6
     Ok(v)
 }
 
+/// Reads ``t_span`` of a call taking ``(t_span, y0, …)`` (``ensemble``, the order of
+/// ``integrate`` and of SciPy's ``solve_ivp``). When ``t_span`` is not two numbers but ``y0``
+/// is, the caller wrote the order this package used to take, ``ensemble(y0, t_span)``: that is
+/// refused naming the order, never read with the arguments swapped.
+pub fn span_then_states(t_span: &Bound<'_, PyAny>, y0: &Bound<'_, PyAny>, call: &str) -> PyResult<(f64, f64)> {
+    time_span(t_span).map_err(|e| {
+        if time_span(y0).is_ok() {
+            exc::ArgumentError::new_err(format!(
+                "{call} takes t_span first: {call}(t_span, y0, …), as integrate and scipy's solve_ivp do; the arguments look swapped (the first is not two numbers, the second is)"
+            ))
+        } else {
+            e
+        }
+    })
+}
+
 /// Refuses a start with a NaN or an infinite component: an argument error (`ValueError`),
 /// not a failed integration.
 pub fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {

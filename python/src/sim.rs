@@ -22,7 +22,7 @@ use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::convert::{f64_vec, float_array, initial_state, method, relative_tolerance, time_span};
+use crate::convert::{f64_vec, float_array, initial_state, method, relative_tolerance, span_then_states, time_span};
 use crate::errors::{exc, integration_error, PyResultExt};
 use crate::expr::to_expr;
 use crate::progress::{progress_mode, with_progress, Control};
@@ -830,18 +830,24 @@ impl PySystem {
         }
     }
 
-    /// Integrates many initial states ``Y0`` (shape ``(k, n)``, one state per row) over
+    /// Integrates many initial states ``y0`` (shape ``(k, n)``, one state per row) over
     /// ``t_span`` in parallel (rayon; ``threads`` workers, default all cores) and returns
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
-    /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
-    /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    /// stop the others. The arguments are those of :meth:`integrate`, in its order
+    /// (``t_span`` first); a terminal event ends each trajectory at its crossing (``t`` then
+    /// holds the crossing times).
+    ///
+    /// Layout: ``y0`` and the result's ``y`` are ``(k, n)``, one row per trajectory, not
+    /// SciPy's ``(n, k)``: SciPy's columns are the times of one trajectory, here the axis is
+    /// the trajectories, and one row per item is how NumPy stacks states
+    /// (``np.array([s1, s2])``) and how pandas shows them.
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
         py: Python<'_>,
-        y0: &Bound<'_, PyAny>,
         t_span: &Bound<'_, PyAny>,
+        y0: &Bound<'_, PyAny>,
         method: Option<&str>,
         dt: Option<f64>,
         rtol: Option<f64>,
@@ -853,7 +859,7 @@ impl PySystem {
         threads: Option<usize>,
         progress: Option<bool>,
     ) -> PyResult<EnsembleResult> {
-        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
+        let (t_span, tol) = (span_then_states(t_span, y0, "ensemble")?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         opts.sampling = Sampling::Final;
         let names = c.state.clone();
@@ -862,7 +868,7 @@ impl PySystem {
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
         if shape.len() != 2 || shape[1] != n {
             return Err(exc::ArgumentError::new_err(format!(
-                "Y0 has shape {shape:?}; expected (k, {n}): one state ({}) per row",
+                "y0 has shape {shape:?}; expected (k, {n}): one state ({}) per row",
                 names.join(", ")
             )));
         }
