@@ -105,20 +105,32 @@ class CompiledRhs:
     def __reduce__(self) -> tuple[Any, ...]: ...
     def __eq__(self, other: object) -> bool: ...
 
+class DenseSolution:
+    """``sol(t)``: the state at ``t`` ``(n,)`` or at an array of times ``(n, m)``, inside ``[t_min, t_max]``."""
+
+    ts: np.ndarray
+    t_min: float
+    t_max: float
+    order: int
+    def __call__(self, t: ArrayLike) -> np.ndarray: ...
+
 class Solution:
     """``t`` ``(k,)``, ``y`` ``(n, k)``, events per event function; like ``solve_ivp``'s result."""
 
     t: np.ndarray
     y: np.ndarray
     names: list[str]
-    t_events: list[np.ndarray]
-    y_events: list[np.ndarray]
+    t_events: Optional[list[np.ndarray]]
+    """One array of crossing times per event; ``None`` without events (SciPy's)."""
+    y_events: Optional[list[np.ndarray]]
+    """One ``(m, n)`` array of crossing states per event; ``None`` without events."""
     status: int
     stop: str
     success: bool
     message: str
     nfev: int
-    sol: None
+    sol: Optional["DenseSolution"]
+    """With ``dense_output=True``: ``sol(t)``, the cubic Hermite interpolant of the steps (error ``O(h⁴)``)."""
     method: str
     steps: int
     rejected: int
@@ -230,6 +242,7 @@ class System:
         max_steps: Optional[int] = None,
         compensated: bool = False,
         progress: Optional[bool] = None,
+        dense_output: bool = False,
     ) -> Solution: ...
     def ensemble(
         self,

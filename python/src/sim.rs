@@ -329,9 +329,12 @@ fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
         .ok_or_else(|| exc::ArgumentError::new_err("a discrete variational map has no right-hand side f(t, y)"))
 }
 
-/// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
-/// (a failed ensemble row is NaN).
+/// Whether two arrays (or lists of arrays, or `None`s) hold the same shapes and values, NaN
+/// equal to NaN (a failed ensemble row is NaN).
 fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if a.is_none() || b.is_none() {
+        return Ok(a.is_none() && b.is_none());
+    }
     if let (Ok(a), Ok(b)) = (a.downcast::<PyList>(), b.downcast::<PyList>()) {
         if a.len() != b.len() {
             return Ok(false);
@@ -488,6 +491,8 @@ pub struct Solution {
     t_events: PyObject,
     #[pyo3(get)]
     y_events: PyObject,
+    /// ``None``, or with ``dense_output=True`` the continuous solution ``sol(t)``.
+    sol: PyObject,
     /// ``"end"`` (the end of ``t_span`` was reached) or ``"event"`` (a terminal event).
     #[pyo3(get)]
     stop: &'static str,
@@ -533,12 +538,14 @@ impl Solution {
         }
     }
 
-    /// ``None``, as SciPy's without ``dense_output=True``: the drive loop does not keep its
-    /// steps' interpolants after a run. Ask for the states at chosen times with ``t_eval``,
-    /// which samples those interpolants during the run.
+    /// The continuous solution with ``integrate(..., dense_output=True)``, else ``None``, as
+    /// SciPy's: ``sol(t)`` is the state at ``t`` (``(n,)``) or at an array of times
+    /// (``(n, m)``), the cubic Hermite interpolant of the accepted steps (error ``O(h⁴)``;
+    /// see ``lagrangian._dense``). ``t_eval`` samples the method's own, more accurate, dense
+    /// output during the run.
     #[getter]
     fn sol(&self, py: Python<'_>) -> PyObject {
-        py.None()
+        self.sol.clone_ref(py)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -561,6 +568,7 @@ impl Solution {
         d.set_item("names", self.names.clone())?;
         d.set_item("t_events", self.t_events.clone_ref(py))?;
         d.set_item("y_events", self.y_events.clone_ref(py))?;
+        d.set_item("sol", self.sol.clone_ref(py))?;
         d.set_item("stop", self.stop)?;
         d.set_item("method", self.method)?;
         d.set_item("steps", self.steps)?;
@@ -586,6 +594,10 @@ impl Solution {
             names: get("names")?.extract()?,
             t_events: get("t_events")?.unbind(),
             y_events: get("y_events")?.unbind(),
+            sol: match d.get_item("sol")? {
+                Some(s) => s.unbind(),
+                None => d.py().None(),
+            },
             stop: if stop == "event" { "event" } else { "end" },
             method,
             steps: get("steps")?.extract()?,
@@ -606,7 +618,8 @@ impl Solution {
             && same(&self.t, &o.t)?
             && same(&self.y, &o.y)?
             && same(&self.t_events, &o.t_events)?
-            && same(&self.y_events, &o.y_events)?)
+            && same(&self.y_events, &o.y_events)?
+            && self.sol.bind(py).eq(o.sol.bind(py))?)
     }
 
     /// The row of ``y`` for the state variable ``name`` (``sol["θ1"]``).
@@ -627,6 +640,7 @@ fn solution(
     names: Vec<String>,
     n_events: usize,
     method: &'static str,
+    sol: PyObject,
 ) -> PyResult<Solution> {
     let n = names.len();
     let k = out.t.len();
@@ -637,27 +651,62 @@ fn solution(
             y[i * k + j] = *v;
         }
     }
-    let t_events = PyList::empty(py);
-    let y_events = PyList::empty(py);
-    for e in 0..n_events {
-        let recs: Vec<&EventRecord> = out.events.iter().filter(|r| r.index == e).collect();
-        let ts: Vec<f64> = recs.iter().map(|r| r.t).collect();
-        let ys: Vec<f64> = recs.iter().flat_map(|r| r.state.iter().copied()).collect();
-        t_events.append(PyArray1::from_vec(py, ts))?;
-        y_events.append(PyArray1::from_vec(py, ys).reshape([recs.len(), n])?)?;
-    }
+    // SciPy's: `None` when no events were asked for, else one array per event.
+    let (t_events, y_events) = if n_events == 0 {
+        (py.None(), py.None())
+    } else {
+        let t_events = PyList::empty(py);
+        let y_events = PyList::empty(py);
+        for e in 0..n_events {
+            let recs: Vec<&EventRecord> = out.events.iter().filter(|r| r.index == e).collect();
+            let ts: Vec<f64> = recs.iter().map(|r| r.t).collect();
+            let ys: Vec<f64> = recs.iter().flat_map(|r| r.state.iter().copied()).collect();
+            t_events.append(PyArray1::from_vec(py, ts))?;
+            y_events.append(PyArray1::from_vec(py, ys).reshape([recs.len(), n])?)?;
+        }
+        (t_events.into_any().unbind(), y_events.into_any().unbind())
+    };
     Ok(Solution {
         t: PyArray1::from_vec(py, out.t).into_any().unbind(),
         y: PyArray1::from_vec(py, y).reshape([n, k])?.into_any().unbind(),
         names,
-        t_events: t_events.into_any().unbind(),
-        y_events: y_events.into_any().unbind(),
+        t_events,
+        y_events,
+        sol,
         stop: if out.stopped_by.is_some() { "event" } else { "end" },
         method,
         steps: out.steps,
         rejected: out.rejected,
         nfev: out.evaluations,
     })
+}
+
+/// ``lagrangian._dense.DenseSolution`` of the accepted steps of `steps`: their states and the
+/// right-hand side at each (evaluated here, with the GIL released; not counted in ``nfev``).
+fn dense_solution(py: Python<'_>, rhs: &dyn lagrangian::integrate::Rhs, steps: &Trajectory) -> PyResult<PyObject> {
+    let (k, n) = (steps.t.len(), steps.y.first().map_or(0, Vec::len));
+    let derivatives = py.allow_threads(|| -> Result<Vec<f64>, String> {
+        let mut dy = vec![0.0; n * k];
+        let mut d = vec![0.0; n];
+        for (j, (t, y)) in steps.t.iter().zip(&steps.y).enumerate() {
+            rhs.try_eval(*t, y, &mut d).map_err(|e| format!("at t = {t}: {}", e.reason))?;
+            for i in 0..n {
+                dy[i * k + j] = d[i];
+            }
+        }
+        Ok(dy)
+    });
+    let dy = derivatives.map_err(exc::RhsError::new_err)?;
+    let mut y = vec![0.0; n * k];
+    for (j, state) in steps.y.iter().enumerate() {
+        for (i, v) in state.iter().enumerate() {
+            y[i * k + j] = *v;
+        }
+    }
+    let ts = PyArray1::from_vec(py, steps.t.clone());
+    let ys = PyArray1::from_vec(py, y).reshape([n, k])?;
+    let dys = PyArray1::from_vec(py, dy).reshape([n, k])?;
+    Ok(py.import("lagrangian._dense")?.getattr("DenseSolution")?.call1((ts, ys, dys))?.unbind())
 }
 
 /// The result of :meth:`System.ensemble`: final times ``t`` ``(k,)`` and states ``y``
@@ -775,10 +824,12 @@ impl PySystem {
     /// step. ``events`` is a list of expressions or :class:`Event` objects, located on the
     /// step's interpolant; with ``t_eval`` too, as in SciPy, events are watched over the whole
     /// span and a terminal one ends the output at the last ``t_eval`` time before it.
-    /// The GIL is
+    /// ``dense_output=True`` adds ``sol``, the continuous solution ``sol(t)`` (see
+    /// :attr:`Solution.sol`); it needs every step (``every=1``) and a right-hand side (not the
+    /// discrete ``variational`` maps). The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None, dense_output=false))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
@@ -796,6 +847,7 @@ impl PySystem {
         max_steps: Option<usize>,
         compensated: bool,
         progress: Option<bool>,
+        dense_output: bool,
     ) -> PyResult<Solution> {
         let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
@@ -807,6 +859,24 @@ impl PySystem {
             return Err(exc::ArgumentError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
         }
         opts.sampling = Sampling::Every(every);
+        if dense_output && every != 1 {
+            return Err(exc::ArgumentError::new_err(format!(
+                "dense_output=True interpolates between the accepted steps, so it needs every step: leave out every={every}, or use t_eval for chosen times"
+            )));
+        }
+        let dense_rhs = match (dense_output, c.system.rhs()) {
+            (false, _) => None,
+            (true, Some(r)) => Some(r),
+            (true, None) => {
+                return Err(exc::ArgumentError::new_err(format!(
+                    "dense_output=True needs the equations' right-hand side, and `{}` is a discrete map without one: use t_eval for chosen times, or a method such as `gauss6`",
+                    opts.method.name()
+                )))
+            }
+        };
+        // With t_eval, the states at those times come from the method's dense output during
+        // the run, and the interpolant from a second run that keeps every step.
+        let mut step_opts = opts.clone();
         if let Some(te) = t_eval {
             let a = float_array(te)?;
             opts.sampling = Sampling::Times(f64_vec(&a.call_method0("ravel")?)?);
@@ -816,18 +886,33 @@ impl PySystem {
         opts.cancel = Some(ctl.cancel.clone());
         let n_events = opts.events.len();
         let name = opts.method.name();
-        let result = with_progress(
+        step_opts.cancel = opts.cancel.clone();
+        let second_run = dense_output && t_eval.is_some();
+        let (result, steps) = with_progress(
             py,
             progress_mode(progress),
             name,
             &ctl,
             || ctl.fraction(),
-            || simulate::integrate(&c, &y0, &opts, &mut |f| ctl.report(f)),
+            || {
+                let out = simulate::integrate(&c, &y0, &opts, &mut |f| ctl.report(f));
+                let steps = (second_run && out.is_ok())
+                    .then(|| simulate::integrate(&c, &y0, &step_opts, &mut |f| ctl.report(f)));
+                (out, steps)
+            },
         )?;
-        match result {
-            Ok(out) => solution(py, out, names, n_events, name),
-            Err(e) => Err(simulate_error(py, e)),
-        }
+        let out = result.map_err(|e| simulate_error(py, e))?;
+        let sol = match dense_rhs {
+            None => py.None(),
+            Some(rhs) => {
+                let steps = match steps {
+                    Some(r) => r.map_err(|e| simulate_error(py, e))?,
+                    None => out.clone(),
+                };
+                dense_solution(py, rhs, &steps)?
+            }
+        };
+        solution(py, out, names, n_events, name, sol)
     }
 
     /// Integrates many initial states ``y0`` (shape ``(k, n)``, one state per row) over
