@@ -31,7 +31,9 @@ from ._core import (
     Expr,
     Solution,
     System,
+    Lambdified,
     cache_info,
+    lambdify,
     parse,
     poisson,
     set_cache_dir,
@@ -53,6 +55,8 @@ from ._errors import (
     SolveError,
     TransformError,
 )
+from ._dense import DenseSolution
+from ._display import ExprList, ExprMatrix, SymbolNames, install as _install_display
 from ._frames import ensemble_to_pandas, ensemble_to_xarray, solution_to_pandas, solution_to_xarray
 from ._sympy import from_sympy, to_sympy
 from ._sweep import SweepResult, sweep
@@ -65,13 +69,17 @@ __all__ = [
     "AverageError",
     "CompiledRhs",
     "CompileError",
+    "DenseSolution",
     "EnsembleError",
     "EnsembleResult",
     "EvalError",
     "Event",
     "Expr",
+    "ExprList",
+    "ExprMatrix",
     "IntegrationError",
     "LagrangianError",
+    "Lambdified",
     "LieError",
     "MechanicsError",
     "ParseError",
@@ -80,10 +88,12 @@ __all__ = [
     "Solution",
     "SolveError",
     "SweepResult",
+    "SymbolNames",
     "System",
     "TransformError",
     "cache_info",
     "from_sympy",
+    "lambdify",
     "parse",
     "poisson",
     "set_cache_dir",
@@ -100,3 +110,6 @@ Solution.to_pandas = solution_to_pandas  # type: ignore[attr-defined]
 Solution.to_xarray = solution_to_xarray  # type: ignore[attr-defined]
 EnsembleResult.to_pandas = ensemble_to_pandas  # type: ignore[attr-defined]
 EnsembleResult.to_xarray = ensemble_to_xarray  # type: ignore[attr-defined]
+
+# LaTeX display of lists and matrices of Expr, the free_symbols property and Expr.lambdify.
+_install_display(Expr, System, lambdify)

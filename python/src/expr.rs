@@ -193,8 +193,9 @@ impl PyExpr {
         Ok(PyExpr::new(self.e.subs(&map), &self.decls.0))
     }
 
-    /// The names of the free symbols, sorted (``t`` included when present).
-    fn free_symbols(&self) -> Vec<String> {
+    /// The names of the free symbols, sorted (``t`` included when present); the public
+    /// ``free_symbols`` property reads it (``lagrangian/_display.py``).
+    fn _free_symbols(&self) -> Vec<String> {
         let mut v: Vec<String> = self.e.free_symbols().iter().map(|s| s.to_string()).collect();
         v.sort();
         v.dedup();
@@ -263,7 +264,7 @@ impl PyExpr {
         }
         let points: usize = shape.iter().product();
         // Every free symbol must have a value; the compiler's error names the first missing.
-        let free: Vec<String> = self.free_symbols();
+        let free: Vec<String> = self._free_symbols();
         let input_idx: Vec<usize> = free
             .iter()
             .map(|s| {
