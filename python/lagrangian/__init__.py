@@ -55,6 +55,7 @@ from ._errors import (
     SolveError,
     TransformError,
 )
+from ._chaos import Indicators, install as _install_chaos
 from ._dense import DenseSolution
 from ._display import ExprList, ExprMatrix, SymbolNames, install as _install_display
 from ._frames import ensemble_to_pandas, ensemble_to_xarray, solution_to_pandas, solution_to_xarray
@@ -77,6 +78,7 @@ __all__ = [
     "Expr",
     "ExprList",
     "ExprMatrix",
+    "Indicators",
     "IntegrationError",
     "LagrangianError",
     "Lambdified",
@@ -113,3 +115,6 @@ EnsembleResult.to_xarray = ensemble_to_xarray  # type: ignore[attr-defined]
 
 # LaTeX display of lists and matrices of Expr, the free_symbols property and Expr.lambdify.
 _install_display(Expr, System, lambdify)
+
+# Chaos indicators, chaos maps, Poincaré sections (the scene statements).
+_install_chaos(System)

@@ -8,12 +8,13 @@
 //! helpers, progress bar, SymPy conversion, Dask sweeps) live in `lagrangian/`.
 //!
 //! Layers, each importing only those before it: `errors` and `convert` (Python arguments into
-//! engine values), `expr`, `lambdify`, `system`, then the numeric files (`progress`, `sim`); `cache` stands
+//! engine values), `expr`, `lambdify`, `system`, then the numeric files (`progress`, `sim`, `chaos`); `cache` stands
 //! alone. No file imports one after it.
 
 use pyo3::prelude::*;
 
 mod cache;
+mod chaos;
 mod convert;
 mod errors;
 mod expr;
