@@ -216,18 +216,35 @@ impl CompiledRhs {
     /// ``solve_ivp(f, …, method="Radau", jac=f.jac)``.
     fn jac<'py>(&self, py: Python<'py>, t: f64, y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.names.len();
-        let a = float_array(y)?;
-        let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-        if shape != [n] {
+        let c = self.jacobian_code(py)?;
+        let mut j = vec![0.0; n * n];
+        // Fast path, as in `__call__`: an aligned contiguous float64 vector (what solve_ivp
+        // passes) is read in place; `numpy.require` alone cost more than the Jacobian.
+        let fast = y.extract::<PyReadonlyArray1<'py, f64>>().ok();
+        let owned;
+        let v: &[f64] = match fast.as_ref().and_then(|v| v.as_slice().ok()) {
+            Some(s) => s,
+            None => {
+                let a = float_array(y)?;
+                let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+                if shape != [n] {
+                    return Err(exc::ArgumentError::new_err(format!(
+                        "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
+                        self.names.join(", ")
+                    )));
+                }
+                owned = f64_vec(&a)?;
+                &owned
+            }
+        };
+        if v.len() != n {
             return Err(exc::ArgumentError::new_err(format!(
-                "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
+                "y has shape ({},); the Jacobian takes one state of shape ({n},) ({})",
+                v.len(),
                 self.names.join(", ")
             )));
         }
-        let v = f64_vec(&a)?;
-        let c = self.jacobian_code(py)?;
-        let mut j = vec![0.0; n * n];
-        match c.system.try_jacobian(t, &v, &mut j) {
+        match c.system.try_jacobian(t, v, &mut j) {
             Some(r) => r.py()?,
             None => return Err(exc::ArgumentError::new_err("this formulation has no compiled Jacobian")),
         }
