@@ -141,11 +141,55 @@ pub fn indicators_with(
     tol: f64,
     budget: &Budget,
 ) -> Result<Indicators, IntegrateError> {
+    indicators_from(sys, &sys.initial_state(x0), t_end, tol, budget)
+}
+
+/// The initial state of `sys` from `x0` with the first tangent vector along `w0` (normalised)
+/// and the others the unit vectors made orthonormal to it and to each other by Gram–Schmidt
+/// (a unit vector dependent on those before it is skipped for the next one). MEGNO and the FLI
+/// follow the first tangent vector, so `w0` chooses the direction they measure; `None` when
+/// `w0` has the wrong length, is not finite or is zero.
+pub fn initial_state_along(sys: &Variational, x0: &[f64], w0: &[f64]) -> Option<Vec<f64>> {
+    let (n, m) = (sys.n(), sys.tangents());
+    let norm = w0.iter().map(|a| a * a).sum::<f64>().sqrt();
+    if w0.len() != n || !norm.is_finite() || norm == 0.0 {
+        return None;
+    }
+    let mut basis: Vec<Vec<f64>> = vec![w0.iter().map(|a| a / norm).collect()];
+    let mut k = 0;
+    while basis.len() < m && k < n {
+        let mut v: Vec<f64> = (0..n).map(|i| if i == k { 1.0 } else { 0.0 }).collect();
+        k += 1;
+        for b in &basis {
+            let r: f64 = v.iter().zip(b).map(|(a, c)| a * c).sum();
+            v.iter_mut().zip(b).for_each(|(a, c)| *a -= r * c);
+        }
+        let len = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        if len > 1e-8 {
+            basis.push(v.iter().map(|a| a / len).collect());
+        }
+    }
+    let mut y = sys.initial_state(x0);
+    for (j, b) in basis.iter().take(m).enumerate() {
+        y[n + j * n..n + (j + 1) * n].copy_from_slice(b);
+    }
+    Some(y)
+}
+
+/// [`indicators_with`] from the whole initial state `y0` of `sys` (the state, its tangent
+/// vectors, orthonormal, and the MEGNO accumulator, as [`Variational::initial_state`] or
+/// [`initial_state_along`] build it).
+pub fn indicators_from(
+    sys: &Variational,
+    y0: &[f64],
+    t_end: f64,
+    tol: f64,
+    budget: &Budget,
+) -> Result<Indicators, IntegrateError> {
     let (n, m) = (sys.n(), sys.tangents());
     let dim = sys.dim();
     let method = Taylor::new(tol);
-    let y0 = sys.initial_state(x0);
-    let mut solver = method.solver(sys, 0.0, &y0, t_end)?;
+    let mut solver = method.solver(sys, 0.0, y0, t_end)?;
     let mut logs = vec![0.0; m];
     // ∫ Y ds and ∫ s Y ds over the run, for Ȳ and for the slope of Y against s.
     let (mut fli, mut ybar_int, mut sy_int) = (0.0f64, 0.0f64, 0.0f64);

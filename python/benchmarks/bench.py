@@ -152,15 +152,15 @@ def main():
     print("|---|---|---|")
     for workers in (1, 2):
         with LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster) as client:
-            lg.sweep(ref_sys, {"θ1": angles[:4], "θ2": angles[:4]}, (0, T), y0=Y0, tol=1e-9, client=client)  # warm up
+            lg.sweep(ref_sys, (0, T), {"θ1": angles[:4], "θ2": angles[:4]}, y0=Y0, tol=1e-9, client=client)  # warm up
             t0 = time.perf_counter()
-            r = lg.sweep(ref_sys, grid, (0, T), y0=Y0, tol=1e-9, chunk_size=256, client=client)
+            r = lg.sweep(ref_sys, (0, T), grid, y0=Y0, tol=1e-9, chunk_size=256, client=client)
             wall = time.perf_counter() - t0
             assert r.ok.all()
             print(f"| {workers} | {r.t.size / wall:.0f} | {wall:.2f} s |")
     t0 = time.perf_counter()
     states = np.array([[a, b, 0.0, 0.0] for a in angles for b in angles])
-    e = ref_sys.ensemble(states, (0, T), tol=1e-9, threads=1)
+    e = ref_sys.ensemble((0, T), states, tol=1e-9, threads=1)
     wall = time.perf_counter() - t0
     print(f"| (in-process `ensemble`, 1 thread, no Dask) | {e.t.size / wall:.0f} | {wall:.2f} s |")
     print(f"\n# load after: {os.getloadavg()}")

@@ -47,8 +47,8 @@ def main() -> None:
     start = time.perf_counter()
     result = lg.sweep(
         system,
-        {"θ1": angles, "θ2": angles},
         (0.0, args.t),
+        {"θ1": angles, "θ2": angles},
         "dop853",
         y0={"θ1'": 0.0, "θ2'": 0.0},
         tol=1e-9,

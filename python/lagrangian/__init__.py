@@ -16,20 +16,35 @@ exactly and integrates them fast::
 initial states or parameter values over a Dask cluster. Derivations are kept in the same
 on-disk cache as the command line's (``$LAGRANGIAN_CACHE_DIR``, else ``~/.cache/lagrangian``;
 see :func:`cache_info` and :func:`set_cache_dir`).
+
+Errors: every exception is a :class:`LagrangianError`; every one that says an argument was
+wrong (text that does not parse, a method that cannot run the system, a bad ``y0``) is also a
+``ValueError``. Only :class:`IntegrationError`, a run that failed along the way, is not.
 """
 
 from ._core import (
     DEFAULT_METHOD,
     METHODS,
-    ActionAngleError,
-    AverageError,
     CompiledRhs,
-    CompileError,
-    EnsembleError,
     EnsembleResult,
-    EvalError,
     Event,
     Expr,
+    Solution,
+    System,
+    Lambdified,
+    cache_info,
+    lambdify,
+    parse,
+    poisson,
+    set_cache_dir,
+)
+from ._errors import (
+    ActionAngleError,
+    ArgumentError,
+    AverageError,
+    CompileError,
+    EnsembleError,
+    EvalError,
     IntegrationError,
     LagrangianError,
     LieError,
@@ -37,15 +52,12 @@ from ._core import (
     ParseError,
     PhaseSpaceError,
     RhsError,
-    Solution,
     SolveError,
-    System,
     TransformError,
-    cache_info,
-    parse,
-    poisson,
-    set_cache_dir,
 )
+from ._chaos import Indicators, install as _install_chaos
+from ._dense import DenseSolution
+from ._display import ExprList, ExprMatrix, SymbolNames, install as _install_display
 from ._frames import ensemble_to_pandas, ensemble_to_xarray, solution_to_pandas, solution_to_xarray
 from ._sympy import from_sympy, to_sympy
 from ._sweep import SweepResult, sweep
@@ -54,16 +66,22 @@ __all__ = [
     "DEFAULT_METHOD",
     "METHODS",
     "ActionAngleError",
+    "ArgumentError",
     "AverageError",
     "CompiledRhs",
     "CompileError",
+    "DenseSolution",
     "EnsembleError",
     "EnsembleResult",
     "EvalError",
     "Event",
     "Expr",
+    "ExprList",
+    "ExprMatrix",
+    "Indicators",
     "IntegrationError",
     "LagrangianError",
+    "Lambdified",
     "LieError",
     "MechanicsError",
     "ParseError",
@@ -72,10 +90,12 @@ __all__ = [
     "Solution",
     "SolveError",
     "SweepResult",
+    "SymbolNames",
     "System",
     "TransformError",
     "cache_info",
     "from_sympy",
+    "lambdify",
     "parse",
     "poisson",
     "set_cache_dir",
@@ -92,3 +112,9 @@ Solution.to_pandas = solution_to_pandas  # type: ignore[attr-defined]
 Solution.to_xarray = solution_to_xarray  # type: ignore[attr-defined]
 EnsembleResult.to_pandas = ensemble_to_pandas  # type: ignore[attr-defined]
 EnsembleResult.to_xarray = ensemble_to_xarray  # type: ignore[attr-defined]
+
+# LaTeX display of lists and matrices of Expr, the free_symbols property and Expr.lambdify.
+_install_display(Expr, System, lambdify)
+
+# Chaos indicators, chaos maps, Poincaré sections (the scene statements).
+_install_chaos(System)

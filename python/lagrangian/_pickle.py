@@ -36,6 +36,12 @@ def _ensemble_result(state: dict[str, Any]) -> EnsembleResult:
     return EnsembleResult._restore(state)
 
 
+def _lambdified(args: list[str], exprs: Any) -> Any:
+    from ._core import lambdify
+
+    return lambdify(args, exprs)
+
+
 def _compiled(system: System, formulation: str) -> CompiledRhs:
     return system.compile(formulation)
 

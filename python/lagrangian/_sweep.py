@@ -21,13 +21,16 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from ._core import DEFAULT_METHOD, System
+from ._errors import ArgumentError
 
 
 @dataclass
 class SweepResult:
     """Final states of a sweep.
 
-    ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``), ``t`` the final
+    ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``; the grid's axes
+    first, so ``y[i, j]`` is the state at grid point ``(i, j)``, as xarray's dimensions are
+    laid out, rather than SciPy's ``(n, k)``, whose columns are times), ``t`` the final
     times (the end of ``t_span``, or a terminal event's time), ``ok`` whether each point
     integrated, ``errors`` the reason where it did not (``None`` elsewhere). ``axes`` maps each
     swept name to its values when the grid was given as axes. ``failures`` lists the failed
@@ -81,7 +84,7 @@ def _run_chunk(
     """One Dask task: integrates the rows of ``states`` (each with its own parameter values
     when ``params`` is given) and returns their final states and errors."""
     if params is None:
-        r = system.ensemble(states, **run)
+        r = system.ensemble(y0=states, **run)
         return {"y": r.y, "t": r.t, "errors": r.errors}
     k, n = states.shape
     ys = np.full((k, n), np.nan)
@@ -89,17 +92,28 @@ def _run_chunk(
     errors: list[Optional[str]] = [None] * k
     for i in range(k):
         try:
-            r = system.with_params(params[i]).ensemble(states[i : i + 1], **run)
+            r = system.with_params(params[i]).ensemble(y0=states[i : i + 1], **run)
             ys[i], ts[i], errors[i] = r.y[0], r.t[0], r.errors[0]
         except Exception as e:  # a bad parameter value fails its own row only
             errors[i] = f"{type(e).__name__}: {e}"
     return {"y": ys, "t": ts, "errors": errors}
 
 
+def _is_span(x: Any) -> bool:
+    """Whether ``x`` is two numbers, as ``t_span`` is."""
+    if isinstance(x, (str, bytes, Mapping)):
+        return False
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == (2,)
+
+
 def sweep(
     system: System,
+    t_span: Sequence[float],
     grid: Union[np.ndarray, Mapping[str, Sequence[float]]],
-    t_span: tuple[float, float],
     method: Optional[str] = None,
     *,
     y0: Union[None, Sequence[float], Mapping[str, float]] = None,
@@ -113,8 +127,9 @@ def sweep(
     retries: int = 2,
     threads: Optional[int] = 1,
 ) -> SweepResult:
-    """Integrates ``system`` from every point of ``grid`` on a Dask cluster and returns the
-    final states as a :class:`SweepResult`.
+    """Integrates ``system`` over ``t_span`` from every point of ``grid`` on a Dask cluster and
+    returns the final states as a :class:`SweepResult`. ``t_span`` comes first, as in
+    ``System.integrate``, ``System.ensemble`` and SciPy's ``solve_ivp``.
 
     ``grid`` is either an array of initial states, shape ``(k, n)``, or a dict of axes
     ``{name: values}`` whose outer product is swept: names are state variables (their other
@@ -124,6 +139,17 @@ def sweep(
     ``chunk_size`` points with ``threads`` threads (1 by default: Dask runs one task per
     worker thread already); a task that raises is retried ``retries`` times by Dask.
     """
+    if not _is_span(t_span):
+        if _is_span(grid):
+            # The order this function used to take, sweep(system, grid, t_span): refused, never
+            # read with the arguments swapped.
+            raise ArgumentError(
+                "sweep takes t_span first: sweep(system, t_span, grid, …), as System.integrate, "
+                "System.ensemble and scipy's solve_ivp do; the arguments look swapped (the second "
+                "is not two numbers, the third is)"
+            )
+        raise ArgumentError(f"t_span must be two numbers (t0, t1): a tuple, a list or an array; got {t_span!r}")
+    t_span = (float(t_span[0]), float(t_span[1]))
     # The engine's registry decides the default method and tolerance.
     method = method or DEFAULT_METHOD
     names = system.state_names(method)
@@ -132,16 +158,16 @@ def sweep(
     axes: dict[str, np.ndarray] = {}
     if isinstance(grid, Mapping):
         if not grid:
-            raise ValueError("the grid has no axes")
+            raise ArgumentError("the grid has no axes")
         for k, v in grid.items():
             if k not in names and k not in params_list:
-                raise ValueError(
+                raise ArgumentError(
                     f"`{k}` is neither a state variable ({', '.join(names)}) nor a parameter "
                     f"({', '.join(sorted(params_list)) or 'none'})"
                 )
             a = np.asarray(v, dtype=float).ravel()
             if a.size == 0:
-                raise ValueError(f"the axis `{k}` is empty")
+                raise ArgumentError(f"the axis `{k}` is empty")
             axes[k] = a
         shape = tuple(a.size for a in axes.values())
         base = _base_state(y0, names, required=[x for x in names if x not in axes])
@@ -161,15 +187,15 @@ def sweep(
     else:
         states = np.ascontiguousarray(grid, dtype=float)
         if states.ndim != 2 or states.shape[1] != n:
-            raise ValueError(f"grid has shape {states.shape}; expected (k, {n}): one state ({', '.join(names)}) per row")
+            raise ArgumentError(f"grid has shape {states.shape}; expected (k, {n}): one state ({', '.join(names)}) per row")
         shape = (states.shape[0],)
         param_rows = None
     if chunk_size < 1:
-        raise ValueError("chunk_size must be at least 1")
+        raise ArgumentError("chunk_size must be at least 1")
     run = dict(method=method, dt=dt, tol=tol, atol=atol, events=events, max_steps=max_steps, threads=threads, progress=False)
     # Check the request once here (method, dt, events), not once per chunk on the workers.
     if len(states):
-        system.ensemble(states[:0], t_span, **run)
+        system.ensemble(t_span, states[:0], **run)
     run["t_span"] = t_span
 
     total = states.shape[0]
@@ -249,19 +275,19 @@ def _lost(exc: BaseException) -> bool:
 def _base_state(y0: Any, names: list[str], required: list[str]) -> np.ndarray:
     if y0 is None:
         if required:
-            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(required)}")
+            raise ArgumentError(f"y0 must give the state variables the grid does not sweep: {', '.join(required)}")
         return np.zeros(len(names))
     if isinstance(y0, Mapping):
         base = np.full(len(names), np.nan)
         for k, v in y0.items():
             if k not in names:
-                raise ValueError(f"`{k}` is not a state variable ({', '.join(names)})")
+                raise ArgumentError(f"`{k}` is not a state variable ({', '.join(names)})")
             base[names.index(k)] = float(v)
         missing = [x for x in required if np.isnan(base[names.index(x)])]
         if missing:
-            raise ValueError(f"y0 must give the state variables the grid does not sweep: {', '.join(missing)}")
+            raise ArgumentError(f"y0 must give the state variables the grid does not sweep: {', '.join(missing)}")
         return np.nan_to_num(base)
     base = np.asarray(y0, dtype=float).ravel()
     if base.size != len(names):
-        raise ValueError(f"y0 has {base.size} entries; the state has {len(names)} ({', '.join(names)})")
+        raise ArgumentError(f"y0 has {base.size} entries; the state has {len(names)} ({', '.join(names)})")
     return base

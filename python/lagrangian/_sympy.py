@@ -13,6 +13,7 @@ import re
 from typing import Any, Iterable, Optional
 
 from ._core import Expr
+from ._sympy_input import prepare
 
 _BUILTINS = {
     "sin": "sin", "cos": "cos", "tan": "tan", "cot": "cot", "exp": "exp", "log": "log",
@@ -86,13 +87,15 @@ def to_sympy(e: Expr) -> Any:
 
 
 def from_sympy(expr: Any, *, positive: Optional[Iterable[str]] = None, functions: Optional[Iterable[str]] = None) -> Expr:
-    """The :class:`Expr` equal to the SymPy expression ``expr`` (exact: SymPy floats become
-    the rationals they print as). Symbols SymPy knows to be positive are declared positive,
-    undefined SymPy functions are declared as functions."""
+    """The :class:`Expr` equal to the SymPy expression ``expr`` (exact: a SymPy float becomes
+    the shortest decimal that reads back as it). ``dynamicsymbols`` coordinates ``q(t)`` and
+    their derivatives become ``q``, ``q'``, ``q''`` (a name in ``functions`` stays a function of
+    time). Symbols SymPy knows to be positive are declared positive, other undefined SymPy
+    functions are declared as functions."""
     import sympy
     from sympy.core.function import AppliedUndef
 
-    expr = sympy.sympify(expr)
+    expr = prepare(sympy.sympify(expr), functions or ())
     if expr.has(sympy.pi, sympy.I, sympy.oo, sympy.zoo, sympy.nan):
         raise ValueError(f"`{expr}` contains pi, I or an infinity, which the engine has no exact form for")
     if expr.has(sympy.Derivative):

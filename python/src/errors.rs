@@ -1,4 +1,5 @@
-//! One Python exception class per engine error type. The message is the engine's own
+//! One Python exception class per engine error type, every argument error a `ValueError`
+//! too (the hierarchy and why: `lagrangian/_errors.py`). The message is the engine's own
 //! diagnostic (for a parse error: the line, the caret under the column and the hint), so a
 //! notebook shows exactly what the command line would.
 
@@ -6,98 +7,34 @@ use lagrangian::integrate::IntegrateError;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 
-/// The exception classes, named as Python sees them.
+/// The exception classes, defined in `lagrangian/_errors.py` (where a class with two bases,
+/// `LagrangianError` and `ValueError`, is one line) and raised from here as those very classes.
 pub mod exc {
-    use pyo3::create_exception;
-    use pyo3::exceptions::PyException;
-    create_exception!(lagrangian, LagrangianError, PyException, "Base class of every error the engine raises.");
-    create_exception!(
-        lagrangian,
-        ParseError,
-        LagrangianError,
-        "The text of an expression did not parse (`parse::ParseError`)."
-    );
-    create_exception!(
-        lagrangian,
-        MechanicsError,
-        LagrangianError,
-        "A mechanics derivation refused its input: a singular Hessian, an unknown parameter, a bad coordinate (`mechanics::MechanicsError`)."
-    );
-    create_exception!(
-        lagrangian,
-        CompileError,
-        LagrangianError,
-        "Equations could not be compiled: a parameter without a value, an undefined function (`compile::CompileError`)."
-    );
-    create_exception!(
-        lagrangian,
-        RhsError,
-        LagrangianError,
-        "A compiled right-hand side has no value at a state: a singular mass matrix, a non-finite value (`compile::RhsError`)."
-    );
-    create_exception!(
-        lagrangian,
-        IntegrationError,
-        LagrangianError,
-        "An integration stopped early (`integrate::IntegrateError`); `t`, `state` and `steps` say where."
-    );
-    create_exception!(
-        lagrangian,
-        EvalError,
-        LagrangianError,
-        "An expression has no numeric value: an unbound symbol (`eval::EvalError`)."
-    );
-    create_exception!(
-        lagrangian,
-        TransformError,
-        LagrangianError,
-        "A generating function was refused (`canonical::TransformError`)."
-    );
-    create_exception!(
-        lagrangian,
-        SolveError,
-        LagrangianError,
-        "An equation could not be solved in closed form (`canonical::SolveError`)."
-    );
-    create_exception!(
-        lagrangian,
-        PhaseSpaceError,
-        LagrangianError,
-        "A malformed phase space (`canonical::PhaseSpaceError`)."
-    );
-    create_exception!(lagrangian, LieError, LagrangianError, "A Lie series was refused (`canonical::LieError`).");
-    create_exception!(
-        lagrangian,
-        ActionAngleError,
-        LagrangianError,
-        "The action-angle quadrature was refused (`canonical::ActionAngleError`)."
-    );
-    create_exception!(lagrangian, AverageError, LagrangianError, "An average was refused (`canonical::AverageError`).");
-    create_exception!(
-        lagrangian,
-        EnsembleError,
-        LagrangianError,
-        "An ensemble could not run (`compile::EnsembleError`)."
-    );
+    use pyo3::import_exception;
+    import_exception!(lagrangian._errors, LagrangianError);
+    import_exception!(lagrangian._errors, ArgumentError);
+    import_exception!(lagrangian._errors, ParseError);
+    import_exception!(lagrangian._errors, MechanicsError);
+    import_exception!(lagrangian._errors, CompileError);
+    import_exception!(lagrangian._errors, RhsError);
+    import_exception!(lagrangian._errors, IntegrationError);
+    import_exception!(lagrangian._errors, EvalError);
+    import_exception!(lagrangian._errors, TransformError);
+    import_exception!(lagrangian._errors, SolveError);
+    import_exception!(lagrangian._errors, PhaseSpaceError);
+    import_exception!(lagrangian._errors, LieError);
+    import_exception!(lagrangian._errors, ActionAngleError);
+    import_exception!(lagrangian._errors, AverageError);
+    import_exception!(lagrangian._errors, EnsembleError);
 }
 
-/// Registers the classes under their public names.
+/// Registers the classes under their public names in the native module too.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    let py = m.py();
-    m.add("LagrangianError", py.get_type::<exc::LagrangianError>())?;
-    m.add("ParseError", py.get_type::<exc::ParseError>())?;
-    m.add("MechanicsError", py.get_type::<exc::MechanicsError>())?;
-    m.add("CompileError", py.get_type::<exc::CompileError>())?;
-    m.add("RhsError", py.get_type::<exc::RhsError>())?;
-    m.add("IntegrationError", py.get_type::<exc::IntegrationError>())?;
-    m.add("EvalError", py.get_type::<exc::EvalError>())?;
-    m.add("TransformError", py.get_type::<exc::TransformError>())?;
-    m.add("SolveError", py.get_type::<exc::SolveError>())?;
-    m.add("PhaseSpaceError", py.get_type::<exc::PhaseSpaceError>())?;
-    m.add("LieError", py.get_type::<exc::LieError>())?;
-    m.add("ActionAngleError", py.get_type::<exc::ActionAngleError>())?;
-    m.add("AverageError", py.get_type::<exc::AverageError>())?;
-    m.add("EnsembleError", py.get_type::<exc::EnsembleError>())?;
+    let errors = m.py().import("lagrangian._errors")?;
+    for cls in errors.getattr("ALL")?.try_iter()? {
+        let cls = cls?;
+        m.add(cls.getattr("__name__")?.extract::<String>()?, cls)?;
+    }
     Ok(())
 }
 
@@ -184,9 +121,10 @@ impl ToPyErr for lagrangian::compile::EnsembleError {
 }
 
 /// An integration error keeps where it stopped as attributes: `t`, `state` (a list) and
-/// `steps`, so a caller can inspect or restart from the last good state.
-pub fn integration_error(py: Python<'_>, e: IntegrateError) -> PyErr {
-    let err = exc::IntegrationError::new_err(e.to_string());
+/// `steps`, so a caller can inspect or restart from the last good state. `message` is the
+/// simulation layer's (the state by name, and what to do about it).
+pub fn integration_error(py: Python<'_>, e: IntegrateError, message: String) -> PyErr {
+    let err = exc::IntegrationError::new_err(message);
     let value = err.value(py);
     let _ = value.setattr("t", e.t);
     let _ = value.setattr("steps", e.steps);

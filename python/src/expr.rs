@@ -9,7 +9,7 @@ use lagrangian::parse::{parse_with, Declarations};
 use lagrangian::print::{render, Format};
 use lagrangian::{Expr, Symbol};
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyFloat, PyInt, PyString, PyTuple};
 
@@ -57,7 +57,9 @@ impl PyExpr {
 /// `0.1` is `1/10`, as if typed).
 fn float_expr(x: f64) -> PyResult<Expr> {
     if !x.is_finite() {
-        return Err(PyValueError::new_err(format!("{x} cannot enter an exact expression (only finite numbers can)")));
+        return Err(exc::ArgumentError::new_err(format!(
+            "{x} cannot enter an exact expression (only finite numbers can)"
+        )));
     }
     lagrangian::parse(&format!("{x:?}")).py()
 }
@@ -99,7 +101,7 @@ pub fn to_symbol(obj: &Bound<'_, PyAny>, decls: &Declarations) -> PyResult<Symbo
     let e = to_expr(obj, decls, true)?;
     match e.as_sym() {
         Some(s) => Ok(s.clone()),
-        None => Err(PyValueError::new_err(format!("expected a symbol name, got `{e}`"))),
+        None => Err(exc::ArgumentError::new_err(format!("expected a symbol name, got `{e}`"))),
     }
 }
 
@@ -191,8 +193,9 @@ impl PyExpr {
         Ok(PyExpr::new(self.e.subs(&map), &self.decls.0))
     }
 
-    /// The names of the free symbols, sorted (``t`` included when present).
-    fn free_symbols(&self) -> Vec<String> {
+    /// The names of the free symbols, sorted (``t`` included when present); the public
+    /// ``free_symbols`` property reads it (``lagrangian/_display.py``).
+    fn _free_symbols(&self) -> Vec<String> {
         let mut v: Vec<String> = self.e.free_symbols().iter().map(|s| s.to_string()).collect();
         v.sort();
         v.dedup();
@@ -252,7 +255,7 @@ impl PyExpr {
         let mut cols = Vec::with_capacity(b.len());
         for a in &b {
             let flat = np.call_method1("ascontiguousarray", (a.call_method0("ravel")?,))?;
-            let v = crate::sim::f64_vec(&flat)?;
+            let v = crate::convert::f64_vec(&flat)?;
             if v.len() == 1 && shape.is_empty() {
                 cols.push(Column::Scalar(v[0]));
             } else {
@@ -261,7 +264,7 @@ impl PyExpr {
         }
         let points: usize = shape.iter().product();
         // Every free symbol must have a value; the compiler's error names the first missing.
-        let free: Vec<String> = self.free_symbols();
+        let free: Vec<String> = self._free_symbols();
         let input_idx: Vec<usize> = free
             .iter()
             .map(|s| {

@@ -6,12 +6,20 @@
 //! on-disk derivation cache shared with the command line. Errors become one Python exception
 //! class per engine error type (`errors.rs`). The pure-Python parts of the package (pickling
 //! helpers, progress bar, SymPy conversion, Dask sweeps) live in `lagrangian/`.
+//!
+//! Layers, each importing only those before it: `errors` and `convert` (Python arguments into
+//! engine values), `expr`, `lambdify`, `system`, then the numeric files (`progress`, `sim`, `chaos`); `cache` stands
+//! alone. No file imports one after it.
 
 use pyo3::prelude::*;
 
 mod cache;
+mod chaos;
+mod convert;
 mod errors;
 mod expr;
+mod lambdify;
+mod progress;
 mod sim;
 mod system;
 
@@ -23,8 +31,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sim::Solution>()?;
     m.add_class::<sim::EnsembleResult>()?;
     m.add_class::<sim::PyEvent>()?;
+    m.add_class::<lambdify::Lambdified>()?;
     m.add_function(wrap_pyfunction!(expr::parse, m)?)?;
     m.add_function(wrap_pyfunction!(system::poisson, m)?)?;
+    m.add_function(wrap_pyfunction!(lambdify::lambdify, m)?)?;
     m.add_function(wrap_pyfunction!(cache::cache_info, m)?)?;
     m.add_function(wrap_pyfunction!(cache::set_cache_dir, m)?)?;
     m.add("METHODS", sim::binding_methods().map(|m| m.name()).collect::<Vec<_>>())?;

@@ -6,17 +6,9 @@
 //! method registry, the choice of equations for the system (with its typed refusal when a
 //! method cannot run it), the compiled system and the drive loop. This file only translates
 //! Python arguments into a [`RunOptions`] and the [`Trajectory`] back into arrays.
-//!
-//! Progress and Ctrl-C: the drive loop reports the fraction done (stored in an atomic that the
-//! progress bar reads) and checks the engine's cancellation token
-//! ([`lagrangian::cancel::CancelToken`]) before every step; the waiting thread sets it on
-//! `KeyboardInterrupt`. The calling thread waits with the GIL released and, a few times a
-//! second, takes the GIL to draw the bar and check for the signal.
+//! Progress bars and Ctrl-C are `progress.rs`'s; reading arguments is `convert.rs`'s.
 
-use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{mpsc, Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
 
 use lagrangian::integrate::{Crossing, EventRecord};
 use lagrangian::mechanics::System;
@@ -26,13 +18,15 @@ use lagrangian::simulate::{
 };
 use lagrangian::Expr;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use crate::convert::{f64_vec, float_array, initial_state, method, relative_tolerance, span_then_states, time_span};
 use crate::errors::{exc, integration_error, PyResultExt};
 use crate::expr::to_expr;
-use crate::system::PySystem;
+use crate::progress::{progress_mode, with_progress, Control};
+use crate::system::{CompiledKey, PySystem};
 
 /// The derivations a formulation needs, from the process's derivation cache (`cache.rs`), so a
 /// worker process or a new parameter set does not derive them again.
@@ -47,35 +41,61 @@ impl Derivations for Cached {
     }
 }
 
-/// What a compiled system of a `System` is cached by: the equations a method (or a named
-/// formulation) integrates, and the form they are compiled to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum CompiledKey {
-    /// What `method` needs.
-    Method(Form),
-    /// The equations named by `System.compile(formulation=…)`, with or without the Jacobian.
-    Named(Equations, Form),
-}
-
-/// Compiled systems of one `System` (compiling is done once per process and key).
-pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
-
-/// A simulation error as Python sees it: a request the engine refuses is a `ValueError` (with
-/// the engine's hint), a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
+/// A simulation error as Python sees it: a request the engine refuses is an `ArgumentError`
+/// (a `ValueError`, with a hint in Python's terms), a start where the equations have no value
+/// an `RhsError`, a failed run an `IntegrationError`, Ctrl-C a `KeyboardInterrupt`.
 pub fn simulate_error(py: Python<'_>, e: SimulateError) -> PyErr {
     match e {
-        SimulateError::Integrate { error, .. } => integration_error(py, error),
+        SimulateError::Integrate { error, names, hint } => {
+            let msg = SimulateError::Integrate { error: error.clone(), names, hint }.to_string();
+            integration_error(py, error, msg)
+        }
         SimulateError::Cancelled => PyKeyboardInterrupt::new_err("integration interrupted"),
         SimulateError::Compile(c) => exc::CompileError::new_err(c.to_string()),
         SimulateError::Mechanics(m) => exc::MechanicsError::new_err(m.to_string()),
+        SimulateError::InitialState(reason) => exc::RhsError::new_err(format!("at the initial state: {reason}")),
         other => {
-            let msg = match other.hint() {
-                Some(h) => format!("{other} ({h})"),
-                None => other.to_string(),
+            let msg = match python_hint(&other).or_else(|| other.hint()) {
+                Some(h) => format!("{} ({h})", python_message(&other)),
+                None => python_message(&other),
             };
-            PyValueError::new_err(msg)
+            exc::ArgumentError::new_err(msg)
         }
     }
+}
+
+/// The engine's message, with the tolerance named as the Python argument (`rtol`).
+fn python_message(e: &SimulateError) -> String {
+    match e {
+        SimulateError::ToleranceBelowFloor { tol, floor, .. } => {
+            format!("rtol={tol:e} is below what f64 can meet; the smallest usable rtol is {floor:.2e}")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// What would work, in this package's keyword arguments, where the engine's hint is written
+/// in the scene language (`dt = 0.01`, `steps = 1000`, `tol = 1e-10`, `help simulate`).
+fn python_hint(e: &SimulateError) -> Option<String> {
+    let list = || simulate::method::method_names();
+    Some(match e {
+        SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
+            format!("did you mean `{s}`? lagrangian.METHODS lists them: {}", list())
+        }
+        SimulateError::UnknownMethod { suggestion: None, .. } => format!("lagrangian.METHODS lists them: {}", list()),
+        SimulateError::NeedsStep { .. } => "pass a step, dt=0.01, or use an adaptive method such as `dop853`".into(),
+        SimulateError::NeedsTolerance { .. } => {
+            "leave out dt= and set rtol= (and atol=) if needed, or pick a fixed-step method such as `gauss6` or `rk4`"
+                .into()
+        }
+        SimulateError::ToleranceBelowFloor { method: MethodId::Taylor, .. } => {
+            "leave out rtol=: the Taylor method defaults to machine precision".into()
+        }
+        SimulateError::ToleranceBelowFloor { .. } => {
+            "use rtol=1e-14 (DOP853 at 1e-14 is already near the rounding floor)".into()
+        }
+        _ => return None,
+    })
 }
 
 /// The compiled system of `s` under `key`, from its cache or compiled now (GIL released).
@@ -117,40 +137,6 @@ pub fn compiled_for_method(py: Python<'_>, s: &PySystem, method: MethodId) -> Py
 /// The methods the binding runs: every method of the registry.
 pub fn binding_methods() -> impl Iterator<Item = MethodId> {
     MethodId::all()
-}
-
-/// The method called `name`, or a `ValueError` with the closest name and the list.
-pub fn method(name: &str) -> PyResult<MethodId> {
-    MethodId::from_name(name).ok_or_else(|| {
-        let e = SimulateError::unknown_method(name);
-        let list = simulate::method::method_names();
-        match &e {
-            SimulateError::UnknownMethod { suggestion: Some(s), .. } => {
-                PyValueError::new_err(format!("unknown method `{name}`: did you mean `{s}`? (the methods are {list})"))
-            }
-            _ => PyValueError::new_err(format!("unknown method `{name}`; the methods are {list}")),
-        }
-    })
-}
-
-/// The elements of an array as float64 in C order. (An empty array is handled apart: its
-/// data pointer need not be aligned, which a slice requires.)
-pub fn f64_vec(a: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-    let a = float_array(a)?;
-    let arr = a.downcast::<numpy::PyArrayDyn<f64>>()?.readonly();
-    if arr.len() == 0 {
-        return Ok(Vec::new());
-    }
-    Ok(arr.as_slice()?.to_vec())
-}
-
-/// Reads a float64 array of any shape (converting lists and integer arrays), C-contiguous
-/// and aligned.
-fn float_array<'py>(y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-    // Aligned as well as C-contiguous: arrays unpickled from a byte stream (a Dask worker's
-    // input) may start at any address, and a slice needs an aligned one.
-    let np = y.py().import("numpy")?;
-    np.call_method1("require", (y, "float64", "CA"))
 }
 
 /// A compiled right-hand side ``f(t, y)`` (returned by :meth:`System.compile`).
@@ -230,20 +216,37 @@ impl CompiledRhs {
     /// ``solve_ivp(f, …, method="Radau", jac=f.jac)``.
     fn jac<'py>(&self, py: Python<'py>, t: f64, y: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.names.len();
-        let a = float_array(y)?;
-        let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-        if shape != [n] {
-            return Err(PyValueError::new_err(format!(
-                "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
+        let c = self.jacobian_code(py)?;
+        let mut j = vec![0.0; n * n];
+        // Fast path, as in `__call__`: an aligned contiguous float64 vector (what solve_ivp
+        // passes) is read in place; `numpy.require` alone cost more than the Jacobian.
+        let fast = y.extract::<PyReadonlyArray1<'py, f64>>().ok();
+        let owned;
+        let v: &[f64] = match fast.as_ref().and_then(|v| v.as_slice().ok()) {
+            Some(s) => s,
+            None => {
+                let a = float_array(y)?;
+                let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+                if shape != [n] {
+                    return Err(exc::ArgumentError::new_err(format!(
+                        "y has shape {shape:?}; the Jacobian takes one state of shape ({n},) ({})",
+                        self.names.join(", ")
+                    )));
+                }
+                owned = f64_vec(&a)?;
+                &owned
+            }
+        };
+        if v.len() != n {
+            return Err(exc::ArgumentError::new_err(format!(
+                "y has shape ({},); the Jacobian takes one state of shape ({n},) ({})",
+                v.len(),
                 self.names.join(", ")
             )));
         }
-        let v = f64_vec(&a)?;
-        let c = self.jacobian_code(py)?;
-        let mut j = vec![0.0; n * n];
-        match c.system.try_jacobian(t, &v, &mut j) {
+        match c.system.try_jacobian(t, v, &mut j) {
             Some(r) => r.py()?,
-            None => return Err(PyValueError::new_err("this formulation has no compiled Jacobian")),
+            None => return Err(exc::ArgumentError::new_err("this formulation has no compiled Jacobian")),
         }
         Ok(PyArray1::from_vec(py, j).reshape([n, n])?.into_any())
     }
@@ -253,7 +256,7 @@ impl CompiledRhs {
         // Fast path: a contiguous float64 vector, as solve_ivp passes.
         if let Ok(v) = y.extract::<PyReadonlyArray1<'py, f64>>() {
             if v.len() != n {
-                return Err(PyValueError::new_err(format!(
+                return Err(exc::ArgumentError::new_err(format!(
                     "y has shape ({},); expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                     v.len(),
                     self.names.join(", ")
@@ -263,7 +266,7 @@ impl CompiledRhs {
             let slice = if aligned { v.as_slice().ok() } else { None };
             if let Some(s) = slice {
                 if s.len() != n {
-                    return Err(PyValueError::new_err(format!(
+                    return Err(exc::ArgumentError::new_err(format!(
                         "y has shape ({},); expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                         s.len(),
                         self.names.join(", ")
@@ -316,7 +319,7 @@ impl CompiledRhs {
                 let out = out.map_err(exc::RhsError::new_err)?;
                 Ok(PyArray1::from_vec(py, out).reshape([n, k])?.into_any())
             }
-            _ => Err(PyValueError::new_err(format!(
+            _ => Err(exc::ArgumentError::new_err(format!(
                 "y has shape {shape:?}; expected ({n},) for one state or ({n}, k) for k states as columns (state: {})",
                 self.names.join(", ")
             ))),
@@ -336,155 +339,19 @@ fn formulation_name(eq: Equations) -> &'static str {
     }
 }
 
-/// Where an integration is, shared between the integrating thread and the one drawing the
-/// progress bar.
-#[derive(Default)]
-pub struct Control {
-    /// The fraction of the span done, as `f64` bits.
-    fraction: AtomicU64,
-    cancel: lagrangian::cancel::CancelToken,
-}
-
-impl Control {
-    fn fraction(&self) -> f64 {
-        f64::from_bits(self.fraction.load(Ordering::Relaxed))
-    }
-}
-
 /// The first-order right-hand side of a compiled system (every form Python compiles has one).
 fn rhs_of(c: &Compiled) -> PyResult<&dyn lagrangian::integrate::Rhs> {
-    c.system.rhs().ok_or_else(|| PyValueError::new_err("a discrete variational map has no right-hand side f(t, y)"))
+    c.system
+        .rhs()
+        .ok_or_else(|| exc::ArgumentError::new_err("a discrete variational map has no right-hand side f(t, y)"))
 }
 
-/// How a progress bar is shown.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub enum ProgressMode {
-    /// No bar (Ctrl-C is still polled).
-    Off,
-    /// A bar once the run has taken more than a second.
-    Auto,
-    /// A bar from the start.
-    On,
-}
-
-pub fn progress_mode(p: Option<bool>) -> ProgressMode {
-    match p {
-        None => ProgressMode::Auto,
-        Some(true) => ProgressMode::On,
-        Some(false) => ProgressMode::Off,
-    }
-}
-
-/// How often the waiting thread checks for Ctrl-C (and redraws the bar): well inside the
-/// 0.2 s in which an interrupt must reach the caller.
-const POLL: Duration = Duration::from_millis(40);
-
-/// What the waiting thread does with the result of one call into Python (the bar's creation,
-/// update or close). A `KeyboardInterrupt` raised inside that Python code (the interpreter
-/// runs its signal handlers there) is the user's Ctrl-C: it cancels the run and is kept to be
-/// raised. Any other failure of the bar only turns the bar off: a display problem must not
-/// stop a computation.
-fn bar_result<T>(
-    py: Python<'_>,
-    r: PyResult<T>,
-    ctl: &Control,
-    interrupted: &mut Option<PyErr>,
-    broken: &mut bool,
-) -> Option<T> {
-    match r {
-        Ok(v) => Some(v),
-        Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
-            ctl.cancel.cancel();
-            interrupted.get_or_insert(e);
-            None
-        }
-        Err(_) => {
-            *broken = true;
-            None
-        }
-    }
-}
-
-/// Runs `work` with the GIL released on a scoped thread while this one waits, checking for
-/// Ctrl-C every [`POLL`] (a signal cancels the run through `ctl` and is raised once `work`
-/// has stopped, leaving every object usable) and, unless `mode` is `Off`, drawing the bar
-/// (`fraction()` in [0, 1]). Every path polls: with `progress=False` too, and while the bar is
-/// created, updated and closed.
-fn with_progress<R: Send>(
-    py: Python<'_>,
-    mode: ProgressMode,
-    label: &str,
-    ctl: &Control,
-    fraction: impl Fn() -> f64 + Send + Sync,
-    work: impl FnOnce() -> R + Send,
-) -> PyResult<R> {
-    let (result, interrupted) = py.allow_threads(|| {
-        std::thread::scope(|s| {
-            let (tx, rx) = mpsc::channel();
-            s.spawn(move || {
-                let _ = tx.send(work());
-            });
-            let start = Instant::now();
-            let mut bar: Option<PyObject> = None;
-            let mut broken = mode == ProgressMode::Off;
-            let mut interrupted: Option<PyErr> = None;
-            let delay = if mode == ProgressMode::On { Duration::ZERO } else { Duration::from_secs(1) };
-            let poll = |bar: &mut Option<PyObject>, broken: &mut bool, interrupted: &mut Option<PyErr>| {
-                Python::with_gil(|py| {
-                    if let Err(e) = py.check_signals() {
-                        ctl.cancel.cancel();
-                        interrupted.get_or_insert(e);
-                    }
-                    if interrupted.is_some() || *broken {
-                        return;
-                    }
-                    if bar.is_none() && start.elapsed() >= delay {
-                        let made = py
-                            .import("lagrangian._progress")
-                            .and_then(|m| m.getattr("Bar")?.call1((label,)))
-                            .map(Bound::unbind);
-                        *bar = bar_result(py, made, ctl, interrupted, broken);
-                    }
-                    if let Some(b) = bar.as_ref() {
-                        let r = b.call_method1(py, "update", (fraction().clamp(0.0, 1.0),));
-                        bar_result(py, r, ctl, interrupted, broken);
-                    }
-                })
-            };
-            if mode == ProgressMode::On {
-                poll(&mut bar, &mut broken, &mut interrupted);
-            }
-            let result = loop {
-                match rx.recv_timeout(POLL) {
-                    Ok(r) => break Some(r),
-                    Err(mpsc::RecvTimeoutError::Disconnected) => break None,
-                    Err(mpsc::RecvTimeoutError::Timeout) => poll(&mut bar, &mut broken, &mut interrupted),
-                }
-            };
-            if let Some(b) = bar {
-                Python::with_gil(|py| {
-                    if interrupted.is_none() {
-                        let r = b.call_method1(py, "update", (1.0,));
-                        bar_result(py, r, ctl, &mut interrupted, &mut broken);
-                    }
-                    let r = b.call_method0(py, "close");
-                    bar_result(py, r, ctl, &mut interrupted, &mut broken);
-                });
-            }
-            (result, interrupted)
-        })
-    });
-    // A signal that arrived after the last poll is raised now, not left for a later call.
-    py.check_signals()?;
-    if let Some(e) = interrupted {
-        return Err(e);
-    }
-    result.ok_or_else(|| PyRuntimeError::new_err("the integration thread ended without a result (it panicked)"))
-}
-
-/// Whether two arrays (or lists of arrays) hold the same shapes and values, NaN equal to NaN
-/// (a failed ensemble row is NaN).
+/// Whether two arrays (or lists of arrays, or `None`s) hold the same shapes and values, NaN
+/// equal to NaN (a failed ensemble row is NaN).
 fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<bool> {
+    if a.is_none() || b.is_none() {
+        return Ok(a.is_none() && b.is_none());
+    }
     if let (Ok(a), Ok(b)) = (a.downcast::<PyList>(), b.downcast::<PyList>()) {
         if a.len() != b.len() {
             return Ok(false);
@@ -503,51 +370,6 @@ fn arrays_equal(py: Python<'_>, a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> P
     np.call_method("array_equal", (a, b), Some(&kw))?.extract()
 }
 
-/// Reads ``t_span``: any two numbers (a tuple, a list, a NumPy array), as SciPy takes it.
-fn time_span(t_span: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
-    let bad = || {
-        PyValueError::new_err(format!(
-            "t_span must be two numbers (t0, t1): a tuple, a list or an array; got {}",
-            t_span.repr().map(|r| r.to_string()).unwrap_or_else(|_| "an unprintable object".into())
-        ))
-    };
-    if t_span.is_instance_of::<pyo3::types::PyString>() {
-        return Err(bad());
-    }
-    let a = float_array(t_span).map_err(|_| bad())?;
-    let v = f64_vec(&a.call_method0("ravel")?).map_err(|_| bad())?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    match (shape.as_slice(), v.as_slice()) {
-        ([2], [t0, t1]) => Ok((*t0, *t1)),
-        _ => Err(bad()),
-    }
-}
-
-/// SciPy's names for the tolerances: ``rtol`` (``tol`` is its older name here, kept as an
-/// alias) and ``atol``. Both names at once must agree.
-fn relative_tolerance(rtol: Option<f64>, tol: Option<f64>) -> PyResult<Option<f64>> {
-    match (rtol, tol) {
-        (Some(r), Some(t)) if r != t => Err(PyValueError::new_err(format!(
-            "rtol={r} and tol={t} disagree: tol is another name for rtol, so give one of them"
-        ))),
-        (r, t) => Ok(r.or(t)),
-    }
-}
-
-/// Refuses a start with a NaN or an infinite component: an argument error (`ValueError`),
-/// not a failed integration.
-fn finite_state(y0: &[f64], names: &[String]) -> PyResult<()> {
-    match y0.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(PyValueError::new_err(format!(
-            "the initial value of `{}` is {}: every component of y0 must be a finite number (the state is {})",
-            names[i],
-            y0[i],
-            names.join(", ")
-        ))),
-        None => Ok(()),
-    }
-}
-
 /// Refuses a start where a coordinate declared positive (`positive=["r"]`) is not: the
 /// equations were simplified on that assumption (`sqrt(r²) = r`). Only the start is checked;
 /// a trajectory that later crosses zero is the equations' business.
@@ -556,7 +378,7 @@ fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
     for q in sys.coordinates() {
         let Some(i) = names.iter().position(|n| n == q.name()) else { continue };
         if positive.contains(q.name()) && y0[i] <= 0.0 {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "`{q}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot start at {}; start it above 0, or build the system without `{q}` in positive=",
                 y0[i]
             )));
@@ -565,42 +387,20 @@ fn positive_start(sys: &System, names: &[String], y0: &[f64]) -> PyResult<()> {
     Ok(())
 }
 
-/// Reads `y0`: an array of `n` numbers, or a dict by state name.
-fn initial_state(y0: &Bound<'_, PyAny>, names: &[String]) -> PyResult<Vec<f64>> {
-    if let Ok(d) = y0.downcast::<PyDict>() {
-        let mut out = vec![f64::NAN; names.len()];
-        for (k, v) in d.iter() {
-            let k: String = k.extract()?;
-            let Some(i) = names.iter().position(|n| *n == k) else {
-                return Err(PyValueError::new_err(format!(
-                    "`{k}` is not a state variable of this integration (the state is {})",
-                    names.join(", ")
-                )));
-            };
-            out[i] = v.extract()?;
-        }
-        finite_state(&out, names)?;
-        if let Some(i) = out.iter().position(|v| v.is_nan()) {
-            return Err(PyValueError::new_err(format!(
-                "no initial value for `{}` (the state is {})",
-                names[i],
-                names.join(", ")
-            )));
-        }
-        return Ok(out);
-    }
-    let a = float_array(y0)?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    if shape.len() != 1 || shape[0] != names.len() {
-        return Err(PyValueError::new_err(format!(
-            "y0 has shape {shape:?}; expected ({},) for the state ({})",
-            names.len(),
-            names.join(", ")
-        )));
-    }
-    let v = f64_vec(&a)?;
-    finite_state(&v, names)?;
-    Ok(v)
+/// Refuses a start where the equations have no value (a singular mass matrix at `y0`): `y0` is
+/// the bad argument, so it is an `RhsError` (a `ValueError`) naming the start, not an
+/// `IntegrationError` of a run that "stopped" at `t0` before its first step.
+fn admissible_start(c: &Compiled, t0: f64, y0: &[f64], names: &[String]) -> PyResult<()> {
+    let Some(rhs) = c.system.rhs() else { return Ok(()) };
+    let mut dy = vec![0.0; y0.len()];
+    rhs.try_eval(t0, y0, &mut dy).map_err(|e| {
+        let start: Vec<String> = names.iter().zip(y0).map(|(n, v)| format!("{n} = {v:?}")).collect();
+        exc::RhsError::new_err(format!(
+            "at the initial state ({}): {}; start where the equations have a value",
+            start.join(", "),
+            e.reason
+        ))
+    })
 }
 
 /// Reads the arguments shared by `integrate` and `ensemble` into the engine's run options,
@@ -627,7 +427,7 @@ fn run_spec(
     opts.rtol = tol;
     opts.atol = atol;
     if max_steps == Some(0) {
-        return Err(PyValueError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
+        return Err(exc::ArgumentError::new_err("max_steps must be at least 1 (None: the engine's default budget)"));
     }
     opts.max_steps = max_steps;
     opts.compensated = compensated;
@@ -708,6 +508,8 @@ pub struct Solution {
     t_events: PyObject,
     #[pyo3(get)]
     y_events: PyObject,
+    /// ``None``, or with ``dense_output=True`` the continuous solution ``sol(t)``.
+    sol: PyObject,
     /// ``"end"`` (the end of ``t_span`` was reached) or ``"event"`` (a terminal event).
     #[pyo3(get)]
     stop: &'static str,
@@ -753,12 +555,14 @@ impl Solution {
         }
     }
 
-    /// ``None``, as SciPy's without ``dense_output=True``: the drive loop does not keep its
-    /// steps' interpolants after a run. Ask for the states at chosen times with ``t_eval``,
-    /// which samples those interpolants during the run.
+    /// The continuous solution with ``integrate(..., dense_output=True)``, else ``None``, as
+    /// SciPy's: ``sol(t)`` is the state at ``t`` (``(n,)``) or at an array of times
+    /// (``(n, m)``), the cubic Hermite interpolant of the accepted steps (error ``O(h⁴)``;
+    /// see ``lagrangian._dense``). ``t_eval`` samples the method's own, more accurate, dense
+    /// output during the run.
     #[getter]
     fn sol(&self, py: Python<'_>) -> PyObject {
-        py.None()
+        self.sol.clone_ref(py)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -781,6 +585,7 @@ impl Solution {
         d.set_item("names", self.names.clone())?;
         d.set_item("t_events", self.t_events.clone_ref(py))?;
         d.set_item("y_events", self.y_events.clone_ref(py))?;
+        d.set_item("sol", self.sol.clone_ref(py))?;
         d.set_item("stop", self.stop)?;
         d.set_item("method", self.method)?;
         d.set_item("steps", self.steps)?;
@@ -793,11 +598,11 @@ impl Solution {
     #[staticmethod]
     fn _restore(d: &Bound<'_, PyDict>) -> PyResult<Solution> {
         let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled Solution without `{k}`")))
+            d.get_item(k)?.ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled Solution without `{k}`")))
         };
         let method: String = get("method")?.extract()?;
         let method = MethodId::from_name(&method)
-            .ok_or_else(|| PyValueError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
+            .ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled Solution of an unknown method `{method}`")))?
             .name();
         let stop: String = get("stop")?.extract()?;
         Ok(Solution {
@@ -806,6 +611,10 @@ impl Solution {
             names: get("names")?.extract()?,
             t_events: get("t_events")?.unbind(),
             y_events: get("y_events")?.unbind(),
+            sol: match d.get_item("sol")? {
+                Some(s) => s.unbind(),
+                None => d.py().None(),
+            },
             stop: if stop == "event" { "event" } else { "end" },
             method,
             steps: get("steps")?.extract()?,
@@ -826,7 +635,8 @@ impl Solution {
             && same(&self.t, &o.t)?
             && same(&self.y, &o.y)?
             && same(&self.t_events, &o.t_events)?
-            && same(&self.y_events, &o.y_events)?)
+            && same(&self.y_events, &o.y_events)?
+            && self.sol.bind(py).eq(o.sol.bind(py))?)
     }
 
     /// The row of ``y`` for the state variable ``name`` (``sol["θ1"]``).
@@ -847,6 +657,7 @@ fn solution(
     names: Vec<String>,
     n_events: usize,
     method: &'static str,
+    sol: PyObject,
 ) -> PyResult<Solution> {
     let n = names.len();
     let k = out.t.len();
@@ -857,27 +668,62 @@ fn solution(
             y[i * k + j] = *v;
         }
     }
-    let t_events = PyList::empty(py);
-    let y_events = PyList::empty(py);
-    for e in 0..n_events {
-        let recs: Vec<&EventRecord> = out.events.iter().filter(|r| r.index == e).collect();
-        let ts: Vec<f64> = recs.iter().map(|r| r.t).collect();
-        let ys: Vec<f64> = recs.iter().flat_map(|r| r.state.iter().copied()).collect();
-        t_events.append(PyArray1::from_vec(py, ts))?;
-        y_events.append(PyArray1::from_vec(py, ys).reshape([recs.len(), n])?)?;
-    }
+    // SciPy's: `None` when no events were asked for, else one array per event.
+    let (t_events, y_events) = if n_events == 0 {
+        (py.None(), py.None())
+    } else {
+        let t_events = PyList::empty(py);
+        let y_events = PyList::empty(py);
+        for e in 0..n_events {
+            let recs: Vec<&EventRecord> = out.events.iter().filter(|r| r.index == e).collect();
+            let ts: Vec<f64> = recs.iter().map(|r| r.t).collect();
+            let ys: Vec<f64> = recs.iter().flat_map(|r| r.state.iter().copied()).collect();
+            t_events.append(PyArray1::from_vec(py, ts))?;
+            y_events.append(PyArray1::from_vec(py, ys).reshape([recs.len(), n])?)?;
+        }
+        (t_events.into_any().unbind(), y_events.into_any().unbind())
+    };
     Ok(Solution {
         t: PyArray1::from_vec(py, out.t).into_any().unbind(),
         y: PyArray1::from_vec(py, y).reshape([n, k])?.into_any().unbind(),
         names,
-        t_events: t_events.into_any().unbind(),
-        y_events: y_events.into_any().unbind(),
+        t_events,
+        y_events,
+        sol,
         stop: if out.stopped_by.is_some() { "event" } else { "end" },
         method,
         steps: out.steps,
         rejected: out.rejected,
         nfev: out.evaluations,
     })
+}
+
+/// ``lagrangian._dense.DenseSolution`` of the accepted steps of `steps`: their states and the
+/// right-hand side at each (evaluated here, with the GIL released; not counted in ``nfev``).
+fn dense_solution(py: Python<'_>, rhs: &dyn lagrangian::integrate::Rhs, steps: &Trajectory) -> PyResult<PyObject> {
+    let (k, n) = (steps.t.len(), steps.y.first().map_or(0, Vec::len));
+    let derivatives = py.allow_threads(|| -> Result<Vec<f64>, String> {
+        let mut dy = vec![0.0; n * k];
+        let mut d = vec![0.0; n];
+        for (j, (t, y)) in steps.t.iter().zip(&steps.y).enumerate() {
+            rhs.try_eval(*t, y, &mut d).map_err(|e| format!("at t = {t}: {}", e.reason))?;
+            for i in 0..n {
+                dy[i * k + j] = d[i];
+            }
+        }
+        Ok(dy)
+    });
+    let dy = derivatives.map_err(exc::RhsError::new_err)?;
+    let mut y = vec![0.0; n * k];
+    for (j, state) in steps.y.iter().enumerate() {
+        for (i, v) in state.iter().enumerate() {
+            y[i * k + j] = *v;
+        }
+    }
+    let ts = PyArray1::from_vec(py, steps.t.clone());
+    let ys = PyArray1::from_vec(py, y).reshape([n, k])?;
+    let dys = PyArray1::from_vec(py, dy).reshape([n, k])?;
+    Ok(py.import("lagrangian._dense")?.getattr("DenseSolution")?.call1((ts, ys, dys))?.unbind())
 }
 
 /// The result of :meth:`System.ensemble`: final times ``t`` ``(k,)`` and states ``y``
@@ -915,7 +761,7 @@ impl EnsembleResult {
     #[staticmethod]
     fn _restore(d: &Bound<'_, PyDict>) -> PyResult<EnsembleResult> {
         let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?.ok_or_else(|| PyValueError::new_err(format!("a pickled EnsembleResult without `{k}`")))
+            d.get_item(k)?.ok_or_else(|| exc::ArgumentError::new_err(format!("a pickled EnsembleResult without `{k}`")))
         };
         Ok(EnsembleResult {
             t: get("t")?.unbind(),
@@ -966,7 +812,7 @@ impl PySystem {
             Some("hamiltonian") => Equations::Hamiltonian,
             Some("separable") => Equations::Separable,
             Some(other) => {
-                return Err(PyValueError::new_err(format!(
+                return Err(exc::ArgumentError::new_err(format!(
                     "unknown formulation `{other}` (lagrangian, hamiltonian or separable)"
                 )))
             }
@@ -995,10 +841,12 @@ impl PySystem {
     /// step. ``events`` is a list of expressions or :class:`Event` objects, located on the
     /// step's interpolant; with ``t_eval`` too, as in SciPy, events are watched over the whole
     /// span and a terminal one ends the output at the last ``t_eval`` time before it.
-    /// The GIL is
+    /// ``dense_output=True`` adds ``sol``, the continuous solution ``sol(t)`` (see
+    /// :attr:`Solution.sol`); it needs every step (``every=1``) and a right-hand side (not the
+    /// discrete ``variational`` maps). The GIL is
     /// released while the engine integrates; runs longer than a second show a progress bar
     /// (``progress=True`` at once, ``False`` never) and Ctrl-C stops them.
-    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None))]
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, every=1, max_steps=None, compensated=false, progress=None, dense_output=false))]
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &self,
@@ -1016,16 +864,36 @@ impl PySystem {
         max_steps: Option<usize>,
         compensated: bool,
         progress: Option<bool>,
+        dense_output: bool,
     ) -> PyResult<Solution> {
         let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         let names = c.state.clone();
         let y0 = initial_state(y0, &names)?;
         positive_start(&self.sys, &names, &y0)?;
+        admissible_start(&c, t_span.0, &y0, &names)?;
         if every == 0 {
-            return Err(PyValueError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
+            return Err(exc::ArgumentError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
         }
         opts.sampling = Sampling::Every(every);
+        if dense_output && every != 1 {
+            return Err(exc::ArgumentError::new_err(format!(
+                "dense_output=True interpolates between the accepted steps, so it needs every step: leave out every={every}, or use t_eval for chosen times"
+            )));
+        }
+        let dense_rhs = match (dense_output, c.system.rhs()) {
+            (false, _) => None,
+            (true, Some(r)) => Some(r),
+            (true, None) => {
+                return Err(exc::ArgumentError::new_err(format!(
+                    "dense_output=True needs the equations' right-hand side, and `{}` is a discrete map without one: use t_eval for chosen times, or a method such as `gauss6`",
+                    opts.method.name()
+                )))
+            }
+        };
+        // With t_eval, the states at those times come from the method's dense output during
+        // the run, and the interpolant from a second run that keeps every step.
+        let mut step_opts = opts.clone();
         if let Some(te) = t_eval {
             let a = float_array(te)?;
             opts.sampling = Sampling::Times(f64_vec(&a.call_method0("ravel")?)?);
@@ -1035,32 +903,53 @@ impl PySystem {
         opts.cancel = Some(ctl.cancel.clone());
         let n_events = opts.events.len();
         let name = opts.method.name();
-        let result = with_progress(
+        step_opts.cancel = opts.cancel.clone();
+        let second_run = dense_output && t_eval.is_some();
+        let (result, steps) = with_progress(
             py,
             progress_mode(progress),
             name,
             &ctl,
             || ctl.fraction(),
-            || simulate::integrate(&c, &y0, &opts, &mut |f| ctl.fraction.store(f.to_bits(), Ordering::Relaxed)),
+            || {
+                let out = simulate::integrate(&c, &y0, &opts, &mut |f| ctl.report(f));
+                let steps = (second_run && out.is_ok())
+                    .then(|| simulate::integrate(&c, &y0, &step_opts, &mut |f| ctl.report(f)));
+                (out, steps)
+            },
         )?;
-        match result {
-            Ok(out) => solution(py, out, names, n_events, name),
-            Err(e) => Err(simulate_error(py, e)),
-        }
+        let out = result.map_err(|e| simulate_error(py, e))?;
+        let sol = match dense_rhs {
+            None => py.None(),
+            Some(rhs) => {
+                let steps = match steps {
+                    Some(r) => r.map_err(|e| simulate_error(py, e))?,
+                    None => out.clone(),
+                };
+                dense_solution(py, rhs, &steps)?
+            }
+        };
+        solution(py, out, names, n_events, name, sol)
     }
 
-    /// Integrates many initial states ``Y0`` (shape ``(k, n)``, one state per row) over
+    /// Integrates many initial states ``y0`` (shape ``(k, n)``, one state per row) over
     /// ``t_span`` in parallel (rayon; ``threads`` workers, default all cores) and returns
     /// their final states as an :class:`EnsembleResult`. One trajectory's failure does not
-    /// stop the others. The arguments are those of :meth:`integrate`; a terminal event ends
-    /// each trajectory at its crossing (``t`` then holds the crossing times).
-    #[pyo3(signature = (y0, t_span, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    /// stop the others. The arguments are those of :meth:`integrate`, in its order
+    /// (``t_span`` first); a terminal event ends each trajectory at its crossing (``t`` then
+    /// holds the crossing times).
+    ///
+    /// Layout: ``y0`` and the result's ``y`` are ``(k, n)``, one row per trajectory, not
+    /// SciPy's ``(n, k)``: SciPy's columns are the times of one trajectory, here the axis is
+    /// the trajectories, and one row per item is how NumPy stacks states
+    /// (``np.array([s1, s2])``) and how pandas shows them.
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
         py: Python<'_>,
-        y0: &Bound<'_, PyAny>,
         t_span: &Bound<'_, PyAny>,
+        y0: &Bound<'_, PyAny>,
         method: Option<&str>,
         dt: Option<f64>,
         rtol: Option<f64>,
@@ -1072,7 +961,7 @@ impl PySystem {
         threads: Option<usize>,
         progress: Option<bool>,
     ) -> PyResult<EnsembleResult> {
-        let (t_span, tol) = (time_span(t_span)?, relative_tolerance(rtol, tol)?);
+        let (t_span, tol) = (span_then_states(t_span, y0, "ensemble")?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         opts.sampling = Sampling::Final;
         let names = c.state.clone();
@@ -1080,8 +969,8 @@ impl PySystem {
         let a = float_array(y0)?;
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
         if shape.len() != 2 || shape[1] != n {
-            return Err(PyValueError::new_err(format!(
-                "Y0 has shape {shape:?}; expected (k, {n}): one state ({}) per row",
+            return Err(exc::ArgumentError::new_err(format!(
+                "y0 has shape {shape:?}; expected (k, {n}): one state ({}) per row",
                 names.join(", ")
             )));
         }
@@ -1099,11 +988,7 @@ impl PySystem {
             "ensemble",
             &ctl,
             || ctl.fraction(),
-            || {
-                simulate::ensemble(&c, &starts, &opts, threads, &mut |f| {
-                    ctl.fraction.store(f.to_bits(), Ordering::Relaxed)
-                })
-            },
+            || simulate::ensemble(&c, &starts, &opts, threads, &mut |f| ctl.report(f)),
         )?;
         if ctl.cancel.is_cancelled() {
             return Err(PyKeyboardInterrupt::new_err("ensemble interrupted"));

@@ -8,14 +8,26 @@ use lagrangian::canonical::{self, Generator, GeneratorKind, PhaseSpace, Trial};
 use lagrangian::mechanics::{Kind, System};
 use lagrangian::parse::{parse_with, Declarations};
 use lagrangian::print::{render, Format};
+use lagrangian::simulate::{Compiled, Equations, Form};
 use lagrangian::{Expr, Symbol};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::errors::PyResultExt;
+use crate::errors::{exc, PyResultExt};
 use crate::expr::{declarations, to_expr, to_symbol, PyExpr};
-use crate::sim::CompiledCache;
+
+/// What a compiled system of a `System` is cached by: the equations a method (or a named
+/// formulation) integrates, and the form they are compiled to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompiledKey {
+    /// What `method` needs.
+    Method(Form),
+    /// The equations named by `System.compile(formulation=…)`, with or without the Jacobian.
+    Named(Equations, Form),
+}
+
+/// Compiled systems of one `System` (compiling is done once per process and key).
+pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
 
 /// A mechanical system given by a Lagrangian ``L(q, q', t)`` or a Hamiltonian
 /// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation and
@@ -182,13 +194,13 @@ fn check_momenta(sys: &System) -> PyResult<()> {
             Some(n) => format!("; `{n}` is not one of them, so it was taken as a parameter"),
             None => String::new(),
         };
-        return Err(PyValueError::new_err(format!(
+        return Err(exc::ArgumentError::new_err(format!(
             "H does not contain `{p}`, the momentum of `{q}`, so {q}' = ∂H/∂{p} = 0 and `{q}` would never move ({named}{took}); write `{p}` for the momentum of `{q}`, or leave `{q}` out of the coordinates if it is a fixed quantity"
         )));
     }
     if let Some(n) = params.iter().find(|n| n.starts_with("p_") || n.starts_with("P_")) {
         let base = &n[2..];
-        return Err(PyValueError::new_err(format!(
+        return Err(exc::ArgumentError::new_err(format!(
             "`{n}` in H looks like the momentum of `{base}`, but `{base}` is not a coordinate, so `{n}` would be a constant parameter ({named}); add `{base}` to the coordinates, or rename the parameter"
         )));
     }
@@ -203,7 +215,7 @@ fn with_params(sys: System, values: &Bound<'_, PyDict>) -> PyResult<System> {
     for (k, v) in values.iter() {
         let (name, value): (String, f64) = (k.extract()?, v.extract()?);
         if value <= 0.0 && sys.declarations().positive.contains(&name) {
-            return Err(PyValueError::new_err(format!(
+            return Err(exc::ArgumentError::new_err(format!(
                 "`{name}` was declared positive (positive=[…]) and the equations were simplified on that assumption, so it cannot be {value}; give a positive value, or build the system without `{name}` in positive="
             )));
         }
@@ -456,7 +468,9 @@ impl PySystem {
             "latex" => Some(Format::Latex),
             "json" => None,
             other => {
-                return Err(PyValueError::new_err(format!("unknown format `{other}`: plain, unicode, latex or json")))
+                return Err(exc::ArgumentError::new_err(format!(
+                    "unknown format `{other}`: plain, unicode, latex or json"
+                )))
             }
         };
         let sys = &self.sys;
@@ -474,7 +488,7 @@ impl PySystem {
             })
             .py()?;
         let Some(lines) = lines else {
-            return Err(PyValueError::new_err(format!("unknown derivation `{what}`: one of {WHAT}")));
+            return Err(exc::ArgumentError::new_err(format!("unknown derivation `{what}`: one of {WHAT}")));
         };
         Ok(match fmt {
             Some(f) => report::render_lines(&lines, f).join("\n"),
@@ -572,7 +586,9 @@ impl PySystem {
             "F2" | "f2" => GeneratorKind::F2,
             "F3" | "f3" => GeneratorKind::F3,
             "F4" | "f4" => GeneratorKind::F4,
-            other => return Err(PyValueError::new_err(format!("unknown generator kind `{other}` (F1, F2, F3 or F4)"))),
+            other => {
+                return Err(exc::ArgumentError::new_err(format!("unknown generator kind `{other}` (F1, F2, F3 or F4)")))
+            }
         };
         let decls = self.decls().clone();
         let f = to_expr(generator, &decls, true)?;
@@ -630,7 +646,7 @@ impl PySystem {
     /// and ``error_estimate``.
     fn action_frequency<'py>(&self, py: Python<'py>, energy: f64, inside: f64) -> PyResult<Bound<'py, PyDict>> {
         if self.sys.coordinates().len() != 1 {
-            return Err(PyValueError::new_err("action-angle variables are computed for one degree of freedom"));
+            return Err(exc::ArgumentError::new_err("action-angle variables are computed for one degree of freedom"));
         }
         let h = self.h(py)?;
         let q = &self.sys.coordinates()[0];
@@ -660,7 +676,7 @@ impl PySystem {
         amplitudes: Vec<String>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let Some(l) = self.sys.lagrangian() else {
-            return Err(crate::errors::exc::MechanicsError::new_err("error: averaging needs a Lagrangian system"));
+            return Err(exc::MechanicsError::new_err("error: averaging needs a Lagrangian system"));
         };
         let decls = self.decls().clone();
         let mut ts = Vec::new();
@@ -690,9 +706,9 @@ impl PySystem {
     /// Hamiltonian system or a splitting method.
     #[pyo3(signature = (method=None))]
     fn state_names(&self, method: Option<&str>) -> PyResult<Vec<String>> {
-        let m = method.map_or(Ok(lagrangian::simulate::DEFAULT_METHOD), crate::sim::method)?;
+        let m = method.map_or(Ok(lagrangian::simulate::DEFAULT_METHOD), crate::convert::method)?;
         let route = lagrangian::simulate::route(m, &lagrangian::simulate::shape_of(&self.sys))
-            .map_err(|r| pyo3::exceptions::PyValueError::new_err(format!("{r} ({})", r.hint())))?;
+            .map_err(|r| exc::ArgumentError::new_err(format!("{r} ({})", r.hint())))?;
         let second = if route.has_velocities() { self.sys.velocities() } else { self.sys.momenta() };
         Ok(self.sys.coordinates().iter().chain(second).map(|s| s.to_string()).collect())
     }
@@ -744,7 +760,7 @@ fn check_phase_space(exprs: &[&Expr], coords: &[String], params: &[String], syst
     } else {
         "add the coordinates to `coords` (`p_x` is the momentum of `x`), list constants in params=[…], or use System.poisson, which knows its system's parameters".to_string()
     };
-    Err(PyValueError::new_err(format!(
+    Err(exc::ArgumentError::new_err(format!(
         "{} {} neither a coordinate nor a momentum of the phase space ({}; {}){}; {fix}",
         list.join(", "),
         if list.len() == 1 { "is" } else { "are" },

@@ -6,6 +6,7 @@ import math
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -17,6 +18,9 @@ os.environ["LAGRANGIAN_CACHE_DIR"] = _CACHE
 atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 import lagrangian as lg  # noqa: E402
+
+# The type stubs of the native module (read by the tests that check what they document).
+STUB_PATH = Path(lg.__file__).with_name("_core.pyi")
 
 PENDULUM = "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))"
 DOUBLE_PENDULUM = (

@@ -23,7 +23,7 @@ try:
     if sys.argv[2] == "integrate":
         s.integrate((0, 5e4), [1.0, 0.0], "rk4", dt=1e-4, every=10**9, progress=progress)
     else:
-        s.ensemble(np.tile([1.0, 0.0], (8, 1)), (0, 5e4), "rk4", dt=1e-4, progress=progress)
+        s.ensemble((0, 5e4), np.tile([1.0, 0.0], (8, 1)), "rk4", dt=1e-4, progress=progress)
     print("finished", flush=True)
 except KeyboardInterrupt:
     print("interrupted", time.monotonic(), flush=True)

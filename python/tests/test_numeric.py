@@ -52,10 +52,10 @@ def test_empty_and_unaligned_arrays(pendulum):
     assert odd.ctypes.data % 8 != 0
     np.testing.assert_array_equal(f(0.0, odd[:2]), f(0.0, np.array([0.5, 0.25])))
     np.testing.assert_array_equal(f(0.0, odd.reshape(2, 2)), f(0.0, np.array([[0.5, 0.25], [0.1, 0.0]])))
-    r = pendulum.ensemble(odd.reshape(2, 2), (0, 1))
+    r = pendulum.ensemble((0, 1), odd.reshape(2, 2))
     assert r.ok.all()
     assert f(0.0, np.zeros((2, 0))).shape == (2, 0)
-    r = pendulum.ensemble(np.zeros((0, 2)), (0, 1))
+    r = pendulum.ensemble((0, 1), np.zeros((0, 2)))
     assert r.y.shape == (0, 2) and r.t.shape == (0,) and r.errors == []
     assert lg.Expr("2 x").evaluate(x=np.zeros(0)).shape == (0,)
 
@@ -70,8 +70,8 @@ def test_wrong_shapes_are_value_errors(pendulum):
         f(0.0, np.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="y0 has shape"):
         pendulum.integrate((0, 1), [1.0, 0.0, 0.0])
-    with pytest.raises(ValueError, match="Y0 has shape"):
-        pendulum.ensemble(np.zeros((3, 3)), (0, 1))
+    with pytest.raises(ValueError, match="y0 has shape"):
+        pendulum.ensemble((0, 1), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="formulation"):
         pendulum.compile("newtonian")
     dp = lg.System.from_lagrangian("1/2 (x'^2 + y'^2) + x' y' cos(x - y)", ["x", "y"])
@@ -87,9 +87,9 @@ def test_singular_mass_matrix_at_a_state():
     f = s.compile()
     with pytest.raises(lg.RhsError, match="singular"):
         f(0.0, np.array([0.0, 1.0, 0.0, 0.0]))
-    with pytest.raises(lg.IntegrationError) as info:
+    # The same start given to integrate is a bad y0 (a ValueError), not a failed run.
+    with pytest.raises(lg.RhsError, match="initial state .*singular"):
         s.integrate((0, 1), [0.0, 1.0, 0.0, 0.0], "rk4", dt=0.01)
-    assert info.value.t == 0.0 and info.value.state == [0.0, 1.0, 0.0, 0.0]
 
 
 def test_nan_start_is_an_argument_error(pendulum):
@@ -176,7 +176,7 @@ def test_solve_ivp_interop(double_pendulum):
 
 def test_ensemble_final_states_and_failures(oscillator):
     Y0 = np.array([[1.0, 0.0], [0.0, 2.0], [float("nan"), 0.0], [0.5, -1.0]])
-    r = oscillator.ensemble(Y0, (0, 3), tol=1e-12, threads=2)
+    r = oscillator.ensemble((0, 3), Y0, tol=1e-12, threads=2)
     assert r.y.shape == (4, 2) and r.t.shape == (4,) and r.ok.dtype == np.bool_
     assert list(r.ok) == [True, True, False, True]
     assert r.errors[2] is not None and "NaN" in r.errors[2] and r.errors[0] is None
@@ -251,9 +251,9 @@ def test_taylor_is_the_taylor_method(pendulum, oscillator):
     h = lg.System.from_hamiltonian("p_x^2/2 + 2 x^2", ["x"])
     sol = h.integrate((0, 10), [1.0, 0.0], "taylor", tol=1e-15)
     assert sol.names == ["x", "p_x"] and sol["x"][-1] == pytest.approx(math.cos(20), abs=1e-13)
-    r = pendulum.ensemble(np.array([[1.0, 0.0], [2.0, 0.0]]), (0, 5), "taylor")
+    r = pendulum.ensemble((0, 5), np.array([[1.0, 0.0], [2.0, 0.0]]), "taylor")
     assert r.ok.all()
-    np.testing.assert_allclose(r.y, pendulum.ensemble(np.array([[1.0, 0.0], [2.0, 0.0]]), (0, 5), tol=1e-13).y, atol=1e-8)
+    np.testing.assert_allclose(r.y, pendulum.ensemble((0, 5), np.array([[1.0, 0.0], [2.0, 0.0]]), tol=1e-13).y, atol=1e-8)
 
 
 def finite_difference_jacobian(f, t, y, h=1e-6):

@@ -29,7 +29,7 @@ def test_a_solution_with_events_round_trips_equal():
 
 def test_an_ensemble_with_a_failed_trajectory_round_trips_equal():
     # The second start needs more than 20 steps over (0, 50): it fails, its row is NaN.
-    ens = oscillator().ensemble([[0.0, 0.0], [1.0, 0.0]], (0, 50), max_steps=20)
+    ens = oscillator().ensemble((0, 50), [[0.0, 0.0], [1.0, 0.0]], max_steps=20)
     assert list(ens.ok) == [True, False] and np.isnan(ens.y[1]).all()
     back = pickle.loads(pickle.dumps(ens))
     assert back == ens and back.errors == ens.errors and back.errors[1]
@@ -48,7 +48,7 @@ def test_a_compiled_rhs_round_trips_equal_and_evaluates_the_same():
 
 
 def _run(sys):
-    return sys.integrate((0, 1), [1.0, 0.0], tol=1e-12), sys.ensemble([[1.0, 0.0]], (0, 1), tol=1e-12), sys.compile()
+    return sys.integrate((0, 1), [1.0, 0.0], tol=1e-12), sys.ensemble((0, 1), [[1.0, 0.0]], tol=1e-12), sys.compile()
 
 
 def test_results_come_back_from_another_process():

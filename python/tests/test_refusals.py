@@ -85,7 +85,7 @@ def test_a_coordinate_declared_positive_cannot_start_at_or_below_zero():
     with pytest.raises(ValueError, match="`r` was declared positive .* cannot start at -1"):
         s.integrate((0, 1), [-1.0, 0.0, 0.0, 1.0])
     with pytest.raises(ValueError, match="cannot start at 0"):
-        s.ensemble([[1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]], (0, 1))
+        s.ensemble((0, 1), [[1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]])
     # A circular orbit (r = 1, φ' = 1: r φ'^2 = 1/r^2) stays at r = 1.
     sol = s.integrate((0, 1), [1.0, 0.0, 0.0, 1.0], rtol=1e-12)
     assert sol.y[0, -1] == pytest.approx(1.0, abs=1e-9) and sol.y[1, -1] == pytest.approx(1.0, abs=1e-9)

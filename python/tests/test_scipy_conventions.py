@@ -17,7 +17,7 @@ def test_any_two_numbers_are_a_time_span(oscillator, span):
     sol = oscillator.integrate(span, [1.0, 0.0], tol=1e-12)
     assert sol.t[0] == 0.0 and sol.t[-1] == 2.0
     assert sol.y[0, -1] == pytest.approx(math.cos(4.0), abs=1e-9)  # x = cos 2t
-    ens = oscillator.ensemble([[1.0, 0.0]], span, tol=1e-12)
+    ens = oscillator.ensemble(span, [[1.0, 0.0]], tol=1e-12)
     assert ens.y[0, 0] == pytest.approx(math.cos(4.0), abs=1e-9)
 
 
@@ -26,7 +26,7 @@ def test_anything_else_is_refused_saying_what_a_span_is(oscillator, span):
     with pytest.raises(ValueError, match="t_span must be two numbers"):
         oscillator.integrate(span, [1.0, 0.0])
     with pytest.raises(ValueError, match="t_span must be two numbers"):
-        oscillator.ensemble([[1.0, 0.0]], span)
+        oscillator.ensemble(span, [[1.0, 0.0]])
 
 
 def test_rtol_and_atol_are_scipys_names_and_tol_is_rtol(oscillator):
@@ -38,7 +38,7 @@ def test_rtol_and_atol_are_scipys_names_and_tol_is_rtol(oscillator):
     assert oscillator.integrate((0, 5), [1.0, 0.0], rtol=1e-8, tol=1e-8, atol=1e-10).steps == a.steps
     with pytest.raises(ValueError, match="tol is another name for rtol"):
         oscillator.integrate((0, 5), [1.0, 0.0], rtol=1e-8, tol=1e-6)
-    e = oscillator.ensemble([[1.0, 0.0]], (0, 5), rtol=1e-8, atol=1e-10)
+    e = oscillator.ensemble((0, 5), [[1.0, 0.0]], rtol=1e-8, atol=1e-10)
     np.testing.assert_array_equal(e.y[0], a.y[:, -1])
 
 
@@ -90,7 +90,7 @@ def test_an_ensemble_as_pandas_and_xarray(oscillator):
     pytest.importorskip("pandas")
     pytest.importorskip("xarray")
     starts = np.array([[1.0, 0.0], [0.5, 0.0], [0.0, 2.0]])
-    ens = oscillator.ensemble(starts, (0, 1), tol=1e-12)
+    ens = oscillator.ensemble((0, 1), starts, tol=1e-12)
     df = ens.to_pandas()
     assert list(df.columns) == ["t", "x", "x'", "ok", "error"] and df.index.name == "trajectory"
     # x = x0 cos 2t + v0/2 sin 2t at t = 1.

@@ -40,7 +40,7 @@ def test_sweep_reports_failed_points_and_survives_a_killed_worker(client):
     result = {}
 
     def run():
-        result["r"] = lg.sweep(sys, grid, t_span, "rk4", y0={"θ'": 0.0}, dt=0.01, chunk_size=4, client=client)
+        result["r"] = lg.sweep(sys, t_span, grid, "rk4", y0={"θ'": 0.0}, dt=0.01, chunk_size=4, client=client)
 
     pids_before = set(client.run(os.getpid).values())
     th = threading.Thread(target=run)
@@ -68,7 +68,7 @@ def test_sweep_reports_failed_points_and_survives_a_killed_worker(client):
     f = r.failures[0]
     assert f["index"] == (5,) and np.isnan(f["values"]["θ"]) and "NaN" in f["reason"]
     # Every other point equals the same integration done locally.
-    local = sys.ensemble(np.column_stack([theta, np.zeros(64)]), t_span, "rk4", dt=0.01)
+    local = sys.ensemble(t_span, np.column_stack([theta, np.zeros(64)]), "rk4", dt=0.01)
     ok = r.ok
     np.testing.assert_array_equal(r.y[ok], local.y[ok])
     np.testing.assert_array_equal(r["θ"][ok], local.y[ok, 0])
@@ -77,7 +77,7 @@ def test_sweep_reports_failed_points_and_survives_a_killed_worker(client):
 def test_parameter_grid_and_state_grid(client):
     sys = pendulum()
     r = lg.sweep(
-        sys, {"θ": [0.1, 0.2], "g": [1.0, 4.0, float("inf")]}, (0.0, 1.0), "gauss6", y0=[0.0, 0.0], dt=0.01, client=client
+        sys, (0.0, 1.0), {"θ": [0.1, 0.2], "g": [1.0, 4.0, float("inf")]}, "gauss6", y0=[0.0, 0.0], dt=0.01, client=client
     )
     assert r.y.shape == (2, 3, 2)
     assert r.ok[:, :2].all() and not r.ok[:, 2].any()
@@ -88,19 +88,19 @@ def test_parameter_grid_and_state_grid(client):
             assert r.y[i, j, 0] == ref.y[0, -1]
     # An array of states is a flat list of points.
     states = np.array([[0.1, 0.0], [0.2, 0.1], [0.3, -0.1]])
-    flat = lg.sweep(sys, states, (0, 1), tol=1e-10, chunk_size=2, client=client)
+    flat = lg.sweep(sys, (0, 1), states, tol=1e-10, chunk_size=2, client=client)
     assert flat.y.shape == (3, 2) and flat.ok.all()
     with pytest.raises(ValueError, match="is neither a state variable"):
-        lg.sweep(sys, {"x": [1.0]}, (0, 1), client=client)
+        lg.sweep(sys, (0, 1), {"x": [1.0]}, client=client)
     with pytest.raises(ValueError, match="needs a step"):
-        lg.sweep(sys, states, (0, 1), "rk4", client=client)
+        lg.sweep(sys, (0, 1), states, "rk4", client=client)
 
 
 def test_to_xarray_matches_the_numpy_result(client):
     xr = pytest.importorskip("xarray")
     sys = pendulum()
     theta, g = [0.1, 0.2, 0.3], [1.0, 4.0]
-    r = lg.sweep(sys, {"θ": theta, "g": g}, (0.0, 1.0), "gauss6", y0=[0.0, 0.0], dt=0.01, client=client)
+    r = lg.sweep(sys, (0.0, 1.0), {"θ": theta, "g": g}, "gauss6", y0=[0.0, 0.0], dt=0.01, client=client)
     ds = r.to_xarray()
     assert isinstance(ds, xr.Dataset)
     assert dict(ds.sizes) == {"θ": 3, "g": 2}
@@ -118,7 +118,7 @@ def test_to_xarray_matches_the_numpy_result(client):
     assert ds.attrs == {"method": "gauss6", "t0": 0.0, "t1": 1.0, "failed": 0}
     # A grid of states has one dimension, `point`, and failures are counted.
     states = np.array([[0.1, 0.0], [float("nan"), 0.0]])
-    flat = lg.sweep(sys, states, (0, 1), client=client).to_xarray()
+    flat = lg.sweep(sys, (0, 1), states, client=client).to_xarray()
     assert flat["θ'_final"].dims == ("point",) and flat.sizes["point"] == 2
     assert list(flat["ok"].values) == [True, False] and flat.attrs["failed"] == 1
 
@@ -148,7 +148,7 @@ def test_workers_share_the_on_disk_derivation_cache(client, tmp_path):
         assert len(list(tmp_path.glob("*.json"))) == 1
         # A parameter sweep (a new System per parameter row) derives nothing more anywhere,
         # and gives what this process computes on its own.
-        r = lg.sweep(sys, {"c": [0.0, 0.3, 0.6]}, (0.0, 2.0), y0=[1.0, 0.5, 0.0, 0.0], chunk_size=1, client=client)
+        r = lg.sweep(sys, (0.0, 2.0), {"c": [0.0, 0.3, 0.6]}, y0=[1.0, 0.5, 0.0, 0.0], chunk_size=1, client=client)
         after = client.run(lg.cache_info)
         assert sum(after[w]["derived"] - before[w]["derived"] for w in workers) == 1
         for j, c in enumerate([0.0, 0.3, 0.6]):
@@ -171,7 +171,7 @@ def test_a_chunk_lost_for_good_is_reported_and_the_rest_returns():
             result = {}
             th = threading.Thread(
                 target=lambda: result.update(
-                    r=lg.sweep(sys, grid, (0, 20000.0), "rk4", y0=[0.0, 0.0], dt=0.01, chunk_size=2, client=client)
+                    r=lg.sweep(sys, (0, 20000.0), grid, "rk4", y0=[0.0, 0.0], dt=0.01, chunk_size=2, client=client)
                 )
             )
             th.start()
@@ -218,8 +218,8 @@ def test_integrate_ensemble_and_compile_run_on_workers(client):
     sol = client.submit(sys.integrate, [0, 5], [1.0, 0.0], rtol=1e-10).result(timeout=120)
     assert sol == sys.integrate([0, 5], [1.0, 0.0], rtol=1e-10)
     starts = np.array([[0.5, 0.0], [1.0, 0.0]])
-    ens = client.submit(sys.ensemble, starts, (0, 5), rtol=1e-10).result(timeout=120)
-    assert ens == sys.ensemble(starts, (0, 5), rtol=1e-10)
+    ens = client.submit(sys.ensemble, (0, 5), starts, rtol=1e-10).result(timeout=120)
+    assert ens == sys.ensemble((0, 5), starts, rtol=1e-10)
     f = client.submit(sys.compile).result(timeout=120)
     assert f == sys.compile()
     np.testing.assert_allclose(f(0.0, np.array([0.5, 0.0])), [0.0, -np.sin(0.5)], rtol=1e-15)

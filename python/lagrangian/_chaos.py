@@ -1,0 +1,192 @@
+"""Chaos tools of a :class:`System`: the scene statements ``megno``, ``lyapunov``, ``fli``,
+``chaos_map`` and ``plot poincare`` from Python, computed by the same library calls
+(``lagrangian::chaos`` on the variational equations of Hamilton's equations, Taylor method,
+tolerance 1e-12 by default), plus the state transition matrix (``System.variational``).
+
+Starts are given as in the scenes: a dict with the coordinates and either the velocities
+(``θ1'``; the momenta are computed from them) or the momenta (``p_θ1``), or an array of the
+canonical state ``(q, p)`` (``System.canonical_names``). ``tangent`` sets the first tangent
+vector, the direction MEGNO and the FLI measure (default the unit vector along the first
+coordinate, the scenes' choice).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from ._errors import ArgumentError
+
+Start = Union[Sequence[float], np.ndarray, Mapping[str, float]]
+
+
+@dataclass
+class Indicators:
+    """The indicators of one orbit at the end time, and along it (one sample per Taylor step,
+    thinned evenly to at most 20 000): ``t``, ``lyapunov_t`` (the finite-time maximal exponent),
+    ``log_norm_t`` (``ln ‖w‖``, whose running maximum is the FLI) and ``megno_t`` (``Ȳ(t)``; NaN
+    for a spectrum run). ``lyapunov`` has one exponent per tangent vector."""
+
+    lyapunov: np.ndarray
+    fli: float
+    megno: float
+    steps: int
+    t: np.ndarray
+    lyapunov_t: np.ndarray
+    log_norm_t: np.ndarray
+    megno_t: np.ndarray
+    names: list[str]
+
+    def to_xarray(self) -> Any:
+        """The samples as an ``xarray.Dataset`` over ``t``."""
+        import xarray as xr  # type: ignore[import-untyped]
+
+        data = {"lyapunov": ("t", self.lyapunov_t), "log_norm": ("t", self.log_norm_t), "megno": ("t", self.megno_t)}
+        return xr.Dataset(data, coords={"t": self.t}, attrs={"fli": self.fli, "steps": self.steps})
+
+
+def canonical_names(self: Any) -> list[str]:
+    """The canonical state's names, ``(q…, p_q…)``: the layout of a start given as an array."""
+    return list(self.coordinates) + list(self.momenta)
+
+
+def canonical_start(self: Any, y0: Start) -> np.ndarray:
+    """The canonical start ``(q, p)`` of ``y0``: an array in that order, or a dict with the
+    coordinates and either every velocity or every momentum."""
+    names = canonical_names(self)
+    if not isinstance(y0, Mapping):
+        return np.asarray(y0, dtype=float)
+    q = list(self.coordinates)
+    unknown = [k for k in y0 if k not in names and k not in self.velocities]
+    if unknown:
+        raise ArgumentError(
+            f"{', '.join(f'`{k}`' for k in unknown)} is not a coordinate, velocity or momentum "
+            f"(the start takes {', '.join(q)} and either {', '.join(self.velocities)} or {', '.join(self.momenta)})"
+        )
+    missing = [c for c in q if c not in y0]
+    if missing:
+        raise ArgumentError(f"the start needs every coordinate; missing {', '.join(missing)}")
+    if all(p in y0 for p in self.momenta):
+        return np.array([float(y0[c]) for c in names])
+    if all(v in y0 for v in self.velocities):
+        if self.kind != "lagrangian":
+            raise ArgumentError("a Hamiltonian system's start takes momenta (p_q), not velocities")
+        env = {k: float(v) for k, v in y0.items()}
+        env.update(self.params)
+        env["t"] = 0.0
+        p = [m.evaluate(env) for m in self.canonical_momenta()]
+        return np.array([float(y0[c]) for c in q] + p)
+    raise ArgumentError(
+        f"the start needs every velocity ({', '.join(self.velocities)}) or every momentum ({', '.join(self.momenta)})"
+    )
+
+
+def indicators(
+    self: Any,
+    t_span: Sequence[float],
+    y0: Start,
+    which: str = "megno",
+    *,
+    tol: Optional[float] = None,
+    tangent: Optional[Sequence[float]] = None,
+    max_steps: Optional[int] = None,
+) -> Indicators:
+    """Every indicator of one orbit over ``t_span = (0, T)``: ``which="megno"`` (or
+    ``"fli"``) follows one tangent vector with MEGNO's accumulator, ``"lyapunov"`` follows
+    ``2n`` (the spectrum), as the scene statements do."""
+    d = self._indicators(t_span, canonical_start(self, y0), which, tol=tol, tangent=tangent, max_steps=max_steps)
+    return Indicators(**d)
+
+
+def megno(self: Any, t_span: Sequence[float], y0: Start, *, tol: Optional[float] = None, tangent: Optional[Sequence[float]] = None) -> float:
+    """MEGNO ``⟨Y⟩`` at the end of ``t_span = (0, T)`` (Cincotta & Simó 2000): → 0 for stable
+    isochronous motion, → 2 for quasi-periodic motion, ≈ λT/2 for chaotic motion. The scene's
+    ``megno`` statement."""
+    return indicators(self, t_span, y0, "megno", tol=tol, tangent=tangent).megno
+
+
+def fli(self: Any, t_span: Sequence[float], y0: Start, *, tol: Optional[float] = None, tangent: Optional[Sequence[float]] = None) -> float:
+    """The fast Lyapunov indicator ``sup ln ‖w(t)‖`` over ``t_span = (0, T)`` (Froeschlé, Lega &
+    Gonczi 1997). The scene's ``fli`` statement."""
+    return indicators(self, t_span, y0, "fli", tol=tol, tangent=tangent).fli
+
+
+def lyapunov(self: Any, t_span: Sequence[float], y0: Start, *, tol: Optional[float] = None, tangent: Optional[Sequence[float]] = None) -> np.ndarray:
+    """The finite-time Lyapunov spectrum at the end of ``t_span = (0, T)``, ``2n`` exponents
+    (Benettin's algorithm; they sum to 0 for a Hamiltonian flow). The scene's ``lyapunov``."""
+    return indicators(self, t_span, y0, "lyapunov", tol=tol, tangent=tangent).lyapunov
+
+
+def chaos_map(
+    self: Any,
+    t_span: Sequence[float],
+    grid: Mapping[str, Sequence[float]],
+    y0: Optional[Mapping[str, float]] = None,
+    which: str = "megno",
+    *,
+    tol: Optional[float] = None,
+) -> Any:
+    """An indicator over a grid of starts, as an ``xarray.DataArray`` with one dimension per
+    axis of ``grid`` (``{"θ1": values, "θ2": values}``; names of coordinates, velocities or
+    momenta), the swept values as coordinates. ``y0`` gives the other entries of the start.
+    Orbits run in parallel; one that fails (escapes, hits a singularity, runs out of the budget)
+    is NaN. The scene's ``chaos_map`` (which takes cell centres of ranges)."""
+    import xarray as xr  # type: ignore[import-untyped]
+
+    if not grid:
+        raise ArgumentError("the grid has no axes")
+    axes = {k: np.asarray(v, dtype=float).ravel() for k, v in grid.items()}
+    base = dict(y0 or {})
+    starts = []
+    for point in itertools.product(*axes.values()):
+        start = dict(base)
+        start.update(zip(axes, point))
+        starts.append(canonical_start(self, start))
+    values = self._chaos_map(t_span, np.array(starts), which, tol=tol)
+    shape = tuple(a.size for a in axes.values())
+    return xr.DataArray(
+        values.reshape(shape),
+        dims=list(axes),
+        coords=dict(axes),
+        name=which,
+        attrs={"t_end": float(t_span[1]), "tol": float(tol or 1e-12)},
+    )
+
+
+def poincare(
+    self: Any,
+    t_span: Sequence[float],
+    y0: Any,
+    section: Any,
+    method: Optional[str] = None,
+    *,
+    direction: int = 1,
+    **kwargs: Any,
+) -> Any:
+    """The Poincaré section of one orbit: the states where ``section`` (an expression in the
+    state variables, ``"θ1"``) crosses zero in ``direction`` (``+1`` upward, the default;
+    ``-1``; ``0`` both), located on the steps' interpolants, as the scenes' ``plot poincare``
+    (the crossings of a run's event). Returns a ``pandas.DataFrame``-ready dict: ``t`` ``(m,)``
+    and one array per state name; the arguments are those of :meth:`System.integrate`."""
+    from ._core import Event
+
+    sol = self.integrate(t_span, y0, method, events=[Event(section, direction=direction)], **kwargs)
+    ys = sol.y_events[0]
+    out = {"t": sol.t_events[0]}
+    out.update({name: ys[:, i] for i, name in enumerate(sol.names)})
+    return out
+
+
+def install(System: Any) -> None:
+    """Attaches the chaos tools to ``System``."""
+    System.canonical_names = property(canonical_names, doc=canonical_names.__doc__)
+    System.canonical_start = canonical_start
+    System.indicators = indicators
+    System.megno = megno
+    System.fli = fli
+    System.lyapunov = lyapunov
+    System.chaos_map = chaos_map
+    System.poincare = poincare
