@@ -136,12 +136,17 @@ def main():
     for _ in range(n_sym):
         rhs(0.0, Y0)
     sym_call = (time.perf_counter() - t0) / n_sym
+    t0 = time.perf_counter()
+    for _ in range(n_calls):
+        f.jac(0.0, y)
+    jac_call = (time.perf_counter() - t0) / n_calls
     print("| call | time per evaluation |")
     print("|---|---|")
     print(f"| `f(t, y)` from Python, one state | {per_call * 1e9:.0f} ns |")
     print(f"| `f(t, Y)` from Python, batch of {k} (≈ the Rust evaluation) | {batch / k * 1e9:.1f} ns per point |")
     print(f"| Python overhead of one call | {(per_call - batch / k) * 1e9:.0f} ns |")
     print(f"| SymPy `lambdify` (math module) + list, one state | {sym_call * 1e9:.0f} ns |")
+    print(f"| `f.jac(t, y)` from Python, one state (4 × 4) | {jac_call * 1e9:.0f} ns ({jac_call / per_call:.1f}× `f`) |")
 
     print("\n## 3. sweep throughput (double pendulum to t = 10, DOP853 tol 1e-9, 4096 points)")
     from dask.distributed import Client, LocalCluster
