@@ -28,11 +28,15 @@ class Indicators:
     """The indicators of one orbit at the end time, and along it (one sample per Taylor step,
     thinned evenly to at most 20 000): ``t``, ``lyapunov_t`` (the finite-time maximal exponent),
     ``log_norm_t`` (``ln ‖w‖``, whose running maximum is the FLI) and ``megno_t`` (``Ȳ(t)``; NaN
-    for a spectrum run). ``lyapunov`` has one exponent per tangent vector."""
+    for a spectrum run). ``lyapunov`` has one exponent per tangent vector; ``megno_lyapunov`` is
+    the maximal exponent from the least-squares slope of MEGNO's ``Y(t)`` (what the scene's
+    ``megno`` prints and REBOUND's ``lyapunov()`` returns: near 0 on a regular orbit, where
+    the finite-time exponent decays only like ln t / t; NaN for a spectrum run)."""
 
     lyapunov: np.ndarray
     fli: float
     megno: float
+    megno_lyapunov: float
     steps: int
     t: np.ndarray
     lyapunov_t: np.ndarray

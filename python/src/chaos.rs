@@ -85,7 +85,8 @@ fn chaos_error(py: Python<'_>, e: lagrangian::integrate::IntegrateError) -> PyEr
 #[pymethods]
 impl PySystem {
     /// The indicators of one orbit from the canonical start ``x0`` (``(q, p)``), as a dict:
-    /// ``lyapunov`` (one exponent per tangent vector), ``fli``, ``megno``, ``steps`` and the
+    /// ``lyapunov`` (one exponent per tangent vector), ``fli``, ``megno``, ``megno_lyapunov``
+    /// (the exponent from the slope of MEGNO's ``Y(t)``, as REBOUND reports it), ``steps`` and the
     /// samples ``t``, ``lyapunov_t``, ``log_norm_t``, ``megno_t``. ``which`` is ``"megno"``
     /// or ``"fli"`` (one tangent vector and MEGNO's accumulator) or ``"lyapunov"`` (2n tangent
     /// vectors, the spectrum), as the scene statements. ``tangent`` is the first tangent
@@ -137,6 +138,7 @@ impl PySystem {
         d.set_item("lyapunov", PyArray1::from_vec(py, r.lyapunov.clone()))?;
         d.set_item("fli", r.fli)?;
         d.set_item("megno", r.megno)?;
+        d.set_item("megno_lyapunov", r.megno_lyapunov)?;
         d.set_item("steps", r.steps)?;
         d.set_item("t", PyArray1::from_iter(py, r.samples.iter().map(|s| s.t)))?;
         d.set_item("lyapunov_t", PyArray1::from_iter(py, r.samples.iter().map(|s| s.lyapunov)))?;

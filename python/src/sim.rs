@@ -431,7 +431,9 @@ fn run_spec(
     }
     opts.max_steps = max_steps;
     opts.compensated = compensated;
-    opts.sampling = Sampling::Every(1);
+    // What a run keeps is the caller's to set (and to check again): `every`, `t_eval`, or the
+    // final state of an ensemble member. The final state fits any budget.
+    opts.sampling = Sampling::Final;
     opts.check().map_err(|e| simulate_error(py, e))?;
     let c = compiled_for_method(py, s, m)?;
     let mut exprs = Vec::new();
@@ -876,6 +878,7 @@ impl PySystem {
             return Err(exc::ArgumentError::new_err("every must be at least 1 (every=k keeps every k-th step)"));
         }
         opts.sampling = Sampling::Every(every);
+        opts.check().map_err(|e| simulate_error(py, e))?;
         if dense_output && every != 1 {
             return Err(exc::ArgumentError::new_err(format!(
                 "dense_output=True interpolates between the accepted steps, so it needs every step: leave out every={every}, or use t_eval for chosen times"

@@ -57,7 +57,10 @@ def test_values_equal_the_scene_statements(dp, tmp_path):
     lines = {line.split(":")[0]: line for line in out.stdout.splitlines()}
     for name, start in (("low", LOW), ("high", HIGH)):
         r = dp.indicators((0, 20), start, "megno")
-        assert f"MEGNO ⟨Y⟩ = {r.megno:.4f} at t = 20 (λ = {r.lyapunov[0]:.6f}; {r.steps} Taylor steps)" in lines[name]
+        assert (
+            f"MEGNO ⟨Y⟩ = {r.megno:.4f} at t = 20 (λ = {r.megno_lyapunov:.6f} from the slope of Y; {r.steps} Taylor steps)"
+            in lines[name]
+        )
     r = dp.indicators((0, 20), HIGH, "fli")
     assert f"FLI = {r.fli:.4f} at t = 20 ({r.steps} Taylor steps)" in lines["f"]
     spectrum = ", ".join(f"{x:.6f}" for x in dp.lyapunov((0, 20), HIGH))
