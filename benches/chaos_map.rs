@@ -1,4 +1,4 @@
-//! The chaos-map rows of BENCHMARKS.md (`harness = false`: prints a table). Issue 10's
+//! The chaos-map rows of BENCHMARKS.md (`harness = false`: prints a table). The
 //! measure: MEGNO of the double pendulum over a 200 × 200 grid of (θ1, θ2) at rest, to
 //! t = 100, on 2 threads.
 //!

@@ -1,4 +1,4 @@
-//! Issue 16 item 4: large inputs, measured (not timed tests). Prints one row per target with
+//! Large inputs, measured (not timed tests). Prints one row per target with
 //! the least thread CPU time of a few runs, and the growth exponents log(t(4N)/t(N))/log 4 of
 //! simplifying and differentiating a sum of N unrelated symbols. SymEngine's rows come from
 //! `benches/anchors/robust_symengine.sh`, which runs this bench and SymEngine back to back.

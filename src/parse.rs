@@ -9,7 +9,7 @@
 //! on a stack segment sized from the measured depth ([`with_stack_for_depth`], `stacker`), so
 //! the limit is the same on an 8 MB main thread and a 2 MB worker. The limit is the one the
 //! printer is held to: every expression the engine's own stages produce from parsed input
-//! prints with less nesting than this (issue 16, `tests/it/robust/roundtrip.rs`).
+//! prints with less nesting than this (`tests/it/robust/roundtrip.rs`).
 
 use std::collections::BTreeSet;
 use std::fmt;

@@ -1,6 +1,6 @@
 //! The printed text of `integral`, `action`, `average`, transformations from a generating
 //! function and `conserved` (with the point-symmetry search), shared by the command line and
-//! scene statements so both print the same lines for the same input (issue 15, scene parity).
+//! scene statements so both print the same lines for the same input (scene parity).
 
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, symbol, Format};

@@ -1,4 +1,4 @@
-//! Point symmetries of a Lagrangian beyond ignorable coordinates (issue 15 item 3; PHYSICS.md
+//! Point symmetries of a Lagrangian beyond ignorable coordinates (PHYSICS.md
 //! §2.6, Noether's theorem with a total-derivative term).
 //!
 //! A generator moves `q_i → q_i + ε ξ_i(q, t)` and `t → t + ε τ(q, t)`. It is a symmetry when

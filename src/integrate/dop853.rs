@@ -28,7 +28,7 @@ impl Dop853 {
     /// Hairer's `dop853.f` (it stops with "tolerances are too small" when `rtol ≤ 10·uround`).
     /// Below it the error
     /// estimate is rounding noise, steps shrink until they are accepted by chance, and a run
-    /// of unit length takes ~10⁹ steps: the "hang" of issue 13. Smaller values are refused
+    /// of unit length takes ~10⁹ steps: the reported "hang". Smaller values are refused
     /// (not raised silently), so what was asked is never quietly changed.
     pub const MIN_RTOL: f64 = 10.0 * f64::EPSILON;
 

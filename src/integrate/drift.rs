@@ -1,7 +1,7 @@
 //! The energy ledger of a run: the conserved energy (`H`, or the energy function `h` of a
 //! Lagrangian without explicit time) evaluated after every accepted step, so that a run that
 //! went wrong — a fixed step jumping through a collision, a tolerance too loose for a long
-//! run — says so instead of returning confident wrong numbers (issue 13, item 3).
+//! run — says so instead of returning confident wrong numbers.
 //!
 //! Why every step and not the kept states: a thinned run keeps one state in thousands, and a
 //! jump through a singularity can happen (and partly undo itself) between two of them. The

@@ -1,4 +1,4 @@
-//! Near-linear construction of large sums (issue 16 item 4): the growth exponent of parsing
+//! Near-linear construction of large sums: the growth exponent of parsing
 //! a sum of N distinct symbols, from the times at N and 4N, stays below 1.3 (a quadratic
 //! left fold, as before the n-ary parser, gives 2). Each time is the least of three runs, so
 //! that a busy machine inflates it less. N = 16 000: below about 4 000 terms fixed costs
@@ -39,7 +39,7 @@ fn parsing_a_sum_grows_about_linearly() {
     assert_eq!(parse(&b).unwrap().terms().len(), 4 * n);
 }
 
-/// Simplifying a sum of N unrelated terms grows near-linearly (issue 16 item 4: O(N log N),
+/// Simplifying a sum of N unrelated terms grows near-linearly (O(N log N),
 /// exponent below 1.3; it was 1.53 when the e-graph and the candidate tools saw the whole
 /// sum). The terms are `k x_k^2 + sin(y_k)` pairs, unrelated to each other. The result is
 /// checked too: each pair is left as it is, and the Pythagorean pair `sin(x0)^2 + cos(x0)^2`,

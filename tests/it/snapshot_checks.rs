@@ -1,4 +1,4 @@
-//! Independent checks of the snapshot lines that no other test checked (issue 14 item 6).
+//! Independent checks of the snapshot lines that no other test checked.
 //!
 //! Each test reads a committed `.snap` file — the exact text a user sees, which the snapshot
 //! tests pin to what the engine prints — parses every derived line and compares it at random

@@ -73,7 +73,7 @@ fn pendulum_librations_match_elliptic_integrals() {
         assert!(rel(r.action, j_exact) < 1e-13, "θmax {theta_max}: J {} vs {j_exact}", r.action);
         assert!(rel(r.turning_points.1, theta_max) < 1e-13);
     }
-    // Above the separatrix the pendulum rotates (issue 15): no turning points, and
+    // Above the separatrix the pendulum rotates: no turning points, and
     // J = (1/2π)∫₀^{2π} p dθ over one turn. With E = ε m g l and k² = 2/ε,
     // p = √(2 m² g l³ ε) √(1 − k² sin²(θ/2)), so J = (2/π) √(2 m² g l³ ε) E(k) and
     // T = ∫ m l² dθ/p = 4 K(k) √(l/(2 g ε)).

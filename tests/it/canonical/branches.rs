@@ -1,4 +1,4 @@
-//! Issue 15 item 4: the inverse map of a generating function keeps the sign information of
+//! The inverse map of a generating function keeps the sign information of
 //! the forward map, and `K` comes out short.
 //!
 //! The adiabatic oscillator with an explicit `ω(t) = ω0 (1 + ε t)` (notes 4.2.1) used to

@@ -109,7 +109,7 @@ proptest! {
     }
 }
 
-/// One expansion for the canonical zero tests and `algebra` (issue 13 item 8): `reduce::expand`
+/// One expansion for the canonical zero tests and `algebra`: `reduce::expand`
 /// multiplies products and powers of sums out through `algebra::multiply_out`, so on inputs
 /// without function arguments or denominators (where only `reduce` descends) both give the same
 /// canonical expression, of unchanged value; past the term budget `reduce` keeps the product.

@@ -414,7 +414,7 @@ chaos_map megno x = -1..1, p_x = -1..1 for t in 0..5 points 2 to m.csv
 
 #[test]
 fn taylor_runs_stop_at_kinks_singular_mass_matrices_and_bad_tolerances_with_located_errors() {
-    // The same bad-input list for `simulate … with taylor` (issue 10): each a located, typed
+    // The same bad-input list for `simulate … with taylor`: each a located, typed
     // error and no file written, never a hang.
     let dir = tempfile::tempdir().unwrap();
     let export = "export t, x to a.csv\n";

@@ -1,4 +1,4 @@
-//! Honest long runs (issue 13, item 3): the energy ledger of scene runs.
+//! Honest long runs: the energy ledger of scene runs.
 //!
 //! * The issue's example — Kepler started at rest at r = 1, `leapfrog dt = 0.01` through the
 //!   collision at t ≈ 1.11 — warns on stderr naming the run and a time before the collision,

@@ -125,7 +125,7 @@ fn cli(args: &[&str]) -> (i32, String, String) {
 #[test]
 fn cli_reports_bad_input_with_exit_code_2() {
     for args in [
-        // A singular W prints E_i and a note (issue 11); only the accelerations are refused.
+        // A singular W prints E_i and a note; only the accelerations are refused.
         &["el", "1/2 (x' + y')^2", "--coords", "x,y", "--accelerations"][..],
         &["el", "x'''^2", "--coords", "x"],
         &["el", "x'^2", "--coords", "x,x"],
@@ -143,7 +143,7 @@ fn cli_reports_bad_input_with_exit_code_2() {
 
 #[test]
 fn cli_prints_the_issue_examples() {
-    // The commands of issue 3, checked against the hand forms (2.28), (3.29), (3.16), (2.39).
+    // The worked commands, checked against the hand forms (2.28), (3.29), (3.16), (2.39).
     let (code, out, _) = cli(&["el", "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", "--coords", "θ", "--positive", "m,l,g"]);
     assert_eq!(code, 0);
     assert!(out.contains("E_θ: l m (g sin(θ) + l θ'') = 0"), "{out}");

@@ -1,4 +1,4 @@
-//! Issue 15 items 1–2 of the symmetry gaps: `lagrangian conserved` reports the point
+//! `lagrangian conserved` reports the point
 //! symmetries of the search with the same lines as scene `conserved`, and the search covers
 //! generators of degree 2 with a change of time. Every charge found is checked here against a
 //! hand form and, independently of the engine's bracket, by evaluating it along the exact

@@ -1,4 +1,4 @@
-//! Discrete mechanics (issue 11, item 3): the discrete Euler–Lagrange equations and Legendre
+//! Discrete mechanics: the discrete Euler–Lagrange equations and Legendre
 //! maps of the pendulum for the midpoint and trapezoid rules (snapshotted and compared with
 //! hand derivations), and the variational integrator's properties measured: order 2 against a
 //! DOP853 reference, energy error bounded over 10⁵ steps, the discrete Noether momentum of a

@@ -1,4 +1,4 @@
-//! The example scenes of issue 11 run end to end: printed derivations snapshotted, numbers
+//! The example scenes of the notes run end to end: printed derivations snapshotted, numbers
 //! checked against closed forms computed here (the oscillator's cosine, the vortex pair's
 //! rigid rotation) and conserved quantities.
 

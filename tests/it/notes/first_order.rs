@@ -1,4 +1,4 @@
-//! First-order (phase-space) Lagrangians (issue 11, item 2): the two-form, the equations
+//! First-order (phase-space) Lagrangians: the two-form, the equations
 //! ω z' = ∂H/∂z + ∂a/∂t, the Poisson tensor, the compiled right-hand side, and a degenerate
 //! two-form named by its null direction. Checked against Hamilton's equations of the same H
 //! (a second route through the engine) at random points, and point vortices against their

@@ -1,4 +1,4 @@
-//! Geodesics (issue 11, item 5): the sphere's Christoffel symbols and geodesic equations
+//! Geodesics: the sphere's Christoffel symbols and geodesic equations
 //! (snapshot, hand forms), a shooting solution that matches the great circle to 1e-10, and
 //! bad line elements or a start where the metric is singular refused with exit code 2.
 
@@ -119,7 +119,7 @@ fn gauss_curvature_of_sphere_plane_and_a_saddle() {
 
 #[test]
 fn curvature_of_the_cosh_metric_prints_as_minus_one() {
-    // Regression (issue 11): with Γ^x_yy = −sinh x cosh x and Γ^y_xy = tanh x, tidy alone left
+    // Regression: with Γ^x_yy = −sinh x cosh x and Γ^y_xy = tanh x, tidy alone left
     // K = sinh(x) tanh(x)/cosh(x) + 1/cosh(x)^2 − 2; Gauss's K = −(√G)''/√G with √G = cosh x
     // is −1 exactly, and so is the printed form now.
     let (code, out, err) = run(&["geodesic", "dx^2 + cosh(x)^2 dy^2", "--coords", "x,y"]);

@@ -1,4 +1,4 @@
-//! The trial-function (Ritz) method (issue 11, item 4; §1.4.2): the oscillator's Ritz
+//! The trial-function (Ritz) method (§1.4.2): the oscillator's Ritz
 //! relations between fixed end points (snapshot; checked against SymPy: for
 //! x = t + t(1 − t)(a + b t) on [0, 1], ∂S/∂a = 3a/10 + 3b/20 − 1/12, ∂S/∂b = 3a/20 + 13b/105
 //! − 1/20, solution a = 71/369, b = 7/41), convergence to the exact path sin t / sin 1 as
@@ -151,7 +151,7 @@ fn dependent_trial_coefficients_are_refused_as_a_singular_hessian() {
     assert!(err.contains("the Hessian of S(a) is singular: the trial coefficients are not independent"), "{err}");
 }
 
-/// Issue 31, D7: the quadrature checks itself. `L = x'^2/2 + x sin(ω t)` with the trial
+/// D7 of the hostile run: the quadrature checks itself. `L = x'^2/2 + x sin(ω t)` with the trial
 /// `a t (1 − t)` on 0..1, from 0 to 0: `∂S/∂a = a/3 + ∫ t(1 − t) sin(ωt) dt = 0`, and by parts
 /// `∫₀¹ t(1 − t) sin(ωt) dt = (2(1 − cos ω) − ω sin ω)/ω³`, so `a = −3 (2(1 − cos ω) − ω sin ω)/ω³`.
 /// Resolved oscillation (ω up to 1000) is refined until the quadrature agrees with itself and

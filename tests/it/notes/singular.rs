@@ -1,4 +1,4 @@
-//! Euler–Lagrange for every Lagrangian (issue 11, item 1): a singular Hessian W still gives
+//! Euler–Lagrange for every Lagrangian: a singular Hessian W still gives
 //! the expressions E_i, with one note line naming the velocity or null direction, while
 //! `--accelerations`, `legendre` and `simulate` keep their errors. The E_i are checked against
 //! hand forms and against finite differences of L along random paths.
@@ -60,7 +60,7 @@ fn singular_lagrangian_prints_its_equations_and_one_note() {
     assert!(notes[0].contains("`y'`"), "the note names the velocity without inertia: {}", notes[0]);
     snapshot(
         "notes_el_singular",
-        format!("# Remark 3.1: L linear in y' (issue 11)\n$ lagrangian el \"{SINGULAR}\" --coords x,y\n{out}"),
+        format!("# Remark 3.1: L linear in y'\n$ lagrangian el \"{SINGULAR}\" --coords x,y\n{out}"),
     );
     check_numerically(SINGULAR, &["x", "y"], &[("m", 1.3), ("b", 0.7), ("c", 0.4)]);
 

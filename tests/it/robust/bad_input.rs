@@ -192,7 +192,7 @@ fn issue_16_unclear_errors_are_clear() {
     }
 }
 
-/// Issue 16 item 7, the messages finished last: a constant constraint, the is-canonical
+/// the messages finished last: a constant constraint, the is-canonical
 /// detail of a constant residual, and LaTeX braces of a bracket's label in the REPL.
 #[test]
 fn issue_16_constant_constraints_canonical_detail_and_latex_braces() {
@@ -209,10 +209,10 @@ fn issue_16_constant_constraints_canonical_detail_and_latex_braces() {
     assert!(repl.stdout.contains(r"\{x^2, p_x\} = 2 x"), "{}", repl.stdout);
 }
 
-/// The message `simplify` gives for a Cyrillic `х` (issue 31, D3): every command says the same.
+/// The message `simplify` gives for a Cyrillic `х` (D3): every command says the same.
 const CYRILLIC: &str = "`х` (U+0445) is a Cyrillic letter that looks like another; names are ASCII or Greek";
 
-/// Issue 31, D3: a look-alike letter is refused by every command, in the expression or in a
+/// D3 of the hostile run: a look-alike letter is refused by every command, in the expression or in a
 /// name list, with `simplify`'s message. Before, `el "1/2 m x'^2 - 1/2 k х^2" --coords x`
 /// printed `E_x = m x''`: the Cyrillic `х` was a new constant.
 #[test]
@@ -275,7 +275,7 @@ fn lookalike_letters_are_refused_by_every_command() {
     }
 }
 
-/// Issue 31, D3: control bytes from the input (an ESC sequence that would clear the screen,
+/// D3 of the hostile run: control bytes from the input (an ESC sequence that would clear the screen,
 /// a NUL) are escaped in every diagnostic: the command line's, a scene's and the REPL's.
 #[test]
 fn control_bytes_never_reach_the_terminal() {
@@ -303,7 +303,7 @@ fn control_bytes_never_reach_the_terminal() {
     assert!(repl.stdout.contains("\\u{1b}") || repl.stderr.contains("\\u{1b}"), "{:?}", repl.stdout);
 }
 
-/// Issue 31, D6: a `--set` value is checked against `--positive`, as a scene's parameters are.
+/// D6 of the hostile run: a `--set` value is checked against `--positive`, as a scene's parameters are.
 /// The symbolic stages simplify with the assumption (`sqrt(R^2) = R`), so a negative value used
 /// to give an answer for another problem, silently (exit 0). Non-finite values are refused too.
 #[test]
@@ -350,7 +350,7 @@ fn set_values_are_checked_against_positive() {
     check_bad(&[&ritz[..], &["--set", "m=1", "--guess", "inf"]].concat(), None, &["not a finite number"]);
 }
 
-/// Issue 31, D12: the step of `discretize` is a constant. Before, `--step t` (or a
+/// D12 of the hostile run: the step of `discretize` is a constant. Before, `--step t` (or a
 /// coordinate) was substituted into L with the time and positions and printed
 /// `DEL_x: undefined = 0` with exit 0.
 #[test]
@@ -372,7 +372,7 @@ fn discretize_step_is_a_constant() {
     }
 }
 
-/// Issue 31: with `--format json` an error is one JSON object on standard output,
+/// with `--format json` an error is one JSON object on standard output,
 /// `{"error": {"kind", "message", "span", "hints"}}`, with the same exit code as without, and
 /// nothing on standard error (the shape is documented in the README). Before, stdout was
 /// empty and the error was plain text on stderr.

@@ -1,4 +1,4 @@
-//! Budgets of long computations (issue 31, D1 and D2): geodesic shooting and the chaos
+//! Budgets of long computations (D1 and D2): geodesic shooting and the chaos
 //! indicators stop at a step or time budget with an error that names the budget and how to
 //! raise it, in bounded memory. Each case runs the binary under an address-space cap of 1 GB
 //! and a watchdog; before the budgets, the geodesic case grew about 22 MB/s and the MEGNO

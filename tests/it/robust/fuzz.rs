@@ -166,7 +166,7 @@ const SCENE_SEEDS: &[&str] = &[
     "coordinates x, y\nL = 1/2 (x'^2 + y'^2) - 1/2 (x^2 + y^2) - x^2 y + y^3/3\n",
     "simulate a: x = 0.1, y = 0, x' = 0, y' = 0.3 for t in 0..10 with dop853 tol = 1e-9\nrecord when x = 0\n",
     "el\nhamilton\nconserved\nexport el to eqs.json\n",
-    // Issue 31: budgets of chaos statements, named dissipation, ensembles exported whole.
+    // budgets of chaos statements, named dissipation, ensembles exported whole.
     "megno θ = 1, θ' = 0 for t in 0..1e9 max_steps = 1000 time_limit = 0.5 as m\nplot megno from m\n",
     "chaos_map megno θ = -1e308..1e308, θ' = -1..1 for t in 0..10 points 2 max_steps = 2.5 to m.csv\n",
     "rayleigh L = 1/2 b x'^2\nrayleigh R = 1/2 b x'^2\n",

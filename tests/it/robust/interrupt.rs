@@ -1,4 +1,4 @@
-//! Interruptible work (issue 13, item 2): a real SIGINT to a child `lagrangian run` ends it
+//! Interruptible work: a real SIGINT to a child `lagrangian run` ends it
 //! within a second with status 130 and no output file — during a simulation, an animation
 //! being encoded and a long plot; the piped REPL survives one with its definitions; and the
 //! library's token stops an integration and the simplifier.

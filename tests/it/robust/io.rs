@@ -1,4 +1,4 @@
-//! Input and output at the edges (issue 16 items 1–2, 6; issue 13 item 5): a reader that
+//! Input and output at the edges: a reader that
 //! closes the pipe early, unbounded or non-regular inputs, outputs that would leave the
 //! output directory, two outputs to one path. Never a panic, a hang or a quietly wrong file.
 
@@ -297,7 +297,7 @@ fn numbers_that_underflow_or_overflow_f64_say_so() {
     }
 }
 
-/// Issue 31, D15: `export from ENSEMBLE` writes every member, as the docs say (before, only
+/// D15 of the hostile run: `export from ENSEMBLE` writes every member, as the docs say (before, only
 /// the first member was written, with no note). Each member's rows are the rows the member
 /// exported alone gives, after a `run` column naming it; JSON holds one object per member;
 /// `export poincare` does the same.

@@ -1,4 +1,4 @@
-//! Round trip at depth and size (issue 16 item 5): what the printer emits, the parser
+//! Round trip at depth and size: what the printer emits, the parser
 //! accepts, and it reads back as the identical (pointer-equal, hash-consed) node. Covers
 //! degree-400 polynomials before and after `simplify` (whose Horner forms used to nest 399
 //! levels, past the parser's old limit of 200) and towers of calls and powers 300 deep.

@@ -1,4 +1,4 @@
-//! Every method terminates (issue 13 item 1): extreme settings — a tolerance below f64's
+//! Every method terminates: extreme settings — a tolerance below f64's
 //! reach, a step of 1e-300, a time span of 1e300 — end each method quickly with a typed
 //! failure that names the time, the state and the reason, or a refusal before the first
 //! step. Each case runs on its own thread under a timeout, so a regression fails the test

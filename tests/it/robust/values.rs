@@ -1,4 +1,4 @@
-//! Nothing silently wrong (issue 16 item 6): numbers the engine gives agree with what it
+//! Nothing silently wrong: numbers the engine gives agree with what it
 //! says symbolically, names that would be confused are refused, exported columns are finite.
 
 use std::collections::HashMap;

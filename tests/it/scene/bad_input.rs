@@ -118,7 +118,7 @@ fn lookalike_identifiers() {
     assert_eq!(code, 0, "{err}");
 }
 
-/// Issue 31, D11: a chaos map's range wider than f64 holds is refused at the range. Before,
+/// D11 of the hostile run: a chaos map's range wider than f64 holds is refused at the range. Before,
 /// `θ = -1e308..1e308` wrote `inf` cell centres, reported every start failed, and exited 0.
 #[test]
 fn chaos_map_range_wider_than_f64() {
@@ -136,7 +136,7 @@ fn chaos_map_range_wider_than_f64() {
     );
 }
 
-/// Issue 31, D13: `rayleigh L = …` made the dissipation function the Lagrangian (the run
+/// D13 of the hostile run: `rayleigh L = …` made the dissipation function the Lagrangian (the run
 /// integrated R as L, exit 0); a Rayleigh function's name must be its own.
 #[test]
 fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
@@ -162,7 +162,7 @@ fn rayleigh_cannot_take_the_name_of_the_lagrangian() {
     }
 }
 
-/// Issue 31, D14: a figure of an expression that is not finite anywhere along the run is
+/// D14 of the hostile run: a figure of an expression that is not finite anywhere along the run is
 /// refused at the expression (exports refuse such values too); before, the plot or GIF was
 /// written with nothing on it and exit 0. Partly non-finite values are drawn with a note.
 #[test]
@@ -199,7 +199,7 @@ fn figures_of_nowhere_finite_expressions() {
     assert!(dir.path().join("b.svg").exists());
 }
 
-/// Issue 31 (unclear messages): numbers in messages are short and say what they are. Before,
+/// numbers in messages are short and say what they are. Before,
 /// `1e308` printed as 309 digits, `1.0000001` as `1.` and `2.5e-7` as `0.`.
 #[test]
 fn numbers_in_messages_are_short_and_exact_enough() {

@@ -1,4 +1,4 @@
-//! Issue 15 item 5: every derivation of the command line is usable from a scene with the same
+//! every derivation of the command line is usable from a scene with the same
 //! output. Each test runs a scene statement and the matching `lagrangian` command on the same
 //! input (plain format, the same positive symbols) and compares the printed lines; each also
 //! checks the result itself against an independent value.

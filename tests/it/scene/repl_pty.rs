@@ -1,4 +1,4 @@
-//! The REPL on a real terminal (issue 16): the `lagrangian` binary is started on a
+//! The REPL on a real terminal: the `lagrangian` binary is started on a
 //! pseudo-terminal (rexpect), so rustyline runs in raw mode as it does for a person, keys are
 //! typed as bytes (Enter is `\r`, Ctrl-C the byte 0x03 that the terminal turns into SIGINT
 //! while a statement runs, Ctrl-D 0x04, the up arrow `ESC [ A`), and what the terminal shows

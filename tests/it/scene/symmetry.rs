@@ -1,4 +1,4 @@
-//! Issue 15 item 3 / item 6 of its tests: Noether beyond ignorable coordinates. The point
+//! Noether beyond ignorable coordinates. The point
 //! symmetry search finds L_z for Kepler in Cartesian coordinates and the centre-of-mass boost
 //! of two bodies, and nothing spurious for the double pendulum (only time translation); every charge is checked by its
 //! Poisson bracket with H (and, independently here, against the textbook integral).

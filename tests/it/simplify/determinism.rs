@@ -1,4 +1,4 @@
-//! Byte-identical output under CPU load (issue 14, item 5). The simplifier's default budget is
+//! Byte-identical output under CPU load. The simplifier's default budget is
 //! counts only, so the same input must print the same bytes whether the machine is idle or
 //! busy. The inputs are the ones behind the n-link and canonical snapshots: the raw
 //! Euler–Lagrange expressions and the `W`, `F`, `H` of the n-link pendulum, and the
