@@ -335,6 +335,51 @@ pub fn transition_matrix(
     Ok((phi, y[..n].to_vec()))
 }
 
+/// The flow of a Hamiltonian system over `0..T` and the two structural checks of notes §4.6.1:
+/// Liouville's theorem (`det Φ = 1`, phase-space volume is kept) and symplecticity
+/// (`ΦᵀJΦ = J` with `J = [[0, I], [−I, 0]]` in the order `(q, p)`). Both hold exactly for the
+/// true flow, so the printed residuals measure the integration error of `Φ`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Flow {
+    /// `Φ(T) = ∂x(T)/∂x(0)`, row-major `n × n`.
+    pub phi: Vec<f64>,
+    /// The state at `T`.
+    pub end: Vec<f64>,
+    /// `det Φ − 1`.
+    pub det_minus_one: f64,
+    /// `max_ij |(ΦᵀJΦ − J)_ij|`.
+    pub symplectic_defect: f64,
+}
+
+/// [`Flow`] from `x0 = (q, p)` with the Taylor method at `tol`. `sys` needs `n` tangent
+/// vectors (the variational system of a Hamiltonian flow, `n = 2 × degrees of freedom`).
+pub fn flow(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result<Flow, IntegrateError> {
+    let n = sys.n();
+    let (phi, end) = transition_matrix(sys, x0, t_end, tol)?;
+    let det_minus_one = crate::linalg::determinant(&phi, n) - 1.0;
+    Ok(Flow { symplectic_defect: symplectic_defect(&phi, n), phi, end, det_minus_one })
+}
+
+/// `max_ij |(ΦᵀJΦ − J)_ij|` for the canonical `J` of `n = 2d` variables ordered `(q, p)`.
+fn symplectic_defect(phi: &[f64], n: usize) -> f64 {
+    let d = n / 2;
+    let j = |r: usize, c: usize| match (r < d, c < d) {
+        (true, false) if c - d == r => 1.0,
+        (false, true) if r - d == c => -1.0,
+        _ => 0.0,
+    };
+    // (JΦ)_kc = Σ_l J_kl Φ_lc; (ΦᵀJΦ)_rc = Σ_k Φ_kr (JΦ)_kc.
+    let jphi: Vec<f64> = (0..n * n).map(|i| (0..n).map(|l| j(i / n, l) * phi[l * n + i % n]).sum()).collect();
+    let mut worst = 0.0f64;
+    for r in 0..n {
+        for c in 0..n {
+            let v: f64 = (0..n).map(|k| phi[k * n + r] * jphi[k * n + c]).sum();
+            worst = worst.max((v - j(r, c)).abs());
+        }
+    }
+    worst
+}
+
 /// The monodromy matrix of a periodic orbit (or of a `T`-periodic linear system) and its
 /// Floquet multipliers.
 #[derive(Clone, Debug, PartialEq)]

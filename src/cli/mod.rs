@@ -10,6 +10,7 @@ use lagrangian::print::{render, Format};
 use lagrangian::{parse_with, Declarations, Expr, Symbol};
 
 mod canonical;
+mod chaos;
 mod core;
 mod mechanics;
 mod notes;
@@ -34,6 +35,8 @@ enum Command {
     Canonical(canonical::CanonicalCommand),
     #[command(flatten)]
     Notes(notes::NotesCommand),
+    #[command(flatten)]
+    Chaos(chaos::ChaosCommand),
     #[command(flatten)]
     Scene(scene::SceneCommand),
 }
@@ -321,6 +324,7 @@ pub fn main() -> ExitCode {
         Some(Command::Mechanics(c)) => mechanics::run(c),
         Some(Command::Canonical(c)) => canonical::run(c),
         Some(Command::Notes(c)) => notes::run(c),
+        Some(Command::Chaos(c)) => chaos::run(c),
         Some(Command::Scene(c)) => scene::run(c),
         None => scene::repl(&scene::CacheArgs::default()),
     };

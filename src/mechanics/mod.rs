@@ -63,6 +63,10 @@ pub enum MechanicsError {
     /// The text did not parse.
     #[error("{0}")]
     Parse(#[from] ParseError),
+    /// A Hamiltonian's momenta are not named after its coordinates (`p` for `p_q`): the
+    /// name would be a parameter and a coordinate would never move.
+    #[error("error: {0}")]
+    MomentumNames(String),
     /// A coordinate is named like the momentum `p_q` of another coordinate `q`, so the
     /// equations could not tell the two apart.
     #[error("error: coordinate `{momentum}` has the name of the momentum of `{coord}` (momenta are named p_<coordinate>); rename it, e.g. `{suggestion}`")]

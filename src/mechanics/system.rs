@@ -402,6 +402,51 @@ impl System {
 
     // ----- accessors ----------------------------------------------------------------------
 
+    /// Refuses a Hamiltonian whose momenta are not named after its coordinates. Any other name is
+    /// a parameter, so `p^2/2 + q^2/2` over `q` would make `p` a constant and freeze `q`
+    /// (`q' = ∂H/∂p_q = 0`) without a word; a parameter `p_y` beside no coordinate `y` is the
+    /// same mistake the other way round.
+    pub fn check_momenta(&self) -> Result<(), MechanicsError> {
+        let sys = self;
+        let coords: Vec<&str> = sys.coordinates().iter().map(Symbol::name).collect();
+        let lookalike = |name: &str| {
+            name == "p"
+                || name == "P"
+                || name.starts_with("p_")
+                || name.starts_with("P_")
+                || coords.iter().any(|q| name == format!("p{q}"))
+        };
+        let params: Vec<&str> = sys.parameters().iter().map(Symbol::name).filter(|n| lookalike(n)).collect();
+        let free: BTreeSet<String> = match sys.kind() {
+            Kind::Hamiltonian(h) => h.free_symbols().iter().map(|s| s.name().to_string()).collect(),
+            Kind::Lagrangian(_) => return Ok(()),
+        };
+        let absent: Vec<(&str, &str)> = coords
+            .iter()
+            .zip(sys.momenta())
+            .filter(|(_, p)| !free.contains(p.name()))
+            .map(|(q, p)| (*q, p.name()))
+            .collect();
+        let momenta: Vec<&str> = sys.momenta().iter().map(Symbol::name).collect();
+        let named = format!("momenta are named after their coordinates: {}", momenta.join(", "));
+        if let Some((q, p)) = absent.first() {
+            let took = match params.first() {
+                Some(n) => format!("; `{n}` is not one of them, so it was taken as a parameter"),
+                None => String::new(),
+            };
+            return Err(MechanicsError::MomentumNames(format!(
+                "H does not contain `{p}`, the momentum of `{q}`, so {q}' = ∂H/∂{p} = 0 and `{q}` would never move ({named}{took}); write `{p}` for the momentum of `{q}`, or leave `{q}` out of the coordinates if it is a fixed quantity"
+            )));
+        }
+        if let Some(n) = params.iter().find(|n| n.starts_with("p_") || n.starts_with("P_")) {
+            let base = &n[2..];
+            return Err(MechanicsError::MomentumNames(format!(
+                "`{n}` in H looks like the momentum of `{base}`, but `{base}` is not a coordinate, so `{n}` would be a constant parameter ({named}); add `{base}` to the coordinates, or rename the parameter"
+            )));
+        }
+        Ok(())
+    }
+
     /// The generalized coordinates `q`, in order.
     pub fn coordinates(&self) -> &[Symbol] {
         &self.coords

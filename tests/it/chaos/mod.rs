@@ -1,4 +1,5 @@
 //! Variational equations and chaos indicators (`src/chaos.rs`, scene `megno`/`lyapunov`/`fli`/`chaos_map`).
 
+mod flow;
 mod indicators;
 mod scene;
