@@ -5,7 +5,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::{Arc, Mutex};
 
 use lagrangian::canonical::{self, Generator, GeneratorKind, PhaseSpace, Trial};
-use lagrangian::mechanics::{Kind, System};
+use lagrangian::mechanics::{Kind, MechanicsError, System};
 use lagrangian::parse::{parse_with, Declarations};
 use lagrangian::print::{render, Format};
 use lagrangian::simulate::{Compiled, Equations, Form};
@@ -155,7 +155,10 @@ fn build(
         sys = sys.with_constraint(&c).py()?;
     }
     if hamiltonian {
-        sys.check_momenta().map_err(|e| exc::ArgumentError::new_err(e.to_string()))?;
+        sys.check_momenta().map_err(|e| match e {
+            MechanicsError::MomentumNames(why) => exc::ArgumentError::new_err(why),
+            other => exc::ArgumentError::new_err(other.to_string()),
+        })?;
     }
     if let Some(p) = params {
         sys = with_params(sys, p)?;
