@@ -4,5 +4,6 @@ mod discrete;
 mod examples;
 mod first_order;
 mod geodesic;
+mod printed;
 mod ritz;
 mod singular;
