@@ -69,6 +69,7 @@ pub fn series_terms(e: &Expr, small: &[Symbol], order: usize) -> Result<Vec<Expr
     let scaled: HashMap<Symbol, Expr> = small.iter().map(|s| (s.clone(), l.times(&Expr::sym(s.clone())))).collect();
     let mut cur = e.subs(&scaled);
     if let Some(bad) = non_smooth_in(&cur, &lambda) {
+        let bad = bad.subs1(&lambda, &Expr::one());
         return Err(refuse(format!("factor {bad} is not differentiable where the small quantities vanish")));
     }
     let mut d = Differentiator::new();
@@ -87,16 +88,19 @@ pub fn series_terms(e: &Expr, small: &[Symbol], order: usize) -> Result<Vec<Expr
                 format!("derivative of order {k} is undefined there")
             }));
         }
-        out.push(tidy(&at0.times(&Expr::num(factorial.recip()))));
+        // Expanded: a term of a series reads as its monomials (`l² m θ'²/2 − g l m θ²/2`).
+        let term = at0.times(&Expr::num(factorial.recip()));
+        out.push(crate::algebra::expand(&term).unwrap_or_else(|_| tidy(&term)));
     }
     Ok(out)
 }
 
-/// The series of `e` to order `order` in the small quantities `small` (the sum of
-/// [`series_terms`], tidied).
+/// The series of `e` to order `order` in the small quantities `small`: the sum of
+/// [`series_terms`], each order tidied on its own (tidying the sum would nest the orders
+/// into one another, Horner-like).
 pub fn series(e: &Expr, small: &[Symbol], order: usize) -> Result<Expr, SeriesError> {
     let terms = series_terms(e, small, order)?;
-    Ok(tidy(&Expr::add(terms)))
+    Ok(Expr::add(terms))
 }
 
 /// The series of a Lagrangian `l` about the point `q = q₀` (`about`: one value per coordinate)
@@ -109,13 +113,17 @@ pub fn series_about(
     about: &[Expr],
     order: usize,
 ) -> Result<(Expr, Vec<Expr>), SeriesError> {
+    // Through fresh names, so that no substituted `q₀ + q` is substituted again.
+    let fresh: Vec<Symbol> = coords.iter().map(|q| fresh_symbol(l, &format!("{}_shift", q.name()))).collect();
     let shift: HashMap<Symbol, Expr> =
-        coords.iter().zip(about).map(|(q, q0)| (q.clone(), q0.plus(&Expr::sym(q.clone())))).collect();
-    let shifted = l.subs(&shift);
+        coords.iter().zip(about).zip(&fresh).map(|((q, q0), f)| (q.clone(), q0.plus(&Expr::sym(f.clone())))).collect();
+    let back: HashMap<Symbol, Expr> =
+        fresh.iter().zip(coords).map(|(f, q)| (f.clone(), Expr::sym(q.clone()))).collect();
+    let shifted = l.subs(&shift).subs(&back);
     let mut small: Vec<Symbol> = coords.to_vec();
     small.extend(coords.iter().map(Symbol::prime));
     let terms = series_terms(&shifted, &small, order)?;
-    Ok((tidy(&Expr::add(terms.clone())), terms))
+    Ok((Expr::add(terms.clone()), terms))
 }
 
 /// A symbol named `base` (with `_` appended until it is) not occurring in `e`.

@@ -6,4 +6,5 @@ mod first_order;
 mod geodesic;
 mod printed;
 mod ritz;
+mod series;
 mod singular;
