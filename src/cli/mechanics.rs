@@ -91,6 +91,17 @@ pub enum MechanicsCommand {
         #[command(flatten)]
         system: SystemArgs,
     },
+    /// Jacobian matrix ∂x_i/∂y_j of a map of coordinates and its determinant (§1.3).
+    Jacobian {
+        /// The map, comma-separated components (`r cos(φ), r sin(φ)`).
+        #[arg(allow_hyphen_values = true)]
+        map: String,
+        /// The variables the map depends on, in order (`r,φ`).
+        #[arg(long = "in", value_delimiter = ',', required = true)]
+        vars: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
     /// Series of an expression to a given order in named small quantities (`--in x,y`), or of
     /// a Lagrangian about a point (`--coords θ --about 0`): L_lin of the notes (2.29).
     Series {
@@ -215,6 +226,33 @@ fn per_coordinate_json(out: &mut Report, key: &str, coords: &[Symbol], exprs: &[
 
 pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
     match cmd {
+        MechanicsCommand::Jacobian { map, vars, common } => {
+            let decls = common.declarations();
+            let text = read_expr_arg(&map)?;
+            let comps: Vec<Expr> = split_top_level(&text)
+                .iter()
+                .map(|c| super::parse_arg(c.trim(), &decls).map(|(_, e)| e))
+                .collect::<Result<_, _>>()?;
+            let ys: Vec<Symbol> = vars.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+            let Some((m, det)) = lagrangian::mechanics::jacobian(&comps, &ys) else {
+                return Err(bad_input(format!(
+                    "error: the map has {} component(s) but --in names {} variable(s); a Jacobian determinant needs as many of each",
+                    comps.len(),
+                    ys.len()
+                )));
+            };
+            let f = common.format.expr_format();
+            if common.format == OutFormat::Json {
+                let rows: Vec<Vec<String>> =
+                    m.iter().map(|r| r.iter().map(lagrangian::print::plain).collect()).collect();
+                println!("{}", json!({"matrix": rows, "determinant": lagrangian::print::plain(&det)}));
+            } else {
+                for row in &m {
+                    println!("[{}]", row.iter().map(|e| render(e, f)).collect::<Vec<_>>().join(", "));
+                }
+                println!("det = {}", render(&det, f));
+            }
+        }
         MechanicsCommand::Series { expr, small, coords, about, order, common } => {
             let decls = common.declarations();
             let (_, e) = super::parse_arg(&expr, &decls)?;
@@ -421,4 +459,23 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Splits `a, f(b, c), d` at the commas outside parentheses.
+fn split_top_level(text: &str) -> Vec<String> {
+    let (mut parts, mut cur, mut depth) = (Vec::new(), String::new(), 0i32);
+    for c in text.chars() {
+        match c {
+            '(' | '[' => depth += 1,
+            ')' | ']' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push(std::mem::take(&mut cur));
+                continue;
+            }
+            _ => {}
+        }
+        cur.push(c);
+    }
+    parts.push(cur);
+    parts
 }

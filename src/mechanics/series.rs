@@ -162,3 +162,16 @@ fn non_smooth_in(e: &Expr, lambda: &Symbol) -> Option<Expr> {
     });
     found
 }
+
+/// The Jacobian matrix `∂x_i/∂y_j` of a map of coordinates `x_i(y)` (§1.3: `x(r₀, t)` of the
+/// ideal fluid, whose determinant `J` is the volume ratio), each entry tidied, and its
+/// determinant. `None` when the map does not have as many components as variables.
+pub fn jacobian(map: &[Expr], vars: &[Symbol]) -> Option<(Vec<Vec<Expr>>, Expr)> {
+    if map.len() != vars.len() || map.is_empty() {
+        return None;
+    }
+    let mut d = Differentiator::new();
+    let m: Vec<Vec<Expr>> = map.iter().map(|x| vars.iter().map(|y| tidy(&d.diff(x, y))).collect()).collect();
+    let det = tidy(&crate::simplify::simplify(&super::linalg::determinant(&m)));
+    Some((m, det))
+}

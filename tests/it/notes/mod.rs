@@ -4,6 +4,7 @@ mod discrete;
 mod examples;
 mod first_order;
 mod geodesic;
+mod jacobian;
 mod printed;
 mod ritz;
 mod series;
