@@ -57,3 +57,13 @@ fn series_in_two_small_quantities_and_refusals() {
     assert_eq!(code, 2);
     assert!(err.contains("above the limit"), "{err}");
 }
+
+#[test]
+fn substitution_is_simultaneous_when_a_parent_collapses_to_the_symbol() {
+    // (r − a)² under r → a + r is r²: the rebuilt r − a is the symbol r, which must not be
+    // substituted again (it was, giving (r + a)²).
+    let mut map = std::collections::HashMap::new();
+    map.insert(Symbol::new("r"), p("a + r"));
+    assert_eq!(p("(r - a)^2").subs(&map), p("r^2"));
+    assert_eq!(p("k (r - a)^2/2 + r").subs(&map), p("k r^2/2 + a + r"));
+}
