@@ -1059,10 +1059,26 @@ impl Expr {
         if map.is_empty() {
             return self.clone();
         }
-        self.map_bottom_up(&mut |e| match e.node() {
-            Node::Sym(s) => map.get(s).cloned(),
-            _ => None,
-        })
+        // Not through `map_bottom_up`: that hands the rebuilt parent to the rewrite too, and a
+        // parent that collapses to a substituted symbol (`r − a` under `r → a + r` rebuilds
+        // as `r`) would be substituted a second time.
+        let mut memo: HashMap<Expr, Expr> = HashMap::new();
+        self.subs_rec(map, &mut memo)
+    }
+
+    fn subs_rec(&self, map: &HashMap<Symbol, Expr>, memo: &mut HashMap<Expr, Expr>) -> Expr {
+        if let Node::Sym(s) = self.node() {
+            return map.get(s).cloned().unwrap_or_else(|| self.clone());
+        }
+        if let Some(done) = memo.get(self) {
+            return done.clone();
+        }
+        let mut children = Vec::new();
+        self.for_each_child(|c| children.push(c.clone()));
+        let new: Vec<Expr> = children.iter().map(|c| c.subs_rec(map, memo)).collect();
+        let out = if new == children { self.clone() } else { self.with_children(new) };
+        memo.insert(self.clone(), out.clone());
+        out
     }
 
     /// Substitutes one expression for one symbol.

@@ -319,6 +319,32 @@ pub enum NumericMapError {
 }
 
 impl Generator {
+    /// The generator's old variables at a point of the new ones, from the closed-form inverse
+    /// of `t` (`None` when it has none, or it is not finite there). The relations of a
+    /// generating function often have several roots (F1 = ½ m ω q² cot Q is even in `q`, so
+    /// `(q, p)` and `(−q, −p)` both satisfy them); starting Newton's method of
+    /// [`Generator::numeric_inverse`] here puts its answer on the branch the printed inverse
+    /// map took, so the two never disagree.
+    pub fn inverse_branch_guess(
+        &self,
+        t: &GeneratedTransform,
+        new_values: &[f64],
+        params: &crate::eval::Env,
+    ) -> Option<Vec<f64>> {
+        let inverse = t.inverse.as_ref().ok()?;
+        let mut env = params.clone();
+        for (s, v) in self.new.variables().iter().zip(new_values) {
+            env.insert(s.to_string(), *v);
+        }
+        self.x()
+            .iter()
+            .map(|xi| {
+                let (_, e) = inverse.iter().find(|(s, _)| s == xi)?;
+                crate::eval::eval(e, &env).ok().filter(|v| v.is_finite())
+            })
+            .collect()
+    }
+
     /// The inverse map at one point, numerically, for when no closed form exists: given the new
     /// variables (`new_values`: `Q_1…Q_n, P_1…P_n`) and values for `t` and the parameters in
     /// `params`, solves the new-complement relations for the generator's old variables by

@@ -38,10 +38,31 @@ fn factorial_inv(k: i64) -> crate::expr::Rational {
 pub const MAX_ORDER: usize = 40;
 
 /// `exp(ε {·, G}) f` truncated after `ε^order`.
+///
+/// When `f` or `G` contains `ε` itself (a perturbed Hamiltonian `H₀ + ε H₁`, a generator
+/// `ε G₁ + ε² G₂`), the k-th bracket term is not purely of order `ε^k`: cutting the sum after
+/// `k = order` would keep part of the higher powers (the bracket of an `ε`-term of `f` with
+/// `G` lands at `ε²` next to the `ε²` term of the next bracket, which is cut). The sum is then
+/// truncated consistently: expanded in powers of `ε` and cut after `ε^order`, which is exact
+/// to that order when `f` and `G` have power series in `ε`. When one of them has none (a
+/// `1/ε` in `G`), `exp(ε{·,G})` is no power series in `ε` and the sum of the first
+/// `order + 1` bracket terms is returned as it is.
 pub fn lie_series(f: &Expr, g: &Expr, epsilon: &Symbol, order: usize, ps: &PhaseSpace) -> Expr {
     let eps = Expr::sym(epsilon.clone());
     let terms = lie_terms(f, g, order, ps);
-    Expr::add(terms.into_iter().enumerate().map(|(k, t)| t.times(&eps.powi(k as i64))))
+    let sum = Expr::add(terms.into_iter().enumerate().map(|(k, t)| t.times(&eps.powi(k as i64))));
+    if !(f.contains(epsilon) || g.contains(epsilon)) {
+        return sum;
+    }
+    match crate::mechanics::series_terms(&sum, std::slice::from_ref(epsilon), order) {
+        Ok(parts) => Expr::add(
+            parts
+                .into_iter()
+                .enumerate()
+                .map(|(k, t)| normalize(&t.times(&eps.powi(-(k as i64)))).times(&eps.powi(k as i64))),
+        ),
+        Err(_) => sum,
+    }
 }
 
 /// The flow of an autonomous `h` applied to `f`, as a series in `t` up to `t^order`.

@@ -279,8 +279,26 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             print_transform(&t, common.format);
             if !at.is_empty() {
                 let env = parse_params(&params, &common.positive)?;
-                let guess = if guess.is_empty() { vec![1.0; g.old.dof()] } else { guess };
+                // Without a guess, Newton starts from the printed inverse map, so that both give
+                // the same root of the relations.
+                let branch = g.inverse_branch_guess(&t, &at, &env);
+                let guess = match (guess.is_empty(), &branch) {
+                    (false, _) => guess,
+                    (true, Some(b)) => b.clone(),
+                    (true, None) => vec![1.0; g.old.dof()],
+                };
                 let vals = g.numeric_inverse(&at, &env, &guess).map_err(|e| bad_input(format!("error: {e}")))?;
+                let printed = branch.as_ref().and_then(|_| g.numeric_inverse(&at, &env, branch.as_ref()?).ok());
+                if let Some(pv) = printed
+                    .filter(|pv| pv.iter().zip(&vals).any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + a.abs().max(b.abs()))))
+                {
+                    let names = g.old.variables();
+                    let parts: Vec<String> = names.iter().zip(&pv).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
+                    eprintln!(
+                        "note: from this --guess Newton's method found another root of the relations than the printed inverse map, which gives {}",
+                        parts.join(", ")
+                    );
+                }
                 let names = g.old.variables();
                 if common.format == OutFormat::Json {
                     let m: serde_json::Map<String, Value> =

@@ -1,4 +1,4 @@
-//! `el`, `legendre`, `hamilton`, `conserved`, `transform`: the mechanics commands.
+//! `el`, `legendre`, `hamilton`, `conserved`, `transform`, `series`: the mechanics commands.
 
 use clap::{Args, Subcommand};
 use lagrangian::expr::{Expr, Symbol};
@@ -90,6 +90,39 @@ pub enum MechanicsCommand {
         gauge: Option<String>,
         #[command(flatten)]
         system: SystemArgs,
+    },
+    /// Jacobian matrix ∂x_i/∂y_j of a map of coordinates and its determinant (§1.3).
+    Jacobian {
+        /// The map, comma-separated components (`r cos(φ), r sin(φ)`).
+        #[arg(allow_hyphen_values = true)]
+        map: String,
+        /// The variables the map depends on, in order (`r,φ`).
+        #[arg(long = "in", value_delimiter = ',', required = true)]
+        vars: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Series of an expression to a given order in named small quantities (`--in x,y`), or of
+    /// a Lagrangian about a point (`--coords θ --about 0`): L_lin of the notes (2.29).
+    Series {
+        /// The expression or Lagrangian (`-` reads it from standard input).
+        #[arg(allow_hyphen_values = true)]
+        expr: String,
+        /// The small quantities (`ε` or `x,y`).
+        #[arg(long = "in", value_delimiter = ',')]
+        small: Vec<String>,
+        /// The coordinates of a Lagrangian to expand about `--about`: their displacements and
+        /// velocities are the small quantities.
+        #[arg(long, value_delimiter = ',')]
+        coords: Vec<String>,
+        /// The point to expand about, one value per coordinate (default 0).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        about: Vec<String>,
+        /// The highest total degree kept.
+        #[arg(long, default_value_t = 2)]
+        order: usize,
+        #[command(flatten)]
+        common: Common,
     },
 }
 
@@ -193,6 +226,82 @@ fn per_coordinate_json(out: &mut Report, key: &str, coords: &[Symbol], exprs: &[
 
 pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
     match cmd {
+        MechanicsCommand::Jacobian { map, vars, common } => {
+            let decls = common.declarations();
+            let text = read_expr_arg(&map)?;
+            let comps: Vec<Expr> = split_top_level(&text)
+                .iter()
+                .map(|c| super::parse_arg(c.trim(), &decls).map(|(_, e)| e))
+                .collect::<Result<_, _>>()?;
+            let ys: Vec<Symbol> = vars.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+            let Some((m, det)) = lagrangian::mechanics::jacobian(&comps, &ys) else {
+                return Err(bad_input(format!(
+                    "error: the map has {} component(s) but --in names {} variable(s); a Jacobian determinant needs as many of each",
+                    comps.len(),
+                    ys.len()
+                )));
+            };
+            let f = common.format.expr_format();
+            if common.format == OutFormat::Json {
+                let rows: Vec<Vec<String>> =
+                    m.iter().map(|r| r.iter().map(lagrangian::print::plain).collect()).collect();
+                println!("{}", json!({"matrix": rows, "determinant": lagrangian::print::plain(&det)}));
+            } else {
+                for row in &m {
+                    println!("[{}]", row.iter().map(|e| render(e, f)).collect::<Vec<_>>().join(", "));
+                }
+                println!("det = {}", render(&det, f));
+            }
+        }
+        MechanicsCommand::Series { expr, small, coords, about, order, common } => {
+            let decls = common.declarations();
+            let (_, e) = super::parse_arg(&expr, &decls)?;
+            let series_err = |e: lagrangian::mechanics::SeriesError| bad_input(e.to_string());
+            let (result, terms) = match (small.is_empty(), coords.is_empty()) {
+                (false, true) => {
+                    let vars: Vec<Symbol> =
+                        small.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+                    let terms = lagrangian::mechanics::series_terms(&e, &vars, order).map_err(series_err)?;
+                    (lagrangian::mechanics::series(&e, &vars, order).map_err(series_err)?, terms)
+                }
+                (true, false) => {
+                    let qs: Vec<Symbol> =
+                        coords.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+                    let point: Vec<Expr> = if about.is_empty() {
+                        vec![Expr::zero(); qs.len()]
+                    } else if about.len() == qs.len() {
+                        about.iter().map(|a| super::parse_arg(a.trim(), &decls).map(|(_, e)| e)).collect::<Result<_, _>>()?
+                    } else {
+                        return Err(bad_input(format!(
+                            "error: --about gives {} value(s) for {} coordinate(s); give one per coordinate",
+                            about.len(),
+                            qs.len()
+                        )));
+                    };
+                    lagrangian::mechanics::series_about(&e, &qs, &point, order).map_err(series_err)?
+                }
+                (false, false) => {
+                    return Err(bad_input(
+                        "error: give either --in (small quantities) or --coords (expand a Lagrangian about --about), not both",
+                    ))
+                }
+                (true, true) => {
+                    return Err(bad_input(
+                        "error: name the small quantities with --in x,y, or the coordinates of a Lagrangian with --coords θ (and --about θ0)",
+                    ))
+                }
+            };
+            let f = common.format.expr_format();
+            if common.format == OutFormat::Json {
+                let parts: Vec<String> = terms.iter().map(lagrangian::print::plain).collect();
+                println!("{}", json!({"series": lagrangian::print::plain(&result), "order": order, "terms": parts}));
+            } else {
+                if !coords.is_empty() && !about.iter().all(|a| a.trim() == "0") {
+                    println!("# each coordinate stands for its displacement from --about");
+                }
+                println!("{}", render(&result, f));
+            }
+        }
         MechanicsCommand::El { lagrangian, accelerations, system } => {
             let text = read_expr_arg(&lagrangian)?;
             let s = build(&text, &system, false)?;
@@ -350,4 +459,23 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Splits `a, f(b, c), d` at the commas outside parentheses.
+fn split_top_level(text: &str) -> Vec<String> {
+    let (mut parts, mut cur, mut depth) = (Vec::new(), String::new(), 0i32);
+    for c in text.chars() {
+        match c {
+            '(' | '[' => depth += 1,
+            ')' | ']' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push(std::mem::take(&mut cur));
+                continue;
+            }
+            _ => {}
+        }
+        cur.push(c);
+    }
+    parts.push(cur);
+    parts
 }

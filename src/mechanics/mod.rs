@@ -40,6 +40,7 @@ mod legendre;
 mod linalg;
 mod noether;
 mod ritz;
+mod series;
 mod system;
 mod tidy;
 mod transform;
@@ -52,6 +53,7 @@ pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
 pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
+pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};
 pub use system::{Kind, System};
 pub use tidy::tidy;
 

@@ -88,7 +88,7 @@ impl System {
                 if !l.contains(&t) && !dissipative {
                     out.push(Conserved {
                         name: "h".to_string(),
-                        expr: tidy(&self.energy_function()),
+                        expr: energy_as_printed(&self.energy_function()),
                         reason: Reason::LagrangianTimeIndependent,
                     });
                 }
@@ -113,5 +113,26 @@ impl System {
             }
         }
         out
+    }
+}
+
+/// The energy function as `conserved` prints it. Its canonical form keeps the grouping of
+/// `L`'s terms (`g l m (1 − cos θ) + l² m θ'²/2`, the form the scene's `energy` and the notes
+/// print); that form is kept when its terms do not interact: expanded one by one they give as
+/// many monomials as the whole expanded (nothing cancels or merges), and tidying a term does
+/// not shorten it, and the tidied whole is not shorter by more than one operation per term.
+/// Otherwise (`y' (m y' + e B x) − e B x y'`) the tidied whole.
+fn energy_as_printed(h: &Expr) -> Expr {
+    use crate::canonical::normalize;
+    let terms = h.terms();
+    let separate: usize = terms.iter().map(|t| normalize(t).terms().len()).sum();
+    let independent =
+        separate == normalize(h).terms().len() && terms.iter().all(|t| tidy(t).op_count() >= t.op_count());
+    let tidied = tidy(h);
+    // …and when pulling factors out saves no more than one operation per term.
+    if independent && h.op_count() <= tidied.op_count() + terms.len() {
+        h.clone()
+    } else {
+        tidied
     }
 }

@@ -75,7 +75,8 @@ impl System {
             )));
         }
         let dg = Differentiator::new().dt(&g, &self.coord_names());
-        let mut out = self.with_kind(Kind::Lagrangian(l.plus(&dg)));
+        // Tidied like a point transformation's result: the terms of dΛ/dt cancel against L's.
+        let mut out = self.with_kind(Kind::Lagrangian(tidy(&l.plus(&dg))));
         out.forces = self.forces.clone();
         out.rayleigh = self.rayleigh.clone();
         out.constraints = self.constraints.clone();

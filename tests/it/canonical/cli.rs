@@ -132,6 +132,27 @@ fn numeric_inverse_where_no_closed_form_exists() {
 }
 
 #[test]
+fn numeric_inverse_takes_the_branch_of_the_printed_inverse_map() {
+    // F1 = ½ m ω q² cot Q (notes §4.2.1): p = m ω q cot Q and P = m ω q²/(2 sin² Q) are even
+    // in (q, p), so (q, p) and (−q, −p) both satisfy them. The printed inverse map is the
+    // notes' q = √(2P/(mω)) sin Q, p = √(2Pmω) cos Q; at Q = 4, P = 1, m = ω = 1 that is
+    // q = √2 sin 4 = −1.0703, p = √2 cos 4 = −0.9244, and `--at` must give the same point
+    // (Newton from the default guess 1 used to land on +1.0703, +0.9244).
+    let args = ["canonical", "--f1", "1/2 m ω q^2 cot(Q)", "--coords", "q", "--at", "4,1", "--params", "m=1,ω=1"];
+    let (code, out, err) = run(&[&args[..], &["--format", "json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.lines().nth(1).expect("two lines")).expect("valid JSON");
+    let (q, pq) = (v["numeric_inverse"]["q"].as_f64().expect("q"), v["numeric_inverse"]["p_q"].as_f64().expect("p"));
+    let (q_hand, p_hand) = (2f64.sqrt() * 4f64.sin(), 2f64.sqrt() * 4f64.cos());
+    assert!((q - q_hand).abs() < 1e-13 && (pq - p_hand).abs() < 1e-13, "q = {q}, p = {pq}");
+    // A guess on the other root is honoured, with a note naming the printed map's root.
+    let (code, out, err) = run(&[&args[..], &["--guess", "1"]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("q = 1.070280352902273e0"), "{out}");
+    assert!(err.contains("another root") && err.contains("q = -1.070280352902273e0"), "{err}");
+}
+
+#[test]
 fn bad_input_exits_with_code_2_and_says_why() {
     let (code, _, err) = run(&["canonical", "--f1", "q^2 + Q^2", "--coords", "q"]);
     assert_eq!(code, 2);

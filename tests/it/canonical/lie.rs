@@ -80,3 +80,31 @@ fn time_dependent_hamiltonian_is_refused_for_the_flow() {
     let ps = PhaseSpace::new(["q"]).expect("valid");
     assert_eq!(lie_flow(&p("q"), &p("p_q^2/2 + q t"), 3, &ps), Err(LieError::TimeDependent));
 }
+
+#[test]
+fn a_generator_or_function_containing_epsilon_is_truncated_consistently_in_epsilon() {
+    // f = p²/2 + ε q⁴, G = q³ p: the first bracket ε{f, G} = ε(4ε q⁶ − 3 q² p²) has an ε² part,
+    // and the ε² coefficient also gets ε²/2 {{p²/2, G}, G} = 6 ε² q⁴ p² from the next bracket.
+    // At order 1 no ε² term may be kept; at orders 2 and 3 every power up to the order is
+    // complete. Expected series from SymPy, brackets summed to order + 2 then truncated
+    // (scripts/notes_gaps_reference.py).
+    let ps = PhaseSpace::new(["q"]).expect("valid");
+    let eps = Symbol::new("ε");
+    let f = p("p_q^2/2 + ε q^4");
+    let g = p("q^3 p_q");
+    let sympy = [
+        "-3 ε p_q^2 q^2 + ε q^4 + p_q^2/2",
+        "6 ε^2 p_q^2 q^4 + 4 ε^2 q^6 - 3 ε p_q^2 q^2 + ε q^4 + p_q^2/2",
+        "-4 ε^3 p_q^2 q^6 + 12 ε^3 q^8 + 6 ε^2 p_q^2 q^4 + 4 ε^2 q^6 - 3 ε p_q^2 q^2 + ε q^4 + p_q^2/2",
+    ];
+    for (order, expected) in (1..=3).zip(sympy) {
+        let got = lie_series(&f, &g, &eps, order, &ps);
+        let diff = lagrangian::canonical::normalize(&got.minus(&p(expected)));
+        assert!(diff.is_zero(), "order {order}: {got} − SymPy = {diff}");
+    }
+    // A generator of order ε: exp(ε{·, ε p²/2 + ε² q}) q = q + ε² p + O(ε⁴) ({q, G} = ε p,
+    // {ε p, G} = −ε³), so order 2 and order 3 are both q + ε² p.
+    for order in [2, 3] {
+        assert_eq!(lie_series(&p("q"), &p("ε p_q^2/2 + ε^2 q"), &eps, order, &ps), p("q + ε^2 p_q"), "order {order}");
+    }
+}

@@ -4,5 +4,8 @@ mod discrete;
 mod examples;
 mod first_order;
 mod geodesic;
+mod jacobian;
+mod printed;
 mod ritz;
+mod series;
 mod singular;
