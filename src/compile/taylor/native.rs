@@ -1504,7 +1504,7 @@ impl TaylorNative {
     }
 
     /// Whether this is the whole expansion of an ODE from order 0 (see
-    /// [`TaylorOde::native_for`]).
+    /// [`TaylorOde::native_for`](super::TaylorOde::native_for)).
     pub fn is_whole(&self) -> bool {
         self.0.is_whole()
     }
@@ -1515,7 +1515,7 @@ impl TaylorNative {
     }
 
     /// Runs a whole expansion: orders `0..=max_order` and the state's next order after each
-    /// (`c`: the whole scratch of [`TaylorOde::expand`], with the state's order 0 and the
+    /// (`c`: the whole scratch of [`TaylorOde::expand`](super::TaylorOde::expand), with the state's order 0 and the
     /// time's orders given).
     pub(super) fn run_expansion(&self, c: &mut [f64]) -> Ran {
         self.0.run_expansion(c)
