@@ -1,13 +1,10 @@
 //! The Taylor interpreter: the recurrences of each operation, order by order.
 
-use super::tiers::TaylorNative;
+use super::ir::KinkAt;
+use super::native::TaylorNative;
 
 use super::ir::{Op, Weight};
 use super::TaylorTape;
-
-/// An `abs` met its kink (see [`TaylorTape::run_order`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct KinkAt;
 
 impl TaylorTape {
     /// Whether the argument of some `abs` changes sign between the expansion point and `h`

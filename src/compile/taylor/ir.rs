@@ -555,3 +555,7 @@ impl fmt::Display for TaylorTape {
         )
     }
 }
+
+/// An `abs` met its kink (see [`TaylorTape::run_order`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KinkAt;

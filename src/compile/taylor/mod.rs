@@ -29,10 +29,10 @@ mod native;
 mod ode;
 mod tiers;
 
-pub use interp::KinkAt;
-pub use ir::TaylorTape;
+pub use ir::{KinkAt, TaylorTape};
+pub use native::TaylorNative;
 pub use ode::{Derivative, TaylorError, TaylorOde};
 pub use tiers::{
-    TaylorNative, AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS,
+    AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS,
     UNROLL_AFTER_EXPANSIONS,
 };

@@ -4,6 +4,7 @@
 
 use std::mem::ManuallyDrop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::Arc;
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Value};
@@ -13,7 +14,7 @@ use cranelift_module::{Linkage, Module};
 
 use crate::expr::Func;
 
-use super::ir::{Op, Weight};
+use super::ir::{KinkAt, Op, Weight};
 use super::TaylorTape;
 use crate::compile::jit::{atan2, call_f64, call_sin_cos, host_module, powf, real_root, wrapper, OwnedModule};
 use crate::compile::tape::MAX_NATIVE_INSTRS;
@@ -1473,5 +1474,50 @@ impl TaylorEmitter<'_, '_> {
             | Op::Abs { .. } => unreachable!("`order` emits the arithmetic and `abs` itself"),
         }
         Some(())
+    }
+}
+
+/// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
+/// ([`TaylorTape::compile_native`]); clones share the code.
+#[derive(Clone, Debug)]
+pub struct TaylorNative(pub(super) Arc<NativeTaylor>);
+impl TaylorNative {
+    /// The stride of the coefficient buffers the code was compiled for.
+    pub fn stride(&self) -> usize {
+        self.0.stride()
+    }
+
+    /// The highest order compiled (orders `1..=max_order`; order 0 is interpreted except in a
+    /// whole expansion).
+    pub fn max_order(&self) -> usize {
+        self.0.max_order()
+    }
+
+    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride (code
+    /// compiled per order).
+    pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
+        if self.0.run_order(c, k) {
+            Ok(())
+        } else {
+            Err(KinkAt)
+        }
+    }
+
+    /// Whether this is the whole expansion of an ODE from order 0 (see
+    /// [`TaylorOde::native_for`](super::TaylorOde::native_for)).
+    pub fn is_whole(&self) -> bool {
+        self.0.is_whole()
+    }
+
+    /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
+    pub fn is_compact(&self) -> bool {
+        self.0.is_compact()
+    }
+
+    /// Runs a whole expansion: orders `0..=max_order` and the state's next order after each
+    /// (`c`: the whole scratch of [`TaylorOde::expand`](super::TaylorOde::expand), with the state's order 0 and the
+    /// time's orders given).
+    pub(super) fn run_expansion(&self, c: &mut [f64]) -> Ran {
+        self.0.run_expansion(c)
     }
 }

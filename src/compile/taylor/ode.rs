@@ -7,7 +7,8 @@ use crate::expr::Expr;
 use crate::integrate::{RhsError as StepError, StepFailure, TaylorSystem};
 use crate::mechanics::{Kind, System};
 
-use super::interp::{cholesky_solve, dot_rev, KinkAt};
+use super::interp::{cholesky_solve, dot_rev};
+use super::ir::KinkAt;
 use super::native::Ran;
 use super::tiers::NativeCache;
 use super::TaylorTape;

@@ -6,57 +6,12 @@ use std::sync::{Arc, OnceLock};
 
 use crate::compile::jit::jit_disabled_by_env;
 
-use super::interp::KinkAt;
 use super::native::{
-    compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, Ran, MAX_NATIVE_TAYLOR_TERMS,
+    compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, TaylorNative, MAX_NATIVE_TAYLOR_TERMS,
 };
 use super::ode::Derivative;
 use super::{TaylorOde, TaylorTape};
 
-/// The Taylor recurrences of a [`TaylorTape`] compiled to machine code for one stride
-/// ([`TaylorTape::compile_native`]); clones share the code.
-#[derive(Clone, Debug)]
-pub struct TaylorNative(Arc<NativeTaylor>);
-impl TaylorNative {
-    /// The stride of the coefficient buffers the code was compiled for.
-    pub fn stride(&self) -> usize {
-        self.0.stride()
-    }
-
-    /// The highest order compiled (orders `1..=max_order`; order 0 is interpreted except in a
-    /// whole expansion).
-    pub fn max_order(&self) -> usize {
-        self.0.max_order()
-    }
-
-    /// [`TaylorTape::run_order`] for `1 ≤ k ≤ max_order` on a buffer of this stride (code
-    /// compiled per order).
-    pub fn run_order(&self, c: &mut [f64], k: usize) -> Result<(), KinkAt> {
-        if self.0.run_order(c, k) {
-            Ok(())
-        } else {
-            Err(KinkAt)
-        }
-    }
-
-    /// Whether this is the whole expansion of an ODE from order 0 (see
-    /// [`TaylorOde::native_for`]).
-    pub fn is_whole(&self) -> bool {
-        self.0.is_whole()
-    }
-
-    /// Whether this is compact code (see [`TaylorTape::compile_native_compact`]).
-    pub fn is_compact(&self) -> bool {
-        self.0.is_compact()
-    }
-
-    /// Runs a whole expansion: orders `0..=max_order` and the state's next order after each
-    /// (`c`: the whole scratch of [`TaylorOde::expand`], with the state's order 0 and the
-    /// time's orders given).
-    pub(super) fn run_expansion(&self, c: &mut [f64]) -> Ran {
-        self.0.run_expansion(c)
-    }
-}
 /// How many expansions a [`TaylorOde`] with native code switched on
 /// ([`TaylorOde::with_native`]) runs in the interpreter before compiling, so a cold start
 /// never waits for Cranelift.
