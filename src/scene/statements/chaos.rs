@@ -177,6 +177,9 @@ impl Level {
     }
 }
 
+/// A chaos map's axis: the state variable and its range.
+type Axis = (Src, f64, f64);
+
 impl Session {
     /// The level clause of a chaos map, checked, with its function in `(q, p)`.
     fn chaos_level(&mut self, at: At, l: &LevelSpec, setup: &Setup) -> Result<Level, SceneError> {
@@ -259,51 +262,7 @@ impl Session {
     }
 
     fn chaos_map(&mut self, at: At, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
-        if spec.ranges.len() != 2 {
-            return Err(SceneError::new(
-                ErrorKind::Syntax,
-                format!("a chaos map needs two ranges, found {}", spec.ranges.len()),
-            )
-            .at(spec.indicator.span)
-            .hint("write the two axes as ranges: `chaos_map megno θ1 = -3..3, θ2 = -3..3, θ1' = 0, θ2' = 0 for t in 0..50`"));
-        }
-        let side = match &spec.sim.points {
-            None => DEFAULT_GRID,
-            Some(src) => {
-                let e = self.resolved(at, src)?;
-                let x = self.number(&e, src.span)?;
-                if !(x.fract() == 0.0 && (2.0..=MAX_GRID as f64).contains(&x)) {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`points` is the grid's side, a whole number from 2 to {MAX_GRID}; found {x}"),
-                    )
-                    .at(src.span));
-                }
-                x as usize
-            }
-        };
-        let mut axes = Vec::new();
-        for (sym, lo, hi) in &spec.ranges {
-            let (a, b) = (self.bound(at, lo)?, self.bound(at, hi)?);
-            if !(a < b && a.is_finite() && b.is_finite()) {
-                return Err(SceneError::new(
-                    ErrorKind::BadNumber,
-                    format!("the range of `{}` must run from a smaller to a larger number", sym.text),
-                )
-                .at((lo.span.0, hi.span.1)));
-            }
-            // The cells' centres are a + (b − a)(k + ½)/N: a range wider than f64 holds
-            // (−1e308..1e308) would make them infinite, and every start would fail.
-            if !(b - a).is_finite() {
-                return Err(SceneError::new(
-                    ErrorKind::BadNumber,
-                    format!("the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)", sym.text),
-                )
-                .at((lo.span.0, hi.span.1))
-                .hint("narrow the range so that its width is below 1.8e308"));
-            }
-            axes.push((sym.clone(), a, b));
-        }
+        let (side, axes) = self.map_grid(at, spec)?;
         let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
         names.extend(spec.level.as_ref().map(|l| l.solve.clone()));
         let base = self.chaos_values(at, spec, &names)?;
@@ -320,8 +279,6 @@ impl Session {
             &["svg", "png", "csv"],
             "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
         )?;
-        // Cell centres, row by row (the second axis outer).
-        let centre = |k: usize, (_, a, b): &(Src, f64, f64)| a + (b - a) * (k as f64 + 0.5) / side as f64;
         let (kx, ky) = (self.state_key(&axes[0].0)?, self.state_key(&axes[1].0)?);
         // The starts, and which cells have one (all of them without a level set).
         let mut starts = Vec::with_capacity(side * side);
@@ -329,8 +286,8 @@ impl Session {
         for j in 0..side {
             for i in 0..side {
                 let mut given = base.clone();
-                given.insert(kx.clone(), centre(i, &axes[0]));
-                given.insert(ky.clone(), centre(j, &axes[1]));
+                given.insert(kx.clone(), centre(side, i, &axes[0]));
+                given.insert(ky.clone(), centre(side, j, &axes[1]));
                 if let Some(level) = &level {
                     if !level.solve(&setup, &mut given)? {
                         on_surface.push(false);
@@ -381,22 +338,7 @@ impl Session {
         let (xn, yn) = (&axes[0].0.text, &axes[1].0.text);
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         if ext == "csv" {
-            let mut s = format!(
-                "{},{},{}\n",
-                super::figures::csv_field(xn),
-                super::figures::csv_field(yn),
-                spec.indicator.text
-            );
-            for j in 0..side {
-                for i in 0..side {
-                    let (x, y) = (centre(i, &axes[0]), centre(j, &axes[1]));
-                    match (on_surface[j * side + i], values[j * side + i]) {
-                        // Off the level set: no value at all.
-                        (false, _) => s.push_str(&format!("{x:e},{y:e},\n")),
-                        (true, v) => s.push_str(&format!("{x:e},{y:e},{v:e}\n")),
-                    }
-                }
-            }
+            let s = map_table(&axes, side, &on_surface, &values, &spec.indicator.text);
             std::fs::write(&tmp, s).map_err(|e| {
                 SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", path.display())).at(pspan)
             })?;
@@ -438,6 +380,57 @@ impl Session {
         ));
         self.wrote(&path);
         Ok(())
+    }
+
+    /// A chaos map's grid: the side (`points`, default [`DEFAULT_GRID`]) and the two axes,
+    /// each a state variable with a finite range whose width f64 holds.
+    fn map_grid(&mut self, at: At, spec: &ChaosSpec) -> Result<(usize, Vec<Axis>), SceneError> {
+        if spec.ranges.len() != 2 {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("a chaos map needs two ranges, found {}", spec.ranges.len()),
+            )
+            .at(spec.indicator.span)
+            .hint("write the two axes as ranges: `chaos_map megno θ1 = -3..3, θ2 = -3..3, θ1' = 0, θ2' = 0 for t in 0..50`"));
+        }
+        let side = match &spec.sim.points {
+            None => DEFAULT_GRID,
+            Some(src) => {
+                let e = self.resolved(at, src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x.fract() == 0.0 && (2.0..=MAX_GRID as f64).contains(&x)) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`points` is the grid's side, a whole number from 2 to {MAX_GRID}; found {x}"),
+                    )
+                    .at(src.span));
+                }
+                x as usize
+            }
+        };
+        let mut axes = Vec::new();
+        for (sym, lo, hi) in &spec.ranges {
+            let (a, b) = (self.bound(at, lo)?, self.bound(at, hi)?);
+            if !(a < b && a.is_finite() && b.is_finite()) {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("the range of `{}` must run from a smaller to a larger number", sym.text),
+                )
+                .at((lo.span.0, hi.span.1)));
+            }
+            // The cells' centres are a + (b − a)(k + ½)/N: a range wider than f64 holds
+            // (−1e308..1e308) would make them infinite, and every start would fail.
+            if !(b - a).is_finite() {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!("the range of `{}` is wider than f64 can hold ({b:e} − ({a:e}) overflows)", sym.text),
+                )
+                .at((lo.span.0, hi.span.1))
+                .hint("narrow the range so that its width is below 1.8e308"));
+            }
+            axes.push((sym.clone(), a, b));
+        }
+        Ok((side, axes))
     }
 
     /// The state variable a start names (`θ`, `θ'` or `p_θ`), as the key of its value.
@@ -776,4 +769,31 @@ impl Session {
             .collect();
         Ok(Figure::lines(label(which), "t", label(which), series))
     }
+}
+
+/// The centre of cell `k` of `side` along an axis: cell centres, row by row (the second
+/// axis outer), are a + (b − a)(k + ½)/N.
+fn centre(side: usize, k: usize, (_, a, b): &Axis) -> f64 {
+    a + (b - a) * (k as f64 + 0.5) / side as f64
+}
+
+/// A chaos map as a CSV table of x, y and the value; a cell off the level set has no value.
+fn map_table(axes: &[Axis], side: usize, on_surface: &[bool], values: &[f64], indicator: &str) -> String {
+    let mut s = format!(
+        "{},{},{}\n",
+        super::figures::csv_field(&axes[0].0.text),
+        super::figures::csv_field(&axes[1].0.text),
+        indicator
+    );
+    for j in 0..side {
+        for i in 0..side {
+            let (x, y) = (centre(side, i, &axes[0]), centre(side, j, &axes[1]));
+            match (on_surface[j * side + i], values[j * side + i]) {
+                // Off the level set: no value at all.
+                (false, _) => s.push_str(&format!("{x:e},{y:e},\n")),
+                (true, v) => s.push_str(&format!("{x:e},{y:e},{v:e}\n")),
+            }
+        }
+    }
+    s
 }

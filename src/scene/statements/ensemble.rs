@@ -18,7 +18,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, RunEntry, RunResult, Session};
-use crate::scene::syntax::ast::{SimSpec, Src};
+use crate::scene::syntax::ast::{EnsembleSpec, SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// The most members one ensemble may have.
@@ -43,45 +43,11 @@ impl Session {
     pub(in crate::scene) fn simulate_ensemble(&mut self, at: At, spec: &SimSpec) -> Result<(), SceneError> {
         let Some(ens) = spec.ensemble.clone() else { return Ok(()) };
         self.check_method(spec)?;
-        let (a, b, h) = (self.bound(at, &ens.from)?, self.bound(at, &ens.to)?, self.bound(at, &ens.step)?);
-        if !(h > 0.0 && h.is_finite()) || b < a {
-            return Err(SceneError::new(
-                ErrorKind::BadNumber,
-                format!("the sweep {}..{} step {} has no values", fmt_num(a), fmt_num(b), fmt_num(h)),
-            )
-            .at(ens.span)
-            .hint("write `for each y in 0..0.4 step 0.02`: the end after the start, a positive step"));
-        }
-        let count = ((b - a) / h + 1e-9).floor() + 1.0;
-        if count > MAX_MEMBERS as f64 {
-            return Err(SceneError::new(
-                ErrorKind::BadNumber,
-                format!("{count:.0} ensemble members is more than the limit of {MAX_MEMBERS}"),
-            )
-            .at(ens.step.span)
-            .hint("use a larger step"));
-        }
-        let values: Vec<f64> = (0..count as usize).map(|k| a + h * k as f64).collect();
+        let (a, b, values) = self.sweep_values(at, &ens)?;
 
         // The base run: the swept and the solved variable get placeholder values, replaced
         // per member below.
-        let sweep = self.state_symbol(&ens.var)?;
-        let solve = self.state_symbol(&ens.solve)?;
-        for (sym, _) in &spec.inits {
-            let s = self.state_symbol(sym)?;
-            if s == sweep || s == solve {
-                return Err(SceneError::new(
-                    ErrorKind::Syntax,
-                    format!("`{}` is set by the ensemble clause; remove its initial value", sym.text),
-                )
-                .at(sym.span)
-                .label("given twice"));
-            }
-        }
-        let mut base = spec.clone();
-        base.ensemble = None;
-        base.inits.push((ens.var.clone(), Src { text: "0".into(), span: ens.var.span }));
-        base.inits.push((ens.solve.clone(), Src { text: "0".into(), span: ens.solve.span }));
+        let (base, sweep, solve) = self.ensemble_base(spec, &ens)?;
         let name = match &spec.name {
             Some(n) => n.text.clone(),
             None => format!("run{}", self.runs.len() + 1),
@@ -206,28 +172,7 @@ impl Session {
             .collect::<Result<Vec<f64>, _>>()?
             .into_iter()
             .fold(0.0, f64::max);
-        let mut line = format!(
-            "{name}: {} runs ({name}_1 … {name}_{}) for {} = {} … {} on {} = {} (largest |{} − {}| at the start {:.1e})",
-            ids.len(),
-            ids.len(),
-            ens.var.text,
-            fmt_num(kept[0]),
-            fmt_num(kept[kept.len() - 1]),
-            ens.on.text,
-            ens.value.text,
-            ens.on.text,
-            ens.value.text,
-            worst
-        );
-        if !skipped.is_empty() {
-            line.push_str(&format!(
-                "; skipped {} = {} (no point of the level set with {} {} 0)",
-                ens.var.text,
-                skipped.iter().map(|v| fmt_num(*v)).collect::<Vec<_>>().join(", "),
-                ens.solve.text,
-                if ens.positive { ">" } else { "<" }
-            ));
-        }
+        let line = summary_line(&name, &ens, ids.len(), &kept, &skipped, worst);
         self.output.push(line);
         self.groups.push(Group {
             name: name.clone(),
@@ -238,6 +183,54 @@ impl Session {
         });
         self.run_names.remove(&name);
         Ok(())
+    }
+
+    /// The swept values `A, A + H, …` up to `B`, with `A` and `B`: a non-empty sweep of at
+    /// most [`MAX_MEMBERS`] values.
+    fn sweep_values(&mut self, at: At, ens: &EnsembleSpec) -> Result<(f64, f64, Vec<f64>), SceneError> {
+        let (a, b, h) = (self.bound(at, &ens.from)?, self.bound(at, &ens.to)?, self.bound(at, &ens.step)?);
+        if !(h > 0.0 && h.is_finite()) || b < a {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("the sweep {}..{} step {} has no values", fmt_num(a), fmt_num(b), fmt_num(h)),
+            )
+            .at(ens.span)
+            .hint("write `for each y in 0..0.4 step 0.02`: the end after the start, a positive step"));
+        }
+        let count = ((b - a) / h + 1e-9).floor() + 1.0;
+        if count > MAX_MEMBERS as f64 {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("{count:.0} ensemble members is more than the limit of {MAX_MEMBERS}"),
+            )
+            .at(ens.step.span)
+            .hint("use a larger step"));
+        }
+        let values: Vec<f64> = (0..count as usize).map(|k| a + h * k as f64).collect();
+        Ok((a, b, values))
+    }
+
+    /// The base run of an ensemble (its swept and solved variables given placeholder values)
+    /// and those two variables, which the statement may not also give.
+    fn ensemble_base(&mut self, spec: &SimSpec, ens: &EnsembleSpec) -> Result<(SimSpec, Symbol, Symbol), SceneError> {
+        let sweep = self.state_symbol(&ens.var)?;
+        let solve = self.state_symbol(&ens.solve)?;
+        for (sym, _) in &spec.inits {
+            let s = self.state_symbol(sym)?;
+            if s == sweep || s == solve {
+                return Err(SceneError::new(
+                    ErrorKind::Syntax,
+                    format!("`{}` is set by the ensemble clause; remove its initial value", sym.text),
+                )
+                .at(sym.span)
+                .label("given twice"));
+            }
+        }
+        let mut base = spec.clone();
+        base.ensemble = None;
+        base.inits.push((ens.var.clone(), Src { text: "0".into(), span: ens.var.span }));
+        base.inits.push((ens.solve.clone(), Src { text: "0".into(), span: ens.solve.span }));
+        Ok((base, sweep, solve))
     }
 
     /// The state variable named by `src` (`y`, `y'` or `p_y`).
@@ -252,6 +245,34 @@ impl Session {
     pub(in crate::scene) fn group_of(&self, ids: &[usize]) -> Option<&Group> {
         self.groups.iter().find(|g| g.ids == ids)
     }
+}
+
+/// The line an ensemble prints: its members, the swept values, the level and the largest
+/// departure from it at the start, and the values skipped.
+fn summary_line(name: &str, ens: &EnsembleSpec, members: usize, kept: &[f64], skipped: &[f64], worst: f64) -> String {
+    let mut line = format!(
+        "{name}: {} runs ({name}_1 … {name}_{}) for {} = {} … {} on {} = {} (largest |{} − {}| at the start {:.1e})",
+        members,
+        members,
+        ens.var.text,
+        fmt_num(kept[0]),
+        fmt_num(kept[kept.len() - 1]),
+        ens.on.text,
+        ens.value.text,
+        ens.on.text,
+        ens.value.text,
+        worst
+    );
+    if !skipped.is_empty() {
+        line.push_str(&format!(
+            "; skipped {} = {} (no point of the level set with {} {} 0)",
+            ens.var.text,
+            skipped.iter().map(|v| fmt_num(*v)).collect::<Vec<_>>().join(", "),
+            ens.solve.text,
+            if ens.positive { ">" } else { "<" }
+        ));
+    }
+    line
 }
 
 /// Sets `y[i]` so that `f(y) = level`, searching outward from zero on the positive (or
