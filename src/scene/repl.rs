@@ -116,7 +116,7 @@ impl Validator for ReplHelper {
 /// Whether the line editor should ask for another line of `input`: the statement is
 /// unfinished and the user has not just entered a blank line. A blank line ends an unfinished
 /// statement, as in the piped REPL, so one unclosed `(` costs one error at the next Enter
-/// instead of an editor that keeps asking for more (issue 16 item 7).
+/// instead of an editor that keeps asking for more.
 pub fn wants_more(input: &str) -> bool {
     let gave_up = input.contains('\n') && input.rsplit('\n').next().is_some_and(|l| l.trim().is_empty());
     is_incomplete(input) && !gave_up

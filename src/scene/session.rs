@@ -207,7 +207,7 @@ impl Session {
         let result = refuse_lookalikes(text).and_then(|()| parser::parse_scene(text)).and_then(|stmts| {
             self.claim_outputs(&stmts)?;
             // Line numbers by one forward pass: counting from the start for every statement
-            // made a scene of 10⁵ definitions quadratic (44 s; issue 16 item 4).
+            // made a scene of 10⁵ definitions quadratic (44 s).
             let (mut line, mut at) = (1, 0);
             for st in &stmts {
                 let pos = st.span.0.min(text.len()).max(at);
@@ -1040,7 +1040,7 @@ pub fn read_scene(path: &Path) -> Result<String, SceneError> {
 }
 
 /// Refuses a look-alike character (Cyrillic, full-width, combining mark) anywhere in a scene
-/// but comments and quoted paths, at its location (issue 16 item 7; the command line does the
+/// but comments and quoted paths, at its location (the command line does the
 /// same for its arguments).
 fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
     let (mut in_comment, mut in_quote) = (false, false);

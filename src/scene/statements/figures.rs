@@ -85,7 +85,7 @@ impl Session {
     /// not leave it, neither by `..` nor through a symbolic link to a directory outside; an
     /// absolute path is refused too. Both are allowed with `--allow-outside` (and in the
     /// REPL, whose user types the paths). So running a scene someone sent you writes only
-    /// under the output directory (issue 13 item 5).
+    /// under the output directory.
     fn out_path(&self, stmt: Span, path: Option<&Src>, default: &str) -> Result<(PathBuf, Span), SceneError> {
         let Some(p) = path else {
             return Ok((self.opts.out_dir.join(format!("{}_{default}.svg", self.opts.stem)), stmt));

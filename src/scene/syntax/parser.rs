@@ -892,7 +892,7 @@ impl Builder {
 }
 
 /// The derivation statements that mirror the command line (`transform … with x = …`, `lie`,
-/// `integral`, `action`, `average … small`): issue 15's scene parity.
+/// `integral`, `action`, `average … small`): scene parity with the command line.
 impl Builder {
     fn small(&self, p: Pair<Rule>) -> SmallSpec {
         let mut names = Vec::new();

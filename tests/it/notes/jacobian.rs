@@ -1,4 +1,4 @@
-//! `jacobian` (issue 30, item 7; §1.3): the Jacobian matrix and determinant of a map of
+//! `jacobian` (§1.3): the Jacobian matrix and determinant of a map of
 //! coordinates. Spherical coordinates by hand (J = r² sin θ); the ideal fluid's Lagrangian map
 //! x(r₀, t) of §1.3 for a shear (volume-preserving, J = 1) and a rotation-with-dilation
 //! (J = e^{3t}, by hand), and every entry of a nonlinear map against central differences.

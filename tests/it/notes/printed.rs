@@ -1,4 +1,4 @@
-//! Printed forms the notes write (issue 30, item 11), from general rules: a Poisson bracket
+//! Printed forms the notes write, from general rules: a Poisson bracket
 //! proven equal to its expected value prints as that value; a gauge-transformed Lagrangian is
 //! tidied so the terms of dΛ/dt cancel; `conserved` prints the energy function h in the
 //! grouping of L's terms when they do not interact (the scene's `energy` form). Each printed

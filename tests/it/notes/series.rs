@@ -1,4 +1,4 @@
-//! `series` (issue 30, item 5; §2.4.1): an expression to a given order in named small
+//! `series` (§2.4.1): an expression to a given order in named small
 //! quantities, and a Lagrangian about an equilibrium (L_lin of the notes (2.29)).
 //! Expected series by hand and by SymPy (`series(sqrt(1 + x) exp(y))`, the coefficients of
 //! the Taylor polynomial of total degree ≤ 2).
