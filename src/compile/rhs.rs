@@ -44,10 +44,33 @@ pub enum RhsError {
     Interrupted { t: f64, state: Vec<f64> },
 }
 
-/// The integrators' error carries the reason as text (with `t` and the state in it).
+impl RhsError {
+    /// The reason alone, without the time and the stage state: an integrator reports the
+    /// last *accepted* time and state beside it, and a stage's state (a trial point inside a
+    /// step) would only be a second, confusing pair.
+    pub fn reason(&self) -> String {
+        match self {
+            RhsError::SingularMassMatrix { velocity, .. } => {
+                format!("the mass matrix became singular (no pivot for the velocity `{velocity}`)")
+            }
+            RhsError::NonFinite { what, .. } => format!("the {what} became infinite or NaN"),
+            RhsError::SingularAugmented { constraint, .. } => format!(
+                "the augmented matrix [W Φᵀ; Φ 0] became singular: constraint {constraint} is redundant (its gradient is a combination of the others' or zero)"
+            ),
+            RhsError::LegendreNewton { iterations, residual, .. } => format!(
+                "the Legendre map did not converge after {iterations} Newton steps (residual {})",
+                crate::integrate::fmt_value(*residual)
+            ),
+            RhsError::Interrupted { .. } => "interrupted in the Legendre map".to_string(),
+        }
+    }
+}
+
+/// The integrators' error carries the reason only: the driver adds the last accepted time
+/// and state.
 impl From<RhsError> for StepError {
     fn from(e: RhsError) -> StepError {
-        StepError::new(e.to_string())
+        StepError::new(e.reason())
     }
 }
 
@@ -876,7 +899,7 @@ fn finite_or(out: &[f64], what: &str) -> Result<(), StepError> {
     if out.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(StepError::new(format!("non-finite {what}")))
+        Err(StepError::new(format!("the {what} became infinite or NaN")))
     }
 }
 

@@ -110,18 +110,21 @@ pub struct IntegrateError {
 /// states are cut after 8 entries (the full state is in [`IntegrateError::state`]).
 pub fn fmt_state(state: &[f64]) -> String {
     const SHOWN: usize = 8;
-    let num = |x: &f64| {
-        if *x == 0.0 || (1e-4..1e15).contains(&x.abs()) || !x.is_finite() {
-            format!("{x}")
-        } else {
-            format!("{x:e}")
-        }
-    };
-    let mut parts: Vec<String> = state.iter().take(SHOWN).map(num).collect();
+    let mut parts: Vec<String> = state.iter().take(SHOWN).map(|x| fmt_value(*x)).collect();
     if state.len() > SHOWN {
         parts.push(format!("… {} more", state.len() - SHOWN));
     }
     format!("[{}]", parts.join(", "))
+}
+
+/// One state value in messages: Rust's shortest round-trip form, in scientific notation
+/// outside [1e-4, 1e15) so that `1.57e149` is never written out as 150 digits.
+pub fn fmt_value(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e15).contains(&x.abs()) || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
 }
 
 /// A failure inside one step, before the driver attaches the last good state.

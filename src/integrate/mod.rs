@@ -56,7 +56,7 @@ mod splitting;
 mod taylor;
 
 pub use dop853::Dop853;
-pub use error::{fmt_state, FailureReason, IntegrateError, RhsError, StepFailure};
+pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;
 pub use solver::{

@@ -54,6 +54,7 @@ pub use linalg::{adjugate, determinant};
 pub use noether::{Conserved, Reason};
 pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};
+pub(crate) use system::constant_constraint;
 pub use system::{Kind, System};
 pub use tidy::tidy;
 

@@ -594,7 +594,7 @@ pub(crate) fn zero_out(e: &Expr, syms: &[Symbol]) -> Expr {
 
 /// A constraint `f = 0` whose `f` is a number is not a constraint on the motion at all:
 /// `1 = 0` can never hold and `x = x` always does. Both used to be called "not holonomic".
-fn constant_constraint(f: &Expr, shown: &str) -> Option<MechanicsError> {
+pub(crate) fn constant_constraint(f: &Expr, shown: &str) -> Option<MechanicsError> {
     let value = f.as_num()?;
     Some(MechanicsError::WrongKind(if value.is_zero() {
         format!("constraint `{shown}` holds identically (it reduces to 0 = 0) and constrains nothing; remove it")

@@ -249,11 +249,16 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
     // not the rest of the input; lines and entries are bounded like scene files.
     install_ctrlc();
     let stdin = std::io::stdin();
-    let mut input = stdin.lock();
+    let mut input = std::io::BufReader::new(stdin.lock());
     let mut pending = String::new();
     let mut open = Unfinished::default();
+    let mut lookahead: Option<String> = None;
     loop {
-        let line = match read_line_bounded(&mut input, MAX_LINE_BYTES) {
+        let read = match lookahead.take() {
+            Some(l) => Ok(Some(l)),
+            None => read_line_bounded(&mut input, MAX_LINE_BYTES),
+        };
+        let line = match read {
             Ok(Some(l)) => l,
             Ok(None) => break,
             Err(e) => {
@@ -274,6 +279,19 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         open.push_line(&line);
         if open.is_incomplete() && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
             continue;
+        }
+        // An indented line continues the statement above it, as in a scene file
+        // (`simulate …` then `    record when …`). The next line is looked at only when it
+        // is already there, so a program that sends one statement and waits for its answer
+        // is never kept waiting.
+        if !blank && input_ready(&input) {
+            if let Ok(Some(next)) = read_line_bounded(&mut input, MAX_LINE_BYTES) {
+                let continues = next.starts_with([' ', '\t']) && !next.trim().is_empty();
+                lookahead = Some(next);
+                if continues && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+                    continue;
+                }
+            }
         }
         open = Unfinished::default();
         let text = std::mem::take(&mut pending);
@@ -310,6 +328,25 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
 fn install_ctrlc() {
     if let Err(e) = crate::cancel::install_ctrlc(crate::cancel::SecondPress::Ignore) {
         eprintln!("warning: {e}");
+    }
+}
+
+/// Whether the next input line can be read without waiting: bytes already buffered, or the
+/// descriptor readable now (data or end of input).
+fn input_ready(input: &std::io::BufReader<std::io::StdinLock<'_>>) -> bool {
+    if !input.buffer().is_empty() {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        let mut fd = libc::pollfd { fd: 0, events: libc::POLLIN, revents: 0 };
+        // SAFETY: one valid `pollfd` for standard input, a zero timeout.
+        let ready = unsafe { libc::poll(&mut fd, 1, 0) };
+        ready > 0
+    }
+    #[cfg(not(unix))]
+    {
+        false
     }
 }
 

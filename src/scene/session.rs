@@ -201,6 +201,7 @@ impl Session {
     }
 
     pub(super) fn run_text(&mut self, name: &str, text: &str) -> Result<(), SceneError> {
+        let text = &line_breaks(text);
         let saved = self.source.clone();
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
@@ -1120,4 +1121,22 @@ impl Session {
     pub fn explain(&self) -> String {
         super::engine::plan::explain(&self.plan)
     }
+}
+
+/// The scene's text with every lone carriage return (old Mac line ends) read as a line break,
+/// as editors show it; `\r\n` stays. The length is unchanged, so spans stay true.
+fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.contains('\r') {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let bytes = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    for (i, c) in text.char_indices() {
+        if c == '\r' && bytes.get(i + 1) != Some(&b'\n') {
+            out.push('\n');
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
 }

@@ -164,7 +164,12 @@ impl From<MechanicsError> for SimulateError {
 /// `name = value` pairs of a state, for error messages.
 fn named_state(names: &[String], y: &[f64]) -> String {
     if names.len() == y.len() {
-        names.iter().zip(y).map(|(n, v)| format!("{n} = {v}")).collect::<Vec<_>>().join(", ")
+        names
+            .iter()
+            .zip(y)
+            .map(|(n, v)| format!("{n} = {}", crate::integrate::fmt_value(*v)))
+            .collect::<Vec<_>>()
+            .join(", ")
     } else {
         crate::integrate::fmt_state(y)
     }

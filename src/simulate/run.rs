@@ -15,8 +15,8 @@ use super::method::{Family, MethodId, Needs, Scheme};
 use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
 use crate::integrate::{
-    Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError, Jacobian,
-    Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
+    fmt_value, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError,
+    Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
 };
 
 /// Which states a run keeps.
@@ -427,6 +427,21 @@ fn by_rhs<S: Rhs + ?Sized>(d: &Drive, sys: &S, project: Option<&ConstrainedRhs>)
     }
 }
 
+/// A measured figure in a hint, to four significant digits: `0.4751`, `4.751e5`.
+fn approx(x: f64) -> String {
+    if x != 0.0 && !(1e-3..1e5).contains(&x.abs()) {
+        format!("{x:.3e}").replace("e0", "").replace(".000e", "e")
+    } else {
+        let digits = 3 - x.abs().log10().floor().clamp(-3.0, 4.0) as i32;
+        let s = format!("{x:.*}", digits.max(0) as usize);
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    }
+}
+
 /// An event tape evaluated on `(y, t)`.
 fn event_fn(tape: &Tape) -> impl Fn(f64, &[f64]) -> f64 + '_ {
     move |t, y| {
@@ -441,17 +456,39 @@ fn event_fn(tape: &Tape) -> impl Fn(f64, &[f64]) -> f64 + '_ {
 
 impl Drive<'_, '_> {
     fn fail(&self, e: IntegrateError) -> SimulateError {
-        let mut hint = None;
-        if let FailureReason::StepLimit { .. } = e.reason {
-            if self.opts.method.family() == Family::Adaptive && self.opts.max_steps.is_none() {
-                let done = e.t - self.opts.t0;
+        let span = self.opts.t1 - self.opts.t0;
+        let done = e.t - self.opts.t0;
+        let hint = match &e.reason {
+            FailureReason::StepLimit { max_steps } if self.opts.method.family() == Family::Adaptive => {
                 let avg = done / e.steps.max(1) as f64;
-                hint = Some(format!(
-                    "; the average step was {avg:.3e} over {done:.3e} of the {:.3e} span, so the problem is stiff (or very oscillatory) at this tolerance: use an implicit method with a fixed step (`with gauss6 dt = …`), a looser `tol`, or a shorter span",
-                    self.opts.t1 - self.opts.t0
-                ));
+                // At the average step so far, how many steps the whole span would take: a
+                // budget a user can ask for, rounded up to one significant digit.
+                let needed = (span / avg.max(f64::MIN_POSITIVE)).min(1e18);
+                let ask = {
+                    let p = 10f64.powf(needed.log10().floor());
+                    (needed / p).ceil() * p
+                };
+                Some(format!(
+                    "; the average step was {} over {} of the {} span, so the whole span needs about {} steps at this tolerance: raise the budget of {} with `max_steps = {ask:e}`, loosen `tol`, or shorten the span (if the steps are small because the problem is stiff, an implicit method with a fixed step, `with gauss6 dt = …`, is cheaper)",
+                    approx(avg),
+                    approx(done),
+                    approx(span),
+                    approx(needed),
+                    approx(*max_steps as f64),
+                ))
             }
-        }
+            FailureReason::NonFinite { .. } | FailureReason::Rhs(_) => self
+                .opts
+                .dt
+                .filter(|_| matches!(self.opts.method.family(), Family::Explicit | Family::Splitting | Family::Implicit))
+                .map(|dt| {
+                    format!(
+                        "; with the fixed step dt = {} the step may be too large for this motion: halve `dt`, or use an adaptive method (`with dop853 tol = 1e-10` or `with taylor`), which would report where the solution itself blows up",
+                        fmt_value(dt)
+                    )
+                }),
+            _ => None,
+        };
         SimulateError::integration(e, self.names, hint)
     }
 

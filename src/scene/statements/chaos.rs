@@ -666,21 +666,7 @@ impl Session {
         sim: &crate::scene::syntax::ast::SimSpec,
     ) -> Result<crate::chaos::Budget, SceneError> {
         use crate::chaos::Budget;
-        let max_steps = match &sim.max_steps {
-            None => Budget::DEFAULT_STEPS,
-            Some(src) => {
-                let e = self.resolved(at, src)?;
-                let x = self.number(&e, src.span)?;
-                if !(x >= 1.0 && x.fract() == 0.0 && x < usize::MAX as f64) {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`max_steps` is a whole number of steps, at least 1; found {}", fmt_num(x)),
-                    )
-                    .at(src.span));
-                }
-                x as usize
-            }
-        };
+        let max_steps = self.step_budget(at, sim)?.unwrap_or(Budget::DEFAULT_STEPS);
         let seconds = match &sim.time_limit {
             None => Budget::DEFAULT_SECONDS,
             Some(src) => {

@@ -171,6 +171,16 @@ impl Session {
             d.refs.extend(b.refs);
             d.src = Src { text: format!("{} = {}", lhs.text, r.text), span: (lhs.span.0, r.span.1) };
         }
+        // The command line's words for `1 = 0` and `x = x`, so both front ends say the same.
+        if d.refs.is_empty() {
+            if let Some(crate::mechanics::MechanicsError::WrongKind(why)) =
+                crate::mechanics::constant_constraint(&d.raw, &d.src.text)
+            {
+                return Err(SceneError::new(ErrorKind::Syntax, why)
+                    .at(d.src.span)
+                    .hint("a constraint restricts the coordinates: `constraint x^2 + y^2 = l^2`"));
+            }
+        }
         let coords: BTreeSet<&str> = self.coords.iter().map(|q| q.name()).collect();
         if !d.raw.free_symbols().iter().any(|s| coords.contains(s.name())) && d.refs.is_empty() {
             return Err(SceneError::new(ErrorKind::Syntax, "the constraint involves no coordinate")

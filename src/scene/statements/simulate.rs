@@ -203,6 +203,21 @@ impl Session {
         Ok((compiled, run, template, check.map(|(symbol, _)| symbol)))
     }
 
+    /// `max_steps = N`, checked: a whole number of steps, at least 1.
+    pub(in crate::scene) fn step_budget(&mut self, at: At, spec: &SimSpec) -> Result<Option<usize>, SceneError> {
+        let Some(src) = &spec.max_steps else { return Ok(None) };
+        let e = self.resolved(at, src)?;
+        let x = self.number(&e, src.span)?;
+        if !(x >= 1.0 && x.fract() == 0.0 && x < usize::MAX as f64) {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("`max_steps` is a whole number of steps, at least 1; found {}", fmt_num(x)),
+            )
+            .at(src.span));
+        }
+        Ok(Some(x as usize))
+    }
+
     /// The library's options of a run from its time span, `dt`, `tol` and `steps` (checked
     /// by the library), and the fixed step if one was asked.
     fn run_options(
@@ -262,6 +277,7 @@ impl Session {
         let mut options = RunOptions::new(method, t0, t1);
         options.dt = dt;
         options.rtol = tol;
+        options.max_steps = self.step_budget(at, spec)?;
         options.check().map_err(|e| run_option_error(e, spec, stmt_span))?;
         Ok((options, dt))
     }

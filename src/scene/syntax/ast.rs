@@ -148,7 +148,7 @@ pub struct SimSpec {
     pub points: Option<Src>,
     /// `drift = …`: the relative energy drift above which the run is reported.
     pub drift: Option<Src>,
-    /// `max_steps = …`: a chaos statement's step budget per orbit.
+    /// `max_steps = …`: the step budget of a run (of each orbit, in a chaos statement).
     pub max_steps: Option<Src>,
     /// `time_limit = …`: a chaos statement's time budget, in seconds.
     pub time_limit: Option<Src>,

@@ -315,7 +315,10 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
             let mut exp: Vec<&str> = positives.iter().filter_map(friendly).collect();
             exp.sort_unstable();
             exp.dedup();
-            let found = match src[pos.min(src.len())..].chars().next() {
+            let rest = &src[pos.min(src.len())..];
+            let word: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            let found = match rest.chars().next() {
+                Some(_) if !word.is_empty() => format!("`{word}`"),
                 Some(c) => format!("`{c}`"),
                 None => "the end of the statement".to_string(),
             };
@@ -329,6 +332,23 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
         format!("expected {}, found {found}", expected.join(" or "))
     };
     let label = if expected.is_empty() { "here".to_string() } else { format!("expected {}", expected.join(" or ")) };
+    // `… as r record when …`: the run's name must end the statement.
+    let before: Vec<&str> = src[..pos.min(src.len())].split_whitespace().rev().take(2).collect();
+    if let [name, "as"] = before.as_slice() {
+        if !found.starts_with("the end") {
+            return SceneError::new(
+                ErrorKind::Syntax,
+                format!("`as {name}` ends the statement, but {found} follows it"),
+            )
+            .at((base + pos, base + pos + 1))
+            .label("after the name")
+            .hint({
+                let options = src[pos..].trim();
+                let options = options.rfind(" as ").map_or(options, |i| &options[..i]);
+                format!("put the options first and the name last: `… {options} as {name}`")
+            });
+        }
+    }
     let mut err = SceneError::new(ErrorKind::Syntax, message).at((base + pos, base + pos + 1)).label(label);
     let opens = src.matches('(').count();
     let closes = src.matches(')').count();
