@@ -125,6 +125,22 @@ impl ParseError {
         }
     }
 
+    /// An error at byte `pos` of `input`.
+    pub fn at(input: &str, pos: usize, message: impl Into<String>) -> ParseError {
+        ParseError::new(input, (pos, pos + 1), message)
+    }
+
+    /// The same error for a piece of a longer text that starts at byte `offset` of `whole`
+    /// (one side of `Q = …, P = …`): its line, column and snippet are those of `whole`, so the
+    /// caret points into what the user wrote, not into the piece alone.
+    pub fn within(self, whole: &str, offset: usize) -> ParseError {
+        let span = (self.span.0 + offset, self.span.1 + offset);
+        let hint = self.hint;
+        let mut e = ParseError::new(whole, span, self.message);
+        e.hint = hint;
+        e
+    }
+
     fn with_hint(mut self, hint: impl Into<String>) -> ParseError {
         self.hint = Some(hint.into());
         self

@@ -4,6 +4,7 @@
 
 use clap::{ArgGroup, Args, Subcommand};
 use lagrangian::canonical::{self, ExplicitMap, Generator, GeneratorKind, PhaseSpace, Trial};
+use lagrangian::parse::{parse_with, ParseError};
 use lagrangian::print::{render, symbol};
 use lagrangian::{Declarations, Expr, Symbol};
 use serde_json::{json, Value};
@@ -485,31 +486,38 @@ fn new_space(names: &[String], n: usize) -> Result<PhaseSpace, Failure> {
     PhaseSpace::with_momenta(&names[..n], &names[n..]).map_err(|e| bad_input(format!("error: {e}")))
 }
 
-/// Splits "Q = …, P = …" at top-level commas.
+/// Splits "Q = …, P = …" at top-level commas; errors point into the whole map.
 fn parse_map(text: &str, decls: &Declarations) -> Result<Vec<(Symbol, Expr)>, Failure> {
     let mut parts = Vec::new();
     let mut depth = 0i32;
-    let mut cur = String::new();
-    for ch in text.chars() {
+    let mut start = 0;
+    for (i, ch) in text.char_indices() {
         match ch {
             '(' => depth += 1,
             ')' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push((start, &text[start..i]));
+                start = i + 1;
+            }
             _ => {}
         }
-        if ch == ',' && depth == 0 {
-            parts.push(std::mem::take(&mut cur));
-        } else {
-            cur.push(ch);
-        }
     }
-    parts.push(cur);
+    parts.push((start, &text[start..]));
     let mut out = Vec::new();
-    for part in parts {
-        let (lhs, rhs) = part
-            .split_once('=')
-            .ok_or_else(|| bad_input(format!("error: `{}` is not of the form `Q = expression`", part.trim())))?;
-        let s = parse_var(lhs.trim(), decls)?;
-        let (_, e) = parse_arg(rhs, decls)?;
+    for (at, part) in parts {
+        let Some((lhs, rhs)) = part.split_once('=') else {
+            return Err(bad_input(format!("error: `{}` is not of the form `Q = expression`", part.trim())));
+        };
+        let located = |e: ParseError, offset: usize| Failure::parse(e.within(text, offset));
+        let s = parse_with(lhs, decls).map_err(|e| located(e, at))?;
+        let s = s.as_sym().cloned().ok_or_else(|| bad_input(format!("error: `{}` is not a variable", lhs.trim())))?;
+        let rhs_at = at + lhs.len() + 1;
+        if rhs.trim().is_empty() {
+            let blank = rhs.len() - rhs.trim_start().len();
+            let e = ParseError::at(text, rhs_at + blank, format!("`{s} =` has no expression after `=`"));
+            return Err(Failure::parse(e));
+        }
+        let e = parse_with(rhs, decls).map_err(|e| located(e, rhs_at))?;
         out.push((s, e));
     }
     Ok(out)

@@ -462,6 +462,19 @@ impl Session {
                 .at(stmt)
                 .hint("declare them first, for example `coordinates θ`"));
         }
+        // A phase-space Lagrangian `a(z)·z' − H(z)` has no momenta to ask for: its coordinates
+        // are already the phase-space variables.
+        if self.def_names.contains_key("L") && !self.def_names.contains_key("H") {
+            let l = self.lagrangian(at)?;
+            if crate::simulate::is_first_order(&l, &self.coords) {
+                return Err(SceneError::new(
+                    ErrorKind::Derivation,
+                    format!("`{}` needs Hamilton's equations in (q, p), but this L is first order in its velocities (a phase-space Lagrangian), so it has no momenta p_q", spec.indicator.text),
+                )
+                .at(stmt)
+                .hint("define the same system as `H = …` with its canonical pairs as coordinates and momenta `p_q` (for L = x y' − H(x, y): coordinate y, momentum p_y = x)"));
+            }
+        }
         let mut given = HashMap::new();
         let mut seen = Vec::new();
         for sym in axes {

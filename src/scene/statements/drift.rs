@@ -45,6 +45,9 @@ pub fn summary_clause(ledger: &Ledger) -> String {
     match ledger {
         Ledger::Unchecked => String::new(),
         Ledger::Skipped(why) => format!("; energy not checked ({why})"),
+        Ledger::Checked { symbol, report } if !report.e0.is_finite() => {
+            format!("; energy not checked ({symbol}₀ = {} at the start: no change can be measured from it)", report.e0)
+        }
         Ledger::Checked { symbol, report } => {
             format!("; energy drift max {} = {:.1e}", measure(symbol, report), report.max.change)
         }
@@ -145,6 +148,14 @@ impl Session {
         span: Span,
     ) -> Result<(), SceneError> {
         let Ledger::Checked { symbol, report } = &traj.energy else { return Ok(()) };
+        // An energy that is infinite or NaN at the start measures nothing: say so, once.
+        if !report.e0.is_finite() {
+            self.warnings.push(format!(
+                "warning: {name}: the energy {symbol} is {} at the start, so its drift cannot be checked",
+                report.e0
+            ));
+            return Ok(());
+        }
         if !report.exceeded() {
             return Ok(());
         }
