@@ -8,7 +8,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use crate::plot::{ensure_font, FAMILY};
+use crate::plot::{bitmap_error, describe_bitmap_error as describe, ensure_font, FAMILY};
 
 /// One frame: its time and the points `(x, y)` of the bodies (the first is the pivot when
 /// the chain starts at a fixed point).
@@ -103,9 +103,10 @@ pub fn stamp(t: f64) -> String {
 /// 0.3 s at the largest size, 1024², in the dev profile).
 pub fn draw(anim: &Animation, path: &Path) -> Result<(), String> {
     ensure_font();
-    let err = |e: &dyn std::fmt::Display| e.to_string();
-    let root =
-        BitMapBackend::gif(path, (anim.size, anim.size), anim.delay_ms()).map_err(|e| err(&e))?.into_drawing_area();
+    let err = |e: &DrawingAreaErrorKind<_>| describe(e);
+    let root = BitMapBackend::gif(path, (anim.size, anim.size), anim.delay_ms())
+        .map_err(|e| bitmap_error(&e))?
+        .into_drawing_area();
     let (x0, x1) = anim.x_range;
     let (y0, y1) = anim.y_range;
     let radius = (anim.size / 40).max(3) as i32;

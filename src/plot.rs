@@ -22,6 +22,8 @@
 //! (the scene session, which staged the file) removes it. A check is one relaxed atomic
 //! load per point, nothing beside plotters' own work per point.
 
+use plotters_backend::DrawingErrorKind;
+use plotters_bitmap::BitMapBackendError;
 use std::path::Path;
 use std::sync::Once;
 
@@ -801,6 +803,24 @@ fn split_at_seam(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
+/// What went wrong while drawing, in the operating system's words when it was the disk
+/// (`No space left on device (os error 28)`): the back end's own `Display` is Rust's `Debug`.
+pub(crate) fn describe_bitmap_error(e: &DrawingAreaErrorKind<BitMapBackendError>) -> String {
+    match e {
+        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(b)) => bitmap_error(b),
+        other => other.to_string(),
+    }
+}
+
+pub(crate) fn bitmap_error(b: &BitMapBackendError) -> String {
+    match b {
+        BitMapBackendError::IOError(io) => io.to_string(),
+        BitMapBackendError::GifEncodingError(g) => g.to_string(),
+        BitMapBackendError::ImageError(i) => i.to_string(),
+        other => format!("the image encoder failed ({other})"),
+    }
+}
+
 /// Draws `fig` into `path` (SVG or PNG by extension). Fails with "interrupted" at Ctrl-C,
 /// leaving whatever the back end wrote at `path` for the caller to remove.
 pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
@@ -810,7 +830,7 @@ pub fn draw(fig: &Figure, path: &Path) -> Result<(), String> {
         let root = BitMapBackend::new(path, SIZE).into_drawing_area();
         render(fig, &root)?;
         stop_if_interrupted()?;
-        root.present().map_err(|e| e.to_string())
+        root.present().map_err(|e| describe_bitmap_error(&e))
     } else {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         render(fig, &root)?;
@@ -1103,6 +1123,18 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A full disk while a PNG or GIF is written reads as the operating system says it (was
+    /// Rust's `Debug`: `ImageError(IoError(Custom { kind: Other, … }))`).
+    #[test]
+    fn bitmap_write_errors_read_as_the_os_says() {
+        let disk_full = || std::io::Error::from_raw_os_error(28);
+        let e = DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(BitMapBackendError::IOError(
+            disk_full(),
+        )));
+        assert_eq!(describe_bitmap_error(&e), disk_full().to_string());
+        assert!(!describe_bitmap_error(&e).contains("Os {"));
+    }
 
     #[test]
     fn pendulum_fixed_points() {

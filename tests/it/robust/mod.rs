@@ -7,4 +7,5 @@ mod interrupt;
 mod io;
 mod roundtrip;
 mod terminate;
+mod unclear;
 mod values;
