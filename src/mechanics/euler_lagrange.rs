@@ -6,7 +6,7 @@ use crate::diff::Differentiator;
 use crate::eval::eval_with;
 use crate::expr::{Expr, Symbol};
 
-use super::linalg::{adjugate, determinant, is_diagonal, MAX_CLOSED_FORM};
+use super::linalg::{adjugate, determinant, inverse_by_blocks, is_diagonal, MAX_CLOSED_FORM};
 use super::system::{time, System};
 use super::tidy::{tidy, Ctx, Poly, QuadraticParts};
 use super::MechanicsError;
@@ -260,7 +260,9 @@ impl System {
             return Ok((0..n).map(|i| tidy(&f[i].over(&w[i][i]))).collect());
         }
         if n > MAX_CLOSED_FORM {
-            return Err(MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM });
+            // Block by block (two uncoupled double pendulums), or refused.
+            let inv = inverse_by_blocks(&w).map_err(|n| MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM })?;
+            return Ok((0..n).map(|i| tidy(&Expr::add((0..n).map(|j| inv[i][j].times(&f[j]))))).collect());
         }
         let adj = adjugate(&w);
         let det = determinant(&w);

@@ -17,7 +17,7 @@ use crate::diff::Differentiator;
 use crate::expr::{Expr, Func, Node, Symbol};
 use crate::print::{render, symbol, Format};
 
-use super::linalg::{adjugate, determinant, MAX_CLOSED_FORM};
+use super::linalg::{adjugate, determinant, inverse_by_blocks, MAX_CLOSED_FORM};
 use super::system::{contains_any, System};
 use super::tidy::tidy;
 use super::MechanicsError;
@@ -42,9 +42,6 @@ pub fn geodesic(ds2: &Expr, coords: &[Symbol]) -> Result<Geodesic, MechanicsErro
     let n = coords.len();
     if n == 0 {
         return Err(MechanicsError::NoCoordinates);
-    }
-    if n > MAX_CLOSED_FORM {
-        return Err(MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM });
     }
     let diffs: Vec<Symbol> = coords.iter().map(|q| Symbol::new(&format!("d{}", q.name()))).collect();
     let free = ds2.free_symbols();
@@ -100,9 +97,6 @@ pub fn geodesic_from_metric(metric: Vec<Vec<Expr>>, coords: &[Symbol]) -> Result
     if n == 0 {
         return Err(MechanicsError::NoCoordinates);
     }
-    if n > MAX_CLOSED_FORM {
-        return Err(MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM });
-    }
     if metric.len() != n || metric.iter().any(|row| row.len() != n) {
         return Err(MechanicsError::BadMetric(format!(
             "the metric must be a {n}×{n} matrix for the {n} coordinates; its rows have {:?} entries",
@@ -128,20 +122,29 @@ pub fn geodesic_from_metric(metric: Vec<Vec<Expr>>, coords: &[Symbol]) -> Result
         }
     }
     let metric: Vec<Vec<Expr>> = metric.into_iter().map(|row| row.iter().map(tidy).collect()).collect();
-    let det = determinant(&metric);
-    if tidy(&det).is_zero() {
-        return Err(MechanicsError::BadMetric("the metric is singular everywhere (det g = 0)".into()));
-    }
     let mut d = Differentiator::new();
-    let adj = adjugate(&metric);
     // Christoffel symbols of the first kind Γ_lij = ½ (∂_i g_jl + ∂_j g_il − ∂_l g_ij).
     let first = first_kind(&metric, coords, &mut d);
     let mut christoffel = vec![vec![vec![Expr::zero(); n]; n]; n];
+    // Raised with g⁻¹: up to four coordinates as adj(g)/det g, beyond that block by block
+    // (a diagonal metric in any dimension).
+    let raise: Box<dyn Fn(usize, usize, usize) -> Expr> = if n <= MAX_CLOSED_FORM {
+        let det = determinant(&metric);
+        if tidy(&det).is_zero() {
+            return Err(MechanicsError::BadMetric("the metric is singular everywhere (det g = 0)".into()));
+        }
+        let adj = adjugate(&metric);
+        let first = first.clone();
+        Box::new(move |k, i, j| tidy(&Expr::add((0..n).map(|l| adj[k][l].times(&first[l][i][j]))).over(&det)))
+    } else {
+        let inv = inverse_of_metric(&metric)?;
+        let first = first.clone();
+        Box::new(move |k, i, j| tidy(&Expr::add((0..n).map(|l| inv[k][l].times(&first[l][i][j])))))
+    };
     for k in 0..n {
         for i in 0..n {
             for j in i..n {
-                let s = Expr::add((0..n).map(|l| adj[k][l].times(&first[l][i][j])));
-                let c = tidy(&s.over(&det));
+                let c = raise(k, i, j);
                 christoffel[k][i][j] = c.clone();
                 christoffel[k][j][i] = c;
             }
@@ -167,6 +170,16 @@ pub fn geodesic_from_metric(metric: Vec<Vec<Expr>>, coords: &[Symbol]) -> Result
     }
     let lagrangian = tidy(&Expr::add(quad).times(&Expr::frac(1, 2)));
     Ok(Geodesic { coords: coords.to_vec(), metric, christoffel, equations, lagrangian })
+}
+
+/// `g⁻¹` of a metric of more than [`MAX_CLOSED_FORM`] coordinates, block by block; a block
+/// that couples more of them, or one singular everywhere, is refused.
+fn inverse_of_metric(metric: &[Vec<Expr>]) -> Result<Vec<Vec<Expr>>, MechanicsError> {
+    let inv = inverse_by_blocks(metric).map_err(|n| MechanicsError::TooLarge { n, limit: MAX_CLOSED_FORM })?;
+    if inv.iter().flatten().any(Expr::is_undefined) {
+        return Err(MechanicsError::BadMetric("the metric is singular everywhere (det g = 0)".into()));
+    }
+    Ok(inv)
 }
 
 /// `Γ_lij = ½ (∂_i g_jl + ∂_j g_il − ∂_l g_ij)` as `first[l][i][j]`.
@@ -357,16 +370,24 @@ impl Geodesic {
             }
         }
         let det = determinant(&self.metric);
-        let adj = adjugate(&self.metric);
-        let mut terms = Vec::new();
-        for a in 0..n {
-            for b in 0..n {
-                for e in 0..n {
-                    terms.push(adj[b][e].times(&riemann[a][b][a][e]));
+        let contracted = |inv: &[Vec<Expr>]| {
+            let mut terms = Vec::new();
+            for a in 0..n {
+                for b in 0..n {
+                    for e in 0..n {
+                        terms.push(inv[b][e].times(&riemann[a][b][a][e]));
+                    }
                 }
             }
-        }
-        let mut scalar = curvature_form(&Expr::add(terms).over(&det));
+            Expr::add(terms)
+        };
+        let mut scalar = if n <= MAX_CLOSED_FORM {
+            curvature_form(&contracted(&adjugate(&self.metric)).over(&det))
+        } else {
+            // The metric was inverted block by block when the symbols were formed.
+            let inv = inverse_by_blocks(&self.metric).unwrap_or_else(|_| vec![vec![Expr::zero(); n]; n]);
+            curvature_form(&contracted(&inv))
+        };
         let gauss = (n == 2).then(|| curvature_form(&lowered[0][1][0][1].over(&det)));
         // On a surface R = 2K identically; print whichever form of the two is shorter (the
         // contraction can leave a long sum that K's single component does not).

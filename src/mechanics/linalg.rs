@@ -61,6 +61,55 @@ pub fn adjugate(m: &[Vec<Expr>]) -> Vec<Vec<Expr>> {
     adj
 }
 
+/// The inverse of a matrix that decouples into blocks (coordinates linked by nonzero
+/// off-diagonal entries, in either triangle), each inverted in closed form: `1/m_ii` for a
+/// block of one, `adj/det` of the block up to [`MAX_CLOSED_FORM`]. A diagonal 8 × 8 metric or
+/// mass matrix is then as easy as a 1 × 1 one; a block coupling more than
+/// [`MAX_CLOSED_FORM`] coordinates is `Err` with its size.
+pub fn inverse_by_blocks(m: &[Vec<Expr>]) -> Result<Vec<Vec<Expr>>, usize> {
+    let n = m.len();
+    // Union–find over the nonzero couplings.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for i in 0..n {
+        for j in 0..n {
+            if i != j && !m[i][j].is_zero() {
+                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        match blocks.iter_mut().find(|b| root(&mut parent, b[0]) == r) {
+            Some(b) => b.push(i),
+            None => blocks.push(vec![i]),
+        }
+    }
+    let mut inv = vec![vec![Expr::zero(); n]; n];
+    for block in &blocks {
+        if block.len() > MAX_CLOSED_FORM {
+            return Err(block.len());
+        }
+        let sub: Vec<Vec<Expr>> = block.iter().map(|&i| block.iter().map(|&j| m[i][j].clone()).collect()).collect();
+        let det = determinant(&sub);
+        let adj = adjugate(&sub);
+        for (a, &i) in block.iter().enumerate() {
+            for (b, &j) in block.iter().enumerate() {
+                inv[i][j] = tidy(&adj[a][b].over(&det));
+            }
+        }
+    }
+    Ok(inv)
+}
+
 /// Whether every off-diagonal entry is zero.
 pub fn is_diagonal(m: &[Vec<Expr>]) -> bool {
     m.iter().enumerate().all(|(i, r)| r.iter().enumerate().all(|(j, x)| i == j || x.is_zero()))

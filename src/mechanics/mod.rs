@@ -157,6 +157,6 @@ pub enum MechanicsError {
     #[error("error: the constrained system is singular: [W −Φᵀ; Φ 0] has the null direction {direction} (are two constraints the same, or does a coordinate have neither inertia nor a constraint?)")]
     SingularConstraints { direction: String },
     /// The system is too large for a closed-form symbolic inverse.
-    #[error("error: {n} coupled velocities: the closed-form inverse of the mass matrix is not formed beyond n = {limit} (its size grows like n!); use the numeric solve of W q'' = F")]
+    #[error("error: {n} coupled velocities: a closed-form inverse is not formed for more than {limit} coupled ones (its size grows like n!); `el` without `--accelerations` prints W q'' = F unsolved, and a simulation (a scene's `simulate`, Python's `System.integrate`) solves it numerically at every step")]
     TooLarge { n: usize, limit: usize },
 }
