@@ -23,9 +23,17 @@ pub enum ShootError {
     /// `det g` vanishes (or is not finite) at the start point.
     #[error("the metric is singular at the start point {point:?} (det g = {det:e}); choose coordinates regular there")]
     SingularMetric { point: Vec<f64>, det: f64 },
-    /// Newton's method on the initial velocity did not converge.
-    #[error("shooting did not converge after {iterations} Newton steps (the end point is missed by {miss:e})")]
-    NoConvergence { iterations: usize, miss: f64 },
+    /// Newton's method on the initial velocity did not converge: no shorter step improved the
+    /// miss (the last failed trial path says why, if one failed).
+    #[error(
+        "shooting did not converge after {iterations} Newton steps (the end point is missed by {}){}",
+        crate::integrate::fmt_value(*miss),
+        last_failure.as_ref().map(|w| format!("; the last trial path that failed: {w}")).unwrap_or_default()
+    )]
+    NoConvergence { iterations: usize, miss: f64, last_failure: Option<String> },
+    /// The first trial path (the straight line's velocity) could not be integrated.
+    #[error("no trial path could be integrated, from the straight line's velocity down to 2⁻⁴⁰ of it: {why}")]
+    FirstTrial { why: String },
     /// The equations could not be compiled or integrated.
     #[error("{0}")]
     Numeric(String),
@@ -172,39 +180,133 @@ pub fn shoot_with(
             Err(e) => Err(over_budget(&e, budget, iteration.get(), n).unwrap_or_else(|| numeric(e.to_string()))),
         }
     };
-    let mut v: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
-    let mut miss = f64::INFINITY;
-    for it in 1..=30 {
-        if crate::cancel::interrupted() {
-            return Err(ShootError::Interrupted { iterations: it - 1 });
+    // The first trial is the straight line's velocity; a failed trial later on is a step too
+    // long for this metric, so the Newton step is halved until the trial path both exists
+    // and misses the end point by less (a damped Newton method): only a path that cannot be
+    // shot at all is reported, with the trial's own failure as the reason.
+    let trial = |v: &[f64]| -> Result<Result<Vec<f64>, String>, ShootError> {
+        match end(v) {
+            Ok(q) => Ok(Ok(q)),
+            Err(ShootError::Numeric(why)) => Ok(Err(why)),
+            Err(e) => Err(e),
         }
-        iteration.set(it);
-        let q1 = end(&v)?;
-        let mut r: Vec<f64> = (0..n).map(|i| to[i] - q1[i]).collect();
-        miss = r.iter().fold(0.0f64, |s, x| s.max(x.abs()));
-        if miss <= 1e-12 {
-            return Ok(Shot { velocity: v.clone(), path: sample(&method, &rhs, from, &v, samples)?, iterations: it });
-        }
-        let mut jac = vec![0.0; n * n];
-        for j in 0..n {
-            let e = 1e-6 * (1.0 + v[j].abs());
-            let (mut up, mut dn) = (v.clone(), v.clone());
-            up[j] += e;
-            dn[j] -= e;
-            let (a, b) = (end(&up)?, end(&dn)?);
-            for i in 0..n {
-                jac[i * n + j] = (a[i] - b[i]) / (2.0 * e);
+    };
+    // Damped Newton from `v` to `target`: (velocity, Newton steps).
+    let newton = |target: &[f64], mut v: Vec<f64>| -> Result<(Vec<f64>, usize), ShootError> {
+        let miss_of = |q1: &[f64]| (0..n).fold(0.0f64, |s, i| s.max((target[i] - q1[i]).abs()));
+        iteration.set(1);
+        // The straight line's velocity may be far too fast for the metric (a hyperbolic plane
+        // drives a fast horizontal start to its boundary): slower starts are tried before any is
+        // reported as failing.
+        let mut first_failure = None;
+        let mut q1 = None;
+        for _ in 0..40 {
+            match trial(&v)? {
+                Ok(q) => {
+                    q1 = Some(q);
+                    break;
+                }
+                Err(why) => {
+                    first_failure.get_or_insert(why);
+                    v.iter_mut().for_each(|x| *x *= 0.5);
+                }
             }
         }
-        if solve_in_place(&mut jac, &mut r, n).is_err() {
-            break;
+        let Some(mut q1) = q1 else {
+            return Err(ShootError::FirstTrial { why: first_failure.unwrap_or_default() });
+        };
+        let mut miss = miss_of(&q1);
+        for it in 1..=MAX_NEWTON {
+            if crate::cancel::interrupted() {
+                return Err(ShootError::Interrupted { iterations: it - 1 });
+            }
+            iteration.set(it);
+            if miss <= 1e-12 {
+                return Ok((v, it));
+            }
+            let mut r: Vec<f64> = (0..n).map(|i| target[i] - q1[i]).collect();
+            let mut jac = vec![0.0; n * n];
+            for j in 0..n {
+                let e = 1e-6 * (1.0 + v[j].abs());
+                let (mut up, mut dn) = (v.clone(), v.clone());
+                up[j] += e;
+                dn[j] -= e;
+                let (a, b) = (end(&up)?, end(&dn)?);
+                for i in 0..n {
+                    jac[i * n + j] = (a[i] - b[i]) / (2.0 * e);
+                }
+            }
+            if solve_in_place(&mut jac, &mut r, n).is_err() {
+                break;
+            }
+            let mut lambda = 1.0;
+            let mut last_failure = None;
+            let accepted = loop {
+                let tried: Vec<f64> = (0..n).map(|i| v[i] + lambda * r[i]).collect();
+                match trial(&tried)? {
+                    Ok(q) if miss_of(&q) < miss => break Some((tried, q)),
+                    Ok(_) => {}
+                    Err(why) => last_failure = Some(why),
+                }
+                lambda *= 0.5;
+                if lambda < 1e-9 {
+                    break None;
+                }
+            };
+            match accepted {
+                Some((tried, q)) => {
+                    v = tried;
+                    miss = miss_of(&q);
+                    q1 = q;
+                }
+                None => return Err(ShootError::NoConvergence { iterations: it, miss, last_failure }),
+            }
         }
-        for i in 0..n {
-            v[i] += r[i];
+        Err(ShootError::NoConvergence { iterations: MAX_NEWTON, miss, last_failure: None })
+    };
+    // Straight at the end point first; when that fails, by continuation: end points moved
+    // from the start towards `to`, each shot from the last one's velocity (the half-plane's
+    // geodesic from (0, 1) to (100, 1), a tall half circle, is found this way).
+    let straight: Vec<f64> = (0..n).map(|i| to[i] - from[i]).collect();
+    let (v, iterations) = match newton(to, straight.clone()) {
+        Ok(found) => found,
+        Err(direct @ (ShootError::NoConvergence { .. } | ShootError::FirstTrial { .. })) => {
+            let (mut reached, mut step) = (0.0f64, 0.25f64);
+            let mut v = Vec::new();
+            let mut total = 0;
+            loop {
+                let s = (reached + step).min(1.0);
+                let target: Vec<f64> = (0..n).map(|i| from[i] + s * (to[i] - from[i])).collect();
+                // The last shot's velocity, or (nothing reached yet) the straight line's.
+                let guess = if reached > 0.0 { v.clone() } else { straight.iter().map(|x| x * s).collect() };
+                let attempt = newton(&target, guess);
+                match attempt {
+                    Ok((found, its)) => {
+                        total += its;
+                        v = found;
+                        reached = s;
+                        if s >= 1.0 {
+                            break (v, total);
+                        }
+                        step = (step * 2.0).min(0.5);
+                    }
+                    Err(ShootError::NoConvergence { .. } | ShootError::FirstTrial { .. }) => {
+                        step *= 0.5;
+                        if step < 1.0 / 4096.0 {
+                            return Err(direct);
+                        }
+                    }
+                    Err(e) => return Err(e),
+                }
+            }
         }
-    }
-    Err(ShootError::NoConvergence { iterations: 30, miss })
+        Err(e) => return Err(e),
+    };
+    Ok(Shot { velocity: v.clone(), path: sample(&method, &rhs, from, &v, samples)?, iterations })
 }
+
+/// Newton steps before shooting gives up.
+const MAX_NEWTON: usize = 30;
 
 /// The budget error for an integration stopped by its step or time limit.
 fn over_budget(e: &IntegrateError, budget: ShootBudget, iteration: usize, n: usize) -> Option<ShootError> {

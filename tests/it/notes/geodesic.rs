@@ -55,6 +55,26 @@ fn shooting_matches_the_great_circle() {
     }
 }
 
+/// Where the straight line's velocity runs into the boundary, shooting goes by continuation:
+/// the Poincaré half-plane's geodesic from (0, 1) to (100, 1) is the half circle about (50, 0)
+/// through both points, run at the hyperbolic distance arccosh(1 + 100²/2) per unit time, so
+/// q'(0) = d (1, 50)/|(1, 50)| (the tangent at (0, 1), where the metric's scale y is 1). It
+/// was refused with one failed trial path's integration error.
+#[test]
+fn shooting_finds_the_half_planes_tall_half_circle() {
+    let z = [Symbol::new("x"), Symbol::new("y")];
+    let g = geodesic(&parse("(dx^2 + dy^2)/y^2").unwrap(), &z).unwrap();
+    let shot = shoot(&g, &[0.0, 1.0], &[100.0, 1.0], &[], 8).unwrap();
+    let d = (1.0f64 + 100.0 * 100.0 / 2.0).acosh();
+    let norm = 1.0f64.hypot(50.0);
+    assert!((shot.velocity[0] - d / norm).abs() < 1e-9, "{:?}", shot.velocity);
+    assert!((shot.velocity[1] - d * 50.0 / norm).abs() < 1e-9, "{:?}", shot.velocity);
+    for (t, q) in &shot.path {
+        let r = (q[0] - 50.0).hypot(q[1]);
+        assert!((r - 1.0f64.hypot(50.0)).abs() < 1e-8, "t = {t}: off the half circle by {}", r - norm);
+    }
+}
+
 #[test]
 fn bad_metrics_are_refused() {
     let z = [Symbol::new("θ"), Symbol::new("φ")];
