@@ -517,3 +517,46 @@ fn pb_prints_the_same_value() {
         assert_eq!(decide_zero(&got.minus(&parse_with(hand, &d).unwrap())), ZeroCheck::Proven, "{}", v[0]);
     }
 }
+
+/// `geodesic` with a shooting solution: the same lines in a scene and on the command line
+/// (plain and Unicode), and the sphere's Christoffel symbol Γ^θ_φφ = −sin θ cos θ by hand.
+#[test]
+fn geodesic_of_the_sphere_with_shooting() {
+    for format in ["plain", "unicode"] {
+        let lines = same(
+            &format!("coordinates θ, φ\ngeodesic ds^2 = dθ^2 + sin(θ)^2 dφ^2 from (1, 0) to (2, 1.5) as {format}\n"),
+            &[
+                "geodesic",
+                "dθ^2 + sin(θ)^2 dφ^2",
+                "--coords",
+                "θ,φ",
+                "--from",
+                "1,0",
+                "--to",
+                "2,1.5",
+                "--format",
+                format,
+            ],
+        );
+        assert!(lines.iter().any(|l| l == "Γ^θ_φφ = -sin(θ) cos(θ)"), "{lines:#?}");
+        assert!(lines.iter().any(|l| l.starts_with("shooting: q'(0) = (")), "{lines:#?}");
+    }
+}
+
+/// `ritz` (§1.4.2): the same lines in a scene and on the command line (plain and Unicode).
+/// By hand, the trial x = t + a t (1 − t) for L = ½ x'² − ½ x² on [0, 1] gives
+/// S(a) = 1/3 − a/12 + 3a²/20, stationary at a = 5/18.
+#[test]
+fn ritz_of_the_oscillator() {
+    for format in ["plain", "unicode"] {
+        let lines = same(
+            &format!("coordinates x\nL = 1/2 x'^2 - 1/2 x^2\nritz with x = t + a t (1 - t) for t in 0..1 from x = 0 to x = 1 solve a as {format}\n"),
+            &[
+                "ritz", "1/2 x'^2 - 1/2 x^2", "--coords", "x", "--trial", "t + a t (1 - t)", "--unknowns", "a", "--span",
+                "0,1", "--from", "0", "--to", "1", "--format", format,
+            ],
+        );
+        let a: f64 = lines.iter().find_map(|l| l.strip_prefix("a ≈ ")).expect("the solution line").parse().unwrap();
+        assert!((a - 5.0 / 18.0).abs() < 1e-15, "{lines:#?}");
+    }
+}
