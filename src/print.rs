@@ -38,6 +38,38 @@ pub fn plain(e: &Expr) -> String {
     render(e, Format::Plain)
 }
 
+/// A number for a message: the plain form when short, else the exact value in scientific
+/// notation to four digits (`1e-400`, not a fraction with 400 zeros); other expressions plain.
+pub fn short_number(e: &Expr) -> String {
+    const SHORT: usize = 24;
+    let text = plain(e);
+    let Some(r) = e.as_num() else { return text };
+    if text.len() <= SHORT {
+        return text;
+    }
+    // Leading digits of numerator and denominator give the mantissa; their lengths the
+    // exponent. Exact to the digits shown, whatever the size.
+    let lead = |digits: &str| -> (f64, i64) {
+        let head: f64 = digits[..digits.len().min(17)].parse().unwrap_or(f64::NAN);
+        (head / 10f64.powi(digits.len().min(17) as i32 - 1), digits.len() as i64 - 1)
+    };
+    let numer = r.numer().to_string();
+    let (sign, numer) = match numer.strip_prefix('-') {
+        Some(n) => ("-", n.to_string()),
+        None => ("", numer),
+    };
+    let (a, ea) = lead(&numer);
+    let (b, eb) = lead(&r.denom().to_string());
+    let (mut m, mut exp) = (a / b, ea - eb);
+    if m < 1.0 {
+        m *= 10.0;
+        exp -= 1;
+    }
+    let mantissa = format!("{m:.3}");
+    let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+    format!("{sign}{mantissa}e{exp}")
+}
+
 /// Renders `e` in the given format.
 pub fn render(e: &Expr, format: Format) -> String {
     Printer { format }.expr(e).text

@@ -504,7 +504,7 @@ impl Session {
                 ErrorKind::BadNumber,
                 format!(
                     "`{}` underflows to 0 in f64 (the smallest positive f64 is about 4.9e-324)",
-                    crate::print::plain(e)
+                    crate::print::short_number(e)
                 ),
             )
             .at(span)
@@ -512,7 +512,7 @@ impl Session {
             Ok(x) if x.is_finite() => Ok(x),
             Ok(_) if exact_nonzero => Err(SceneError::new(
                 ErrorKind::BadNumber,
-                format!("`{}` overflows f64 (the largest f64 is about 1.8e308)", crate::print::plain(e)),
+                format!("`{}` overflows f64 (the largest f64 is about 1.8e308)", crate::print::short_number(e)),
             )
             .at(span)
             .hint("rescale the units so the numbers stay within 1e-300..1e300")),
