@@ -9,7 +9,12 @@
 2. the cost of one call of the compiled right-hand side from Python (`f(t, y)`), against the
    per-point cost of a large batch call (the Rust evaluation with the Python overhead
    amortised away) and a SymPy-lambdified call;
-3. sweep throughput (trajectories per second) on a LocalCluster with 1 and 2 workers.
+3. sweep throughput (trajectories per second) on a LocalCluster with 1 and 2 workers;
+4. against heyoka.py in the same run (both Taylor methods, LLVM JIT on heyoka's side, Cranelift
+   on ours): text → first trajectory in a fresh process; an ensemble of 1600 double-pendulum
+   starts on one thread (heyoka's batch mode at its recommended SIMD width); MEGNO ⟨Y⟩ of the
+   double pendulum to t = 100 (heyoka has no MEGNO: its user integrates the tangent equations,
+   built with `heyoka.diff`, on a dense grid and takes the quadrature, as done here).
 """
 
 from __future__ import annotations
@@ -168,7 +173,126 @@ def main():
     e = ref_sys.ensemble((0, T), states, tol=1e-9, threads=1)
     wall = time.perf_counter() - t0
     print(f"| (in-process `ensemble`, 1 thread, no Dask) | {e.t.size / wall:.0f} | {wall:.2f} s |")
+    heyoka_rows()
     print(f"\n# load after: {os.getloadavg()}")
+
+
+HEYOKA_L = """
+import heyoka as hy
+th1, th2, w1, w2 = hy.make_vars("θ1", "θ2", "w1", "w2")
+G = 9.81
+L = w1 * w1 + 0.5 * w2 * w2 + w1 * w2 * hy.cos(th1 - th2) + 2.0 * G * hy.cos(th1) + G * hy.cos(th2)
+SYS = hy.lagrangian(L, [th1, th2], [w1, w2])
+"""
+
+
+def cold(code: str) -> float:
+    """Runs `code` in a fresh interpreter (no derivation cache) and returns the seconds it
+    prints: the time after the imports, text to the first final state."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, LAGRANGIAN_CACHE_DIR="off")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def heyoka_rows():
+    try:
+        import heyoka as hy
+    except ImportError:
+        print("\n## 4. heyoka.py: not installed (run.sh installs it)")
+        return
+    print(f"\n## 4. against heyoka.py {hy.__version__}, same run")
+    tol = 1e-10
+    ours_cold = [
+        cold(
+            "import time, lagrangian as lg\nt0 = time.perf_counter()\n"
+            f"s = lg.System.from_lagrangian({L_TEXT!r}, ['θ1', 'θ2'], params={PARAMS!r}, positive={list(PARAMS)!r})\n"
+            f"s.integrate((0, {T}), {Y0!r}, 'taylor', tol={tol}, t_eval=[{T}], progress=False)\n"
+            "print(time.perf_counter() - t0)"
+        )
+        for _ in range(3)
+    ]
+    hy_cold = [
+        cold(
+            "import time\nimport numpy as np\nt0 = time.perf_counter()\n" + HEYOKA_L
+            + f"ta = hy.taylor_adaptive(SYS, np.array({Y0!r}), tol={tol})\nta.propagate_until({T})\n"
+            "print(time.perf_counter() - t0)"
+        )
+        for _ in range(3)
+    ]
+    print("| row | heyoka.py | lagrangian (Python) | ratio (ours / heyoka) |")
+    print("|---|---|---|---|")
+    print(
+        f"| text → first trajectory, fresh process, double pendulum to t = 10, tol 1e-10 (median of 3) "
+        f"| {statistics.median(hy_cold):.2f} s | {statistics.median(ours_cold):.2f} s "
+        f"| {statistics.median(ours_cold) / statistics.median(hy_cold):.2f} |"
+    )
+
+    # 1600 starts at rest on a 40 × 40 grid of angles in [−2, 2]², to t = 10, one thread.
+    exec(HEYOKA_L, g := {})
+    angles = np.linspace(-2.0, 2.0, 40)
+    starts = np.array([[a, b, 0.0, 0.0] for a in angles for b in angles])
+    sys_ = lg.System.from_lagrangian(L_TEXT, ["θ1", "θ2"], params=PARAMS, positive=list(PARAMS))
+    ours_ens = lambda: sys_.ensemble((0, T), starts, "taylor", tol=tol, threads=1, progress=False).y  # noqa: E731
+    ours_ens()  # compile once, as heyoka's integrator below is built once
+    bs = hy.recommended_simd_size()
+    ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
+
+    def hy_ens():
+        out = np.empty_like(starts)
+        for k in range(0, len(starts), bs):
+            ta.set_time(0.0)
+            ta.state[:] = starts[k : k + bs].T
+            ta.propagate_until(T)
+            out[k : k + bs] = ta.state.T
+        return out
+
+    ours_t, _, ours_y = best(ours_ens, 3)
+    hy_t, _, hy_y = best(hy_ens, 3)
+    agree = np.median(np.max(np.abs(ours_y - hy_y), axis=1))
+    print(
+        f"| ensemble of 1600 starts, tol 1e-10, one thread (heyoka batch size {bs}; best of 3; median "
+        f"|ours − heyoka| over starts {agree:.1e}) | {hy_t:.2f} s | {ours_t:.2f} s | {ours_t / hy_t:.2f} |"
+    )
+
+    # MEGNO ⟨Y⟩ to t = 100 with the tangent vector (1, 0, 0, 0), as `megno` starts it.
+    t_end = 100.0
+    xs = [v for v, _ in g["SYS"]]
+    fs = [f for _, f in g["SYS"]]
+    ds = hy.make_vars("d0", "d1", "d2", "d3")
+    tangent = [sum((hy.diff(f, x) * d for x, d in zip(xs, ds)), start=hy.expression(0.0)) for f in fs]
+    var_sys = list(g["SYS"]) + list(zip(ds, tangent))
+    tv = hy.taylor_adaptive(var_sys, np.zeros(8), tol=tol)
+    grid = np.linspace(0.0, t_end, 20001)
+
+    def hy_megno(start):
+        tv.time = 0.0
+        tv.state[:] = list(start) + [1.0, 0.0, 0.0, 0.0]
+        out = tv.propagate_grid(grid)[-1]
+        x, d = out[:, :4], out[:, 4:]
+        # δ̇ from the tangent equations at each grid point, through a compiled function.
+        ddot = tangent_fn(np.ascontiguousarray(np.hstack([x, d]).T)).T
+        gt = grid * np.sum(ddot * d, axis=1) / np.sum(d * d, axis=1)
+        # Y(t) = (2/t) ∫₀ᵗ s g(s) ds, ⟨Y⟩ = (1/T) ∫₀ᵀ Y dt, by the trapezoid rule on the grid.
+        w = np.concatenate([[0.0], np.cumsum((gt[1:] + gt[:-1]) / 2 * np.diff(grid))])
+        y = np.where(grid > 0, 2 * w / np.where(grid > 0, grid, 1.0), 0.0)
+        return np.trapezoid(y, grid) / t_end
+
+    tangent_fn = hy.cfunc(tangent, vars=xs + list(ds))
+    rows = []
+    for start in ([0.5, 0.5, 0.0, 0.0], [2.0, 2.5, 0.0, 0.0]):
+        sys_.megno((0, t_end), start, tol=tol)  # compile once
+        o_t, _, o_val = best(lambda: sys_.megno((0, t_end), start, tol=tol), 3)
+        h_t, _, h_val = best(lambda: hy_megno(start), 3)
+        rows.append((start, o_t, o_val, h_t, h_val))
+    for start, o_t, o_val, h_t, h_val in rows:
+        print(
+            f"| MEGNO ⟨Y⟩ to t = 100 from θ = ({start[0]}, {start[1]}), tol 1e-10 (heyoka: tangent equations on a "
+            f"20 001-point grid + trapezoid; best of 3) | {h_t:.2f} s (⟨Y⟩ = {h_val:.3f}) "
+            f"| {o_t:.2f} s (⟨Y⟩ = {o_val:.3f}) | {o_t / h_t:.2f} |"
+        )
 
 
 if __name__ == "__main__":

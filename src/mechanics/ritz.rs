@@ -311,28 +311,38 @@ impl Ritz {
         // stopped) while the check finds the quadrature unresolved, up to `MAX_SPLIT`.
         let mut split = 1;
         let mut it = 0;
+        // The gradient at the first guess: once Newton has brought it down to rounding
+        // (1e-13 of it), the coefficients are as good as the Hessian's condition allows, and
+        // further steps only move them by rounding noise amplified by that condition (a
+        // quadratic S in ten monomial coefficients: a Hessian of condition ~1e13, whose
+        // Newton steps never fall below 1e-13 however long they go on).
+        let mut first_gradient = None;
         while it < 50 {
             it += 1;
             crate::cancel::check().map_err(|_| bad(format!("interrupted after {} Newton steps", it - 1)))?;
             let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
-            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if !gmax.is_finite() {
                 break;
             }
+            let g0 = *first_gradient.get_or_insert(gmax);
+            let at_rounding = it > 1 && gmax <= 1e-13 * g0;
+            let mut step = 0.0f64;
+            let mut scale = 1.0f64;
+            // At rounding the step is still taken, once, as a refinement.
+            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
             solve_dense(&mut h, &mut g, k).ok_or_else(|| {
                 bad("the Hessian of S(a) is singular: the trial coefficients are not independent".into())
             })?;
-            let mut step = 0.0f64;
-            let mut scale = 1.0f64;
             for i in 0..k {
                 a[i] -= g[i];
                 step = step.max(g[i].abs());
                 scale = scale.max(a[i].abs());
             }
-            if step <= 1e-13 * scale {
+            if at_rounding || step <= 1e-13 * scale {
                 if !check(&a, split)? {
                     split *= 2;
+                    first_gradient = None;
                     continue;
                 }
                 evaluations.set(0);
