@@ -21,7 +21,8 @@ use rustyline::{Context, Editor, Helper};
 use super::session::{Mode, Options};
 use super::state::Session;
 use super::syntax::help::TOPICS;
-use super::syntax::parser::{is_incomplete, Unfinished, STATEMENTS};
+use super::syntax::parser::{is_incomplete, Unfinished};
+use super::syntax::registry::statement_words;
 use crate::cache::Cache;
 use crate::simulate::METHODS;
 
@@ -65,7 +66,7 @@ pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>
     let (start, word) = word_at(line, pos);
     let before: Vec<&str> = line[..start].split_whitespace().collect();
     let pool: Vec<String> = match before.last() {
-        None => STATEMENTS.iter().map(|s| s.to_string()).chain(names.iter().cloned()).collect(),
+        None => statement_words().map(str::to_string).chain(names.iter().cloned()).collect(),
         Some(&"with") => METHODS
             .iter()
             .flat_map(|m| std::iter::once(m.name).chain(m.aliases.iter().copied()))

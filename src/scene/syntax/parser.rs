@@ -20,47 +20,6 @@ use crate::print::Format;
 #[grammar = "../grammar/scene.pest"]
 struct SceneGrammar;
 
-/// The statement keywords, for "did you mean" and for completion.
-pub const STATEMENTS: &[&str] = &[
-    "coordinates",
-    "parameters",
-    "functions",
-    "el",
-    "legendre",
-    "hamilton",
-    "conserved",
-    "pb",
-    "energy",
-    "accelerations",
-    "average",
-    "transform",
-    "lie",
-    "integral",
-    "action",
-    "geodesic",
-    "ritz",
-    "force",
-    "rayleigh",
-    "constraint",
-    "print",
-    "simulate",
-    "lyapunov",
-    "megno",
-    "fli",
-    "chaos_map",
-    "plot",
-    "animate",
-    "export",
-    "load",
-    "help",
-    "history",
-    "allow",
-    "format",
-    "latex",
-    "unicode",
-    "plain",
-];
-
 /// The longest statement accepted, in bytes (one Lagrangian may be long; a scene's
 /// statements are each parsed separately).
 pub const MAX_STATEMENT: usize = 1 << 20;
@@ -295,7 +254,7 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
     };
     let first_word: String = src.trim_start().chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
     let word_start = src.len() - src.trim_start().len();
-    let is_known = STATEMENTS.contains(&first_word.as_str());
+    let is_known = super::registry::is_statement_word(&first_word);
     // A first word that is no statement and is not followed by `=` is an unknown statement.
     let after = src.trim_start()[first_word.len()..].trim_start();
     let looks_like_definition = after.starts_with('=') && !after.starts_with("==");
@@ -304,7 +263,7 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
         let mut err = SceneError::new(ErrorKind::UnknownStatement, format!("unknown statement `{first_word}`"))
             .at(span)
             .label("not a statement");
-        err = match did_you_mean(&first_word, STATEMENTS.iter().copied()) {
+        err = match did_you_mean(&first_word, super::registry::statement_words()) {
             Some(s) => err.hint(format!("did you mean `{s}`? (`help` lists every statement)")),
             None => err.hint("a statement starts with a keyword (`help` lists them) or is a definition `name = …`"),
         };
@@ -362,9 +321,79 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
     err
 }
 
-/// Keyword pairs carry no information beyond the statement's rule.
+/// Keyword pairs carry no information beyond the statement's rule. (Every `kw_*` rule of
+/// `grammar/scene.pest` is listed: a test reads the grammar and checks it.)
 fn is_kw(rule: Rule) -> bool {
-    format!("{rule:?}").starts_with("kw_")
+    matches!(
+        rule,
+        Rule::kw_as
+            | Rule::kw_chaos_map
+            | Rule::kw_lie
+            | Rule::kw_geodesic
+            | Rule::kw_metric
+            | Rule::kw_embedding
+            | Rule::kw_ritz
+            | Rule::kw_integral
+            | Rule::kw_action
+            | Rule::kw_order
+            | Rule::kw_flow
+            | Rule::kw_at
+            | Rule::kw_near
+            | Rule::kw_small
+            | Rule::kw_unperturbed
+            | Rule::kw_principal
+            | Rule::kw_each
+            | Rule::kw_step
+            | Rule::kw_on
+            | Rule::kw_solve
+            | Rule::kw_separation
+            | Rule::kw_animate
+            | Rule::kw_stabilize
+            | Rule::kw_every
+            | Rule::kw_points
+            | Rule::kw_force
+            | Rule::kw_rayleigh
+            | Rule::kw_constraint
+            | Rule::kw_average
+            | Rule::kw_transform
+            | Rule::kw_new
+            | Rule::kw_frequency
+            | Rule::kw_amplitudes
+            | Rule::kw_against
+            | Rule::kw_work_precision
+            | Rule::kw_coordinates
+            | Rule::kw_dt
+            | Rule::kw_energy
+            | Rule::kw_export
+            | Rule::kw_for
+            | Rule::kw_format
+            | Rule::kw_from
+            | Rule::kw_functions
+            | Rule::kw_help
+            | Rule::kw_history
+            | Rule::kw_allow
+            | Rule::kw_nonfinite
+            | Rule::kw_in
+            | Rule::kw_load
+            | Rule::kw_parameters
+            | Rule::kw_path
+            | Rule::kw_phase
+            | Rule::kw_plot
+            | Rule::kw_positive
+            | Rule::kw_print
+            | Rule::kw_simulate
+            | Rule::kw_steps
+            | Rule::kw_t
+            | Rule::kw_to
+            | Rule::kw_tol
+            | Rule::kw_drift
+            | Rule::kw_max_steps
+            | Rule::kw_time_limit
+            | Rule::kw_vs
+            | Rule::kw_when
+            | Rule::kw_with
+            | Rule::kw_poincare
+    )
 }
 
 struct Builder {
@@ -1100,6 +1129,16 @@ mod tests {
         match parse_scene(s) {
             Ok(mut v) if v.len() == 1 => v.remove(0).kind,
             other => panic!("{s}: {other:?}"),
+        }
+    }
+
+    /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
+    /// read here, in a test, so the parser itself never classifies rules by their names).
+    #[test]
+    fn is_kw_lists_exactly_the_keyword_rules() {
+        for &rule in Rule::all_rules() {
+            let named_kw = format!("{rule:?}").starts_with("kw_");
+            assert_eq!(is_kw(rule), named_kw, "{rule:?}");
         }
     }
 
