@@ -342,14 +342,7 @@ fn outer_solar_system() {
     let r = run("outer_solar_system");
     r.svg("outer_solar_system_energy.svg");
     let c = r.csv("outer_solar_system.csv");
-    let params: HashMap<String, f64> = committed
-        .lines()
-        .find_map(|l| l.strip_prefix("parameters "))
-        .unwrap()
-        .trim_end_matches(" positive")
-        .split(", ")
-        .map(|p| p.split_once(" = ").map(|(k, v)| (k.to_string(), v.parse().unwrap())).unwrap())
-        .collect();
+    let params: HashMap<String, f64> = crate::support::scene_parameters(&committed).into_iter().collect();
     let m: Vec<f64> = (0..5).map(|k| params[&format!("m{k}")]).collect();
     let energy = |row: usize| {
         let at = |name: String| c[&name][row];

@@ -55,6 +55,22 @@ pub fn snapshot(name: &str, text: impl AsRef<str>) {
     });
 }
 
+/// The `name = value` pairs of a scene's first `parameters` line (numbers only, an optional
+/// trailing `positive`), in order: what a test reads from an example scene.
+pub fn scene_parameters(scene: &str) -> Vec<(String, f64)> {
+    scene
+        .lines()
+        .find_map(|l| l.strip_prefix("parameters "))
+        .expect("a `parameters` line")
+        .trim_end_matches(" positive")
+        .split(", ")
+        .map(|p| {
+            let (k, v) = p.split_once(" = ").expect("name = value");
+            (k.to_string(), v.parse().expect("a number"))
+        })
+        .collect()
+}
+
 /// The columns of a CSV file, by header name.
 pub fn read_csv(path: &Path) -> HashMap<String, Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

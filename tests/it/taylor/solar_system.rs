@@ -29,14 +29,7 @@ fn read_example() -> Scene {
         text.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` line")).to_string()
     };
     let coords: Vec<String> = line("coordinates ").split(", ").map(str::to_string).collect();
-    let params: Vec<(String, f64)> = line("parameters ")
-        .trim_end_matches(" positive")
-        .split(", ")
-        .map(|p| {
-            let (k, v) = p.split_once(" = ").expect("name = value");
-            (k.to_string(), v.parse().expect("a number"))
-        })
-        .collect();
+    let params = crate::support::scene_parameters(&text);
     let values: HashMap<String, f64> = params.iter().cloned().collect();
     let simulate = line("simulate ");
     let (starts, rest) = simulate.split_once(" for t in 0..").expect("a time span");
