@@ -113,6 +113,9 @@ pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
     err
 }
 
+/// The plan entries a REPL keeps (see `Session::bound_plan`).
+const MAX_REPL_PLAN: usize = 2048;
+
 impl Session {
     /// What each figure drawn so far shows (title, labels, series, ranges, legend), by file,
     /// in the order drawn: the content a test can check without reading pixels.
@@ -427,6 +430,7 @@ impl Session {
         let mut refs = Vec::new();
         for s in e.free_symbols() {
             if let Some(r) = self.check_symbol(&s, src)? {
+                self.referenced.insert(r);
                 refs.push((s, r));
             }
         }
@@ -613,7 +617,23 @@ impl Session {
         };
         let id = self.defs.len();
         self.defs.push(DefEntry { name: n.to_string(), body, line: at.line, value: None, demanded: false });
-        self.def_names.insert(n.to_string(), id);
+        // The value of the definition this one supersedes is a memo: a later definition that
+        // captured the old version recomputes it from its body, and a REPL redefining `L` ten
+        // thousand times does not keep ten thousand derived values.
+        if let Some(old) = self.def_names.insert(n.to_string(), id) {
+            self.defs[old].value = None;
+            // Nothing can reach an unreferenced superseded definition: in a long-lived REPL
+            // its body goes too (a scene keeps it, for the plan's list of skipped work).
+            if self.opts.mode == Mode::Repl && !self.referenced.contains(&old) {
+                match &mut self.defs[old].body {
+                    DefBody::Expr { raw, refs } => {
+                        *raw = Expr::zero();
+                        *refs = Vec::new();
+                    }
+                    DefBody::Deriv { args, .. } => *args = Vec::new(),
+                }
+            }
+        }
         if self.opts.mode == Mode::Repl {
             let v = self.demand_def(at, id)?;
             let printed = match v {
@@ -799,8 +819,19 @@ impl Session {
         if !self.built_here.contains(key) {
             self.built_here.insert(key.clone());
             self.plan.push(PlanEntry { step, what: what.to_string(), line: Some(at.line), status });
+            self.bound_plan();
         }
         Some(v)
+    }
+
+    /// A REPL keeps the plan of its last [`MAX_REPL_PLAN`] steps only: a session that derives
+    /// for days would otherwise keep one entry (and one cache key) per derivation forever. A
+    /// scene's plan is whole: it is printed at the end.
+    fn bound_plan(&mut self) {
+        if self.opts.mode == Mode::Repl && self.plan.len() > MAX_REPL_PLAN {
+            self.plan.drain(..self.plan.len() - MAX_REPL_PLAN / 2);
+            self.built_here.clear();
+        }
     }
 
     /// Caches a value just built (a miss in [`Session::lookup`]) and records it in the plan.
@@ -819,6 +850,7 @@ impl Session {
         self.cache.insert(key.clone(), v.clone());
         self.built_here.insert(key);
         self.plan.push(PlanEntry { step, what, line: Some(at.line), status: Status::Built });
+        self.bound_plan();
         Ok(v)
     }
 

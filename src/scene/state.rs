@@ -98,6 +98,9 @@ pub struct Session {
     pub(super) functions: BTreeSet<String>,
     pub(super) defs: Vec<DefEntry>,
     pub(super) def_names: HashMap<String, usize>,
+    /// Definitions some expression refers to by id. A superseded definition outside this set
+    /// can never be reached again (names find the newest), so the REPL drops its body.
+    pub(super) referenced: HashSet<usize>,
     pub(super) runs: Vec<RunEntry>,
     pub(super) run_names: HashMap<String, usize>,
     pub(super) plan: Vec<PlanEntry>,
@@ -144,6 +147,7 @@ impl Session {
             functions: BTreeSet::new(),
             defs: Vec::new(),
             def_names: HashMap::new(),
+            referenced: HashSet::new(),
             runs: Vec::new(),
             run_names: HashMap::new(),
             plan: Vec::new(),

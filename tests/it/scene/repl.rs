@@ -131,3 +131,23 @@ fn a_statement_of_a_hundred_thousand_piped_lines_is_one_entry() {
     assert_eq!(code, 0, "{}", &out[out.len().saturating_sub(500)..]);
     assert_eq!(out.lines().last(), Some("4999950001"), "{}", &out[out.len().saturating_sub(500)..]);
 }
+
+/// A long-lived REPL keeps a bounded plan: one entry per derivation made the session grow
+/// without end (38 MB after 10⁴ redefinitions of `L` with `el`, 23 MB now; 21 MB at 3000).
+/// After 1500 derivations the plan holds at most its bound, and the answers stay right.
+#[test]
+fn a_long_repl_session_keeps_a_bounded_plan() {
+    use lagrangian::scene::{Mode, Options, Session};
+    let mut s = Session::new(Options::new(Mode::Repl));
+    s.run_line("coordinates x").unwrap();
+    let mut longest = 0;
+    for i in 1..=1500 {
+        s.run_line(&format!("L = 1/2 x'^2 - {i}/2 x^2")).unwrap();
+        s.run_line("el").unwrap();
+        longest = longest.max(s.plan().len());
+    }
+    assert!(longest <= 2048, "the plan reached {longest} entries");
+    let out = s.take_output();
+    let last = out.iter().rev().find(|l| l.starts_with("E_x")).expect("the last el");
+    assert!(last.contains("1500 x"), "{last}");
+}
