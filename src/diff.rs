@@ -120,23 +120,10 @@ impl Differentiator {
         if du.is_zero() {
             return Expr::zero();
         }
-        let one = Expr::one();
-        let outer = match f {
-            Func::Sin => Expr::call(Func::Cos, vec![u.clone()]),
-            Func::Cos => Expr::call(Func::Sin, vec![u.clone()]).neg(),
-            Func::Tan => Expr::call(Func::Cos, vec![u.clone()]).powi(-2),
-            Func::Exp => Expr::call(Func::Exp, vec![u.clone()]),
-            Func::Log => u.powi(-1),
-            Func::Sinh => Expr::call(Func::Cosh, vec![u.clone()]),
-            Func::Cosh => Expr::call(Func::Sinh, vec![u.clone()]),
-            Func::Tanh => Expr::call(Func::Cosh, vec![u.clone()]).powi(-2),
-            Func::Asin => Expr::pow(one.minus(&u.powi(2)), Expr::frac(-1, 2)),
-            Func::Acos => Expr::pow(one.minus(&u.powi(2)), Expr::frac(-1, 2)).neg(),
-            Func::Atan => one.plus(&u.powi(2)).powi(-1),
-            // d|u|/du = |u|/u, defined wherever u ≠ 0.
-            Func::Abs => Expr::call(Func::Abs, vec![u.clone()]).over(u),
-            Func::Atan2 => Expr::undefined(),
+        let Some(derivative) = f.spec().derivative else {
+            return Expr::undefined();
         };
+        let outer = derivative(u);
         outer.times(&du)
     }
 

@@ -118,95 +118,8 @@ impl fmt::Display for Symbol {
     }
 }
 
-/// The built-in functions of the grammar. `sqrt` is not here: it is the power `x^(1/2)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Func {
-    Sin,
-    Cos,
-    Tan,
-    Exp,
-    Log,
-    Sinh,
-    Cosh,
-    Tanh,
-    Asin,
-    Acos,
-    Atan,
-    Atan2,
-    Abs,
-}
-
-impl Func {
-    /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 13] = [
-        Func::Sin,
-        Func::Cos,
-        Func::Tan,
-        Func::Exp,
-        Func::Log,
-        Func::Sinh,
-        Func::Cosh,
-        Func::Tanh,
-        Func::Asin,
-        Func::Acos,
-        Func::Atan,
-        Func::Atan2,
-        Func::Abs,
-    ];
-
-    /// The name as written in the grammar.
-    pub fn name(self) -> &'static str {
-        match self {
-            Func::Sin => "sin",
-            Func::Cos => "cos",
-            Func::Tan => "tan",
-            Func::Exp => "exp",
-            Func::Log => "log",
-            Func::Sinh => "sinh",
-            Func::Cosh => "cosh",
-            Func::Tanh => "tanh",
-            Func::Asin => "asin",
-            Func::Acos => "acos",
-            Func::Atan => "atan",
-            Func::Atan2 => "atan2",
-            Func::Abs => "abs",
-        }
-    }
-
-    /// Looks a built-in up by name.
-    pub fn from_name(name: &str) -> Option<Func> {
-        Func::ALL.into_iter().find(|f| f.name() == name)
-    }
-
-    /// How many arguments the function takes.
-    pub fn arity(self) -> usize {
-        if self == Func::Atan2 {
-            2
-        } else {
-            1
-        }
-    }
-
-    /// Evaluates the function on floats.
-    pub fn eval(self, args: &[f64]) -> f64 {
-        let x = args[0];
-        match self {
-            Func::Sin => x.sin(),
-            Func::Cos => x.cos(),
-            Func::Tan => x.tan(),
-            Func::Exp => x.exp(),
-            Func::Log => x.ln(),
-            Func::Sinh => x.sinh(),
-            Func::Cosh => x.cosh(),
-            Func::Tanh => x.tanh(),
-            Func::Asin => x.asin(),
-            Func::Acos => x.acos(),
-            Func::Atan => x.atan(),
-            Func::Atan2 => x.atan2(args[1]),
-            Func::Abs => x.abs(),
-        }
-    }
-}
+pub use crate::func::Func;
+use crate::func::Parity;
 
 /// One node of the DAG. Build nodes only through the [`Expr`] constructors, which keep the
 /// canonical form.
@@ -869,53 +782,34 @@ impl Expr {
             return Expr::undefined();
         }
         let x = &args[0];
-        match func {
-            Func::Sin | Func::Tan | Func::Sinh | Func::Tanh | Func::Asin | Func::Atan => {
-                if x.is_zero() {
-                    return Expr::zero();
-                }
-                if x.is_negative_form() {
-                    return Expr::call(func, vec![x.neg()]).neg();
-                }
+        if func == Func::Abs {
+            if let Some(r) = x.as_num() {
+                return Expr::num(r.abs());
             }
-            Func::Cos | Func::Cosh => {
-                if x.is_zero() {
-                    return Expr::one();
-                }
-                if x.is_negative_form() {
-                    return Expr::call(func, vec![x.neg()]);
-                }
+            if x.is_positive() {
+                return x.clone();
             }
-            Func::Exp => {
-                if x.is_zero() {
-                    return Expr::one();
-                }
+            if x.is_negative_form() {
+                return Expr::call(Func::Abs, vec![x.neg()]);
             }
-            Func::Log => {
-                if x.is_one() {
-                    return Expr::zero();
-                }
+            if let Node::Call(Func::Abs, _) = x.node() {
+                return x.clone();
             }
-            Func::Acos => {
-                if x.is_one() {
-                    return Expr::zero();
-                }
+            return intern(Node::Call(func, args));
+        }
+        let spec = func.spec();
+        if let Some(v) = spec.at_zero.filter(|_| x.is_zero()) {
+            return Expr::int(v);
+        }
+        if let Some(v) = spec.at_one.filter(|_| x.is_one()) {
+            return Expr::int(v);
+        }
+        if x.is_negative_form() {
+            match spec.parity {
+                Parity::Odd => return Expr::call(func, vec![x.neg()]).neg(),
+                Parity::Even => return Expr::call(func, vec![x.neg()]),
+                Parity::None => {}
             }
-            Func::Abs => {
-                if let Some(r) = x.as_num() {
-                    return Expr::num(r.abs());
-                }
-                if x.is_positive() {
-                    return x.clone();
-                }
-                if x.is_negative_form() {
-                    return Expr::call(Func::Abs, vec![x.neg()]);
-                }
-                if let Node::Call(Func::Abs, _) = x.node() {
-                    return x.clone();
-                }
-            }
-            Func::Atan2 => {}
         }
         intern(Node::Call(func, args))
     }

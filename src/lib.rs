@@ -42,6 +42,7 @@ pub mod compile;
 pub mod diff;
 pub mod eval;
 pub mod expr;
+pub mod func;
 pub mod integrate;
 mod linalg;
 pub mod mechanics;

@@ -399,13 +399,9 @@ impl Printer {
         let parts: Vec<String> = args.iter().map(|a| self.expr(a).text).collect();
         let joined = parts.join(", ");
         match self.format {
-            Format::Latex => match f {
-                Func::Abs => format!("\\left|{joined}\\right|"),
-                Func::Atan2 => format!("\\operatorname{{atan2}}\\left({joined}\\right)"),
-                Func::Asin => format!("\\arcsin\\left({joined}\\right)"),
-                Func::Acos => format!("\\arccos\\left({joined}\\right)"),
-                Func::Atan => format!("\\arctan\\left({joined}\\right)"),
-                _ => format!("\\{}\\left({joined}\\right)", f.name()),
+            Format::Latex => match f.spec().latex {
+                Some(cmd) => format!("{cmd}\\left({joined}\\right)"),
+                None => format!("\\left|{joined}\\right|"),
             },
             _ => format!("{}({joined})", f.name()),
         }

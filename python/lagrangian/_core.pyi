@@ -8,6 +8,7 @@ import numpy.typing as npt
 
 METHODS: list[str]
 DEFAULT_METHOD: str
+BUILTINS: list[tuple[str, str]]
 
 ArrayLike = npt.ArrayLike
 Operand = Union["Expr", int, float]

@@ -12,14 +12,13 @@ from __future__ import annotations
 import re
 from typing import Any, Iterable, Optional
 
-from ._core import Expr
+from ._core import BUILTINS, Expr
 from ._sympy_input import prepare
 
-_BUILTINS = {
-    "sin": "sin", "cos": "cos", "tan": "tan", "cot": "cot", "exp": "exp", "log": "log",
-    "sqrt": "sqrt", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "asin": "asin",
-    "acos": "acos", "atan": "atan", "atan2": "atan2", "abs": "Abs",
-}
+# The engine's built-in functions with their SymPy names, plus `sqrt` (a power in the engine)
+# and `cot` (the parser's shorthand for cos/sin), which the printed form never contains but a
+# user may type.
+_BUILTINS = {**dict(BUILTINS), "sqrt": "sqrt", "cot": "cot"}
 
 _TOKEN = re.compile(
     r"\s*(?:(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)"
@@ -106,5 +105,8 @@ def from_sympy(expr: Any, *, positive: Optional[Iterable[str]] = None, functions
     funcs |= {f.func.__name__ for f in expr.atoms(AppliedUndef)}
     expr = expr.subs(sympy.E, sympy.exp(1))
     text = sympy.sstr(expr, order="none")
-    text = text.replace("**", "^").replace("Abs(", "abs(")
+    text = text.replace("**", "^")
+    for name, sympy_name in BUILTINS:
+        if name != sympy_name:
+            text = text.replace(sympy_name + "(", name + "(")
     return Expr(text, positive=sorted(pos), functions=sorted(funcs))

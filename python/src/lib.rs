@@ -39,6 +39,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cache::set_cache_dir, m)?)?;
     m.add("METHODS", sim::binding_methods().map(|m| m.name()).collect::<Vec<_>>())?;
     m.add("DEFAULT_METHOD", lagrangian::simulate::DEFAULT_METHOD.name())?;
+    // The SymPy bridge maps built-in names through this rather than a copy of its own.
+    m.add(
+        "BUILTINS",
+        lagrangian::func::Func::ALL.iter().map(|f| (f.name(), f.spec().sympy)).collect::<Vec<_>>(),
+    )?;
     errors::register(m)?;
     Ok(())
 }

@@ -111,3 +111,16 @@ def test_sympy_round_trip():
     assert lg.from_sympy(f.to_sympy()) == f
     with pytest.raises(ValueError, match="pi"):
         lg.from_sympy(sympy.pi * sympy.Symbol("x"))
+
+
+def test_every_builtin_maps_to_its_sympy_function_and_back():
+    # The names come from the engine's function table (`_core.BUILTINS`), not a copy here.
+    sympy = pytest.importorskip("sympy")
+    from lagrangian import _core
+
+    assert {name for name, _ in _core.BUILTINS} >= {"sin", "atan2", "abs"}
+    for name, sympy_name in _core.BUILTINS:
+        e = Expr(f"{name}(x, y)" if name == "atan2" else f"{name}(x)")
+        s = e.to_sympy()
+        assert s.func == getattr(sympy, sympy_name), (name, s)
+        assert lg.from_sympy(s) == e, (name, s)

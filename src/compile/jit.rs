@@ -92,38 +92,11 @@ pub(super) fn call_sin_cos(
     (b.ins().stack_load(types::F64, pair, 0), b.ins().stack_load(types::F64, pair, 8))
 }
 
-// The transcendental wrappers. Each calls exactly what the interpreter calls for the same
-// instruction, so both back ends return the same bits.
-macro_rules! unary_wrappers {
-    ($($name:ident => $f:expr),* $(,)?) => {
-        $(extern "C" fn $name(x: f64) -> f64 {
-            $f.eval(&[x])
-        })*
-    };
-}
-unary_wrappers! {
-    sin => Func::Sin, cos => Func::Cos, tan => Func::Tan, exp => Func::Exp, ln => Func::Log,
-    sinh => Func::Sinh, cosh => Func::Cosh, tanh => Func::Tanh, asin => Func::Asin,
-    acos => Func::Acos, atan => Func::Atan,
-}
-/// The wrapper for a one-argument built-in; `None` for `abs` (one native instruction) and
-/// `atan2`, which the lowering always emits as its own instruction (a tape with a
-/// one-argument `atan2` would stay interpreted).
+/// The wrapper for a one-argument built-in (its [`Spec::native`](crate::func::Spec::native));
+/// `None` for `abs` (one native instruction) and `atan2`, which the lowering always emits as
+/// its own instruction (a tape with a one-argument `atan2` would stay interpreted).
 pub(super) fn wrapper(f: Func) -> Option<extern "C" fn(f64) -> f64> {
-    Some(match f {
-        Func::Sin => sin,
-        Func::Cos => cos,
-        Func::Tan => tan,
-        Func::Exp => exp,
-        Func::Log => ln,
-        Func::Sinh => sinh,
-        Func::Cosh => cosh,
-        Func::Tanh => tanh,
-        Func::Asin => asin,
-        Func::Acos => acos,
-        Func::Atan => atan,
-        Func::Abs | Func::Atan2 => return None,
-    })
+    f.spec().native
 }
 pub(super) extern "C" fn atan2(a: f64, b: f64) -> f64 {
     a.atan2(b)

@@ -1,0 +1,307 @@
+//! The built-in functions of the grammar, each described once in [`SPECS`]: its name, arity,
+//! float value, derivative, the exact facts `Expr::call` folds in (parity, value at 0 or 1),
+//! and its LaTeX and SymPy names. Parsing, printing, numeric evaluation, differentiation and the
+//! Python SymPy bridge read this table, so a new function's knowledge lives in one row. Code that
+//! genuinely needs per-function code (the tape lowering's shared `sin_cos`, the Taylor
+//! recurrences in `compile::taylor`, the egg rewrites in `simplify`) still matches on [`Func`],
+//! exhaustively where a new function must be handled.
+//!
+//! `sqrt` is not here: it is the power `x^(1/2)`.
+
+use crate::expr::Expr;
+
+/// A built-in function. The discriminant indexes [`SPECS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Func {
+    Sin,
+    Cos,
+    Tan,
+    Exp,
+    Log,
+    Sinh,
+    Cosh,
+    Tanh,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Abs,
+}
+
+/// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parity {
+    /// `f(-x) = -f(x)`.
+    Odd,
+    /// `f(-x) = f(x)`.
+    Even,
+    /// Neither, or folded by code of its own (`abs`).
+    None,
+}
+
+/// Everything the engine knows about one built-in function that is data rather than code.
+pub struct Spec {
+    /// The name as written in the grammar and printed in plain and Unicode forms.
+    pub name: &'static str,
+    /// How many arguments it takes.
+    pub arity: usize,
+    /// The value on floats (`args.len() == arity`).
+    pub eval: fn(&[f64]) -> f64,
+    /// `∂f/∂u` as an expression in the (first) argument `u`; `None` for functions of two
+    /// arguments, which `diff` handles by their gradient.
+    pub derivative: Option<fn(&Expr) -> Expr>,
+    /// Symmetry under `u → -u`.
+    pub parity: Parity,
+    /// The exact value at `u = 0`, when it is an integer.
+    pub at_zero: Option<i64>,
+    /// The exact value at `u = 1`, when it is an integer.
+    pub at_one: Option<i64>,
+    /// The LaTeX command, applied as `cmd\left(args\right)`; `None` for `abs`, printed as bars.
+    pub latex: Option<&'static str>,
+    /// The SymPy function of the same meaning.
+    pub sympy: &'static str,
+    /// The function the JIT back ends call for a one-argument instruction: it computes exactly
+    /// what [`Spec::eval`] does, so compiled and interpreted code return the same bits. `None`
+    /// for `abs` (one native instruction) and `atan2` (lowered as its own instruction).
+    pub native: Option<extern "C" fn(f64) -> f64>,
+}
+
+/// An `extern "C"` wrapper of the `f64` method `$m`, for [`Spec::native`].
+macro_rules! native {
+    ($m:ident) => {{
+        extern "C" fn wrapper(x: f64) -> f64 {
+            f64::$m(x)
+        }
+        Some(wrapper as extern "C" fn(f64) -> f64)
+    }};
+}
+
+fn call1(f: Func, u: &Expr) -> Expr {
+    Expr::call(f, vec![u.clone()])
+}
+
+/// `(1 - u²)^(-1/2)`, the derivative of `asin`.
+fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
+    Expr::pow(Expr::one().minus(&u.powi(2)), Expr::frac(-1, 2))
+}
+
+/// One row per [`Func`], in declaration order (checked by a unit test).
+pub const SPECS: [Spec; 13] = [
+    Spec {
+        name: "sin",
+        arity: 1,
+        eval: |a| a[0].sin(),
+        derivative: Some(|u| call1(Func::Cos, u)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\sin"),
+        sympy: "sin",
+        native: native!(sin),
+    },
+    Spec {
+        name: "cos",
+        arity: 1,
+        eval: |a| a[0].cos(),
+        derivative: Some(|u| call1(Func::Sin, u).neg()),
+        parity: Parity::Even,
+        at_zero: Some(1),
+        at_one: None,
+        latex: Some("\\cos"),
+        sympy: "cos",
+        native: native!(cos),
+    },
+    Spec {
+        name: "tan",
+        arity: 1,
+        eval: |a| a[0].tan(),
+        derivative: Some(|u| call1(Func::Cos, u).powi(-2)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\tan"),
+        sympy: "tan",
+        native: native!(tan),
+    },
+    Spec {
+        name: "exp",
+        arity: 1,
+        eval: |a| a[0].exp(),
+        derivative: Some(|u| call1(Func::Exp, u)),
+        parity: Parity::None,
+        at_zero: Some(1),
+        at_one: None,
+        latex: Some("\\exp"),
+        sympy: "exp",
+        native: native!(exp),
+    },
+    Spec {
+        name: "log",
+        arity: 1,
+        eval: |a| a[0].ln(),
+        derivative: Some(|u| u.powi(-1)),
+        parity: Parity::None,
+        at_zero: None,
+        at_one: Some(0),
+        latex: Some("\\log"),
+        sympy: "log",
+        native: native!(ln),
+    },
+    Spec {
+        name: "sinh",
+        arity: 1,
+        eval: |a| a[0].sinh(),
+        derivative: Some(|u| call1(Func::Cosh, u)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\sinh"),
+        sympy: "sinh",
+        native: native!(sinh),
+    },
+    Spec {
+        name: "cosh",
+        arity: 1,
+        eval: |a| a[0].cosh(),
+        derivative: Some(|u| call1(Func::Sinh, u)),
+        parity: Parity::Even,
+        at_zero: Some(1),
+        at_one: None,
+        latex: Some("\\cosh"),
+        sympy: "cosh",
+        native: native!(cosh),
+    },
+    Spec {
+        name: "tanh",
+        arity: 1,
+        eval: |a| a[0].tanh(),
+        derivative: Some(|u| call1(Func::Cosh, u).powi(-2)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\tanh"),
+        sympy: "tanh",
+        native: native!(tanh),
+    },
+    Spec {
+        name: "asin",
+        arity: 1,
+        eval: |a| a[0].asin(),
+        derivative: Some(inv_sqrt_one_minus_square),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\arcsin"),
+        sympy: "asin",
+        native: native!(asin),
+    },
+    Spec {
+        name: "acos",
+        arity: 1,
+        eval: |a| a[0].acos(),
+        derivative: Some(|u| inv_sqrt_one_minus_square(u).neg()),
+        parity: Parity::None,
+        at_zero: None,
+        at_one: Some(0),
+        latex: Some("\\arccos"),
+        sympy: "acos",
+        native: native!(acos),
+    },
+    Spec {
+        name: "atan",
+        arity: 1,
+        eval: |a| a[0].atan(),
+        derivative: Some(|u| Expr::one().plus(&u.powi(2)).powi(-1)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\arctan"),
+        sympy: "atan",
+        native: native!(atan),
+    },
+    Spec {
+        name: "atan2",
+        arity: 2,
+        eval: |a| a[0].atan2(a[1]),
+        derivative: None,
+        parity: Parity::None,
+        at_zero: None,
+        at_one: None,
+        latex: Some("\\operatorname{atan2}"),
+        sympy: "atan2",
+        native: None,
+    },
+    Spec {
+        name: "abs",
+        arity: 1,
+        eval: |a| a[0].abs(),
+        // d|u|/du = |u|/u, defined wherever u ≠ 0.
+        derivative: Some(|u| call1(Func::Abs, u).over(u)),
+        parity: Parity::None,
+        at_zero: None,
+        at_one: None,
+        latex: None,
+        sympy: "Abs",
+        native: None,
+    },
+];
+
+impl Func {
+    /// Every built-in function, in declaration order.
+    pub const ALL: [Func; 13] = [
+        Func::Sin,
+        Func::Cos,
+        Func::Tan,
+        Func::Exp,
+        Func::Log,
+        Func::Sinh,
+        Func::Cosh,
+        Func::Tanh,
+        Func::Asin,
+        Func::Acos,
+        Func::Atan,
+        Func::Atan2,
+        Func::Abs,
+    ];
+
+    /// This function's row of [`SPECS`].
+    pub fn spec(self) -> &'static Spec {
+        &SPECS[self as usize]
+    }
+
+    /// The name as written in the grammar.
+    pub fn name(self) -> &'static str {
+        self.spec().name
+    }
+
+    /// Looks a built-in up by name.
+    pub fn from_name(name: &str) -> Option<Func> {
+        Func::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// How many arguments the function takes.
+    pub fn arity(self) -> usize {
+        self.spec().arity
+    }
+
+    /// Evaluates the function on floats.
+    pub fn eval(self, args: &[f64]) -> f64 {
+        (self.spec().eval)(args)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `spec` indexes by discriminant, so the rows must follow the enum; and `ALL` must list
+    /// every variant once.
+    #[test]
+    fn rows_follow_the_enum() {
+        for (i, f) in Func::ALL.into_iter().enumerate() {
+            assert_eq!(f as usize, i);
+            assert_eq!(format!("{f:?}").to_lowercase(), f.name());
+        }
+        assert_eq!(SPECS.len(), Func::ALL.len());
+    }
+}
