@@ -274,6 +274,10 @@ impl Session {
             StmtKind::Lie { f, generator, order, epsilon, format } => {
                 self.lie(at, f, generator, order.as_ref(), epsilon.as_ref(), *format)
             }
+            StmtKind::Series { f, small, about, order, format } => {
+                self.series(at, f, small, about, order.as_ref(), *format)
+            }
+            StmtKind::Jacobian { map, vars, format } => self.jacobian(at, map, vars, *format),
             StmtKind::Integral { f, h, format } => self.integral(at, f, h.as_ref(), *format),
             StmtKind::Action { h, energies, near } => self.action(at, h.as_ref(), energies, near.as_ref()),
             StmtKind::Geodesic(spec) => self.geodesic(at, spec),

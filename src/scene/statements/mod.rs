@@ -7,6 +7,7 @@ pub(super) mod chaos;
 pub mod drift;
 pub(super) mod dynamics;
 pub(super) mod ensemble;
+pub(super) mod expansion;
 pub(super) mod figures;
 pub(super) mod first_order;
 pub(super) mod geodesic;

@@ -441,6 +441,28 @@ pub enum StmtKind {
         /// `as latex`.
         format: Option<Format>,
     },
+    /// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
+    Series {
+        /// The expanded expression.
+        f: Src,
+        /// `in x, y`: the small quantities.
+        small: Vec<Src>,
+        /// `about q = q0, …`: the coordinates and the point.
+        about: Vec<(Src, Src)>,
+        /// `order N` (default 2, as on the command line).
+        order: Option<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `jacobian (X1, …) in y1, …`.
+    Jacobian {
+        /// The map's components.
+        map: Vec<Src>,
+        /// The variables they depend on.
+        vars: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
     /// `integral f [with H]`.
     Integral {
         /// The candidate.
