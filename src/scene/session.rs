@@ -280,6 +280,9 @@ impl Session {
             StmtKind::Series { f, small, about, order, format } => {
                 self.series(at, f, small, about, order.as_ref(), *format)
             }
+            StmtKind::Map { updates, steps, starts, points, path } => {
+                self.map(at, updates, steps, starts, points.as_ref(), path.as_ref())
+            }
             StmtKind::Jacobian { map, vars, format } => self.jacobian(at, map, vars, *format),
             StmtKind::Integral { f, h, format } => self.integral(at, f, h.as_ref(), *format),
             StmtKind::Action { h, energies, near } => self.action(at, h.as_ref(), energies, near.as_ref()),

@@ -11,6 +11,7 @@ pub(super) mod expansion;
 pub(super) mod figures;
 pub(super) mod first_order;
 pub(super) mod geodesic;
+pub(super) mod map;
 pub(super) mod ritz;
 pub(super) mod sections;
 pub(super) mod simulate;

@@ -454,6 +454,19 @@ pub enum StmtKind {
         /// `as latex`.
         format: Option<Format>,
     },
+    /// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
+    Map {
+        /// The assignments, in order.
+        updates: Vec<(Src, Src)>,
+        /// The number of iterations.
+        steps: Src,
+        /// The starts: a variable and a value, or a range `lo..hi`.
+        starts: Vec<(Src, Src, Option<Src>)>,
+        /// `points N`: values per range (default 10).
+        points: Option<Src>,
+        /// `to FILE`.
+        path: Option<Src>,
+    },
     /// `jacobian (X1, …) in y1, …`.
     Jacobian {
         /// The map's components.

@@ -376,6 +376,7 @@ fn is_kw(rule: Rule) -> bool {
             | Rule::kw_series
             | Rule::kw_about
             | Rule::kw_jacobian
+            | Rule::kw_map
     )
 }
 
@@ -522,6 +523,7 @@ impl Builder {
             Rule::integral => self.integral(inner, span)?,
             Rule::series => self.series(inner, span)?,
             Rule::jacobian => self.jacobian(inner),
+            Rule::map_stmt => self.map(inner, span)?,
             Rule::action => self.action(inner),
             Rule::geodesic => self.geodesic(inner),
             // Unfiltered: the keywords `with`, `from`, `to` say which list an `x = …` is in.
@@ -1026,6 +1028,41 @@ impl Builder {
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
         Ok(StmtKind::Series { f, small, about, order: it.next(), format })
+    }
+
+    fn map(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::init if steps.is_none() => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        updates.push((self.src(&s), self.src(&v)));
+                    }
+                }
+                Rule::sexpr => steps = Some(self.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        starts.push((self.src(&s), self.src(&v), None));
+                    }
+                }
+                Rule::map_range => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
+                        let mut b = r.into_inner();
+                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                            starts.push((self.src(&s), self.src(&lo), Some(self.src(&hi))));
+                        }
+                    }
+                }
+                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
+                Rule::path => path = Some(self.path(q)),
+                _ => {}
+            }
+        }
+        let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
+        Ok(StmtKind::Map { updates, steps, starts, points, path })
     }
 
     fn jacobian(&self, inner: Vec<Pair<Rule>>) -> StmtKind {

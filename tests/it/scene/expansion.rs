@@ -51,3 +51,19 @@ fn series_and_jacobian_refuse_what_has_no_answer() {
     assert_eq!(e.kind, ErrorKind::Syntax);
     assert!(e.span.is_some(), "{e:?}");
 }
+
+/// `map`: three steps of the standard map from (1, 0.5) with K = 0.9 print the state a hand
+/// iteration gives (Python floats: 5.375066801394972, 1.1643125003166652); an implicit map and
+/// an assignment without a start are refused.
+#[test]
+fn map_iterates_the_standard_map_and_refuses_what_it_cannot() {
+    let out = run("parameters K = 0.9\nmap p = p + K sin(q), q = q + p for 3 steps from q = 1, p = 0.5")
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(out, ["map: 1 orbit(s) of 3 step(s)", "  (1, 0.5) → (5.375066801394972, 1.1643125003166652)"]);
+    let e = run("map p' = p + sin(q), q' = q + p' for 3 steps from q = 1, p = 0.5").expect_err("refused");
+    assert!(e.span.is_some(), "{e:?}");
+    let e = run("map p = p + sin(q), q = q + p for 3 steps from q = 1").expect_err("refused");
+    assert!(e.message.contains("no start"), "{}", e.message);
+    let e = run("map p = p + sin(q), q = q + p for 2.5 steps from q = 1, p = 0").expect_err("refused");
+    assert_eq!(e.kind, ErrorKind::BadNumber);
+}
