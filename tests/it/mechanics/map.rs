@@ -72,7 +72,8 @@ fn the_standard_map_preserves_area() {
 fn a_diverging_orbit_stops_and_too_much_work_is_refused() {
     let d = Declarations::new();
     let x = Symbol::new("x");
-    let m = ExplicitMap::new(&[x.clone()], &[(x, parse_with("x^2", &d).expect("parses"))], &[]).expect("compiles");
+    let updates = [(x.clone(), parse_with("x^2", &d).expect("parses"))];
+    let m = ExplicitMap::new(&[x], &updates, &[]).expect("compiles");
     let o = &m.orbits(&[vec![10.0]], 100).expect("iterates")[0];
     assert!(o.len() < 101 && !o.last().expect("states")[0].is_finite(), "{}", o.len());
     assert!(m.orbits(&vec![vec![1.0]; 100], 10_000_000).is_err());

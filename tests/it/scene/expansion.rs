@@ -9,9 +9,9 @@ fn run(scene: &str) -> Result<Vec<String>, lagrangian::scene::SceneError> {
 }
 
 /// `examples/small_oscillations.scene`: the double pendulum about θ1 = θ2 = 0 to second order
-/// is, by hand (cos(θ1 − θ2) → 1, cos θ → 1 − θ²/2), 3mgl − mgl θ1² − ½ mgl θ2² + m l² θ̇1²
-/// + ½ m l² θ̇2² + m l² θ̇1 θ̇2; the bob's map (l sin θ, −l cos θ) has det = l; sin ε to fifth
-/// order is ε − ε³/6 + ε⁵/120.
+/// is, by hand (cos(θ1 − θ2) → 1, cos θ → 1 − θ²/2), 3mgl − mgl θ1² − ½ mgl θ2² +
+/// m l² θ̇1² + ½ m l² θ̇2² + m l² θ̇1 θ̇2; the bob's map (l sin θ, −l cos θ) has det = l; sin ε
+/// to fifth order is ε − ε³/6 + ε⁵/120.
 #[test]
 fn the_small_oscillations_example_prints_the_hand_expansions() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/small_oscillations.scene"))
