@@ -28,6 +28,9 @@ use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::{render, Format};
 
+/// The derivations usable as functions inside expressions.
+const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "pb", "energy", "accelerations"];
+
 /// Where a session's text comes from, which decides when values are computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -278,6 +281,13 @@ impl Session {
             StmtKind::Lie { f, generator, order, epsilon, format } => {
                 self.lie(at, f, generator, order.as_ref(), epsilon.as_ref(), *format)
             }
+            StmtKind::Series { f, small, about, order, format } => {
+                self.series(at, f, small, about, order.as_ref(), *format)
+            }
+            StmtKind::Map { updates, steps, starts, points, path } => {
+                self.map(at, updates, steps, starts, points.as_ref(), path.as_ref())
+            }
+            StmtKind::Jacobian { map, vars, format } => self.jacobian(at, map, vars, *format),
             StmtKind::Integral { f, h, format } => self.integral(at, f, h.as_ref(), *format),
             StmtKind::Action { h, energies, near } => self.action(at, h.as_ref(), energies, near.as_ref()),
             StmtKind::Geodesic(spec) => self.geodesic(at, spec),
@@ -417,7 +427,11 @@ impl Session {
     /// Parses an expression in the session's context, checks that every symbol is known and
     /// returns the definitions it refers to.
     pub(super) fn expr(&mut self, src: &Src) -> Result<(Expr, Refs), SceneError> {
-        let decls = self.declarations();
+        // The derivations are functions inside an expression (`pb(pb(x, p_x), H)`), as on the
+        // command line; `resolve` replaces each call by its result.
+        let derivations: Vec<&str> =
+            DERIVATION_NAMES.iter().copied().filter(|n| self.name_in_use(n).is_none()).collect();
+        let decls = self.declarations().with_functions(derivations);
         let e = parse_with(&src.text, &decls).map_err(|pe| {
             let start = src.span.0 + pe.span.0.min(src.text.len());
             let end = src.span.0 + pe.span.1.min(src.text.len());
@@ -532,6 +546,59 @@ impl Session {
     }
 
     pub(super) fn resolve(&mut self, at: At, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
+        let substituted = self.substitute_definitions(at, raw, refs)?;
+        self.derivations_inside(at, &substituted, &mut HashMap::new())
+    }
+
+    /// Replaces each derivation written as a function (`pb(f, g)`, `legendre(L)`,
+    /// `energy(L)`) by its result, innermost first, so that calls nest. Memoised by node: a
+    /// definition used twice is one shared node, derived once.
+    fn derivations_inside(&mut self, at: At, e: &Expr, done: &mut HashMap<Expr, Expr>) -> Result<Expr, SceneError> {
+        if let Some(v) = done.get(e) {
+            return Ok(v.clone());
+        }
+        let mut kids = Vec::new();
+        e.for_each_child(|c| kids.push(c.clone()));
+        let mut new_kids = Vec::with_capacity(kids.len());
+        for k in &kids {
+            new_kids.push(self.derivations_inside(at, k, done)?);
+        }
+        let out = match e.node() {
+            crate::expr::Node::Apply { name, orders, .. }
+                if DERIVATION_NAMES.contains(&&**name) && !self.functions.contains(&**name) =>
+            {
+                let kind = DerivKind::from_keyword(name).ok_or_else(|| {
+                    SceneError::new(ErrorKind::Syntax, format!("`{name}` is not a derivation")).at(at.span)
+                })?;
+                if orders.iter().any(|&o| o > 0) {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!("`{name}` cannot be differentiated by primes"),
+                    )
+                    .at(at.span)
+                    .hint(format!("define it first, `D = {name}(…)`, and differentiate the definition")));
+                }
+                match self.derive(at, kind, new_kids, at.span)? {
+                    Value::Expr(v) => v,
+                    _ => {
+                        return Err(SceneError::new(
+                            ErrorKind::Syntax,
+                            format!("`{name}(…)` is a list of equations, not an expression"),
+                        )
+                        .at(at.span)
+                        .hint(format!("print it on its own: `{name}`")))
+                    }
+                }
+            }
+            _ if kids == new_kids => e.clone(),
+            _ => e.with_children(new_kids),
+        };
+        done.insert(e.clone(), out.clone());
+        Ok(out)
+    }
+
+    /// `raw` with the definitions it names replaced by their values.
+    fn substitute_definitions(&mut self, at: At, raw: &Expr, refs: &Refs) -> Result<Expr, SceneError> {
         if refs.is_empty() {
             return Ok(raw.clone());
         }
@@ -954,7 +1021,15 @@ pub(super) fn printable(e: &Expr) -> Expr {
     if crate::canonical::decide_zero(e) == crate::canonical::ZeroCheck::Proven {
         return Expr::zero();
     }
-    crate::canonical::reduce::tidy(e)
+    // The command line's `simplify` (identities such as sin² + cos² = 1 that tidying alone does
+    // not see), kept when it is shorter: tidying orders the terms the way the notes print them.
+    let tidied = crate::canonical::reduce::tidy(e);
+    let simplified = crate::simplify::simplify(e);
+    if simplified.op_count() < tidied.op_count() {
+        crate::canonical::reduce::tidy(&simplified)
+    } else {
+        tidied
+    }
 }
 
 pub(super) fn deriv_step(kind: DerivKind) -> Step {

@@ -441,6 +441,41 @@ pub enum StmtKind {
         /// `as latex`.
         format: Option<Format>,
     },
+    /// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
+    Series {
+        /// The expanded expression.
+        f: Src,
+        /// `in x, y`: the small quantities.
+        small: Vec<Src>,
+        /// `about q = q0, …`: the coordinates and the point.
+        about: Vec<(Src, Src)>,
+        /// `order N` (default 2, as on the command line).
+        order: Option<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
+    /// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
+    Map {
+        /// The assignments, in order.
+        updates: Vec<(Src, Src)>,
+        /// The number of iterations.
+        steps: Src,
+        /// The starts: a variable and a value, or a range `lo..hi`.
+        starts: Vec<(Src, Src, Option<Src>)>,
+        /// `points N`: values per range (default 10).
+        points: Option<Src>,
+        /// `to FILE`.
+        path: Option<Src>,
+    },
+    /// `jacobian (X1, …) in y1, …`.
+    Jacobian {
+        /// The map's components.
+        map: Vec<Src>,
+        /// The variables they depend on.
+        vars: Vec<Src>,
+        /// `as latex`.
+        format: Option<Format>,
+    },
     /// `integral f [with H]`.
     Integral {
         /// The candidate.

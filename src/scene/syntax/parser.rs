@@ -393,6 +393,10 @@ fn is_kw(rule: Rule) -> bool {
             | Rule::kw_when
             | Rule::kw_with
             | Rule::kw_poincare
+            | Rule::kw_series
+            | Rule::kw_about
+            | Rule::kw_jacobian
+            | Rule::kw_map
     )
 }
 
@@ -537,6 +541,9 @@ impl Builder {
             Rule::transform_point => self.point_transform(inner),
             Rule::lie => self.lie(inner, span)?,
             Rule::integral => self.integral(inner, span)?,
+            Rule::series => self.series(inner, span)?,
+            Rule::jacobian => self.jacobian(inner),
+            Rule::map_stmt => self.map(inner, span)?,
             Rule::action => self.action(inner),
             Rule::geodesic => self.geodesic(inner),
             // Unfiltered: the keywords `with`, `from`, `to` say which list an `x = …` is in.
@@ -1018,6 +1025,77 @@ impl Builder {
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
         Ok(StmtKind::Integral { f, h: it.next(), format })
+    }
+
+    fn series(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let (mut exprs, mut small, mut about, mut format) = (Vec::new(), Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(self.src(&q)),
+                Rule::series_in => small = q.into_inner().flat_map(|n| self.names(n)).collect(),
+                Rule::series_about => {
+                    for init in q.into_inner().filter(|i| i.as_rule() == Rule::init) {
+                        let mut it = init.into_inner();
+                        if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                            about.push((self.src(&s), self.src(&v)));
+                        }
+                    }
+                }
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = exprs.into_iter();
+        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
+        Ok(StmtKind::Series { f, small, about, order: it.next(), format })
+    }
+
+    fn map(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+        let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::init if steps.is_none() => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        updates.push((self.src(&s), self.src(&v)));
+                    }
+                }
+                Rule::sexpr => steps = Some(self.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        starts.push((self.src(&s), self.src(&v), None));
+                    }
+                }
+                Rule::map_range => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
+                        let mut b = r.into_inner();
+                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                            starts.push((self.src(&s), self.src(&lo), Some(self.src(&hi))));
+                        }
+                    }
+                }
+                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
+                Rule::path => path = Some(self.path(q)),
+                _ => {}
+            }
+        }
+        let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
+        Ok(StmtKind::Map { updates, steps, starts, points, path })
+    }
+
+    fn jacobian(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+        let (mut map, mut vars, mut format) = (Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::geo_tuple => map = self.tuple(q),
+                Rule::name_list => vars = self.names(q),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
+            }
+        }
+        StmtKind::Jacobian { map, vars, format }
     }
 
     fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {

@@ -4,6 +4,7 @@ mod bad_input;
 mod cache;
 mod dynamics;
 mod examples;
+mod expansion;
 mod figures;
 mod graph;
 mod parity;

@@ -559,4 +559,43 @@ fn ritz_of_the_oscillator() {
         let a: f64 = lines.iter().find_map(|l| l.strip_prefix("a ≈ ")).expect("the solution line").parse().unwrap();
         assert!((a - 5.0 / 18.0).abs() < 1e-15, "{lines:#?}");
     }
+
+/// `series` of an expression in a small quantity: sin x to order 5 is the Taylor polynomial
+/// x − x³/6 + x⁵/120 (by hand), and the scene prints what `lagrangian series` prints.
+#[test]
+fn series_of_sine_equals_the_command_line() {
+    let out = same("series sin(x) in x order 5 as plain", &["series", "sin(x)", "--in", "x", "--order", "5"]);
+    let hand = parse_with("x - x^3/6 + x^5/120", &Declarations::new()).expect("parses");
+    let got = parse_with(&out[0], &Declarations::new()).expect("re-parses");
+    assert_eq!(decide_zero(&got.minus(&hand)), ZeroCheck::Proven, "{out:?}");
+}
+
+/// The pendulum about its lower equilibrium, the notes' L_lin of (2.29):
+/// ½ m l² θ̇² − ½ m g l θ² (1 − cos θ = θ²/2 + O(θ⁴)); about θ = π the sign of the potential
+/// term flips (1 − cos(π + η) = 2 − η²/2 + …), and both print the displacement note.
+#[test]
+fn series_of_the_pendulum_about_its_equilibria_equals_the_command_line() {
+    let l = "1/2 m l^2 θ'^2 - m g l (1 - cos(θ))";
+    let out = same(
+        &format!("coordinates θ\nparameters m, g, l positive\nL = {l}\nseries L about θ = 0 order 2 as plain"),
+        &["series", l, "--coords", "θ", "--order", "2", "--positive", "m,g,l"],
+    );
+    let d = Declarations::new();
+    let hand = parse_with("1/2 m l^2 θ'^2 - 1/2 m g l θ^2", &d).expect("parses");
+    assert_eq!(decide_zero(&parse_with(&out[0], &d).expect("re-parses").minus(&hand)), ZeroCheck::Proven, "{out:?}");
+    let out = same(
+        &format!("coordinates θ\nparameters m, g, l positive\nL = {l}\nseries L about θ = 3.14159 order 2 as plain"),
+        &["series", l, "--coords", "θ", "--about", "3.14159", "--order", "2", "--positive", "m,g,l"],
+    );
+    assert_eq!(out[0], "# each coordinate stands for its displacement from --about");
+}
+
+/// The Jacobian of polar coordinates: [[cos φ, −r sin φ], [sin φ, r cos φ]], det = r
+/// (cos² + sin² = 1, by hand), the same lines as `lagrangian jacobian`.
+#[test]
+fn jacobian_of_polar_coordinates_equals_the_command_line() {
+    let out =
+        same("jacobian (r cos(φ), r sin(φ)) in r, φ as plain", &["jacobian", "r cos(φ), r sin(φ)", "--in", "r,φ"]);
+    assert_eq!(out.len(), 3, "{out:?}");
+    assert_eq!(out[2], "det = r");
 }

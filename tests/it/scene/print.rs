@@ -44,3 +44,37 @@ print exp(log(a q^2 + a)), sin(asin(q)), sinh(log(q + sqrt(q^2 + 1)))^2 as plain
     // sinh(asinh q)² written with the logarithmic form of asinh (the issue's case).
     assert_eq!(out[2], "q^2");
 }
+
+/// `print` simplifies the way the command line's `simplify` does: sin² + cos² is 1 (and with
+/// the 1 subtracted, 0), not the unsimplified sum.
+#[test]
+fn print_uses_the_command_lines_simplification() {
+    let out = printed("coordinates x\nprint sin(x)^2 + cos(x)^2 as plain\nprint sin(x)^2 + cos(x)^2 - 1 as plain");
+    assert_eq!(out, ["1", "0"]);
+}
+
+/// `pb` is a function inside expressions, nested and combined: {x, p_x} = 1, so {{x, p_x}, H}
+/// = 0; {x, H} = ∂H/∂p_x = p_x; {x p_y − y p_x, p_x} = ∂L_z/∂x = p_y (by hand); the Jacobi
+/// identity written inline prints 0.
+#[test]
+fn pb_nests_inside_scene_expressions() {
+    let out = printed(
+        "coordinates x, y
+H = (p_x^2 + p_y^2)/2 + x^4
+print pb(pb(x, p_x), H) as plain
+print pb(x, H) + 1 as plain
+Lz = x p_y - y p_x
+print 2 pb(Lz, p_x) as plain
+print pb(x, pb(y, H)) + pb(y, pb(H, x)) + pb(H, pb(x, y)) as plain",
+    );
+    assert_eq!(out, ["pb = 0", "p_x + 1", "2 p_y", "0"]);
+}
+
+/// A derivation that gives equations, not an expression, is refused inside an expression.
+#[test]
+fn a_list_of_equations_inside_an_expression_is_refused() {
+    let mut s = Session::new(Options::new(Mode::Scene));
+    let e = s.run_scene("test", "coordinates x\nL = x'^2/2 - x^2/2\nprint el(L) + 1").expect_err("refused");
+    assert!(e.message.contains("list of equations"), "{}", e.message);
+    assert!(e.span.is_some());
+}

@@ -1,0 +1,149 @@
+//! `map`: iterates an explicit map of phase space through [`crate::mechanics::ExplicitMap`]
+//! (the iteration is the library's; this file resolves the statement and draws the orbits).
+
+use crate::expr::Symbol;
+use crate::mechanics::ExplicitMap;
+use crate::plot::{Figure, Series};
+use crate::scene::state::{At, Session};
+use crate::scene::syntax::ast::Src;
+use crate::scene::syntax::error::{ErrorKind, SceneError};
+
+/// The most values per range (`points`).
+const MAX_POINTS: f64 = 1000.0;
+/// The most orbits whose last state is printed.
+const PRINTED_ORBITS: usize = 10;
+
+impl Session {
+    /// `map … for N steps from … [points N] [to FILE]`.
+    pub(in crate::scene) fn map(
+        &mut self,
+        at: At,
+        updates: &[(Src, Src)],
+        steps: &Src,
+        starts: &[(Src, Src, Option<Src>)],
+        points: Option<&Src>,
+        path: Option<&Src>,
+    ) -> Result<(), SceneError> {
+        // The state's variables are the names the starts give, in order.
+        let names: Vec<String> = starts.iter().map(|(n, _, _)| n.text.trim().to_string()).collect();
+        for (k, n) in names.iter().enumerate() {
+            if names[..k].contains(n) {
+                return Err(
+                    SceneError::new(ErrorKind::Syntax, format!("`{n}` is given two starts")).at(starts[k].0.span)
+                );
+            }
+        }
+        self.local_names = names.clone();
+        let resolved: Result<Vec<(Symbol, crate::expr::Expr)>, SceneError> = updates
+            .iter()
+            .map(|(n, v)| {
+                let target = Symbol::new(n.text.trim());
+                if !names.contains(&n.text.trim().to_string()) {
+                    return Err(SceneError::new(
+                        ErrorKind::Syntax,
+                        format!("`{}` is assigned but has no start", n.text.trim()),
+                    )
+                    .at(n.span)
+                    .hint(format!("give it one after `from`: `{} = 0`", n.text.trim())));
+                }
+                if n.text.contains('\'') {
+                    return Err(SceneError::new(ErrorKind::NotAvailable, "implicit maps are not iterated")
+                        .at(n.span)
+                        .hint("write the map explicitly: assignments in order, each seeing the values already assigned (`p = p + K sin(q), q = q + p`)"));
+                }
+                Ok((target, self.resolved(at, v)?))
+            })
+            .collect();
+        self.local_names.clear();
+        let updates = resolved?;
+        let n_steps = self.bound(at, steps)?;
+        if !(n_steps >= 0.0 && n_steps.fract() == 0.0 && n_steps <= crate::mechanics::MAX_MAP_ITERATIONS as f64) {
+            return Err(SceneError::new(
+                ErrorKind::BadNumber,
+                format!("the number of steps must be a whole number 0..={}", crate::mechanics::MAX_MAP_ITERATIONS),
+            )
+            .at(steps.span));
+        }
+        let per_range = match points {
+            None => 10,
+            Some(src) => {
+                let v = self.bound(at, src)?;
+                if !(v >= 1.0 && v.fract() == 0.0 && v <= MAX_POINTS) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`points` must be a whole number 1..={MAX_POINTS}"),
+                    )
+                    .at(src.span));
+                }
+                v as usize
+            }
+        };
+        // The starts: the product of each variable's values.
+        let mut grid: Vec<Vec<f64>> = vec![vec![]];
+        for (_, lo, hi) in starts {
+            let a = self.bound(at, lo)?;
+            let values: Vec<f64> = match hi {
+                None => vec![a],
+                Some(hi) => {
+                    let b = self.bound(at, hi)?;
+                    if per_range == 1 {
+                        vec![(a + b) / 2.0]
+                    } else {
+                        (0..per_range).map(|k| a + (b - a) * k as f64 / (per_range - 1) as f64).collect()
+                    }
+                }
+            };
+            grid = grid.iter().flat_map(|g| values.iter().map(move |v| [g.clone(), vec![*v]].concat())).collect();
+        }
+        let vars: Vec<Symbol> = names.iter().map(|n| Symbol::new(n)).collect();
+        let params = self.param_values();
+        let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let fail = |e: crate::mechanics::MapError| SceneError::new(ErrorKind::Numeric, e.to_string()).at(at.span);
+        let map = ExplicitMap::new(&vars, &updates, &params).map_err(fail)?;
+        let orbits = map.orbits(&grid, n_steps as usize).map_err(fail)?;
+        let left = orbits.iter().filter(|o| o.last().is_some_and(|s| s.iter().any(|x| !x.is_finite()))).count();
+        self.output.push(format!(
+            "map: {} orbit(s) of {} step(s){}",
+            orbits.len(),
+            n_steps,
+            if left > 0 { format!("; {left} left the finite numbers and stopped") } else { String::new() }
+        ));
+        for o in orbits.iter().take(PRINTED_ORBITS) {
+            let fmt = |s: &[f64]| s.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ");
+            self.output.push(format!("  ({}) → ({})", fmt(&o[0]), fmt(o.last().map(Vec::as_slice).unwrap_or(&[]))));
+        }
+        if path.is_some() {
+            if names.len() < 2 {
+                return Err(SceneError::new(
+                    ErrorKind::Syntax,
+                    "a map's orbits are drawn in the plane of its first two variables; this map has one",
+                )
+                .at(at.span));
+            }
+            let (file, pspan, _) = self.out_file(
+                at.span,
+                path,
+                "map.svg",
+                "image",
+                &["svg", "png"],
+                "write `to orbits.svg` or `to orbits.png`",
+            )?;
+            let series: Vec<Series> = orbits
+                .iter()
+                .map(|o| Series {
+                    label: format!("({})", o[0].iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")),
+                    points: o.iter().filter(|s| s[0].is_finite() && s[1].is_finite()).map(|s| (s[0], s[1])).collect(),
+                })
+                .collect();
+            let figure =
+                Figure::scatter(&format!("orbits of the map, {} steps", n_steps), &names[0], &names[1], series);
+            self.figures.push((file.clone(), figure.describe()));
+            let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
+            crate::plot::draw(&figure, &tmp).map_err(|e| {
+                SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", file.display())).at(pspan)
+            })?;
+            self.wrote(&file);
+        }
+        Ok(())
+    }
+}
