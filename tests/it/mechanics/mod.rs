@@ -1,5 +1,6 @@
 //! The mechanics stage: worked systems, routes, errors, the symmetry search (`src/mechanics/`).
 
+mod algebraic;
 mod errors;
 mod properties;
 mod split_routes;
