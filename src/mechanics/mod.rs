@@ -40,6 +40,7 @@ mod hamilton;
 mod legendre;
 mod linalg;
 mod noether;
+mod nonholonomic;
 mod ritz;
 mod series;
 mod system;

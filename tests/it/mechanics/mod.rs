@@ -2,6 +2,7 @@
 
 mod algebraic;
 mod errors;
+mod nonholonomic;
 mod properties;
 mod split_routes;
 mod symmetry_search;
