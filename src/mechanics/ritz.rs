@@ -147,7 +147,7 @@ impl System {
             .into_iter()
             .map(|(q, end, i)| {
                 let at: HashMap<Symbol, Expr> = [(t.clone(), end.clone())].into_iter().collect();
-                let p = d.diff(&l, &self.velocities[i]).subs(&m).subs(&at);
+                let p = d.diff(l, &self.velocities[i]).subs(&m).subs(&at);
                 (q, end, tidy(&p))
             })
             .collect();
