@@ -18,6 +18,11 @@ pub struct SystemArgs {
     /// A holonomic constraint `f(q, t)` (meaning f = 0) or `f = g`; repeatable.
     #[arg(long)]
     pub constraint: Vec<String>,
+    /// A nonholonomic constraint linear in the velocities, `a(q, t)·q' + b(q, t)` (meaning = 0)
+    /// or `lhs = rhs` (`x' = R φ' cos(θ)`); repeatable. `el` prints the Lagrange–d'Alembert
+    /// equations with multipliers μ.
+    #[arg(long, allow_hyphen_values = true)]
+    pub velocity_constraint: Vec<String>,
     /// A generalized force on one coordinate, `q=Q` (`θ=-b θ'`); repeatable.
     #[arg(long)]
     pub force: Vec<String>,
@@ -337,6 +342,45 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
                     })
                     .collect();
                 out.json.insert("constraints".into(), Value::Array(rows));
+            }
+            if !system.velocity_constraint.is_empty() {
+                let gs = system
+                    .velocity_constraint
+                    .iter()
+                    .map(|c| {
+                        let (lhs, rhs) = c.split_once('=').map_or((c.as_str(), None), |(a, b)| (a, Some(b)));
+                        let e = lagrangian::parse::parse_with(lhs, s.declarations())?;
+                        match rhs {
+                            Some(r) => Ok(e.minus(&lagrangian::parse::parse_with(r, s.declarations())?)),
+                            None => Ok(e),
+                        }
+                    })
+                    .collect::<Result<Vec<Expr>, lagrangian::parse::ParseError>>()
+                    .map_err(|e| fail(e.into()))?;
+                let c = s.lagrange_dalembert(&gs).map_err(fail)?;
+                let f = system.common.format.expr_format();
+                for (q, e) in s.coordinates().iter().zip(&c.equations) {
+                    out.lines.push(format!("Lagrange–d'Alembert {}: {} = 0", symbol(q, f), render(e, f)));
+                }
+                for (j, (row, cj)) in c.phi.iter().zip(&c.c).enumerate() {
+                    let lhs = Expr::add(row.iter().zip(s.accelerations_symbols()).map(|(a, q)| a.times(&Expr::sym(q))));
+                    let lhs = lagrangian::mechanics::tidy(&lhs);
+                    out.lines.push(format!(
+                        "d/dt of velocity constraint {}: {} = {}",
+                        j + 1,
+                        render(&lhs, f),
+                        render(cj, f)
+                    ));
+                }
+                let rows: Vec<Value> = c
+                    .phi
+                    .iter()
+                    .zip(&c.c)
+                    .zip(&c.equations)
+                    .map(|((row, cj), _)| json!({"a": row.iter().map(lagrangian::print::plain).collect::<Vec<_>>(), "c": lagrangian::print::plain(cj)}))
+                    .collect();
+                out.json.insert("velocity_constraints".into(), Value::Array(rows));
+                per_coordinate_json(&mut out, "lagrange_dalembert", s.coordinates(), &c.equations);
             }
             if let Some(acc) = acc {
                 let n = s.coordinates().len();

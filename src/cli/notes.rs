@@ -87,10 +87,11 @@ pub enum NotesCommand {
         /// The time span `t0,t1` (exact expressions).
         #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
         span: Vec<String>,
-        /// q(t0), one per coordinate.
+        /// q(t0), one per coordinate; `free` leaves that end free (natural boundary condition
+        /// ∂L/∂q' = 0 there, (1.18)).
         #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
         from: Vec<String>,
-        /// q(t1), one per coordinate.
+        /// q(t1), one per coordinate, or `free`.
         #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
         to: Vec<String>,
         /// Parameter values for the numeric solution (`m=1,k=2`).
@@ -403,7 +404,10 @@ fn ritz(
     let exprs =
         |v: &[String]| -> Result<Vec<Expr>, Failure> { v.iter().map(|x| parse_arg(x, &decls).map(|p| p.1)).collect() };
     let trial = exprs(&trial)?;
-    let (from, to) = (exprs(&from)?, exprs(&to)?);
+    let ends = |v: &[String]| -> Result<Vec<Option<Expr>>, Failure> {
+        v.iter().map(|x| if x.trim() == "free" { Ok(None) } else { parse_arg(x, &decls).map(|p| Some(p.1)) }).collect()
+    };
+    let (from, to) = (ends(&from)?, ends(&to)?);
     let span = exprs(&span)?;
     let [t0, t1] = span.as_slice() else {
         return Err(bad_input(format!("error: --span takes two values t0,t1, {} given", span.len())));
@@ -416,7 +420,7 @@ fn ritz(
         }
     }
     let values = super::name_values("--set", &set, &common.positive)?;
-    let r = s.ritz(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
+    let r = s.ritz_ends(&trial, &a, (t0, t1), (&from, &to)).map_err(fail)?;
     let bound: Vec<(&str, f64)> = values.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let sol = r.solve(&guess, &bound).map_err(fail)?;
     let mut out = Out::empty(common.format);
@@ -427,6 +431,15 @@ fn ritz(
     out.json.insert("conditions".into(), json!(r.conditions.iter().map(plain).collect::<Vec<_>>()));
     out.json.insert("solution".into(), json!(sol.values));
     out.json.insert("stationary_action".into(), json!(sol.action));
+    if !r.natural.is_empty() {
+        let nat: Vec<Value> = r
+            .natural
+            .iter()
+            .zip(&sol.natural)
+            .map(|((q, end, p), v)| json!({"coordinate": q.to_string(), "at": plain(end), "momentum": plain(p), "value": v}))
+            .collect();
+        out.json.insert("natural_boundary_conditions".into(), json!(nat));
+    }
     out.lines = r.report(&sol, common.format.expr_format());
     out.print();
     Ok(())

@@ -30,6 +30,7 @@
 // Matrix code (W_ij, adj_ij, Φ_ji) reads as the mathematics with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+mod algebraic;
 mod constraints;
 mod discrete;
 mod euler_lagrange;
@@ -40,12 +41,14 @@ mod legendre;
 mod linalg;
 mod map;
 mod noether;
+mod nonholonomic;
 mod ritz;
 mod series;
 mod system;
 mod tidy;
 mod transform;
 
+pub use algebraic::AlgebraicElimination;
 pub use constraints::ConstrainedEquations;
 pub use discrete::{point_names, Discrete, Rule};
 pub use first_order::FirstOrder;

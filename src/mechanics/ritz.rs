@@ -49,6 +49,10 @@ pub struct Ritz {
     hessian: Vec<Expr>,
     t0: Expr,
     t1: Expr,
+    /// At each free end, the natural boundary condition (1.18) `∂L/∂q'_i = 0` along the trial
+    /// path: the coordinate, the end, and `∂L/∂q'_i(t_end; a)`. The trial path is not pinned
+    /// there, so stationarity of `S(a)` approximates the condition; the exact path meets it.
+    pub natural: Vec<(Symbol, Expr, Expr)>,
 }
 
 /// Why a Ritz problem could not be set up or solved.
@@ -66,6 +70,21 @@ impl System {
         unknowns: &[Symbol],
         (t0, t1): (&Expr, &Expr),
         (from, to): (&[Expr], &[Expr]),
+    ) -> Result<Ritz, MechanicsError> {
+        let fixed = |v: &[Expr]| v.iter().cloned().map(Some).collect::<Vec<_>>();
+        self.ritz_ends(trial, unknowns, (t0, t1), (&fixed(from), &fixed(to)))
+    }
+
+    /// [`System::ritz`] where an end value may be left free (`None`): the end point varies
+    /// with the path (§1.4, (1.18)), so the trial path must not be pinned there (its value at
+    /// that end must depend on the unknowns), and the report adds the natural boundary
+    /// condition `∂L/∂q' = 0` there, which the stationary trial path meets only approximately.
+    pub fn ritz_ends(
+        &self,
+        trial: &[Expr],
+        unknowns: &[Symbol],
+        (t0, t1): (&Expr, &Expr),
+        (from, to): (&[Option<Expr>], &[Option<Expr>]),
     ) -> Result<Ritz, MechanicsError> {
         let l = self.need_lagrangian("ritz")?;
         let n = self.coords.len();
@@ -88,10 +107,27 @@ impl System {
             }
         }
         let t = time();
-        // End conditions: q(t_end; a) − value must vanish for every a.
+        let mut d = Differentiator::new();
+        let mut natural = Vec::new();
+        // End conditions: q(t_end; a) − value must vanish for every a; at a free end the
+        // trial value must instead move with the unknowns.
         for (i, q) in self.coords.iter().enumerate() {
             for (end, value) in [(t0, &from[i]), (t1, &to[i])] {
                 let at: HashMap<Symbol, Expr> = [(t.clone(), end.clone())].into_iter().collect();
+                let Some(value) = value else {
+                    let there = trial[i].subs(&at);
+                    if unknowns.iter().all(|a| vanishes(&d.diff(&there, a), unknowns)) {
+                        return Err(bad(format!(
+                            "the trial path is pinned at the free end t = {end}: it gives {q}({end}) = {} for every value of the unknowns, \
+                             so the natural boundary condition ∂L/∂{}' = 0 cannot act there; a trial path whose value at t = {end} \
+                             depends on the unknowns (e.g. a term a·t) would work",
+                            tidy(&there),
+                            q
+                        )));
+                    }
+                    natural.push((q.clone(), end.clone(), i));
+                    continue;
+                };
                 let miss = trial[i].subs(&at).minus(value);
                 if !vanishes(&miss, unknowns) {
                     return Err(bad(format!(
@@ -101,13 +137,20 @@ impl System {
                 }
             }
         }
-        let mut d = Differentiator::new();
         let mut m: HashMap<Symbol, Expr> = HashMap::new();
         for (i, q) in self.coords.iter().enumerate() {
             m.insert(q.clone(), trial[i].clone());
             m.insert(self.velocities[i].clone(), d.diff(&trial[i], &t));
         }
         let integrand = tidy(&l.subs(&m));
+        let natural = natural
+            .into_iter()
+            .map(|(q, end, i)| {
+                let at: HashMap<Symbol, Expr> = [(t.clone(), end.clone())].into_iter().collect();
+                let p = d.diff(l, &self.velocities[i]).subs(&m).subs(&at);
+                (q, end, tidy(&p))
+            })
+            .collect();
         let grad: Vec<Expr> = unknowns.iter().map(|a| tidy(&d.diff(&integrand, a))).collect();
         let hess: Vec<Expr> =
             grad.iter().flat_map(|g| unknowns.iter().map(|a| d.diff(g, a)).collect::<Vec<_>>()).collect();
@@ -132,6 +175,7 @@ impl System {
             hessian,
             t0: t0.clone(),
             t1: t1.clone(),
+            natural,
         })
     }
 }
@@ -182,6 +226,9 @@ pub struct RitzSolution {
     /// Quadrature points the integrals took (refined until two estimates agree; 0 when `S`
     /// is exact).
     pub points: usize,
+    /// `∂L/∂q'` at each free end ([`Ritz::natural`], same order) at the solution: the residual
+    /// of the natural boundary condition, which tends to 0 as trial functions are added.
+    pub natural: Vec<f64>,
 }
 
 impl Ritz {
@@ -351,7 +398,15 @@ impl Ritz {
                     None => value(&self.integrand, &a, split)?,
                 };
                 let points = if exact { 0 } else { evaluations.get() };
-                return Ok(RitzSolution { values: a, action, iterations: it, points });
+                let natural = self
+                    .natural
+                    .iter()
+                    .map(|(_, _, p)| {
+                        eval_with(p, &bind(&a, f64::NAN))
+                            .map_err(|err| bad(format!("evaluating the natural boundary condition: {err}")))
+                    })
+                    .collect::<Result<_, _>>()?;
+                return Ok(RitzSolution { values: a, action, iterations: it, points, natural });
             }
         }
         Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
@@ -430,6 +485,14 @@ impl Ritz {
             out.push(format!("{} ≈ {v:.15e}", symbol(u, format)));
         }
         out.push(format!("S ≈ {:.15e}    # at the stationary point, {} Newton steps", sol.action, sol.iterations));
+        for ((q, end, p), v) in self.natural.iter().zip(&sol.natural) {
+            out.push(format!(
+                "natural boundary condition at t = {}: ∂L/∂{}' = {} ≈ {v:.6e}    # 0 on the exact path (1.18)",
+                r(end),
+                symbol(q, format),
+                r(p)
+            ));
+        }
         out
     }
 }

@@ -172,6 +172,15 @@ pub fn compile_system_with(
     events: &[Expr],
     derive: &dyn Derivations,
 ) -> Result<Compiled, SimulateError> {
+    // A coordinate without its velocity (Remark 3.1) has an algebraic equation and a zero row
+    // in `W`: the reduced system, with that equation solved, is what runs (its state names
+    // say so), or the elimination's refusal says why not.
+    if let Kind::Lagrangian(l) = sys.kind() {
+        if !is_first_order(l, sys.coordinates()) && !sys.velocity_free_coordinates().is_empty() {
+            let (_, reduced) = sys.reduced_system()?;
+            return compile_system_with(&reduced, method, events, derive);
+        }
+    }
     compile_formulation(sys, formulation_for(sys, method, derive)?, method.form(), events)
 }
 

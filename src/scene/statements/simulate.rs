@@ -306,6 +306,11 @@ impl Session {
         // Whether L is first order matters unless a splitting method runs the user's own H.
         let l_if_needed =
             if has_l && !(method.family() == Family::Splitting && has_h) { Some(self.lagrangian(at)?) } else { None };
+        // A phase-space Lagrangian (first order in every velocity) has its own route; a
+        // second-order L with a coordinate lacking its velocity is refused with the reduction.
+        if let Some(l) = l_if_needed.as_ref().filter(|l| !sim::is_first_order(l, &self.coords)) {
+            self.refuse_velocity_free(l, stmt_span)?;
+        }
         let shape = Shape {
             lagrangian: has_l,
             hamiltonian: has_h,
@@ -345,6 +350,37 @@ impl Session {
         };
         let layout = if route.has_velocities() { Layout::Velocities } else { Layout::Momenta };
         Ok((formulation, layout, l_expr, h_expr))
+    }
+
+    /// A coordinate without its velocity in `L` (Remark 3.1) makes the mass matrix singular:
+    /// refused before any integration, with the reduced system the library derives by solving
+    /// the algebraic equation `∂L/∂y = 0` (which the scene can simulate instead), or with why
+    /// that equation is not solved.
+    fn refuse_velocity_free(&self, l: &Expr, span: Span) -> Result<(), SceneError> {
+        let system = match crate::mechanics::System::from_lagrangian_expr(l.clone(), &self.coords) {
+            Ok(s) => s,
+            Err(_) => return Ok(()),
+        };
+        let lacking = system.velocity_free_coordinates();
+        if lacking.is_empty() {
+            return Ok(());
+        }
+        let names = lacking.iter().map(|q| format!("`{q}`")).collect::<Vec<_>>().join(", ");
+        let head = format!("{names} has no velocity in L (Remark 3.1): its Euler–Lagrange equation ∂L/∂q = 0 is algebraic and the mass matrix is singular");
+        match system.eliminate_velocity_free() {
+            Ok(red) => {
+                let sols = red.eliminated.iter().map(|(y, e)| format!("{y} = {e}")).collect::<Vec<_>>().join(", ");
+                let coords = red.coords.iter().map(|q| q.to_string()).collect::<Vec<_>>().join(", ");
+                Err(SceneError::new(ErrorKind::Derivation, format!("{head}; solved, it gives {sols}")).at(span).hint(
+                    format!("simulate the reduced system instead: `coordinates {coords}` and `L = {}`", red.lagrangian),
+                ))
+            }
+            Err(e) => Err(SceneError::new(
+                ErrorKind::Derivation,
+                format!("{head}; {}", e.to_string().trim_start_matches("error: ")),
+            )
+            .at(span)),
+        }
     }
 
     /// The values the `simulate` statement gives (coordinates, velocities or momenta), each

@@ -263,3 +263,69 @@ fn ten_monomial_coefficients_converge_to_the_exact_action() {
     let exact = (1.0f64.cos() / 1.0f64.sin() - 2.0 / 3.0) / 2.0;
     assert!((value(&out, "S") - exact).abs() < 1e-13, "{out}");
 }
+
+/// §1.4, (1.18): a free end. `L = x'²/2 + x²/2` on [0, 1] with x(0) = 1 and x(1) free: the exact
+/// path is `cosh(1 − t)/cosh 1` (x'' = x and the natural condition ∂L/∂x' = x'(1) = 0), with
+/// `S = tanh(1)/2`. The cubic trial `1 + a t + b t² + c t³` is not pinned at t = 1; its exact
+/// Ritz solution (scripts/natural_bc_sympy.py) is a = −7035/9316, b = 2145/4658,
+/// c = −2135/37264, with `S = 0.38079983361957922` and the natural condition's residual
+/// `a + 2b + 3c = −0.0060379991412623444`. Adding terms drives S down to tanh(1)/2 and the
+/// residual to 0.
+#[test]
+fn ritz_with_a_free_end_meets_the_natural_boundary_condition() {
+    let l = "1/2 x'^2 + 1/2 x^2";
+    let ritz = |path: &str, names: &str| {
+        run(&[
+            "ritz",
+            l,
+            "--coords",
+            "x",
+            "--trial",
+            path,
+            "--unknowns",
+            names,
+            "--span",
+            "0,1",
+            "--from",
+            "1",
+            "--to",
+            "free",
+        ])
+    };
+    let (code, out, err) = ritz("1 + a t + b t^2 + c t^3", "a,b,c");
+    assert_eq!(code, 0, "{err}");
+    for (name, exact) in [("a", -7035.0 / 9316.0), ("b", 2145.0 / 4658.0), ("c", -2135.0 / 37264.0)] {
+        assert!((value(&out, name) - exact).abs() < 1e-14, "{name}: {out}");
+    }
+    assert!((value(&out, "S") - 0.380_799_833_619_579_2).abs() < 1e-14, "{out}");
+    let residual = |out: &str| -> f64 {
+        let line = out.lines().find(|l| l.starts_with("natural boundary condition at t = 1: ∂L/∂x' = ")).unwrap();
+        line.split(" ≈ ").nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap()
+    };
+    assert!(out.contains("∂L/∂x' = a + 2 b + 3 c ≈"), "{out}");
+    assert!((residual(&out) + 0.006_037_999_141_262_344).abs() < 1e-9, "{out}");
+    let exact_s = 0.5 * 1f64.tanh();
+    let mut last = (f64::INFINITY, f64::INFINITY);
+    for k in 1..=5 {
+        let names: Vec<String> = (1..=k).map(|i| format!("a{i}")).collect();
+        let path = format!(
+            "1 + {}",
+            names.iter().enumerate().map(|(i, a)| format!("{a} t^{}", i + 1)).collect::<Vec<_>>().join(" + ")
+        );
+        let (code, out, err) = ritz(&path, &names.join(","));
+        assert_eq!(code, 0, "{err}");
+        let (s, r) = (value(&out, "S") - exact_s, residual(&out).abs());
+        eprintln!("{k} trial functions: S − tanh(1)/2 = {s:e}, |x'(1)| = {r:e}");
+        assert!(s >= -1e-15 && s < last.0 && r < last.1, "{k}: S − exact = {s:e}, residual {r:e} after {last:?}");
+        last = (s, r);
+    }
+    assert!(last.0 < 1e-8 && last.1 < 1e-4, "{last:?}");
+}
+
+#[test]
+fn a_trial_path_pinned_at_a_free_end_is_refused() {
+    let args = ["ritz", "1/2 x'^2 + 1/2 x^2", "--coords", "x", "--trial", "1 + a t (1 - t)", "--unknowns", "a"];
+    let (code, out, err) = run(&[&args[..], &["--span", "0,1", "--from", "1", "--to", "free"]].concat());
+    assert_eq!((code, out.as_str()), (2, ""));
+    assert!(err.contains("pinned at the free end t = 1") && err.contains("would work"), "{err}");
+}

@@ -559,6 +559,7 @@ fn ritz_of_the_oscillator() {
         let a: f64 = lines.iter().find_map(|l| l.strip_prefix("a ≈ ")).expect("the solution line").parse().unwrap();
         assert!((a - 5.0 / 18.0).abs() < 1e-15, "{lines:#?}");
     }
+}
 
 /// `series` of an expression in a small quantity: sin x to order 5 is the Taylor polynomial
 /// x − x³/6 + x⁵/120 (by hand), and the scene prints what `lagrangian series` prints.

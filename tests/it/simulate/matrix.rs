@@ -11,6 +11,7 @@
 //! * constrained to the line `y = x` with `L = ½(x'² + y'²) − ½(x² + y²)`: on the line `s'' = −s`,
 //!   so `x = y = cos t` from `(1, 1)` at rest;
 //! * `H = ½ p² + ½ x²` given directly (Hamiltonian, separable): `x = cos t`, `p = −sin t`;
+//! * `L = ½x'² − ½x² − ½(y − x)²`, where y has no velocity: eliminated (y = x), `x = cos t`;
 //! * first-order `L = x y' − ½ (x² + y²)`: `y' = x`, `x' = −y`, so `x = cos t`, `y = sin t`.
 
 use lagrangian::mechanics::System;
@@ -96,6 +97,15 @@ fn cases() -> Vec<Case> {
             system: || System::from_hamiltonian("1/2 (p_x + x)^2 + 1/2 x^2", &["x"]).unwrap(),
             y0_velocities: &[1.0, 0.0],
             y0_momenta: &[1.0, -1.0],
+            exact: f64::cos,
+        },
+        Case {
+            // y has no velocity (Remark 3.1): ∂L/∂y = x − y = 0 gives y = x, and the reduced
+            // L = ½x'² − ½x² runs with the state (x, x'): x = cos t.
+            name: "velocity-free coordinate",
+            system: || System::from_lagrangian("1/2 x'^2 - 1/2 x^2 - 1/2 (y - x)^2", &["x", "y"]).unwrap(),
+            y0_velocities: &[1.0, 0.0],
+            y0_momenta: &[1.0, 0.0],
             exact: f64::cos,
         },
         Case {

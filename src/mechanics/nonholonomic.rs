@@ -1,0 +1,82 @@
+//! Nonholonomic constraints linear in the velocities, `g_j = Σ_i a_ji(q, t) q_i' + b_j(q, t) = 0`
+//! (§1.5, §1.6.2): the Lagrange–d'Alembert equations `E_i − Q_i + ∂R/∂q_i' = Σ_j μ_j a_ji`
+//! (virtual displacements satisfy `Σ_i a_ji δq_i = 0`, so the constraint forces are
+//! combinations of the rows `a_j`), and the constraints differentiated once,
+//! `Σ_i a_ji q_i'' = c_j`, which with `W q'' = F + aᵀμ` determine `q''` and `μ`.
+
+use crate::diff::Differentiator;
+use crate::expr::{Expr, Symbol};
+
+use super::constraints::ConstrainedEquations;
+use super::system::System;
+use super::tidy::tidy;
+use super::MechanicsError;
+
+impl System {
+    /// The multipliers of velocity constraints, `μ1, μ2, …` (the holonomic ones are `λ`).
+    pub fn velocity_multipliers(&self, k: usize) -> Vec<Symbol> {
+        (1..=k).map(|j| Symbol::new(&format!("μ{j}"))).collect()
+    }
+
+    /// The Lagrange–d'Alembert equations of `L` (with its forces, dissipation and holonomic
+    /// constraints) under the velocity constraints `g_j = 0`, each linear in the velocities.
+    /// In the result `phi` holds the rows `a_ji = ∂g_j/∂q_i'` and `c` the right sides of
+    /// `Σ_i a_ji q_i'' = c_j` (`dg_j/dt = 0`). A constraint that is not linear in the velocities,
+    /// or has none, is refused naming what would work.
+    pub fn lagrange_dalembert(&self, velocity_constraints: &[Expr]) -> Result<ConstrainedEquations, MechanicsError> {
+        let base = self.equations()?;
+        let (w, f) = self.mass_matrix_split()?;
+        let names = self.coord_names();
+        let acc = self.accelerations_symbols();
+        let mus = self.velocity_multipliers(velocity_constraints.len());
+        let mut d = Differentiator::new();
+        let (mut phi, mut c) = (Vec::new(), Vec::new());
+        for g in velocity_constraints {
+            let free = g.free_symbols();
+            if let Some(s) = free.iter().find(|s| s.primes() > 1) {
+                return Err(MechanicsError::WrongKind(format!(
+                    "the velocity constraint `{g}` contains the acceleration `{s}`; a velocity constraint is a(q, t)·q' + b(q, t) = 0"
+                )));
+            }
+            if let Some(s) = free.iter().find(|s| s.primes() == 1 && !self.velocities.contains(s)) {
+                return Err(MechanicsError::VelocityOfNonCoordinate {
+                    symbol: s.to_string(),
+                    base: s.name().to_string(),
+                });
+            }
+            let row: Vec<Expr> = self.velocities.iter().map(|v| tidy(&d.diff(g, v))).collect();
+            if row.iter().all(Expr::is_zero) {
+                return Err(MechanicsError::WrongKind(format!(
+                    "the velocity constraint `{g}` contains no velocity: a constraint f(q, t) = 0 is holonomic, give it as a (holonomic) constraint"
+                )));
+            }
+            if let Some((v, _)) = self
+                .velocities
+                .iter()
+                .zip(&row)
+                .find(|(_, a)| a.free_symbols().iter().any(|s| self.velocities.contains(s)))
+            {
+                return Err(MechanicsError::WrongKind(format!(
+                    "the velocity constraint `{g}` is not linear in the velocities (∂g/∂{v} still contains one): only \
+                     a(q, t)·q' + b(q, t) = 0 is handled (Lagrange–d'Alembert); a constraint linear in the velocities would work"
+                )));
+            }
+            let dg = d.dt(g, &names);
+            let lhs: Vec<Expr> = row.iter().zip(&acc).map(|(a, s)| a.times(&Expr::sym(s.clone()))).collect();
+            c.push(tidy(&Expr::add(lhs).minus(&dg)));
+            phi.push(row);
+        }
+        let equations = base
+            .into_iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let mut terms = vec![e];
+                for (row, mu) in phi.iter().zip(&mus) {
+                    terms.push(Expr::sym(mu.clone()).times(&row[i]).neg());
+                }
+                tidy(&Expr::add(terms))
+            })
+            .collect();
+        Ok(ConstrainedEquations { multipliers: mus, equations, w, f, phi, c })
+    }
+}
