@@ -40,10 +40,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("METHODS", sim::binding_methods().map(|m| m.name()).collect::<Vec<_>>())?;
     m.add("DEFAULT_METHOD", lagrangian::simulate::DEFAULT_METHOD.name())?;
     // The SymPy bridge maps built-in names through this rather than a copy of its own.
-    m.add(
-        "BUILTINS",
-        lagrangian::func::Func::ALL.iter().map(|f| (f.name(), f.spec().sympy)).collect::<Vec<_>>(),
-    )?;
+    m.add("BUILTINS", lagrangian::func::Func::ALL.iter().map(|f| (f.name(), f.spec().sympy)).collect::<Vec<_>>())?;
     errors::register(m)?;
     Ok(())
 }
