@@ -59,6 +59,7 @@ pub use map::{ExplicitMap, MapError, MAX_MAP_ITERATIONS, MAX_MAP_STATES};
 pub use noether::{Conserved, Reason};
 pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};
+#[cfg(feature = "frontends")]
 pub(crate) use system::constant_constraint;
 pub use system::{Kind, System};
 pub use tidy::tidy;
