@@ -128,17 +128,16 @@ pub fn geodesic_from_metric(metric: Vec<Vec<Expr>>, coords: &[Symbol]) -> Result
     let mut christoffel = vec![vec![vec![Expr::zero(); n]; n]; n];
     // Raised with g⁻¹: up to four coordinates as adj(g)/det g, beyond that block by block
     // (a diagonal metric in any dimension).
-    let raise: Box<dyn Fn(usize, usize, usize) -> Expr> = if n <= MAX_CLOSED_FORM {
+    let first = &first;
+    let raise: Box<dyn Fn(usize, usize, usize) -> Expr + '_> = if n <= MAX_CLOSED_FORM {
         let det = determinant(&metric);
         if tidy(&det).is_zero() {
             return Err(MechanicsError::BadMetric("the metric is singular everywhere (det g = 0)".into()));
         }
         let adj = adjugate(&metric);
-        let first = first.clone();
         Box::new(move |k, i, j| tidy(&Expr::add((0..n).map(|l| adj[k][l].times(&first[l][i][j]))).over(&det)))
     } else {
         let inv = inverse_of_metric(&metric)?;
-        let first = first.clone();
         Box::new(move |k, i, j| tidy(&Expr::add((0..n).map(|l| inv[k][l].times(&first[l][i][j])))))
     };
     for k in 0..n {
@@ -384,8 +383,9 @@ impl Geodesic {
         let mut scalar = if n <= MAX_CLOSED_FORM {
             curvature_form(&contracted(&adjugate(&self.metric)).over(&det))
         } else {
-            // The metric was inverted block by block when the symbols were formed.
-            let inv = inverse_by_blocks(&self.metric).unwrap_or_else(|_| vec![vec![Expr::zero(); n]; n]);
+            // Block by block, as when the symbols were formed (which refused a larger block);
+            // a hand-built `Geodesic` with one gets an undefined scalar, never a wrong 0.
+            let inv = inverse_by_blocks(&self.metric).unwrap_or_else(|_| vec![vec![Expr::undefined(); n]; n]);
             curvature_form(&contracted(&inv))
         };
         let gauss = (n == 2).then(|| curvature_form(&lowered[0][1][0][1].over(&det)));

@@ -2,11 +2,11 @@
 //! wrong, where, and what would work. Every test states the old text it guards against.
 
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::mpsc;
 use std::time::Duration;
 
-use crate::support::{run, run_scene_in};
+use crate::support::{piped_repl, run, run_scene_in};
 
 const OSCILLATOR: &str = "coordinates x\nparameters m = 1, k = 1\nL = 1/2 m x'^2 - 1/2 k x^2\n";
 
@@ -172,14 +172,7 @@ fn the_piped_repl_continues_indented_lines() {
     let input = format!(
         "{OSCILLATOR}simulate x = 1, x' = 0 for t in 0..7\n    record when x = 0 as r\nexport x from r to r.csv\n"
     );
-    let out = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("repl")
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .env("LAGRANGIAN_HISTORY", dir.path().join("history"))
-        .current_dir(dir.path())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+    let out = piped_repl(dir.path())
         .spawn()
         .and_then(|mut child| {
             child.stdin.take().unwrap().write_all(input.as_bytes())?;
@@ -198,16 +191,7 @@ fn the_piped_repl_continues_indented_lines() {
 #[test]
 fn the_piped_repl_answers_before_the_next_line_arrives() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lagrangian"))
-        .arg("repl")
-        .env("LAGRANGIAN_CACHE_DIR", "off")
-        .env("LAGRANGIAN_HISTORY", dir.path().join("history"))
-        .current_dir(dir.path())
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = piped_repl(dir.path()).stderr(Stdio::null()).spawn().unwrap();
     let mut stdin = child.stdin.take().unwrap();
     let stdout = child.stdout.take().unwrap();
     let (tx, rx) = mpsc::channel();

@@ -36,6 +36,20 @@ pub fn run_in_dir(dir: Option<&Path>, args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// The REPL on pipes, run in `dir` with its history there and the derivation cache off (the
+/// caller spawns it, and sets what else it needs).
+pub fn piped_repl(dir: &Path) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_lagrangian"));
+    cmd.arg("repl")
+        .env("LAGRANGIAN_CACHE_DIR", "off")
+        .env("LAGRANGIAN_HISTORY", dir.join("history"))
+        .current_dir(dir)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    cmd
+}
+
 /// Writes `scene` to `dir/test.scene` and runs it there with `args` after it: exit code,
 /// stdout, stderr.
 pub fn run_scene_in(dir: &Path, scene: &str, args: &[&str]) -> (i32, String, String) {
