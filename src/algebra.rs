@@ -286,7 +286,7 @@ fn nd(e: &Expr, memo: &mut HashMap<Expr, (Expr, Expr)>) -> (Expr, Expr) {
         Node::Num(r) => {
             (Expr::num(Rational::from_integer(r.numer().clone())), Expr::num(Rational::from_integer(r.denom().clone())))
         }
-        Node::Sym(_) | Node::Undefined => (e.clone(), Expr::one()),
+        Node::Sym(_) | Node::Pi | Node::Undefined => (e.clone(), Expr::one()),
         Node::Mul(fs) => {
             let mut ns = Vec::with_capacity(fs.len());
             let mut ds = Vec::new();

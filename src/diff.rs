@@ -47,7 +47,7 @@ impl Differentiator {
 
     fn diff_node(&mut self, e: &Expr, var: &Symbol) -> Expr {
         match e.node() {
-            Node::Num(_) => Expr::zero(),
+            Node::Num(_) | Node::Pi => Expr::zero(),
             Node::Undefined => Expr::undefined(),
             Node::Sym(s) => {
                 if s == var {

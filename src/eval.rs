@@ -100,6 +100,7 @@ fn eval_rec(
     }
     let v = match e.node() {
         Node::Num(r) => rational_to_f64(r),
+        Node::Pi => std::f64::consts::PI,
         Node::Sym(s) => lookup(s).ok_or_else(|| EvalError::Unbound(s.to_string()))?,
         Node::Add(ts) => {
             let mut acc = 0.0;

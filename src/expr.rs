@@ -129,6 +129,9 @@ pub enum Node {
     Num(Rational),
     /// A variable.
     Sym(Symbol),
+    /// The exact constant π. A number, not a symbol: it has no value to bind, no time
+    /// derivative, and never appears among a system's parameters.
+    Pi,
     /// A sum of at least two terms: constant first, no nested sums, like terms collected.
     Add(Vec<Expr>),
     /// A product of at least two factors: coefficient first (never 1), no nested products,
@@ -179,7 +182,7 @@ impl Node {
                 stack.push(std::mem::replace(base, placeholder()));
                 stack.push(std::mem::replace(exp, placeholder()));
             }
-            Node::Num(_) | Node::Sym(_) | Node::Undefined => {}
+            Node::Num(_) | Node::Sym(_) | Node::Pi | Node::Undefined => {}
         }
     }
 }
@@ -287,7 +290,7 @@ impl BuildHasher for FixedState {
 fn ops_of(node: &Node) -> usize {
     let sum = |xs: &[Expr]| xs.iter().fold(0usize, |acc, x| acc.saturating_add(x.0.ops));
     match node {
-        Node::Num(_) | Node::Sym(_) | Node::Undefined => 0,
+        Node::Num(_) | Node::Sym(_) | Node::Pi | Node::Undefined => 0,
         Node::Add(xs) | Node::Mul(xs) => (xs.len() - 1).saturating_add(sum(xs)),
         Node::Pow(b, e) => 1usize.saturating_add(b.0.ops).saturating_add(e.0.ops),
         Node::Call(_, xs) | Node::Apply { args: xs, .. } => 1usize.saturating_add(sum(xs)),
@@ -428,6 +431,16 @@ impl Expr {
     /// A variable with no assumptions, by name.
     pub fn var(name: &str) -> Expr {
         Expr::sym(Symbol::new(name))
+    }
+
+    /// The exact constant π.
+    pub fn pi() -> Expr {
+        intern(Node::Pi)
+    }
+
+    /// Whether this is exactly π.
+    pub fn is_pi(&self) -> bool {
+        matches!(self.node(), Node::Pi)
     }
 
     /// The undefined value (`1/0`).
@@ -797,6 +810,9 @@ impl Expr {
             }
             return intern(Node::Call(func, args));
         }
+        if let Some(folded) = at_pi_multiple(func, x) {
+            return folded;
+        }
         let spec = func.spec();
         if let Some(v) = spec.at_zero.filter(|_| x.is_zero()) {
             return Expr::int(v);
@@ -837,7 +853,7 @@ impl Expr {
                 b.is_positive()
                     || e.as_num().is_some_and(|r| is_integer(r) && r.to_integer().is_even() && b.is_nonzero_known())
             }
-            Node::Call(Func::Exp | Func::Cosh, _) => true,
+            Node::Pi | Node::Call(Func::Exp | Func::Cosh, _) => true,
             _ => false,
         }
     }
@@ -891,7 +907,7 @@ impl Expr {
     /// Calls `f` on each direct child.
     pub fn for_each_child(&self, mut f: impl FnMut(&Expr)) {
         match self.node() {
-            Node::Num(_) | Node::Sym(_) | Node::Undefined => {}
+            Node::Num(_) | Node::Sym(_) | Node::Pi | Node::Undefined => {}
             Node::Add(xs) | Node::Mul(xs) | Node::Call(_, xs) | Node::Apply { args: xs, .. } => {
                 xs.iter().for_each(&mut f)
             }
@@ -906,7 +922,7 @@ impl Expr {
     /// through the canonical constructors.
     pub fn with_children(&self, children: Vec<Expr>) -> Expr {
         match self.node() {
-            Node::Num(_) | Node::Sym(_) | Node::Undefined => self.clone(),
+            Node::Num(_) | Node::Sym(_) | Node::Pi | Node::Undefined => self.clone(),
             Node::Add(_) => Expr::add(children),
             Node::Mul(_) => Expr::mul(children),
             Node::Pow(..) => {
@@ -1020,13 +1036,14 @@ impl Expr {
         }
         let rank = |e: &Expr| match e.node() {
             Node::Num(_) => 0,
-            Node::Sym(_) => 1,
-            Node::Mul(_) => 2,
-            Node::Add(_) => 3,
-            Node::Pow(..) => 4,
-            Node::Call(..) => 5,
-            Node::Apply { .. } => 6,
-            Node::Undefined => 7,
+            Node::Pi => 1,
+            Node::Sym(_) => 2,
+            Node::Mul(_) => 3,
+            Node::Add(_) => 4,
+            Node::Pow(..) => 5,
+            Node::Call(..) => 6,
+            Node::Apply { .. } => 7,
+            Node::Undefined => 8,
         };
         rank(self).cmp(&rank(other)).then_with(|| match (self.node(), other.node()) {
             (Node::Num(a), Node::Num(b)) => a.cmp(b),
@@ -1046,6 +1063,103 @@ impl Expr {
             _ => Ordering::Equal,
         })
     }
+}
+
+/// `k` when `e` is `k π` for a rational `k` (π itself gives 1).
+fn pi_coefficient(e: &Expr) -> Option<Rational> {
+    match e.coeff_rest() {
+        (k, rest) if rest.is_pi() => Some(k),
+        _ => None,
+    }
+}
+
+/// `r` reduced into `[0, m)`.
+fn rat_mod(r: &Rational, m: &Rational) -> Rational {
+    r - m * (r / m).floor()
+}
+
+/// `sin(k π)` for `k` in `[0, 2)` when it has a short exact form (`k` a multiple of 1/4 or
+/// 1/6): `0`, `±1/2`, `±√2/2`, `±√3/2`, `±1`.
+fn sin_pi_exact(k: &Rational) -> Option<Expr> {
+    let one = Rational::one();
+    let (mut k, sign) = if *k >= one { (k - &one, -1) } else { (k.clone(), 1) };
+    if k > Rational::new(1.into(), 2.into()) {
+        k = &one - &k; // sin(π − x) = sin x
+    }
+    let half = Expr::frac(1, 2);
+    let root = |n: i64| half.times(&Expr::pow(Expr::int(n), Expr::frac(1, 2)));
+    let value = match (k.numer().to_i64()?, k.denom().to_i64()?) {
+        (0, _) => Expr::zero(),
+        (1, 6) => half,
+        (1, 4) => root(2),
+        (1, 3) => root(3),
+        (1, 2) => Expr::one(),
+        _ => return None,
+    };
+    Some(if sign < 0 { value.neg() } else { value })
+}
+
+/// The exact value of a trigonometric function at a rational multiple of π (`sin(π) = 0`,
+/// `cos(π/3) = 1/2`, `tan(π/2)` undefined), the shift of its argument by a multiple of π/2
+/// (`sin(x + π) = −sin x`, `cos(x + π/2) = −sin x`), or the inverse functions' values at the
+/// points where they are such a multiple (`acos(−1) = π`, `atan(1) = π/4`). `None` otherwise.
+///
+/// π is exact, so these are identities rather than roundings; without them `sin(pi)` would be
+/// left for the compiler to evaluate to 1.2e-16.
+fn at_pi_multiple(func: Func, x: &Expr) -> Option<Expr> {
+    let two = Rational::from_integer(2.into());
+    let pi_times = |n: i64, d: i64| Expr::frac(n, d).times(&Expr::pi());
+    match func {
+        Func::Sin | Func::Cos | Func::Tan => {}
+        // (argument n/d, value a π/b); negative arguments of asin fold by its parity.
+        Func::Asin | Func::Acos => {
+            let r = x.as_num()?;
+            let table: &[(i64, i64, i64, i64)] = if func == Func::Asin {
+                &[(1, 1, 1, 2), (1, 2, 1, 6)]
+            } else {
+                &[(0, 1, 1, 2), (-1, 1, 1, 1), (1, 2, 1, 3), (-1, 2, 2, 3)]
+            };
+            return table
+                .iter()
+                .find(|(n, d, _, _)| *r == Rational::new((*n).into(), (*d).into()))
+                .map(|&(_, _, a, b)| pi_times(a, b));
+        }
+        Func::Atan => return x.is_one().then(|| pi_times(1, 4)),
+        _ => return None,
+    }
+    if let Some(k) = pi_coefficient(x) {
+        return match func {
+            Func::Sin => sin_pi_exact(&rat_mod(&k, &two)),
+            Func::Cos => sin_pi_exact(&rat_mod(&(k + Rational::new(1.into(), 2.into())), &two)),
+            _ => {
+                let k = rat_mod(&k, &Rational::one());
+                if k == Rational::new(1.into(), 2.into()) {
+                    return Some(Expr::undefined()); // tan(π/2): a pole
+                }
+                let s = sin_pi_exact(&k)?;
+                let c = sin_pi_exact(&rat_mod(&(k + Rational::new(1.into(), 2.into())), &two))?;
+                Some(s.over(&c))
+            }
+        };
+    }
+    // A sum with a term `k π`, `k` a multiple of 1/2: shift it out.
+    let Node::Add(ts) = x.node() else { return None };
+    let (at, k) = ts.iter().enumerate().find_map(|(i, t)| pi_coefficient(t).map(|k| (i, k)))?;
+    let rest = Expr::add(ts.iter().enumerate().filter(|&(i, _)| i != at).map(|(_, t)| t.clone()));
+    let quarters = rat_mod(&(k * &two), &Rational::from_integer(4.into()));
+    if !quarters.is_integer() {
+        return None;
+    }
+    let n = quarters.to_integer().to_i64()?;
+    let (sin, cos) = (Expr::call(Func::Sin, vec![rest.clone()]), Expr::call(Func::Cos, vec![rest.clone()]));
+    Some(match (func, n) {
+        (Func::Sin, 0) | (Func::Cos, 3) => sin,
+        (Func::Sin, 1) | (Func::Cos, 0) => cos,
+        (Func::Sin, 2) | (Func::Cos, 1) => sin.neg(),
+        (Func::Sin, 3) | (Func::Cos, 2) => cos.neg(),
+        (_, 0 | 2) => Expr::call(Func::Tan, vec![rest]),
+        _ => Expr::pow(Expr::call(Func::Tan, vec![rest]), Expr::int(-1)).neg(), // tan(x + π/2) = −1/tan x
+    })
 }
 
 fn skip_coeff(fs: &[Expr]) -> &[Expr] {

@@ -90,6 +90,12 @@ impl Declarations {
     }
 }
 
+/// Whether `name` is the exact constant π (`pi` or `π`), which the parser reads as a number:
+/// it cannot name a coordinate, a parameter or a function.
+pub fn is_constant_name(name: &str) -> bool {
+    matches!(name, "pi" | "π")
+}
+
 /// A parse error with its location.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ParseError {
@@ -581,6 +587,14 @@ impl Ctx<'_> {
             return Err(self
                 .err(&pair, format!("`{name}` is declared a function, so it must be called"))
                 .with_hint(format!("write `{name}(…)` with its arguments")));
+        }
+        if is_constant_name(name) {
+            if primes > 0 {
+                return Err(self
+                    .err(&pair, format!("`{name}` is the constant π, which has no time derivative"))
+                    .with_hint("a variable needs another name, such as `phi` or `p_i`"));
+            }
+            return Ok(Expr::pi());
         }
         let primes = u8::try_from(primes).map_err(|_| self.err(&pair, "too many primes"))?;
         Ok(Expr::sym(self.decls.symbol(name, primes)))

@@ -144,6 +144,15 @@ impl Printer {
         match e.node() {
             Node::Num(r) => self.number(r),
             Node::Sym(s) => Piece { text: self.symbol(s), prec: ATOM },
+            Node::Pi => Piece {
+                text: match self.format {
+                    Format::Plain => "pi",
+                    Format::Unicode => "π",
+                    Format::Latex => "\\pi",
+                }
+                .into(),
+                prec: ATOM,
+            },
             Node::Add(ts) => self.sum(ts),
             Node::Mul(_) | Node::Pow(..) => self.product(e),
             Node::Call(f, args) => Piece { text: self.call(*f, args), prec: ATOM },

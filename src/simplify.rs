@@ -150,7 +150,7 @@ pub fn simplify(e: &Expr) -> Expr {
 /// `None` (the default). With the guard on, a result it cut short reports
 /// [`Simplified::budget_limited`].
 pub fn simplify_with(e: &Expr, budget: &Budget) -> Simplified {
-    if matches!(e.node(), Node::Num(_) | Node::Sym(_) | Node::Undefined) {
+    if matches!(e.node(), Node::Num(_) | Node::Sym(_) | Node::Pi | Node::Undefined) {
         return Simplified { expr: e.clone(), stop: StopReason::Saturated };
     }
     if let Some(parts) = independent_parts(e) {
@@ -241,7 +241,7 @@ fn independent_parts(e: &Expr) -> Option<Vec<Expr>> {
                 continue;
             }
             match x.node() {
-                Node::Num(_) => {}
+                Node::Num(_) | Node::Pi => {}
                 Node::Sym(_) | Node::Apply { .. } | Node::Undefined => {
                     constant_term = false;
                     atoms.push(x.clone());
@@ -664,7 +664,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
     e.for_each_child(|c| kids.push(c.clone()));
     let node = match e.node() {
         Node::Num(r) => Math::Num(r.clone()),
-        Node::Sym(_) | Node::Apply { .. } | Node::Undefined => {
+        Node::Sym(_) | Node::Pi | Node::Apply { .. } | Node::Undefined => {
             let known = g.analysis.leaf_ids.get(e).copied();
             let l = known.unwrap_or_else(|| {
                 let l = LeafId(g.analysis.leaves.len() as u32);
@@ -774,7 +774,7 @@ fn pattern_text(e: &Expr) -> String {
         Node::Mul(xs) => format!("(* {})", kids(xs)),
         Node::Pow(b, x) => format!("(^ {} {})", pattern_text(b), pattern_text(x)),
         Node::Call(f, xs) => format!("({} {})", f.name(), kids(xs)),
-        Node::Apply { .. } | Node::Undefined => "?unsupported".to_string(),
+        Node::Pi | Node::Apply { .. } | Node::Undefined => "?unsupported".to_string(),
     }
 }
 

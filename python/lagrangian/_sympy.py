@@ -62,6 +62,8 @@ def to_sympy(e: Expr) -> Any:
             pieces.append("*")
         if kind == "num":
             pieces.append(f"Rational('{tok}')" if ("." in tok or "e" in tok.lower()) else tok)
+        elif kind == "name" and tok == "pi":
+            pieces.append("pi")  # the engine's exact constant
         elif kind == "name":
             if tok not in keys:
                 keys[tok] = f"_s{len(names)}"
@@ -81,13 +83,14 @@ def to_sympy(e: Expr) -> Any:
         prev = (kind, tok) if kind != "call" else ("op", "(")
     ns = {k: getattr(sympy, k) for k in set(_BUILTINS.values())}
     ns["Rational"] = sympy.Rational
+    ns["pi"] = sympy.pi
     ns.update(names)
     return sympy.sympify("".join(pieces), locals=ns, rational=True)
 
 
 def from_sympy(expr: Any, *, positive: Optional[Iterable[str]] = None, functions: Optional[Iterable[str]] = None) -> Expr:
     """The :class:`Expr` equal to the SymPy expression ``expr`` (exact: a SymPy float becomes
-    the shortest decimal that reads back as it). ``dynamicsymbols`` coordinates ``q(t)`` and
+    the shortest decimal that reads back as it; ``sympy.pi`` becomes the exact constant ``pi``). ``dynamicsymbols`` coordinates ``q(t)`` and
     their derivatives become ``q``, ``q'``, ``q''`` (a name in ``functions`` stays a function of
     time). Symbols SymPy knows to be positive are declared positive, other undefined SymPy
     functions are declared as functions."""
@@ -95,8 +98,12 @@ def from_sympy(expr: Any, *, positive: Optional[Iterable[str]] = None, functions
     from sympy.core.function import AppliedUndef
 
     expr = prepare(sympy.sympify(expr), functions or ())
-    if expr.has(sympy.pi, sympy.I, sympy.oo, sympy.zoo, sympy.nan):
-        raise ValueError(f"`{expr}` contains pi, I or an infinity, which the engine has no exact form for")
+    if expr.has(sympy.I, sympy.oo, sympy.zoo, sympy.nan):
+        raise ValueError(f"`{expr}` contains I or an infinity, which the engine has no exact form for")
+    clash = sorted(s.name for s in expr.free_symbols if s.name in ("pi", "π"))
+    if clash:
+        # The engine reads the name as the constant π, so the symbol would silently become it.
+        raise ValueError(f"`{expr}` has a symbol named `{clash[0]}`, which the engine reads as the constant π; rename it (sympy.pi is the constant)")
     if expr.has(sympy.Derivative):
         raise ValueError(f"`{expr}` contains an unevaluated Derivative; substitute or evaluate it first")
     pos = set(positive or ())

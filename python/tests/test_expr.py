@@ -109,8 +109,30 @@ def test_sympy_round_trip():
     # Declared functions and the built-ins map both ways.
     f = Expr("V(r) + abs(atan2(y, x)) + exp(x/3)", functions=["V"])
     assert lg.from_sympy(f.to_sympy()) == f
-    with pytest.raises(ValueError, match="pi"):
-        lg.from_sympy(sympy.pi * sympy.Symbol("x"))
+    # A SymPy symbol named pi would silently become the constant: refused.
+    with pytest.raises(ValueError, match="constant π"):
+        lg.from_sympy(sympy.Symbol("pi") * sympy.Symbol("x"))
+
+
+def test_pi_is_exact_both_ways():
+    # The engine's `pi` is SymPy's `pi`, and trigonometric values at its rational multiples are
+    # exact (checked against SymPy's own evaluation, an independent implementation).
+    sympy = pytest.importorskip("sympy")
+    x = sympy.Symbol("x")
+    e = lg.from_sympy(sympy.pi * x / 3 + sympy.pi**2)
+    assert e == Expr("pi x/3 + pi^2")
+    assert e.to_sympy() == sympy.pi * x / 3 + sympy.pi**2
+    for k in [sympy.Rational(n, d) for d in (1, 2, 3, 4, 6) for n in range(-13, 14)]:
+        for f, name in ((sympy.sin, "sin"), (sympy.cos, "cos")):
+            ours = Expr(f"{name}(({k}) pi)").to_sympy()
+            assert sympy.simplify(ours - f(k * sympy.pi)) == 0, (name, k, ours)
+    assert Expr("sin(pi)") == Expr("0") and Expr("acos(-1)") == Expr("pi")
+    assert Expr("2 pi").latex() == r"2 \pi" and Expr("2 pi").unicode() == "2 π"
+    # A name that would be shadowed by the constant is refused where it is declared.
+    with pytest.raises(ValueError, match="constant π"):
+        lg.System.from_lagrangian("x'^2/2 - x^2/2", ["x"], params={"pi": 3.0})
+    with pytest.raises(ValueError, match="constant π"):
+        lg.System.from_lagrangian("1/2 x'^2", ["pi"])
 
 
 def test_every_builtin_maps_to_its_sympy_function_and_back():

@@ -133,6 +133,10 @@ pub enum MechanicsError {
     /// The operation needs a Lagrangian but the system has a Hamiltonian, or vice versa.
     #[error("error: {0}")]
     WrongKind(String),
+    /// `pi` (or `π`) named as a coordinate or parameter: expressions read it as the exact
+    /// constant, so the name would never refer to the variable.
+    #[error("error: `{0}` is the exact constant π and cannot name a coordinate or parameter (choose another name, such as phi)")]
+    ConstantName(String),
     /// A parameter value was given for a name that is not a parameter.
     #[error("error: `{0}` is not a parameter of the system")]
     UnknownParameter(String),

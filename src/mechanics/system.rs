@@ -104,6 +104,9 @@ impl System {
                 return Err(MechanicsError::EmptyCoordinate);
             }
             crate::parse::refuse_lookalikes(c)?;
+            if crate::parse::is_constant_name(c) {
+                return Err(MechanicsError::ConstantName(c.to_string()));
+            }
             let ok = !c.is_empty()
                 && c != "t"
                 && c.chars().next().is_some_and(char::is_alphabetic)
@@ -250,6 +253,9 @@ impl System {
     /// Gives parameters numeric values (for the compiler and numeric checks).
     pub fn with_params(mut self, values: &[(&str, f64)]) -> Result<System, MechanicsError> {
         for (name, v) in values {
+            if crate::parse::is_constant_name(name) {
+                return Err(MechanicsError::ConstantName((*name).to_string()));
+            }
             let Some(p) = self.params.iter().find(|p| p.name() == *name) else {
                 return Err(MechanicsError::UnknownParameter((*name).to_string()));
             };

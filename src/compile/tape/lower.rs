@@ -499,7 +499,7 @@ impl Lower {
             return c;
         }
         let c = match e.node() {
-            Node::Num(_) => true,
+            Node::Num(_) | Node::Pi => true,
             Node::Sym(s) => self.params.contains_key(&s.to_string()),
             Node::Apply { .. } | Node::Undefined => false,
             _ => {
@@ -544,7 +544,7 @@ impl Lower {
             (self.constant(v.abs()), v.is_sign_negative() && v != 0.0)
         } else {
             match e.node() {
-                Node::Num(_) => unreachable_const(),
+                Node::Num(_) | Node::Pi => unreachable_const(),
                 Node::Sym(s) => {
                     let name = s.to_string();
                     match self.inputs.get(&name) {

@@ -423,6 +423,24 @@ impl Builder {
         p.into_inner().filter(|q| q.as_rule() == Rule::name).map(|q| self.src(&q)).collect()
     }
 
+    /// The names a statement declares (coordinates, parameters, functions, definitions),
+    /// refusing `pi`: expressions read it as the exact constant, so a declaration would
+    /// otherwise be silently ignored.
+    fn declared(&self, names: Vec<Src>) -> Result<Vec<Src>, SceneError> {
+        match names.iter().find(|n| crate::parse::is_constant_name(&n.text)) {
+            Some(n) => Err(SceneError::new(
+                ErrorKind::Redeclared,
+                format!("`{}` is the constant π and cannot be declared", n.text),
+            )
+            .at(n.span)
+            .label("the exact constant π")
+            .hint(
+                "π is built in and exact: delete the declaration, or give another quantity another name, such as `phi`",
+            )),
+            None => Ok(names),
+        }
+    }
+
     fn format(&self, p: Pair<Rule>) -> Format {
         let name = p.into_inner().find(|q| q.as_rule() == Rule::format_name).map(|q| q.as_str().to_string());
         match name.as_deref() {
@@ -488,12 +506,16 @@ impl Builder {
         let span = self.span(&p);
         let inner: Vec<Pair<Rule>> = p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect();
         Ok(match rule {
-            Rule::coordinates => StmtKind::Coordinates(inner.into_iter().flat_map(|q| self.names(q)).collect()),
-            Rule::functions => StmtKind::Functions(inner.into_iter().flat_map(|q| self.names(q)).collect()),
+            Rule::coordinates => {
+                StmtKind::Coordinates(self.declared(inner.into_iter().flat_map(|q| self.names(q)).collect())?)
+            }
+            Rule::functions => {
+                StmtKind::Functions(self.declared(inner.into_iter().flat_map(|q| self.names(q)).collect())?)
+            }
             Rule::parameters => self.parameters_stmt(inner)?,
             Rule::definition => {
                 let mut it = inner.into_iter();
-                let name = it.next().map(|n| self.src(&n));
+                let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
                 let value = it.next();
                 match (name, value) {
                     (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
@@ -598,7 +620,8 @@ impl Builder {
             match q.as_rule() {
                 Rule::param => {
                     let mut it = q.into_inner();
-                    let name = it.next().map(|n| self.src(&n));
+                    let name =
+                        it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
                     let value = it.next().map(|v| self.src(&v));
                     if let Some(name) = name {
                         params.push((name, value));

@@ -91,7 +91,7 @@ fn two_point_vortices_conserve_centre_and_distance_and_rotate_at_the_known_rate(
     let (g1, g2) = (1.0, 0.5);
     let sys = System::from_lagrangian(VORTICES, &["x1", "y1", "x2", "y2"])
         .unwrap()
-        .with_params(&[("Γ1", g1), ("Γ2", g2), ("π", std::f64::consts::PI)])
+        .with_params(&[("Γ1", g1), ("Γ2", g2)])
         .unwrap();
     let f = sys.first_order().unwrap();
     // ω is constant: diag blocks [[0, −Γ_i], [Γ_i, 0]] (ω_{x y} = ∂a_y/∂x − ∂a_x/∂y = −Γ).

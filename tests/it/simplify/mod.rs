@@ -1,5 +1,6 @@
 //! The algebra: properties over random expressions, the simplification table, determinism (`src/simplify.rs`, `src/algebra.rs`).
 
 mod determinism;
+mod pi;
 mod properties;
 mod table;

@@ -18,7 +18,7 @@ use proptest::prelude::*;
 
 const NAMES: [&str; 3] = ["x", "y", "z"];
 
-/// Random expressions over `x, y, z`: small rationals, sums, products, small integer powers,
+/// Random expressions over `x, y, z`: small rationals, rational multiples of π, sums, products, small integer powers,
 /// and the functions that are defined everywhere on the sample box (or made so: `log` and
 /// `sqrt` get `1 + u²`).
 fn arb_expr() -> impl Strategy<Value = Expr> {
@@ -26,6 +26,8 @@ fn arb_expr() -> impl Strategy<Value = Expr> {
         (-4i64..5, 1i64..4).prop_map(|(n, d)| Expr::frac(n, d)),
         (0usize..3).prop_map(|i| Expr::var(NAMES[i])),
         (0usize..3).prop_map(|i| Expr::var(NAMES[i])),
+        // Rational multiples of the exact π, which trigonometric calls fold or shift.
+        (-4i64..5, 1i64..4).prop_map(|(n, d)| Expr::frac(n, d).times(&Expr::pi())),
     ];
     leaf.prop_recursive(4, 24, 3, |inner| {
         prop_oneof![
