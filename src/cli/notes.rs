@@ -425,10 +425,9 @@ fn ritz(
     let sol = r.solve(&guess, &bound).map_err(fail)?;
     let mut out = Out::empty(common.format);
     out.json.insert("input".into(), json!(text.trim()));
-    if let Some(sa) = &r.action {
-        out.json.insert("action".into(), json!(plain(sa)));
-    }
-    out.json.insert("conditions".into(), json!(r.conditions.iter().map(plain).collect::<Vec<_>>()));
+    out.json.insert("action".into(), json!(r.action_text()));
+    out.json.insert("action_exact".into(), json!(r.action.is_some()));
+    out.json.insert("conditions".into(), json!(r.condition_texts()));
     out.json.insert("solution".into(), json!(sol.values));
     out.json.insert("stationary_action".into(), json!(sol.action));
     if !r.natural.is_empty() {

@@ -457,6 +457,31 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 }
 
 impl Ritz {
+    /// `S` as text for the machine-readable report: the closed form when the integrand is a
+    /// polynomial in `t`, otherwise the integral that is evaluated numerically, so a reader of
+    /// the JSON sees the action in both cases and never mistakes the integrand for it.
+    pub fn action_text(&self) -> String {
+        use crate::print::plain;
+        match &self.action {
+            Some(sa) => plain(sa),
+            None => format!("∫ ({}) dt for t from {} to {}", plain(&self.integrand), plain(&self.t0), plain(&self.t1)),
+        }
+    }
+
+    /// The stationarity conditions `∂S/∂a_k = 0` as text for the machine-readable report,
+    /// each a whole equation: `∂S/∂a_k` itself in closed form, or the integral of `∂L/∂a_k`
+    /// over the span when it is integrated numerically (the bare integrand is not `∂S/∂a_k`).
+    pub fn condition_texts(&self) -> Vec<String> {
+        use crate::print::plain;
+        self.conditions
+            .iter()
+            .map(|c| match &self.action {
+                Some(_) => format!("{} = 0", plain(c)),
+                None => format!("∫ ({}) dt = 0 for t from {} to {}", plain(c), plain(&self.t0), plain(&self.t1)),
+            })
+            .collect()
+    }
+
     /// The printed lines shared by `lagrangian ritz` and the scene statement `ritz`: the
     /// integrand, `S` and the conditions `∂S/∂a_k = 0` (or, when the integrand is not a
     /// polynomial in t, a note and the integrands of the conditions), then the solution.

@@ -329,3 +329,70 @@ fn a_trial_path_pinned_at_a_free_end_is_refused() {
     assert_eq!((code, out.as_str()), (2, ""));
     assert!(err.contains("pinned at the free end t = 1") && err.contains("would work"), "{err}");
 }
+
+#[test]
+fn ritz_json_gives_the_action_and_whole_conditions_for_a_non_polynomial_integrand() {
+    // For L = sqrt((1 + y'^2)/y) the integrand is not a polynomial in t, so S is integrated
+    // numerically. The JSON used to omit `action` and list the bare integrands ∂L/∂a as the
+    // conditions, which read as ∂L/∂a = 0 pointwise; it now gives S as the integral over the
+    // span and each condition as ∫ ∂L/∂a dt = 0 over the same span.
+    let args = [
+        "ritz",
+        "sqrt((1 + y'^2)/y)",
+        "--coords",
+        "y",
+        "--trial",
+        "t + t (1 - t) a",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1",
+        "--from",
+        "0",
+        "--to",
+        "1",
+        "--guess",
+        "0.5",
+        "--format",
+        "json",
+    ];
+    let (code, out, err) = run(&args);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {out}"));
+    let action = v["action"].as_str().unwrap_or_else(|| panic!("no `action` in {out}"));
+    assert!(action.starts_with("∫ (") && action.ends_with(") dt for t from 0 to 1"), "{action}");
+    assert_eq!(v["action_exact"], serde_json::json!(false), "{out}");
+    let conds = v["conditions"].as_array().unwrap();
+    assert_eq!(conds.len(), 1, "{out}");
+    let c = conds[0].as_str().unwrap();
+    assert!(c.starts_with("∫ (") && c.ends_with(") dt = 0 for t from 0 to 1"), "{c}");
+    // The integrand inside S is the one the text report prints as L(trial).
+    let (_, text, _) = run(&args[..args.len() - 2]);
+    let integrand = text.lines().find_map(|l| l.strip_prefix("L(trial) = ")).unwrap();
+    assert!(action.contains(integrand), "{action} against {integrand}");
+
+    // The polynomial case keeps the closed form, each condition an equation.
+    let (code, out, err) = run(&[
+        "ritz",
+        OSC,
+        "--coords",
+        "x",
+        "--trial",
+        "t + t (1 - t) a",
+        "--unknowns",
+        "a",
+        "--span",
+        "0,1",
+        "--from",
+        "0",
+        "--to",
+        "1",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["action_exact"], serde_json::json!(true), "{out}");
+    assert!(!v["action"].as_str().unwrap().contains('∫'), "{out}");
+    assert!(v["conditions"][0].as_str().unwrap().ends_with(" = 0"), "{out}");
+}
