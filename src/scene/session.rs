@@ -454,7 +454,8 @@ impl Session {
     /// `Some(def)` if `s` names a definition; an error if `s` is unknown.
     pub(super) fn check_symbol(&self, s: &Symbol, src: &Src) -> Result<Option<usize>, SceneError> {
         let name = s.name();
-        if s.is_time() || (s.primes() == 0 && self.local_names.iter().any(|n| n == name)) {
+        // A local name matches exactly as spelled (`q'` is local only where a statement made it so).
+        if s.is_time() || self.local_names.iter().any(|n| *n == s.to_string()) {
             return Ok(None);
         }
         if self.coords.iter().any(|c| c.name() == name) || self.dynamics.is_aux_name(s) {

@@ -1,8 +1,9 @@
-//! `map`: iterates an explicit map of phase space through [`crate::mechanics::ExplicitMap`]
+//! `map`: iterates an explicit or implicit map of phase space through
+//! [`crate::mechanics::ExplicitMap`] or [`crate::mechanics::ImplicitMap`]
 //! (the iteration is the library's; this file resolves the statement and draws the orbits).
 
 use crate::expr::Symbol;
-use crate::mechanics::ExplicitMap;
+use crate::mechanics::{ExplicitMap, ImplicitMap};
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::Src;
@@ -33,23 +34,27 @@ impl Session {
                 );
             }
         }
+        // An implicit map writes its new values primed (`q' = q + h (p + p')/2`).
+        let implicit = updates.iter().any(|(n, _)| n.text.contains('\''));
+        // The new values `x'` resolve in both kinds, so that an explicit map using one gets the
+        // library's explanation rather than "undefined symbol".
         self.local_names = names.clone();
+        self.local_names.extend(names.iter().map(|n| format!("{n}'")));
         let resolved: Result<Vec<(Symbol, crate::expr::Expr)>, SceneError> = updates
             .iter()
             .map(|(n, v)| {
-                let target = Symbol::new(n.text.trim());
-                if !names.contains(&n.text.trim().to_string()) {
-                    return Err(SceneError::new(
-                        ErrorKind::Syntax,
-                        format!("`{}` is assigned but has no start", n.text.trim()),
-                    )
-                    .at(n.span)
-                    .hint(format!("give it one after `from`: `{} = 0`", n.text.trim())));
-                }
-                if n.text.contains('\'') {
-                    return Err(SceneError::new(ErrorKind::NotAvailable, "implicit maps are not iterated")
+                let primes = n.text.trim().chars().rev().take_while(|c| *c == '\'').count();
+                let base = n.text.trim().trim_end_matches('\'');
+                let target = Symbol::new(base).with_primes(primes.min(255) as u8);
+                if implicit && primes != 1 {
+                    return Err(SceneError::new(ErrorKind::Syntax, "an implicit map writes every new value primed")
                         .at(n.span)
-                        .hint("write the map explicitly: assignments in order, each seeing the values already assigned (`p = p + K sin(q), q = q + p`)"));
+                        .hint(format!("write `{base}' = …` (the old value is `{base}`, the new one `{base}'`)")));
+                }
+                if !names.contains(&base.to_string()) {
+                    return Err(SceneError::new(ErrorKind::Syntax, format!("`{base}` is assigned but has no start"))
+                        .at(n.span)
+                        .hint(format!("give it one after `from`: `{base} = 0`")));
                 }
                 Ok((target, self.resolved(at, v)?))
             })
@@ -99,14 +104,33 @@ impl Session {
         let params = self.param_values();
         let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let fail = |e: crate::mechanics::MapError| SceneError::new(ErrorKind::Numeric, e.to_string()).at(at.span);
-        let map = ExplicitMap::new(&vars, &updates, &params).map_err(fail)?;
-        let orbits = map.orbits(&grid, n_steps as usize).map_err(fail)?;
-        let left = orbits.iter().filter(|o| o.last().is_some_and(|s| s.iter().any(|x| !x.is_finite()))).count();
+        let (orbits, unsolved) = if implicit {
+            ImplicitMap::new(&vars, &updates, &params).and_then(|m| m.orbits(&grid, n_steps as usize)).map_err(fail)?
+        } else {
+            (
+                ExplicitMap::new(&vars, &updates, &params)
+                    .and_then(|m| m.orbits(&grid, n_steps as usize))
+                    .map_err(fail)?,
+                0,
+            )
+        };
+        let left =
+            orbits.iter().filter(|o| o.last().is_some_and(|s| s.iter().any(|x| !x.is_finite()))).count() - unsolved;
+        let mut stops = Vec::new();
+        if left > 0 {
+            stops.push(format!("{left} left the finite numbers and stopped"));
+        }
+        if unsolved > 0 {
+            stops.push(format!(
+                "{unsolved} stopped at a step whose implicit equations Newton's method could not solve (a smaller step parameter would help)"
+            ));
+        }
         self.output.push(format!(
-            "map: {} orbit(s) of {} step(s){}",
+            "map: {} orbit(s) of {} step(s){}{}",
             orbits.len(),
             n_steps,
-            if left > 0 { format!("; {left} left the finite numbers and stopped") } else { String::new() }
+            if implicit { ", implicit (Newton's method per step)" } else { "" },
+            stops.iter().map(|s| format!("; {s}")).collect::<String>()
         ));
         for o in orbits.iter().take(PRINTED_ORBITS) {
             let fmt = |s: &[f64]| s.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ");

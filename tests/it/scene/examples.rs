@@ -363,3 +363,39 @@ fn outer_solar_system() {
     assert!(c["t"][rows - 1] >= 1000.0 * 4332.0, "the run spans 10³ Jupiter orbits");
     assert!(worst <= 5e-14, "relative energy error {worst:.3e}");
 }
+
+/// `examples/difference_maps.scene` (§4.7.2), the last states against closed forms for
+/// h = 0.3 after n = 40 steps from (1, 0): forward Euler multiplies z = q + i p by 1 − i h per
+/// step, so |z| = (1 + h²)^(n/2) and arg z = −n atan h; symplectic Euler keeps
+/// q² + p² − h q p = 1; the implicit midpoint rule is the rotation by 40 · 2 atan(h/2).
+#[test]
+fn difference_maps() {
+    let r = run("difference_maps");
+    let last = |k: usize| -> (f64, f64) {
+        let line = r.stdout.lines().filter(|l| l.starts_with("  (1, 0) → (")).nth(k).unwrap();
+        let v: Vec<f64> = line
+            .split('→')
+            .nth(1)
+            .unwrap()
+            .trim_matches([' ', '(', ')'])
+            .split(", ")
+            .map(|x| x.parse().unwrap())
+            .collect();
+        (v[0], v[1])
+    };
+    let (h, n) = (0.3f64, 40.0);
+    let (q, p) = last(0);
+    let radius = (1.0 + h * h).powf(n / 2.0);
+    let angle = -n * h.atan();
+    assert!((q - radius * angle.cos()).abs() < 1e-12 && (p - radius * angle.sin()).abs() < 1e-12, "{q} {p}");
+    let (q, p) = last(1);
+    assert!((q * q + p * p - h * q * p - 1.0).abs() < 1e-13, "symplectic Euler's invariant: {q} {p}");
+    assert!((q * q + p * p - 1.0).abs() > 0.1, "not the circle");
+    let (q, p) = last(2);
+    let a = n * 2.0 * (h / 2.0).atan();
+    assert!((q - a.cos()).abs() < 1e-12 && (p + a.sin()).abs() < 1e-12, "{q} {p}");
+    assert!(r.stdout.matches("implicit (Newton's method per step)").count() == 3, "{}", r.stdout);
+    for f in ["forward_euler.svg", "symplectic_euler.svg", "implicit_midpoint.svg", "midpoint_pendulum.svg"] {
+        r.svg(f);
+    }
+}

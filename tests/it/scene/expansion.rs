@@ -53,15 +53,30 @@ fn series_and_jacobian_refuse_what_has_no_answer() {
 }
 
 /// `map`: three steps of the standard map from (1, 0.5) with K = 0.9 print the state a hand
-/// iteration gives (Python floats: 5.375066801394972, 1.1643125003166652); an implicit map and
-/// an assignment without a start are refused.
+/// iteration gives (Python floats: 5.375066801394972, 1.1643125003166652); the same map
+/// written implicitly (`p' = …, q' = q + p'`) gives the same state; mixing primed and plain
+/// assignments, a new value in an explicit map and an assignment without a start are refused.
 #[test]
 fn map_iterates_the_standard_map_and_refuses_what_it_cannot() {
     let out = run("parameters K = 0.9\nmap p = p + K sin(q), q = q + p for 3 steps from q = 1, p = 0.5")
         .unwrap_or_else(|e| panic!("{e:?}"));
     assert_eq!(out, ["map: 1 orbit(s) of 3 step(s)", "  (1, 0.5) → (5.375066801394972, 1.1643125003166652)"]);
-    let e = run("map p' = p + sin(q), q' = q + p' for 3 steps from q = 1, p = 0.5").expect_err("refused");
-    assert!(e.span.is_some(), "{e:?}");
+    let out = run("parameters K = 0.9\nmap p' = p + K sin(q), q' = q + p' for 3 steps from q = 1, p = 0.5")
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(out[0], "map: 1 orbit(s) of 3 step(s), implicit (Newton's method per step)");
+    let last: Vec<f64> = out[1]
+        .split('→')
+        .nth(1)
+        .unwrap()
+        .trim_matches([' ', '(', ')'])
+        .split(", ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!((last[0] - 5.375066801394972).abs() < 1e-13 && (last[1] - 1.1643125003166652).abs() < 1e-13, "{out:?}");
+    let e = run("map p' = p + sin(q), q = q + p' for 3 steps from q = 1, p = 0.5").expect_err("refused");
+    assert!(e.message.contains("implicit map writes every new value primed") && e.span.is_some(), "{e:?}");
+    let e = run("map p = p + sin(q'), q = q + p for 3 steps from q = 1, p = 0.5").expect_err("refused");
+    assert!(e.message.contains("appears in an explicit map"), "{e:?}");
     let e = run("map p = p + sin(q), q = q + p for 3 steps from q = 1").expect_err("refused");
     assert!(e.message.contains("no start"), "{}", e.message);
     let e = run("map p = p + sin(q), q = q + p for 2.5 steps from q = 1, p = 0").expect_err("refused");
