@@ -233,13 +233,16 @@ pub fn average_lagrangian(
     Ok(Averaged { lagrangian: avg, relations, action })
 }
 
-/// The leading-order solution of the averaged relations in a small parameter `σ`:
-/// `ω = ω0 + σ ω1`, each secondary amplitude `B_k = σ b_k`, the principal amplitude `A` free.
+/// The solution of the averaged relations as a series in a small parameter `σ`:
+/// `ω = ω0 + σ ω1 + … + σⁿ ωn`, each secondary amplitude `B_k = σ b_k1 + … + σⁿ b_kn`, the
+/// principal amplitude `A` free.
 #[derive(Clone, Debug)]
 pub struct LeadingOrder {
-    /// `ω` to first order in `σ`.
+    /// The order `n` of the series.
+    pub order: usize,
+    /// `ω` to order `n` in `σ`.
     pub frequency: Expr,
-    /// Each secondary amplitude to first order in `σ`.
+    /// Each secondary amplitude to order `n` in `σ`.
     pub amplitudes: Vec<(Symbol, Expr)>,
 }
 
@@ -256,63 +259,202 @@ pub enum LeadingOrderError {
         /// The proposed unperturbed frequency.
         omega0: String,
     },
-    /// The first-order equations could not be solved.
-    #[error("the first-order equations have no unique solution: {0}")]
+    /// The equations of one order could not be solved.
+    #[error("the equations of one order in the small parameter have no unique solution: {0}")]
     FirstOrder(#[from] super::solve::SolveError),
+    /// The order asked for is 0 or above [`MAX_AVERAGE_ORDER`].
+    #[error("the order must be 1..={limit}, not {order}")]
+    Order {
+        /// Asked.
+        order: usize,
+        /// [`MAX_AVERAGE_ORDER`].
+        limit: usize,
+    },
     /// The principal amplitude is not among the relations.
     #[error("`{0}` is not one of the amplitudes")]
     UnknownAmplitude(String),
 }
 
-/// Solves the relations of `avg` to first order in `small` (Poincaré–Lindstedt on the averaged
-/// Lagrangian): substitutes `ω = omega0 + σ ω1`, `B_k = σ b_k` for every amplitude except
-/// `principal`, checks that the relations vanish at `σ = 0`, and solves the coefficients of `σ¹`
-/// (linear in `ω1`, `b_k`) for `ω1` and the `b_k`.
+/// The most orders [`leading_order`] solves for: each order differentiates the relations once
+/// more in `σ`, and the terms grow fast.
+pub const MAX_AVERAGE_ORDER: usize = 4;
+
+/// Solves the relations of `avg` to order `order` in `small` (Poincaré–Lindstedt on the averaged
+/// Lagrangian): substitutes `ω = omega0 + σ ω1 + … + σⁿ ωn`, `B_k = σ b_k1 + … + σⁿ b_kn` for every
+/// amplitude except `principal`, checks that the relations vanish at `σ = 0`, and solves the
+/// coefficients of `σʲ` for `ωj` and the `b_kj`, order by order: each is linear in the unknowns
+/// of its order once the lower orders are known.
 pub fn leading_order(
     avg: &Averaged,
     frequency: &Symbol,
     omega0: &Expr,
     small: &Symbol,
     principal: &Symbol,
+    order: usize,
 ) -> Result<LeadingOrder, LeadingOrderError> {
     if !avg.relations.iter().any(|(a, _)| a == principal) {
         return Err(LeadingOrderError::UnknownAmplitude(principal.to_string()));
     }
+    if !(1..=MAX_AVERAGE_ORDER).contains(&order) {
+        return Err(LeadingOrderError::Order { order, limit: MAX_AVERAGE_ORDER });
+    }
     let s = Expr::sym(small.clone());
-    let w1 = Symbol::new("__omega1");
-    let mut map = std::collections::HashMap::new();
-    map.insert(frequency.clone(), omega0.plus(&s.times(&Expr::sym(w1.clone()))));
-    let mut unknowns = vec![w1.clone()];
-    let mut coeff_syms = Vec::new();
-    for (a, _) in &avg.relations {
-        if a != principal {
-            let b = Symbol::new(&format!("__b_{}", a.name()));
-            map.insert(a.clone(), s.times(&Expr::sym(b.clone())));
-            unknowns.push(b.clone());
-            coeff_syms.push((a.clone(), b));
+    let secondary: Vec<Symbol> = avg.relations.iter().map(|(a, _)| a.clone()).filter(|a| a != principal).collect();
+    // The series found so far: ω and each secondary amplitude, through the orders solved.
+    let mut w_series = omega0.clone();
+    let mut b_series: Vec<Expr> = vec![Expr::zero(); secondary.len()];
+    for k in 1..=order {
+        let sk = s.powi(k as i64);
+        let w_k = Symbol::new(&format!("__omega{k}"));
+        let mut unknowns = vec![w_k.clone()];
+        let mut map = std::collections::HashMap::new();
+        map.insert(frequency.clone(), w_series.plus(&sk.times(&Expr::sym(w_k.clone()))));
+        for (a, series) in secondary.iter().zip(&b_series) {
+            let b = Symbol::new(&format!("__b{k}_{}", a.name()));
+            map.insert(a.clone(), series.plus(&sk.times(&Expr::sym(b.clone()))));
+            unknowns.push(b);
+        }
+        let mut equations = Vec::new();
+        for (a, r) in &avg.relations {
+            let sub = r.subs(&map);
+            if k == 1 {
+                let zeroth = normalize(&sub.subs1(small, &Expr::zero()));
+                if !super::reduce::decide_zero(&zeroth).is_zero() {
+                    return Err(LeadingOrderError::ZerothOrder {
+                        amplitude: a.to_string(),
+                        value: zeroth.to_string(),
+                        omega0: omega0.to_string(),
+                    });
+                }
+            }
+            // The coefficient of σᵏ: the k-th derivative at σ = 0 (the k! does not change the
+            // solution of the equation it sets to zero).
+            let mut d = sub;
+            for _ in 0..k {
+                d = diff(&d, small);
+            }
+            let mut dk = normalize(&d.subs1(small, &Expr::zero()));
+            // The principal relation carries a common factor A (the trivial solution A = 0).
+            if a == principal {
+                dk = normalize(&dk.over(&Expr::sym(principal.clone())));
+            }
+            equations.push(dk);
+        }
+        let (sol, _) = super::solve::solve_system(&equations, &unknowns)?;
+        let get = |u: &Symbol| sol.iter().find(|(v, _)| v == u).map(|(_, e)| e.clone()).unwrap_or_else(Expr::zero);
+        w_series = normalize(&w_series.plus(&sk.times(&get(&w_k))));
+        for (series, b) in b_series.iter_mut().zip(&unknowns[1..]) {
+            *series = normalize(&series.plus(&sk.times(&get(b))));
         }
     }
-    let mut first = Vec::new();
-    for (a, r) in &avg.relations {
-        let sub = r.subs(&map);
-        let zeroth = normalize(&sub.subs1(small, &Expr::zero()));
-        if !super::reduce::decide_zero(&zeroth).is_zero() {
-            return Err(LeadingOrderError::ZerothOrder {
-                amplitude: a.to_string(),
-                value: zeroth.to_string(),
-                omega0: omega0.to_string(),
-            });
+    let amplitudes = secondary.into_iter().zip(b_series).collect();
+    Ok(LeadingOrder { order, frequency: w_series, amplitudes })
+}
+
+/// One point of the relations solved numerically: the principal amplitude, the frequency and
+/// the secondary amplitudes (in the order of the relations).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelationPoint {
+    /// The principal amplitude `A`.
+    pub principal: f64,
+    /// `ω` at that amplitude.
+    pub frequency: f64,
+    /// The secondary amplitudes.
+    pub amplitudes: Vec<(Symbol, f64)>,
+}
+
+/// Why the relations could not be solved numerically.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RelationsError {
+    /// A symbol other than the unknowns and the principal amplitude has no value.
+    #[error("`{0}` has no value")]
+    Unbound(String),
+    /// Newton's method found no solution near the guess.
+    #[error("no solution of the relations near {principal} = {value} (Newton's method from ω = {guess} did not converge); a smaller step between the amplitudes, or a smaller amplitude to start from, would help")]
+    NoSolution {
+        /// The principal amplitude's name.
+        principal: String,
+        /// Its value.
+        value: f64,
+        /// The frequency the iteration started from.
+        guess: f64,
+    },
+    /// The principal amplitude is zero (the trivial solution of its relation).
+    #[error("{0} = 0 is the trivial solution; sweep amplitudes away from 0")]
+    Trivial(String),
+}
+
+/// The relations of `avg` solved numerically for `ω` and the secondary amplitudes at each value
+/// of the principal amplitude in `values`, with the other symbols from `params`: Newton's method
+/// on the relations (the principal one divided by its amplitude, which removes the trivial
+/// solution), started at the first value from `first_guess` (ω; the secondary amplitudes from 0)
+/// and at each later value from the solution before it (continuation).
+pub fn solve_relations(
+    avg: &Averaged,
+    frequency: &Symbol,
+    principal: &Symbol,
+    values: &[f64],
+    first_guess: f64,
+    params: &dyn Fn(&Symbol) -> Option<f64>,
+) -> Result<Vec<RelationPoint>, RelationsError> {
+    let unknowns: Vec<Symbol> = std::iter::once(frequency.clone())
+        .chain(avg.relations.iter().map(|(a, _)| a.clone()).filter(|a| a != principal))
+        .collect();
+    let equations: Vec<Expr> = avg
+        .relations
+        .iter()
+        .map(|(a, r)| if a == principal { normalize(&r.over(&Expr::sym(principal.clone()))) } else { r.clone() })
+        .collect();
+    let jacobian: Vec<Vec<Expr>> = equations.iter().map(|e| unknowns.iter().map(|u| diff(e, u)).collect()).collect();
+    let n = unknowns.len();
+    let mut x: Vec<f64> = std::iter::once(first_guess).chain(std::iter::repeat(0.0).take(n - 1)).collect();
+    let mut out = Vec::with_capacity(values.len());
+    for &a in values {
+        if a == 0.0 {
+            return Err(RelationsError::Trivial(principal.to_string()));
         }
-        let mut d1 = normalize(&diff(&sub, small).subs1(small, &Expr::zero()));
-        // The principal relation carries a common factor A (the trivial solution A = 0).
-        if a == principal {
-            d1 = normalize(&d1.over(&Expr::sym(principal.clone())));
+        let guess = x[0];
+        let mut solved = false;
+        for _ in 0..50 {
+            let at = |s: &Symbol| {
+                if s == principal {
+                    Some(a)
+                } else if let Some(k) = unknowns.iter().position(|u| u == s) {
+                    Some(x[k])
+                } else {
+                    params(s)
+                }
+            };
+            let value = |e: &Expr| {
+                crate::eval::eval_with(e, &at).map_err(|err| match err {
+                    crate::eval::EvalError::Unbound(s) => RelationsError::Unbound(s),
+                    _ => RelationsError::NoSolution { principal: principal.to_string(), value: a, guess },
+                })
+            };
+            let mut r: Vec<f64> = equations.iter().map(|e| value(e).map(|v| -v)).collect::<Result<_, _>>()?;
+            let mut m: Vec<f64> = jacobian.iter().flatten().map(&value).collect::<Result<_, _>>()?;
+            if r.iter().chain(&m).any(|v| !v.is_finite()) || crate::linalg::solve_in_place(&mut m, &mut r, n).is_err() {
+                break;
+            }
+            let (mut dmax, mut scale) = (0.0f64, 0.0f64);
+            for (xi, di) in x.iter_mut().zip(&r) {
+                *xi += di;
+                dmax = dmax.max(di.abs());
+                scale = scale.max(xi.abs());
+            }
+            if dmax <= 1e-13 * scale.max(1e-300) {
+                solved = true;
+                break;
+            }
         }
-        first.push(d1);
+        if !solved || x.iter().any(|v| !v.is_finite()) {
+            return Err(RelationsError::NoSolution { principal: principal.to_string(), value: a, guess });
+        }
+        out.push(RelationPoint {
+            principal: a,
+            frequency: x[0],
+            amplitudes: unknowns[1..].iter().cloned().zip(x[1..].iter().copied()).collect(),
+        });
     }
-    let (sol, _) = super::solve::solve_system(&first, &unknowns)?;
-    let get = |u: &Symbol| sol.iter().find(|(v, _)| v == u).map(|(_, e)| e.clone()).unwrap_or_else(Expr::zero);
-    let frequency = normalize(&omega0.plus(&s.times(&get(&w1))));
-    let amplitudes = coeff_syms.iter().map(|(a, b)| (a.clone(), normalize(&s.times(&get(b))))).collect();
-    Ok(LeadingOrder { frequency, amplitudes })
+    Ok(out)
 }

@@ -34,7 +34,7 @@ pub fn action_table(rows: &[ActionFrequency]) -> Vec<String> {
     out
 }
 
-/// `⟨L⟩ = …`, each `∂⟨L⟩/∂A = … = 0`, `J = ∂⟨L⟩/∂ω = …`, and the first-order solution when
+/// `⟨L⟩ = …`, each `∂⟨L⟩/∂A = … = 0`, `J = ∂⟨L⟩/∂ω = …`, and the series solution when
 /// asked (`small` names the small parameter).
 pub fn average_lines(
     avg: &Averaged,
@@ -50,7 +50,13 @@ pub fn average_lines(
     }
     out.push(format!("J = ∂⟨L⟩/∂{} = {}", s(frequency), e(&avg.action)));
     if let Some((small, lo)) = lead {
-        out.push(format!("to first order in {small}:"));
+        let order = match lo.order {
+            1 => "first".to_string(),
+            2 => "second".to_string(),
+            3 => "third".to_string(),
+            n => format!("{n}th"),
+        };
+        out.push(format!("to {order} order in {small}:"));
         out.push(format!("  {} = {}", s(frequency), e(&lo.frequency)));
         for (a, v) in &lo.amplitudes {
             out.push(format!("  {} = {}", s(a), e(v)));

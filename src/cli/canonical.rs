@@ -183,15 +183,18 @@ pub struct AverageArgs {
     /// The amplitudes A_k (default: symbols of the trials absent from L).
     #[arg(long, value_delimiter = ',')]
     pub amplitudes: Vec<String>,
-    /// Solve the relations to first order in this small parameter (needs --unperturbed).
+    /// Solve the relations as a series in this small parameter (needs --unperturbed).
     #[arg(long, requires = "unperturbed")]
     pub small: Option<String>,
     /// The frequency at zeroth order in --small, e.g. `ω0`.
     #[arg(long, requires = "small", allow_hyphen_values = true)]
     pub unperturbed: Option<String>,
-    /// The amplitude left free in the leading-order solution (default: the first).
+    /// The amplitude left free in the series solution (default: the first).
     #[arg(long)]
     pub principal: Option<String>,
+    /// The order of the series in --small (1 to 4).
+    #[arg(long, default_value_t = 1, requires = "small")]
+    pub order: usize,
     #[command(flatten)]
     pub common: Common,
 }
@@ -392,8 +395,18 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             }
         }
         CanonicalCommand::Average(args) => {
-            let AverageArgs { lagrangian, trial, phase, frequency, amplitudes, small, unperturbed, principal, common } =
-                *args;
+            let AverageArgs {
+                lagrangian,
+                trial,
+                phase,
+                frequency,
+                amplitudes,
+                small,
+                unperturbed,
+                principal,
+                order,
+                common,
+            } = *args;
             let decls = common.declarations();
             let (_, l) = parse_arg(&lagrangian, &decls)?;
             let mut trials = Vec::new();
@@ -428,7 +441,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                         None => amps.first().cloned().ok_or_else(|| bad_input("error: no amplitudes to solve for"))?,
                     };
                     Some(
-                        canonical::leading_order(&avg, &w, &w0, &sm, &pr)
+                        canonical::leading_order(&avg, &w, &w0, &sm, &pr, order)
                             .map_err(|e| bad_input(format!("error: {e}")))?,
                     )
                 }
@@ -438,7 +451,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
             if common.format == OutFormat::Json {
                 let lo = lead
                     .as_ref()
-                    .map(|lo| json!({"frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
+                    .map(|lo| json!({"order": lo.order, "frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
                 let rel: Vec<Value> = avg
                     .relations
                     .iter()

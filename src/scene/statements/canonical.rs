@@ -12,6 +12,8 @@ use crate::canonical::{self, PhaseSpace, Trial};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 
+use crate::plot::{Figure, Series};
+use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::{LieGenerator, Src, StmtKind};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
@@ -275,9 +277,139 @@ impl Session {
                 .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "no amplitudes to solve for").at(at.span))?,
         };
         let sigma = self.symbol_of(at, &small.small, &local)?;
-        let lo =
-            canonical::leading_order(&avg, &w, &w0, &sigma, &principal).map_err(|e| failed("average", e, at.span))?;
+        let order = match &small.order {
+            None => 1,
+            Some(src) => {
+                let v = self.bound(at, src)?;
+                if !(v >= 1.0 && v.fract() == 0.0 && v <= canonical::MAX_AVERAGE_ORDER as f64) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("the order must be a whole number 1..={}", canonical::MAX_AVERAGE_ORDER),
+                    )
+                    .at(src.span));
+                }
+                v as usize
+            }
+        };
+        let lo = canonical::leading_order(&avg, &w, &w0, &sigma, &principal, order)
+            .map_err(|e| failed("average", e, at.span))?;
         self.emit(canonical::report::average_lines(&avg, &w, Some((&small.small.text, &lo)), fmt));
+        if let Some(sweep) = &small.sweep {
+            self.average_sweep(at, &avg, &w, &w0, &lo, sweep)?;
+        }
+        Ok(())
+    }
+
+    /// `… for A in a..b [points N] [to FILE]`: the relations solved numerically at each
+    /// amplitude with the scene's parameter values, beside the series; a table of a few rows,
+    /// and the figure (ω and each secondary amplitude against A) or a CSV of every row.
+    fn average_sweep(
+        &mut self,
+        at: At,
+        avg: &canonical::Averaged,
+        w: &Symbol,
+        w0: &crate::expr::Expr,
+        lo: &canonical::LeadingOrder,
+        sweep: &crate::scene::syntax::ast::AverageSweep,
+    ) -> Result<(), SceneError> {
+        let principal = Symbol::new(sweep.amplitude.text.trim());
+        if !avg.relations.iter().any(|(a, _)| *a == principal) {
+            return Err(SceneError::new(ErrorKind::Syntax, format!("`{}` is not one of the amplitudes", principal))
+                .at(sweep.amplitude.span));
+        }
+        let (a, b) = (self.bound(at, &sweep.from)?, self.bound(at, &sweep.to)?);
+        let n = match &sweep.points {
+            None => 20,
+            Some(src) => {
+                let v = self.bound(at, src)?;
+                if !(v >= 2.0 && v.fract() == 0.0 && v <= 10_000.0) {
+                    return Err(
+                        SceneError::new(ErrorKind::BadNumber, "`points` must be a whole number 2..=10000").at(src.span)
+                    );
+                }
+                v as usize
+            }
+        };
+        let values: Vec<f64> = (0..n).map(|k| a + (b - a) * k as f64 / (n - 1) as f64).collect();
+        let params = self.param_values();
+        let lookup = |s: &Symbol| params.get(s.name()).copied();
+        let number = |e: &crate::expr::Expr, amp: f64| {
+            crate::eval::eval_with(e, &|s: &Symbol| if *s == principal { Some(amp) } else { lookup(s) })
+        };
+        let missing = |e: crate::eval::EvalError| {
+            SceneError::new(ErrorKind::MissingValue, format!("the sweep needs values: {e}")).at(at.span)
+        };
+        let guess = number(w0, a).map_err(missing)?;
+        let points = canonical::solve_relations(avg, w, &principal, &values, guess, &lookup)
+            .map_err(|e| SceneError::new(ErrorKind::Numeric, e.to_string()).at(at.span))?;
+        let series_w: Vec<f64> =
+            values.iter().map(|&v| number(&lo.frequency, v)).collect::<Result<_, _>>().map_err(missing)?;
+        let wn = w.to_string();
+        self.output.push(format!(
+            "the relations solved at {} values of {principal} in {a}..{b} ({wn} by Newton's method; the series to order {} beside it):",
+            n, lo.order
+        ));
+        let rows = if n <= 6 { (0..n).collect::<Vec<_>>() } else { vec![0, n / 4, n / 2, 3 * n / 4, n - 1] };
+        for k in rows {
+            let p = &points[k];
+            let others: String = p.amplitudes.iter().map(|(s, v)| format!(", {s} = {}", fmt_num(*v))).collect();
+            self.output.push(format!(
+                "  {principal} = {}: {wn} = {} (series {}){others}",
+                fmt_num(p.principal),
+                fmt_num(p.frequency),
+                fmt_num(series_w[k])
+            ));
+        }
+        let Some(path) = &sweep.path else { return Ok(()) };
+        let (file, pspan, ext) = self.out_file(
+            at.span,
+            Some(path),
+            "relations.svg",
+            "figure or table",
+            &["svg", "png", "csv"],
+            "write `to relations.svg`, `to relations.png` or `to relations.csv`",
+        )?;
+        let tmp = self.staging.stage(&file).map_err(|e| e.at(pspan))?;
+        if ext == "csv" {
+            let mut text = format!("{principal},{wn},{wn}_series");
+            for (s, _) in &points[0].amplitudes {
+                text.push_str(&format!(",{s}"));
+            }
+            text.push('\n');
+            for (p, ws) in points.iter().zip(&series_w) {
+                text.push_str(&format!("{},{},{}", p.principal, p.frequency, ws));
+                for (_, v) in &p.amplitudes {
+                    text.push_str(&format!(",{v}"));
+                }
+                text.push('\n');
+            }
+            std::fs::write(&tmp, text).map_err(|e| {
+                SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", file.display())).at(pspan)
+            })?;
+        } else {
+            let curve = |label: String, ys: Vec<f64>| Series {
+                label,
+                points: points.iter().zip(ys).map(|(p, y)| (p.principal, y)).collect(),
+            };
+            let mut series = vec![
+                curve(format!("{wn} (relations)"), points.iter().map(|p| p.frequency).collect()),
+                curve(format!("{wn} (series, order {})", lo.order), series_w.clone()),
+            ];
+            for (k, (s, _)) in points[0].amplitudes.iter().enumerate() {
+                series.push(curve(s.to_string(), points.iter().map(|p| p.amplitudes[k].1).collect()));
+            }
+            let figure = Figure::lines(
+                &format!("averaged relations against {principal}"),
+                &principal.to_string(),
+                "value",
+                series,
+            );
+            self.figures.push((file.clone(), figure.describe()));
+            crate::plot::draw(&figure, &tmp).map_err(|e| {
+                SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", file.display())).at(pspan)
+            })?;
+        }
+        self.wrote(&file);
         Ok(())
     }
 

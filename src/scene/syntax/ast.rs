@@ -240,7 +240,7 @@ pub struct LevelSpec {
     pub span: Span,
 }
 
-/// `small σ unperturbed ω0 [principal A]` of an `average` statement.
+/// `small σ unperturbed ω0 [principal A] [order N]` of an `average` statement.
 #[derive(Clone, Debug)]
 pub struct SmallSpec {
     /// The small parameter.
@@ -249,6 +249,25 @@ pub struct SmallSpec {
     pub unperturbed: Src,
     /// The amplitude left free (default: the first).
     pub principal: Option<Src>,
+    /// The order of the series in the small parameter (default 1).
+    pub order: Option<Src>,
+    /// `for A in a..b [points N] [to FILE]`: the relations solved numerically along `A`.
+    pub sweep: Option<Box<AverageSweep>>,
+}
+
+/// `for A in a..b [points N] [to FILE]` of an `average … small` statement.
+#[derive(Clone, Debug)]
+pub struct AverageSweep {
+    /// The principal amplitude swept.
+    pub amplitude: Src,
+    /// The first and last amplitude.
+    pub from: Src,
+    /// The last amplitude.
+    pub to: Src,
+    /// How many amplitudes (default 20).
+    pub points: Option<Src>,
+    /// The figure or table written.
+    pub path: Option<Src>,
 }
 
 /// The generator of a `lie` statement.

@@ -9,8 +9,9 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec, Geometry, Item,
-    LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec, Statement, StmtKind,
+    AnimateSpec, AverageSweep, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec,
+    Geometry, Item, LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec,
+    Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -975,18 +976,36 @@ impl Builder {
 impl Builder {
     fn small(&self, p: Pair<Rule>) -> SmallSpec {
         let mut names = Vec::new();
-        let mut unperturbed = None;
+        let mut exprs = Vec::new();
+        let mut sweep = None;
         for q in p.into_inner() {
             match q.as_rule() {
                 Rule::name => names.push(self.src(&q)),
-                Rule::sexpr => unperturbed = Some(self.src(&q)),
+                Rule::sexpr => exprs.push(self.src(&q)),
+                Rule::average_sweep => sweep = self.average_sweep(q).map(Box::new),
                 _ => {}
             }
         }
         let mut it = names.into_iter();
         let small = it.next().unwrap_or_else(|| Src { text: String::new(), span: (self.base, self.base) });
-        let unperturbed = unperturbed.unwrap_or_else(|| small.clone());
-        SmallSpec { small, unperturbed, principal: it.next() }
+        let mut exprs = exprs.into_iter();
+        let unperturbed = exprs.next().unwrap_or_else(|| small.clone());
+        SmallSpec { small, unperturbed, principal: it.next(), order: exprs.next(), sweep }
+    }
+
+    fn average_sweep(&self, p: Pair<Rule>) -> Option<AverageSweep> {
+        let (mut amplitude, mut bounds, mut points, mut path) = (None, Vec::new(), None, None);
+        for q in p.into_inner() {
+            match q.as_rule() {
+                Rule::name => amplitude = Some(self.src(&q)),
+                Rule::time_span => bounds = q.into_inner().map(|b| self.src(&b)).collect(),
+                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
+                Rule::path => path = Some(self.src(&q)),
+                _ => {}
+            }
+        }
+        let mut b = bounds.into_iter();
+        Some(AverageSweep { amplitude: amplitude?, from: b.next()?, to: b.next()?, points, path })
     }
 
     fn point_transform(&self, inner: Vec<Pair<Rule>>) -> StmtKind {

@@ -9,7 +9,8 @@
 //! `y'' + ω0² (y + 2σ y³) = 0`).
 
 use lagrangian::canonical::{
-    average_lagrangian, decide_zero, leading_order, phase_average, AverageError, LeadingOrderError, Trial, ZeroCheck,
+    average_lagrangian, decide_zero, leading_order, phase_average, solve_relations, AverageError, LeadingOrderError,
+    RelationsError, Trial, ZeroCheck,
 };
 use lagrangian::eval::eval_with;
 use lagrangian::{parse, Expr, Symbol};
@@ -82,7 +83,7 @@ fn anharmonic_oscillator_averaged_relations() {
 #[test]
 fn anharmonic_oscillator_solved_to_leading_order() {
     let avg = anharmonic();
-    let lo = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A")).expect("solvable");
+    let lo = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A"), 1).expect("solvable");
     // The hand result of the module comment: ω = ω0 (1 + 3σA²/4), B = σA³/16, C = 0.
     assert_eq!(decide_zero(&lo.frequency.minus(&p("w0 (1 + 3 σ A^2/4)"))), ZeroCheck::Proven, "ω = {}", lo.frequency);
     assert_eq!(lo.amplitudes[0].0, sym("B"));
@@ -93,8 +94,27 @@ fn anharmonic_oscillator_solved_to_leading_order() {
         format!("w = {}\nB = {}\nC = {}", lo.frequency, lo.amplitudes[0].1, lo.amplitudes[1].1),
     );
     // A wrong unperturbed frequency is refused at zeroth order.
-    let err = leading_order(&avg, &sym("w"), &p("2 w0"), &sym("σ"), &sym("A")).expect_err("wrong ω0");
+    let err = leading_order(&avg, &sym("w"), &p("2 w0"), &sym("σ"), &sym("A"), 1).expect_err("wrong ω0");
     assert!(matches!(err, LeadingOrderError::ZerothOrder { .. }), "{err}");
+}
+
+/// Second order in σ against SymPy solving the same averaged relations order by order
+/// (`scripts/average_series_sympy.py`): ω2 = −15 A⁴ ω0/64, b2 = −21 A⁵/256, c2 = 0. The first
+/// order is unchanged; orders 0 and above the limit are refused.
+#[test]
+fn anharmonic_oscillator_solved_to_second_order() {
+    let avg = anharmonic();
+    let lo = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A"), 2).expect("solvable");
+    assert_eq!(lo.order, 2);
+    let w = p("w0 (1 + 3 σ A^2/4 - 15 σ^2 A^4/64)");
+    assert_eq!(decide_zero(&lo.frequency.minus(&w)), ZeroCheck::Proven, "ω = {}", lo.frequency);
+    let b = p("σ A^3/16 - 21 σ^2 A^5/256");
+    assert_eq!(decide_zero(&lo.amplitudes[0].1.minus(&b)), ZeroCheck::Proven, "B = {}", lo.amplitudes[0].1);
+    assert!(lo.amplitudes[1].1.is_zero(), "C = {}", lo.amplitudes[1].1);
+    for order in [0, lagrangian::canonical::MAX_AVERAGE_ORDER + 1] {
+        let err = leading_order(&avg, &sym("w"), &p("w0"), &sym("σ"), &sym("A"), order).expect_err("refused");
+        assert!(matches!(err, LeadingOrderError::Order { .. }), "{err}");
+    }
 }
 
 #[test]
@@ -145,4 +165,37 @@ fn non_periodic_or_non_polynomial_trials_are_refused() {
         &[],
     );
     assert!(matches!(missing, Err(AverageError::UnreplacedVelocity(_))));
+}
+
+/// The relations solved numerically along A for the hard spring (σ = 1, m = ω0 = l0 = 1),
+/// against SymPy's nsolve on the same relations (`scripts/average_series_sympy.py`):
+/// ω(1) = 1.5943146199509888, B(1) = 0.026489365310534100; ω(1/2) = 1.1745203536186296,
+/// B(1/2) = 0.0058600538290566259. The series to first order gives 1.75 at A = 1: the notes'
+/// point that the relations, not their expansion, are needed for A ~ 1. A = 0 is refused (the
+/// trivial solution), a missing parameter is named.
+#[test]
+fn anharmonic_relations_solved_along_the_amplitude() {
+    let avg = anharmonic();
+    let vals = |s: &Symbol| match s.name() {
+        "m" | "w0" | "l0" | "σ" => Some(1.0),
+        _ => None,
+    };
+    let values: Vec<f64> = (1..=20).map(|k| k as f64 / 20.0).collect();
+    let points = solve_relations(&avg, &sym("w"), &sym("A"), &values, 1.0, &vals).expect("solves");
+    for (k, w, b) in [
+        (9, 1.174_520_353_618_629_6, 0.005_860_053_829_056_626),
+        (19, 1.594_314_619_950_988_8, 0.026_489_365_310_534_1),
+    ] {
+        let pt = &points[k];
+        assert!((pt.frequency - w).abs() < 1e-12, "ω({}) = {}", pt.principal, pt.frequency);
+        assert_eq!(pt.amplitudes[0].0, sym("B"));
+        assert!((pt.amplitudes[0].1 - b).abs() < 1e-12, "B({}) = {}", pt.principal, pt.amplitudes[0].1);
+        assert!(pt.amplitudes[1].1.abs() < 1e-14, "C = {}", pt.amplitudes[1].1);
+    }
+    assert!(matches!(solve_relations(&avg, &sym("w"), &sym("A"), &[0.0], 1.0, &vals), Err(RelationsError::Trivial(_))));
+    let no_sigma = |s: &Symbol| if s.name() == "σ" { None } else { vals(s) };
+    assert!(matches!(
+        solve_relations(&avg, &sym("w"), &sym("A"), &[0.5], 1.0, &no_sigma),
+        Err(RelationsError::Unbound(n)) if n == "σ"
+    ));
 }

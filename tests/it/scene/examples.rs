@@ -399,3 +399,17 @@ fn difference_maps() {
         r.svg(f);
     }
 }
+
+/// `examples/anharmonic_relations.scene` (§2.8.2): the printed series is the second-order one of
+/// `scripts/average_series_sympy.py`, and the hard spring's relations at A = 1 give
+/// ω = 1.5943146199509888, B = 0.026489365310534100 (SymPy's nsolve, same script), printed to
+/// six decimals; both figures are written.
+#[test]
+fn anharmonic_relations() {
+    let r = run("anharmonic_relations");
+    assert!(r.stdout.contains("  ω = ω0 + 3 A² σ ω0/4 - 15 A⁴ σ² ω0/64\n"), "{}", r.stdout);
+    assert!(r.stdout.contains("  ω = ω0 - 3 A² σ ω0/4 - 15 A⁴ σ² ω0/64\n"), "{}", r.stdout);
+    assert!(r.stdout.contains("  A = 1: ω = 1.594315 (series 1.515625), B = 0.026489, C = 0\n"), "{}", r.stdout);
+    r.svg("anharmonic_hard.svg");
+    r.svg("anharmonic_soft.svg");
+}
