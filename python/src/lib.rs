@@ -22,6 +22,7 @@ mod lambdify;
 mod progress;
 mod sim;
 mod system;
+mod tools;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -35,6 +36,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(expr::parse, m)?)?;
     m.add_function(wrap_pyfunction!(system::poisson, m)?)?;
     m.add_function(wrap_pyfunction!(lambdify::lambdify, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::series, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::jacobian, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::iterate_map, m)?)?;
     m.add_function(wrap_pyfunction!(cache::cache_info, m)?)?;
     m.add_function(wrap_pyfunction!(cache::set_cache_dir, m)?)?;
     m.add("METHODS", sim::binding_methods().map(|m| m.name()).collect::<Vec<_>>())?;

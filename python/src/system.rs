@@ -405,6 +405,33 @@ impl PySystem {
         Ok((self.exs(eq.qdot), self.exs(eq.pdot)))
     }
 
+    /// The series of ``L`` about the point ``about`` (one value per coordinate, default all 0)
+    /// to order ``order`` in the displacements and velocities: the small-oscillation
+    /// Lagrangian ``L_lin`` of the notes (2.29) at order 2. A coordinate's name stands for its
+    /// displacement from the point in the result.
+    #[pyo3(signature = (about=None, order=2))]
+    fn series(&self, about: Option<Vec<Bound<'_, PyAny>>>, order: usize) -> PyResult<PyExpr> {
+        let Some(l) = self.sys.lagrangian() else {
+            return Err(exc::ArgumentError::new_err(
+                "series expands a Lagrangian about a point; this system is Hamiltonian (use lagrangian.series on H with the small names)",
+            ));
+        };
+        let coords = self.sys.coordinates();
+        let about: Vec<Expr> = match about {
+            None => vec![Expr::zero(); coords.len()],
+            Some(v) => v.iter().map(|x| to_expr(x, self.decls(), true)).collect::<PyResult<_>>()?,
+        };
+        if about.len() != coords.len() {
+            return Err(exc::ArgumentError::new_err(format!(
+                "`about` has {} value(s) for {} coordinate(s)",
+                about.len(),
+                coords.len()
+            )));
+        }
+        let (series, _) = lagrangian::mechanics::series_about(l, coords, &about, order).py()?;
+        Ok(self.ex(series))
+    }
+
     /// The energy function ``h = Σ q' ∂L/∂q' − L`` (or ``H`` of a Hamiltonian system).
     fn energy(&self) -> PyExpr {
         self.ex(self.sys.energy_function())

@@ -1,0 +1,66 @@
+"""The symbolic tools without a system (series, Jacobians, iterated maps) and ``System.series``,
+against hand results and a plain-Python iteration of the same maps."""
+
+import math
+
+import numpy as np
+import pytest
+
+import lagrangian as lg
+from lagrangian import Expr
+
+
+def test_series_of_an_expression_is_the_taylor_polynomial():
+    assert lg.series("sin(x)", ["x"], 5) == Expr("x - x^3/6 + x^5/120")
+    # Total degree in several small names: cos(x) cos(y) to order 2.
+    assert lg.series(Expr("cos(x) cos(y)"), ["x", "y"], 2) == Expr("1 - x^2/2 - y^2/2")
+
+
+def test_system_series_is_the_small_oscillation_lagrangian():
+    # (2.29): the pendulum about θ = 0 to second order, ½ m l² θ'² − ½ m g l θ² plus the constant 0.
+    s = lg.System.from_lagrangian("1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", ["θ"], positive=["m", "g", "l"])
+    lin = s.series()
+    assert (lin - Expr("1/2 m l^2 θ'^2 - 1/2 m g l θ^2", positive=["m", "g", "l"])).simplify() == Expr("0")
+    # About the inverted point θ = π the potential term changes sign (and a constant 2 m g l appears).
+    up = s.series(["pi"], 2)
+    want = Expr("1/2 m l^2 θ'^2 + 1/2 m g l θ^2 - 2 m g l", positive=["m", "g", "l"])
+    assert (up - want).simplify() == Expr("0")
+    with pytest.raises(ValueError, match="about"):
+        s.series([0, 1])
+    with pytest.raises(ValueError, match="Hamiltonian"):
+        lg.System.from_hamiltonian("p_q^2/2 + q^2/2", ["q"]).series()
+
+
+def test_jacobian_of_polar_coordinates():
+    m, det = lg.jacobian(["r cos(φ)", "r sin(φ)"], ["r", "φ"])
+    assert m == [[Expr("cos(φ)"), Expr("-r sin(φ)")], [Expr("sin(φ)"), Expr("r cos(φ)")]]
+    assert det == Expr("r")
+    with pytest.raises(ValueError, match="as many components"):
+        lg.jacobian(["r cos(φ)"], ["r", "φ"])
+
+
+def test_iterate_map_explicit_matches_a_python_iteration():
+    k, steps = 0.9, 50
+    starts = np.array([[1.0, 0.5], [0.2, -1.1]])
+    orbits = lg.iterate_map([("p", "p + K sin(q)"), ("q", "q + p")], ["q", "p"], starts, steps, params={"K": k})
+    assert orbits.shape == (2, steps + 1, 2)
+    for start, orbit in zip(starts, orbits):
+        q, p = start
+        for n in range(steps + 1):
+            assert orbit[n, 0] == pytest.approx(q, abs=1e-9) and orbit[n, 1] == pytest.approx(p, abs=1e-9)
+            p = p + k * math.sin(q)
+            q = q + p
+
+
+def test_iterate_map_implicit_midpoint_is_the_cayley_rotation():
+    h, steps = 0.1, 200
+    updates = [("q'", "q + h (p + p')/2"), ("p'", "p - h (q + q')/2")]
+    orbits = lg.iterate_map(updates, ["q", "p"], [[1.0, 0.0]], steps, params={"h": h})
+    a = steps * 2 * math.atan(h / 2)
+    assert orbits[0, -1, 0] == pytest.approx(math.cos(a), abs=1e-12)
+    assert orbits[0, -1, 1] == pytest.approx(-math.sin(a), abs=1e-12)
+    # No real solution (q' = q + q'² + 1 for q > −3/4): NaN from the failed step on.
+    bad = lg.iterate_map([("q'", "q + q'^2 + 1")], ["q"], [[0.0]], 3)
+    assert bad[0, 0, 0] == 0.0 and np.isnan(bad[0, 1:, 0]).all()
+    with pytest.raises(lg.MechanicsError, match="implicit map"):
+        lg.iterate_map([("q'", "q + p"), ("p", "p")], ["q", "p"], [[0.0, 1.0]], 3)
