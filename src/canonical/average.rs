@@ -11,7 +11,7 @@
 
 use std::collections::BTreeMap;
 
-use num_traits::ToPrimitive;
+use num_traits::{Signed, ToPrimitive};
 
 use crate::diff::diff;
 use crate::expr::{Expr, Func, Node, Symbol};
@@ -457,4 +457,95 @@ pub fn solve_relations(
         });
     }
     Ok(out)
+}
+
+/// `avg` written for reading: its content pulled out, then grouped by powers of the symbol named
+/// `small` (when given) and, within each power, by monomials of the `amplitudes`, monomials with the same
+/// coefficient summed: the anharmonic oscillator's ⟨L⟩ reads
+/// `l0² m (A² (ω² − ω0²) + (B² + C²) (9 ω² − ω0²) − σ ω0² (…))/4`, as the notes group it,
+/// instead of 13 expanded terms. The result equals `avg` (it is regrouped, never simplified
+/// differently); anything that is not a polynomial in the amplitudes is kept with its
+/// coefficient.
+pub fn grouped(avg: &Expr, small: Option<&str>, amplitudes: &[Symbol]) -> Expr {
+    use std::collections::BTreeMap as Map;
+    // power of small → [(amplitude monomial, coefficient)], in the order first met.
+    let mut by_power: Map<u32, Vec<(Expr, Expr)>> = Map::new();
+    for t in expand(avg).terms() {
+        let (c, rest) = t.coeff_rest();
+        let mut power = 0u32;
+        let (mut mono, mut coeff) = (Vec::new(), vec![Expr::num(c)]);
+        for f in rest.factors() {
+            let (b, x) = f.base_exp();
+            let k = x.as_num().filter(|r| r.is_integer() && r.is_positive()).and_then(|r| r.to_integer().to_u32());
+            match (b.as_sym(), k) {
+                (Some(s), Some(k)) if s.primes() == 0 && Some(s.name()) == small => power += k,
+                (Some(s), Some(_)) if amplitudes.contains(s) => mono.push(f.clone()),
+                _ => coeff.push(f.clone()),
+            }
+        }
+        let (mono, coeff) = (Expr::mul(mono), Expr::mul(coeff));
+        let group = by_power.entry(power).or_default();
+        match group.iter_mut().find(|(m, _)| *m == mono) {
+            Some((_, c)) => *c = c.plus(&coeff),
+            None => group.push((mono, coeff)),
+        }
+    }
+    // The content: the monomial factors common to every term, and the rational content of the
+    // lowest power (the notes' ¼ m l0², leaving ¾ inside the σ term).
+    let outer = |e: &Expr| -> Expr {
+        match crate::algebra::factor_content(e).node() {
+            Node::Mul(fs) => Expr::mul(fs.iter().filter(|f| !matches!(f.node(), Node::Add(_))).cloned()),
+            _ => Expr::one(),
+        }
+    };
+    let symbolic = |e: Expr| Expr::mul(e.factors().into_iter().filter(|f| f.as_num().is_none()));
+    let all = Expr::add(by_power.values().flatten().map(|(m, c)| m.times(c)));
+    // The lowest power's terms of lowest degree in the amplitudes (the quadratic part of ⟨L⟩).
+    let degree = |m: &Expr| {
+        m.factors()
+            .iter()
+            .map(|f| f.base_exp().1.as_num().and_then(|r| r.to_integer().to_u32()).unwrap_or(0))
+            .sum::<u32>()
+    };
+    let lowest = by_power
+        .values()
+        .next()
+        .map(|g| {
+            let d = g.iter().map(|(m, _)| degree(m)).min().unwrap_or(0);
+            Expr::add(g.iter().filter(|(m, _)| degree(m) == d).map(|(m, c)| m.times(c)))
+        })
+        .unwrap_or_else(Expr::one);
+    let content = symbolic(outer(&all)).times(&Expr::num(outer(&lowest).coeff_rest().0.abs()));
+    if content.is_zero() {
+        return avg.clone();
+    }
+    let sigma = small
+        .and_then(|name| avg.free_symbols().into_iter().find(|s| s.primes() == 0 && s.name() == name))
+        .map(Expr::sym);
+    let mut out = Vec::new();
+    for (power, group) in by_power {
+        let group: Vec<(Expr, Expr)> = group.into_iter().map(|(m, c)| (m, c.over(&content))).collect();
+        // Each power keeps its symbolic content and sign outside and its rationals inside
+        // (`− σ ω0² (¾ A⁴ + A³ B + …)`).
+        let (c, rest) = outer(&Expr::add(group.iter().map(|(m, c)| m.times(c)))).coeff_rest();
+        let unit = if c.is_negative() { rest.neg() } else { rest };
+        // Then monomials with the same coefficient are summed, with their common factor
+        // pulled out: (9ω² − ω0²)(B² + C²), 3 A² (B² + C²).
+        let mut by_coeff: Vec<(Expr, Vec<Expr>)> = Vec::new();
+        for (mono, coeff) in group {
+            let coeff = crate::algebra::factor_content(&coeff.over(&unit));
+            match by_coeff.iter_mut().find(|(c, _)| *c == coeff) {
+                Some((_, ms)) => ms.push(mono),
+                None => by_coeff.push((coeff, vec![mono])),
+            }
+        }
+        let part = unit.times(&Expr::add(
+            by_coeff.into_iter().map(|(c, ms)| c.times(&crate::algebra::factor_content(&Expr::add(ms)))),
+        ));
+        out.push(match &sigma {
+            Some(s) if power > 0 => s.powi(i64::from(power)).times(&part),
+            _ => part,
+        });
+    }
+    content.times(&Expr::add(out))
 }

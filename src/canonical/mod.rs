@@ -41,7 +41,7 @@ pub mod symmetry;
 
 pub use action_angle::{action_frequency, elliptic_e, elliptic_k, ActionAngleError, ActionFrequency};
 pub use average::{
-    average_lagrangian, leading_order, phase_average, solve_relations, AverageError, Averaged, LeadingOrder,
+    average_lagrangian, grouped, leading_order, phase_average, solve_relations, AverageError, Averaged, LeadingOrder,
     LeadingOrderError, RelationPoint, RelationsError, Trial, MAX_AVERAGE_ORDER,
 };
 pub use explicit::{check_map, invert_map, BracketCheck, Canonicity, ExplicitMap, MapHamiltonianError, MapReport};

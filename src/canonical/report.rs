@@ -44,7 +44,9 @@ pub fn average_lines(
 ) -> Vec<String> {
     let e = |x: &Expr| render(x, format);
     let s = |x: &Symbol| symbol(x, format);
-    let mut out = vec![format!("⟨L⟩ = {}", e(&avg.lagrangian))];
+    let amplitudes: Vec<Symbol> = avg.relations.iter().map(|(a, _)| a.clone()).collect();
+    let readable = super::average::grouped(&avg.lagrangian, lead.map(|(small, _)| small), &amplitudes);
+    let mut out = vec![format!("⟨L⟩ = {}", e(&readable))];
     for (a, rel) in &avg.relations {
         out.push(format!("∂⟨L⟩/∂{} = {} = 0", s(a), e(rel)));
     }

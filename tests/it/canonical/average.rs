@@ -199,3 +199,29 @@ fn anharmonic_relations_solved_along_the_amplitude() {
         Err(RelationsError::Unbound(n)) if n == "σ"
     ));
 }
+
+/// The printed ⟨L⟩ is grouped as the notes group it (§2.8.2): content ¼ m l0², the quadratic
+/// part by amplitude, monomials with equal coefficients summed, the σ part with −σ ω0² outside.
+/// The grouping is an identity (it expands back to ⟨L⟩), and it is no longer than the notes'
+/// own form, ¼ m l0² [(ω² − ω0²) A² + (9ω² − ω0²)(B² + C²) − σ ω0² (¾A⁴ + A³B + 3A²(B² + C²) +
+/// ¾(B² + C²)²)], by more than the one square the notes keep folded.
+#[test]
+fn averaged_lagrangian_prints_grouped_like_the_notes() {
+    let avg = anharmonic();
+    let amps = [sym("A"), sym("B"), sym("C")];
+    let g = lagrangian::canonical::grouped(&avg.lagrangian, Some("σ"), &amps);
+    assert!(lagrangian::algebra::expand(&g.minus(&avg.lagrangian)).unwrap().is_zero(), "{g}");
+    assert_eq!(
+        g.to_string(),
+        "l0^2 m (A^2 (w^2 - w0^2) - w0^2 σ (3 A^4/4 + 3 B^4/4 + 3 C^4/4 + 3 A^2 (B^2 + C^2) + A^3 B + 3 B^2 C^2/2) + (B^2 + C^2) (9 w^2 - w0^2))/4"
+    );
+    let notes = p("1/4 m l0^2 ((w^2 - w0^2) A^2 + (9 w^2 - w0^2) (B^2 + C^2) - σ w0^2 (3/4 A^4 + A^3 B + 3 A^2 (B^2 + C^2) + 3/4 (B^2 + C^2)^2))");
+    assert!(lagrangian::algebra::expand(&notes.minus(&avg.lagrangian)).unwrap().is_zero(), "the notes' form is ⟨L⟩");
+    let (ours, theirs, expanded) = (g.op_count(), notes.op_count(), avg.lagrangian.op_count());
+    eprintln!("⟨L⟩ operations: grouped {ours}, notes {theirs}, expanded {expanded}");
+    assert!(ours <= theirs + 6 && ours * 2 < expanded, "grouped {ours}, notes {theirs}, expanded {expanded}");
+    // Without a small parameter the same content and quadratic grouping come out.
+    let g = lagrangian::canonical::grouped(&avg.lagrangian, None, &amps);
+    assert!(lagrangian::algebra::expand(&g.minus(&avg.lagrangian)).unwrap().is_zero(), "{g}");
+    assert!(g.to_string().starts_with("l0^2 m (A^2 (w^2 - w0^2)"), "{g}");
+}
