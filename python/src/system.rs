@@ -651,8 +651,17 @@ impl PySystem {
 
     /// The averaged Lagrangian of trial functions (``{"x": "l0 (A cos(θ) + B cos(3θ))"}``) over
     /// the phase ``phase`` with frequency ``frequency`` and amplitudes ``amplitudes``. Returns a
-    /// dict: ``lagrangian`` ⟨L⟩, ``relations`` (``∂⟨L⟩/∂A_k``, each ``= 0``) and ``action``
-    /// ``∂⟨L⟩/∂ω``.
+    /// dict: ``lagrangian`` ⟨L⟩, ``grouped`` (the same, grouped for reading as the notes write
+    /// it), ``relations`` (``∂⟨L⟩/∂A_k``, each ``= 0``) and ``action`` ``∂⟨L⟩/∂ω``.
+    ///
+    /// With ``small`` and ``unperturbed`` (``ω0``): ``series``, the relations solved as a
+    /// series in ``small`` to ``order`` (``{"frequency": Expr, "amplitudes": [(name, Expr)]}``,
+    /// the first amplitude, or ``principal``, left free). With ``sweep`` as well (values of that
+    /// amplitude): ``solved``, the relations solved numerically at each value with this
+    /// system's parameter values, by Newton's method continued along them
+    /// (``{"<amplitude>": values, "<frequency>": …, "<other amplitude>": …}``, NumPy arrays).
+    #[pyo3(signature = (trials, phase, frequency, amplitudes, *, small=None, unperturbed=None, principal=None, order=1, sweep=None))]
+    #[allow(clippy::too_many_arguments)]
     fn average<'py>(
         &self,
         py: Python<'py>,
@@ -660,6 +669,11 @@ impl PySystem {
         phase: &str,
         frequency: &str,
         amplitudes: Vec<String>,
+        small: Option<String>,
+        unperturbed: Option<Bound<'py, PyAny>>,
+        principal: Option<String>,
+        order: usize,
+        sweep: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let Some(l) = self.sys.lagrangian() else {
             return Err(exc::MechanicsError::new_err("error: averaging needs a Lagrangian system"));
@@ -677,13 +691,58 @@ impl PySystem {
             amplitudes.iter().map(|a| to_symbol(&a.into_pyobject(py)?.into_any(), &decls)).collect::<PyResult<_>>()?;
         let avg = py.allow_threads(|| canonical::average::average_lagrangian(l, &ts, &phase, &freq, &amps)).py()?;
         let d = PyDict::new(py);
-        d.set_item("lagrangian", PyExpr::new(avg.lagrangian, &decls))?;
+        d.set_item("lagrangian", PyExpr::new(avg.lagrangian.clone(), &decls))?;
+        let grouped = canonical::average::grouped(&avg.lagrangian, small.as_deref(), &amps);
+        d.set_item("grouped", PyExpr::new(grouped, &decls))?;
         let rel = PyList::empty(py);
-        for (s, e) in avg.relations {
-            rel.append((s.to_string(), PyExpr::new(e, &decls)))?;
+        for (s, e) in &avg.relations {
+            rel.append((s.to_string(), PyExpr::new(e.clone(), &decls)))?;
         }
         d.set_item("relations", rel)?;
-        d.set_item("action", PyExpr::new(avg.action, &decls))?;
+        d.set_item("action", PyExpr::new(avg.action.clone(), &decls))?;
+        let (Some(small), Some(w0)) = (small, unperturbed) else {
+            if sweep.is_some() {
+                return Err(exc::ArgumentError::new_err(
+                    "`sweep` needs `small` and `unperturbed` (the series gives the first guess)",
+                ));
+            }
+            return Ok(d);
+        };
+        let sigma = to_symbol(&small.into_pyobject(py)?.into_any(), &decls)?;
+        let w0 = to_expr(&w0, &decls, true)?;
+        let principal = match principal {
+            Some(a) => to_symbol(&a.into_pyobject(py)?.into_any(), &decls)?,
+            None => amps.first().cloned().ok_or_else(|| exc::ArgumentError::new_err("no amplitudes to solve for"))?,
+        };
+        let lo = canonical::leading_order(&avg, &freq, &w0, &sigma, &principal, order)
+            .map_err(|e| exc::AverageError::new_err(e.to_string()))?;
+        let series = PyDict::new(py);
+        series.set_item("order", lo.order)?;
+        series.set_item("frequency", PyExpr::new(lo.frequency.clone(), &decls))?;
+        let pairs = PyList::empty(py);
+        for (a, e) in &lo.amplitudes {
+            pairs.append((a.to_string(), PyExpr::new(e.clone(), &decls)))?;
+        }
+        series.set_item("amplitudes", pairs)?;
+        d.set_item("series", series)?;
+        if let Some(values) = sweep {
+            let params: HashMap<String, f64> = self.spec().params.into_iter().collect();
+            let lookup = |s: &Symbol| params.get(s.name()).copied();
+            let guess = lagrangian::eval::eval_with(&w0, &|s: &Symbol| lookup(s)).py()?;
+            let points = py
+                .allow_threads(|| canonical::solve_relations(&avg, &freq, &principal, &values, guess, &lookup))
+                .map_err(|e| exc::AverageError::new_err(e.to_string()))?;
+            let solved = PyDict::new(py);
+            solved.set_item(principal.to_string(), numpy::PyArray1::from_vec(py, values.clone()))?;
+            solved.set_item(freq.to_string(), numpy::PyArray1::from_iter(py, points.iter().map(|p| p.frequency)))?;
+            for (k, (a, _)) in points.first().map(|p| p.amplitudes.clone()).unwrap_or_default().iter().enumerate() {
+                solved.set_item(
+                    a.to_string(),
+                    numpy::PyArray1::from_iter(py, points.iter().map(|p| p.amplitudes[k].1)),
+                )?;
+            }
+            d.set_item("solved", solved)?;
+        }
         Ok(d)
     }
 

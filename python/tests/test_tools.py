@@ -64,3 +64,29 @@ def test_iterate_map_implicit_midpoint_is_the_cayley_rotation():
     assert bad[0, 0, 0] == 0.0 and np.isnan(bad[0, 1:, 0]).all()
     with pytest.raises(lg.MechanicsError, match="implicit map"):
         lg.iterate_map([("q'", "q + p"), ("p", "p")], ["q", "p"], [[0.0, 1.0]], 3)
+
+
+def test_average_series_and_relations_solved_along_the_amplitude():
+    # The hard-spring anharmonic oscillator of the notes (§2.8.2) with m = ω0 = l0 = σ = 1.
+    # Second-order series: ω = ω0 (1 + 3σA²/4 − 15σ²A⁴/64), B = σA³/16 − 21σ²A⁵/256 (SymPy,
+    # scripts/average_series_sympy.py); the relations at A = 1: ω = 1.5943146199509888,
+    # B = 0.026489365310534100 (SymPy's nsolve, same script).
+    s = lg.System.from_lagrangian(
+        "1/2 m x'^2 - 1/2 m ω0^2 (x^2 + σ x^4/l0^2)", ["x"],
+        params={"m": 1.0, "ω0": 1.0, "σ": 1.0, "l0": 1.0}, positive=["m", "ω0", "l0"],
+    )
+    trial = {"x": "l0 (A cos(θ) + B cos(3 θ) + C sin(3 θ))"}
+    r = s.average(trial, "θ", "ω", ["A", "B", "C"], small="σ", unperturbed="ω0", order=2,
+                  sweep=[0.5, 0.75, 1.0])
+    pos = ["m", "ω0", "l0"]
+    assert (r["series"]["frequency"] - Expr("ω0 (1 + 3 σ A^2/4 - 15 σ^2 A^4/64)", positive=pos)).simplify() == Expr("0")
+    assert r["series"]["amplitudes"][0][0] == "B"
+    assert (r["series"]["amplitudes"][0][1] - Expr("σ A^3/16 - 21 σ^2 A^5/256")).simplify() == Expr("0")
+    assert (r["grouped"] - r["lagrangian"]).simplify() == Expr("0")
+    solved = r["solved"]
+    assert list(solved["A"]) == [0.5, 0.75, 1.0]
+    assert solved["ω"][-1] == pytest.approx(1.5943146199509888, abs=1e-12)
+    assert solved["B"][-1] == pytest.approx(0.026489365310534100, abs=1e-12)
+    assert np.all(np.abs(solved["C"]) < 1e-14)
+    with pytest.raises(ValueError, match="needs `small`"):
+        s.average(trial, "θ", "ω", ["A", "B", "C"], sweep=[1.0])
