@@ -574,3 +574,26 @@ impl std::fmt::Display for Expr {
         f.write_str(&plain(self))
     }
 }
+
+/// A number for messages: short, deterministic. Whole numbers below 10¹⁵ as integers; other
+/// numbers from 10⁻⁴ to 10¹⁵ to six decimals (so `0.1 + 0.2` reads `0.3`), or in full when six
+/// decimals would hide that they are not whole (`1.0000001`, not `1.`); anything larger or
+/// smaller in scientific notation (`1e308`, not 309 digits; `2.5e-7`, not `0.`).
+pub fn fmt_num(x: f64) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    if x == x.trunc() && x.abs() < 1e15 {
+        return format!("{x:.0}");
+    }
+    if !(1e-4..1e15).contains(&x.abs()) {
+        return format!("{x:e}");
+    }
+    let s = format!("{x:.6}");
+    let s = s.trim_end_matches('0');
+    if s.ends_with('.') {
+        format!("{x}")
+    } else {
+        s.to_string()
+    }
+}

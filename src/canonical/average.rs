@@ -367,7 +367,7 @@ pub struct RelationPoint {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RelationsError {
     /// A symbol other than the unknowns and the principal amplitude has no value.
-    #[error("`{0}` has no value")]
+    #[error("`{0}` has no value (give it one: a scene parameter, `--params` or the system's params)")]
     Unbound(String),
     /// Newton's method found no solution near the guess.
     #[error("no solution of the relations near {principal} = {value} (Newton's method from ω = {guess} did not converge); a smaller step between the amplitudes, or a smaller amplitude to start from, would help")]
@@ -548,4 +548,41 @@ pub fn grouped(avg: &Expr, small: Option<&str>, amplitudes: &[Symbol]) -> Expr {
         });
     }
     content.times(&Expr::add(out))
+}
+
+/// The relations solved along the principal amplitude, beside their series: what `average … for
+/// A in a..b` prints and draws on every front end.
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    /// The solution at each amplitude.
+    pub points: Vec<RelationPoint>,
+    /// The series' frequency at each amplitude.
+    pub series: Vec<f64>,
+    /// The order of that series.
+    pub order: usize,
+}
+
+/// [`solve_relations`] at `values` of `principal`, started from `omega0` (evaluated with
+/// `params`), and the series `lo`'s frequency at the same amplitudes.
+pub fn sweep(
+    avg: &Averaged,
+    frequency: &Symbol,
+    omega0: &Expr,
+    lo: &LeadingOrder,
+    principal: &Symbol,
+    values: &[f64],
+    params: &dyn Fn(&Symbol) -> Option<f64>,
+) -> Result<Sweep, RelationsError> {
+    let number = |e: &Expr, a: f64| {
+        crate::eval::eval_with(e, &|s: &Symbol| if s == principal { Some(a) } else { params(s) }).map_err(|err| {
+            match err {
+                crate::eval::EvalError::Unbound(s) => RelationsError::Unbound(s),
+                other => RelationsError::Unbound(other.to_string()),
+            }
+        })
+    };
+    let first = values.first().copied().unwrap_or(0.0);
+    let points = solve_relations(avg, frequency, principal, values, number(omega0, first)?, params)?;
+    let series = values.iter().map(|&a| number(&lo.frequency, a)).collect::<Result<_, _>>()?;
+    Ok(Sweep { points, series, order: lo.order })
 }

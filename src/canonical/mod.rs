@@ -41,8 +41,8 @@ pub mod symmetry;
 
 pub use action_angle::{action_frequency, elliptic_e, elliptic_k, ActionAngleError, ActionFrequency};
 pub use average::{
-    average_lagrangian, grouped, leading_order, phase_average, solve_relations, AverageError, Averaged, LeadingOrder,
-    LeadingOrderError, RelationPoint, RelationsError, Trial, MAX_AVERAGE_ORDER,
+    average_lagrangian, grouped, leading_order, phase_average, solve_relations, sweep, AverageError, Averaged,
+    LeadingOrder, LeadingOrderError, RelationPoint, RelationsError, Sweep, Trial, MAX_AVERAGE_ORDER,
 };
 pub use explicit::{check_map, invert_map, BracketCheck, Canonicity, ExplicitMap, MapHamiltonianError, MapReport};
 pub use generating::{GeneratedTransform, Generator, GeneratorKind, NumericMapError, Relation, TransformError};

@@ -208,3 +208,30 @@ pub fn transform_lines(t: &GeneratedTransform, format: Format) -> Vec<String> {
     }
     out
 }
+
+/// The lines of an `average … for A in a..b` sweep: a heading, then a few rows (all of at most
+/// six, else the first, quarter, half, three quarters and last) of the amplitude, the frequency
+/// solved, the series' frequency beside it and the other amplitudes.
+pub fn sweep_lines(sweep: &super::average::Sweep, principal: &Symbol, frequency: &Symbol) -> Vec<String> {
+    use crate::print::fmt_num;
+    let n = sweep.points.len();
+    let (Some(first), Some(last)) = (sweep.points.first(), sweep.points.last()) else { return Vec::new() };
+    let mut out = vec![format!(
+        "the relations solved at {n} values of {principal} in {}..{} ({frequency} by Newton's method; the series to order {} beside it):",
+        fmt_num(first.principal),
+        fmt_num(last.principal),
+        sweep.order
+    )];
+    let rows = if n <= 6 { (0..n).collect::<Vec<_>>() } else { vec![0, n / 4, n / 2, 3 * n / 4, n - 1] };
+    for k in rows {
+        let p = &sweep.points[k];
+        let others: String = p.amplitudes.iter().map(|(s, v)| format!(", {s} = {}", fmt_num(*v))).collect();
+        out.push(format!(
+            "  {principal} = {}: {frequency} = {} (series {}){others}",
+            fmt_num(p.principal),
+            fmt_num(p.frequency),
+            fmt_num(sweep.series[k])
+        ));
+    }
+    out
+}

@@ -195,6 +195,16 @@ pub struct AverageArgs {
     /// The order of the series in --small (1 to 4).
     #[arg(long, default_value_t = 1, requires = "small")]
     pub order: usize,
+    /// Also solve the relations numerically along the principal amplitude, `A=0.05..1`
+    /// (needs --small, --unperturbed and --params for every other symbol).
+    #[arg(long, requires = "small")]
+    pub sweep: Option<String>,
+    /// How many amplitudes --sweep solves at (2 to 10000).
+    #[arg(long, default_value_t = 20, requires = "sweep")]
+    pub points: usize,
+    /// Parameter values for --sweep, `m=1,σ=1`.
+    #[arg(long, value_delimiter = ',', requires = "sweep")]
+    pub params: Vec<String>,
     #[command(flatten)]
     pub common: Common,
 }
@@ -405,6 +415,9 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 unperturbed,
                 principal,
                 order,
+                sweep,
+                points,
+                params,
                 common,
             } = *args;
             let decls = common.declarations();
@@ -447,8 +460,47 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 }
                 _ => None,
             };
+            let swept = match (&sweep, &lead) {
+                (Some(spec), Some(lo)) => {
+                    let (name, range) = spec
+                        .split_once('=')
+                        .ok_or_else(|| bad_input(format!("error: --sweep takes A=from..to, got `{spec}`")))?;
+                    let principal = parse_var(name, &decls)?;
+                    let (a, b) = range
+                        .split_once("..")
+                        .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)))
+                        .filter(|(a, b)| a.is_finite() && b.is_finite())
+                        .ok_or_else(|| {
+                            bad_input(format!("error: --sweep `{spec}`: expected A=from..to with two numbers"))
+                        })?;
+                    if !(2..=10_000).contains(&points) {
+                        return Err(bad_input(format!("error: --points must be 2..=10000, not {points}")));
+                    }
+                    let values: Vec<f64> = (0..points).map(|k| a + (b - a) * k as f64 / (points - 1) as f64).collect();
+                    let env = parse_params(&params, &common.positive)?;
+                    let w0 = parse_arg(unperturbed.as_deref().unwrap_or_default(), &decls)?.1;
+                    let s = canonical::sweep(&avg, &w, &w0, lo, &principal, &values, &|s: &Symbol| {
+                        env.get(s.name()).copied()
+                    })
+                    .map_err(|e| bad_input(format!("error: {e}")))?;
+                    Some((principal, s))
+                }
+                _ => None,
+            };
             let out = Out { format: common.format };
             if common.format == OutFormat::Json {
+                let solved = swept.as_ref().map(|(a, s)| {
+                    let mut m = serde_json::Map::new();
+                    m.insert(a.to_string(), json!(s.points.iter().map(|p| p.principal).collect::<Vec<_>>()));
+                    m.insert(w.to_string(), json!(s.points.iter().map(|p| p.frequency).collect::<Vec<_>>()));
+                    m.insert(format!("{w}_series"), json!(s.series));
+                    for (k, (b, _)) in
+                        s.points.first().map(|p| p.amplitudes.clone()).unwrap_or_default().iter().enumerate()
+                    {
+                        m.insert(b.to_string(), json!(s.points.iter().map(|p| p.amplitudes[k].1).collect::<Vec<_>>()));
+                    }
+                    Value::Object(m)
+                });
                 let lo = lead
                     .as_ref()
                     .map(|lo| json!({"order": lo.order, "frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
@@ -460,12 +512,17 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 println!(
                     "{}",
                     json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string(),
-                           "leading_order": lo})
+                           "leading_order": lo, "solved": solved})
                 );
             } else {
                 let lead = lead.as_ref().map(|lo| (small.as_deref().unwrap_or("σ"), lo));
                 for l in canonical::report::average_lines(&avg, &w, lead, out.format.expr_format()) {
                     println!("{l}");
+                }
+                if let Some((a, s)) = &swept {
+                    for l in canonical::report::sweep_lines(s, a, &w) {
+                        println!("{l}");
+                    }
                 }
             }
         }

@@ -13,7 +13,6 @@ use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 
 use crate::plot::{Figure, Series};
-use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::{LieGenerator, Src, StmtKind};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
@@ -332,34 +331,18 @@ impl Session {
         };
         let values: Vec<f64> = (0..n).map(|k| a + (b - a) * k as f64 / (n - 1) as f64).collect();
         let params = self.param_values();
-        let lookup = |s: &Symbol| params.get(s.name()).copied();
-        let number = |e: &crate::expr::Expr, amp: f64| {
-            crate::eval::eval_with(e, &|s: &Symbol| if *s == principal { Some(amp) } else { lookup(s) })
-        };
-        let missing = |e: crate::eval::EvalError| {
-            SceneError::new(ErrorKind::MissingValue, format!("the sweep needs values: {e}")).at(at.span)
-        };
-        let guess = number(w0, a).map_err(missing)?;
-        let points = canonical::solve_relations(avg, w, &principal, &values, guess, &lookup)
-            .map_err(|e| SceneError::new(ErrorKind::Numeric, e.to_string()).at(at.span))?;
-        let series_w: Vec<f64> =
-            values.iter().map(|&v| number(&lo.frequency, v)).collect::<Result<_, _>>().map_err(missing)?;
+        let result = canonical::sweep(avg, w, w0, lo, &principal, &values, &|s: &Symbol| params.get(s.name()).copied())
+            .map_err(|e| {
+                let kind = if matches!(e, canonical::RelationsError::Unbound(_)) {
+                    ErrorKind::MissingValue
+                } else {
+                    ErrorKind::Numeric
+                };
+                SceneError::new(kind, e.to_string()).at(at.span)
+            })?;
+        self.emit(canonical::report::sweep_lines(&result, &principal, w));
+        let (points, series_w) = (&result.points, &result.series);
         let wn = w.to_string();
-        self.output.push(format!(
-            "the relations solved at {} values of {principal} in {a}..{b} ({wn} by Newton's method; the series to order {} beside it):",
-            n, lo.order
-        ));
-        let rows = if n <= 6 { (0..n).collect::<Vec<_>>() } else { vec![0, n / 4, n / 2, 3 * n / 4, n - 1] };
-        for k in rows {
-            let p = &points[k];
-            let others: String = p.amplitudes.iter().map(|(s, v)| format!(", {s} = {}", fmt_num(*v))).collect();
-            self.output.push(format!(
-                "  {principal} = {}: {wn} = {} (series {}){others}",
-                fmt_num(p.principal),
-                fmt_num(p.frequency),
-                fmt_num(series_w[k])
-            ));
-        }
         let Some(path) = &sweep.path else { return Ok(()) };
         let (file, pspan, ext) = self.out_file(
             at.span,
@@ -376,7 +359,7 @@ impl Session {
                 text.push_str(&format!(",{s}"));
             }
             text.push('\n');
-            for (p, ws) in points.iter().zip(&series_w) {
+            for (p, ws) in points.iter().zip(series_w) {
                 text.push_str(&format!("{},{},{}", p.principal, p.frequency, ws));
                 for (_, v) in &p.amplitudes {
                     text.push_str(&format!(",{v}"));

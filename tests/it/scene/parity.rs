@@ -174,6 +174,44 @@ fn average_solved_to_first_order_in_a_small_parameter() {
     assert_eq!(find("  C = "), "0");
 }
 
+/// The second-order series and the relations solved along A (`order 2 for A in 0.5..1 points
+/// 3` against `--order 2 --sweep A=0.5..1 --points 3 --params …`): the same lines; the row at
+/// A = 1 is SymPy's nsolve value (scripts/average_series_sympy.py) to the six printed decimals.
+#[test]
+fn average_to_second_order_and_swept_along_the_amplitude() {
+    let l = "1/2 m x'^2 - 1/2 m ω0^2 (x^2 + σ x^4/l0^2)";
+    let trial = "l0 (A cos(θ) + B cos(3 θ) + C sin(3 θ))";
+    let out = same(
+        &format!(
+            "coordinates x\nparameters m = 1, ω0 = 1, σ = 1, l0 = 1 positive\nL = {l}\n\
+             average L with x = {trial} phase θ frequency ω amplitudes A, B, C small σ unperturbed ω0 order 2 \
+             for A in 0.5..1 points 3 as plain"
+        ),
+        &[
+            "average",
+            l,
+            "--trial",
+            &format!("x = {trial}"),
+            "--small",
+            "σ",
+            "--unperturbed",
+            "ω0",
+            "--order",
+            "2",
+            "--sweep",
+            "A=0.5..1",
+            "--points",
+            "3",
+            "--params",
+            "m=1,ω0=1,σ=1,l0=1",
+            "--positive",
+            "m,ω0,σ,l0",
+        ],
+    );
+    assert!(out.iter().any(|l| l == "to second order in σ:"), "{out:?}");
+    assert_eq!(out.last().map(String::as_str), Some("  A = 1: ω = 1.594315 (series 1.515625), B = 0.026489, C = 0"));
+}
+
 /// `conserved` prints the same lines in a scene and on the command line, the symmetry search
 /// included: Kepler in Cartesian coordinates (given by its Hamiltonian, so the charge is in
 /// momenta) gives H and L_z = x p_y − y p_x with its generator and the search's bound.
