@@ -659,7 +659,8 @@ impl PySystem {
     /// the first amplitude, or ``principal``, left free). With ``sweep`` as well (values of that
     /// amplitude): ``solved``, the relations solved numerically at each value with this
     /// system's parameter values, by Newton's method continued along them
-    /// (``{"<amplitude>": values, "<frequency>": …, "<other amplitude>": …}``, NumPy arrays).
+    /// (``{"<amplitude>": values, "<frequency>": …, "<frequency>_series": …, "<other amplitude>":
+    /// …}``, NumPy arrays).
     #[pyo3(signature = (trials, phase, frequency, amplitudes, *, small=None, unperturbed=None, principal=None, order=1, sweep=None))]
     #[allow(clippy::too_many_arguments)]
     fn average<'py>(
@@ -728,13 +729,14 @@ impl PySystem {
         if let Some(values) = sweep {
             let params: HashMap<String, f64> = self.spec().params.into_iter().collect();
             let lookup = |s: &Symbol| params.get(s.name()).copied();
-            let guess = lagrangian::eval::eval_with(&w0, &|s: &Symbol| lookup(s)).py()?;
-            let points = py
-                .allow_threads(|| canonical::solve_relations(&avg, &freq, &principal, &values, guess, &lookup))
+            let swept = py
+                .allow_threads(|| canonical::sweep(&avg, &freq, &w0, &lo, &principal, &values, &lookup))
                 .map_err(|e| exc::AverageError::new_err(e.to_string()))?;
+            let points = &swept.points;
             let solved = PyDict::new(py);
             solved.set_item(principal.to_string(), numpy::PyArray1::from_vec(py, values.clone()))?;
             solved.set_item(freq.to_string(), numpy::PyArray1::from_iter(py, points.iter().map(|p| p.frequency)))?;
+            solved.set_item(format!("{freq}_series"), numpy::PyArray1::from_vec(py, swept.series.clone()))?;
             for (k, (a, _)) in points.first().map(|p| p.amplitudes.clone()).unwrap_or_default().iter().enumerate() {
                 solved.set_item(
                     a.to_string(),

@@ -88,5 +88,6 @@ def test_average_series_and_relations_solved_along_the_amplitude():
     assert solved["ω"][-1] == pytest.approx(1.5943146199509888, abs=1e-12)
     assert solved["B"][-1] == pytest.approx(0.026489365310534100, abs=1e-12)
     assert np.all(np.abs(solved["C"]) < 1e-14)
+    assert solved["ω_series"][-1] == pytest.approx(1 + 3 / 4 - 15 / 64, abs=1e-14)
     with pytest.raises(ValueError, match="needs `small`"):
         s.average(trial, "θ", "ω", ["A", "B", "C"], sweep=[1.0])
