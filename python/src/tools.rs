@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use lagrangian::expr::{Expr, Symbol};
-use lagrangian::mechanics::{self, ExplicitMap, ImplicitMap};
+use lagrangian::mechanics::{self, PhaseMap};
 use lagrangian::Declarations;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -89,15 +89,8 @@ pub fn iterate_map<'py>(
     }
     let params = params.unwrap_or_default();
     let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-    let implicit = parsed.iter().any(|(t, _)| t.primes() > 0);
-    let orbits = py.allow_threads(|| {
-        if implicit {
-            ImplicitMap::new(&vars, &parsed, &params).and_then(|m| m.orbits(&starts, steps)).map(|(o, _)| o)
-        } else {
-            ExplicitMap::new(&vars, &parsed, &params).and_then(|m| m.orbits(&starts, steps))
-        }
-    });
-    let orbits = orbits.py()?;
+    let run = py.allow_threads(|| PhaseMap::new(&vars, &parsed, &params).and_then(|m| m.run(&starts, steps))).py()?;
+    let orbits = run.orbits;
     let n = vars.len();
     let mut out = vec![f64::NAN; orbits.len() * (steps + 1) * n];
     for (k, orbit) in orbits.iter().enumerate() {

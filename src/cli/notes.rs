@@ -124,6 +124,30 @@ pub enum NotesCommand {
         #[command(flatten)]
         common: Common,
     },
+    /// Iterates a map of phase space (§3.1, §4.7.2) from one start: plain assignments run in
+    /// order, each seeing the values already assigned this step (the standard map `p = p + K
+    /// sin(q)`, `q = q + p`); primed ones give the new values by equations that may use them
+    /// (the implicit midpoint rule `q' = q + h (p + p')/2`, `p' = p - h (q + q')/2`), solved by
+    /// Newton's method each step. Prints the last state; `--format json` gives every state.
+    Map {
+        /// The updates, each `name = expression` (or `name' = expression`).
+        #[arg(required = true)]
+        updates: Vec<String>,
+        /// The state's variables, in order (`q,p`).
+        #[arg(long, value_delimiter = ',', required = true)]
+        vars: Vec<String>,
+        /// The start, one value per variable.
+        #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true, value_parser = super::finite_f64)]
+        from: Vec<f64>,
+        /// How many iterations.
+        #[arg(long)]
+        steps: usize,
+        /// Parameter values, `K=0.9,h=0.1`.
+        #[arg(long, value_delimiter = ',')]
+        params: Vec<String>,
+        #[command(flatten)]
+        common: Common,
+    },
 }
 
 fn fail(e: MechanicsError) -> Failure {
@@ -229,6 +253,35 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
         }
         NotesCommand::Ritz { lagrangian, coords, trial, unknowns, span, from, to, set, guess, common } => {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
+        }
+        NotesCommand::Map { updates, vars, from, steps, params, common } => {
+            let decls = common.declarations();
+            let mut parsed = Vec::with_capacity(updates.len());
+            for u in &updates {
+                let (target, value) = u
+                    .split_once('=')
+                    .ok_or_else(|| bad_input(format!("error: an update is `name = expression`, got `{u}`")))?;
+                parsed.push((super::parse_var(target.trim(), &decls)?, parse_arg(value, &decls)?.1));
+            }
+            let names: Vec<lagrangian::expr::Symbol> =
+                vars.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+            let params = super::name_values("--params", &params, &common.positive)?;
+            let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+            let run = lagrangian::mechanics::PhaseMap::new(&names, &parsed, &params)
+                .and_then(|m| m.run(&[from], steps))
+                .map_err(|e| bad_input(format!("error: {e}")))?;
+            if common.format == super::OutFormat::Json {
+                let states: Vec<Vec<Option<f64>>> =
+                    run.orbits[0].iter().map(|s| s.iter().map(|x| x.is_finite().then_some(*x)).collect()).collect();
+                println!(
+                    "{}",
+                    json!({"variables": vars, "implicit": run.implicit, "unsolved": run.unsolved, "states": states})
+                );
+            } else {
+                for l in run.report() {
+                    println!("{l}");
+                }
+            }
         }
         NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
             let Some(r) = Rule::from_name(rule.trim()) else {

@@ -241,3 +241,83 @@ impl ImplicitMap {
         Ok((orbits, unsolved))
     }
 }
+
+/// The most orbits whose last state [`MapRun::report`] prints.
+pub const PRINTED_ORBITS: usize = 10;
+
+/// A map of phase space, explicit or implicit as its updates are written: plain targets are
+/// assignments in order ([`ExplicitMap`]), primed ones (`q' = …`) equations for the new values
+/// ([`ImplicitMap`]). Every front end builds its map here, so the choice is made once.
+pub enum PhaseMap {
+    /// Assignments in order.
+    Explicit(ExplicitMap),
+    /// Equations for the new values, solved by Newton's method.
+    Implicit(ImplicitMap),
+}
+
+/// Orbits of a [`PhaseMap`] and how they ended.
+#[derive(Clone, Debug)]
+pub struct MapRun {
+    /// Each start's states, the start first; a stopped orbit ends with its non-finite state.
+    pub orbits: Vec<Orbit>,
+    /// Orbits stopped at a step whose implicit equations had no solution found.
+    pub unsolved: usize,
+    /// Whether the map was implicit.
+    pub implicit: bool,
+    /// The iterations asked for.
+    pub steps: usize,
+}
+
+impl PhaseMap {
+    /// The map of `updates` over the state `vars` with `params` bound.
+    pub fn new(vars: &[Symbol], updates: &[(Symbol, Expr)], params: &[(&str, f64)]) -> Result<PhaseMap, MapError> {
+        if updates.iter().any(|(t, _)| t.primes() > 0) {
+            ImplicitMap::new(vars, updates, params).map(PhaseMap::Implicit)
+        } else {
+            ExplicitMap::new(vars, updates, params).map(PhaseMap::Explicit)
+        }
+    }
+
+    /// The orbits of `starts` over `steps` iterations.
+    pub fn run(&self, starts: &[Vec<f64>], steps: usize) -> Result<MapRun, MapError> {
+        let (orbits, unsolved, implicit) = match self {
+            PhaseMap::Explicit(m) => (m.orbits(starts, steps)?, 0, false),
+            PhaseMap::Implicit(m) => {
+                let (o, u) = m.orbits(starts, steps)?;
+                (o, u, true)
+            }
+        };
+        Ok(MapRun { orbits, unsolved, implicit, steps })
+    }
+}
+
+impl MapRun {
+    /// What every front end prints: the orbits, how many stopped and why, and the first and last
+    /// state of the first [`PRINTED_ORBITS`] orbits.
+    pub fn report(&self) -> Vec<String> {
+        let stopped = self.orbits.iter().filter(|o| o.last().is_some_and(|s| s.iter().any(|x| !x.is_finite()))).count();
+        let left = stopped.saturating_sub(self.unsolved);
+        let mut stops = Vec::new();
+        if left > 0 {
+            stops.push(format!("{left} left the finite numbers and stopped"));
+        }
+        if self.unsolved > 0 {
+            stops.push(format!(
+                "{} stopped at a step whose implicit equations Newton's method could not solve (a smaller step parameter would help)",
+                self.unsolved
+            ));
+        }
+        let mut out = vec![format!(
+            "map: {} orbit(s) of {} step(s){}{}",
+            self.orbits.len(),
+            self.steps,
+            if self.implicit { ", implicit (Newton's method per step)" } else { "" },
+            stops.iter().map(|s| format!("; {s}")).collect::<String>()
+        )];
+        for o in self.orbits.iter().take(PRINTED_ORBITS) {
+            let fmt = |s: &[f64]| s.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ");
+            out.push(format!("  ({}) → ({})", fmt(&o[0]), fmt(o.last().map(Vec::as_slice).unwrap_or(&[]))));
+        }
+        out
+    }
+}

@@ -1,9 +1,9 @@
 //! `map`: iterates an explicit or implicit map of phase space through
-//! [`crate::mechanics::ExplicitMap`] or [`crate::mechanics::ImplicitMap`]
+//! [`crate::mechanics::PhaseMap`]
 //! (the iteration is the library's; this file resolves the statement and draws the orbits).
 
 use crate::expr::Symbol;
-use crate::mechanics::{ExplicitMap, ImplicitMap};
+use crate::mechanics::PhaseMap;
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
 use crate::scene::syntax::ast::Src;
@@ -11,8 +11,6 @@ use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// The most values per range (`points`).
 const MAX_POINTS: f64 = 1000.0;
-/// The most orbits whose last state is printed.
-const PRINTED_ORBITS: usize = 10;
 
 impl Session {
     /// `map … for N steps from … [points N] [to FILE]`.
@@ -104,38 +102,9 @@ impl Session {
         let params = self.param_values();
         let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let fail = |e: crate::mechanics::MapError| SceneError::new(ErrorKind::Numeric, e.to_string()).at(at.span);
-        let (orbits, unsolved) = if implicit {
-            ImplicitMap::new(&vars, &updates, &params).and_then(|m| m.orbits(&grid, n_steps as usize)).map_err(fail)?
-        } else {
-            (
-                ExplicitMap::new(&vars, &updates, &params)
-                    .and_then(|m| m.orbits(&grid, n_steps as usize))
-                    .map_err(fail)?,
-                0,
-            )
-        };
-        let left =
-            orbits.iter().filter(|o| o.last().is_some_and(|s| s.iter().any(|x| !x.is_finite()))).count() - unsolved;
-        let mut stops = Vec::new();
-        if left > 0 {
-            stops.push(format!("{left} left the finite numbers and stopped"));
-        }
-        if unsolved > 0 {
-            stops.push(format!(
-                "{unsolved} stopped at a step whose implicit equations Newton's method could not solve (a smaller step parameter would help)"
-            ));
-        }
-        self.output.push(format!(
-            "map: {} orbit(s) of {} step(s){}{}",
-            orbits.len(),
-            n_steps,
-            if implicit { ", implicit (Newton's method per step)" } else { "" },
-            stops.iter().map(|s| format!("; {s}")).collect::<String>()
-        ));
-        for o in orbits.iter().take(PRINTED_ORBITS) {
-            let fmt = |s: &[f64]| s.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ");
-            self.output.push(format!("  ({}) → ({})", fmt(&o[0]), fmt(o.last().map(Vec::as_slice).unwrap_or(&[]))));
-        }
+        let run = PhaseMap::new(&vars, &updates, &params).and_then(|m| m.run(&grid, n_steps as usize)).map_err(fail)?;
+        self.output.extend(run.report());
+        let orbits = run.orbits;
         if path.is_some() {
             if names.len() < 2 {
                 return Err(SceneError::new(

@@ -638,3 +638,54 @@ fn jacobian_of_polar_coordinates_equals_the_command_line() {
     assert_eq!(out.len(), 3, "{out:?}");
     assert_eq!(out[2], "det = r");
 }
+
+/// `map` (explicit and implicit) prints the same lines in a scene and on the command line; the
+/// standard map's three steps are the hand iteration (Python floats: 5.375066801394972,
+/// 1.1643125003166652) and the implicit midpoint rule's hundred steps the rotation by
+/// 100 · 2 atan(h/2).
+#[test]
+fn map_explicit_and_implicit() {
+    let out = same(
+        "parameters K = 0.9\nmap p = p + K sin(q), q = q + p for 3 steps from q = 1, p = 0.5",
+        &[
+            "map",
+            "p = p + K sin(q)",
+            "q = q + p",
+            "--vars",
+            "q,p",
+            "--from",
+            "1,0.5",
+            "--steps",
+            "3",
+            "--params",
+            "K=0.9",
+        ],
+    );
+    assert_eq!(out[1], "  (1, 0.5) → (5.375066801394972, 1.1643125003166652)");
+    let out = same(
+        "parameters h = 0.1\nmap q' = q + h (p + p')/2, p' = p - h (q + q')/2 for 100 steps from q = 1, p = 0",
+        &[
+            "map",
+            "q' = q + h (p + p')/2",
+            "p' = p - h (q + q')/2",
+            "--vars",
+            "q,p",
+            "--from",
+            "1,0",
+            "--steps",
+            "100",
+            "--params",
+            "h=0.1",
+        ],
+    );
+    let last: Vec<f64> = out[1]
+        .split('→')
+        .nth(1)
+        .unwrap()
+        .trim_matches([' ', '(', ')'])
+        .split(", ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let a = 100.0 * 2.0 * 0.05f64.atan();
+    assert!((last[0] - a.cos()).abs() < 1e-12 && (last[1] + a.sin()).abs() < 1e-12, "{out:?}");
+}
