@@ -373,14 +373,7 @@ fn difference_maps() {
     let r = run("difference_maps");
     let last = |k: usize| -> (f64, f64) {
         let line = r.stdout.lines().filter(|l| l.starts_with("  (1, 0) → (")).nth(k).unwrap();
-        let v: Vec<f64> = line
-            .split('→')
-            .nth(1)
-            .unwrap()
-            .trim_matches([' ', '(', ')'])
-            .split(", ")
-            .map(|x| x.parse().unwrap())
-            .collect();
+        let v = crate::support::map_last_state(line);
         (v[0], v[1])
     };
     let (h, n) = (0.3f64, 40.0);

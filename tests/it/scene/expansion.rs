@@ -64,14 +64,7 @@ fn map_iterates_the_standard_map_and_refuses_what_it_cannot() {
     let out = run("parameters K = 0.9\nmap p' = p + K sin(q), q' = q + p' for 3 steps from q = 1, p = 0.5")
         .unwrap_or_else(|e| panic!("{e:?}"));
     assert_eq!(out[0], "map: 1 orbit(s) of 3 step(s), implicit (Newton's method per step)");
-    let last: Vec<f64> = out[1]
-        .split('→')
-        .nth(1)
-        .unwrap()
-        .trim_matches([' ', '(', ')'])
-        .split(", ")
-        .map(|x| x.parse().unwrap())
-        .collect();
+    let last = crate::support::map_last_state(&out[1]);
     assert!((last[0] - 5.375066801394972).abs() < 1e-13 && (last[1] - 1.1643125003166652).abs() < 1e-13, "{out:?}");
     let e = run("map p' = p + sin(q), q = q + p' for 3 steps from q = 1, p = 0.5").expect_err("refused");
     assert!(e.message.contains("implicit map writes every new value primed") && e.span.is_some(), "{e:?}");

@@ -85,6 +85,12 @@ pub fn scene_parameters(scene: &str) -> Vec<(String, f64)> {
         .collect()
 }
 
+/// The last state of a `map` orbit line, `  (start) → (last)`, as numbers.
+pub fn map_last_state(line: &str) -> Vec<f64> {
+    let last = line.split('→').nth(1).unwrap_or_else(|| panic!("not an orbit line: {line}"));
+    last.trim_matches([' ', '(', ')']).split(", ").map(|x| x.parse().unwrap_or_else(|_| panic!("{line}"))).collect()
+}
+
 /// The columns of a CSV file, by header name.
 pub fn read_csv(path: &Path) -> HashMap<String, Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
