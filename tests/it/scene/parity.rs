@@ -678,14 +678,7 @@ fn map_explicit_and_implicit() {
             "h=0.1",
         ],
     );
-    let last: Vec<f64> = out[1]
-        .split('→')
-        .nth(1)
-        .unwrap()
-        .trim_matches([' ', '(', ')'])
-        .split(", ")
-        .map(|x| x.parse().unwrap())
-        .collect();
+    let last = crate::support::map_last_state(&out[1]);
     let a = 100.0 * 2.0 * 0.05f64.atan();
     assert!((last[0] - a.cos()).abs() < 1e-12 && (last[1] + a.sin()).abs() < 1e-12, "{out:?}");
 }
