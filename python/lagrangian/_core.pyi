@@ -309,10 +309,11 @@ class System:
         rtol: Optional[float] = None,
         atol: Optional[float] = None,
         tol: Optional[float] = None,
+        t_eval: Optional[ArrayLike] = None,
         events: Optional[list[Union[Expr, str, Event]]] = None,
         max_steps: Optional[int] = None,
         compensated: bool = False,
         threads: Optional[int] = None,
         progress: Optional[bool] = None,
     ) -> EnsembleResult:
-        """Final states of many starts ``y0`` ``(k, n)`` over ``t_span`` (``t_span`` first, as in ``integrate``)."""
+        """Final states of many starts ``y0`` ``(k, n)`` over ``t_span`` (``t_span`` first, as in ``integrate``); with ``t_eval``, ``y`` is ``(k, n, m)`` at those times."""

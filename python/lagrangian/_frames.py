@@ -4,7 +4,8 @@ when asked for, so neither is a dependency of the package).
 A :class:`Solution` is a time series: one row (pandas) or one point of the dimension ``t``
 (xarray) per kept time, one column or variable per state name. An :class:`EnsembleResult` is one
 row or point of the dimension ``trajectory`` per initial state, with its final time ``t``, its
-state, ``ok`` and, in pandas, the engine's ``error`` message of a failed trajectory.
+state, ``ok`` and, in pandas, the engine's ``error`` message of a failed trajectory; one asked
+for with ``t_eval`` adds the dimension ``t``.
 """
 
 from __future__ import annotations
@@ -37,8 +38,15 @@ def solution_to_xarray(self: Any) -> Any:
 
 def ensemble_to_pandas(self: Any) -> Any:
     """One row per trajectory: its final ``t``, final state, ``ok`` and ``error`` (``None``
-    where it succeeded)."""
+    where it succeeded). With ``t_eval`` (``y`` of shape ``(k, n, m)``): one row per trajectory
+    and time, indexed by ``(trajectory, t)``."""
     pd = _need("pandas")
+    if self.y.ndim == 3:
+        k, _, m = self.y.shape
+        index = pd.MultiIndex.from_product([range(k), self.t], names=["trajectory", "t"])
+        cols = {name: self.y[:, i, :].reshape(k * m) for i, name in enumerate(self.names)}
+        cols["ok"] = [bool(o) for o in self.ok for _ in range(m)]
+        return pd.DataFrame(cols, index=index)
     cols: dict[str, Any] = {"t": self.t}
     cols.update({name: self.y[:, i] for i, name in enumerate(self.names)})
     cols["ok"] = self.ok
@@ -48,8 +56,13 @@ def ensemble_to_pandas(self: Any) -> Any:
 
 def ensemble_to_xarray(self: Any) -> Any:
     """An ``xarray.Dataset`` over the dimension ``trajectory``: the final ``t``, one variable
-    per state name and ``ok`` (the messages of failed trajectories stay in ``errors``)."""
+    per state name and ``ok`` (the messages of failed trajectories stay in ``errors``). With
+    ``t_eval``: each state over the dimensions ``(trajectory, t)``."""
     xr = _need("xarray")
+    if self.y.ndim == 3:
+        data3: dict[str, Any] = {name: (("trajectory", "t"), self.y[:, i, :]) for i, name in enumerate(self.names)}
+        data3["ok"] = ("trajectory", self.ok)
+        return xr.Dataset(data3, coords={"trajectory": range(self.y.shape[0]), "t": self.t})
     data: dict[str, Any] = {"t": ("trajectory", self.t)}
     data.update({name: ("trajectory", self.y[:, i]) for i, name in enumerate(self.names)})
     data["ok"] = ("trajectory", self.ok)

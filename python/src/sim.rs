@@ -946,7 +946,12 @@ impl PySystem {
     /// SciPy's ``(n, k)``: SciPy's columns are the times of one trajectory, here the axis is
     /// the trajectories, and one row per item is how NumPy stacks states
     /// (``np.array([s1, s2])``) and how pandas shows them.
-    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
+    ///
+    /// With ``t_eval`` (times inside ``t_span``) each trajectory keeps its states at those
+    /// times: ``y`` is ``(k, n, m)``, each ``y[j]`` SciPy's ``(n, m)`` of one trajectory, and
+    /// ``t`` is ``t_eval``. A trajectory that failed, or that a terminal event ended before
+    /// some of the times, is NaN there.
+    #[pyo3(signature = (t_span, y0, method=None, *, dt=None, rtol=None, atol=None, tol=None, t_eval=None, events=None, max_steps=None, compensated=false, threads=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn ensemble(
         &self,
@@ -958,6 +963,7 @@ impl PySystem {
         rtol: Option<f64>,
         atol: Option<f64>,
         tol: Option<f64>,
+        t_eval: Option<&Bound<'_, PyAny>>,
         events: Option<&Bound<'_, PyList>>,
         max_steps: Option<usize>,
         compensated: bool,
@@ -967,6 +973,14 @@ impl PySystem {
         let (t_span, tol) = (span_then_states(t_span, y0, "ensemble")?, relative_tolerance(rtol, tol)?);
         let (mut opts, c) = run_spec(py, self, method, t_span, dt, tol, atol, max_steps, events, compensated)?;
         opts.sampling = Sampling::Final;
+        let times = match t_eval {
+            Some(te) => Some(f64_vec(&float_array(te)?.call_method0("ravel")?)?),
+            None => None,
+        };
+        if let Some(ts) = &times {
+            opts.sampling = Sampling::Times(ts.clone());
+            opts.check().map_err(|e| simulate_error(py, e))?;
+        }
         let names = c.state.clone();
         let n = names.len();
         let a = float_array(y0)?;
@@ -995,6 +1009,37 @@ impl PySystem {
         )?;
         if ctl.cancel.is_cancelled() {
             return Err(PyKeyboardInterrupt::new_err("ensemble interrupted"));
+        }
+        if let Some(ts) = times {
+            // (k, n, m): trajectory j's state i at ts[l], NaN where it has none.
+            let m = ts.len();
+            let mut ys = vec![f64::NAN; k * n * m];
+            let mut ok = Vec::with_capacity(k);
+            let mut errors = Vec::with_capacity(k);
+            for (j, r) in results.into_iter().enumerate() {
+                match r {
+                    Ok(tr) => {
+                        for (l, state) in tr.y.iter().take(m).enumerate() {
+                            for (i, v) in state.iter().take(n).enumerate() {
+                                ys[(j * n + i) * m + l] = *v;
+                            }
+                        }
+                        ok.push(true);
+                        errors.push(None);
+                    }
+                    Err(e) => {
+                        ok.push(false);
+                        errors.push(Some(e.to_string()));
+                    }
+                }
+            }
+            return Ok(EnsembleResult {
+                t: PyArray1::from_vec(py, ts).into_any().unbind(),
+                y: PyArray1::from_vec(py, ys).reshape([k, n, m])?.into_any().unbind(),
+                ok: PyArray1::from_vec(py, ok).into_any().unbind(),
+                errors,
+                names,
+            });
         }
         let results: Vec<Result<Vec<f64>, String>> = results
             .into_iter()

@@ -91,3 +91,26 @@ def test_average_series_and_relations_solved_along_the_amplitude():
     assert solved["ω_series"][-1] == pytest.approx(1 + 3 / 4 - 15 / 64, abs=1e-14)
     with pytest.raises(ValueError, match="needs `small`"):
         s.average(trial, "θ", "ω", ["A", "B", "C"], sweep=[1.0])
+
+
+def test_ensemble_on_a_time_grid_matches_integrate_and_the_closed_form():
+    # The oscillator x'' = −x from (x, x') = (a, 0): x(t) = a cos t. Each trajectory of the
+    # ensemble at t_eval equals `integrate` with the same t_eval (one code path) and the cosine.
+    s = lg.System.from_lagrangian("1/2 x'^2 - 1/2 x^2", ["x"])
+    starts = np.array([[1.0, 0.0], [0.5, 0.0], [-2.0, 0.0]])
+    t_eval = np.linspace(0.0, 3.0, 7)
+    r = s.ensemble((0, 3), starts, "dop853", tol=1e-12, t_eval=t_eval, threads=1, progress=False)
+    assert r.y.shape == (3, 2, 7) and list(r.t) == list(t_eval)
+    for j, y0 in enumerate(starts):
+        one = s.integrate((0, 3), y0, "dop853", tol=1e-12, t_eval=t_eval, progress=False)
+        assert np.array_equal(r.y[j], one.y)
+        assert np.allclose(r.y[j, 0], y0[0] * np.cos(t_eval), atol=1e-9)
+    ds = r.to_xarray()
+    assert ds["x"].dims == ("trajectory", "t") and ds["x"].shape == (3, 7)
+    df = r.to_pandas()
+    assert len(df) == 21 and df.loc[(2, 0.0), "x"] == -2.0
+    # A terminal event ends a trajectory: the times after it are NaN.
+    ev = lg.Event("x", terminal=True, direction=-1)
+    r = s.ensemble((0, 3), starts[:1], "dop853", tol=1e-12, t_eval=t_eval, events=[ev], threads=1, progress=False)
+    after = t_eval > np.pi / 2
+    assert np.isnan(r.y[0][:, after]).all() and not np.isnan(r.y[0][:, ~after]).any()
