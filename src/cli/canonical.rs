@@ -271,59 +271,7 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 }
             }
         }
-        CanonicalCommand::Canonical(args) => {
-            let CanonicalArgs { f1, f2, f3, f4, hamiltonian, coords, momenta, new, at, guess, params, common } = *args;
-            let decls = common.declarations();
-            let old = phase_space(&coords, &momenta)?;
-            let new = new_space(&new, old.dof())?;
-            let (kind, text) = match (f1, f2, f3, f4) {
-                (Some(t), _, _, _) => (GeneratorKind::F1, t),
-                (_, Some(t), _, _) => (GeneratorKind::F2, t),
-                (_, _, Some(t), _) => (GeneratorKind::F3, t),
-                (_, _, _, Some(t)) => (GeneratorKind::F4, t),
-                _ => return Err(bad_input("error: give one of --f1, --f2, --f3, --f4")),
-            };
-            let (_, f) = parse_arg(&text, &decls)?;
-            let h = match &hamiltonian {
-                Some(t) => Some(parse_arg(t, &decls)?.1),
-                None => None,
-            };
-            let g = Generator::new(kind, f, old, new).map_err(|e| bad_input(format!("error: {e}")))?;
-            let t = g.transform(h.as_ref()).map_err(|e| bad_input(format!("error: {e}")))?;
-            print_transform(&t, common.format);
-            if !at.is_empty() {
-                let env = parse_params(&params, &common.positive)?;
-                // Without a guess, Newton starts from the printed inverse map, so that both give
-                // the same root of the relations.
-                let branch = g.inverse_branch_guess(&t, &at, &env);
-                let guess = match (guess.is_empty(), &branch) {
-                    (false, _) => guess,
-                    (true, Some(b)) => b.clone(),
-                    (true, None) => vec![1.0; g.old.dof()],
-                };
-                let vals = g.numeric_inverse(&at, &env, &guess).map_err(|e| bad_input(format!("error: {e}")))?;
-                let printed = branch.as_ref().and_then(|_| g.numeric_inverse(&at, &env, branch.as_ref()?).ok());
-                if let Some(pv) = printed
-                    .filter(|pv| pv.iter().zip(&vals).any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + a.abs().max(b.abs()))))
-                {
-                    let names = g.old.variables();
-                    let parts: Vec<String> = names.iter().zip(&pv).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
-                    eprintln!(
-                        "note: from this --guess Newton's method found another root of the relations than the printed inverse map, which gives {}",
-                        parts.join(", ")
-                    );
-                }
-                let names = g.old.variables();
-                if common.format == OutFormat::Json {
-                    let m: serde_json::Map<String, Value> =
-                        names.iter().zip(&vals).map(|(s, v)| (s.to_string(), json!(v))).collect();
-                    println!("{}", json!({ "numeric_inverse": m }));
-                } else {
-                    let parts: Vec<String> = names.iter().zip(&vals).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
-                    println!("numeric inverse at {:?}: {}", at, parts.join(", "));
-                }
-            }
-        }
+        CanonicalCommand::Canonical(args) => canonical_transform(args)?,
         CanonicalCommand::IsCanonical { map, coords, momenta, hamiltonian, common } => {
             let decls = common.declarations();
             let old = phase_space(&coords, &momenta)?;
@@ -404,127 +352,180 @@ pub fn run(cmd: CanonicalCommand) -> Result<(), Failure> {
                 }
             }
         }
-        CanonicalCommand::Average(args) => {
-            let AverageArgs {
-                lagrangian,
-                trial,
-                phase,
-                frequency,
-                amplitudes,
-                small,
-                unperturbed,
-                principal,
-                order,
-                sweep,
-                points,
-                params,
-                common,
-            } = *args;
-            let decls = common.declarations();
-            let (_, l) = parse_arg(&lagrangian, &decls)?;
-            let mut trials = Vec::new();
-            for t in &trial {
-                let (lhs, rhs) = t
-                    .split_once('=')
-                    .ok_or_else(|| bad_input(format!("error: trial `{t}` is not of the form `x = expression`")))?;
-                let coord = parse_var(lhs.trim(), &decls)?;
-                let (_, expr) = parse_arg(rhs, &decls)?;
-                trials.push(Trial { coord, expr });
-            }
-            let th = parse_var(&phase, &decls)?;
-            let w = parse_var(&frequency, &decls)?;
-            let amps: Vec<Symbol> = if amplitudes.is_empty() {
-                let in_l = l.free_symbols();
-                let mut set = std::collections::BTreeSet::new();
-                for t in &trials {
-                    set.extend(t.expr.free_symbols().into_iter().filter(|s| *s != th && !in_l.contains(s)));
-                }
-                set.into_iter().collect()
-            } else {
-                amplitudes.iter().map(|a| parse_var(a, &decls)).collect::<Result<_, _>>()?
+        CanonicalCommand::Average(args) => average(*args)?,
+    }
+    Ok(())
+}
+
+/// `lagrangian average`: ⟨L⟩, its relations and J; with --small their series; with --sweep the
+/// relations solved along an amplitude.
+fn average(args: AverageArgs) -> Result<(), Failure> {
+    let AverageArgs {
+        lagrangian,
+        trial,
+        phase,
+        frequency,
+        amplitudes,
+        small,
+        unperturbed,
+        principal,
+        order,
+        sweep,
+        points,
+        params,
+        common,
+    } = args;
+    let decls = common.declarations();
+    let (_, l) = parse_arg(&lagrangian, &decls)?;
+    let mut trials = Vec::new();
+    for t in &trial {
+        let (lhs, rhs) = t
+            .split_once('=')
+            .ok_or_else(|| bad_input(format!("error: trial `{t}` is not of the form `x = expression`")))?;
+        let coord = parse_var(lhs.trim(), &decls)?;
+        let (_, expr) = parse_arg(rhs, &decls)?;
+        trials.push(Trial { coord, expr });
+    }
+    let th = parse_var(&phase, &decls)?;
+    let w = parse_var(&frequency, &decls)?;
+    let amps: Vec<Symbol> = if amplitudes.is_empty() {
+        let in_l = l.free_symbols();
+        let mut set = std::collections::BTreeSet::new();
+        for t in &trials {
+            set.extend(t.expr.free_symbols().into_iter().filter(|s| *s != th && !in_l.contains(s)));
+        }
+        set.into_iter().collect()
+    } else {
+        amplitudes.iter().map(|a| parse_var(a, &decls)).collect::<Result<_, _>>()?
+    };
+    let avg =
+        canonical::average_lagrangian(&l, &trials, &th, &w, &amps).map_err(|e| bad_input(format!("error: {e}")))?;
+    let lead = match (&small, &unperturbed) {
+        (Some(sm), Some(w0)) => {
+            let sm = parse_var(sm, &decls)?;
+            let (_, w0) = parse_arg(w0, &decls)?;
+            let pr = match &principal {
+                Some(a) => parse_var(a, &decls)?,
+                None => amps.first().cloned().ok_or_else(|| bad_input("error: no amplitudes to solve for"))?,
             };
-            let avg = canonical::average_lagrangian(&l, &trials, &th, &w, &amps)
+            Some(
+                canonical::leading_order(&avg, &w, &w0, &sm, &pr, order)
+                    .map_err(|e| bad_input(format!("error: {e}")))?,
+            )
+        }
+        _ => None,
+    };
+    let swept = match (&sweep, &lead) {
+        (Some(spec), Some(lo)) => {
+            let (name, range) = spec
+                .split_once('=')
+                .ok_or_else(|| bad_input(format!("error: --sweep takes A=from..to, got `{spec}`")))?;
+            let principal = parse_var(name, &decls)?;
+            let (a, b) = range
+                .split_once("..")
+                .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)))
+                .filter(|(a, b)| a.is_finite() && b.is_finite())
+                .ok_or_else(|| bad_input(format!("error: --sweep `{spec}`: expected A=from..to with two numbers")))?;
+            if !(2..=10_000).contains(&points) {
+                return Err(bad_input(format!("error: --points must be 2..=10000, not {points}")));
+            }
+            let values: Vec<f64> = (0..points).map(|k| a + (b - a) * k as f64 / (points - 1) as f64).collect();
+            let env = parse_params(&params, &common.positive)?;
+            let w0 = parse_arg(unperturbed.as_deref().unwrap_or_default(), &decls)?.1;
+            let s = canonical::sweep(&avg, &w, &w0, lo, &principal, &values, &|s: &Symbol| env.get(s.name()).copied())
                 .map_err(|e| bad_input(format!("error: {e}")))?;
-            let lead = match (&small, &unperturbed) {
-                (Some(sm), Some(w0)) => {
-                    let sm = parse_var(sm, &decls)?;
-                    let (_, w0) = parse_arg(w0, &decls)?;
-                    let pr = match &principal {
-                        Some(a) => parse_var(a, &decls)?,
-                        None => amps.first().cloned().ok_or_else(|| bad_input("error: no amplitudes to solve for"))?,
-                    };
-                    Some(
-                        canonical::leading_order(&avg, &w, &w0, &sm, &pr, order)
-                            .map_err(|e| bad_input(format!("error: {e}")))?,
-                    )
-                }
-                _ => None,
-            };
-            let swept = match (&sweep, &lead) {
-                (Some(spec), Some(lo)) => {
-                    let (name, range) = spec
-                        .split_once('=')
-                        .ok_or_else(|| bad_input(format!("error: --sweep takes A=from..to, got `{spec}`")))?;
-                    let principal = parse_var(name, &decls)?;
-                    let (a, b) = range
-                        .split_once("..")
-                        .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)))
-                        .filter(|(a, b)| a.is_finite() && b.is_finite())
-                        .ok_or_else(|| {
-                            bad_input(format!("error: --sweep `{spec}`: expected A=from..to with two numbers"))
-                        })?;
-                    if !(2..=10_000).contains(&points) {
-                        return Err(bad_input(format!("error: --points must be 2..=10000, not {points}")));
-                    }
-                    let values: Vec<f64> = (0..points).map(|k| a + (b - a) * k as f64 / (points - 1) as f64).collect();
-                    let env = parse_params(&params, &common.positive)?;
-                    let w0 = parse_arg(unperturbed.as_deref().unwrap_or_default(), &decls)?.1;
-                    let s = canonical::sweep(&avg, &w, &w0, lo, &principal, &values, &|s: &Symbol| {
-                        env.get(s.name()).copied()
-                    })
-                    .map_err(|e| bad_input(format!("error: {e}")))?;
-                    Some((principal, s))
-                }
-                _ => None,
-            };
-            let out = Out { format: common.format };
-            if common.format == OutFormat::Json {
-                let solved = swept.as_ref().map(|(a, s)| {
-                    let mut m = serde_json::Map::new();
-                    m.insert(a.to_string(), json!(s.points.iter().map(|p| p.principal).collect::<Vec<_>>()));
-                    m.insert(w.to_string(), json!(s.points.iter().map(|p| p.frequency).collect::<Vec<_>>()));
-                    m.insert(format!("{w}_series"), json!(s.series));
-                    for (k, (b, _)) in
-                        s.points.first().map(|p| p.amplitudes.clone()).unwrap_or_default().iter().enumerate()
-                    {
-                        m.insert(b.to_string(), json!(s.points.iter().map(|p| p.amplitudes[k].1).collect::<Vec<_>>()));
-                    }
-                    Value::Object(m)
-                });
-                let lo = lead
-                    .as_ref()
-                    .map(|lo| json!({"order": lo.order, "frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
-                let rel: Vec<Value> = avg
-                    .relations
-                    .iter()
-                    .map(|(a, e)| json!({"amplitude": a.to_string(), "dL_dA": e.to_string()}))
-                    .collect();
-                println!(
-                    "{}",
-                    json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string(),
-                           "leading_order": lo, "solved": solved})
-                );
-            } else {
-                let lead = lead.as_ref().map(|lo| (small.as_deref().unwrap_or("σ"), lo));
-                for l in canonical::report::average_lines(&avg, &w, lead, out.format.expr_format()) {
-                    println!("{l}");
-                }
-                if let Some((a, s)) = &swept {
-                    for l in canonical::report::sweep_lines(s, a, &w) {
-                        println!("{l}");
-                    }
-                }
+            Some((principal, s))
+        }
+        _ => None,
+    };
+    let out = Out { format: common.format };
+    if common.format == OutFormat::Json {
+        let solved = swept.as_ref().map(|(a, s)| {
+            let mut m = serde_json::Map::new();
+            m.insert(a.to_string(), json!(s.points.iter().map(|p| p.principal).collect::<Vec<_>>()));
+            m.insert(w.to_string(), json!(s.points.iter().map(|p| p.frequency).collect::<Vec<_>>()));
+            m.insert(format!("{w}_series"), json!(s.series));
+            for (k, (b, _)) in s.points.first().map(|p| p.amplitudes.clone()).unwrap_or_default().iter().enumerate() {
+                m.insert(b.to_string(), json!(s.points.iter().map(|p| p.amplitudes[k].1).collect::<Vec<_>>()));
             }
+            Value::Object(m)
+        });
+        let lo = lead
+            .as_ref()
+            .map(|lo| json!({"order": lo.order, "frequency": lo.frequency.to_string(), "amplitudes": json_pairs(&lo.amplitudes)}));
+        let rel: Vec<Value> =
+            avg.relations.iter().map(|(a, e)| json!({"amplitude": a.to_string(), "dL_dA": e.to_string()})).collect();
+        println!(
+            "{}",
+            json!({"average": avg.lagrangian.to_string(), "relations": rel, "action": avg.action.to_string(),
+                   "leading_order": lo, "solved": solved})
+        );
+    } else {
+        let lead = lead.as_ref().map(|lo| (small.as_deref().unwrap_or("σ"), lo));
+        for l in canonical::report::average_lines(&avg, &w, lead, out.format.expr_format()) {
+            println!("{l}");
+        }
+        if let Some((a, s)) = &swept {
+            for l in canonical::report::sweep_lines(s, a, &w) {
+                println!("{l}");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `lagrangian canonical`: the relations of a generating function, the maps both ways, `K`,
+/// and with --at a point mapped by Newton's method.
+fn canonical_transform(args: Box<CanonicalArgs>) -> Result<(), Failure> {
+    let CanonicalArgs { f1, f2, f3, f4, hamiltonian, coords, momenta, new, at, guess, params, common } = *args;
+    let decls = common.declarations();
+    let old = phase_space(&coords, &momenta)?;
+    let new = new_space(&new, old.dof())?;
+    let (kind, text) = match (f1, f2, f3, f4) {
+        (Some(t), _, _, _) => (GeneratorKind::F1, t),
+        (_, Some(t), _, _) => (GeneratorKind::F2, t),
+        (_, _, Some(t), _) => (GeneratorKind::F3, t),
+        (_, _, _, Some(t)) => (GeneratorKind::F4, t),
+        _ => return Err(bad_input("error: give one of --f1, --f2, --f3, --f4")),
+    };
+    let (_, f) = parse_arg(&text, &decls)?;
+    let h = match &hamiltonian {
+        Some(t) => Some(parse_arg(t, &decls)?.1),
+        None => None,
+    };
+    let g = Generator::new(kind, f, old, new).map_err(|e| bad_input(format!("error: {e}")))?;
+    let t = g.transform(h.as_ref()).map_err(|e| bad_input(format!("error: {e}")))?;
+    print_transform(&t, common.format);
+    if !at.is_empty() {
+        let env = parse_params(&params, &common.positive)?;
+        // Without a guess, Newton starts from the printed inverse map, so that both give
+        // the same root of the relations.
+        let branch = g.inverse_branch_guess(&t, &at, &env);
+        let guess = match (guess.is_empty(), &branch) {
+            (false, _) => guess,
+            (true, Some(b)) => b.clone(),
+            (true, None) => vec![1.0; g.old.dof()],
+        };
+        let vals = g.numeric_inverse(&at, &env, &guess).map_err(|e| bad_input(format!("error: {e}")))?;
+        let printed = branch.as_ref().and_then(|_| g.numeric_inverse(&at, &env, branch.as_ref()?).ok());
+        if let Some(pv) =
+            printed.filter(|pv| pv.iter().zip(&vals).any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + a.abs().max(b.abs()))))
+        {
+            let names = g.old.variables();
+            let parts: Vec<String> = names.iter().zip(&pv).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
+            eprintln!(
+                "note: from this --guess Newton's method found another root of the relations than the printed inverse map, which gives {}",
+                parts.join(", ")
+            );
+        }
+        let names = g.old.variables();
+        if common.format == OutFormat::Json {
+            let m: serde_json::Map<String, Value> =
+                names.iter().zip(&vals).map(|(s, v)| (s.to_string(), json!(v))).collect();
+            println!("{}", json!({ "numeric_inverse": m }));
+        } else {
+            let parts: Vec<String> = names.iter().zip(&vals).map(|(s, v)| format!("{s} = {v:.15e}")).collect();
+            println!("numeric inverse at {:?}: {}", at, parts.join(", "));
         }
     }
     Ok(())

@@ -255,33 +255,7 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             ritz(lagrangian, coords, trial, unknowns, span, from, to, set, guess, common)?
         }
         NotesCommand::Map { updates, vars, from, steps, params, common } => {
-            let decls = common.declarations();
-            let mut parsed = Vec::with_capacity(updates.len());
-            for u in &updates {
-                let (target, value) = u
-                    .split_once('=')
-                    .ok_or_else(|| bad_input(format!("error: an update is `name = expression`, got `{u}`")))?;
-                parsed.push((super::parse_var(target.trim(), &decls)?, parse_arg(value, &decls)?.1));
-            }
-            let names: Vec<lagrangian::expr::Symbol> =
-                vars.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
-            let params = super::name_values("--params", &params, &common.positive)?;
-            let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-            let run = lagrangian::mechanics::PhaseMap::new(&names, &parsed, &params)
-                .and_then(|m| m.run(&[from], steps))
-                .map_err(|e| bad_input(format!("error: {e}")))?;
-            if common.format == super::OutFormat::Json {
-                let states: Vec<Vec<Option<f64>>> =
-                    run.orbits[0].iter().map(|s| s.iter().map(|x| x.is_finite().then_some(*x)).collect()).collect();
-                println!(
-                    "{}",
-                    json!({"variables": vars, "implicit": run.implicit, "unsolved": run.unsolved, "states": states})
-                );
-            } else {
-                for l in run.report() {
-                    println!("{l}");
-                }
-            }
+            iterate_map(updates, vars, from, steps, params, common)?
         }
         NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
             let Some(r) = Rule::from_name(rule.trim()) else {
@@ -494,5 +468,44 @@ fn ritz(
     }
     out.lines = r.report(&sol, common.format.expr_format());
     out.print();
+    Ok(())
+}
+
+/// `lagrangian map`: the orbit of one start under an explicit or implicit map.
+fn iterate_map(
+    updates: Vec<String>,
+    vars: Vec<String>,
+    from: Vec<f64>,
+    steps: usize,
+    params: Vec<String>,
+    common: Common,
+) -> Result<(), Failure> {
+    let decls = common.declarations();
+    let mut parsed = Vec::with_capacity(updates.len());
+    for u in &updates {
+        let (target, value) = u
+            .split_once('=')
+            .ok_or_else(|| bad_input(format!("error: an update is `name = expression`, got `{u}`")))?;
+        parsed.push((super::parse_var(target.trim(), &decls)?, parse_arg(value, &decls)?.1));
+    }
+    let names: Vec<lagrangian::expr::Symbol> =
+        vars.iter().map(|v| super::parse_var(v.trim(), &decls)).collect::<Result<_, _>>()?;
+    let params = super::name_values("--params", &params, &common.positive)?;
+    let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let run = lagrangian::mechanics::PhaseMap::new(&names, &parsed, &params)
+        .and_then(|m| m.run(&[from], steps))
+        .map_err(|e| bad_input(format!("error: {e}")))?;
+    if common.format == super::OutFormat::Json {
+        let states: Vec<Vec<Option<f64>>> =
+            run.orbits[0].iter().map(|s| s.iter().map(|x| x.is_finite().then_some(*x)).collect()).collect();
+        println!(
+            "{}",
+            json!({"variables": vars, "implicit": run.implicit, "unsolved": run.unsolved, "states": states})
+        );
+    } else {
+        for l in run.report() {
+            println!("{l}");
+        }
+    }
     Ok(())
 }
