@@ -55,7 +55,9 @@ pub use first_order::FirstOrder;
 pub use geodesic::{embedded, geodesic, geodesic_from_metric, Curvature, Embedding, Geodesic};
 pub use hamilton::HamiltonEquations;
 pub use linalg::{adjugate, determinant};
-pub use map::{ExplicitMap, ImplicitMap, MapError, MapRun, Orbit, PhaseMap, MAX_MAP_ITERATIONS, MAX_MAP_STATES};
+pub use map::{
+    ExplicitMap, ImplicitMap, MapError, MapRun, Orbit, PhaseMap, MAX_MAP_ITERATIONS, MAX_MAP_STATES, PRINTED_ORBITS,
+};
 pub use noether::{Conserved, Reason};
 pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};

@@ -10,9 +10,11 @@ use crate::mechanics::{Kind, System};
 use super::interp::{cholesky_solve, dot_rev};
 use super::ir::KinkAt;
 use super::native::Ran;
-use super::tiers::NativeCache;
+use super::native::{CholeskySolve, Expansion, NativeTaylor, TaylorNative};
+use super::tiers::{NativeCache, NATIVE_AFTER_EXPANSIONS};
 use super::TaylorTape;
 use crate::compile::error::CompileError;
+use crate::compile::jit::jit_disabled_by_env;
 use crate::compile::tape::Tape;
 use crate::compile::{HamiltonianRhs, LagrangianRhs};
 use crate::linalg::{factor, solve, Factor};
@@ -376,5 +378,85 @@ impl System {
                 Ok(TaylorOde::second_order(&tape, n, symmetric))
             }
         }
+    }
+}
+
+impl TaylorOde {
+    /// Turns the native Taylor code on early or off. By default each order's code is
+    /// compiled when a run has been long enough for it to repay its compile time: compact
+    /// code after [`COMPACT_AFTER_EXPANSIONS`](super::tiers::COMPACT_AFTER_EXPANSIONS) expansions, then unrolled code after
+    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`](super::tiers::AUTO_NATIVE_AFTER_EXPANSIONS), or for a tape past [`COMPACT_ABOVE_TERMS`](super::tiers::COMPACT_ABOVE_TERMS) after
+    /// [`UNROLL_AFTER_EXPANSIONS`](super::tiers::UNROLL_AFTER_EXPANSIONS). On: the fastest code after
+    /// [`NATIVE_AFTER_EXPANSIONS`](super::tiers::NATIVE_AFTER_EXPANSIONS); off, never (nor ever when
+    /// [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits whichever code runs.
+    pub fn with_native(mut self, on: bool) -> TaylorOde {
+        let n = NATIVE_AFTER_EXPANSIONS;
+        self.native = NativeCache::new(on, n, n, n);
+        self
+    }
+
+    /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
+    /// native code is off, the host has no JIT, or the tape is too large for unrolled and for
+    /// compact code).
+    ///
+    /// A first-order system, and a `W q'' = F` system with a symmetric `W`, get the whole
+    /// expansion as one function (orders, the Cholesky solve and the steps from each order of
+    /// the right-hand side to the next of the state, see `native.rs`); a non-symmetric `W`,
+    /// whose LU solve stays in Rust, one function per order; a tape too large to unroll at
+    /// this order, compact code called once per order.
+    pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
+        self.native.final_code(order, || self.compile_native(order))
+    }
+
+    /// The native code compiled so far for expansions of `order` (the final code if it
+    /// exists, else compact code), compiling nothing.
+    pub fn native_compiled(&self, order: usize) -> Option<TaylorNative> {
+        self.native.compiled(order)
+    }
+
+    pub(super) fn compile_native(&self, order: usize) -> Option<TaylorNative> {
+        let stride = order + 1;
+        // An LU-factored (non-symmetric) `W` keeps its solve in Rust, between per-order code.
+        if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
+            return self.tape.compile_native(stride, order - 1);
+        }
+        if jit_disabled_by_env() {
+            return None;
+        }
+        let n_rows = self.tape.n_rows();
+        let glue = (0..self.dim)
+            .map(|i| {
+                let src = match self.derivs[i] {
+                    Derivative::Output(j) => self.tape.output_row(j),
+                    Derivative::State(j) => j,
+                    Derivative::Solve(j) => n_rows + j,
+                };
+                (i as u32, src as u32)
+            })
+            .collect();
+        // The accelerations are the `n` rows after the tape's, then comes the factor of `W₀`
+        // (the layout `expand` splits its scratch into).
+        let solve = self.solve.as_ref().map(|m| CholeskySolve {
+            n: m.n,
+            f_rows: m.f.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
+            varying: m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect(),
+            acc_row: n_rows as u32,
+            factor_at: (n_rows + m.n) * stride,
+            w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
+        });
+        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) };
+        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
+            Some(code) => Some(TaylorNative(Arc::new(code))),
+            // Too large to unroll: compact code, one call per order (none past
+            // `MAX_COMPACT_RECURRENCES`).
+            None => self.tape.compile_native(stride, order - 1),
+        }
+    }
+
+    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
+    /// describes: the interpreter (`None`), then compact code, then the final code
+    /// ([`TaylorOde::native_for`]).
+    pub(super) fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
+        self.native.tiered(&self.tape, order, || self.compile_native(order))
     }
 }

@@ -6,17 +6,14 @@ use std::sync::{Arc, OnceLock};
 
 use crate::compile::jit::jit_disabled_by_env;
 
-use super::native::{
-    compact_pays, unrolled_terms, CholeskySolve, Expansion, NativeTaylor, TaylorNative, MAX_NATIVE_TAYLOR_TERMS,
-};
-use super::ode::Derivative;
-use super::{TaylorOde, TaylorTape};
+use super::native::{compact_pays, unrolled_terms, NativeTaylor, TaylorNative, MAX_NATIVE_TAYLOR_TERMS};
+use super::TaylorTape;
 
-/// How many expansions a [`TaylorOde`] with native code switched on
-/// ([`TaylorOde::with_native`]) runs in the interpreter before compiling, so a cold start
+/// How many expansions a [`TaylorOde`](super::TaylorOde) with native code switched on
+/// ([`TaylorOde::with_native`](super::TaylorOde::with_native)) runs in the interpreter before compiling, so a cold start
 /// never waits for Cranelift.
 pub const NATIVE_AFTER_EXPANSIONS: usize = 64;
-/// The same for a [`TaylorOde`] left at its default: about the number of expansions after
+/// The same for a [`TaylorOde`](super::TaylorOde) left at its default: about the number of expansions after
 /// which unrolled code has repaid its compile time. Measured in BENCHMARKS.md: Kepler at order
 /// 19 takes 8 ms to compile and then saves 0.34 µs per step (even after 2.5 · 10⁴ steps), the
 /// double pendulum at order 15 13 ms and 0.75 µs (1.8 · 10⁴); both costs grow with the
@@ -46,7 +43,7 @@ pub const COMPACT_AFTER_EXPANSIONS: usize = 1 << 12;
 /// chaos map's variational system 76 ms / 0.89 µs, the 3-link pendulum 74 ms / 0.43 µs, the
 /// 5-link 445 ms / 2.7 µs; BENCHMARKS.md).
 pub const UNROLL_AFTER_EXPANSIONS: usize = 1 << 17;
-/// The native code of a [`TaylorOde`], per order, compiled on demand and shared by clones.
+/// The native code of a [`TaylorOde`](super::TaylorOde), per order, compiled on demand and shared by clones.
 #[derive(Debug)]
 pub(super) struct NativeCache {
     allowed: bool,
@@ -67,7 +64,7 @@ pub(super) struct NativeCache {
 impl NativeCache {
     /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
     /// tapes) or `unroll_after` (large tapes).
-    fn new(allowed: bool, after: usize, compact_after: usize, unroll_after: usize) -> Arc<NativeCache> {
+    pub(super) fn new(allowed: bool, after: usize, compact_after: usize, unroll_after: usize) -> Arc<NativeCache> {
         let slots = || (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect();
         Arc::new(NativeCache {
             allowed,
@@ -104,7 +101,7 @@ impl TaylorTape {
     /// Compact machine code for orders `1..=max_order`: one function taking the order, each
     /// recurrence's sum a loop, so the code grows with the recurrences alone (not with the
     /// square of the order, as unrolled code does). [`TaylorTape::compile_native`] and
-    /// [`TaylorOde`] choose it for large tapes of at most 600 recurrences (past that its code
+    /// [`TaylorOde`](super::TaylorOde) choose it for large tapes of at most 600 recurrences (past that its code
     /// no longer fits in the caches and the interpreter is faster); this asks for it whatever
     /// the size. Same bits as the interpreter.
     pub fn compile_native_compact(&self, stride: usize, max_order: usize) -> Option<TaylorNative> {
@@ -115,109 +112,57 @@ impl TaylorTape {
     }
 }
 
-impl TaylorOde {
-    /// Turns the native Taylor code on early or off. By default each order's code is
-    /// compiled when a run has been long enough for it to repay its compile time: compact
-    /// code after [`COMPACT_AFTER_EXPANSIONS`] expansions, then unrolled code after
-    /// [`AUTO_NATIVE_AFTER_EXPANSIONS`], or for a tape past [`COMPACT_ABOVE_TERMS`] after
-    /// [`UNROLL_AFTER_EXPANSIONS`]. On: the fastest code after
-    /// [`NATIVE_AFTER_EXPANSIONS`]; off, never (nor ever when
-    /// [`crate::compile::NO_JIT_ENV`] is set). Results are the same bits whichever code runs.
-    pub fn with_native(mut self, on: bool) -> TaylorOde {
-        let n = NATIVE_AFTER_EXPANSIONS;
-        self.native = NativeCache::new(on, n, n, n);
-        self
-    }
-
-    /// The native code for expansions of `order`, compiled now if it is not yet (`None`:
-    /// native code is off, the host has no JIT, or the tape is too large for unrolled and for
-    /// compact code).
-    ///
-    /// A first-order system, and a `W q'' = F` system with a symmetric `W`, get the whole
-    /// expansion as one function (orders, the Cholesky solve and the steps from each order of
-    /// the right-hand side to the next of the state, see `native.rs`); a non-symmetric `W`,
-    /// whose LU solve stays in Rust, one function per order; a tape too large to unroll at
-    /// this order, compact code called once per order.
-    pub fn native_for(&self, order: usize) -> Option<TaylorNative> {
-        if !self.native.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+impl NativeCache {
+    /// The final code for `order`, compiled now by `compile` if it is not yet; `None` when
+    /// native code is off or the order is out of range.
+    pub(super) fn final_code(
+        &self,
+        order: usize,
+        compile: impl FnOnce() -> Option<TaylorNative>,
+    ) -> Option<TaylorNative> {
+        if !self.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
-        self.native.by_order[order].get_or_init(|| self.compile_native(order)).clone()
+        self.by_order[order].get_or_init(compile).clone()
     }
 
-    /// The native code compiled so far for expansions of `order` (the final code if it
-    /// exists, else compact code), compiling nothing.
-    pub fn native_compiled(&self, order: usize) -> Option<TaylorNative> {
-        let cache = &*self.native;
+    /// The code compiled so far for `order` (the final code if it exists, else compact code),
+    /// compiling nothing.
+    pub(super) fn compiled(&self, order: usize) -> Option<TaylorNative> {
         let slot = |tier: &[OnceLock<Option<TaylorNative>>]| tier.get(order).and_then(|c| c.get().cloned().flatten());
-        slot(&cache.by_order).or_else(|| slot(&cache.compact))
+        slot(&self.by_order).or_else(|| slot(&self.compact))
     }
 
-    pub(super) fn compile_native(&self, order: usize) -> Option<TaylorNative> {
-        let stride = order + 1;
-        // An LU-factored (non-symmetric) `W` keeps its solve in Rust, between per-order code.
-        if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
-            return self.tape.compile_native(stride, order - 1);
-        }
-        if jit_disabled_by_env() {
+    /// The code an expansion of `order` of `tape` runs on, in the tiers this cache was made
+    /// with: the interpreter (`None`), then compact code, then the final code, which
+    /// `compile_final` compiles when its time has come.
+    pub(super) fn tiered(
+        &self,
+        tape: &TaylorTape,
+        order: usize,
+        compile_final: impl FnOnce() -> Option<TaylorNative>,
+    ) -> Option<&TaylorNative> {
+        if !self.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
-        let n_rows = self.tape.n_rows();
-        let glue = (0..self.dim)
-            .map(|i| {
-                let src = match self.derivs[i] {
-                    Derivative::Output(j) => self.tape.output_row(j),
-                    Derivative::State(j) => j,
-                    Derivative::Solve(j) => n_rows + j,
-                };
-                (i as u32, src as u32)
-            })
-            .collect();
-        // The accelerations are the `n` rows after the tape's, then comes the factor of `W₀`
-        // (the layout `expand` splits its scratch into).
-        let solve = self.solve.as_ref().map(|m| CholeskySolve {
-            n: m.n,
-            f_rows: m.f.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
-            varying: m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect(),
-            acc_row: n_rows as u32,
-            factor_at: (n_rows + m.n) * stride,
-            w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
-        });
-        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) };
-        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
-            Some(code) => Some(TaylorNative(Arc::new(code))),
-            // Too large to unroll: compact code, one call per order (none past
-            // `MAX_COMPACT_RECURRENCES`).
-            None => self.tape.compile_native(stride, order - 1),
-        }
-    }
-
-    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
-    /// describes: the interpreter (`None`), then compact code, then the final code
-    /// ([`TaylorOde::native_for`]).
-    pub(super) fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
-        let cache = &*self.native;
-        if !cache.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
-            return None;
-        }
-        let best = &cache.by_order[order];
+        let best = &self.by_order[order];
         if let Some(code) = best.get() {
             return code.as_ref();
         }
-        let uses = cache.uses.fetch_add(1, Ordering::Relaxed);
-        let terms = unrolled_terms(&self.tape, order - 1);
+        let uses = self.uses.fetch_add(1, Ordering::Relaxed);
+        let terms = unrolled_terms(tape, order - 1);
         let final_after = match terms {
-            t if t <= COMPACT_ABOVE_TERMS => cache.after,
+            t if t <= COMPACT_ABOVE_TERMS => self.after,
             // Too large to unroll at all: the compact code is the final code.
-            t if t > MAX_NATIVE_TAYLOR_TERMS => cache.compact_after,
-            _ => cache.unroll_after,
+            t if t > MAX_NATIVE_TAYLOR_TERMS => self.compact_after,
+            _ => self.unroll_after,
         };
         if uses >= final_after {
-            return best.get_or_init(|| self.compile_native(order)).as_ref();
+            return best.get_or_init(compile_final).as_ref();
         }
-        if uses >= cache.compact_after && compact_pays(&self.tape) {
-            let compact = || self.tape.compile_native_compact(order + 1, order - 1);
-            return cache.compact[order].get_or_init(compact).as_ref();
+        if uses >= self.compact_after && compact_pays(tape) {
+            let compact = || tape.compile_native_compact(order + 1, order - 1);
+            return self.compact[order].get_or_init(compact).as_ref();
         }
         None
     }
