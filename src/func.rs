@@ -26,6 +26,7 @@ pub enum Func {
     Atan,
     Atan2,
     Abs,
+    Asinh,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -86,7 +87,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 13] = [
+pub const SPECS: [Spec; 14] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -244,11 +245,24 @@ pub const SPECS: [Spec; 13] = [
         sympy: "Abs",
         native: None,
     },
+    Spec {
+        name: "asinh",
+        arity: 1,
+        eval: |a| a[0].asinh(),
+        derivative: Some(|u| Expr::pow(Expr::one().plus(&u.powi(2)), Expr::frac(-1, 2))),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        // What SymPy's `latex()` prints; there is no `\asinh` command.
+        latex: Some("\\operatorname{asinh}"),
+        sympy: "asinh",
+        native: native!(asinh),
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 13] = [
+    pub const ALL: [Func; 14] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -262,6 +276,7 @@ impl Func {
         Func::Atan,
         Func::Atan2,
         Func::Abs,
+        Func::Asinh,
     ];
 
     /// This function's row of [`SPECS`].

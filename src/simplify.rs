@@ -551,6 +551,7 @@ egg::define_language! {
         "atan" = Atan(Id),
         "atan2" = Atan2([Id; 2]),
         "abs" = Abs(Id),
+        "asinh" = Asinh(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -618,6 +619,7 @@ impl Analysis<Math> for Knowledge {
             Math::Acos(a) => call(Func::Acos, a),
             Math::Atan(a) => call(Func::Atan, a),
             Math::Abs(a) => call(Func::Abs, a),
+            Math::Asinh(a) => call(Func::Asinh, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -692,6 +694,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Acos => Math::Acos(a),
                 Func::Atan => Math::Atan(a),
                 Func::Abs => Math::Abs(a),
+                Func::Asinh => Math::Asinh(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

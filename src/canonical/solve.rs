@@ -369,6 +369,7 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                     (Expr::frac(1, 2).times(&Expr::call(Func::Log, vec![one.plus(&v).over(&one.minus(&v))])), None)
                 }
                 Func::Abs => (v, Some(format!("{k} = …: the non-negative sign taken"))),
+                Func::Asinh => (Expr::call(Func::Sinh, vec![v]), None),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
             };
             recurse(a, target, note)

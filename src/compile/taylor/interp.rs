@@ -170,13 +170,14 @@ impl TaylorTape {
                 let v = if hyp { -sq } else { sq };
                 put(c, u, v);
             }
-            Op::Asin { d, a, r, neg } => {
-                // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
+            Op::Asin { d, a, r, kind } => {
+                // r = √(c ∓ a²): r_k = (∓Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                 let (ra, rr) = (row(c, a, s), row(c, r, s));
-                let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
+                let sq = if kind.plus_square() { square(ra, k) } else { -square(ra, k) };
+                let rv = (sq - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
                 // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
                 let wd = self.weighted_of(c, s, d);
-                let ak = if neg { -ra[k] } else { ra[k] };
+                let ak = if kind.neg() { -ra[k] } else { ra[k] };
                 let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
                 put(c, r, rv);
                 put(c, d, dv);
@@ -267,10 +268,10 @@ impl TaylorTape {
                     c[ix(d)] = v;
                     c[ix(u)] = if hyp { 1.0 - v * v } else { 1.0 + v * v };
                 }
-                Op::Asin { d, a, r, neg } => {
+                Op::Asin { d, a, r, kind } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = if neg { x.acos() } else { x.asin() };
-                    c[ix(r)] = (1.0 - x * x).sqrt();
+                    c[ix(d)] = kind.func().eval(&[x]);
+                    c[ix(r)] = kind.radicand(x).sqrt();
                 }
                 Op::Atan { d, a, u } => {
                     let x = c[ix(a)];

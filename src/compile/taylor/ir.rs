@@ -65,12 +65,13 @@ pub(super) enum Op {
         u: u32,
         hyp: bool,
     },
-    /// `d = asin a` (`acos` when `neg`) with `r = √(1 − a²)`, so `r d' = ±a'`.
+    /// `d = asin a`, `acos a`, `asinh a` or `acosh a` (`kind`) with `r` the root of
+    /// [`ArcKind::radicand`] (`√(1 − a²)`, `√(1 + a²)`, `√(a² − 1)`), so `r d' = ±a'` (`−` for `acos`).
     Asin {
         d: u32,
         a: u32,
         r: u32,
-        neg: bool,
+        kind: ArcKind,
     },
     /// `d = atan a` with `u = 1 + a²`, so `u d' = a'`.
     Atan {
@@ -138,6 +139,45 @@ pub(super) enum Op {
         e: f64,
     },
 }
+/// The inverse functions whose derivative is `±1/r` for the square root `r` of a quadratic in
+/// their argument: one recurrence ([`Op::Asin`]) serves them all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum ArcKind {
+    Asin,
+    Acos,
+    Asinh,
+}
+
+impl ArcKind {
+    /// The function computed.
+    pub(super) fn func(self) -> Func {
+        match self {
+            ArcKind::Asin => Func::Asin,
+            ArcKind::Acos => Func::Acos,
+            ArcKind::Asinh => Func::Asinh,
+        }
+    }
+
+    /// Whether `r² = ±1 + a²` (`asinh`: `1 + a²`, `acosh`: `a² − 1`) rather than `1 − a²`.
+    pub(super) fn plus_square(self) -> bool {
+        matches!(self, ArcKind::Asinh)
+    }
+
+    /// `r² = 1 − x²`, `1 + x²` or `x² − 1` at order 0; `acosh` has `x² − 1` so its root is NaN
+    /// exactly where `acosh` itself is (`x < 1`).
+    pub(super) fn radicand(self, x: f64) -> f64 {
+        match self {
+            ArcKind::Asin | ArcKind::Acos => 1.0 - x * x,
+            ArcKind::Asinh => 1.0 + x * x,
+        }
+    }
+
+    /// Whether `r d' = −a'` (`acos`).
+    pub(super) fn neg(self) -> bool {
+        self == ArcKind::Acos
+    }
+}
+
 impl Op {
     /// The rows an operation writes.
     fn dests(&self) -> impl Iterator<Item = u32> {
@@ -324,8 +364,9 @@ impl TaylorTape {
                         Func::Tanh => Op::Tan { d: d2, a, u: fresh(), hyp: true },
                         Func::Exp => Op::Exp { d: d2, a },
                         Func::Log => Op::Log { d: d2, a },
-                        Func::Asin => Op::Asin { d: d2, a, r: fresh(), neg: false },
-                        Func::Acos => Op::Asin { d: d2, a, r: fresh(), neg: true },
+                        Func::Asin => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asin },
+                        Func::Acos => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acos },
+                        Func::Asinh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asinh },
                         Func::Atan => Op::Atan { d: d2, a, u: fresh() },
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call

@@ -14,7 +14,7 @@ use cranelift_module::{Linkage, Module};
 
 use crate::expr::Func;
 
-use super::ir::{KinkAt, Op, Weight};
+use super::ir::{ArcKind, KinkAt, Op, Weight};
 use super::TaylorTape;
 use crate::compile::jit::{atan2, call_f64, call_sin_cos, host_module, powf, real_root, wrapper, OwnedModule};
 use crate::compile::tape::MAX_NATIVE_INSTRS;
@@ -1188,12 +1188,15 @@ impl TaylorEmitter<'_, '_> {
                     self.put_at(d, 0, v);
                     self.put_at(u, 0, uv);
                 }
-                Op::Asin { d, a, r, neg } => {
-                    // r = √(1 − x²).
+                Op::Asin { d, a, r, kind } => {
+                    // r = √(1 − x²), √(1 + x²) or √(x² − 1), as `ArcKind::radicand`.
                     let x = self.at(a, 0);
-                    let v = unary(self, if neg { Func::Acos } else { Func::Asin }, x);
+                    let v = unary(self, kind.func(), x);
                     let sq = self.b.ins().fmul(x, x);
-                    let rest = self.b.ins().fsub(one, sq);
+                    let rest = match kind {
+                        ArcKind::Asin | ArcKind::Acos => self.b.ins().fsub(one, sq),
+                        ArcKind::Asinh => self.b.ins().fadd(one, sq),
+                    };
                     let rv = self.b.ins().sqrt(rest);
                     self.put_at(d, 0, v);
                     self.put_at(r, 0, rv);
@@ -1391,17 +1394,17 @@ impl TaylorEmitter<'_, '_> {
                 let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
                 self.put(u, uv);
             }
-            Op::Asin { d, a, r, neg } => {
+            Op::Asin { d, a, r, kind } => {
                 let sq = self.square(a);
-                let nsq = self.b.ins().fneg(sq);
+                let sq = if kind.plus_square() { sq } else { self.b.ins().fneg(sq) };
                 let inner = self.square_inner(r);
-                let num = self.b.ins().fsub(nsq, inner);
+                let num = self.b.ins().fsub(sq, inner);
                 let two = self.c(2.0);
                 let r0 = self.coef(r, zero);
                 let den = self.b.ins().fmul(r0, two);
                 let rv = self.times_recip(num, den);
                 let ak = self.coef(a, k);
-                let ak = if neg { self.b.ins().fneg(ak) } else { ak };
+                let ak = if kind.neg() { self.b.ins().fneg(ak) } else { ak };
                 let w = self.weighted_short(d, r);
                 let q = self.times_rk(w);
                 let num = self.b.ins().fsub(ak, q);

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 use lagrangian::compile::TaylorOde;
 use lagrangian::integrate::problems::{elliptic_k, DoublePendulum, Kepler, Pendulum};
-use lagrangian::integrate::{Crossing, Event, FailureReason, Integrate, Options, RhsError, Taylor, TaylorSystem};
+use lagrangian::integrate::{Crossing, Dop853, Event, FailureReason, Integrate, Options, RhsError, Taylor, TaylorSystem};
 use lagrangian::mechanics::System;
 use lagrangian::parse;
 
@@ -237,4 +237,27 @@ fn singular_mass_matrix_and_abs_kink_are_typed_errors() {
     let err = Taylor::new(1e-12).integrate(&sys, 0.0..5.0, &[0.5, -1.0]).unwrap_err();
     assert!(err.to_string().contains("kink"), "{err}");
     assert!(err.t < 0.5, "{err}");
+}
+
+/// Each of the later built-ins in a position-dependent mass, so the right-hand side holds both
+/// the function and its derivative: the Taylor method against DOP853 on the same system
+/// (compiled by the tape route the other methods use), from the same state.
+#[test]
+fn later_builtins_in_a_mass_agree_with_dop853() {
+    let masses = ["2 + asinh(x/2)"];
+    for m in masses {
+        let sys = System::from_lagrangian(&format!("1/2 ({m}) x'^2 - 1/2 x^2"), &["x"]).unwrap();
+        let y0 = [0.8, 0.3];
+        let taylor = sys.compile_taylor().unwrap();
+        let tr = Taylor::new(1e-15).integrate_with(&taylor, 0.0..6.0, &y0, Options::new().final_only()).unwrap();
+        let rhs = sys.compile_rhs().unwrap();
+        let dp = Dop853::new(1e-13, 1e-13).integrate_with(&rhs, 0.0..6.0, &y0, Options::new().final_only()).unwrap();
+        let (a, b) = (tr.last_state(), dp.last_state());
+        for i in 0..2 {
+            assert!((a[i] - b[i]).abs() < 1e-9, "mass {m}: Taylor {a:?} vs DOP853 {b:?}");
+        }
+        // The function reached the Taylor tape itself, not only through its derivative.
+        let name = m.split('(').next().unwrap().rsplit(' ').next().unwrap();
+        assert!(format!("{}", taylor.tape()).contains(&format!("= {name}(")), "mass {m}: no `{name}` in\n{}", taylor.tape());
+    }
 }

@@ -218,6 +218,16 @@ fn tangent_and_inverse_trigonometric_functions() {
 }
 
 #[test]
+fn inverse_hyperbolic_and_reciprocal_functions() {
+    // asinh has branch points at ±i: t/3 + 1/10 reaches them at |t + 3/10| = 3.
+    let tape = check("asinh(t/3 + 1/10)", &|t: C| (t / 3.0 + 0.1).asinh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Asinh)));
+    // Negative arguments too, where `log(u + √(1 + u²))` would cancel.
+    let tape = check("asinh(t/3 - 4)", &|t: C| (t / 3.0 - 4.0).asinh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Asinh)));
+}
+
+#[test]
 fn abs_away_from_its_kink() {
     // |t − 3| = 3 − t near 0, |t + 2| = t + 2.
     let tape = check("abs(t - 3) * abs(t + 2)", &|t: C| (3.0 - t) * (t + 2.0), 0.5, 1.0);
