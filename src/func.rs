@@ -27,6 +27,7 @@ pub enum Func {
     Atan2,
     Abs,
     Asinh,
+    Acosh,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -87,7 +88,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 14] = [
+pub const SPECS: [Spec; 15] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -258,11 +259,24 @@ pub const SPECS: [Spec; 14] = [
         sympy: "asinh",
         native: native!(asinh),
     },
+    Spec {
+        name: "acosh",
+        arity: 1,
+        // NaN below 1, as `log` is below 0: the real branch only.
+        eval: |a| a[0].acosh(),
+        derivative: Some(|u| Expr::pow(u.powi(2).minus(&Expr::one()), Expr::frac(-1, 2))),
+        parity: Parity::None,
+        at_zero: None,
+        at_one: Some(0),
+        latex: Some("\\operatorname{acosh}"),
+        sympy: "acosh",
+        native: native!(acosh),
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 14] = [
+    pub const ALL: [Func; 15] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -277,6 +291,7 @@ impl Func {
         Func::Atan2,
         Func::Abs,
         Func::Asinh,
+        Func::Acosh,
     ];
 
     /// This function's row of [`SPECS`].

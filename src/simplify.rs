@@ -552,6 +552,7 @@ egg::define_language! {
         "atan2" = Atan2([Id; 2]),
         "abs" = Abs(Id),
         "asinh" = Asinh(Id),
+        "acosh" = Acosh(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -620,6 +621,7 @@ impl Analysis<Math> for Knowledge {
             Math::Atan(a) => call(Func::Atan, a),
             Math::Abs(a) => call(Func::Abs, a),
             Math::Asinh(a) => call(Func::Asinh, a),
+            Math::Acosh(a) => call(Func::Acosh, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -695,6 +697,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Atan => Math::Atan(a),
                 Func::Abs => Math::Abs(a),
                 Func::Asinh => Math::Asinh(a),
+                Func::Acosh => Math::Acosh(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

@@ -271,7 +271,7 @@ impl TaylorTape {
                 Op::Asin { d, a, r, kind } => {
                     let x = c[ix(a)];
                     c[ix(d)] = kind.func().eval(&[x]);
-                    c[ix(r)] = kind.radicand(x).sqrt();
+                    c[ix(r)] = kind.root(x);
                 }
                 Op::Atan { d, a, u } => {
                     let x = c[ix(a)];

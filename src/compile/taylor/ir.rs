@@ -66,7 +66,7 @@ pub(super) enum Op {
         hyp: bool,
     },
     /// `d = asin a`, `acos a`, `asinh a` or `acosh a` (`kind`) with `r` the root of
-    /// [`ArcKind::radicand`] (`√(1 − a²)`, `√(1 + a²)`, `√(a² − 1)`), so `r d' = ±a'` (`−` for `acos`).
+    /// [`ArcKind::root`] (`√(1 − a²)`, `√(1 + a²)`, `√(a² − 1)`), so `r d' = ±a'` (`−` for `acos`).
     Asin {
         d: u32,
         a: u32,
@@ -146,6 +146,7 @@ pub(super) enum ArcKind {
     Asin,
     Acos,
     Asinh,
+    Acosh,
 }
 
 impl ArcKind {
@@ -155,20 +156,22 @@ impl ArcKind {
             ArcKind::Asin => Func::Asin,
             ArcKind::Acos => Func::Acos,
             ArcKind::Asinh => Func::Asinh,
+            ArcKind::Acosh => Func::Acosh,
         }
     }
 
     /// Whether `r² = ±1 + a²` (`asinh`: `1 + a²`, `acosh`: `a² − 1`) rather than `1 − a²`.
     pub(super) fn plus_square(self) -> bool {
-        matches!(self, ArcKind::Asinh)
+        matches!(self, ArcKind::Asinh | ArcKind::Acosh)
     }
 
-    /// `r² = 1 − x²`, `1 + x²` or `x² − 1` at order 0; `acosh` has `x² − 1` so its root is NaN
-    /// exactly where `acosh` itself is (`x < 1`).
-    pub(super) fn radicand(self, x: f64) -> f64 {
+    /// `r = √(1 − x²)`, `√(1 + x²)` or `√(x² − 1)` at order 0; `acosh` takes `√(x − 1) √(x + 1)`,
+    /// NaN exactly where `acosh` itself is (`x < 1`, also below `−1` where `x² − 1 > 0`).
+    pub(super) fn root(self, x: f64) -> f64 {
         match self {
-            ArcKind::Asin | ArcKind::Acos => 1.0 - x * x,
-            ArcKind::Asinh => 1.0 + x * x,
+            ArcKind::Asin | ArcKind::Acos => (1.0 - x * x).sqrt(),
+            ArcKind::Asinh => (1.0 + x * x).sqrt(),
+            ArcKind::Acosh => (x - 1.0).sqrt() * (x + 1.0).sqrt(),
         }
     }
 
@@ -367,6 +370,7 @@ impl TaylorTape {
                         Func::Asin => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asin },
                         Func::Acos => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acos },
                         Func::Asinh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asinh },
+                        Func::Acosh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acosh },
                         Func::Atan => Op::Atan { d: d2, a, u: fresh() },
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call

@@ -1189,15 +1189,26 @@ impl TaylorEmitter<'_, '_> {
                     self.put_at(u, 0, uv);
                 }
                 Op::Asin { d, a, r, kind } => {
-                    // r = √(1 − x²), √(1 + x²) or √(x² − 1), as `ArcKind::radicand`.
+                    // r as `ArcKind::root` computes it.
                     let x = self.at(a, 0);
                     let v = unary(self, kind.func(), x);
-                    let sq = self.b.ins().fmul(x, x);
-                    let rest = match kind {
-                        ArcKind::Asin | ArcKind::Acos => self.b.ins().fsub(one, sq),
-                        ArcKind::Asinh => self.b.ins().fadd(one, sq),
+                    let rv = match kind {
+                        ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
+                            let sq = self.b.ins().fmul(x, x);
+                            let rest = if kind == ArcKind::Asinh {
+                                self.b.ins().fadd(one, sq)
+                            } else {
+                                self.b.ins().fsub(one, sq)
+                            };
+                            self.b.ins().sqrt(rest)
+                        }
+                        ArcKind::Acosh => {
+                            let below = self.b.ins().fsub(x, one);
+                            let above = self.b.ins().fadd(x, one);
+                            let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
+                            self.b.ins().fmul(p, q)
+                        }
                     };
-                    let rv = self.b.ins().sqrt(rest);
                     self.put_at(d, 0, v);
                     self.put_at(r, 0, rv);
                 }

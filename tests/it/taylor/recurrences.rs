@@ -225,6 +225,9 @@ fn inverse_hyperbolic_and_reciprocal_functions() {
     // Negative arguments too, where `log(u + √(1 + u²))` would cancel.
     let tape = check("asinh(t/3 - 4)", &|t: C| (t / 3.0 - 4.0).asinh(), 0.2, 1.2);
     assert!(has(&tape, call(Func::Asinh)));
+    // acosh has its branch point at 1: t/3 + 2 reaches it at |t + 3| = 3.
+    let tape = check("acosh(t/3 + 2)", &|t: C| (t / 3.0 + 2.0).acosh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Acosh)));
 }
 
 #[test]
