@@ -28,6 +28,7 @@ pub enum Func {
     Abs,
     Asinh,
     Acosh,
+    Atanh,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -88,7 +89,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 15] = [
+pub const SPECS: [Spec; 16] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -272,11 +273,24 @@ pub const SPECS: [Spec; 15] = [
         sympy: "acosh",
         native: native!(acosh),
     },
+    Spec {
+        name: "atanh",
+        arity: 1,
+        // NaN outside [−1, 1], ±∞ at ±1.
+        eval: |a| a[0].atanh(),
+        derivative: Some(|u| Expr::one().minus(&u.powi(2)).powi(-1)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\operatorname{atanh}"),
+        sympy: "atanh",
+        native: native!(atanh),
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 15] = [
+    pub const ALL: [Func; 16] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -292,6 +306,7 @@ impl Func {
         Func::Abs,
         Func::Asinh,
         Func::Acosh,
+        Func::Atanh,
     ];
 
     /// This function's row of [`SPECS`].

@@ -553,6 +553,7 @@ egg::define_language! {
         "abs" = Abs(Id),
         "asinh" = Asinh(Id),
         "acosh" = Acosh(Id),
+        "atanh" = Atanh(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -622,6 +623,7 @@ impl Analysis<Math> for Knowledge {
             Math::Abs(a) => call(Func::Abs, a),
             Math::Asinh(a) => call(Func::Asinh, a),
             Math::Acosh(a) => call(Func::Acosh, a),
+            Math::Atanh(a) => call(Func::Atanh, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -698,6 +700,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Abs => Math::Abs(a),
                 Func::Asinh => Math::Asinh(a),
                 Func::Acosh => Math::Acosh(a),
+                Func::Atanh => Math::Atanh(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

@@ -371,6 +371,7 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                 Func::Abs => (v, Some(format!("{k} = …: the non-negative sign taken"))),
                 Func::Asinh => (Expr::call(Func::Sinh, vec![v]), None),
                 Func::Acosh => (Expr::call(Func::Cosh, vec![v]), None),
+                Func::Atanh => (Expr::call(Func::Tanh, vec![v]), None),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
             };
             recurse(a, target, note)

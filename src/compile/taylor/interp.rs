@@ -182,9 +182,9 @@ impl TaylorTape {
                 put(c, r, rv);
                 put(c, d, dv);
             }
-            Op::Atan { d, a, u } => {
+            Op::Atan { d, a, u, hyp } => {
                 let (ra, ru) = (row(c, a, s), row(c, u, s));
-                let uv = square(ra, k);
+                let uv = if hyp { -square(ra, k) } else { square(ra, k) };
                 let wd = self.weighted_of(c, s, d);
                 let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
                 put(c, u, uv);
@@ -273,10 +273,10 @@ impl TaylorTape {
                     c[ix(d)] = kind.func().eval(&[x]);
                     c[ix(r)] = kind.root(x);
                 }
-                Op::Atan { d, a, u } => {
+                Op::Atan { d, a, u, hyp } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = x.atan();
-                    c[ix(u)] = 1.0 + x * x;
+                    c[ix(d)] = if hyp { x.atanh() } else { x.atan() };
+                    c[ix(u)] = if hyp { 1.0 - x * x } else { 1.0 + x * x };
                 }
                 Op::Atan2 { d, a, b, u } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);

@@ -73,11 +73,12 @@ pub(super) enum Op {
         r: u32,
         kind: ArcKind,
     },
-    /// `d = atan a` with `u = 1 + a²`, so `u d' = a'`.
+    /// `d = atan a` with `u = 1 + a²` (`hyp`: `atanh a` with `u = 1 − a²`), so `u d' = a'`.
     Atan {
         d: u32,
         a: u32,
         u: u32,
+        hyp: bool,
     },
     /// `d = atan2(a, b)` with `u = a² + b²`, so `u d' = b a' − a b'`.
     Atan2 {
@@ -371,7 +372,8 @@ impl TaylorTape {
                         Func::Acos => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acos },
                         Func::Asinh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asinh },
                         Func::Acosh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acosh },
-                        Func::Atan => Op::Atan { d: d2, a, u: fresh() },
+                        Func::Atan => Op::Atan { d: d2, a, u: fresh(), hyp: false },
+                        Func::Atanh => Op::Atan { d: d2, a, u: fresh(), hyp: true },
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call
                         // of it cannot occur (its second operand would be missing).

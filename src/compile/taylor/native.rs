@@ -1212,12 +1212,12 @@ impl TaylorEmitter<'_, '_> {
                     self.put_at(d, 0, v);
                     self.put_at(r, 0, rv);
                 }
-                Op::Atan { d, a, u } => {
-                    // u = 1 + x².
+                Op::Atan { d, a, u, hyp } => {
+                    // u = 1 + x² (atanh: 1 − x²).
                     let x = self.at(a, 0);
-                    let v = unary(self, Func::Atan, x);
+                    let v = unary(self, if hyp { Func::Atanh } else { Func::Atan }, x);
                     let sq = self.b.ins().fmul(x, x);
-                    let uv = self.b.ins().fadd(one, sq);
+                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
                     self.put_at(d, 0, v);
                     self.put_at(u, 0, uv);
                 }
@@ -1423,8 +1423,9 @@ impl TaylorEmitter<'_, '_> {
                 self.put(r, rv);
                 self.put(d, dv);
             }
-            Op::Atan { d, a, u } => {
+            Op::Atan { d, a, u, hyp } => {
                 let uv = self.square(a);
+                let uv = if hyp { self.b.ins().fneg(uv) } else { uv };
                 let w = self.weighted_short(d, u);
                 let q = self.times_rk(w);
                 let ak = self.coef(a, k);

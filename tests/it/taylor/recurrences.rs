@@ -228,6 +228,10 @@ fn inverse_hyperbolic_and_reciprocal_functions() {
     // acosh has its branch point at 1: t/3 + 2 reaches it at |t + 3| = 3.
     let tape = check("acosh(t/3 + 2)", &|t: C| (t / 3.0 + 2.0).acosh(), 0.2, 1.2);
     assert!(has(&tape, call(Func::Acosh)));
+    // atanh has branch points at ±1: t/2 − 1/5 reaches them at t = 12/5 and −8/5, 2.1 and 1.9
+    // from t₀ = 0.3.
+    let tape = check("atanh(t/2 - 1/5)", &|t: C| (t / 2.0 - 0.2).atanh(), 0.3, 0.9);
+    assert!(has(&tape, call(Func::Atanh)));
 }
 
 #[test]
