@@ -29,6 +29,7 @@ pub enum Func {
     Asinh,
     Acosh,
     Atanh,
+    Sec,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -77,6 +78,12 @@ macro_rules! native {
         }
         Some(wrapper as extern "C" fn(f64) -> f64)
     }};
+    (recip $m:ident) => {{
+        extern "C" fn wrapper(x: f64) -> f64 {
+            1.0 / f64::$m(x)
+        }
+        Some(wrapper as extern "C" fn(f64) -> f64)
+    }};
 }
 
 fn call1(f: Func, u: &Expr) -> Expr {
@@ -89,7 +96,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 16] = [
+pub const SPECS: [Spec; 17] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -286,11 +293,24 @@ pub const SPECS: [Spec; 16] = [
         sympy: "atanh",
         native: native!(atanh),
     },
+    Spec {
+        name: "sec",
+        arity: 1,
+        // The reciprocal, as the Taylor recurrence computes it (`1/cos`), bit for bit.
+        eval: |a| 1.0 / a[0].cos(),
+        derivative: Some(|u| call1(Func::Sec, u).times(&call1(Func::Tan, u))),
+        parity: Parity::Even,
+        at_zero: Some(1),
+        at_one: None,
+        latex: Some("\\sec"),
+        sympy: "sec",
+        native: native!(recip cos),
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 16] = [
+    pub const ALL: [Func; 17] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -307,6 +327,7 @@ impl Func {
         Func::Asinh,
         Func::Acosh,
         Func::Atanh,
+        Func::Sec,
     ];
 
     /// This function's row of [`SPECS`].

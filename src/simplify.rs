@@ -554,6 +554,7 @@ egg::define_language! {
         "asinh" = Asinh(Id),
         "acosh" = Acosh(Id),
         "atanh" = Atanh(Id),
+        "sec" = Sec(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -624,6 +625,7 @@ impl Analysis<Math> for Knowledge {
             Math::Asinh(a) => call(Func::Asinh, a),
             Math::Acosh(a) => call(Func::Acosh, a),
             Math::Atanh(a) => call(Func::Atanh, a),
+            Math::Sec(a) => call(Func::Sec, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -701,6 +703,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Asinh => Math::Asinh(a),
                 Func::Acosh => Math::Acosh(a),
                 Func::Atanh => Math::Atanh(a),
+                Func::Sec => Math::Sec(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

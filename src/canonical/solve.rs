@@ -372,6 +372,10 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                 Func::Asinh => (Expr::call(Func::Sinh, vec![v]), None),
                 Func::Acosh => (Expr::call(Func::Cosh, vec![v]), None),
                 Func::Atanh => (Expr::call(Func::Tanh, vec![v]), None),
+                Func::Sec => (
+                    Expr::call(Func::Acos, vec![v.powi(-1)]),
+                    Some(format!("{k} = …: acos of the reciprocal taken (also −acos; + 2πn)")),
+                ),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
             };
             recurse(a, target, note)

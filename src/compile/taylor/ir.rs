@@ -285,7 +285,20 @@ impl TaylorTape {
     /// The Taylor form of `tape`.
     pub fn new(tape: &Tape) -> TaylorTape {
         let n_inputs = tape.n_inputs();
-        let consts = tape.consts().to_vec();
+        let mut consts = tape.consts().to_vec();
+        // `sec` runs as `1/cos`, whose division reads a row holding 1 (the tape's own, if it
+        // has one); the plain tape calls `sec` itself, which computes the same quotient.
+        let reciprocal = |f: Func| matches!(f, Func::Sec);
+        let needs_one = tape.instrs().iter().any(|i| matches!(*i, Instr::Call { f, .. } if reciprocal(f)));
+        let one = match consts.iter().position(|c| c.to_bits() == 1f64.to_bits()) {
+            Some(i) => (n_inputs + i) as u32,
+            None if needs_one => {
+                consts.push(1.0);
+                (n_inputs + consts.len() - 1) as u32
+            }
+            // Read by no operation.
+            None => u32::MAX,
+        };
         let fixed = (n_inputs + consts.len()) as u32;
         let mut map: Vec<u32> = (0..tape.scratch_len() as u32).collect();
         let mut next = fixed;
@@ -374,6 +387,11 @@ impl TaylorTape {
                         Func::Acosh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acosh },
                         Func::Atan => Op::Atan { d: d2, a, u: fresh(), hyp: false },
                         Func::Atanh => Op::Atan { d: d2, a, u: fresh(), hyp: true },
+                        Func::Sec => {
+                            let (s, c) = (fresh(), fresh());
+                            ops.push(Op::SinCos { s, c, a });
+                            Op::Div { d: d2, a: one, b: c }
+                        }
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call
                         // of it cannot occur (its second operand would be missing).

@@ -71,6 +71,7 @@ fn every_instruction_kind_and_builtin_matches_the_interpreter_bit_for_bit() {
         "asinh(y - x)",
         "acosh(x + 1/2)",
         "atanh(y/4)",
+        "sec(x y)",
     ];
     let exprs: Vec<_> = src.iter().map(|s| parse(s).unwrap()).collect();
     let nat = Tape::compile_with_options(&exprs, &["x", "y"], &[], &native()).unwrap();

@@ -232,6 +232,10 @@ fn inverse_hyperbolic_and_reciprocal_functions() {
     // from t₀ = 0.3.
     let tape = check("atanh(t/2 - 1/5)", &|t: C| (t / 2.0 - 0.2).atanh(), 0.3, 0.9);
     assert!(has(&tape, call(Func::Atanh)));
+    // sec has poles where cos vanishes, ±π/2 of its argument: t/2 + 1/5 reaches π/2 at
+    // t ≈ 2.74, 2.44 from t₀ = 0.3.
+    let tape = check("sec(t/2 + 1/5)", &|t: C| 1.0 / (t / 2.0 + 0.2).cos(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Sec)));
 }
 
 #[test]
