@@ -30,6 +30,8 @@ pub enum Func {
     Acosh,
     Atanh,
     Sec,
+    Csc,
+    Coth,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -96,7 +98,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 17] = [
+pub const SPECS: [Spec; 19] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -306,11 +308,37 @@ pub const SPECS: [Spec; 17] = [
         sympy: "sec",
         native: native!(recip cos),
     },
+    Spec {
+        name: "csc",
+        arity: 1,
+        eval: |a| 1.0 / a[0].sin(),
+        // −csc u cot u = −cos u / sin² u.
+        derivative: Some(|u| call1(Func::Csc, u).powi(2).times(&call1(Func::Cos, u)).neg()),
+        parity: Parity::Odd,
+        at_zero: None,
+        at_one: None,
+        latex: Some("\\csc"),
+        sympy: "csc",
+        native: native!(recip sin),
+    },
+    Spec {
+        name: "coth",
+        arity: 1,
+        // `1/tanh` rather than `cosh/sinh`, which is ∞/∞ = NaN for |u| above about 710.
+        eval: |a| 1.0 / a[0].tanh(),
+        derivative: Some(|u| call1(Func::Sinh, u).powi(-2).neg()),
+        parity: Parity::Odd,
+        at_zero: None,
+        at_one: None,
+        latex: Some("\\coth"),
+        sympy: "coth",
+        native: native!(recip tanh),
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 17] = [
+    pub const ALL: [Func; 19] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -328,6 +356,8 @@ impl Func {
         Func::Acosh,
         Func::Atanh,
         Func::Sec,
+        Func::Csc,
+        Func::Coth,
     ];
 
     /// This function's row of [`SPECS`].

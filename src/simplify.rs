@@ -555,6 +555,8 @@ egg::define_language! {
         "acosh" = Acosh(Id),
         "atanh" = Atanh(Id),
         "sec" = Sec(Id),
+        "csc" = Csc(Id),
+        "coth" = Coth(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -626,6 +628,8 @@ impl Analysis<Math> for Knowledge {
             Math::Acosh(a) => call(Func::Acosh, a),
             Math::Atanh(a) => call(Func::Atanh, a),
             Math::Sec(a) => call(Func::Sec, a),
+            Math::Csc(a) => call(Func::Csc, a),
+            Math::Coth(a) => call(Func::Coth, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -704,6 +708,8 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Acosh => Math::Acosh(a),
                 Func::Atanh => Math::Atanh(a),
                 Func::Sec => Math::Sec(a),
+                Func::Csc => Math::Csc(a),
+                Func::Coth => Math::Coth(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

@@ -376,6 +376,11 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                     Expr::call(Func::Acos, vec![v.powi(-1)]),
                     Some(format!("{k} = …: acos of the reciprocal taken (also −acos; + 2πn)")),
                 ),
+                Func::Csc => (
+                    Expr::call(Func::Asin, vec![v.powi(-1)]),
+                    Some(format!("{k} = …: asin of the reciprocal taken (also π − asin; + 2πn)")),
+                ),
+                Func::Coth => (Expr::call(Func::Atanh, vec![v.powi(-1)]), None),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
             };
             recurse(a, target, note)

@@ -286,9 +286,10 @@ impl TaylorTape {
     pub fn new(tape: &Tape) -> TaylorTape {
         let n_inputs = tape.n_inputs();
         let mut consts = tape.consts().to_vec();
-        // `sec` runs as `1/cos`, whose division reads a row holding 1 (the tape's own, if it
-        // has one); the plain tape calls `sec` itself, which computes the same quotient.
-        let reciprocal = |f: Func| matches!(f, Func::Sec);
+        // `sec`, `csc` and `coth` run as `1/cos`, `1/sin` and `1/tanh`, whose division reads a
+        // row holding 1 (the tape's own, if it has one); the plain tape calls the function
+        // itself, which computes the same quotient.
+        let reciprocal = |f: Func| matches!(f, Func::Sec | Func::Csc | Func::Coth);
         let needs_one = tape.instrs().iter().any(|i| matches!(*i, Instr::Call { f, .. } if reciprocal(f)));
         let one = match consts.iter().position(|c| c.to_bits() == 1f64.to_bits()) {
             Some(i) => (n_inputs + i) as u32,
@@ -387,10 +388,15 @@ impl TaylorTape {
                         Func::Acosh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acosh },
                         Func::Atan => Op::Atan { d: d2, a, u: fresh(), hyp: false },
                         Func::Atanh => Op::Atan { d: d2, a, u: fresh(), hyp: true },
-                        Func::Sec => {
+                        Func::Sec | Func::Csc => {
                             let (s, c) = (fresh(), fresh());
                             ops.push(Op::SinCos { s, c, a });
-                            Op::Div { d: d2, a: one, b: c }
+                            Op::Div { d: d2, a: one, b: if f == Func::Sec { c } else { s } }
+                        }
+                        Func::Coth => {
+                            let t = fresh();
+                            ops.push(Op::Tan { d: t, a, u: fresh(), hyp: true });
+                            Op::Div { d: d2, a: one, b: t }
                         }
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call

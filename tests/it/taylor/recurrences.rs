@@ -236,6 +236,12 @@ fn inverse_hyperbolic_and_reciprocal_functions() {
     // t ≈ 2.74, 2.44 from t₀ = 0.3.
     let tape = check("sec(t/2 + 1/5)", &|t: C| 1.0 / (t / 2.0 + 0.2).cos(), 0.3, 1.0);
     assert!(has(&tape, call(Func::Sec)));
+    // csc has poles at 0 and π of its argument: t/2 + 1 reaches 0 at t = −2, 2.3 from t₀ = 0.3.
+    let tape = check("csc(t/2 + 1)", &|t: C| 1.0 / (t / 2.0 + 1.0).sin(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Csc)));
+    // coth has poles at iπn of its argument: t/2 + 1 is 0 at t = −2, 2.3 from t₀ = 0.3.
+    let tape = check("coth(t/2 + 1)", &|t: C| 1.0 / (t / 2.0 + 1.0).tanh(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Coth)));
 }
 
 #[test]
