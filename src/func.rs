@@ -32,6 +32,7 @@ pub enum Func {
     Sec,
     Csc,
     Coth,
+    Erf,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -98,7 +99,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 19] = [
+pub const SPECS: [Spec; 20] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -334,11 +335,31 @@ pub const SPECS: [Spec; 19] = [
         sympy: "coth",
         native: native!(recip tanh),
     },
+    Spec {
+        name: "erf",
+        arity: 1,
+        eval: |a| libm::erf(a[0]),
+        // 2/√π · e^(−u²), with the exact π.
+        derivative: Some(|u| {
+            Expr::mul([Expr::int(2), Expr::pow(Expr::pi(), Expr::frac(-1, 2)), call1(Func::Exp, &u.powi(2).neg())])
+        }),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\operatorname{erf}"),
+        sympy: "erf",
+        native: {
+            extern "C" fn wrapper(x: f64) -> f64 {
+                libm::erf(x)
+            }
+            Some(wrapper as extern "C" fn(f64) -> f64)
+        },
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 19] = [
+    pub const ALL: [Func; 20] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -358,6 +379,7 @@ impl Func {
         Func::Sec,
         Func::Csc,
         Func::Coth,
+        Func::Erf,
     ];
 
     /// This function's row of [`SPECS`].

@@ -557,6 +557,7 @@ egg::define_language! {
         "sec" = Sec(Id),
         "csc" = Csc(Id),
         "coth" = Coth(Id),
+        "erf" = Erf(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -630,6 +631,7 @@ impl Analysis<Math> for Knowledge {
             Math::Sec(a) => call(Func::Sec, a),
             Math::Csc(a) => call(Func::Csc, a),
             Math::Coth(a) => call(Func::Coth, a),
+            Math::Erf(a) => call(Func::Erf, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -710,6 +712,7 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Sec => Math::Sec(a),
                 Func::Csc => Math::Csc(a),
                 Func::Coth => Math::Coth(a),
+                Func::Erf => Math::Erf(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

@@ -382,6 +382,7 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                 ),
                 Func::Coth => (Expr::call(Func::Atanh, vec![v.powi(-1)]), None),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
+                Func::Erf => return Err(no_closed_form(u, eq, "erf has no elementary inverse")),
             };
             recurse(a, target, note)
         }

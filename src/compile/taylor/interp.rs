@@ -105,6 +105,7 @@ impl TaylorTape {
                 | Op::Tan { .. }
                 | Op::Asin { .. }
                 | Op::Atan { .. }
+                | Op::Erf { .. }
                 | Op::Atan2 { .. }
                 | Op::Root { .. }
                 | Op::PowConst { .. }
@@ -189,6 +190,12 @@ impl TaylorTape {
                 let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
                 put(c, u, uv);
                 put(c, d, dv);
+            }
+            Op::Erf { d, a, e } => {
+                // k d_k = (2/√π) Σ_{j=1}^{k} j a_j e_{k−j}.
+                let (wa, re) = (self.weighted_of(c, s, a), row(c, e, s));
+                let v = weighted(wa, re, k) * rk * std::f64::consts::FRAC_2_SQRT_PI;
+                put(c, d, v);
             }
             Op::Atan2 { d, a, b, u } => {
                 let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
@@ -278,6 +285,7 @@ impl TaylorTape {
                     c[ix(d)] = if hyp { x.atanh() } else { x.atan() };
                     c[ix(u)] = if hyp { 1.0 - x * x } else { 1.0 + x * x };
                 }
+                Op::Erf { d, a, .. } => c[ix(d)] = crate::expr::Func::Erf.eval(&[c[ix(a)]]),
                 Op::Atan2 { d, a, b, u } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);
                     c[ix(d)] = x.atan2(y);

@@ -80,6 +80,12 @@ pub(super) enum Op {
         u: u32,
         hyp: bool,
     },
+    /// `d = erf a` with `e = exp(−a²)` (its own rows), so `d' = (2/√π) e a'`.
+    Erf {
+        d: u32,
+        a: u32,
+        e: u32,
+    },
     /// `d = atan2(a, b)` with `u = a² + b²`, so `u d' = b a' − a b'`.
     Atan2 {
         d: u32,
@@ -191,6 +197,7 @@ impl Op {
             Op::Asin { d, r, .. } => (d, Some(r)),
             Op::PowVar { d, l, m, .. } => return [d, l, m].into_iter().take(3),
             Op::Add { d, .. }
+            | Op::Erf { d, .. }
             | Op::Sub { d, .. }
             | Op::Mul { d, .. }
             | Op::Div { d, .. }
@@ -217,9 +224,11 @@ impl Op {
     /// the results of the recurrences that are solved for their own order `k`.
     fn weighted_operands(&self) -> impl Iterator<Item = u32> {
         let (x, y, z) = match *self {
-            Op::SinCos { a, .. } | Op::SinhCosh { a, .. } | Op::Exp { a, .. } | Op::Tan { a, .. } => {
-                (Some(a), None, None)
-            }
+            Op::SinCos { a, .. }
+            | Op::SinhCosh { a, .. }
+            | Op::Exp { a, .. }
+            | Op::Tan { a, .. }
+            | Op::Erf { a, .. } => (Some(a), None, None),
             Op::Log { d, .. } | Op::Asin { d, .. } | Op::Atan { d, .. } => (Some(d), None, None),
             Op::Atan2 { d, a, b, .. } => (Some(a), Some(b), Some(d)),
             Op::PowVar { l, m, .. } => (Some(l), Some(m), None),
@@ -237,7 +246,7 @@ impl Op {
             | Op::Div { a, b, .. }
             | Op::Atan2 { a, b, .. }
             | Op::PowVar { a, b, .. } => (a, Some(b)),
-            Op::PowConst { a, e, .. } => (a, Some(e)),
+            Op::PowConst { a, e, .. } | Op::Erf { a, e, .. } => (a, Some(e)),
             Op::Neg { a, .. }
             | Op::Sqrt { a, .. }
             | Op::SinCos { a, .. }
@@ -392,6 +401,13 @@ impl TaylorTape {
                             let (s, c) = (fresh(), fresh());
                             ops.push(Op::SinCos { s, c, a });
                             Op::Div { d: d2, a: one, b: if f == Func::Sec { c } else { s } }
+                        }
+                        Func::Erf => {
+                            let (q, n, e) = (fresh(), fresh(), fresh());
+                            ops.push(Op::Mul { d: q, a, b: a });
+                            ops.push(Op::Neg { d: n, a: q });
+                            ops.push(Op::Exp { d: e, a: n });
+                            Op::Erf { d: d2, a, e }
                         }
                         Func::Coth => {
                             let t = fresh();

@@ -1221,6 +1221,11 @@ impl TaylorEmitter<'_, '_> {
                     self.put_at(d, 0, v);
                     self.put_at(u, 0, uv);
                 }
+                Op::Erf { d, a, .. } => {
+                    let x = self.at(a, 0);
+                    let v = unary(self, Func::Erf, x);
+                    self.put_at(d, 0, v);
+                }
                 Op::Atan2 { d, a, b, u } => {
                     // u = x² + y².
                     let (x, y) = (self.at(a, 0), self.at(b, 0));
@@ -1339,6 +1344,7 @@ impl TaylorEmitter<'_, '_> {
                 | Op::Tan { .. }
                 | Op::Asin { .. }
                 | Op::Atan { .. }
+                | Op::Erf { .. }
                 | Op::Atan2 { .. }
                 | Op::Root { .. }
                 | Op::PowConst { .. }
@@ -1404,6 +1410,13 @@ impl TaylorEmitter<'_, '_> {
                 let sq = self.square(d);
                 let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
                 self.put(u, uv);
+            }
+            Op::Erf { d, a, e } => {
+                let w = self.weighted(a, e);
+                let v = self.times_rk(w);
+                let two_over_root_pi = self.c(std::f64::consts::FRAC_2_SQRT_PI);
+                let dv = self.b.ins().fmul(v, two_over_root_pi);
+                self.put(d, dv);
             }
             Op::Asin { d, a, r, kind } => {
                 let sq = self.square(a);

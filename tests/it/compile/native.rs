@@ -74,6 +74,7 @@ fn every_instruction_kind_and_builtin_matches_the_interpreter_bit_for_bit() {
         "sec(x y)",
         "csc(x - y)",
         "coth(y)",
+        "erf(x - y/2)",
     ];
     let exprs: Vec<_> = src.iter().map(|s| parse(s).unwrap()).collect();
     let nat = Tape::compile_with_options(&exprs, &["x", "y"], &[], &native()).unwrap();

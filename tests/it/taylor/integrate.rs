@@ -246,7 +246,15 @@ fn singular_mass_matrix_and_abs_kink_are_typed_errors() {
 /// (compiled by the tape route the other methods use), from the same state.
 #[test]
 fn later_builtins_in_a_mass_agree_with_dop853() {
-    let masses = ["2 + asinh(x/2)", "acosh(2 + x^2)", "2 + atanh(x/2)", "sec(x/2)", "csc(1 + x/4)", "coth(2 + x/4)"];
+    let masses = [
+        "2 + asinh(x/2)",
+        "acosh(2 + x^2)",
+        "2 + atanh(x/2)",
+        "sec(x/2)",
+        "csc(1 + x/4)",
+        "coth(2 + x/4)",
+        "2 + erf(x)",
+    ];
     for m in masses {
         let sys = System::from_lagrangian(&format!("1/2 ({m}) x'^2 - 1/2 x^2"), &["x"]).unwrap();
         let y0 = [0.8, 0.3];
