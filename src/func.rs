@@ -26,6 +26,13 @@ pub enum Func {
     Atan,
     Atan2,
     Abs,
+    Asinh,
+    Acosh,
+    Atanh,
+    Sec,
+    Csc,
+    Coth,
+    Erf,
 }
 
 /// How `f(-x)` relates to `f(x)`; `Expr::call` folds a negative argument out with it.
@@ -74,6 +81,12 @@ macro_rules! native {
         }
         Some(wrapper as extern "C" fn(f64) -> f64)
     }};
+    (recip $m:ident) => {{
+        extern "C" fn wrapper(x: f64) -> f64 {
+            1.0 / f64::$m(x)
+        }
+        Some(wrapper as extern "C" fn(f64) -> f64)
+    }};
 }
 
 fn call1(f: Func, u: &Expr) -> Expr {
@@ -86,7 +99,7 @@ fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
 }
 
 /// One row per [`Func`], in declaration order (checked by a unit test).
-pub const SPECS: [Spec; 13] = [
+pub const SPECS: [Spec; 20] = [
     Spec {
         name: "sin",
         arity: 1,
@@ -244,11 +257,109 @@ pub const SPECS: [Spec; 13] = [
         sympy: "Abs",
         native: None,
     },
+    Spec {
+        name: "asinh",
+        arity: 1,
+        eval: |a| a[0].asinh(),
+        derivative: Some(|u| Expr::pow(Expr::one().plus(&u.powi(2)), Expr::frac(-1, 2))),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        // What SymPy's `latex()` prints; there is no `\asinh` command.
+        latex: Some("\\operatorname{asinh}"),
+        sympy: "asinh",
+        native: native!(asinh),
+    },
+    Spec {
+        name: "acosh",
+        arity: 1,
+        // NaN below 1, as `log` is below 0: the real branch only.
+        eval: |a| a[0].acosh(),
+        derivative: Some(|u| Expr::pow(u.powi(2).minus(&Expr::one()), Expr::frac(-1, 2))),
+        parity: Parity::None,
+        at_zero: None,
+        at_one: Some(0),
+        latex: Some("\\operatorname{acosh}"),
+        sympy: "acosh",
+        native: native!(acosh),
+    },
+    Spec {
+        name: "atanh",
+        arity: 1,
+        // NaN outside [−1, 1], ±∞ at ±1.
+        eval: |a| a[0].atanh(),
+        derivative: Some(|u| Expr::one().minus(&u.powi(2)).powi(-1)),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\operatorname{atanh}"),
+        sympy: "atanh",
+        native: native!(atanh),
+    },
+    Spec {
+        name: "sec",
+        arity: 1,
+        // The reciprocal, as the Taylor recurrence computes it (`1/cos`), bit for bit.
+        eval: |a| 1.0 / a[0].cos(),
+        derivative: Some(|u| call1(Func::Sec, u).times(&call1(Func::Tan, u))),
+        parity: Parity::Even,
+        at_zero: Some(1),
+        at_one: None,
+        latex: Some("\\sec"),
+        sympy: "sec",
+        native: native!(recip cos),
+    },
+    Spec {
+        name: "csc",
+        arity: 1,
+        eval: |a| 1.0 / a[0].sin(),
+        // −csc u cot u = −cos u / sin² u.
+        derivative: Some(|u| call1(Func::Csc, u).powi(2).times(&call1(Func::Cos, u)).neg()),
+        parity: Parity::Odd,
+        at_zero: None,
+        at_one: None,
+        latex: Some("\\csc"),
+        sympy: "csc",
+        native: native!(recip sin),
+    },
+    Spec {
+        name: "coth",
+        arity: 1,
+        // `1/tanh` rather than `cosh/sinh`, which is ∞/∞ = NaN for |u| above about 710.
+        eval: |a| 1.0 / a[0].tanh(),
+        derivative: Some(|u| call1(Func::Sinh, u).powi(-2).neg()),
+        parity: Parity::Odd,
+        at_zero: None,
+        at_one: None,
+        latex: Some("\\coth"),
+        sympy: "coth",
+        native: native!(recip tanh),
+    },
+    Spec {
+        name: "erf",
+        arity: 1,
+        eval: |a| libm::erf(a[0]),
+        // 2/√π · e^(−u²), with the exact π.
+        derivative: Some(|u| {
+            Expr::mul([Expr::int(2), Expr::pow(Expr::pi(), Expr::frac(-1, 2)), call1(Func::Exp, &u.powi(2).neg())])
+        }),
+        parity: Parity::Odd,
+        at_zero: Some(0),
+        at_one: None,
+        latex: Some("\\operatorname{erf}"),
+        sympy: "erf",
+        native: {
+            extern "C" fn wrapper(x: f64) -> f64 {
+                libm::erf(x)
+            }
+            Some(wrapper as extern "C" fn(f64) -> f64)
+        },
+    },
 ];
 
 impl Func {
     /// Every built-in function, in declaration order.
-    pub const ALL: [Func; 13] = [
+    pub const ALL: [Func; 20] = [
         Func::Sin,
         Func::Cos,
         Func::Tan,
@@ -262,6 +373,13 @@ impl Func {
         Func::Atan,
         Func::Atan2,
         Func::Abs,
+        Func::Asinh,
+        Func::Acosh,
+        Func::Atanh,
+        Func::Sec,
+        Func::Csc,
+        Func::Coth,
+        Func::Erf,
     ];
 
     /// This function's row of [`SPECS`].

@@ -551,6 +551,13 @@ egg::define_language! {
         "atan" = Atan(Id),
         "atan2" = Atan2([Id; 2]),
         "abs" = Abs(Id),
+        "asinh" = Asinh(Id),
+        "acosh" = Acosh(Id),
+        "atanh" = Atanh(Id),
+        "sec" = Sec(Id),
+        "csc" = Csc(Id),
+        "coth" = Coth(Id),
+        "erf" = Erf(Id),
         Num(Rational),
         Leaf(LeafId),
     }
@@ -618,6 +625,13 @@ impl Analysis<Math> for Knowledge {
             Math::Acos(a) => call(Func::Acos, a),
             Math::Atan(a) => call(Func::Atan, a),
             Math::Abs(a) => call(Func::Abs, a),
+            Math::Asinh(a) => call(Func::Asinh, a),
+            Math::Acosh(a) => call(Func::Acosh, a),
+            Math::Atanh(a) => call(Func::Atanh, a),
+            Math::Sec(a) => call(Func::Sec, a),
+            Math::Csc(a) => call(Func::Csc, a),
+            Math::Coth(a) => call(Func::Coth, a),
+            Math::Erf(a) => call(Func::Erf, a),
             Math::Atan2([a, b]) => Expr::call(Func::Atan2, vec![k(a), k(b)]),
         };
         let mut facts = Facts::of(repr);
@@ -692,6 +706,13 @@ fn add_expr(g: &mut Graph, e: &Expr, memo: &mut HashMap<Expr, Id>) -> Id {
                 Func::Acos => Math::Acos(a),
                 Func::Atan => Math::Atan(a),
                 Func::Abs => Math::Abs(a),
+                Func::Asinh => Math::Asinh(a),
+                Func::Acosh => Math::Acosh(a),
+                Func::Atanh => Math::Atanh(a),
+                Func::Sec => Math::Sec(a),
+                Func::Csc => Math::Csc(a),
+                Func::Coth => Math::Coth(a),
+                Func::Erf => Math::Erf(a),
                 Func::Atan2 => Math::Atan2([a, add_expr(g, &kids[1], memo)]),
             }
         }

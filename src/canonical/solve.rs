@@ -369,7 +369,20 @@ fn invert(k: &Expr, value: &Expr, u: &Symbol, eq: &Expr, depth: usize) -> Result
                     (Expr::frac(1, 2).times(&Expr::call(Func::Log, vec![one.plus(&v).over(&one.minus(&v))])), None)
                 }
                 Func::Abs => (v, Some(format!("{k} = …: the non-negative sign taken"))),
+                Func::Asinh => (Expr::call(Func::Sinh, vec![v]), None),
+                Func::Acosh => (Expr::call(Func::Cosh, vec![v]), None),
+                Func::Atanh => (Expr::call(Func::Tanh, vec![v]), None),
+                Func::Sec => (
+                    Expr::call(Func::Acos, vec![v.powi(-1)]),
+                    Some(format!("{k} = …: acos of the reciprocal taken (also −acos; + 2πn)")),
+                ),
+                Func::Csc => (
+                    Expr::call(Func::Asin, vec![v.powi(-1)]),
+                    Some(format!("{k} = …: asin of the reciprocal taken (also π − asin; + 2πn)")),
+                ),
+                Func::Coth => (Expr::call(Func::Atanh, vec![v.powi(-1)]), None),
                 Func::Atan2 => return Err(no_closed_form(u, eq, "atan2 is not inverted")),
+                Func::Erf => return Err(no_closed_form(u, eq, "erf has no elementary inverse")),
             };
             recurse(a, target, note)
         }

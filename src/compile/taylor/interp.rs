@@ -105,6 +105,7 @@ impl TaylorTape {
                 | Op::Tan { .. }
                 | Op::Asin { .. }
                 | Op::Atan { .. }
+                | Op::Erf { .. }
                 | Op::Atan2 { .. }
                 | Op::Root { .. }
                 | Op::PowConst { .. }
@@ -170,24 +171,31 @@ impl TaylorTape {
                 let v = if hyp { -sq } else { sq };
                 put(c, u, v);
             }
-            Op::Asin { d, a, r, neg } => {
-                // r = √(1 − a²): r_k = (−Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
+            Op::Asin { d, a, r, kind } => {
+                // r = √(c ∓ a²): r_k = (∓Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                 let (ra, rr) = (row(c, a, s), row(c, r, s));
-                let rv = (-square(ra, k) - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
+                let sq = if kind.plus_square() { square(ra, k) } else { -square(ra, k) };
+                let rv = (sq - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
                 // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
                 let wd = self.weighted_of(c, s, d);
-                let ak = if neg { -ra[k] } else { ra[k] };
+                let ak = if kind.neg() { -ra[k] } else { ra[k] };
                 let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
                 put(c, r, rv);
                 put(c, d, dv);
             }
-            Op::Atan { d, a, u } => {
+            Op::Atan { d, a, u, hyp } => {
                 let (ra, ru) = (row(c, a, s), row(c, u, s));
-                let uv = square(ra, k);
+                let uv = if hyp { -square(ra, k) } else { square(ra, k) };
                 let wd = self.weighted_of(c, s, d);
                 let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
                 put(c, u, uv);
                 put(c, d, dv);
+            }
+            Op::Erf { d, a, e } => {
+                // k d_k = (2/√π) Σ_{j=1}^{k} j a_j e_{k−j}.
+                let (wa, re) = (self.weighted_of(c, s, a), row(c, e, s));
+                let v = weighted(wa, re, k) * rk * std::f64::consts::FRAC_2_SQRT_PI;
+                put(c, d, v);
             }
             Op::Atan2 { d, a, b, u } => {
                 let (ra, rb, ru) = (row(c, a, s), row(c, b, s), row(c, u, s));
@@ -267,16 +275,17 @@ impl TaylorTape {
                     c[ix(d)] = v;
                     c[ix(u)] = if hyp { 1.0 - v * v } else { 1.0 + v * v };
                 }
-                Op::Asin { d, a, r, neg } => {
+                Op::Asin { d, a, r, kind } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = if neg { x.acos() } else { x.asin() };
-                    c[ix(r)] = (1.0 - x * x).sqrt();
+                    c[ix(d)] = kind.func().eval(&[x]);
+                    c[ix(r)] = kind.root(x);
                 }
-                Op::Atan { d, a, u } => {
+                Op::Atan { d, a, u, hyp } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = x.atan();
-                    c[ix(u)] = 1.0 + x * x;
+                    c[ix(d)] = if hyp { x.atanh() } else { x.atan() };
+                    c[ix(u)] = if hyp { 1.0 - x * x } else { 1.0 + x * x };
                 }
+                Op::Erf { d, a, .. } => c[ix(d)] = crate::expr::Func::Erf.eval(&[c[ix(a)]]),
                 Op::Atan2 { d, a, b, u } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);
                     c[ix(d)] = x.atan2(y);

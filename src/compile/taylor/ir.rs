@@ -65,18 +65,26 @@ pub(super) enum Op {
         u: u32,
         hyp: bool,
     },
-    /// `d = asin a` (`acos` when `neg`) with `r = √(1 − a²)`, so `r d' = ±a'`.
+    /// `d = asin a`, `acos a`, `asinh a` or `acosh a` (`kind`) with `r` the root of
+    /// [`ArcKind::root`] (`√(1 − a²)`, `√(1 + a²)`, `√(a² − 1)`), so `r d' = ±a'` (`−` for `acos`).
     Asin {
         d: u32,
         a: u32,
         r: u32,
-        neg: bool,
+        kind: ArcKind,
     },
-    /// `d = atan a` with `u = 1 + a²`, so `u d' = a'`.
+    /// `d = atan a` with `u = 1 + a²` (`hyp`: `atanh a` with `u = 1 − a²`), so `u d' = a'`.
     Atan {
         d: u32,
         a: u32,
         u: u32,
+        hyp: bool,
+    },
+    /// `d = erf a` with `e = exp(−a²)` (its own rows), so `d' = (2/√π) e a'`.
+    Erf {
+        d: u32,
+        a: u32,
+        e: u32,
     },
     /// `d = atan2(a, b)` with `u = a² + b²`, so `u d' = b a' − a b'`.
     Atan2 {
@@ -138,6 +146,48 @@ pub(super) enum Op {
         e: f64,
     },
 }
+/// The inverse functions whose derivative is `±1/r` for the square root `r` of a quadratic in
+/// their argument: one recurrence ([`Op::Asin`]) serves them all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum ArcKind {
+    Asin,
+    Acos,
+    Asinh,
+    Acosh,
+}
+
+impl ArcKind {
+    /// The function computed.
+    pub(super) fn func(self) -> Func {
+        match self {
+            ArcKind::Asin => Func::Asin,
+            ArcKind::Acos => Func::Acos,
+            ArcKind::Asinh => Func::Asinh,
+            ArcKind::Acosh => Func::Acosh,
+        }
+    }
+
+    /// Whether `r² = ±1 + a²` (`asinh`: `1 + a²`, `acosh`: `a² − 1`) rather than `1 − a²`.
+    pub(super) fn plus_square(self) -> bool {
+        matches!(self, ArcKind::Asinh | ArcKind::Acosh)
+    }
+
+    /// `r = √(1 − x²)`, `√(1 + x²)` or `√(x² − 1)` at order 0; `acosh` takes `√(x − 1) √(x + 1)`,
+    /// NaN exactly where `acosh` itself is (`x < 1`, also below `−1` where `x² − 1 > 0`).
+    pub(super) fn root(self, x: f64) -> f64 {
+        match self {
+            ArcKind::Asin | ArcKind::Acos => (1.0 - x * x).sqrt(),
+            ArcKind::Asinh => (1.0 + x * x).sqrt(),
+            ArcKind::Acosh => (x - 1.0).sqrt() * (x + 1.0).sqrt(),
+        }
+    }
+
+    /// Whether `r d' = −a'` (`acos`).
+    pub(super) fn neg(self) -> bool {
+        self == ArcKind::Acos
+    }
+}
+
 impl Op {
     /// The rows an operation writes.
     fn dests(&self) -> impl Iterator<Item = u32> {
@@ -147,6 +197,7 @@ impl Op {
             Op::Asin { d, r, .. } => (d, Some(r)),
             Op::PowVar { d, l, m, .. } => return [d, l, m].into_iter().take(3),
             Op::Add { d, .. }
+            | Op::Erf { d, .. }
             | Op::Sub { d, .. }
             | Op::Mul { d, .. }
             | Op::Div { d, .. }
@@ -173,9 +224,11 @@ impl Op {
     /// the results of the recurrences that are solved for their own order `k`.
     fn weighted_operands(&self) -> impl Iterator<Item = u32> {
         let (x, y, z) = match *self {
-            Op::SinCos { a, .. } | Op::SinhCosh { a, .. } | Op::Exp { a, .. } | Op::Tan { a, .. } => {
-                (Some(a), None, None)
-            }
+            Op::SinCos { a, .. }
+            | Op::SinhCosh { a, .. }
+            | Op::Exp { a, .. }
+            | Op::Tan { a, .. }
+            | Op::Erf { a, .. } => (Some(a), None, None),
             Op::Log { d, .. } | Op::Asin { d, .. } | Op::Atan { d, .. } => (Some(d), None, None),
             Op::Atan2 { d, a, b, .. } => (Some(a), Some(b), Some(d)),
             Op::PowVar { l, m, .. } => (Some(l), Some(m), None),
@@ -193,7 +246,7 @@ impl Op {
             | Op::Div { a, b, .. }
             | Op::Atan2 { a, b, .. }
             | Op::PowVar { a, b, .. } => (a, Some(b)),
-            Op::PowConst { a, e, .. } => (a, Some(e)),
+            Op::PowConst { a, e, .. } | Op::Erf { a, e, .. } => (a, Some(e)),
             Op::Neg { a, .. }
             | Op::Sqrt { a, .. }
             | Op::SinCos { a, .. }
@@ -241,7 +294,21 @@ impl TaylorTape {
     /// The Taylor form of `tape`.
     pub fn new(tape: &Tape) -> TaylorTape {
         let n_inputs = tape.n_inputs();
-        let consts = tape.consts().to_vec();
+        let mut consts = tape.consts().to_vec();
+        // `sec`, `csc` and `coth` run as `1/cos`, `1/sin` and `1/tanh`, whose division reads a
+        // row holding 1 (the tape's own, if it has one); the plain tape calls the function
+        // itself, which computes the same quotient.
+        let reciprocal = |f: Func| matches!(f, Func::Sec | Func::Csc | Func::Coth);
+        let needs_one = tape.instrs().iter().any(|i| matches!(*i, Instr::Call { f, .. } if reciprocal(f)));
+        let one = match consts.iter().position(|c| c.to_bits() == 1f64.to_bits()) {
+            Some(i) => (n_inputs + i) as u32,
+            None if needs_one => {
+                consts.push(1.0);
+                (n_inputs + consts.len() - 1) as u32
+            }
+            // Read by no operation.
+            None => u32::MAX,
+        };
         let fixed = (n_inputs + consts.len()) as u32;
         let mut map: Vec<u32> = (0..tape.scratch_len() as u32).collect();
         let mut next = fixed;
@@ -324,9 +391,29 @@ impl TaylorTape {
                         Func::Tanh => Op::Tan { d: d2, a, u: fresh(), hyp: true },
                         Func::Exp => Op::Exp { d: d2, a },
                         Func::Log => Op::Log { d: d2, a },
-                        Func::Asin => Op::Asin { d: d2, a, r: fresh(), neg: false },
-                        Func::Acos => Op::Asin { d: d2, a, r: fresh(), neg: true },
-                        Func::Atan => Op::Atan { d: d2, a, u: fresh() },
+                        Func::Asin => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asin },
+                        Func::Acos => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acos },
+                        Func::Asinh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Asinh },
+                        Func::Acosh => Op::Asin { d: d2, a, r: fresh(), kind: ArcKind::Acosh },
+                        Func::Atan => Op::Atan { d: d2, a, u: fresh(), hyp: false },
+                        Func::Atanh => Op::Atan { d: d2, a, u: fresh(), hyp: true },
+                        Func::Sec | Func::Csc => {
+                            let (s, c) = (fresh(), fresh());
+                            ops.push(Op::SinCos { s, c, a });
+                            Op::Div { d: d2, a: one, b: if f == Func::Sec { c } else { s } }
+                        }
+                        Func::Erf => {
+                            let (q, n, e) = (fresh(), fresh(), fresh());
+                            ops.push(Op::Mul { d: q, a, b: a });
+                            ops.push(Op::Neg { d: n, a: q });
+                            ops.push(Op::Exp { d: e, a: n });
+                            Op::Erf { d: d2, a, e }
+                        }
+                        Func::Coth => {
+                            let t = fresh();
+                            ops.push(Op::Tan { d: t, a, u: fresh(), hyp: true });
+                            Op::Div { d: d2, a: one, b: t }
+                        }
                         Func::Abs => Op::Abs { d: d2, a },
                         // The lowering emits `atan2` as its own instruction; a one-operand call
                         // of it cannot occur (its second operand would be missing).

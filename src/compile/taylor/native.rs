@@ -14,7 +14,7 @@ use cranelift_module::{Linkage, Module};
 
 use crate::expr::Func;
 
-use super::ir::{KinkAt, Op, Weight};
+use super::ir::{ArcKind, KinkAt, Op, Weight};
 use super::TaylorTape;
 use crate::compile::jit::{atan2, call_f64, call_sin_cos, host_module, powf, real_root, wrapper, OwnedModule};
 use crate::compile::tape::MAX_NATIVE_INSTRS;
@@ -1188,24 +1188,43 @@ impl TaylorEmitter<'_, '_> {
                     self.put_at(d, 0, v);
                     self.put_at(u, 0, uv);
                 }
-                Op::Asin { d, a, r, neg } => {
-                    // r = √(1 − x²).
+                Op::Asin { d, a, r, kind } => {
+                    // r as `ArcKind::root` computes it.
                     let x = self.at(a, 0);
-                    let v = unary(self, if neg { Func::Acos } else { Func::Asin }, x);
-                    let sq = self.b.ins().fmul(x, x);
-                    let rest = self.b.ins().fsub(one, sq);
-                    let rv = self.b.ins().sqrt(rest);
+                    let v = unary(self, kind.func(), x);
+                    let rv = match kind {
+                        ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
+                            let sq = self.b.ins().fmul(x, x);
+                            let rest = if kind == ArcKind::Asinh {
+                                self.b.ins().fadd(one, sq)
+                            } else {
+                                self.b.ins().fsub(one, sq)
+                            };
+                            self.b.ins().sqrt(rest)
+                        }
+                        ArcKind::Acosh => {
+                            let below = self.b.ins().fsub(x, one);
+                            let above = self.b.ins().fadd(x, one);
+                            let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
+                            self.b.ins().fmul(p, q)
+                        }
+                    };
                     self.put_at(d, 0, v);
                     self.put_at(r, 0, rv);
                 }
-                Op::Atan { d, a, u } => {
-                    // u = 1 + x².
+                Op::Atan { d, a, u, hyp } => {
+                    // u = 1 + x² (atanh: 1 − x²).
                     let x = self.at(a, 0);
-                    let v = unary(self, Func::Atan, x);
+                    let v = unary(self, if hyp { Func::Atanh } else { Func::Atan }, x);
                     let sq = self.b.ins().fmul(x, x);
-                    let uv = self.b.ins().fadd(one, sq);
+                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
                     self.put_at(d, 0, v);
                     self.put_at(u, 0, uv);
+                }
+                Op::Erf { d, a, .. } => {
+                    let x = self.at(a, 0);
+                    let v = unary(self, Func::Erf, x);
+                    self.put_at(d, 0, v);
                 }
                 Op::Atan2 { d, a, b, u } => {
                     // u = x² + y².
@@ -1325,6 +1344,7 @@ impl TaylorEmitter<'_, '_> {
                 | Op::Tan { .. }
                 | Op::Asin { .. }
                 | Op::Atan { .. }
+                | Op::Erf { .. }
                 | Op::Atan2 { .. }
                 | Op::Root { .. }
                 | Op::PowConst { .. }
@@ -1391,17 +1411,24 @@ impl TaylorEmitter<'_, '_> {
                 let uv = if hyp { self.b.ins().fneg(sq) } else { sq };
                 self.put(u, uv);
             }
-            Op::Asin { d, a, r, neg } => {
+            Op::Erf { d, a, e } => {
+                let w = self.weighted(a, e);
+                let v = self.times_rk(w);
+                let two_over_root_pi = self.c(std::f64::consts::FRAC_2_SQRT_PI);
+                let dv = self.b.ins().fmul(v, two_over_root_pi);
+                self.put(d, dv);
+            }
+            Op::Asin { d, a, r, kind } => {
                 let sq = self.square(a);
-                let nsq = self.b.ins().fneg(sq);
+                let sq = if kind.plus_square() { sq } else { self.b.ins().fneg(sq) };
                 let inner = self.square_inner(r);
-                let num = self.b.ins().fsub(nsq, inner);
+                let num = self.b.ins().fsub(sq, inner);
                 let two = self.c(2.0);
                 let r0 = self.coef(r, zero);
                 let den = self.b.ins().fmul(r0, two);
                 let rv = self.times_recip(num, den);
                 let ak = self.coef(a, k);
-                let ak = if neg { self.b.ins().fneg(ak) } else { ak };
+                let ak = if kind.neg() { self.b.ins().fneg(ak) } else { ak };
                 let w = self.weighted_short(d, r);
                 let q = self.times_rk(w);
                 let num = self.b.ins().fsub(ak, q);
@@ -1409,8 +1436,9 @@ impl TaylorEmitter<'_, '_> {
                 self.put(r, rv);
                 self.put(d, dv);
             }
-            Op::Atan { d, a, u } => {
+            Op::Atan { d, a, u, hyp } => {
                 let uv = self.square(a);
+                let uv = if hyp { self.b.ins().fneg(uv) } else { uv };
                 let w = self.weighted_short(d, u);
                 let q = self.times_rk(w);
                 let ak = self.coef(a, k);

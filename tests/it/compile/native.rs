@@ -68,6 +68,13 @@ fn every_instruction_kind_and_builtin_matches_the_interpreter_bit_for_bit() {
         "x^(5/2)",
         "-x / y",     // neg, div
         "x^3 - y^-2", // mul chain, recip
+        "asinh(y - x)",
+        "acosh(x + 1/2)",
+        "atanh(y/4)",
+        "sec(x y)",
+        "csc(x - y)",
+        "coth(y)",
+        "erf(x - y/2)",
     ];
     let exprs: Vec<_> = src.iter().map(|s| parse(s).unwrap()).collect();
     let nat = Tape::compile_with_options(&exprs, &["x", "y"], &[], &native()).unwrap();

@@ -250,7 +250,8 @@ fn every_builtin_derivative_matches_central_difference_and_reparses() {
         let e = Expr::call(f, args);
         let d = diff(&e, &x);
         let mut checked = 0;
-        for xv in [-2.3, -0.7, -0.2, 0.35, 0.8, 1.6, 2.9] {
+        // acosh is real only above 1, atanh only inside (−1, 1): at least three points each.
+        for xv in [-2.3, -0.7, -0.2, 0.35, 0.8, 1.3, 1.6, 2.9] {
             let at = |xv: f64| HashMap::from([("x".to_string(), xv), ("y".to_string(), 0.45)]);
             let (Some(up), Some(down), Some(exact)) =
                 (value(&e, &at(xv + h)), value(&e, &at(xv - h)), value(&d, &at(xv)))

@@ -5,7 +5,9 @@ use std::f64::consts::PI;
 
 use lagrangian::compile::TaylorOde;
 use lagrangian::integrate::problems::{elliptic_k, DoublePendulum, Kepler, Pendulum};
-use lagrangian::integrate::{Crossing, Event, FailureReason, Integrate, Options, RhsError, Taylor, TaylorSystem};
+use lagrangian::integrate::{
+    Crossing, Dop853, Event, FailureReason, Integrate, Options, RhsError, Taylor, TaylorSystem,
+};
 use lagrangian::mechanics::System;
 use lagrangian::parse;
 
@@ -237,4 +239,68 @@ fn singular_mass_matrix_and_abs_kink_are_typed_errors() {
     let err = Taylor::new(1e-12).integrate(&sys, 0.0..5.0, &[0.5, -1.0]).unwrap_err();
     assert!(err.to_string().contains("kink"), "{err}");
     assert!(err.t < 0.5, "{err}");
+}
+
+/// Each of the later built-ins in a position-dependent mass, so the right-hand side holds both
+/// the function and its derivative: the Taylor method against DOP853 on the same system
+/// (compiled by the tape route the other methods use), from the same state.
+#[test]
+fn later_builtins_in_a_mass_agree_with_dop853() {
+    let masses = [
+        "2 + asinh(x/2)",
+        "acosh(2 + x^2)",
+        "2 + atanh(x/2)",
+        "sec(x/2)",
+        "csc(1 + x/4)",
+        "coth(2 + x/4)",
+        "2 + erf(x)",
+    ];
+    for m in masses {
+        let sys = System::from_lagrangian(&format!("1/2 ({m}) x'^2 - 1/2 x^2"), &["x"]).unwrap();
+        let y0 = [0.8, 0.3];
+        let taylor = sys.compile_taylor().unwrap();
+        let tr = Taylor::new(1e-15).integrate_with(&taylor, 0.0..6.0, &y0, Options::new().final_only()).unwrap();
+        let rhs = sys.compile_rhs().unwrap();
+        let dp = Dop853::new(1e-13, 1e-13).integrate_with(&rhs, 0.0..6.0, &y0, Options::new().final_only()).unwrap();
+        let (a, b) = (tr.last_state(), dp.last_state());
+        for i in 0..2 {
+            assert!((a[i] - b[i]).abs() < 1e-9, "mass {m}: Taylor {a:?} vs DOP853 {b:?}");
+        }
+        // The function reached the Taylor tape itself, not only through its derivative.
+        let name = m.split('(').next().unwrap().rsplit(' ').next().unwrap();
+        assert!(
+            format!("{}", taylor.tape()).contains(&format!("= {name}(")),
+            "mass {m}: no `{name}` in\n{}",
+            taylor.tape()
+        );
+    }
+}
+
+/// acosh is real only from 1 up and atanh only inside (−1, 1): outside, their float value is
+/// NaN (or ±∞ at atanh(±1)), and the Taylor method refuses the series with a typed failure,
+/// as DOP853 refuses the same right-hand side, never a finite trajectory. Below −1 the acosh
+/// recurrence's root `√(x² − 1)` would be real, so its order-0 value is taken as
+/// `√(x − 1) √(x + 1)`, NaN there too.
+#[test]
+fn acosh_and_atanh_outside_their_domain_are_typed_failures() {
+    for (f, y0) in [("acosh(y)", 0.5), ("acosh(y)", -2.0), ("atanh(y)", 1.5), ("atanh(y)", -1.0)] {
+        let sys = TaylorOde::from_exprs(&[parse(f).unwrap()], &["y"], &[]).unwrap();
+        let err = Taylor::new(1e-12).integrate(&sys, 0.0..1.0, &[y0]).unwrap_err();
+        assert!(err.to_string().contains("non-finite Taylor coefficient of order 1"), "y' = {f}, y = {y0}: {err}");
+        // The same function as a mass, x'' from (f(x) x')' = …: both methods refuse.
+        let sys = System::from_lagrangian(&format!("1/2 {} x'^2 - 1/2 x^2", f.replace('y', "x")), &["x"]).unwrap();
+        let y0 = [y0, 0.5];
+        let taylor = sys.compile_taylor().unwrap();
+        assert!(Taylor::new(1e-12).integrate(&taylor, 0.0..1.0, &y0).is_err(), "Taylor, mass {f} at {y0:?}");
+        let rhs = sys.compile_rhs().unwrap();
+        assert!(Dop853::new(1e-10, 1e-10).integrate(&rhs, 0.0..1.0, &y0).is_err(), "DOP853, mass {f} at {y0:?}");
+    }
+    // Every coefficient of acosh(t) at t = −2 is NaN, not only the value.
+    let tape = lagrangian::compile::Tape::compile(&[parse("acosh(t)").unwrap()], &["t"], &[]).unwrap();
+    let tt = lagrangian::compile::TaylorTape::new(&tape);
+    let s = 6;
+    let mut c = vec![0.0; tt.n_rows() * s];
+    tt.expand(&mut c, s, 5, |k, c| c[k] = [-2.0, 1.0, 0.0, 0.0, 0.0, 0.0][k]).unwrap();
+    let row = tt.output_row(0);
+    assert!(c[row * s..(row + 1) * s].iter().all(|v| v.is_nan()), "{:?}", &c[row * s..(row + 1) * s]);
 }

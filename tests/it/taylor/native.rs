@@ -106,6 +106,13 @@ fn every_instruction_kind_agrees_with_the_interpreter_bit_for_bit() {
         ("atan(t^2 + t)", 0.3),
         ("atan2(t + 1/2, 2 + t^2)", 0.2),
         ("abs(t - 3) / abs(t + 2)", 0.5),
+        ("asinh(t/3 - 4) + asinh(t^2)", 0.2),
+        ("acosh(t/3 + 2)", 0.2),
+        ("atanh(t^2/3 + t/4)", 0.3),
+        ("sec(t^2/3 + t)", 0.4),
+        ("csc(t^2/3 + t + 1/2)", 0.4),
+        ("coth(t/2 + 1)", 0.3),
+        ("erf(t^2/3 + t - 1/2)", 0.4),
     ];
     let mut seen = BTreeSet::new();
     for (src, t0) in cases {
@@ -128,6 +135,13 @@ fn every_instruction_kind_agrees_with_the_interpreter_bit_for_bit() {
         Func::Acos,
         Func::Atan,
         Func::Abs,
+        Func::Asinh,
+        Func::Acosh,
+        Func::Atanh,
+        Func::Sec,
+        Func::Csc,
+        Func::Coth,
+        Func::Erf,
     ] {
         want.insert(format!("call {f:?}"));
     }

@@ -218,6 +218,65 @@ fn tangent_and_inverse_trigonometric_functions() {
 }
 
 #[test]
+fn inverse_hyperbolic_and_reciprocal_functions() {
+    // asinh has branch points at ±i: t/3 + 1/10 reaches them at |t + 3/10| = 3.
+    let tape = check("asinh(t/3 + 1/10)", &|t: C| (t / 3.0 + 0.1).asinh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Asinh)));
+    // Negative arguments too, where `log(u + √(1 + u²))` would cancel.
+    let tape = check("asinh(t/3 - 4)", &|t: C| (t / 3.0 - 4.0).asinh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Asinh)));
+    // acosh has its branch point at 1: t/3 + 2 reaches it at |t + 3| = 3.
+    let tape = check("acosh(t/3 + 2)", &|t: C| (t / 3.0 + 2.0).acosh(), 0.2, 1.2);
+    assert!(has(&tape, call(Func::Acosh)));
+    // atanh has branch points at ±1: t/2 − 1/5 reaches them at t = 12/5 and −8/5, 2.1 and 1.9
+    // from t₀ = 0.3.
+    let tape = check("atanh(t/2 - 1/5)", &|t: C| (t / 2.0 - 0.2).atanh(), 0.3, 0.9);
+    assert!(has(&tape, call(Func::Atanh)));
+    // sec has poles where cos vanishes, ±π/2 of its argument: t/2 + 1/5 reaches π/2 at
+    // t ≈ 2.74, 2.44 from t₀ = 0.3.
+    let tape = check("sec(t/2 + 1/5)", &|t: C| 1.0 / (t / 2.0 + 0.2).cos(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Sec)));
+    // csc has poles at 0 and π of its argument: t/2 + 1 reaches 0 at t = −2, 2.3 from t₀ = 0.3.
+    let tape = check("csc(t/2 + 1)", &|t: C| 1.0 / (t / 2.0 + 1.0).sin(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Csc)));
+    // coth has poles at iπn of its argument: t/2 + 1 is 0 at t = −2, 2.3 from t₀ = 0.3.
+    let tape = check("coth(t/2 + 1)", &|t: C| 1.0 / (t / 2.0 + 1.0).tanh(), 0.3, 1.0);
+    assert!(has(&tape, call(Func::Coth)));
+}
+
+#[test]
+fn error_function_against_hermite_polynomials() {
+    // Cauchy's formula needs erf on complex numbers, which num-complex lacks; instead the
+    // closed form dⁿ/dxⁿ erf x = (2/√π) (−1)^{n−1} H_{n−1}(x) e^{−x²} (physicists' Hermite
+    // polynomials, H_{n+1} = 2x H_n − 2n H_{n−1}): the coefficients of erf(t/2 + 1/5) at t₀ are
+    // erf's at x₀ = t₀/2 + 1/5 times 2^{−k}.
+    let t0 = 0.3;
+    let x0 = t0 / 2.0 + 0.2;
+    let tape = Tape::compile(&[parse("erf(t/2 + 1/5)").unwrap()], &["t"], &[]).unwrap();
+    assert!(has(&tape, call(Func::Erf)));
+    let tt = TaylorTape::new(&tape);
+    let s = ORDER + 1;
+    let mut c = vec![f64::NAN; tt.n_rows() * s];
+    tt.expand(&mut c, s, ORDER, |k, c| c[k] = [t0, 1.0][..].get(k).copied().unwrap_or(0.0)).unwrap();
+    let row = tt.output_row(0);
+    let ours = &c[row * s..(row + 1) * s];
+    // erf(0.35) to 30 digits (mpmath): 0.379382053562310298130948736995.
+    assert!((ours[0] - 0.379_382_053_562_310_3).abs() < 2e-16, "{}", ours[0]);
+    let mut h = vec![1.0, 2.0 * x0];
+    for n in 1..ORDER {
+        h.push(2.0 * x0 * h[n] - 2.0 * n as f64 * h[n - 1]);
+    }
+    let mut fact = 1.0;
+    for k in 1..=ORDER {
+        fact *= k as f64;
+        let sign = if k % 2 == 1 { 1.0 } else { -1.0 };
+        let exact = std::f64::consts::FRAC_2_SQRT_PI * sign * h[k - 1] * (-x0 * x0).exp() / fact / 2f64.powi(k as i32);
+        let tol = 1e-14 * 2f64.powi(-(k as i32)) + 1e-12 * exact.abs();
+        assert!((ours[k] - exact).abs() <= tol, "order {k}: {:e} vs {exact:e}", ours[k]);
+    }
+}
+
+#[test]
 fn abs_away_from_its_kink() {
     // |t − 3| = 3 − t near 0, |t + 2| = t + 2.
     let tape = check("abs(t - 3) * abs(t + 2)", &|t: C| (3.0 - t) * (t + 2.0), 0.5, 1.0);
