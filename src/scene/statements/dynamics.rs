@@ -276,7 +276,7 @@ impl Session {
                     .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
             }
         }
-        Ok(ExtendedLagrangian { l, forces, rayleigh, constraints, stabilization })
+        Ok(ExtendedLagrangian { l, forces, rayleigh, constraints, velocity_constraints: Vec::new(), stabilization })
     }
 
     /// Refuses an initial state off the constraints: each `f_j(q0, t0)` and

@@ -317,6 +317,7 @@ impl Session {
             first_order: l_if_needed.as_ref().is_some_and(|l| sim::is_first_order(l, &self.coords)),
             forces: dynamics.forced(),
             constraints: dynamics.constrained(),
+            velocity_constraints: false,
         };
         let route = route(method, &shape).map_err(|r| refusal_error(r, spec, stmt_span))?;
         let (formulation, l_expr, h_expr) = match route {
