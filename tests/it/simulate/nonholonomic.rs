@@ -91,6 +91,23 @@ fn rolling_coin_holds_its_constraints_and_energy_over_a_long_run() {
     assert!((last[7] + 1.1).abs() > 1e-3, "φ' = {}", last[7]);
 }
 
+/// Rolling breaks the momenta of x, y and φ (the constraint force acts on them) but not p_θ
+/// (no row has θ'), and does no work, so h stays conserved: θ' is constant in the reference
+/// run (AT_10) and the energy is checked above.
+#[test]
+fn conserved_quantities_respect_the_velocity_constraints() {
+    let names: Vec<String> = coin().conserved().into_iter().map(|c| c.name).collect();
+    assert_eq!(names, ["p_θ", "h"]);
+    // A moving belt along x under the coin (x' = R φ' cos θ + v, y left free) does work: h is
+    // not reported; p_y, on which no constraint force acts, is.
+    let belt = System::from_lagrangian(L, &["x", "y", "θ", "φ"])
+        .unwrap()
+        .with_velocity_constraint("x' = R φ' cos(θ) + v")
+        .unwrap();
+    let names: Vec<String> = belt.conserved().into_iter().map(|c| c.name).collect();
+    assert_eq!(names, ["p_y", "p_θ"]);
+}
+
 #[test]
 fn a_start_off_a_velocity_constraint_is_refused() {
     let c = simulate::compile_system(&coin(), MethodId::Dop853, &[]).unwrap();
