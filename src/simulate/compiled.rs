@@ -255,7 +255,7 @@ pub(super) fn check_constrained_start(r: &ConstrainedRhs, t0: f64, y0: &[f64]) -
         let mut g = vec![0.0; m];
         r.residuals(t0, y0, &mut g);
         let scale = y0[..2 * n].iter().fold(1.0f64, |s, v| s.max(v.abs()));
-        if let Some((j, v)) = g.iter().enumerate().skip(mh).find(|(_, v)| !(v.abs() <= 1e-9 * scale)) {
+        if let Some((j, v)) = g.iter().enumerate().skip(mh).find(|(_, v)| v.is_nan() || v.abs() > 1e-9 * scale) {
             return Err(SimulateError::InitialState(format!(
                 "the initial velocities violate velocity constraint {} (its residual is {v:e}); start with velocities that satisfy it",
                 j - mh + 1

@@ -426,6 +426,7 @@ constraint velocity y z' - z y' = 0
 ";
 
 #[test]
+#[allow(clippy::needless_range_loop)]
 fn ecliptic_velocity_constraint_holds_the_orbit_in_its_plane() {
     let dir = tempfile::tempdir().unwrap();
     let scene = format!(

@@ -368,6 +368,7 @@ fn outer_solar_system() {
 /// scipy's solve_ivp (scripts/nonholonomic_simulate_sympy.py; the same numbers as
 /// tests/it/simulate/nonholonomic.rs).
 #[test]
+#[allow(clippy::excessive_precision, clippy::needless_range_loop)] // the script's digits, as printed
 fn rolling_coin() {
     let r = run("rolling_coin");
     let c = r.csv("rolling_coin.csv");

@@ -40,7 +40,9 @@ fn aux<'a>(tr: &'a simulate::Trajectory, name: &str) -> &'a [f64] {
 }
 
 /// From scripts/nonholonomic_simulate_sympy.py: the state at t = 10 (KanesMethod equations,
-/// solve_ivp DOP853 at rtol = atol = 1e-13), in the order x, y, θ, φ, x', y', θ', φ'.
+/// solve_ivp DOP853 at rtol = atol = 1e-13), in the order x, y, θ, φ, x', y', θ', φ' (the
+/// script's digits, as printed).
+#[allow(clippy::excessive_precision)]
 const AT_10: [f64; 8] = [
     5.820_789_944_819_793_1e-1,
     -2.909_737_286_459_251_2,
