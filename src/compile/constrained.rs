@@ -20,6 +20,12 @@
 //! partial pivoting on the per-thread scratch (no allocation per call). A pivot that vanishes
 //! means the constraints are redundant or the mass matrix is singular on their tangent space:
 //! [`RhsError::SingularAugmented`] names the constraint whose row has no pivot.
+//!
+//! Velocity constraints `g_j = a_j(q, t)·q' + b_j(q, t) = 0` (nonholonomic, §1.5) enter the
+//! same matrix: their rows of `Φ` are `a_j = ∂g_j/∂q'` (Lagrange–d'Alembert: the constraint
+//! forces are `Σ μ_j a_j`) and their `c_j = −dg_j/dt|_{q''=0}` (one derivative, not two).
+//! Their drift lives in the velocities alone: Baumgarte damps it by `dg/dt + 2α g = 0`, and
+//! projection moves `q'` onto `g = 0` (exact in one step, `g` being linear in `q'`).
 
 // The augmented matrix is assembled with explicit indices, as it is written.
 #![allow(clippy::needless_range_loop)]
@@ -52,10 +58,13 @@ pub enum Stabilization {
 pub struct ConstrainedRhs {
     n: usize,
     m: usize,
+    /// The first `mh` of the `m` constraints are holonomic, the rest velocity constraints.
+    mh: usize,
     coords: Vec<String>,
-    /// Outputs: `W` (n·n, row-major), `F` (n), `Φ` (m·n), `c` (m), `f` (m), `∂f/∂t` (m).
+    /// Outputs: `W` (n·n, row-major), `F` (n), `Φ` (m·n), `c` (m), `f` (m), `∂f/∂t` (m);
+    /// for a velocity constraint the `f` slot holds `g` and the `∂f/∂t` slot 0.
     tape: Tape,
-    /// Outputs: `f` (m), `Φ` (m·n), `∂f/∂t` (m): what a projection needs.
+    /// Outputs: `f` (m), `Φ` (m·n), `∂f/∂t` (m): what a projection needs (same slots).
     manifold: Tape,
     stabilization: Stabilization,
 }
@@ -81,6 +90,22 @@ fn constraint_parts(constraints: &[Expr], coords: &[Symbol]) -> (Vec<Vec<Expr>>,
     (phi, c, ft)
 }
 
+/// [`constraint_parts`] for velocity constraints `g_j = 0`, each linear in the velocities:
+/// `Φ_ji = ∂g_j/∂q_i'`, `c_j = −dg_j/dt|_{q''=0}`, and 0 in the `∂f/∂t` slot.
+fn velocity_constraint_parts(constraints: &[Expr], coords: &[Symbol]) -> (Vec<Vec<Expr>>, Vec<Expr>, Vec<Expr>) {
+    let mut d = Differentiator::new();
+    let names: std::collections::BTreeSet<String> = coords.iter().map(|q| q.name().to_string()).collect();
+    let zero_acc: std::collections::HashMap<Symbol, Expr> =
+        coords.iter().map(|q| (Symbol::new(q.name()).with_primes(2), Expr::zero())).collect();
+    let mut phi = Vec::new();
+    let mut c = Vec::new();
+    for g in constraints {
+        phi.push(coords.iter().map(|q| d.diff(g, &q.prime())).collect());
+        c.push(d.dt(g, &names).subs(&zero_acc).neg());
+    }
+    (phi, c, vec![Expr::zero(); constraints.len()])
+}
+
 impl ConstrainedRhs {
     /// Compiles the augmented system of `W q'' = F` (from the mechanics stage, forces
     /// included) and the constraints `f_j = 0` for the coordinates `coords`, with `params`
@@ -93,12 +118,34 @@ impl ConstrainedRhs {
         params: &[(&str, f64)],
         stabilization: Stabilization,
     ) -> Result<ConstrainedRhs, CompileError> {
+        ConstrainedRhs::with_velocity_constraints(w, f, constraints, &[], coords, params, stabilization)
+    }
+
+    /// [`ConstrainedRhs::new`] with velocity constraints `g_j = 0` (each linear in the
+    /// velocities, as [`crate::mechanics::System::with_velocity_constraint`] checks) besides
+    /// the holonomic ones: their multipliers follow the holonomic ones.
+    pub fn with_velocity_constraints(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        holonomic: &[Expr],
+        velocity: &[Expr],
+        coords: &[Symbol],
+        params: &[(&str, f64)],
+        stabilization: Stabilization,
+    ) -> Result<ConstrainedRhs, CompileError> {
         let n = coords.len();
-        let m = constraints.len();
+        let mh = holonomic.len();
+        let m = mh + velocity.len();
         if f.len() != n || w.len() != n || w.iter().any(|r| r.len() != n) {
             return Err(CompileError::Shape { what: "mass matrix and forces", expected: n, got: f.len() });
         }
-        let (phi, c, ft) = constraint_parts(constraints, coords);
+        let (mut phi, mut c, mut ft) = constraint_parts(holonomic, coords);
+        let (vphi, vc, vft) = velocity_constraint_parts(velocity, coords);
+        phi.extend(vphi);
+        c.extend(vc);
+        ft.extend(vft);
+        let constraints: Vec<Expr> = holonomic.iter().chain(velocity).cloned().collect();
+        let constraints = &constraints[..];
         let names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
         let inputs = state_inputs(&names);
         let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
@@ -114,7 +161,7 @@ impl ConstrainedRhs {
         man.extend(phi.iter().flatten().cloned());
         man.extend(ft.iter().cloned());
         let manifold = Tape::compile_with_options(&man, &inputs, params, &options)?;
-        Ok(ConstrainedRhs { n, m, coords: names, tape, manifold, stabilization })
+        Ok(ConstrainedRhs { n, m, mh, coords: names, tape, manifold, stabilization })
     }
 
     /// Degrees of freedom (coordinates).
@@ -125,6 +172,11 @@ impl ConstrainedRhs {
     /// Number of constraints (and multipliers).
     pub fn constraints(&self) -> usize {
         self.m
+    }
+
+    /// How many of them are holonomic (they come first; the rest are velocity constraints).
+    pub fn holonomic(&self) -> usize {
+        self.mh
     }
 
     /// The stabilisation chosen at compile time.
@@ -170,7 +222,10 @@ impl ConstrainedRhs {
             x[..n].copy_from_slice(fv);
             for j in 0..m {
                 let mut cj = c[j];
-                if let Stabilization::Baumgarte { rate } = self.stabilization {
+                if let (Stabilization::Baumgarte { rate }, true) = (self.stabilization, j >= self.mh) {
+                    // A velocity constraint's residual is `g` itself: dg/dt + 2α g = 0.
+                    cj -= 2.0 * rate * fval[j];
+                } else if let Stabilization::Baumgarte { rate } = self.stabilization {
                     let fdot: f64 = (0..n).map(|i| phi[j * n + i] * y[n + i]).sum::<f64>() + ft[j];
                     cj -= 2.0 * rate * fdot + rate * rate * fval[j];
                 }
@@ -213,7 +268,8 @@ impl ConstrainedRhs {
         self.solve_at(t, y, &mut dy, Some(lambda))
     }
 
-    /// The constraint values `f_j(q, t)` at a state (the residual: zero on the manifold).
+    /// The constraint values `f_j(q, t)` at a state (the residual: zero on the manifold), and
+    /// `g_j(q, q', t)` for the velocity constraints.
     pub fn residuals(&self, t: f64, y: &[f64], f: &mut [f64]) {
         let mut out = vec![0.0; self.m + self.m * self.n + self.m];
         let mut input = y[..2 * self.n].to_vec();
@@ -224,9 +280,10 @@ impl ConstrainedRhs {
 
     /// Moves `y` onto the constraint manifold at time `t`: Newton on the positions along
     /// `Φᵀ` (the nearest point in the Euclidean metric of the coordinates, to first order),
-    /// then the velocities onto `Φ q' + ∂f/∂t = 0` by the same least-change correction.
+    /// then the velocities onto `Φ q' + ∂f/∂t = 0` by the same least-change correction,
+    /// together with the velocity constraints `g = 0` (which hold no position).
     pub fn project(&self, t: f64, y: &mut [f64]) -> Result<(), RhsError> {
-        let (n, m) = (self.n, self.m);
+        let (n, m, mh) = (self.n, self.m, self.mh);
         let nout = m + m * n + m;
         let mut out = vec![0.0; nout];
         let mut input = vec![0.0; 2 * n + 1];
@@ -240,8 +297,9 @@ impl ConstrainedRhs {
             input[2 * n] = t;
             self.manifold.eval(input, out);
         };
-        // Solves (Φ Φᵀ) δ = r and applies y[off..off+n] −= Φᵀ δ.
-        let correct = |out: &[f64],
+        // Solves (Φ Φᵀ) δ = r over the first k rows of Φ and applies y[off..off+n] −= Φᵀ δ.
+        let correct = |k: usize,
+                       out: &[f64],
                        r: &mut [f64],
                        y: &mut [f64],
                        off: usize,
@@ -251,36 +309,44 @@ impl ConstrainedRhs {
                        tmp: &mut [f64]|
          -> Result<(), RhsError> {
             let phi = &out[m..m + m * n];
-            for a in 0..m {
-                for b in 0..m {
-                    g[a * m + b] = (0..n).map(|i| phi[a * n + i] * phi[b * n + i]).sum();
+            let (g, lu, perm, r, tmp) = (&mut g[..k * k], &mut lu[..k * k], &mut perm[..k], &mut r[..k], &mut tmp[..k]);
+            for a in 0..k {
+                for b in 0..k {
+                    g[a * k + b] = (0..n).map(|i| phi[a * n + i] * phi[b * n + i]).sum();
                 }
             }
-            let kind = factor(g, lu, perm, m, true).map_err(|col| RhsError::SingularAugmented {
+            let kind = factor(g, lu, perm, k, true).map_err(|col| RhsError::SingularAugmented {
                 t,
                 state: y[..2 * n].to_vec(),
                 constraint: col + 1,
             })?;
-            solve(kind, lu, perm, m, r, tmp);
+            solve(kind, lu, perm, k, r, tmp);
             for i in 0..n {
-                y[off + i] -= (0..m).map(|a| phi[a * n + i] * r[a]).sum::<f64>();
+                y[off + i] -= (0..k).map(|a| phi[a * n + i] * r[a]).sum::<f64>();
             }
             Ok(())
         };
         for _ in 0..8 {
-            eval(y, &mut input, &mut out);
-            let scale = y[..n].iter().fold(1.0f64, |s, v| s.max(v.abs()));
-            if out[..m].iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
+            if mh == 0 {
                 break;
             }
-            r.copy_from_slice(&out[..m]);
-            correct(&out, &mut r, y, 0, &mut g, &mut lu, &mut perm, &mut tmp)?;
+            eval(y, &mut input, &mut out);
+            let scale = y[..n].iter().fold(1.0f64, |s, v| s.max(v.abs()));
+            if out[..mh].iter().all(|v| v.abs() <= 4.0 * f64::EPSILON * scale) {
+                break;
+            }
+            r[..mh].copy_from_slice(&out[..mh]);
+            correct(mh, &out, &mut r, y, 0, &mut g, &mut lu, &mut perm, &mut tmp)?;
         }
         eval(y, &mut input, &mut out);
         for j in 0..m {
-            r[j] = (0..n).map(|i| out[m + j * n + i] * y[n + i]).sum::<f64>() + out[m + m * n + j];
+            r[j] = if j < mh {
+                (0..n).map(|i| out[m + j * n + i] * y[n + i]).sum::<f64>() + out[m + m * n + j]
+            } else {
+                out[j]
+            };
         }
-        correct(&out, &mut r, y, n, &mut g, &mut lu, &mut perm, &mut tmp)?;
+        correct(m, &out, &mut r, y, n, &mut g, &mut lu, &mut perm, &mut tmp)?;
         if !y[..2 * n].iter().all(|v| v.is_finite()) {
             return Err(RhsError::NonFinite { t, state: y[..2 * n].to_vec(), what: "projected state" });
         }

@@ -86,7 +86,11 @@ impl System {
     /// kept. Forces, dissipation and constraints are refused, since the algebraic equation
     /// would then no longer be `∂L/∂y = 0` alone.
     pub fn reduced_system(&self) -> Result<(AlgebraicElimination, System), MechanicsError> {
-        if self.forces.iter().any(|f| !f.is_zero()) || self.rayleigh.is_some() || !self.constraints.is_empty() {
+        if self.forces.iter().any(|f| !f.is_zero())
+            || self.rayleigh.is_some()
+            || !self.constraints.is_empty()
+            || !self.velocity_constraints.is_empty()
+        {
             return Err(MechanicsError::WrongKind(
                 "a coordinate without velocity is eliminated only from a conservative, unconstrained L (forces, \
                  dissipation and constraints would enter its algebraic equation); eliminate it by hand, or give it a \

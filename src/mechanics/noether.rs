@@ -61,7 +61,9 @@ impl System {
     /// The conserved quantities Noether's theorem gives directly: the momentum of each
     /// ignorable coordinate, the energy function `h` when `∂L/∂t = 0`, or `H` when `∂H/∂t = 0`.
     /// Generalized forces, dissipation and constraints that involve a coordinate (or time)
-    /// break the corresponding law, which is then not reported.
+    /// break the corresponding law, which is then not reported. A velocity constraint
+    /// `a·q' + b = 0` breaks the momentum of every coordinate its force `μ a` acts on, and the
+    /// energy unless it is ideal (`b = 0`, no `t`), when its force does no work.
     pub fn conserved(&self) -> Vec<Conserved> {
         let mut d = Differentiator::new();
         let mut out = Vec::new();
@@ -70,10 +72,14 @@ impl System {
             !self.forces[i].is_zero()
                 || self.rayleigh.as_ref().is_some_and(|r| !tidy(&d.diff(r, &self.velocities[i])).is_zero())
                 || self.constraints.iter().any(|f| !tidy(&d.diff(f, &self.coords[i])).is_zero())
+                || self.velocity_constraints.iter().any(|g| !tidy(&d.diff(g, &self.velocities[i])).is_zero())
         };
+        let at_rest: std::collections::HashMap<Symbol, Expr> =
+            self.velocities.iter().map(|v| (v.clone(), Expr::zero())).collect();
         let dissipative = self.forces.iter().any(|f| !f.is_zero())
             || self.rayleigh.is_some()
-            || self.constraints.iter().any(|f| f.contains(&t));
+            || self.constraints.iter().any(|f| f.contains(&t))
+            || self.velocity_constraints.iter().any(|g| g.contains(&t) || !tidy(&g.subs(&at_rest)).is_zero());
         match &self.kind {
             Kind::Lagrangian(l) => {
                 for i in 0..self.coords.len() {

@@ -18,6 +18,37 @@ impl System {
         (1..=k).map(|j| Symbol::new(&format!("μ{j}"))).collect()
     }
 
+    /// The row `a_j = ∂g/∂q'` of a velocity constraint `g = 0`, or why `g` is not one: an
+    /// acceleration, a velocity of a non-coordinate, no velocity at all (holonomic) or a
+    /// velocity left in `∂g/∂q'` (not linear) is refused naming what would work.
+    pub(crate) fn velocity_constraint_row(&self, g: &Expr) -> Result<Vec<Expr>, MechanicsError> {
+        let mut d = Differentiator::new();
+        let free = g.free_symbols();
+        if let Some(s) = free.iter().find(|s| s.primes() > 1) {
+            return Err(MechanicsError::WrongKind(format!(
+                "the velocity constraint `{g}` contains the acceleration `{s}`; a velocity constraint is a(q, t)·q' + b(q, t) = 0"
+            )));
+        }
+        if let Some(s) = free.iter().find(|s| s.primes() == 1 && !self.velocities.contains(s)) {
+            return Err(MechanicsError::VelocityOfNonCoordinate { symbol: s.to_string(), base: s.name().to_string() });
+        }
+        let row: Vec<Expr> = self.velocities.iter().map(|v| tidy(&d.diff(g, v))).collect();
+        if row.iter().all(Expr::is_zero) {
+            return Err(MechanicsError::WrongKind(format!(
+                "the velocity constraint `{g}` contains no velocity: a constraint f(q, t) = 0 is holonomic, give it as a (holonomic) constraint"
+            )));
+        }
+        if let Some((v, _)) =
+            self.velocities.iter().zip(&row).find(|(_, a)| a.free_symbols().iter().any(|s| self.velocities.contains(s)))
+        {
+            return Err(MechanicsError::WrongKind(format!(
+                "the velocity constraint `{g}` is not linear in the velocities (∂g/∂{v} still contains one): only \
+                 a(q, t)·q' + b(q, t) = 0 is handled (Lagrange–d'Alembert); a constraint linear in the velocities would work"
+            )));
+        }
+        Ok(row)
+    }
+
     /// The Lagrange–d'Alembert equations of `L` (with its forces, dissipation and holonomic
     /// constraints) under the velocity constraints `g_j = 0`, each linear in the velocities.
     /// In the result `phi` holds the rows `a_ji = ∂g_j/∂q_i'` and `c` the right sides of
@@ -32,35 +63,7 @@ impl System {
         let mut d = Differentiator::new();
         let (mut phi, mut c) = (Vec::new(), Vec::new());
         for g in velocity_constraints {
-            let free = g.free_symbols();
-            if let Some(s) = free.iter().find(|s| s.primes() > 1) {
-                return Err(MechanicsError::WrongKind(format!(
-                    "the velocity constraint `{g}` contains the acceleration `{s}`; a velocity constraint is a(q, t)·q' + b(q, t) = 0"
-                )));
-            }
-            if let Some(s) = free.iter().find(|s| s.primes() == 1 && !self.velocities.contains(s)) {
-                return Err(MechanicsError::VelocityOfNonCoordinate {
-                    symbol: s.to_string(),
-                    base: s.name().to_string(),
-                });
-            }
-            let row: Vec<Expr> = self.velocities.iter().map(|v| tidy(&d.diff(g, v))).collect();
-            if row.iter().all(Expr::is_zero) {
-                return Err(MechanicsError::WrongKind(format!(
-                    "the velocity constraint `{g}` contains no velocity: a constraint f(q, t) = 0 is holonomic, give it as a (holonomic) constraint"
-                )));
-            }
-            if let Some((v, _)) = self
-                .velocities
-                .iter()
-                .zip(&row)
-                .find(|(_, a)| a.free_symbols().iter().any(|s| self.velocities.contains(s)))
-            {
-                return Err(MechanicsError::WrongKind(format!(
-                    "the velocity constraint `{g}` is not linear in the velocities (∂g/∂{v} still contains one): only \
-                     a(q, t)·q' + b(q, t) = 0 is handled (Lagrange–d'Alembert); a constraint linear in the velocities would work"
-                )));
-            }
+            let row = self.velocity_constraint_row(g)?;
             let dg = d.dt(g, &names);
             let lhs: Vec<Expr> = row.iter().zip(&acc).map(|(a, s)| a.times(&Expr::sym(s.clone()))).collect();
             c.push(tidy(&Expr::add(lhs).minus(&dg)));

@@ -41,6 +41,8 @@ pub struct System {
     pub(crate) rayleigh: Option<Expr>,
     /// Holonomic constraints `f_j(q, t) = 0`.
     pub(crate) constraints: Vec<Expr>,
+    /// Velocity (nonholonomic) constraints `g_j = a_j(q, t)·q' + b_j(q, t) = 0`.
+    pub(crate) velocity_constraints: Vec<Expr>,
 }
 
 /// The time symbol `t`.
@@ -199,6 +201,7 @@ impl System {
             forces: vec![Expr::zero(); n],
             rayleigh: None,
             constraints: Vec::new(),
+            velocity_constraints: Vec::new(),
         })
     }
 
@@ -228,6 +231,7 @@ impl System {
             forces: self.forces.iter().map(|f| f.subs(&map)).collect(),
             rayleigh: self.rayleigh.as_ref().map(|r| r.subs(&map)),
             constraints: self.constraints.iter().map(|f| f.subs(&map)).collect(),
+            velocity_constraints: self.velocity_constraints.iter().map(|g| g.subs(&map)).collect(),
             kind,
             decls,
             ..self
@@ -247,6 +251,7 @@ impl System {
         fresh.forces = self.forces;
         fresh.rayleigh = self.rayleigh;
         fresh.constraints = self.constraints;
+        fresh.velocity_constraints = self.velocity_constraints;
         Ok(fresh)
     }
 
@@ -524,6 +529,38 @@ impl System {
         &self.constraints
     }
 
+    /// The velocity constraints `g_j(q, q', t)` (each `= 0`, linear in the velocities).
+    pub fn velocity_constraints(&self) -> &[Expr] {
+        &self.velocity_constraints
+    }
+
+    /// Adds a velocity (nonholonomic) constraint `a(q, t)·q' + b(q, t) = 0` (the text is `g`;
+    /// `g = h` means `g − h`). A constraint that is not linear in the velocities, or has none
+    /// (a holonomic one), is refused naming what would work.
+    pub fn with_velocity_constraint(self, text: &str) -> Result<System, MechanicsError> {
+        let (lhs, rhs) = match text.split_once('=') {
+            Some((a, b)) => (a, Some(b)),
+            None => (text, None),
+        };
+        let mut g = parse_with(lhs, &self.decls)?;
+        if let Some(b) = rhs {
+            g = g.minus(&parse_with(b, &self.decls)?);
+        }
+        self.with_velocity_constraint_expr(g)
+    }
+
+    /// [`System::with_velocity_constraint`] for an expression `g` already built (`g = 0`).
+    pub fn with_velocity_constraint_expr(mut self, g: Expr) -> Result<System, MechanicsError> {
+        self.need_lagrangian("a velocity constraint")?;
+        if g.is_undefined() {
+            return Err(MechanicsError::Undefined("velocity constraint"));
+        }
+        self.velocity_constraint_row(&g)?;
+        self.absorb_params(&g);
+        self.velocity_constraints.push(g);
+        Ok(self)
+    }
+
     /// Whether the defining function depends on time explicitly.
     pub fn is_time_dependent(&self) -> bool {
         let e = match &self.kind {
@@ -574,6 +611,7 @@ impl System {
             forces: vec![Expr::zero(); self.coords.len()],
             rayleigh: None,
             constraints: Vec::new(),
+            velocity_constraints: Vec::new(),
         }
     }
 }

@@ -80,6 +80,7 @@ impl System {
         out.forces = self.forces.clone();
         out.rayleigh = self.rayleigh.clone();
         out.constraints = self.constraints.clone();
+        out.velocity_constraints = self.velocity_constraints.clone();
         Ok(out)
     }
 }

@@ -295,7 +295,8 @@ impl Session {
             StmtKind::ExportPoincare { items, run, path } => self.export_poincare(at, items, run.as_ref(), path),
             StmtKind::Force { coord, value } => self.declare_force(coord, value),
             StmtKind::Rayleigh { name, value } => self.declare_rayleigh(at, name.as_ref(), value),
-            StmtKind::Constraint { lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
+            StmtKind::Constraint { velocity: false, lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
+            StmtKind::Constraint { velocity: true, lhs, rhs } => self.declare_velocity_constraint(lhs, rhs.as_ref()),
             StmtKind::Load(path) => self.load(path),
             StmtKind::Help(word) => {
                 let text = super::syntax::help::help(word.as_ref().map(|w| w.text.as_str()));
@@ -830,6 +831,15 @@ impl Session {
         let with_dynamics =
             matches!(kind, DerivKind::El | DerivKind::Hamilton | DerivKind::Conserved | DerivKind::Accelerations)
                 && !self.dynamics.is_empty();
+        if with_dynamics && self.dynamics.velocity_constrained() {
+            // These derivations would leave the velocity constraints out: refused, not wrong.
+            return Err(SceneError::new(
+                ErrorKind::Derivation,
+                "this derivation does not include velocity constraints (the Lagrange–d'Alembert equations)",
+            )
+            .at(span)
+            .hint("`lagrangian el L --coords … --velocity-constraint …` prints them; `simulate` runs them"));
+        }
         let (forces, rayleigh, constraints) =
             if with_dynamics { self.resolved_dynamics(at)? } else { (Vec::new(), None, Vec::new()) };
         let sys = SystemRef {

@@ -195,14 +195,18 @@ pub fn compile(req: &CompileRequest) -> Result<Compiled, SimulateError> {
             for f in &x.constraints {
                 system = system.with_constraint_expr(f.clone()).map_err(mechanics)?;
             }
+            for g in &x.velocity_constraints {
+                system = system.with_velocity_constraint_expr(g.clone()).map_err(mechanics)?;
+            }
             let (w, f) = system.mass_matrix_split().map_err(mechanics)?;
-            if x.constraints.is_empty() {
+            if x.constraints.is_empty() && x.velocity_constraints.is_empty() {
                 second_order(&w, &f)?
             } else {
-                CompiledSystem::Constrained(ConstrainedRhs::new(
+                CompiledSystem::Constrained(ConstrainedRhs::with_velocity_constraints(
                     &w,
                     &f,
                     system.constraints(),
+                    system.velocity_constraints(),
                     &req.coords,
                     &params,
                     x.stabilization,
@@ -244,6 +248,20 @@ fn compile_events(
 /// and the augmented matrix must be regular there: otherwise the run is refused before it
 /// starts, naming the constraint.
 pub(super) fn check_constrained_start(r: &ConstrainedRhs, t0: f64, y0: &[f64]) -> Result<(), SimulateError> {
+    // A velocity constraint restricts the initial velocities; projection would move a start
+    // off it silently after the first step, so it is refused here instead.
+    let (m, mh, n) = (r.constraints(), r.holonomic(), r.dof());
+    if m > mh && y0.len() >= 2 * n {
+        let mut g = vec![0.0; m];
+        r.residuals(t0, y0, &mut g);
+        let scale = y0[..2 * n].iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if let Some((j, v)) = g.iter().enumerate().skip(mh).find(|(_, v)| v.is_nan() || v.abs() > 1e-9 * scale) {
+            return Err(SimulateError::InitialState(format!(
+                "the initial velocities violate velocity constraint {} (its residual is {v:e}); start with velocities that satisfy it",
+                j - mh + 1
+            )));
+        }
+    }
     let mut dy = vec![0.0; y0.len()];
     r.try_eval(t0, y0, &mut dy).map_err(|e| SimulateError::InitialState(e.to_string()))
 }

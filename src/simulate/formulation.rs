@@ -24,6 +24,8 @@ pub struct Shape {
     pub forces: bool,
     /// Holonomic constraints `f(q, t) = 0` hold.
     pub constraints: bool,
+    /// Velocity (nonholonomic) constraints `a(q, t)·q' + b(q, t) = 0` hold.
+    pub velocity_constraints: bool,
 }
 
 impl Shape {
@@ -36,7 +38,7 @@ impl Shape {
         Shape { hamiltonian: true, ..Shape::default() }
     }
     fn conservative(&self) -> bool {
-        !self.forces && !self.constraints
+        !self.forces && !self.constraints && !self.velocity_constraints
     }
 }
 
@@ -201,7 +203,7 @@ fn route_reason(method: MethodId, s: &Shape) -> Result<Route, RefusalReason> {
                 if !s.lagrangian {
                     return Err(RefusalReason::NeedsLagrangian);
                 }
-                if taylor && s.constraints {
+                if taylor && (s.constraints || s.velocity_constraints) {
                     return Err(RefusalReason::Constrained);
                 }
                 if taylor && s.first_order {
@@ -240,8 +242,8 @@ pub enum Formulation {
     /// `L = Σ a_i(z, t) z'_i − H(z, t)`, first order in the velocities: state `(z, z')`,
     /// `ω z' = ∂H/∂z + ∂a/∂t` integrated for `z`, the velocities filled in at kept states.
     FirstOrder(Expr),
-    /// `L(q, q', t)` with generalized forces, a Rayleigh function or holonomic constraints:
-    /// state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
+    /// `L(q, q', t)` with generalized forces, a Rayleigh function, holonomic or velocity
+    /// constraints: state `(q, q')`, accelerations from `W q'' = F` or the augmented system.
     Extended(Box<ExtendedLagrangian>),
     /// `L(q, q', t)` discretized (`variational` methods): state `(q, p)`, the map
     /// `(q_k, p_k) → (q_{k+1}, p_{k+1})` of the discrete Lagrangian.
@@ -275,6 +277,9 @@ impl Formulation {
             Formulation::Lagrangian(_) | Formulation::Equations { .. } => "W q'' = F from L",
             Formulation::FirstOrder(_) => "ω z' = ∂H/∂z from a first-order L",
             Formulation::Variational(_) => "the discrete Euler–Lagrange map of L",
+            Formulation::Extended(x) if !x.velocity_constraints.is_empty() => {
+                "the augmented system [W Aᵀ; A 0] of the Lagrange–d'Alembert equations from L"
+            }
             Formulation::Extended(x) if !x.constraints.is_empty() => "the augmented system [W Φᵀ; Φ 0] from L",
             Formulation::Extended(_) => "W q'' = F from L with forces",
             Formulation::Hamiltonian(_) => "Hamilton's equations of H",
@@ -299,6 +304,8 @@ pub struct ExtendedLagrangian {
     pub rayleigh: Option<Expr>,
     /// Holonomic constraints `f_j(q, t)`, each `= 0`.
     pub constraints: Vec<Expr>,
+    /// Velocity constraints `g_j(q, q', t)`, each `= 0` and linear in the velocities.
+    pub velocity_constraints: Vec<Expr>,
     /// How a constrained run is held on its constraints.
     pub stabilization: Stabilization,
 }
@@ -310,6 +317,7 @@ impl ExtendedLagrangian {
         v.extend(self.forces.iter().cloned());
         v.extend(self.rayleigh.iter().cloned());
         v.extend(self.constraints.iter().cloned());
+        v.extend(self.velocity_constraints.iter().cloned());
         v
     }
 }

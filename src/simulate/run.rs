@@ -688,8 +688,11 @@ fn constrained_aux(r: &ConstrainedRhs, tr: &Trajectory) -> Vec<(String, Vec<f64>
         }
     }
     let mut out = Vec::new();
+    // The velocity constraints' multipliers are `μ1, …`, as the printed Lagrange–d'Alembert
+    // equations name them.
+    let mh = r.holonomic();
     for (j, v) in lambda.into_iter().enumerate() {
-        out.push((format!("λ{}", j + 1), v));
+        out.push((if j < mh { format!("λ{}", j + 1) } else { format!("μ{}", j - mh + 1) }, v));
     }
     for (j, v) in resid.into_iter().enumerate() {
         out.push((format!("residual{}", j + 1), v));

@@ -38,6 +38,7 @@ pub fn shape_of(sys: &System) -> Shape {
         first_order,
         forces: sys.forces().iter().any(|f| !f.is_zero()) || sys.rayleigh().is_some(),
         constraints: !sys.constraints().is_empty(),
+        velocity_constraints: !sys.velocity_constraints().is_empty(),
     }
 }
 
@@ -76,7 +77,7 @@ pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations)
             let (w, f) = derive.mass_matrix(sys)?;
             Formulation::Equations { w, f }
         }
-        Route::Extended if sys.constraints().is_empty() => {
+        Route::Extended if sys.constraints().is_empty() && sys.velocity_constraints().is_empty() => {
             let (w, f) = derive.mass_matrix(sys)?;
             Formulation::Equations { w, f }
         }
@@ -87,6 +88,7 @@ pub fn formulation_for(sys: &System, method: MethodId, derive: &dyn Derivations)
                 forces: sys.forces().to_vec(),
                 rayleigh: sys.rayleigh().cloned(),
                 constraints: sys.constraints().to_vec(),
+                velocity_constraints: sys.velocity_constraints().to_vec(),
                 // As scenes do by default: projection holds the run on f = 0 and ḟ = 0.
                 stabilization: Stabilization::Projection,
             }))
@@ -131,7 +133,7 @@ pub fn formulation_of(
     derive: &dyn Derivations,
 ) -> Result<Formulation, SimulateError> {
     let shape = shape_of(sys);
-    let conservative = !shape.forces && !shape.constraints;
+    let conservative = !shape.forces && !shape.constraints && !shape.velocity_constraints;
     match equations {
         Equations::Lagrangian => match sys.kind() {
             Kind::Hamiltonian(_) => Err(SimulateError::InvalidRun(

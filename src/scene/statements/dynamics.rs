@@ -39,12 +39,22 @@ pub(in crate::scene) struct Dynamics {
     forces: Vec<(usize, Declared)>,
     rayleigh: Option<Declared>,
     constraints: Vec<Declared>,
+    /// Velocity constraints `g(q, q', t) = 0`, linear in the velocities.
+    velocity_constraints: Vec<Declared>,
 }
 
 impl Dynamics {
     /// Nothing beyond `L`.
     pub(in crate::scene) fn is_empty(&self) -> bool {
-        self.forces.is_empty() && self.rayleigh.is_none() && self.constraints.is_empty()
+        self.forces.is_empty()
+            && self.rayleigh.is_none()
+            && self.constraints.is_empty()
+            && self.velocity_constraints.is_empty()
+    }
+
+    /// Whether there are velocity constraints.
+    pub(in crate::scene) fn velocity_constrained(&self) -> bool {
+        !self.velocity_constraints.is_empty()
     }
 
     /// Whether forces or a Rayleigh function act on the coordinates.
@@ -57,14 +67,24 @@ impl Dynamics {
         !self.constraints.is_empty()
     }
 
-    /// `λ1…λm` and `residual1…residualm` name values along a constrained run.
+    /// `λ1…λm`, `μ1…μk` and `residual1…residual(m+k)` name values along a constrained run
+    /// (the velocity constraints' residuals follow the holonomic ones).
     pub(in crate::scene) fn is_aux_name(&self, s: &Symbol) -> bool {
         if s.primes() != 0 {
             return false;
         }
         let name = s.name();
-        let index = name.strip_prefix('λ').or_else(|| name.strip_prefix("residual"));
-        index.and_then(|i| i.parse::<usize>().ok()).is_some_and(|j| j >= 1 && j <= self.constraints.len())
+        let (m, k) = (self.constraints.len(), self.velocity_constraints.len());
+        let (index, count) = if let Some(i) = name.strip_prefix('λ') {
+            (i, m)
+        } else if let Some(i) = name.strip_prefix('μ') {
+            (i, k)
+        } else if let Some(i) = name.strip_prefix("residual") {
+            (i, m + k)
+        } else {
+            return false;
+        };
+        index.parse::<usize>().ok().is_some_and(|j| j >= 1 && j <= count)
     }
 }
 
@@ -195,6 +215,34 @@ impl Session {
         Ok(())
     }
 
+    /// `constraint velocity g = h`: the velocity constraint `g − h = 0`, linear in the
+    /// velocities (checked when a run resolves it against the system).
+    pub(in crate::scene) fn declare_velocity_constraint(
+        &mut self,
+        lhs: &Src,
+        rhs: Option<&Src>,
+    ) -> Result<(), SceneError> {
+        let mut d = self.dynamics_expr(lhs, "velocity constraint", true)?;
+        if let Some(r) = rhs {
+            let b = self.dynamics_expr(r, "velocity constraint", true)?;
+            d.raw = d.raw.minus(&b.raw);
+            d.refs.extend(b.refs);
+            d.src = Src { text: format!("{} = {}", lhs.text, r.text), span: (lhs.span.0, r.span.1) };
+        }
+        let coords: BTreeSet<&str> = self.coords.iter().map(|q| q.name()).collect();
+        if d.refs.is_empty() && !d.raw.free_symbols().iter().any(|s| s.primes() == 1 && coords.contains(s.name())) {
+            return Err(SceneError::new(ErrorKind::Syntax, "the velocity constraint contains no velocity")
+                .at(d.src.span)
+                .hint("a constraint f(q, t) = 0 is holonomic: write it `constraint f = 0`; a velocity constraint is `constraint velocity x' = R φ' cos(θ)`"));
+        }
+        let j = self.dynamics.velocity_constraints.len() + 1;
+        if self.opts.mode == Mode::Repl {
+            self.output.push(format!("velocity constraint {j}: {} = 0 (multiplier μ{j})", d.raw));
+        }
+        self.dynamics.velocity_constraints.push(d);
+        Ok(())
+    }
+
     /// The declared forces (per coordinate), Rayleigh function and constraints, resolved
     /// against the current definitions (what `conserved` must respect).
     pub(in crate::scene) fn resolved_dynamics(&mut self, at: At) -> Result<ResolvedDynamics, SceneError> {
@@ -243,6 +291,23 @@ impl Session {
             }
             constraints.push(f);
         }
+        let mut velocity_constraints = Vec::new();
+        for d in &dynamics.velocity_constraints {
+            velocity_constraints.push(self.resolve(at, &d.raw, &d.refs)?);
+        }
+        // Linear in the velocities, with a velocity of a coordinate: the library's check, at
+        // the statement that declared it.
+        if !velocity_constraints.is_empty() {
+            let probe = crate::mechanics::System::from_lagrangian_expr(l.clone(), &self.coords)
+                .map_err(|e| SceneError::new(ErrorKind::Derivation, e.to_string()).at(at.span))?;
+            for (g, d) in velocity_constraints.iter().zip(&dynamics.velocity_constraints) {
+                if let Err(e) = probe.clone().with_velocity_constraint_expr(g.clone()) {
+                    return Err(SceneError::new(ErrorKind::Syntax, e.to_string()).at(d.src.span).hint(
+                        "a velocity constraint is a(q, t)·q' + b(q, t) = 0: `constraint velocity x' = R φ' cos(θ)`",
+                    ));
+                }
+            }
+        }
         let stabilization = match &spec.stabilize {
             None => Stabilization::Projection,
             Some(s) => match s.kind.as_str() {
@@ -270,13 +335,13 @@ impl Session {
             },
         };
         if let Some(s) = &spec.stabilize {
-            if constraints.is_empty() {
+            if constraints.is_empty() && velocity_constraints.is_empty() {
                 return Err(SceneError::new(ErrorKind::Syntax, "`stabilize` applies to constrained runs only")
                     .at(s.span)
                     .hint("declare a constraint first (`constraint x^2 + y^2 = l^2`), or drop `stabilize`"));
             }
         }
-        Ok(ExtendedLagrangian { l, forces, rayleigh, constraints, stabilization })
+        Ok(ExtendedLagrangian { l, forces, rayleigh, constraints, velocity_constraints, stabilization })
     }
 
     /// Refuses an initial state off the constraints: each `f_j(q0, t0)` and
@@ -335,6 +400,24 @@ impl Session {
                 .at(span)
                 .label(format!("d/dt residual{} = {value:e}", j + 1))
                 .hint("start with velocities tangent to the constraint (d/dt of it must vanish)"));
+            }
+        }
+        for (j, (g, d)) in ext.velocity_constraints.iter().zip(&dynamics.velocity_constraints).enumerate() {
+            let value = crate::eval::eval(g, &env).map_err(|e| self.value_error(e, span))?;
+            if value.is_nan() || value.abs() > 1e-9 * vscale.max(scale) {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    format!(
+                        "the initial velocities violate velocity constraint {} (`{}`): its residual is {:e} at {}",
+                        j + 1,
+                        d.src.text,
+                        value,
+                        state.join(", ")
+                    ),
+                )
+                .at(span)
+                .label(format!("residual{} = {value:e}", ext.constraints.len() + j + 1))
+                .hint("start with velocities that satisfy it (solve it for one velocity)"));
             }
         }
         Ok(())

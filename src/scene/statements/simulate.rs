@@ -172,7 +172,7 @@ impl Session {
         let first_order = matches!(formulation, Formulation::FirstOrder(_));
         let y0 = self.initial_state(at, spec, layout, first_order, t0)?;
         if let Formulation::Extended(ext) = &formulation {
-            if dynamics.constrained() {
+            if dynamics.constrained() || dynamics.velocity_constrained() {
                 let values: Vec<(String, f64)> = self.param_values().into_iter().collect();
                 self.check_initial_constraints(dynamics, ext, &y0, t0, &values, stmt_span)?;
             }
@@ -317,6 +317,7 @@ impl Session {
             first_order: l_if_needed.as_ref().is_some_and(|l| sim::is_first_order(l, &self.coords)),
             forces: dynamics.forced(),
             constraints: dynamics.constrained(),
+            velocity_constraints: dynamics.velocity_constrained(),
         };
         let route = route(method, &shape).map_err(|r| refusal_error(r, spec, stmt_span))?;
         let (formulation, l_expr, h_expr) = match route {

@@ -544,8 +544,11 @@ pub enum StmtKind {
         /// `R(q, q')`.
         value: Src,
     },
-    /// `constraint f = g`: the holonomic constraint `f − g = 0`.
+    /// `constraint f = g`: the holonomic constraint `f − g = 0`; `constraint velocity g = h`:
+    /// the velocity constraint `g − h = 0`, linear in the velocities.
     Constraint {
+        /// Whether it is a velocity (nonholonomic) constraint.
+        velocity: bool,
         /// The left side.
         lhs: Src,
         /// The right side (zero when absent).

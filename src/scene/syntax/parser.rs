@@ -355,6 +355,7 @@ fn is_kw(rule: Rule) -> bool {
             | Rule::kw_force
             | Rule::kw_rayleigh
             | Rule::kw_constraint
+            | Rule::kw_velocity
             | Rule::kw_average
             | Rule::kw_transform
             | Rule::kw_new
@@ -591,11 +592,12 @@ impl Builder {
                 StmtKind::Rayleigh { name, value }
             }
             Rule::constraint => {
+                let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
                 let mut it = inner.into_iter();
                 let lhs = it.next().map(|q| self.src(&q));
                 let rhs = it.next().map(|q| self.src(&q));
                 let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
-                StmtKind::Constraint { lhs, rhs }
+                StmtKind::Constraint { velocity, lhs, rhs }
             }
             Rule::load => {
                 let path = inner.into_iter().next().map(|q| self.path(q));

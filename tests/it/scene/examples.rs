@@ -406,3 +406,40 @@ fn anharmonic_relations() {
     r.svg("anharmonic_hard.svg");
     r.svg("anharmonic_soft.svg");
 }
+
+/// The rolling coin under its velocity constraints, against SymPy's KanesMethod integrated by
+/// scipy's solve_ivp (scripts/nonholonomic_simulate_sympy.py; the same numbers as
+/// tests/it/simulate/nonholonomic.rs).
+#[test]
+#[allow(clippy::excessive_precision, clippy::needless_range_loop)] // the script's digits, as printed
+fn rolling_coin() {
+    let r = run("rolling_coin");
+    let c = r.csv("rolling_coin.csv");
+    let reference = [
+        ("x", 5.820_789_944_819_793_1e-1),
+        ("y", -2.909_737_286_459_251_2),
+        ("θ", 8.899_999_999_999_998_6),
+        ("φ", -6.075_042_467_565_174),
+        ("x'", 4.132_336_236_547_359_3e-1),
+        ("y'", -2.392_306_920_609_817_4e-1),
+        ("θ'", 8.000_000_000_000_000_4e-1),
+        ("φ'", -9.549_729_875_610_099e-1),
+    ];
+    for (name, want) in reference {
+        let got = *c[name].last().unwrap();
+        assert!((got - want).abs() < 1e-8, "{name}(10) = {got}, KanesMethod {want}");
+    }
+    // Rolling does no work: ½ m (x'² + y'²) + ½ I θ'² + ½ J φ'² + ½ k x² stays 1.553 (by hand
+    // at the start), and the constraints hold to rounding at every kept state.
+    for i in 0..c["t"].len() {
+        let e = 0.5 * 2.0 * (c["x'"][i].powi(2) + c["y'"][i].powi(2))
+            + 0.5 * 0.7 * c["θ'"][i].powi(2)
+            + 0.5 * 1.3 * c["φ'"][i].powi(2)
+            + 0.5 * 3.0 * c["x"][i].powi(2);
+        assert!((e - 1.553).abs() < 1e-9, "energy {e} at t = {}", c["t"][i]);
+        assert!(c["residual1"][i].abs() < 1e-14 && c["residual2"][i].abs() < 1e-14);
+    }
+    // The multipliers at the start: scripts/nonholonomic_sympy.py (LagrangesMethod).
+    assert!((c["μ1"][0] - 1.760_528_029_587_700_2).abs() < 1e-10);
+    r.svg("rolling_coin_path.svg");
+}

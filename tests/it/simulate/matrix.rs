@@ -10,6 +10,11 @@
 //!   with `ω = √(1 − c²/4)`;
 //! * constrained to the line `y = x` with `L = ½(x'² + y'²) − ½(x² + y²)`: on the line `s'' = −s`,
 //!   so `x = y = cos t` from `(1, 1)` at rest;
+//! * the same `L` under the velocity constraint `y' − x' = 0` (Lagrange–d'Alembert, multiplier
+//!   μ along `a = (−1, 1)`): `x'' + x = −μ`, `y'' + y = μ`, `x'' = y''`, so from `(1, 1)` at rest
+//!   `x = y` and `x'' = −x`: `x = cos t`. With `y` free of the potential instead (`½ x²` only),
+//!   `x'' + x = −μ`, `y'' = μ`, `x'' = y''` give `2x'' = −x`: `x = cos(t/√2)`, which is the case
+//!   below (a constraint force that is not zero);
 //! * `H = ½ p² + ½ x²` given directly (Hamiltonian, separable): `x = cos t`, `p = −sin t`;
 //! * `L = ½x'² − ½x² − ½(y − x)²`, where y has no velocity: eliminated (y = x), `x = cos t`;
 //! * first-order `L = x y' − ½ (x² + y²)`: `y' = x`, `x' = −y`, so `x = cos t`, `y = sin t`.
@@ -83,6 +88,18 @@ fn cases() -> Vec<Case> {
             y0_velocities: &[1.0, 1.0, 0.0, 0.0],
             y0_momenta: &[1.0, 1.0, 0.0, 0.0],
             exact: f64::cos,
+        },
+        Case {
+            name: "velocity-constrained",
+            system: || {
+                System::from_lagrangian("1/2 (x'^2 + y'^2) - 1/2 x^2", &["x", "y"])
+                    .unwrap()
+                    .with_velocity_constraint("y' - x'")
+                    .unwrap()
+            },
+            y0_velocities: &[1.0, 1.0, 0.0, 0.0],
+            y0_momenta: &[1.0, 1.0, 0.0, 0.0],
+            exact: |t| (t / std::f64::consts::SQRT_2).cos(),
         },
         Case {
             name: "hamiltonian",
@@ -174,13 +191,13 @@ fn every_method_on_every_kind_of_system_is_right_or_refused_with_working_alterna
             }
         }
     }
-    // Refused: splitting and variational methods on the forced, damped and constrained systems,
-    // on the first-order L and on the non-separable H; Taylor on the constrained and the
-    // first-order system; variational maps on the H-only system. Every other cell runs and is
+    // Refused: splitting and variational methods on the forced, damped, constrained and
+    // velocity-constrained systems, on the first-order L and on the non-separable H; Taylor on
+    // the two constrained and the first-order system; variational maps on the H-only system. Every other cell runs and is
     // checked above.
     let count = |f: Family| MethodId::all().filter(|m| m.family() == f).count();
     let (splitting, variational) = (count(Family::Splitting), count(Family::Variational));
-    let expected_refused = 5 * (splitting + variational) + 2 + variational;
+    let expected_refused = 6 * (splitting + variational) + 3 + variational;
     assert_eq!((refused, ran), (expected_refused, cases().len() * MethodId::all().count() - expected_refused));
 }
 

@@ -1,3 +1,4 @@
 //! The simulate layer: every method × every kind of system (`src/simulate/`).
 
 mod matrix;
+mod nonholonomic;
