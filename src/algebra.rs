@@ -62,6 +62,15 @@ pub enum AlgebraError {
         /// The bound in force, in bits.
         limit: u64,
     },
+    /// The cancellation token ([`crate::cancel`]) was set while expanding.
+    #[error("interrupted")]
+    Interrupted,
+}
+
+impl From<crate::cancel::Interrupted> for AlgebraError {
+    fn from(_: crate::cancel::Interrupted) -> AlgebraError {
+        AlgebraError::Interrupted
+    }
 }
 
 fn short(e: &Expr) -> String {
@@ -106,6 +115,7 @@ fn expand_rec(e: &Expr, limit: usize, memo: &mut HashMap<Expr, Expr>) -> Result<
     if let Some(done) = memo.get(e) {
         return Ok(done.clone());
     }
+    crate::cancel::poll()?;
     let mut children = Vec::new();
     e.for_each_child(|c| children.push(c.clone()));
     let mut new_children = Vec::with_capacity(children.len());
@@ -246,6 +256,7 @@ pub(crate) fn multiply_out(fs: &[Expr], limit: usize) -> Result<Expr, AlgebraErr
         }
         let mut next = Vec::with_capacity(terms.len() * st.len());
         for t in &terms {
+            crate::cancel::poll()?;
             for u in &st {
                 next.push(t.times(u));
             }
@@ -691,14 +702,32 @@ fn factor_sum(ts: &[Expr]) -> Option<Expr> {
 /// Each sum has a work budget ([`COLLECT_WORK`]); a sum whose collection would exceed it is
 /// left (from that point) uncollected, which is still an equal form.
 pub fn collect_common(e: &Expr) -> Expr {
-    e.map_bottom_up(&mut |x| match x.node() {
+    try_collect_common(e).unwrap_or_else(|_| e.clone())
+}
+
+/// [`collect_common`] that polls the cancellation token ([`crate::cancel::poll`]) at every
+/// level of the greedy recursion and returns `Interrupted` once it is set ([`collect_common`]
+/// then gives back its input, an equal form).
+pub fn try_collect_common(e: &Expr) -> Result<Expr, crate::cancel::Interrupted> {
+    let mut stopped = false;
+    let out = e.map_bottom_up(&mut |x| match x.node() {
+        _ if stopped => None,
         Node::Add(ts) => {
             let mut work = 0;
             let out = collect_terms(ts.clone(), 0, &mut work);
+            if crate::cancel::check().is_err() {
+                stopped = true;
+                return None;
+            }
             (out != *x).then_some(out)
         }
         _ => None,
-    })
+    });
+    if stopped {
+        Err(crate::cancel::Interrupted)
+    } else {
+        Ok(out)
+    }
 }
 
 /// Bases with a positive numeric exponent among the factors of a term.
@@ -738,7 +767,7 @@ fn term_words(t: &Expr) -> u64 {
 }
 
 fn collect_terms(terms: Vec<Expr>, depth: usize, work: &mut u64) -> Expr {
-    if terms.len() < 2 || depth > 64 {
+    if terms.len() < 2 || depth > 64 || crate::cancel::poll().is_err() {
         return Expr::add(terms);
     }
     let level: u64 = terms.iter().map(|t| term_words(t).saturating_pow(2)).fold(0, u64::saturating_add);

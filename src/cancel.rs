@@ -78,13 +78,59 @@ pub fn global() -> CancelToken {
     CancelToken(global_flag().clone())
 }
 
-/// Whether the process-wide token is set: the check for code that takes no token.
+thread_local! {
+    /// The token of [`with_token`] on this thread, if any.
+    static SCOPED: std::cell::RefCell<Option<CancelToken>> = const { std::cell::RefCell::new(None) };
+    /// Calls of [`poll`] on this thread, so that it looks at the flags once every [`POLL_EVERY`].
+    static TICKS: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Runs `f` with `token` as this thread's token: every check inside (the ones that take no
+/// token parameter, down to the single symbolic steps — expansion, collection of terms,
+/// differentiation) honours it as well as the process-wide one. A library caller stops one
+/// `simplify` or `expand` from another thread this way without touching Ctrl-C's flag, which
+/// would stop every other job of the process. Nests; the previous token is restored after.
+pub fn with_token<R>(token: &CancelToken, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<CancelToken>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let old = self.0.take();
+            SCOPED.with(|s| *s.borrow_mut() = old);
+        }
+    }
+    let _restore = Restore(SCOPED.with(|s| s.borrow_mut().replace(token.clone())));
+    f()
+}
+
+/// Whether the process-wide token (or this thread's [`with_token`] token) is set: the check
+/// for code that takes no token.
 #[inline]
 pub fn interrupted() -> bool {
     GLOBAL.get().is_some_and(|f| f.load(Ordering::Relaxed))
+        || SCOPED.with(|s| s.borrow().as_ref().is_some_and(|t| t.0.load(Ordering::Relaxed)))
 }
 
-/// `Err(Interrupted)` when the process-wide token is set.
+/// [`poll`] looks at the flags on one call in this many.
+pub const POLL_EVERY: u32 = 64;
+
+/// [`check`] on one call in [`POLL_EVERY`]: for loops whose single iteration is cheap (one
+/// node of an expansion or a derivative), where even a thread-local lookup per node would
+/// show. The latency is at most `POLL_EVERY` nodes.
+#[inline]
+pub fn poll() -> Result<(), Interrupted> {
+    let due = TICKS.with(|t| {
+        let n = t.get().wrapping_add(1);
+        t.set(n);
+        n % POLL_EVERY == 0
+    });
+    if due {
+        check()
+    } else {
+        Ok(())
+    }
+}
+
+/// `Err(Interrupted)` when the process-wide token (or this thread's) is set.
 #[inline]
 pub fn check() -> Result<(), Interrupted> {
     if interrupted() {

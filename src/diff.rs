@@ -15,6 +15,11 @@ pub struct Differentiator {
     memo: HashMap<(Expr, Symbol), Expr>,
     /// Calls of [`Differentiator::diff`] in progress (it recurses through itself).
     depth: usize,
+    /// Inside [`Differentiator::try_diff`]: the recursion polls the cancellation token.
+    polling: bool,
+    /// The token was found set: the derivative being formed is abandoned (nothing finished
+    /// after this is memoised, so the table keeps only complete, correct derivatives).
+    stopped: bool,
 }
 
 /// The memo entries a [`Differentiator`] keeps at most between outermost calls. A REPL's or a
@@ -38,11 +43,37 @@ impl Differentiator {
         if self.depth == 0 && self.memo.len() > MAX_MEMO {
             self.memo.clear();
         }
+        if self.polling && (self.stopped || crate::cancel::poll().is_err()) {
+            self.stopped = true;
+            return Expr::zero();
+        }
         self.depth += 1;
         let d = self.diff_node(e, var);
         self.depth -= 1;
-        self.memo.insert(key, d.clone());
+        if !self.stopped {
+            self.memo.insert(key, d.clone());
+        }
         d
+    }
+
+    /// [`Differentiator::diff`] that polls the cancellation token ([`crate::cancel::poll`],
+    /// so also a [`crate::cancel::with_token`] token) every few nodes and returns
+    /// `Interrupted` once it is set: a derivative of a huge expression is one step that
+    /// would otherwise run to its end. The memo keeps what was finished before the stop.
+    pub fn try_diff(&mut self, e: &Expr, var: &Symbol) -> Result<Expr, crate::cancel::Interrupted> {
+        let outer = !self.polling;
+        self.polling = true;
+        let d = self.diff(e, var);
+        if outer {
+            self.polling = false;
+        }
+        if self.stopped {
+            if outer {
+                self.stopped = false;
+            }
+            return Err(crate::cancel::Interrupted);
+        }
+        Ok(d)
     }
 
     fn diff_node(&mut self, e: &Expr, var: &Symbol) -> Expr {
@@ -152,6 +183,11 @@ impl Differentiator {
 /// `∂e/∂var` with a fresh memo table.
 pub fn diff(e: &Expr, var: &Symbol) -> Expr {
     Differentiator::new().diff(e, var)
+}
+
+/// `∂e/∂var` with a fresh memo table, interruptible ([`Differentiator::try_diff`]).
+pub fn try_diff(e: &Expr, var: &Symbol) -> Result<Expr, crate::cancel::Interrupted> {
+    Differentiator::new().try_diff(e, var)
 }
 
 /// The names of all symbols in `e` that depend on time by the rule of [`Differentiator::dt`]

@@ -250,8 +250,9 @@ impl Ritz {
                 params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v)
             }
         };
-        let num = |e: &Expr| eval_with(e, &|s| params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v));
-        let (t0, t1) = (num(&self.t0).map_err(|e| bad(e.to_string()))?, num(&self.t1).map_err(|e| bad(e.to_string()))?);
+        let numeric = |e: &Expr| eval_with(e, &|s| params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v));
+        let (t0, t1) =
+            (numeric(&self.t0).map_err(|e| bad(e.to_string()))?, numeric(&self.t1).map_err(|e| bad(e.to_string()))?);
         let exact = self.action.is_some();
         let nodes = gauss_legendre(NODES);
         // ∫ e dt and ∫ e² dt over the graded panels, each panel split in `split` equal parts.
@@ -370,17 +371,55 @@ impl Ritz {
             let mut g: Vec<f64> = self.conditions.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if !gmax.is_finite() {
-                break;
+                let i = g.iter().position(|v| !v.is_finite()).unwrap_or(0);
+                let what = format!("∂S/∂{} is {}", self.unknowns[i], num(g[i]));
+                return Err(self.not_finite(&what, &self.conditions[i], &a, it, (t0, t1), params));
             }
             let g0 = *first_gradient.get_or_insert(gmax);
             let at_rounding = it > 1 && gmax <= 1e-13 * g0;
             let mut step = 0.0f64;
             let mut scale = 1.0f64;
             // At rounding the step is still taken, once, as a refinement.
-            let mut h: Vec<f64> = self.hessian.iter().map(|c| value(c, &a, split)).collect::<Result<_, _>>()?;
-            solve_dense(&mut h, &mut g, k).ok_or_else(|| {
-                bad("the Hessian of S(a) is singular: the trial coefficients are not independent".into())
-            })?;
+            let hess = |a: &[f64]| -> Result<Vec<f64>, MechanicsError> {
+                self.hessian.iter().map(|c| value(c, a, split)).collect()
+            };
+            let mut h = hess(&a)?;
+            let (h_at, g_at) = (h.clone(), g.clone());
+            if solve_dense(&mut h, &mut g, k).is_none() {
+                if let Some(i) = h_at.iter().position(|v| !v.is_finite()) {
+                    let (r, c) = (i / k, i % k);
+                    let what = format!("∂²S/∂{}∂{} is {}", self.unknowns[r], self.unknowns[c], num(h_at[i]));
+                    return Err(self.not_finite(&what, &self.hessian[i], &a, it, (t0, t1), params));
+                }
+                // Singular here: at another point too (a structural cause, named from the
+                // Hessian's rows and null vector), or only here (a degenerate point).
+                let other: Vec<f64> = a.iter().enumerate().map(|(i, v)| v + 0.37 + 0.11 * i as f64).collect();
+                let h_other = hess(&other)?;
+                let g_other: Vec<f64> =
+                    self.conditions.iter().map(|c| value(c, &other, split)).collect::<Result<_, _>>()?;
+                let mut probe = (h_other.clone(), vec![0.0; k]);
+                if singular(&h_other, k) || solve_dense(&mut probe.0, &mut probe.1, k).is_none() {
+                    return Err(self.structural(&h_at, &h_other, (&g_at, &g_other)));
+                }
+                if gmax == 0.0 {
+                    // Already stationary (∂S/∂a = 0 exactly), only not a strict extremum: the
+                    // Newton step is zero whatever the Hessian.
+                    g.iter_mut().for_each(|v| *v = 0.0);
+                } else {
+                    return Err(bad(format!(
+                        "the Hessian of S is singular at {} ({}), though not elsewhere: S is flat to second order \
+                         there, so Newton's method has no step to take. Starting from another guess \
+                         (`--guess`, or `near` in a scene), e.g. {}, would work",
+                        self.point(&a),
+                        if it == 1 {
+                            "the starting guess".to_string()
+                        } else {
+                            format!("after {} Newton steps", it - 1)
+                        },
+                        self.point(&other)
+                    )));
+                }
+            }
             for i in 0..k {
                 a[i] -= g[i];
                 step = step.max(g[i].abs());
@@ -410,6 +449,208 @@ impl Ritz {
             }
         }
         Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
+    }
+}
+
+/// A number in a message: six significant digits, scientific past a sensible width.
+fn num(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "NaN".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    let short = format!("{}", (x * 1e6).round() / 1e6);
+    if x != 0.0 && (x.abs() >= 1e6 || x.abs() < 1e-4) {
+        let e = format!("{x:.5e}");
+        let (m, exp) = e.split_once('e').unwrap_or((&e, "0"));
+        let m = if m.contains('.') { m.trim_end_matches('0').trim_end_matches('.') } else { m };
+        return format!("{m}e{exp}");
+    }
+    short
+}
+
+/// Whether the symmetric matrix `h` (`k × k`) is singular to rounding: its smallest eigenvalue
+/// below `1e-10` of its largest (or it is zero, or not finite).
+fn singular(h: &[f64], k: usize) -> bool {
+    let Some(eig) = eigen(h, k) else { return true };
+    let big = eig.eigenvalues.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let small = eig.eigenvalues.iter().fold(f64::INFINITY, |m, v| m.min(v.abs()));
+    big == 0.0 || small <= 1e-10 * big
+}
+
+fn eigen(h: &[f64], k: usize) -> Option<nalgebra::SymmetricEigen<f64, nalgebra::Dyn>> {
+    if !h.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let m = nalgebra::DMatrix::from_fn(k, k, |i, j| 0.5 * (h[i * k + j] + h[j * k + i]));
+    Some(m.symmetric_eigen())
+}
+
+impl Ritz {
+    /// `a = 1, b = 2` for the coefficients `a`.
+    fn point(&self, a: &[f64]) -> String {
+        self.unknowns.iter().zip(a).map(|(u, v)| format!("{u} = {}", num(*v))).collect::<Vec<_>>().join(", ")
+    }
+
+    /// A gradient or Hessian entry (`what`, the integrand or closed form `e`) is not finite at
+    /// `a`: where on the span its integrand is not, when it has one.
+    fn not_finite(
+        &self,
+        what: &str,
+        e: &Expr,
+        a: &[f64],
+        it: usize,
+        (t0, t1): (f64, f64),
+        params: &[(&str, f64)],
+    ) -> MechanicsError {
+        let when = if it == 1 { "the starting guess".to_string() } else { format!("after {} Newton steps", it - 1) };
+        let t = time();
+        let place = if e.contains(&t) {
+            // The midpoints of 1000 equal parts (the quadrature never evaluates at the ends).
+            (0..1000)
+                .map(|j| t0 + (t1 - t0) * (j as f64 + 0.5) / 1000.0)
+                .find(|&tt| {
+                    let at = |s: &Symbol| {
+                        if *s == t {
+                            return Some(tt);
+                        }
+                        match self.unknowns.iter().position(|u| u == s) {
+                            Some(i) => Some(a[i]),
+                            None => params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v),
+                        }
+                    };
+                    !eval_with(e, &at).is_ok_and(|v| v.is_finite())
+                })
+                .map(|tt| format!(", e.g. at t = {}", num(tt)))
+                .unwrap_or_default()
+        } else {
+            String::new()
+        };
+        bad(format!(
+            "{what} at {} ({when}): L(trial) is not twice differentiable in the coefficients along the span{place} \
+             (the trial path reaches a point where L is singular or undefined). A guess (`--guess`, or `near` in a scene) \
+             or trial path on which L(trial) stays smooth over the whole span would work",
+            self.point(a)
+        ))
+    }
+
+    /// The Hessian is singular at two unrelated points: name the cause from its rows, its null
+    /// vector and the gradient along it (`h`, `h2`, `g`, `g2`: at the two points).
+    fn structural(&self, h: &[f64], h2: &[f64], (g, g2): (&[f64], &[f64])) -> MechanicsError {
+        let k = self.unknowns.len();
+        let hmax = h.iter().chain(h2).fold(0.0f64, |m, v| m.max(v.abs()));
+        let gmax = g.iter().chain(g2).fold(0.0f64, |m, v| m.max(v.abs()));
+        let flat = |v: &[f64]| {
+            let (d, d2): (f64, f64) =
+                (v.iter().zip(g).map(|(x, y)| x * y).sum(), v.iter().zip(g2).map(|(x, y)| x * y).sum());
+            d.abs().max(d2.abs()) <= 1e-9 * gmax
+        };
+        let linear = |v: &[f64]| {
+            let d: f64 = v.iter().zip(g).map(|(x, y)| x * y).sum();
+            num(d)
+        };
+        if !singular(h, k) {
+            // Not singular relative to its own size: every entry is below the solver's
+            // absolute pivot floor.
+            return bad(format!(
+                "the Hessian of S(a) is too small for double precision: its largest entry is {} \
+                 (below the pivot floor 1e-300), so S varies too little to locate its stationary point. \
+                 Multiplying L by a constant factor (which leaves the stationary path unchanged), or \
+                 parameter values of a larger scale, would work",
+                num(h.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+            ));
+        }
+        let free = self.integrand.free_symbols();
+        let mut why = Vec::new();
+        let mut rest = Vec::new();
+        for (i, u) in self.unknowns.iter().enumerate() {
+            let row = (0..k).map(|j| h[i * k + j].abs().max(h2[i * k + j].abs())).fold(0.0f64, f64::max);
+            if row > 1e-12 * hmax {
+                rest.push(i);
+                continue;
+            }
+            let mut e = vec![0.0; k];
+            e[i] = 1.0;
+            why.push(if !free.contains(u) {
+                format!(
+                    "`{u}` does not appear in L(trial): the trial path does not depend on it (remove it from the unknowns, or give it a trial function of its own)"
+                )
+            } else if flat(&e) {
+                format!(
+                    "S does not depend on `{u}` (∂S/∂{u} = 0 whatever the coefficients: along this trial family L changes with {u} only by a total derivative, or not at all); remove it, or give it a trial function that changes S"
+                )
+            } else {
+                format!(
+                    "S is linear in `{u}` (∂S/∂{u} = {} whatever {u} is), so it has no stationary point in {u}; a trial path in which {u} enters L(trial) at least quadratically would work",
+                    linear(&e)
+                )
+            });
+        }
+        // Among the other coefficients, a direction in which S is flat to second order.
+        let n = rest.len();
+        let sub =
+            |h: &[f64]| -> Vec<f64> { rest.iter().flat_map(|&i| rest.iter().map(move |&j| h[i * k + j])).collect() };
+        if n > 0 && singular(&sub(h), n) && singular(&sub(h2), n) {
+            if let Some(eig) = eigen(&sub(h), n) {
+                let j =
+                    (0..n).min_by(|&x, &y| eig.eigenvalues[x].abs().total_cmp(&eig.eigenvalues[y].abs())).unwrap_or(0);
+                let col = eig.eigenvectors.column(j);
+                let big = col.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let mut v = vec![0.0; k];
+                for (r, &i) in rest.iter().enumerate() {
+                    v[i] = if col[r].abs() > 1e-6 * big { col[r] / big } else { 0.0 };
+                }
+                // The first coefficient involved rises.
+                let sign = v.iter().copied().find(|x| *x != 0.0).unwrap_or(1.0).signum();
+                v.iter_mut().for_each(|x| *x *= sign);
+                let involved: Vec<usize> = (0..k).filter(|&i| v[i] != 0.0).collect();
+                let names =
+                    involved.iter().map(|&i| format!("`{}`", self.unknowns[i])).collect::<Vec<_>>().join(" and ");
+                let direction = involved
+                    .iter()
+                    .enumerate()
+                    .map(|(n, &i)| {
+                        let by = if n == 0 { " changes by" } else { " by" };
+                        format!("{}{by} {}", self.unknowns[i], num(v[i]).replace('-', "−"))
+                    })
+                    .collect::<Vec<_>>()
+                    .join(" and ");
+                let combination = if let [p, q] = involved[..] {
+                    // S is unchanged along (v_p, v_q) in (a_p, a_q): it depends on
+                    // v_q a_p − v_p a_q, that is on a_p − (v_p / v_q) a_q.
+                    let c = -v[p] / v[q];
+                    format!(
+                        " only as the combination {} {} {}{}",
+                        self.unknowns[p],
+                        if c < 0.0 { "−" } else { "+" },
+                        if (c.abs() - 1.0).abs() < 1e-9 { String::new() } else { format!("{} ", num(c.abs())) },
+                        self.unknowns[q]
+                    )
+                } else {
+                    String::new()
+                };
+                why.push(if flat(&v) {
+                    format!(
+                        "{names} enter S{combination}: S does not change when {direction} (they multiply the same function of t, \
+                         or functions that L(trial) cannot tell apart); keep one of them, or give each a trial function of its own"
+                    )
+                } else {
+                    format!(
+                        "S changes only linearly when {direction} (at the rate {}), so it has no stationary point; \
+                         a trial path in which {names} enter L(trial) at least quadratically would work",
+                        linear(&v)
+                    )
+                });
+            }
+        }
+        if why.is_empty() {
+            why.push("the trial coefficients are not independent".into());
+        }
+        bad(format!("the Hessian of S(a) is singular whatever the coefficients: {}", why.join("; ")))
     }
 }
 

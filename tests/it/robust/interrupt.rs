@@ -277,3 +277,86 @@ fn a_token_stops_an_integration_at_its_next_step_with_the_last_good_state() {
     let r2 = e.state[0] * e.state[0] + e.state[1] * e.state[1];
     assert!((r2 - 1.0).abs() < 1e-9, "{e}");
 }
+
+/// `1 + x (2 + x (3 + …))`, `n` deep, built directly (the parser stops at 1000 levels).
+fn horner(n: i64) -> lagrangian::Expr {
+    use lagrangian::{Expr, Symbol};
+    let x = Expr::sym(Symbol::new("x"));
+    (1..n).rev().fold(Expr::int(n), |inner, k| Expr::int(k).plus(&x.times(&inner)))
+}
+
+/// Runs `f` on a thread with a stack for 6400-deep recursion (the symbolic steps recurse).
+fn deep<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> R {
+    std::thread::Builder::new().stack_size(512 << 20).spawn(f).unwrap().join().unwrap()
+}
+
+/// The single symbolic steps poll the token (a library caller's, through
+/// `cancel::with_token`, or Ctrl-C's): an expansion, a collection of terms and a derivative
+/// return `Interrupted` when it is set, and the same calls without it give the uninterrupted
+/// result (before, each ran to its end whatever was set).
+#[test]
+fn a_token_set_before_the_call_stops_expansion_collection_and_differentiation() {
+    use lagrangian::algebra::{expand, try_collect_common, AlgebraError};
+    use lagrangian::cancel::{with_token, Interrupted};
+    use lagrangian::diff::{diff, Differentiator};
+    use lagrangian::Symbol;
+    deep(|| {
+        let e = horner(200);
+        let x = Symbol::new("x");
+        let set = CancelToken::new();
+        set.cancel();
+        let unset = CancelToken::new();
+        assert_eq!(with_token(&set, || expand(&e)), Err(AlgebraError::Interrupted));
+        let full = with_token(&unset, || expand(&e)).unwrap();
+        assert_eq!(full.terms().len(), 200, "the degree-199 polynomial, one term per power");
+        assert_eq!(with_token(&set, || try_collect_common(&full)), Err(Interrupted));
+        assert!(with_token(&unset, || try_collect_common(&full)).is_ok());
+        let mut d = Differentiator::new();
+        assert_eq!(with_token(&set, || d.try_diff(&e, &x)), Err(Interrupted));
+        // The abandoned derivative left nothing wrong in the memo.
+        assert_eq!(with_token(&unset, || d.try_diff(&e, &x)), Ok(diff(&e, &x)));
+        // The simplifier sees the same token: it stops with the input unchanged.
+        let s = with_token(&set, || lagrangian::simplify::simplify_with(&e, &Default::default()));
+        assert_eq!(s.stop, lagrangian::simplify::StopReason::Interrupted);
+        // Outside `with_token` nothing is set: the token does not leak to later work.
+        assert!(expand(&horner(100)).is_ok());
+    });
+}
+
+/// One expansion of a deep Horner form (the degree-n polynomial, about n²/2 term products),
+/// cancelled from another thread 50 ms in, returns `Interrupted` in well under the time the
+/// same expansion takes uninterrupted, measured first in this test (n doubles from 800 until
+/// that is at least 0.3 s, so a fast machine still has something to interrupt).
+#[test]
+fn a_single_expansion_is_cancelled_from_another_thread() {
+    use lagrangian::algebra::{expand_with_limit, AlgebraError};
+    use lagrangian::cancel::with_token;
+    deep(|| {
+        let mut n = 800;
+        let (e, full) = loop {
+            let e = horner(n);
+            let start = Instant::now();
+            let out = expand_with_limit(&e, 1 << 30).unwrap();
+            let full = start.elapsed();
+            assert_eq!(out.terms().len(), n as usize);
+            if full >= Duration::from_millis(300) || n >= 12_800 {
+                break (e, full);
+            }
+            n *= 2;
+        };
+        let token = CancelToken::new();
+        let setter = {
+            let token = token.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_millis(50));
+                token.cancel();
+            })
+        };
+        let start = Instant::now();
+        let out = with_token(&token, || expand_with_limit(&e, 1 << 30));
+        let interrupted = start.elapsed();
+        setter.join().unwrap();
+        assert_eq!(out, Err(AlgebraError::Interrupted), "n = {n}, uninterrupted {full:?}");
+        assert!(interrupted < full / 2, "n = {n}: interrupted after {interrupted:?}, uninterrupted {full:?}");
+    });
+}

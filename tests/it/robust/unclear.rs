@@ -213,3 +213,65 @@ fn the_piped_repl_answers_before_the_next_line_arrives() {
     drop(stdin);
     assert!(child.wait().unwrap().success());
 }
+
+/// U11: six causes of a singular Hessian in `ritz`, each named with what would work (was, for
+/// every one: "the Hessian of S(a) is singular: the trial coefficients are not independent";
+/// a non-finite gradient was "Newton's method … did not converge in 50 steps"). Each case is
+/// the oscillator or a one-line L on 0..1 with a trial path whose S is known in closed form.
+#[test]
+fn ritz_names_the_cause_of_a_singular_hessian() {
+    let ritz = |l: &str, path: &str, names: &str, ends: (&str, &str), extra: &[&str]| {
+        let args = ["ritz", l, "--coords", "x", "--trial", path, "--unknowns", names, "--span", "0,1"];
+        let (code, out, err) = run(&[&args[..], &["--from", ends.0, "--to", ends.1], extra].concat());
+        (code, out, err.replace("\n  │ ", " "))
+    };
+    let old = "the trial coefficients are not independent";
+    let refused = |(code, out, err): (i32, String, String)| {
+        assert_eq!((code, out.as_str()), (2, ""), "{err}");
+        assert!(!err.contains(old), "{err}");
+        err
+    };
+    let osc = "1/2 x'^2 - 1/2 x^2";
+    // A coefficient that the trial path does not contain.
+    let err = refused(ritz(osc, "t + t (1 - t) a", "a,b", ("0", "1"), &[]));
+    assert!(err.contains("`b` does not appear in L(trial): the trial path does not depend on it"), "{err}");
+    // Two coefficients that enter only as one combination, read off the Hessian's null
+    // vector: 2a − 3b is unchanged along (1, 2/3), so S depends on a − 1.5 b.
+    let err = refused(ritz(osc, "t + t (1 - t) (2 a - 3 b)", "a,b", ("0", "1"), &[]));
+    assert!(err.contains("`a` and `b` enter S only as the combination a − 1.5 b"), "{err}");
+    assert!(err.contains("a changes by 1 and b by 0.666667"), "{err}");
+    let err = refused(ritz(osc, "t + t (1 - t) (a + b + c t)", "a,b,c", ("0", "1"), &[]));
+    assert!(err.contains("`a` and `b` enter S only as the combination a + b"), "{err}");
+    assert!(!err.contains("`c`"), "c is independent: {err}");
+    // L = x: S = 1/2 + a/6 is linear in a, with no stationary point.
+    let err = refused(ritz("x", "t + t (1 - t) a", "a", ("0", "1"), &[]));
+    assert!(
+        err.contains("S is linear in `a` (∂S/∂a = 0.166667 whatever a is), so it has no stationary point"),
+        "{err}"
+    );
+    // L = x' is a total derivative: S = x(1) − x(0) = 1 whatever a.
+    let err = refused(ritz("x'", "t + t (1 - t) a", "a", ("0", "1"), &[]));
+    assert!(err.contains("S does not depend on `a`"), "{err}");
+    // L = x^3 − 3x, x = a t(1 − t): S = a³/140 − a/2 has S'' = 0 at the guess a = 0 only.
+    // The guess the message offers leads to the stationary point a = √(70/3).
+    let err = refused(ritz("x^3 - 3 x", "a t (1 - t)", "a", ("0", "0"), &[]));
+    assert!(err.contains("singular at a = 0 (the starting guess), though not elsewhere"), "{err}");
+    let offered = err.split("e.g. a = ").nth(1).and_then(|s| s.split(',').next()).expect("a guess");
+    let (code, out, err) = ritz("x^3 - 3 x", "a t (1 - t)", "a", ("0", "0"), &["--guess", offered]);
+    assert_eq!(code, 0, "{err}");
+    let a: f64 = out.lines().find_map(|l| l.strip_prefix("a ≈ ")).unwrap().trim().parse().unwrap();
+    assert!((a - (70.0f64 / 3.0).sqrt()).abs() < 1e-12, "{out}");
+    // L = √x at x = 0: ∂L/∂a = t(1 − t)/(2√x) is infinite on the whole span.
+    let err = refused(ritz("sqrt(x)", "a t (1 - t)", "a", ("0", "0"), &[]));
+    assert!(err.contains("∂S/∂a is inf at a = 0 (the starting guess)"), "{err}");
+    assert!(err.contains("e.g. at t = 0.0005"), "{err}");
+    // A Hessian below the solver's pivot floor: L scaled by 1e-305 (S'' = m/3 · … ≈ 3e-306).
+    let scaled = "1/2 m x'^2 - 1/2 m x^2";
+    let err = refused(ritz(scaled, "t + t (1 - t) a", "a", ("0", "1"), &["--set", "m=1e-305"]));
+    assert!(err.contains("too small for double precision: its largest entry is 3e-306"), "{err}");
+    // A guess that is already stationary, though degenerate (x^4: S = a⁴/630, S'' = 0 at
+    // a = 0): the Newton step is zero, so a = 0 is the answer, not a refusal.
+    let (code, out, err) = ritz("x^4", "a t (1 - t)", "a", ("0", "0"), &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("a ≈ 0.000000000000000e0") && out.contains("S ≈ 0.000000000000000e0"), "{out}");
+}
