@@ -171,6 +171,15 @@ const SCENE_SEEDS: &[&str] = &[
     "chaos_map megno θ = -1e308..1e308, θ' = -1..1 for t in 0..10 points 2 max_steps = 2.5 to m.csv\n",
     "rayleigh L = 1/2 b x'^2\nrayleigh R = 1/2 b x'^2\n",
     "simulate x = 0, p_y = 0 for each y in 0..0.2 step 0.1 on H = 1/8 solve p_x > 0 for t in 0..1 with rk4 dt = 0.1 as e\nexport from e to e.csv\n",
+    // maps (explicit and implicit), series, Jacobians, averages with a sweep, velocity
+    // constraints, the constant pi.
+    "parameters K = 0.9, h = 0.1\nmap p = p + K sin(q), q = q + p for 3 steps from q = 0..6, p = 0 points 2\n",
+    "map q' = q + h (p + p')/2, p' = p - h sin((q + q')/2) for 4 steps from q = 1, p = 0 to m.svg\n",
+    "map q' = q + q'^2 + 1 for 2 steps from q = 0\n",
+    "series sin(x) in x order 5\njacobian (r cos(φ), r sin(φ)) in r, φ\n",
+    "coordinates x\nparameters m = 1, w0 = 1, s = 1 positive\nL = 1/2 m x'^2 - 1/2 m w0^2 (x^2 + s x^4)\naverage L with x = A cos(θ) + B cos(3 θ) phase θ frequency ω amplitudes A, B small s unperturbed w0 order 2 for A in 0.1..1 points 3\n",
+    "coordinates x, y, θ, φ\nL = 1/2 (x'^2 + y'^2) + 1/2 θ'^2 + 1/2 φ'^2\nconstraint velocity x' - cos(θ) φ' = 0\nconstraint velocity y' - sin(θ) φ'\n",
+    "parameters pi = 3\nprint sin(pi) + cos(π/3)\n",
 ];
 
 const SCENE_WORDS: &[&str] = &[
@@ -203,6 +212,15 @@ const SCENE_WORDS: &[&str] = &[
     "max_steps =",
     "time_limit =",
     "rayleigh",
+    "map",
+    "steps",
+    "series",
+    "jacobian",
+    "average",
+    "order",
+    "constraint velocity",
+    "pi",
+    "q'",
     "points",
     "positive",
     "from",
