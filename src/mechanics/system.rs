@@ -293,16 +293,17 @@ impl System {
         Ok(self)
     }
 
+    /// A constraint's text as one expression that vanishes: `f` as written, `f = g` as `f − g`.
+    fn parse_equation(&self, text: &str) -> Result<Expr, MechanicsError> {
+        match text.split_once('=') {
+            Some((a, b)) => Ok(parse_with(a, &self.decls)?.minus(&parse_with(b, &self.decls)?)),
+            None => Ok(parse_with(text, &self.decls)?),
+        }
+    }
+
     /// Adds a holonomic constraint `f(q, t) = 0` (the text is `f`; `f = g` means `f − g`).
     pub fn with_constraint(mut self, text: &str) -> Result<System, MechanicsError> {
-        let (lhs, rhs) = match text.split_once('=') {
-            Some((a, b)) => (a, Some(b)),
-            None => (text, None),
-        };
-        let mut f = parse_with(lhs, &self.decls)?;
-        if let Some(b) = rhs {
-            f = f.minus(&parse_with(b, &self.decls)?);
-        }
+        let f = self.parse_equation(text)?;
         let names: BTreeSet<&str> = self.coords.iter().map(Symbol::name).collect();
         let free = f.free_symbols();
         if let Some(v) = free.iter().find(|s| s.primes() > 0) {
@@ -538,14 +539,7 @@ impl System {
     /// `g = h` means `g − h`). A constraint that is not linear in the velocities, or has none
     /// (a holonomic one), is refused naming what would work.
     pub fn with_velocity_constraint(self, text: &str) -> Result<System, MechanicsError> {
-        let (lhs, rhs) = match text.split_once('=') {
-            Some((a, b)) => (a, Some(b)),
-            None => (text, None),
-        };
-        let mut g = parse_with(lhs, &self.decls)?;
-        if let Some(b) = rhs {
-            g = g.minus(&parse_with(b, &self.decls)?);
-        }
+        let g = self.parse_equation(text)?;
         self.with_velocity_constraint_expr(g)
     }
 

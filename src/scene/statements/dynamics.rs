@@ -182,15 +182,28 @@ impl Session {
         Ok(())
     }
 
-    /// `constraint f = g`.
-    pub(in crate::scene) fn declare_constraint(&mut self, lhs: &Src, rhs: Option<&Src>) -> Result<(), SceneError> {
-        let mut d = self.dynamics_expr(lhs, "constraint", false)?;
+    /// `lhs [= rhs]` of a constraint statement as one expression that vanishes (`lhs − rhs`),
+    /// with the references and source text of both sides.
+    fn constraint_expr(
+        &mut self,
+        lhs: &Src,
+        rhs: Option<&Src>,
+        what: &str,
+        velocities: bool,
+    ) -> Result<Declared, SceneError> {
+        let mut d = self.dynamics_expr(lhs, what, velocities)?;
         if let Some(r) = rhs {
-            let b = self.dynamics_expr(r, "constraint", false)?;
+            let b = self.dynamics_expr(r, what, velocities)?;
             d.raw = d.raw.minus(&b.raw);
             d.refs.extend(b.refs);
             d.src = Src { text: format!("{} = {}", lhs.text, r.text), span: (lhs.span.0, r.span.1) };
         }
+        Ok(d)
+    }
+
+    /// `constraint f = g`.
+    pub(in crate::scene) fn declare_constraint(&mut self, lhs: &Src, rhs: Option<&Src>) -> Result<(), SceneError> {
+        let d = self.constraint_expr(lhs, rhs, "constraint", false)?;
         // The command line's words for `1 = 0` and `x = x`, so both front ends say the same.
         if d.refs.is_empty() {
             if let Some(crate::mechanics::MechanicsError::WrongKind(why)) =
@@ -222,13 +235,7 @@ impl Session {
         lhs: &Src,
         rhs: Option<&Src>,
     ) -> Result<(), SceneError> {
-        let mut d = self.dynamics_expr(lhs, "velocity constraint", true)?;
-        if let Some(r) = rhs {
-            let b = self.dynamics_expr(r, "velocity constraint", true)?;
-            d.raw = d.raw.minus(&b.raw);
-            d.refs.extend(b.refs);
-            d.src = Src { text: format!("{} = {}", lhs.text, r.text), span: (lhs.span.0, r.span.1) };
-        }
+        let d = self.constraint_expr(lhs, rhs, "velocity constraint", true)?;
         let coords: BTreeSet<&str> = self.coords.iter().map(|q| q.name()).collect();
         if d.refs.is_empty() && !d.raw.free_symbols().iter().any(|s| s.primes() == 1 && coords.contains(s.name())) {
             return Err(SceneError::new(ErrorKind::Syntax, "the velocity constraint contains no velocity")
