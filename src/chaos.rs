@@ -335,10 +335,12 @@ pub fn transition_matrix(
     Ok((phi, y[..n].to_vec()))
 }
 
-/// The flow of a Hamiltonian system over `0..T` and the two structural checks of notes §4.6.1:
-/// Liouville's theorem (`det Φ = 1`, phase-space volume is kept) and symplecticity
-/// (`ΦᵀJΦ = J` with `J = [[0, I], [−I, 0]]` in the order `(q, p)`). Both hold exactly for the
-/// true flow, so the printed residuals measure the integration error of `Φ`.
+/// The flow over `0..T` and the two structural checks of notes §4.6.1: Liouville's theorem
+/// (`det Φ = 1`, phase-space volume is kept) and symplecticity (`ΦᵀJΦ = J` with
+/// `J = [[0, I], [−I, 0]]` in the order `(q, p)`). Both hold exactly for the true flow of a
+/// Hamiltonian system, so the residuals measure the integration error of `Φ`. A dissipative
+/// or driven system keeps neither: `det Φ(t) = exp(∫₀ᵗ tr ∂f/∂x ds)` (Liouville's formula;
+/// `e^{−γt}` for `x'' = −γx' − ω²x`), and its flow has no symplectic defect to report.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Flow {
     /// `Φ(T) = ∂x(T)/∂x(0)`, row-major `n × n`.
@@ -347,17 +349,75 @@ pub struct Flow {
     pub end: Vec<f64>,
     /// `det Φ − 1`.
     pub det_minus_one: f64,
-    /// `max_ij |(ΦᵀJΦ − J)_ij|`.
-    pub symplectic_defect: f64,
+    /// `max_ij |(ΦᵀJΦ − J)_ij|`, for a Hamiltonian flow only ([`Variational::is_hamiltonian`]).
+    pub symplectic_defect: Option<f64>,
+    /// The same checks along the run, at the end of the kept steps (the first at `t = 0`, the
+    /// last at `T`).
+    pub samples: Vec<FlowSample>,
+    /// Taylor steps taken.
+    pub steps: usize,
 }
 
-/// [`Flow`] from `x0 = (q, p)` with the Taylor method at `tol`. `sys` needs `n` tangent
-/// vectors (the variational system of a Hamiltonian flow, `n = 2 × degrees of freedom`).
+/// The flow's checks at one time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowSample {
+    /// Time.
+    pub t: f64,
+    /// `det Φ(t) − 1`.
+    pub det_minus_one: f64,
+    /// `max_ij |(Φ(t)ᵀJΦ(t) − J)_ij|` (Hamiltonian flows only).
+    pub symplectic_defect: Option<f64>,
+}
+
+/// [`Flow`] from `x0 = (q, p)` with the Taylor method at `tol`, keeping only the end. `sys`
+/// needs `n` tangent vectors (`n = 2 × degrees of freedom`).
 pub fn flow(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result<Flow, IntegrateError> {
+    flow_with(sys, x0, t_end, tol, 2, crate::integrate::Options::new().max_steps)
+}
+
+/// [`flow`] keeping the checks at about `points` steps (evenly spaced in steps, as
+/// [`crate::integrate::Output::AtMost`] keeps them), within `max_steps` Taylor steps. What is
+/// kept does not change the steps taken, so `Φ(T)` is the same whatever `points` is.
+pub fn flow_with(
+    sys: &Variational,
+    x0: &[f64],
+    t_end: f64,
+    tol: f64,
+    points: usize,
+    max_steps: usize,
+) -> Result<Flow, IntegrateError> {
     let n = sys.n();
-    let (phi, end) = transition_matrix(sys, x0, t_end, tol)?;
-    let det_minus_one = crate::linalg::determinant(&phi, n) - 1.0;
-    Ok(Flow { symplectic_defect: symplectic_defect(&phi, n), phi, end, det_minus_one })
+    assert_eq!(sys.tangents(), n, "Φ needs n tangent vectors");
+    let y0 = sys.initial_state(x0);
+    let options = crate::integrate::Options::new().at_most(points).max_steps(max_steps);
+    let traj = Taylor::new(tol).integrate_with(sys, 0.0..t_end, &y0, options)?;
+    let hamiltonian = sys.is_hamiltonian();
+    let checks = |y: &[f64]| {
+        let phi = phi_of(y, n);
+        let det_minus_one = crate::linalg::determinant(&phi, n) - 1.0;
+        let defect = hamiltonian.then(|| symplectic_defect(&phi, n));
+        (phi, det_minus_one, defect)
+    };
+    let samples = (0..traj.len())
+        .map(|i| {
+            let (_, det_minus_one, symplectic_defect) = checks(traj.state(i));
+            FlowSample { t: traj.times[i], det_minus_one, symplectic_defect }
+        })
+        .collect();
+    let y = traj.last_state();
+    let (phi, det_minus_one, symplectic_defect) = checks(y);
+    Ok(Flow { phi, end: y[..n].to_vec(), det_minus_one, symplectic_defect, samples, steps: traj.stats.steps })
+}
+
+/// `Φ` (row-major) from a variational state: column `j` is tangent vector `j`.
+fn phi_of(y: &[f64], n: usize) -> Vec<f64> {
+    let mut phi = vec![0.0; n * n];
+    for j in 0..n {
+        for i in 0..n {
+            phi[i * n + j] = y[n + j * n + i];
+        }
+    }
+    phi
 }
 
 /// `max_ij |(ΦᵀJΦ − J)_ij|` for the canonical `J` of `n = 2d` variables ordered `(q, p)`.

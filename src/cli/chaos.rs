@@ -1,6 +1,7 @@
-//! `lagrangian flow`: the flow's Jacobian of a Hamiltonian system and its structural checks
-//! (notes §4.6.1), computed by `lagrangian::chaos::flow`; this file only reads the arguments
-//! and prints.
+//! `lagrangian flow`: the flow's Jacobian of a mechanical system and its structural checks
+//! (notes §4.6.1), computed by `lagrangian::chaos::flow` and printed by
+//! `lagrangian::report::flow` (the scene's `flow` prints the same lines); this file only reads
+//! the arguments.
 
 use clap::Subcommand;
 use serde_json::json;
@@ -8,14 +9,17 @@ use serde_json::json;
 use lagrangian::chaos;
 use lagrangian::compile::Variational;
 use lagrangian::mechanics::System;
+use lagrangian::print::Format;
+use lagrangian::report;
 
 use super::{bad_input, finite_f64, mechanics_failure, name_values, read_expr_arg, Common, Failure, OutFormat};
 
 #[derive(Subcommand)]
 pub enum ChaosCommand {
-    /// The flow's Jacobian Φ(T) = ∂x(T)/∂x(0) of a Hamiltonian system in x = (q, p), with
-    /// Liouville's check det Φ − 1 and the symplectic defect max |ΦᵀJΦ − J| (notes §4.6.1);
-    /// both are zero for the exact flow, so they measure the integration error
+    /// The flow's Jacobian Φ(T) = ∂x(T)/∂x(0) of a system in x = (q, p), with Liouville's
+    /// check det Φ − 1 and the symplectic defect max |ΦᵀJΦ − J| (notes §4.6.1); both are zero
+    /// for the exact flow of a Hamiltonian, so they measure the integration error. With
+    /// --force or --rayleigh the flow is not Hamiltonian: det Φ is printed, the defect is not
     Flow {
         /// The Hamiltonian in q, p_q (`-` reads it from standard input).
         #[arg(allow_hyphen_values = true)]
@@ -35,6 +39,12 @@ pub enum ChaosCommand {
         /// Parameter values, `m=1,k=2`.
         #[arg(long, value_delimiter = ',')]
         set: Vec<String>,
+        /// A generalized force on one coordinate, `q=Q` (`q=-b q'`); repeatable.
+        #[arg(long)]
+        force: Vec<String>,
+        /// A Rayleigh dissipation function R(q, q').
+        #[arg(long)]
+        rayleigh: Option<String>,
         /// The Taylor method's tolerance.
         #[arg(long, value_parser = finite_f64, default_value_t = 1e-14)]
         tol: f64,
@@ -44,16 +54,25 @@ pub enum ChaosCommand {
 }
 
 pub fn run(cmd: ChaosCommand) -> Result<(), Failure> {
-    let ChaosCommand::Flow { hamiltonian, lagrangian, coords, at, time, set, tol, common } = cmd;
+    let ChaosCommand::Flow { hamiltonian, lagrangian, coords, at, time, set, force, rayleigh, tol, common } = cmd;
     let text = read_expr_arg(&hamiltonian)?;
     let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
     let decls = common.declarations();
-    let system = if lagrangian {
+    let mut system = if lagrangian {
         System::from_lagrangian_with(&text, &names, &decls)
     } else {
         System::from_hamiltonian_with(&text, &names, &decls)
     }
     .map_err(mechanics_failure)?;
+    for f in &force {
+        let Some((q, e)) = f.split_once('=') else {
+            return Err(bad_input(format!("error: --force `{f}`: expected `coordinate=expression`")));
+        };
+        system = system.with_force(q, e).map_err(mechanics_failure)?;
+    }
+    if let Some(r) = &rayleigh {
+        system = system.with_rayleigh(r).map_err(mechanics_failure)?;
+    }
     // A momentum not named after its coordinate would be a constant and freeze the coordinate.
     system.check_momenta().map_err(mechanics_failure)?;
     let params = name_values("--set", &set, &common.positive)?;
@@ -95,14 +114,8 @@ pub fn run(cmd: ChaosCommand) -> Result<(), Failure> {
         println!("{obj}");
         return Ok(());
     }
-    let end: Vec<String> = state.iter().zip(&flow.end).map(|(k, v)| format!("{k} = {v}")).collect();
-    println!("x(T) at T = {time}: {}", end.join(", "));
-    println!("Φ(T), rows and columns in the order {}:", state.join(", "));
-    for row in flow.phi.chunks(n) {
-        let cells: Vec<String> = row.iter().map(|v| format!("{v:>24.16e}")).collect();
-        println!("  [{} ]", cells.join(","));
+    for line in report::flow(&state, time, &flow) {
+        println!("{}", report::render_line(&line, Format::Plain));
     }
-    println!("det Φ − 1 = {:.3e}   (Liouville: the flow keeps phase-space volume)", flow.det_minus_one);
-    println!("max |ΦᵀJΦ − J| = {:.3e}   (the flow is symplectic)", flow.symplectic_defect);
     Ok(())
 }

@@ -25,6 +25,9 @@ pub struct Variational {
     n: usize,
     m: usize,
     megno: bool,
+    /// Whether `f` is Hamilton's vector field in `(q, p)`, so that the flow is symplectic and
+    /// `ΦᵀJΦ = J` is a check of `Φ`.
+    hamiltonian: bool,
     tape: Tape,
     taylor: TaylorOde,
 }
@@ -86,7 +89,7 @@ impl Variational {
         let input_refs: Vec<&str> = inputs.iter().map(String::as_str).collect();
         let tape = Tape::compile(&outputs, &input_refs, params)?;
         let taylor = TaylorOde::first_order(&tape);
-        Ok(Variational { n, m: tangents, megno, tape, taylor })
+        Ok(Variational { n, m: tangents, megno, hamiltonian: false, tape, taylor })
     }
 
     /// The variational system of Hamilton's equations of `h` (state `(q, p)`).
@@ -105,20 +108,43 @@ impl Variational {
         let mut f: Vec<Expr> = syms[n..].iter().map(|p| d.diff(h, p)).collect();
         f.extend(syms[..n].iter().map(|q| d.diff(h, q).neg()));
         let state: Vec<&str> = coords.iter().chain(momenta).copied().collect();
-        Variational::new(&f, &state, params, tangents, megno)
+        let mut var = Variational::new(&f, &state, params, tangents, megno)?;
+        var.hamiltonian = true;
+        Ok(var)
     }
 
-    /// The variational system of a mechanics [`System`] in canonical coordinates `(q, p)`
-    /// (through its Hamiltonian, derived by the Legendre transform for a Lagrangian system).
+    /// The variational system of a mechanics [`System`] in canonical coordinates `(q, p)`:
+    /// Hamilton's equations of its Hamiltonian (derived by the Legendre transform for a
+    /// Lagrangian system), plus its generalized forces and Rayleigh dissipation in `p'`
+    /// ([`System::hamilton_equations`]), so a damped or driven system has its own flow, not the
+    /// flow of its `H`; only a system without them is [`Variational::is_hamiltonian`].
+    /// Constraints are refused: their multipliers are not functions of `(q, p, t)` here.
     pub fn of_system(sys: &System, tangents: usize, megno: bool) -> Result<Variational, CompileError> {
-        let h = sys.hamiltonian().map_err(CompileError::Mechanics)?;
+        if !sys.constraints().is_empty() || !sys.velocity_constraints().is_empty() {
+            return Err(CompileError::Unsupported {
+                what: "the variational equations of a constrained system (the multipliers are not functions of (q, p, t)); write the system in coordinates that satisfy the constraints",
+            });
+        }
         let q: Vec<String> = sys.coordinates().iter().map(|s| s.to_string()).collect();
         let p: Vec<String> = sys.momenta().iter().map(|s| s.to_string()).collect();
         let params: Vec<(String, f64)> = sys.param_values().iter().map(|(k, v)| (k.to_string(), *v)).collect();
         let refs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let qs: Vec<&str> = q.iter().map(String::as_str).collect();
         let ps: Vec<&str> = p.iter().map(String::as_str).collect();
-        Variational::hamiltonian(&h, &qs, &ps, &refs, tangents, megno)
+        if !sys.has_driving_forces() {
+            let h = sys.hamiltonian().map_err(CompileError::Mechanics)?;
+            return Variational::hamiltonian(&h, &qs, &ps, &refs, tangents, megno);
+        }
+        let eqs = sys.hamilton_equations().map_err(CompileError::Mechanics)?;
+        let mut f = eqs.qdot;
+        f.extend(eqs.pdot);
+        let state: Vec<&str> = qs.iter().chain(&ps).copied().collect();
+        Variational::new(&f, &state, &refs, tangents, megno)
+    }
+
+    /// Whether the flow is Hamiltonian (built from a Hamiltonian alone), so symplectic.
+    pub fn is_hamiltonian(&self) -> bool {
+        self.hamiltonian
     }
 
     /// The dimension `n` of `x`.
