@@ -270,6 +270,7 @@ impl Session {
             }
             StmtKind::Simulate(spec) => self.simulate(at, spec),
             StmtKind::Chaos(spec) => self.chaos(at, spec),
+            StmtKind::Flow(spec) => self.flow(at, spec),
             StmtKind::Plot(spec) => self.plot(at, spec),
             StmtKind::Animate(spec) => self.animate(at, spec),
             StmtKind::Export { items, run, path } => self.export(at, items, run.as_ref(), path),

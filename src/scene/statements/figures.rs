@@ -174,6 +174,17 @@ impl Session {
                     )?;
                     (file, if spec.path.is_some() { span } else { st.span })
                 }
+                StmtKind::Flow(spec) if spec.path.is_some() => {
+                    let (file, span, _) = self.out_file(
+                        st.span,
+                        spec.path.as_ref(),
+                        "flow",
+                        "flow",
+                        &["svg", "png", "csv"],
+                        "the flow's checks are drawn as `.svg` or `.png`, or written as a table to `.csv`",
+                    )?;
+                    (file, span)
+                }
                 StmtKind::Export { path, .. } => {
                     let (file, span, _) =
                         self.out_file(st.span, Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;

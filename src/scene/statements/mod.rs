@@ -10,6 +10,7 @@ pub(super) mod ensemble;
 pub(super) mod expansion;
 pub(super) mod figures;
 pub(super) mod first_order;
+pub(super) mod flow;
 pub(super) mod geodesic;
 pub(super) mod map;
 pub(super) mod ritz;

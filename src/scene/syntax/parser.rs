@@ -9,7 +9,7 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, AverageSweep, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec,
+    AnimateSpec, AverageSweep, ChaosSpec, DefValue, FlowSpec, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec,
     Geometry, Item, LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec,
     Statement, StmtKind,
 };
@@ -556,6 +556,11 @@ impl Builder {
             }
             Rule::simulate => StmtKind::Simulate(Box::new(self.simulate(inner, span)?)),
             Rule::chaos | Rule::chaos_map => self.chaos_stmt(rule == Rule::chaos_map, inner, span)?,
+            Rule::flow_stmt => {
+                let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| self.path(q.clone()));
+                let word = (span.0, span.0 + "flow".len());
+                StmtKind::Flow(Box::new(FlowSpec { sim: self.simulate(inner, span)?, path, word }))
+            }
             Rule::plot => self.plot_stmt(inner, span)?,
             Rule::animate => self.animate_stmt(inner, span)?,
             Rule::export => self.export_stmt(inner, span)?,
