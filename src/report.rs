@@ -501,6 +501,7 @@ pub fn flow(state: &[String], time: f64, flow: &crate::chaos::Flow) -> Vec<Line>
     lines
 }
 
+#[cfg(feature = "frontends")]
 /// The flow's checks against time, for a plot on a logarithmic axis: `|det Φ − 1|` and, for a
 /// Hamiltonian flow, the symplectic defect (zeros, at `t = 0`, are left out by the log axis).
 pub fn flow_figure(flow: &crate::chaos::Flow) -> crate::plot::Figure {

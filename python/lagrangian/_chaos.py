@@ -1,7 +1,10 @@
 """Chaos tools of a :class:`System`: the scene statements ``megno``, ``lyapunov``, ``fli``,
 ``chaos_map`` and ``plot poincare`` from Python, computed by the same library calls
 (``lagrangian::chaos`` on the variational equations of Hamilton's equations, Taylor method,
-tolerance 1e-12 by default), plus the state transition matrix (``System.variational``).
+tolerance 1e-12 by default), plus the state transition matrix (``System.variational``) and
+the scene's ``flow`` statement (``System.flow``: ``Φ(T)``, ``det Φ − 1`` and the symplectic
+defect, with the lines ``lagrangian flow`` prints). ``chaos_map(..., client=)`` spreads a map
+over a Dask cluster; each start is computed alone, so the result is the local one bit for bit.
 
 Starts are given as in the scenes: a dict with the coordinates and either the velocities
 (``θ1'``; the momenta are computed from them) or the momenta (``p_θ1``), or an array of the
@@ -50,6 +53,48 @@ class Indicators:
 
         data = {"lyapunov": ("t", self.lyapunov_t), "log_norm": ("t", self.log_norm_t), "megno": ("t", self.megno_t)}
         return xr.Dataset(data, coords={"t": self.t}, attrs={"fli": self.fli, "steps": self.steps})
+
+
+@dataclass
+class Flow:
+    """The flow's Jacobian ``Φ(T) = ∂x(T)/∂x(0)`` of the canonical state and its checks (notes
+    §4.6.1), as the scene's ``flow`` statement and ``lagrangian flow`` give them: ``phi``
+    ``(2n, 2n)`` (rows and columns in ``names``), the end state ``end``, ``det_minus_one``
+    (Liouville: 0 for a Hamiltonian flow; ``e^{−γT} − 1`` for ``x'' = −γx' − ω²x``) and
+    ``symplectic_defect`` ``max |ΦᵀJΦ − J|`` (``None`` when forces or dissipation make the flow
+    non-Hamiltonian), the checks along the run (``t``, ``det_minus_one_t``,
+    ``symplectic_defect_t``), the Taylor ``steps`` and the printed ``lines``."""
+
+    phi: np.ndarray
+    end: np.ndarray
+    det_minus_one: float
+    symplectic_defect: Optional[float]
+    steps: int
+    t: np.ndarray
+    det_minus_one_t: np.ndarray
+    symplectic_defect_t: np.ndarray
+    lines: list[str]
+    names: list[str]
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines)
+
+
+def flow(
+    self: Any,
+    t_span: Sequence[float],
+    y0: Start,
+    *,
+    tol: Optional[float] = None,
+    points: Optional[int] = None,
+    max_steps: Optional[int] = None,
+) -> Flow:
+    """The flow's Jacobian over ``t_span = (0, T)`` from ``y0`` (a dict with the coordinates
+    and every velocity or every momentum, or the canonical state ``(q, p)``): the scene's
+    ``flow`` statement. Forces and Rayleigh dissipation are part of the flow; constraints are
+    refused. ``tol`` defaults to 1e-14; the checks are kept at about ``points`` steps (400)."""
+    d = self._flow(t_span, canonical_start(self, y0), tol=tol, points=points, max_steps=max_steps)
+    return Flow(**d)
 
 
 def canonical_names(self: Any) -> list[str]:
@@ -132,16 +177,25 @@ def chaos_map(
     which: str = "megno",
     *,
     tol: Optional[float] = None,
+    client: Any = None,
+    chunk_size: int = 256,
 ) -> Any:
     """An indicator over a grid of starts, as an ``xarray.DataArray`` with one dimension per
     axis of ``grid`` (``{"θ1": values, "θ2": values}``; names of coordinates, velocities or
     momenta), the swept values as coordinates. ``y0`` gives the other entries of the start.
     Orbits run in parallel; one that fails (escapes, hits a singularity, runs out of the budget)
-    is NaN. The scene's ``chaos_map`` (which takes cell centres of ranges)."""
+    is NaN. The scene's ``chaos_map`` (which takes cell centres of ranges).
+
+    With ``client`` (a ``dask.distributed.Client``), the starts are split into chunks of
+    ``chunk_size``, each computed by a task on the cluster (the system travels pickled, as its
+    source), and the values assembled in order: every start is integrated alone by the same
+    code, so the array equals the local one bit for bit."""
     import xarray as xr  # type: ignore[import-untyped]
 
     if not grid:
         raise ArgumentError("the grid has no axes")
+    if chunk_size < 1:
+        raise ArgumentError(f"chunk_size must be at least 1, found {chunk_size}")
     axes = {k: np.asarray(v, dtype=float).ravel() for k, v in grid.items()}
     base = dict(y0 or {})
     starts = []
@@ -149,7 +203,17 @@ def chaos_map(
         start = dict(base)
         start.update(zip(axes, point))
         starts.append(canonical_start(self, start))
-    values = self._chaos_map(t_span, np.array(starts), which, tol=tol)
+    rows = np.array(starts)
+    if client is None:
+        values = self._chaos_map(t_span, rows, which, tol=tol)
+    else:
+        # Checked here once (indicator, span, tolerance, shape), not in every task.
+        self._chaos_map(t_span, rows[:0], which, tol=tol)
+        futures = [
+            client.submit(_chaos_chunk, self, t_span, rows[k : k + chunk_size], which, tol, pure=False)
+            for k in range(0, len(rows), chunk_size)
+        ]
+        values = np.concatenate(client.gather(futures)) if futures else np.empty(0)
     shape = tuple(a.size for a in axes.values())
     return xr.DataArray(
         values.reshape(shape),
@@ -158,6 +222,11 @@ def chaos_map(
         name=which,
         attrs={"t_end": float(t_span[1]), "tol": float(tol or 1e-12)},
     )
+
+
+def _chaos_chunk(system: Any, t_span: Sequence[float], rows: np.ndarray, which: str, tol: Optional[float]) -> np.ndarray:
+    """One task of a distributed chaos map: the indicator for each row of ``rows``."""
+    return np.asarray(system._chaos_map(t_span, rows, which, tol=tol))
 
 
 def poincare(
@@ -193,4 +262,5 @@ def install(System: Any) -> None:
     System.fli = fli
     System.lyapunov = lyapunov
     System.chaos_map = chaos_map
+    System.flow = flow
     System.poincare = poincare

@@ -3,13 +3,18 @@
 //! [`lagrangian::chaos`] on [`lagrangian::compile::Variational`] of Hamilton's equations,
 //! integrated by the Taylor method (default tolerance 1e-12, the scenes'). Nothing is
 //! re-implemented here; this file reads arguments and returns arrays. The public Python
-//! methods (`megno`, `fli`, `lyapunov`, `indicators`, `chaos_map`, `poincare`) are in
-//! `lagrangian/_chaos.py` over these.
+//! methods (`megno`, `fli`, `lyapunov`, `indicators`, `chaos_map`, `poincare`, `flow`) are in
+//! `lagrangian/_chaos.py` over these; `flow` is the scene's `flow` statement and
+//! `lagrangian flow` ([`lagrangian::chaos::flow_with`], its lines from
+//! [`lagrangian::report::flow`]).
 
 use lagrangian::chaos::{self, Budget, Indicator};
 use lagrangian::compile::Variational;
+use lagrangian::print::Format;
+use lagrangian::report;
 use lagrangian::Symbol;
 use numpy::{PyArray1, PyArrayMethods};
+use pyo3::types::PyList;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -19,6 +24,13 @@ use crate::system::PySystem;
 
 /// The scenes' tolerance for chaos indicators.
 const DEFAULT_TOL: f64 = 1e-12;
+
+/// The tolerance of the scene's `flow` and `lagrangian flow`: `Φ` is checked against exact
+/// identities (`det Φ = 1`), so it is integrated near machine precision.
+const FLOW_TOL: f64 = 1e-14;
+
+/// The scene's `flow`: checks kept at about this many steps.
+const FLOW_POINTS: usize = 400;
 
 impl PySystem {
     /// The canonical state `(q, p)` names.
@@ -209,5 +221,56 @@ impl PySystem {
         let (phi, end) =
             py.allow_threads(|| chaos::transition_matrix(&var, &x0, t1, tol)).map_err(|e| chaos_error(py, e))?;
         Ok((PyArray1::from_vec(py, phi).reshape([n, n])?.into_any(), PyArray1::from_vec(py, end).into_any()))
+    }
+
+    /// The flow's Jacobian ``Φ(t1)`` of the canonical state from ``x0`` with its structural
+    /// checks, as the scene's ``flow`` statement and ``lagrangian flow`` compute and print them:
+    /// a dict with ``phi`` ``(2n, 2n)``, ``end``, ``det_minus_one``, ``symplectic_defect``
+    /// (``None`` when forces or dissipation make the flow non-Hamiltonian; they are part of
+    /// the flow here), ``steps``, the checks along the run (``t``, ``det_minus_one_t``,
+    /// ``symplectic_defect_t``, at about ``points`` steps), ``names`` and the printed
+    /// ``lines``. Constraints are refused. Default tolerance 1e-14, the scene's.
+    #[pyo3(signature = (t_span, x0, *, tol=None, points=None, max_steps=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn _flow<'py>(
+        &self,
+        py: Python<'py>,
+        t_span: &Bound<'py, PyAny>,
+        x0: &Bound<'py, PyAny>,
+        tol: Option<f64>,
+        points: Option<usize>,
+        max_steps: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let t1 = from_zero(t_span)?;
+        let tol = tolerance(Some(tol.unwrap_or(FLOW_TOL)))?;
+        let points = points.unwrap_or(FLOW_POINTS);
+        if points < 2 {
+            return Err(exc::ArgumentError::new_err(format!("points must be at least 2, found {points}")));
+        }
+        let names = self.canonical_names();
+        let n = names.len();
+        let x0 = canonical_start(x0, &names)?;
+        let var = self.variational_system(py, n, false)?;
+        let max_steps = max_steps.unwrap_or(Budget::DEFAULT_STEPS);
+        let flow = py
+            .allow_threads(|| chaos::flow_with(&var, &x0, t1, tol, points, max_steps))
+            .map_err(|e| chaos_error(py, e))?;
+        let d = PyDict::new(py);
+        d.set_item("phi", PyArray1::from_vec(py, flow.phi.clone()).reshape([n, n])?)?;
+        d.set_item("end", PyArray1::from_vec(py, flow.end.clone()))?;
+        d.set_item("det_minus_one", flow.det_minus_one)?;
+        d.set_item("symplectic_defect", flow.symplectic_defect)?;
+        d.set_item("steps", flow.steps)?;
+        d.set_item("t", PyArray1::from_iter(py, flow.samples.iter().map(|s| s.t)))?;
+        d.set_item("det_minus_one_t", PyArray1::from_iter(py, flow.samples.iter().map(|s| s.det_minus_one)))?;
+        d.set_item(
+            "symplectic_defect_t",
+            PyArray1::from_iter(py, flow.samples.iter().map(|s| s.symplectic_defect.unwrap_or(f64::NAN))),
+        )?;
+        let lines: Vec<String> =
+            report::flow(&names, t1, &flow).iter().map(|l| report::render_line(l, Format::Plain)).collect();
+        d.set_item("lines", PyList::new(py, lines)?)?;
+        d.set_item("names", names)?;
+        Ok(d)
     }
 }

@@ -682,3 +682,47 @@ fn map_explicit_and_implicit() {
     let a = 100.0 * 2.0 * 0.05f64.atan();
     assert!((last[0] - a.cos()).abs() < 1e-12 && (last[1] + a.sin()).abs() < 1e-12, "{out:?}");
 }
+
+/// The flow's Jacobian: the scene's `flow` and `lagrangian flow` print the same lines through
+/// `report::flow`, for a Hamiltonian flow (with its symplectic check) and a damped one (det Φ
+/// as a value). Each is also checked: the oscillator's Φ(T) is the rotation by T, and the
+/// damped one's det Φ = e^{−γT} (γ = b/m; tr ∂f/∂x = −b/m).
+#[test]
+fn flow_of_an_oscillator_and_of_a_damped_one() {
+    let out = same(
+        "coordinates q\nH = p_q^2/2 + q^2/2\nflow q = 0.6, p_q = -0.2 for t in 0..7.3",
+        &["flow", "p_q^2/2 + q^2/2", "--coords", "q", "--at", "q=0.6,p_q=-0.2", "--time", "7.3"],
+    );
+    let row = |line: &str| -> Vec<f64> {
+        line.trim().trim_start_matches('[').trim_end_matches(']').split(',').map(|x| x.trim().parse().unwrap()).collect()
+    };
+    let t: f64 = 7.3;
+    assert_eq!(row(&out[2]).len(), 2, "{out:?}");
+    for (got, want) in row(&out[2]).iter().chain(&row(&out[3])).zip([t.cos(), t.sin(), -t.sin(), t.cos()]) {
+        assert!((got - want).abs() < 1e-13, "{out:?}");
+    }
+    assert!(out[5].starts_with("max |ΦᵀJΦ − J| = "), "{out:?}");
+
+    let out = same(
+        "coordinates x\nparameters m = 2, b = 0.6, k = 5\nL = 1/2 m x'^2 - 1/2 k x^2\nrayleigh 1/2 b x'^2\nflow x = 1, p_x = 0 for t in 0..4",
+        &[
+            "flow",
+            "1/2 m x'^2 - 1/2 k x^2",
+            "--lagrangian",
+            "--coords",
+            "x",
+            "--at",
+            "x=1,p_x=0",
+            "--time",
+            "4",
+            "--set",
+            "m=2,b=0.6,k=5",
+            "--rayleigh",
+            "1/2 b x'^2",
+        ],
+    );
+    let line = &out[4];
+    let det: f64 = line[line.find("det Φ = ").unwrap() + "det Φ = ".len()..].split(':').next().unwrap().parse().unwrap();
+    assert!((det - (-0.3f64 * 4.0).exp()).abs() < 1e-6, "{out:?}");
+    assert!(out[5].starts_with("no symplectic defect"), "{out:?}");
+}
