@@ -92,7 +92,7 @@ fn the_scene_prints_a_pendulums_flow_as_volume_keeping_and_symplectic() {
 /// constant linear change of variables, in (x, p) too. With `m x'' = −b x' − k x`, γ = b/m.
 #[test]
 fn a_damped_oscillators_det_phi_is_exp_minus_gamma_t_by_rayleigh_or_by_a_force() {
-    let (m, b, k, t) = (2.0, 0.6, 5.0, 4.0);
+    let (m, b, k, t): (f64, f64, f64, f64) = (2.0, 0.6, 5.0, 4.0);
     let expected: f64 = (-(b / m) * t).exp() - 1.0;
     for damping in ["rayleigh 1/2 b x'^2", "force x = -b x'"] {
         let dir = tempfile::tempdir().unwrap();
