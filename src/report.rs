@@ -386,6 +386,75 @@ pub fn conserved(s: &System) -> Vec<Line> {
     lines
 }
 
+/// The lines of the flow's Jacobian (`lagrangian flow` and the scene's `flow`, notes §4.6.1):
+/// the end state, `Φ(T)` with its rows and columns in the order of `state` (`q`, then `p`), and
+/// the structural checks: `det Φ − 1` (Liouville), and for a Hamiltonian flow the symplectic
+/// defect `max |ΦᵀJΦ − J|`. A forced or damped flow has neither property, so its `det Φ` is
+/// printed as a value, not a residual, and the symplectic line says why it is absent.
+pub fn flow(state: &[String], time: f64, flow: &crate::chaos::Flow) -> Vec<Line> {
+    let n = state.len();
+    let end: Vec<String> = state.iter().zip(&flow.end).map(|(k, v)| format!("{k} = {v}")).collect();
+    let mut lines = vec![
+        Line::text(format!("x(T) at T = {time}: {}", end.join(", "))),
+        Line::text(format!("Φ(T), rows and columns in the order {}:", state.join(", "))),
+    ];
+    for row in flow.phi.chunks(n.max(1)) {
+        let cells: Vec<String> = row.iter().map(|v| format!("{v:>24.16e}")).collect();
+        lines.push(Line::text(format!("  [{} ]", cells.join(","))));
+    }
+    match flow.symplectic_defect {
+        Some(defect) => {
+            lines.push(Line::text(format!(
+                "det Φ − 1 = {:.3e}   (Liouville: the flow keeps phase-space volume)",
+                flow.det_minus_one
+            )));
+            lines.push(Line::text(format!("max |ΦᵀJΦ − J| = {defect:.3e}   (the flow is symplectic)")));
+        }
+        None => {
+            lines.push(Line::text(format!(
+                "det Φ − 1 = {:.3e}   (det Φ = {:.6e}: forces and dissipation change phase-space volume)",
+                flow.det_minus_one,
+                flow.det_minus_one + 1.0
+            )));
+            lines.push(Line::text(
+                "no symplectic defect: forces and dissipation make the flow non-Hamiltonian, so ΦᵀJΦ ≠ J is expected",
+            ));
+        }
+    }
+    lines
+}
+
+#[cfg(feature = "frontends")]
+/// The flow's checks against time, for a plot on a logarithmic axis: `|det Φ − 1|` and, for a
+/// Hamiltonian flow, the symplectic defect (zeros, at `t = 0`, are left out by the log axis).
+pub fn flow_figure(flow: &crate::chaos::Flow) -> crate::plot::Figure {
+    use crate::plot::{Figure, Series};
+    let mut series = vec![Series {
+        label: "|det Φ − 1|".into(),
+        points: flow.samples.iter().map(|s| (s.t, s.det_minus_one.abs())).collect(),
+    }];
+    if flow.symplectic_defect.is_some() {
+        series.push(Series {
+            label: "max |ΦᵀJΦ − J|".into(),
+            points: flow.samples.iter().filter_map(|s| s.symplectic_defect.map(|d| (s.t, d))).collect(),
+        });
+    }
+    Figure::log_y("the flow's Jacobian Φ(t): Liouville and symplectic checks", "t", "residual", series)
+}
+
+/// The flow's checks against time as a CSV table: `t,det_minus_one,symplectic_defect` (the
+/// last column empty for a flow that is not Hamiltonian).
+pub fn flow_table(flow: &crate::chaos::Flow) -> String {
+    let mut s = String::from("t,det_minus_one,symplectic_defect\n");
+    for p in &flow.samples {
+        match p.symplectic_defect {
+            Some(d) => s.push_str(&format!("{:e},{:e},{d:e}\n", p.t, p.det_minus_one)),
+            None => s.push_str(&format!("{:e},{:e},\n", p.t, p.det_minus_one)),
+        }
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -461,73 +530,4 @@ mod tests {
             accelerations(&s)
         );
     }
-}
-
-/// The lines of the flow's Jacobian (`lagrangian flow` and the scene's `flow`, notes §4.6.1):
-/// the end state, `Φ(T)` with its rows and columns in the order of `state` (`q`, then `p`), and
-/// the structural checks: `det Φ − 1` (Liouville), and for a Hamiltonian flow the symplectic
-/// defect `max |ΦᵀJΦ − J|`. A forced or damped flow has neither property, so its `det Φ` is
-/// printed as a value, not a residual, and the symplectic line says why it is absent.
-pub fn flow(state: &[String], time: f64, flow: &crate::chaos::Flow) -> Vec<Line> {
-    let n = state.len();
-    let end: Vec<String> = state.iter().zip(&flow.end).map(|(k, v)| format!("{k} = {v}")).collect();
-    let mut lines = vec![
-        Line::text(format!("x(T) at T = {time}: {}", end.join(", "))),
-        Line::text(format!("Φ(T), rows and columns in the order {}:", state.join(", "))),
-    ];
-    for row in flow.phi.chunks(n.max(1)) {
-        let cells: Vec<String> = row.iter().map(|v| format!("{v:>24.16e}")).collect();
-        lines.push(Line::text(format!("  [{} ]", cells.join(","))));
-    }
-    match flow.symplectic_defect {
-        Some(defect) => {
-            lines.push(Line::text(format!(
-                "det Φ − 1 = {:.3e}   (Liouville: the flow keeps phase-space volume)",
-                flow.det_minus_one
-            )));
-            lines.push(Line::text(format!("max |ΦᵀJΦ − J| = {defect:.3e}   (the flow is symplectic)")));
-        }
-        None => {
-            lines.push(Line::text(format!(
-                "det Φ − 1 = {:.3e}   (det Φ = {:.6e}: forces and dissipation change phase-space volume)",
-                flow.det_minus_one,
-                flow.det_minus_one + 1.0
-            )));
-            lines.push(Line::text(
-                "no symplectic defect: forces and dissipation make the flow non-Hamiltonian, so ΦᵀJΦ ≠ J is expected",
-            ));
-        }
-    }
-    lines
-}
-
-#[cfg(feature = "frontends")]
-/// The flow's checks against time, for a plot on a logarithmic axis: `|det Φ − 1|` and, for a
-/// Hamiltonian flow, the symplectic defect (zeros, at `t = 0`, are left out by the log axis).
-pub fn flow_figure(flow: &crate::chaos::Flow) -> crate::plot::Figure {
-    use crate::plot::{Figure, Series};
-    let mut series = vec![Series {
-        label: "|det Φ − 1|".into(),
-        points: flow.samples.iter().map(|s| (s.t, s.det_minus_one.abs())).collect(),
-    }];
-    if flow.symplectic_defect.is_some() {
-        series.push(Series {
-            label: "max |ΦᵀJΦ − J|".into(),
-            points: flow.samples.iter().filter_map(|s| s.symplectic_defect.map(|d| (s.t, d))).collect(),
-        });
-    }
-    Figure::log_y("the flow's Jacobian Φ(t): Liouville and symplectic checks", "t", "residual", series)
-}
-
-/// The flow's checks against time as a CSV table: `t,det_minus_one,symplectic_defect` (the
-/// last column empty for a flow that is not Hamiltonian).
-pub fn flow_table(flow: &crate::chaos::Flow) -> String {
-    let mut s = String::from("t,det_minus_one,symplectic_defect\n");
-    for p in &flow.samples {
-        match p.symplectic_defect {
-            Some(d) => s.push_str(&format!("{:e},{:e},{d:e}\n", p.t, p.det_minus_one)),
-            None => s.push_str(&format!("{:e},{:e},\n", p.t, p.det_minus_one)),
-        }
-    }
-    s
 }

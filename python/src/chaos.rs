@@ -14,9 +14,9 @@ use lagrangian::print::Format;
 use lagrangian::report;
 use lagrangian::Symbol;
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::types::PyList;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use pyo3::types::PyList;
 
 use crate::convert::{f64_vec, float_array, time_span};
 use crate::errors::{exc, integration_error, PyResultExt};

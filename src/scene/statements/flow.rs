@@ -190,7 +190,8 @@ impl Session {
     /// declared forces and Rayleigh function and every parameter's value.
     fn flow_system(&mut self, at: At, span: Span) -> Result<System, SceneError> {
         let coords = self.coords.clone();
-        let mechanics = |e: crate::mechanics::MechanicsError| SceneError::new(ErrorKind::Derivation, e.to_string()).at(span);
+        let mechanics =
+            |e: crate::mechanics::MechanicsError| SceneError::new(ErrorKind::Derivation, e.to_string()).at(span);
         let from_h = self.def_names.contains_key("H") || !self.def_names.contains_key("L");
         let mut system = if from_h {
             let h = self.hamiltonian(at)?;
@@ -272,7 +273,9 @@ impl Session {
                 if !given.contains_key(&need) {
                     return Err(SceneError::new(ErrorKind::MissingValue, format!("no starting value for `{need}`"))
                         .at(spec.word)
-                        .hint(format!("add `{need} = …` (give every coordinate and every velocity, or every momentum)")));
+                        .hint(format!(
+                            "add `{need} = …` (give every coordinate and every velocity, or every momentum)"
+                        )));
                 }
             }
         }
@@ -283,9 +286,12 @@ impl Session {
             return Ok(x);
         }
         if !self.def_names.contains_key("L") {
-            return Err(SceneError::new(ErrorKind::Undeclared, "velocities are turned into momenta through `L`, and no `L` is defined")
-                .at(spec.word)
-                .hint("give the momenta `p_q` instead, or define `L`"));
+            return Err(SceneError::new(
+                ErrorKind::Undeclared,
+                "velocities are turned into momenta through `L`, and no `L` is defined",
+            )
+            .at(spec.word)
+            .hint("give the momenta `p_q` instead, or define `L`"));
         }
         let l = self.lagrangian(at)?;
         let ps = self.momenta(at, &l)?;
@@ -309,9 +315,12 @@ impl Session {
         let is_state = coords.iter().any(|c| c.name() == s.name() && s.primes() <= 1)
             || (s.primes() == 0 && s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c)));
         if !is_state {
-            return Err(SceneError::new(ErrorKind::UndefinedSymbol, format!("`{}` is not part of the state", sym.text))
-                .at(sym.span)
-                .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
+            return Err(SceneError::new(
+                ErrorKind::UndefinedSymbol,
+                format!("`{}` is not part of the state", sym.text),
+            )
+            .at(sym.span)
+            .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
         }
         Ok(s.to_string())
     }

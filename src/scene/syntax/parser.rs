@@ -9,9 +9,9 @@ use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, AverageSweep, ChaosSpec, DefValue, FlowSpec, DerivCall, DerivKind, EnsembleSpec, EventSpec, GeodesicSpec,
-    Geometry, Item, LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src, StabilizeSpec,
-    Statement, StmtKind,
+    AnimateSpec, AverageSweep, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, FlowSpec,
+    GeodesicSpec, Geometry, Item, LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src,
+    StabilizeSpec, Statement, StmtKind,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;

@@ -125,8 +125,11 @@ fn a_damped_oscillators_det_phi_is_exp_minus_gamma_t_by_rayleigh_or_by_a_force()
 #[test]
 fn the_checks_are_drawn_on_a_log_axis() {
     let dir = tempfile::tempdir().unwrap();
-    let out = scene_in(dir.path(), "coordinates q\nH = p_q^2/2 + q^4/4\nflow q = 1, p_q = 0 for t in 0..20 points 50 to flow.svg")
-        .expect("runs");
+    let out = scene_in(
+        dir.path(),
+        "coordinates q\nH = p_q^2/2 + q^4/4\nflow q = 1, p_q = 0 for t in 0..20 points 50 to flow.svg",
+    )
+    .expect("runs");
     assert!(out.last().is_some_and(|l| l.starts_with("wrote ") && l.ends_with("flow.svg")), "{out:?}");
     let svg = std::fs::read_to_string(dir.path().join("flow.svg")).expect("the plot is written");
     assert!(svg.contains("|det Φ − 1|") && svg.contains("max |ΦᵀJΦ − J|"), "both curves in the legend");

@@ -694,7 +694,12 @@ fn flow_of_an_oscillator_and_of_a_damped_one() {
         &["flow", "p_q^2/2 + q^2/2", "--coords", "q", "--at", "q=0.6,p_q=-0.2", "--time", "7.3"],
     );
     let row = |line: &str| -> Vec<f64> {
-        line.trim().trim_start_matches('[').trim_end_matches(']').split(',').map(|x| x.trim().parse().unwrap()).collect()
+        line.trim()
+            .trim_start_matches('[')
+            .trim_end_matches(']')
+            .split(',')
+            .map(|x| x.trim().parse().unwrap())
+            .collect()
     };
     let t: f64 = 7.3;
     assert_eq!(row(&out[2]).len(), 2, "{out:?}");
@@ -722,7 +727,8 @@ fn flow_of_an_oscillator_and_of_a_damped_one() {
         ],
     );
     let line = &out[4];
-    let det: f64 = line[line.find("det Φ = ").unwrap() + "det Φ = ".len()..].split(':').next().unwrap().parse().unwrap();
+    let det: f64 =
+        line[line.find("det Φ = ").unwrap() + "det Φ = ".len()..].split(':').next().unwrap().parse().unwrap();
     assert!((det - (-0.3f64 * 4.0).exp()).abs() < 1e-6, "{out:?}");
     assert!(out[5].starts_with("no symplectic defect"), "{out:?}");
 }
