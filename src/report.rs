@@ -421,6 +421,17 @@ pub fn flow(state: &[String], time: f64, flow: &crate::chaos::Flow) -> Vec<Line>
             ));
         }
     }
+    // Both checks sum products of two entries of Φ that cancel to O(1) (det Φ through its
+    // cofactors, which for a symplectic Φ are entries of Φ⁻¹ = −JΦᵀJ), so rounding alone leaves
+    // residuals of about n ε max|Φ|²: on an unstable or chaotic orbit that swamps the
+    // integration error they are meant to show, and the printout says so.
+    let big = flow.phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let rounding = n as f64 * f64::EPSILON * big * big;
+    if rounding > 1e-8 {
+        lines.push(Line::text(format!(
+            "note: Φ has entries up to {big:.1e} (the orbit separates from its neighbours), so rounding alone gives residuals of about n ε max|Φ|² = {rounding:.1e}: they do not measure the integration here; a shorter T does"
+        )));
+    }
     lines
 }
 

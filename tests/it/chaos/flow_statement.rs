@@ -174,3 +174,21 @@ fn help_describes_flow() {
     let out = s.take_output().join("\n");
     assert!(out.contains("flow q = …") && out.contains("det Φ − 1") && out.contains("e^{−γT}"), "{out}");
 }
+
+/// On a chaotic orbit Φ grows like e^{λT}, and rounding in det Φ and ΦᵀJΦ (products of two
+/// entries cancelling to O(1)) swamps the integration error: the printout says so rather than
+/// presenting 10¹² as a Liouville residual, and says nothing on a short run.
+#[test]
+fn residuals_swamped_by_rounding_on_a_chaotic_orbit_are_flagged() {
+    let dp = "coordinates θ1, θ2\nparameters m1 = 1, m2 = 1, l1 = 1, l2 = 1, g = 9.81\n\
+              L = 1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)\n";
+    let long = scene(&format!("{dp}flow θ1 = 2, θ2 = 2.5, θ1' = 0, θ2' = 0 for t in 0..20")).unwrap();
+    let note = long.iter().find(|l| l.starts_with("note: Φ has entries up to")).unwrap_or_else(|| panic!("{long:?}"));
+    assert!(note.contains("do not measure the integration"), "{note}");
+    // The flagged scale is right: the residuals are below it.
+    let floor = number(&long, "note:", "= ");
+    assert!(number(&long, "det Φ − 1", "= ").abs() <= floor && number(&long, "max |ΦᵀJΦ − J|", "= ") <= floor);
+    let short = scene(&format!("{dp}flow θ1 = 2, θ2 = 2.5, θ1' = 0, θ2' = 0 for t in 0..3")).unwrap();
+    assert!(!short.iter().any(|l| l.starts_with("note:")), "{short:?}");
+    assert!(number(&short, "det Φ − 1", "= ").abs() < 1e-11 && number(&short, "max |ΦᵀJΦ − J|", "= ") < 1e-11);
+}
