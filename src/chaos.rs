@@ -369,28 +369,38 @@ pub struct FlowSample {
     pub symplectic_defect: Option<f64>,
 }
 
-/// [`Flow`] from `x0 = (q, p)` with the Taylor method at `tol`, keeping only the end. `sys`
-/// needs `n` tangent vectors (`n = 2 × degrees of freedom`).
+/// [`Flow`] from `x0 = (q, p)` with the Taylor method at `tol`, keeping only the end, within
+/// the default [`Budget`]. `sys` needs `n` tangent vectors (`n = 2 × degrees of freedom`).
 pub fn flow(sys: &Variational, x0: &[f64], t_end: f64, tol: f64) -> Result<Flow, IntegrateError> {
-    flow_with(sys, x0, t_end, tol, 2, crate::integrate::Options::new().max_steps)
+    flow_with(sys, x0, t_end, tol, 2, &Budget::default())
 }
 
 /// [`flow`] keeping the checks at about `points` steps (evenly spaced in steps, as
-/// [`crate::integrate::Output::AtMost`] keeps them), within `max_steps` Taylor steps. What is
-/// kept does not change the steps taken, so `Φ(T)` is the same whatever `points` is.
+/// [`crate::integrate::Output::AtMost`] keeps them), within `budget`'s steps and deadline
+/// (its sample limit is `points`). What is kept does not change the steps taken, so `Φ(T)` is
+/// the same whatever `points` is.
 pub fn flow_with(
     sys: &Variational,
     x0: &[f64],
     t_end: f64,
     tol: f64,
     points: usize,
-    max_steps: usize,
+    budget: &Budget,
 ) -> Result<Flow, IntegrateError> {
     let n = sys.n();
     assert_eq!(sys.tangents(), n, "Φ needs n tangent vectors");
     let y0 = sys.initial_state(x0);
-    let options = crate::integrate::Options::new().at_most(points).max_steps(max_steps);
-    let traj = Taylor::new(tol).integrate_with(sys, 0.0..t_end, &y0, options)?;
+    let mut options = crate::integrate::Options::new().at_most(points).max_steps(budget.max_steps);
+    options.time_limit = budget.deadline.map(|d| d.saturating_duration_since(Instant::now()));
+    // A stopped run reports the state `x` (not its tangents) and the time budget it was given
+    // (not what was left of it when the run started).
+    let traj = Taylor::new(tol).integrate_with(sys, 0.0..t_end, &y0, options).map_err(|mut e| {
+        e.state.truncate(n);
+        if let (FailureReason::TimeLimit { seconds }, Some(limit)) = (&mut e.reason, budget.time_limit) {
+            *seconds = limit.as_secs_f64();
+        }
+        e
+    })?;
     let hamiltonian = sys.is_hamiltonian();
     let checks = |y: &[f64]| {
         let phi = phi_of(y, n);

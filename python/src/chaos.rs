@@ -251,9 +251,12 @@ impl PySystem {
         let n = names.len();
         let x0 = canonical_start(x0, &names)?;
         let var = self.variational_system(py, n, false)?;
-        let max_steps = max_steps.unwrap_or(Budget::DEFAULT_STEPS);
+        let mut budget = Budget::default();
+        if let Some(m) = max_steps {
+            budget.max_steps = m;
+        }
         let flow = py
-            .allow_threads(|| chaos::flow_with(&var, &x0, t1, tol, points, max_steps))
+            .allow_threads(|| chaos::flow_with(&var, &x0, t1, tol, points, &budget))
             .map_err(|e| chaos_error(py, e))?;
         let d = PyDict::new(py);
         d.set_item("phi", PyArray1::from_vec(py, flow.phi.clone()).reshape([n, n])?)?;

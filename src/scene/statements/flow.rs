@@ -1,4 +1,4 @@
-//! `flow θ = 1, θ' = 0 for t in 0..T [tol = …] [points N] [max_steps = N] [to FILE]`: the
+//! `flow θ = 1, θ' = 0 for t in 0..T [tol = …] [points N] [max_steps = N] [time_limit = S] [to FILE]`: the
 //! flow's Jacobian `Φ(T) = ∂x(T)/∂x(0)` in `x = (q, p)` and its structural checks (notes
 //! §4.6.1), the same computation and the same printed lines as `lagrangian flow`
 //! ([`crate::chaos::flow_with`], [`crate::report::flow`]); this file only reads the statement.
@@ -11,8 +11,10 @@
 
 use std::collections::HashMap;
 
+use crate::chaos::Budget;
 use crate::compile::Variational;
 use crate::expr::{Expr, Symbol};
+use crate::integrate::FailureReason;
 use crate::mechanics::System;
 use crate::print::Format;
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
@@ -55,7 +57,7 @@ impl Session {
         }
         let tol = self.flow_tol(at, spec)?;
         let points = self.flow_points(at, spec)?;
-        let max_steps = self.step_budget(at, sim)?.unwrap_or(crate::chaos::Budget::DEFAULT_STEPS);
+        let budget = self.flow_budget(at, spec)?;
         let (path, ext) = match &spec.path {
             Some(p) => {
                 let (path, pspan, ext) = self.out_file(
@@ -77,13 +79,18 @@ impl Session {
         let var = Variational::of_system(&system, n, false).map_err(|e| {
             SceneError::new(ErrorKind::Derivation, format!("cannot compile the variational equations: {e}")).at(span)
         })?;
-        let flow = crate::chaos::flow_with(&var, &x0, t1, tol, points, max_steps).map_err(|e| {
-            let budget = crate::chaos::is_budget(&e);
+        let flow = crate::chaos::flow_with(&var, &x0, t1, tol, points, &budget).map_err(|e| {
             let err = SceneError::new(ErrorKind::Numeric, format!("the flow's integration failed: {e}")).at(span);
-            if budget {
-                err.hint(format!("to integrate longer, raise the step budget: `max_steps = N` (now {max_steps})"))
-            } else {
-                err
+            match e.reason {
+                FailureReason::StepLimit { .. } => err.hint(format!(
+                    "to integrate longer, raise the step budget: `max_steps = N` (now {})",
+                    budget.max_steps
+                )),
+                FailureReason::TimeLimit { seconds } => err.hint(format!(
+                    "to integrate longer, raise the time budget: `time_limit = SECONDS` (now {})",
+                    fmt_num(seconds)
+                )),
+                _ => err,
             }
         })?;
         self.plan.push(PlanEntry {
@@ -126,7 +133,7 @@ impl Session {
                 None => Ok(()),
                 Some(s) => Err(SceneError::new(ErrorKind::Syntax, format!("`flow` does not take {what}"))
                     .at(s)
-                    .hint("`flow` integrates the variational equations with the Taylor method; it takes `tol = …`, `points N`, `max_steps = N` and `to FILE`")),
+                    .hint("`flow` integrates the variational equations with the Taylor method; it takes `tol = …`, `points N`, `max_steps = N`, `time_limit = S` and `to FILE`")),
             }
         };
         refuse("a method", sim.method.as_ref().map(|m| m.span))?;
@@ -134,7 +141,6 @@ impl Session {
         refuse("events", sim.events.first().map(|e| e.span))?;
         refuse("`every` (`points N` sets how many steps are kept)", sim.every.as_ref().map(|e| e.span))?;
         refuse("`stabilize`", sim.stabilize.as_ref().map(|e| e.span))?;
-        refuse("`time_limit`", sim.time_limit.as_ref().map(|e| e.span))?;
         refuse("`drift`", sim.drift.as_ref().map(|e| e.span))?;
         refuse("`as NAME`", sim.name.as_ref().map(|e| e.span))?;
         if self.dynamics.constrained() || self.dynamics.velocity_constrained() {
@@ -169,6 +175,28 @@ impl Session {
             .label("too small"));
         }
         Ok(x)
+    }
+
+    /// `max_steps = N` (Taylor steps, default 10⁷) and `time_limit = S` (seconds, default 600),
+    /// checked, as the budget of the run, the time counted from here (as a chaos statement's).
+    fn flow_budget(&mut self, at: At, spec: &FlowSpec) -> Result<Budget, SceneError> {
+        let max_steps = self.step_budget(at, &spec.sim)?.unwrap_or(Budget::DEFAULT_STEPS);
+        let seconds = match &spec.sim.time_limit {
+            None => Budget::DEFAULT_SECONDS,
+            Some(src) => {
+                let e = self.resolved(at, src)?;
+                let x = self.number(&e, src.span)?;
+                if !(x > 0.0 && x.is_finite() && x < 1e9) {
+                    return Err(SceneError::new(
+                        ErrorKind::BadNumber,
+                        format!("`time_limit` is a positive number of seconds below 10⁹; found {}", fmt_num(x)),
+                    )
+                    .at(src.span));
+                }
+                x
+            }
+        };
+        Ok(Budget::new(max_steps, std::time::Duration::from_secs_f64(seconds)))
     }
 
     /// `points N`, checked: a whole number from 2 to [`MAX_POINTS`].

@@ -192,3 +192,18 @@ fn residuals_swamped_by_rounding_on_a_chaotic_orbit_are_flagged() {
     assert!(!short.iter().any(|l| l.starts_with("note:")), "{short:?}");
     assert!(number(&short, "det Φ − 1", "= ").abs() < 1e-11 && number(&short, "max |ΦᵀJΦ − J|", "= ") < 1e-11);
 }
+
+/// A span the budget cannot cover stops with the budget named, and how to raise it.
+#[test]
+fn a_flow_past_its_budget_names_the_option_that_raises_it() {
+    let osc = "coordinates q\nH = p_q^2/2 + q^2/2\n";
+    let e = scene(&format!("{osc}flow q = 1, p_q = 0 for t in 0..1e9 max_steps = 1000")).expect_err("stopped");
+    assert_eq!(e.kind, ErrorKind::Numeric);
+    assert!(e.hint.as_deref().is_some_and(|h| h.contains("`max_steps = N` (now 1000)")), "{e:?}");
+    let started = std::time::Instant::now();
+    let e = scene(&format!("{osc}flow q = 1, p_q = 0 for t in 0..1e9 time_limit = 0.05")).expect_err("stopped");
+    assert!(started.elapsed().as_secs_f64() < 30.0);
+    assert!(e.hint.as_deref().is_some_and(|h| h.contains("`time_limit = SECONDS` (now 0.05)")), "{e:?}");
+    let e = scene(&format!("{osc}flow q = 1, p_q = 0 for t in 0..1 time_limit = -1")).expect_err("refused");
+    assert_eq!(e.kind, ErrorKind::BadNumber);
+}

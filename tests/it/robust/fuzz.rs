@@ -180,6 +180,8 @@ const SCENE_SEEDS: &[&str] = &[
     "coordinates x\nparameters m = 1, w0 = 1, s = 1 positive\nL = 1/2 m x'^2 - 1/2 m w0^2 (x^2 + s x^4)\naverage L with x = A cos(θ) + B cos(3 θ) phase θ frequency ω amplitudes A, B small s unperturbed w0 order 2 for A in 0.1..1 points 3\n",
     "coordinates x, y, θ, φ\nL = 1/2 (x'^2 + y'^2) + 1/2 θ'^2 + 1/2 φ'^2\nconstraint velocity x' - cos(θ) φ' = 0\nconstraint velocity y' - sin(θ) φ'\n",
     "parameters pi = 3\nprint sin(pi) + cos(π/3)\n",
+    // the flow's Jacobian, with its budgets and a file.
+    "flow θ = 1, p_θ = 0 for t in 0..1e9 max_steps = 1000 time_limit = 0.5 points 3 to f.csv\n",
 ];
 
 const SCENE_WORDS: &[&str] = &[
@@ -209,6 +211,7 @@ const SCENE_WORDS: &[&str] = &[
     "record when",
     "megno",
     "chaos_map",
+    "flow",
     "max_steps =",
     "time_limit =",
     "rayleigh",
