@@ -412,12 +412,12 @@ pub fn flow(state: &[String], time: f64, flow: &crate::chaos::Flow) -> Vec<Line>
         }
         None => {
             lines.push(Line::text(format!(
-                "det Φ − 1 = {:.3e}   (det Φ = {:.6e}: forces and dissipation change phase-space volume)",
+                "det Φ − 1 = {:.3e}   (det Φ = {:.6e}: with forces or dissipation the flow need not keep phase-space volume)",
                 flow.det_minus_one,
                 flow.det_minus_one + 1.0
             )));
             lines.push(Line::text(
-                "no symplectic defect: forces and dissipation make the flow non-Hamiltonian, so ΦᵀJΦ ≠ J is expected",
+                "no symplectic defect: with forces or dissipation the flow is not Hamiltonian in general, so ΦᵀJΦ = J is no check of it",
             ));
         }
     }
