@@ -207,3 +207,23 @@ fn a_flow_past_its_budget_names_the_option_that_raises_it() {
     let e = scene(&format!("{osc}flow q = 1, p_q = 0 for t in 0..1 time_limit = -1")).expect_err("refused");
     assert_eq!(e.kind, ErrorKind::BadNumber);
 }
+
+/// The example scene as shipped: the undamped oscillator keeps volume to round-off, the damped
+/// one has det Φ(10) = e^{−(b/m)·10} = e^{−3} along the whole run.
+#[test]
+fn the_liouville_example_shows_both_flows() {
+    let text =
+        std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/liouville.scene"))
+            .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = scene_in(dir.path(), &text).expect("the example runs");
+    let first = number(&out, "det Φ − 1", "= ");
+    assert!(first.abs() < 1e-13, "{out:?}");
+    assert!(dir.path().join("liouville_undamped.svg").is_file());
+    let table = std::fs::read_to_string(dir.path().join("liouville_damped.csv")).unwrap();
+    for row in table.lines().skip(1) {
+        let v: Vec<f64> = row.split(',').take(2).map(|x| x.parse().unwrap()).collect();
+        assert!((v[1] - (-0.3 * v[0]).exp_m1()).abs() < 1e-13, "{row}");
+    }
+    assert!(table.lines().last().unwrap().starts_with("1e1,"), "the table ends at T = 10");
+}
