@@ -121,3 +121,14 @@ def test_the_scenes_chaos_map_equals_pythons_local_and_dask_maps(dp, tmp_path):
             x, y, v = rows[j * side + i]
             assert (float(x), float(y)) == (grid["θ1"][i], grid["θ2"][j])
             assert float(v) == local.values[i, j] == remote.values[i, j]
+
+
+def test_a_chaos_map_on_worker_processes_equals_the_local_one(dp):
+    # Across a process boundary: the system is pickled as its source and derived again there.
+    distributed = pytest.importorskip("dask.distributed")
+    grid = {"θ1": [0.3, 2.0], "θ2": [0.2, 2.5]}
+    rest = {"θ1'": 0.0, "θ2'": 0.0}
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            remote = dp.chaos_map((0, 10), grid, rest, client=client, chunk_size=1)
+    assert remote.values.tobytes() == dp.chaos_map((0, 10), grid, rest).values.tobytes()
