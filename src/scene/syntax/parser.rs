@@ -1278,6 +1278,21 @@ mod tests {
     }
 
     #[test]
+    fn flow_reads_a_simulate_start_and_an_output_file() {
+        let StmtKind::Flow(f) = one("flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg") else {
+            panic!()
+        };
+        assert_eq!(f.sim.inits.len(), 2);
+        assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
+        assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
+        assert_eq!(f.sim.points.map(|m| m.text), Some("50".to_string()));
+        assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
+        assert_eq!(f.word, (0, 4));
+        // `flow` inside `lie` is still the Lie flow, not this statement.
+        assert!(matches!(one("lie q flow order 4"), StmtKind::Lie { .. }));
+    }
+
+    #[test]
     fn simulate_keywords_end_expressions() {
         let StmtKind::Simulate(s) = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01") else {
             panic!()
