@@ -47,3 +47,60 @@ where
         .map_err(|e| EnsembleError::Pool { threads, reason: e.to_string() })?;
     pool.install(|| ensemble(initial, dim, integrate))
 }
+
+/// How many `f64` lanes one SIMD register holds on this host, found at run time so one
+/// binary picks the widest batch the CPU executes: 8 with AVX-512, 4 with AVX2, 2 with SSE2
+/// (baseline on x86-64) or NEON, 1 elsewhere. A batch integrator sizes its batches by this.
+pub fn simd_lanes() -> usize {
+    #[cfg(target_arch = "x86_64")]
+    let lanes = if std::arch::is_x86_feature_detected!("avx512f") {
+        8
+    } else if std::arch::is_x86_feature_detected!("avx2") {
+        4
+    } else {
+        2
+    };
+    #[cfg(target_arch = "aarch64")]
+    let lanes = 2;
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    let lanes = 1;
+    lanes
+}
+
+/// Which trajectory each lane of a batch holds. When a lane's trajectory ends (finished or
+/// failed), [`LaneRefill::finish`] loads the next unstarted one into that lane, so a batch
+/// never idles while trajectories remain; one lane's end never touches the others.
+#[derive(Debug, Clone)]
+pub struct LaneRefill {
+    lanes: Vec<Option<usize>>,
+    next: usize,
+    total: usize,
+}
+
+impl LaneRefill {
+    /// `lanes` lanes over trajectories `0..total`, the first `min(lanes, total)` loaded.
+    pub fn new(lanes: usize, total: usize) -> Self {
+        let loaded = lanes.min(total);
+        let slots = (0..lanes).map(|i| (i < loaded).then_some(i)).collect();
+        LaneRefill { lanes: slots, next: loaded, total }
+    }
+
+    /// The trajectory lane `lane` holds, or `None` if it is empty (nothing left to load).
+    pub fn lane(&self, lane: usize) -> Option<usize> {
+        self.lanes[lane]
+    }
+
+    /// Ends lane `lane`'s trajectory and loads the next unstarted one, which it returns (the
+    /// caller copies that initial condition into the lane); `None` leaves the lane empty.
+    pub fn finish(&mut self, lane: usize) -> Option<usize> {
+        let refill = (self.next < self.total).then_some(self.next);
+        self.next += usize::from(refill.is_some());
+        self.lanes[lane] = refill;
+        refill
+    }
+
+    /// Whether every lane is empty: all trajectories have ended.
+    pub fn done(&self) -> bool {
+        self.lanes.iter().all(Option::is_none)
+    }
+}

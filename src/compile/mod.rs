@@ -39,7 +39,7 @@ mod variational;
 
 pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use discrete::{DiscretePoint, StepperWork, VariationalError, VariationalMap, VariationalStepper, MAX_NEWTON};
-pub use ensemble::{ensemble, ensemble_with_threads, EnsembleError};
+pub use ensemble::{ensemble, ensemble_with_threads, simd_lanes, EnsembleError, LaneRefill};
 pub use error::CompileError;
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use geodesic::{shoot, shoot_with, ShootBudget, ShootError, Shot};

@@ -1,5 +1,6 @@
 //! The compiler: tapes, the native back end, compiled right-hand sides and systems (`src/compile/`).
 
+mod lanes;
 mod native;
 mod rhs;
 mod system;
