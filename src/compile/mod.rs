@@ -39,7 +39,7 @@ mod variational;
 
 pub use constrained::{ConstrainedRhs, Projected, Stabilization};
 pub use discrete::{DiscretePoint, StepperWork, VariationalError, VariationalMap, VariationalStepper, MAX_NEWTON};
-pub use ensemble::{ensemble, ensemble_with_threads, simd_lanes, EnsembleError, LaneRefill};
+pub use ensemble::{ensemble, ensemble_with_threads, simd_lanes, EnsembleError};
 pub use error::CompileError;
 pub use first_order::{FirstOrderRhs, WithVelocitySlots, MAX_FIRST_ORDER_DIM};
 pub use geodesic::{shoot, shoot_with, ShootBudget, ShootError, Shot};
@@ -50,7 +50,7 @@ pub use rhs::{
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
 pub use taylor::{
-    Derivative, KinkAt, TaylorError, TaylorNative, TaylorOde, TaylorTape, AUTO_NATIVE_AFTER_EXPANSIONS,
+    Derivative, KinkAt, LaneWork, TaylorBatch, TaylorError, TaylorNative, TaylorOde, TaylorTape, AUTO_NATIVE_AFTER_EXPANSIONS,
     COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS, UNROLL_AFTER_EXPANSIONS,
 };
 pub use variational::Variational;

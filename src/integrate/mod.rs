@@ -44,6 +44,7 @@
 // zipped iterators over four slices read worse than the formula they implement.
 #![allow(clippy::needless_range_loop)]
 
+mod batch;
 pub mod coefficients;
 mod dop853;
 pub mod drift;
@@ -55,6 +56,7 @@ mod solver;
 mod splitting;
 mod taylor;
 
+pub use batch::{BatchOutput, LaneRefill, LaneRun, TaylorBatchSystem};
 pub use dop853::Dop853;
 pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};

@@ -16,7 +16,7 @@ use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
 use crate::integrate::{
     fmt_value, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError,
-    Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
+    BatchOutput, Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
 };
 
 /// Which states a run keeps.
@@ -250,14 +250,10 @@ pub fn integrate(
     }
     let d = Drive { opts, names: &c.state, events: &c.events, y0, progress: RefCell::new(progress) };
     let count = AtomicUsize::new(0);
-    let (dt, tol) = (opts.dt.unwrap_or(f64::NAN), opts.tolerance());
-    let atol = opts.atol.unwrap_or(tol);
+    let dt = opts.dt.unwrap_or(f64::NAN);
     let mut traj = match &*c.system {
         CompiledSystem::Taylor(ode, _) => {
-            let mut m = Taylor::with_tolerances(tol, atol);
-            if opts.compensated {
-                m = m.compensated();
-            }
+            let m = taylor_method(opts);
             m.validate().map_err(SimulateError::InvalidRun)?;
             let mut t = d.run(&m, ode)?;
             t.evaluations = t.steps;
@@ -332,6 +328,9 @@ pub fn ensemble(
     if let Err(e) = opts.check() {
         return starts.iter().map(|_| Err(e.clone())).collect();
     }
+    if let Some(out) = taylor_batch(c, starts, opts, threads, progress) {
+        return out;
+    }
     let cancel = opts.cancel.clone();
     par_map_with_progress(starts, threads, progress, |y0| {
         if cancel.as_ref().is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
@@ -340,6 +339,72 @@ pub fn ensemble(
         integrate(c, y0, opts, &mut |_| {})
     })
     .unwrap_or_else(|_| starts.iter().map(|_| Err(SimulateError::Internal("an ensemble worker panicked"))).collect())
+}
+
+/// How many trajectories one batch driver takes: enough for its lanes to refill many times
+/// (lanes idle only at the very end of a chunk), few enough for the chunks to spread over
+/// the workers.
+const BATCH_CHUNK_LANES: usize = 16;
+
+/// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
+/// asks for nothing it lacks: final states or states at given times, no events, no energy
+/// check. `None`: the run goes one start at a time. Each trajectory is bit for bit the one
+/// [`integrate`] gives (the batch's promise); a start the batch hands back (a failure, a
+/// budget, a cancellation) runs alone, so its error is the single run's.
+fn taylor_batch(
+    c: &Compiled,
+    starts: &[Vec<f64>],
+    opts: &RunOptions,
+    threads: Option<usize>,
+    progress: &mut dyn FnMut(f64),
+) -> Option<Vec<Result<Trajectory, SimulateError>>> {
+    let CompiledSystem::Taylor(ode, _) = &*c.system else { return None };
+    let output = match &opts.sampling {
+        Sampling::Final => BatchOutput::Final,
+        Sampling::Times(times) => BatchOutput::Times(times),
+        _ => return None,
+    };
+    let plain = opts.events.is_empty() && opts.energy.is_none() && c.serves(opts.method);
+    if !plain || !ode.batchable() || starts.iter().any(|y| y.len() != c.state.len()) {
+        return None;
+    }
+    let method = taylor_method(opts);
+    let lanes = crate::compile::simd_lanes();
+    let chunks: Vec<&[Vec<f64>]> = starts.chunks(lanes * BATCH_CHUNK_LANES).collect();
+    let runs = par_map_with_progress(&chunks, threads, progress, |chunk| {
+        let refs: Vec<&[f64]> = chunk.iter().map(Vec::as_slice).collect();
+        let span = opts.t0..opts.t1;
+        method.integrate_batch(ode, lanes, span, &refs, output, opts.budget(), opts.cancel.as_ref())
+    })
+    .ok()?;
+    let mut out = Vec::with_capacity(starts.len());
+    for (chunk, runs) in chunks.iter().zip(runs) {
+        for (y0, run) in chunk.iter().zip(runs?) {
+            out.push(match run {
+                Some(r) => Ok(Trajectory {
+                    t: r.t,
+                    y: r.y,
+                    steps: r.steps,
+                    evaluations: r.steps,
+                    energy: Ledger::from_report(None, None),
+                    ..Trajectory::default()
+                }),
+                None => integrate(c, y0, opts, &mut |_| {}),
+            });
+        }
+    }
+    Some(out)
+}
+
+/// The Taylor method with the run's tolerances.
+fn taylor_method(opts: &RunOptions) -> Taylor {
+    let tol = opts.tolerance();
+    let m = Taylor::with_tolerances(tol, opts.atol.unwrap_or(tol));
+    if opts.compensated {
+        m.compensated()
+    } else {
+        m
+    }
 }
 
 /// A worker thread of [`par_map_with_progress`] panicked (the panic hook has printed it).

@@ -4,6 +4,7 @@ use super::ir::KinkAt;
 use super::native::TaylorNative;
 
 use super::ir::{Op, Weight};
+use super::lanes::Lane;
 use super::TaylorTape;
 
 impl TaylorTape {
@@ -19,25 +20,25 @@ impl TaylorTape {
     }
 
     /// Row `r`'s weighted row in a coefficient buffer of stride `s` (the interpreter's sums).
-    fn weighted_of<'c>(&self, c: &'c [f64], s: usize, r: u32) -> &'c [f64] {
+    fn weighted_of<'c, L: Lane>(&self, c: &'c [L], s: usize, r: u32) -> &'c [L] {
         let w = self.weighted_row(r).expect("weigh_rows gives every weighted operand its row");
         row(c, w, s)
     }
 
     /// Prepares a coefficient buffer (`n_rows · stride` values): constants in their rows with
     /// zero higher coefficients. Inputs are the caller's.
-    pub fn init(&self, c: &mut [f64], stride: usize) {
+    pub fn init<L: Lane>(&self, c: &mut [L], stride: usize) {
         for (i, &v) in self.consts.iter().enumerate() {
             let r = (self.n_inputs + i) * stride;
-            c[r] = v;
-            c[r + 1..r + stride].fill(0.0);
+            c[r] = L::splat(v);
+            c[r + 1..r + stride].fill(L::splat(0.0));
         }
     }
 
     /// Computes order `k` of every value, given orders `0..k` of every row and order `k` of
     /// the inputs. Order 0 runs the interpreter's operations. The only failure is an `abs`
     /// whose argument is 0 while its order-`k` coefficient is not (a kink).
-    pub fn run_order(&self, c: &mut [f64], stride: usize, k: usize) -> Result<(), KinkAt> {
+    pub fn run_order<L: Lane>(&self, c: &mut [L], stride: usize, k: usize) -> Result<(), KinkAt> {
         assert!(c.len() >= self.n_rows * stride && k < stride, "Taylor buffer too short");
         if k == 0 {
             self.run_order0(c, stride);
@@ -46,18 +47,18 @@ impl TaylorTape {
         // Divisions by order-0 values and by `k` are multiplications by their reciprocals,
         // which do not wait for order `k` of anything.
         let s = stride;
-        let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
+        let at = |c: &[L], r: u32, j: usize| c[r as usize * s + j];
         // Writes order `k` of row `r` and, if it has one, of its weighted row.
-        let put = |c: &mut [f64], r: u32, v: f64| {
+        let put = |c: &mut [L], r: u32, v: L| {
             c[r as usize * s + k] = v;
             if let Some(w) = self.weighted[r as usize] {
-                c[w as usize * s + k] = v * k as f64;
+                c[w as usize * s + k] = v * L::splat(k as f64);
             }
         };
         for op in &self.ops {
             match *op {
                 Op::Weigh { d, a } => {
-                    let v = at(c, a, k) * k as f64;
+                    let v = at(c, a, k) * L::splat(k as f64);
                     put(c, d, v);
                 }
                 Op::Add { d, a, b } => {
@@ -73,7 +74,7 @@ impl TaylorTape {
                     put(c, d, v);
                 }
                 Op::Scale { d, a, f } => {
-                    let v = at(c, a, k) * f;
+                    let v = at(c, a, k) * L::splat(f);
                     put(c, d, v);
                 }
                 Op::Mul { d, a, b } => {
@@ -89,13 +90,13 @@ impl TaylorTape {
                 Op::Div { d, a, b } => {
                     let (rb, rd) = (row(c, b, s), row(c, d, s));
                     let acc = dot_rev(&rb[1..=k], &rd[..k], true);
-                    let v = (at(c, a, k) - acc) * (1.0 / rb[0]);
+                    let v = (at(c, a, k) - acc) * (L::splat(1.0) / rb[0]);
                     put(c, d, v);
                 }
                 Op::Sqrt { d, a } => {
                     let rd = row(c, d, s);
                     let acc = square_inner(rd, k);
-                    let v = (at(c, a, k) - acc) * (1.0 / (2.0 * rd[0]));
+                    let v = (at(c, a, k) - acc) * (L::splat(1.0) / (L::splat(2.0) * rd[0]));
                     put(c, d, v);
                 }
                 Op::SinCos { .. }
@@ -113,15 +114,20 @@ impl TaylorTape {
                 | Op::PowVar { .. } => self.function_order(op, c, s, k),
                 Op::Abs { d, a } => {
                     let (a0, ak) = (at(c, a, 0), at(c, a, k));
-                    let v = if a0 > 0.0 {
-                        ak
-                    } else if a0 < 0.0 {
-                        -ak
-                    } else if ak == 0.0 {
-                        0.0
-                    } else {
-                        return Err(KinkAt);
-                    };
+                    let mut v = ak;
+                    for i in 0..L::WIDTH {
+                        let (a0, ak) = (a0.lane(i), ak.lane(i));
+                        let x = if a0 > 0.0 {
+                            ak
+                        } else if a0 < 0.0 {
+                            -ak
+                        } else if ak == 0.0 {
+                            0.0
+                        } else {
+                            return Err(KinkAt);
+                        };
+                        v.set_lane(i, x);
+                    }
                     put(c, d, v);
                 }
             }
@@ -132,13 +138,13 @@ impl TaylorTape {
     /// Order `k` of a function's recurrence (the operations `run_order` leaves to it), with
     /// `run_order`'s reciprocals and writes.
     #[inline(always)]
-    fn function_order(&self, op: &Op, c: &mut [f64], s: usize, k: usize) {
-        let at = |c: &[f64], r: u32, j: usize| c[r as usize * s + j];
-        let rk = 1.0 / k as f64;
-        let put = |c: &mut [f64], r: u32, v: f64| {
+    fn function_order<L: Lane>(&self, op: &Op, c: &mut [L], s: usize, k: usize) {
+        let at = |c: &[L], r: u32, j: usize| c[r as usize * s + j];
+        let rk = L::splat(1.0 / k as f64);
+        let put = |c: &mut [L], r: u32, v: L| {
             c[r as usize * s + k] = v;
             if let Some(w) = self.weighted[r as usize] {
-                c[w as usize * s + k] = v * k as f64;
+                c[w as usize * s + k] = v * L::splat(k as f64);
             }
         };
         match *op {
@@ -146,7 +152,7 @@ impl TaylorTape {
                 let (wa, rs, rc) = (self.weighted_of(c, s, a), row(c, si, s), row(c, co, s));
                 let sv = weighted(wa, rc, k) * rk;
                 let cv = weighted(wa, rs, k) * rk;
-                let sign = if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 };
+                let sign = L::splat(if matches!(op, Op::SinCos { .. }) { -1.0 } else { 1.0 });
                 put(c, si, sv);
                 let v = sign * cv;
                 put(c, co, v);
@@ -160,7 +166,7 @@ impl TaylorTape {
                 // a d' = a': k a₀ d_k = k a_k − Σ_{j=1}^{k−1} j d_j a_{k−j}.
                 let (ra, wd) = (row(c, a, s), self.weighted_of(c, s, d));
                 let acc = weighted_short(wd, ra, k);
-                let v = (ra[k] - acc * rk) * (1.0 / ra[0]);
+                let v = (ra[k] - acc * rk) * (L::splat(1.0) / ra[0]);
                 put(c, d, v);
             }
             Op::Tan { d, a, u, hyp } => {
@@ -175,11 +181,11 @@ impl TaylorTape {
                 // r = √(c ∓ a²): r_k = (∓Σ_{j=0}^{k} a_j a_{k−j} − Σ_{j=1}^{k−1} r_j r_{k−j}) / 2r₀.
                 let (ra, rr) = (row(c, a, s), row(c, r, s));
                 let sq = if kind.plus_square() { square(ra, k) } else { -square(ra, k) };
-                let rv = (sq - square_inner(rr, k)) * (1.0 / (2.0 * rr[0]));
+                let rv = (sq - square_inner(rr, k)) * (L::splat(1.0) / (L::splat(2.0) * rr[0]));
                 // r d' = ±a': k r₀ d_k = ±k a_k − Σ_{j=1}^{k−1} j d_j r_{k−j}.
                 let wd = self.weighted_of(c, s, d);
                 let ak = if kind.neg() { -ra[k] } else { ra[k] };
-                let dv = (ak - weighted_short(wd, rr, k) * rk) * (1.0 / rr[0]);
+                let dv = (ak - weighted_short(wd, rr, k) * rk) * (L::splat(1.0) / rr[0]);
                 put(c, r, rv);
                 put(c, d, dv);
             }
@@ -187,14 +193,14 @@ impl TaylorTape {
                 let (ra, ru) = (row(c, a, s), row(c, u, s));
                 let uv = if hyp { -square(ra, k) } else { square(ra, k) };
                 let wd = self.weighted_of(c, s, d);
-                let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (1.0 / ru[0]);
+                let dv = (ra[k] - weighted_short(wd, ru, k) * rk) * (L::splat(1.0) / ru[0]);
                 put(c, u, uv);
                 put(c, d, dv);
             }
             Op::Erf { d, a, e } => {
                 // k d_k = (2/√π) Σ_{j=1}^{k} j a_j e_{k−j}.
                 let (wa, re) = (self.weighted_of(c, s, a), row(c, e, s));
-                let v = weighted(wa, re, k) * rk * std::f64::consts::FRAC_2_SQRT_PI;
+                let v = weighted(wa, re, k) * rk * L::splat(std::f64::consts::FRAC_2_SQRT_PI);
                 put(c, d, v);
             }
             Op::Atan2 { d, a, b, u } => {
@@ -204,7 +210,7 @@ impl TaylorTape {
                 let (wa, wb) = (self.weighted_of(c, s, a), self.weighted_of(c, s, b));
                 let num = weighted(wa, rb, k) - weighted(wb, ra, k);
                 let wd = self.weighted_of(c, s, d);
-                let dv = (num - weighted_short(wd, ru, k)) * (1.0 / (k as f64 * ru[0]));
+                let dv = (num - weighted_short(wd, ru, k)) * (L::splat(1.0) / (L::splat(k as f64) * ru[0]));
                 put(c, u, uv);
                 put(c, d, dv);
             }
@@ -215,7 +221,9 @@ impl TaylorTape {
                 put(c, d, v);
             }
             Op::PowConst { d, a, e } => {
-                let v = constant_power(row(c, a, s), row(c, d, s), at(c, e, 0), k);
+                // A constant row: the same in every lane.
+                let e = at(c, e, 0).lane(0);
+                let v = constant_power(row(c, a, s), row(c, d, s), e, k);
                 put(c, d, v);
             }
             Op::Power { d, a, e } => {
@@ -224,7 +232,7 @@ impl TaylorTape {
             }
             Op::PowVar { d, a, b, l, m } => {
                 let (ra, wl) = (row(c, a, s), self.weighted_of(c, s, l));
-                let lv = (ra[k] - weighted_short(wl, ra, k) * rk) * (1.0 / ra[0]);
+                let lv = (ra[k] - weighted_short(wl, ra, k) * rk) * (L::splat(1.0) / ra[0]);
                 put(c, l, lv);
                 let (rb, rl) = (row(c, b, s), row(c, l, s));
                 let v = cauchy(rb, rl, k);
@@ -247,7 +255,7 @@ impl TaylorTape {
     }
 
     /// Order 0: the interpreter's operations, plus the auxiliary rows.
-    fn run_order0(&self, c: &mut [f64], s: usize) {
+    fn run_order0<L: Lane>(&self, c: &mut [L], s: usize) {
         let ix = |r: u32| r as usize * s;
         for op in &self.ops0 {
             match *op {
@@ -256,57 +264,57 @@ impl TaylorTape {
                 Op::Mul { d, a, b } => c[ix(d)] = c[ix(a)] * c[ix(b)],
                 Op::Div { d, a, b } => c[ix(d)] = c[ix(a)] / c[ix(b)],
                 Op::Neg { d, a } => c[ix(d)] = -c[ix(a)],
-                Op::Sqrt { d, a } => c[ix(d)] = c[ix(a)].sqrt(),
+                Op::Sqrt { d, a } => c[ix(d)] = c[ix(a)].map(f64::sqrt),
                 Op::SinCos { s: si, c: co, a } => {
-                    let (sv, cv) = c[ix(a)].sin_cos();
+                    let (sv, cv) = c[ix(a)].map2(f64::sin_cos);
                     c[ix(si)] = sv;
                     c[ix(co)] = cv;
                 }
                 Op::SinhCosh { s: si, c: co, a } => {
                     let x = c[ix(a)];
-                    c[ix(si)] = x.sinh();
-                    c[ix(co)] = x.cosh();
+                    c[ix(si)] = x.map(f64::sinh);
+                    c[ix(co)] = x.map(f64::cosh);
                 }
-                Op::Exp { d, a } => c[ix(d)] = c[ix(a)].exp(),
-                Op::Log { d, a } => c[ix(d)] = c[ix(a)].ln(),
+                Op::Exp { d, a } => c[ix(d)] = c[ix(a)].map(f64::exp),
+                Op::Log { d, a } => c[ix(d)] = c[ix(a)].map(f64::ln),
                 Op::Tan { d, a, u, hyp } => {
                     let x = c[ix(a)];
-                    let v = if hyp { x.tanh() } else { x.tan() };
+                    let v = x.map(if hyp { f64::tanh } else { f64::tan });
                     c[ix(d)] = v;
-                    c[ix(u)] = if hyp { 1.0 - v * v } else { 1.0 + v * v };
+                    c[ix(u)] = v.map(|v| if hyp { 1.0 - v * v } else { 1.0 + v * v });
                 }
                 Op::Asin { d, a, r, kind } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = kind.func().eval(&[x]);
-                    c[ix(r)] = kind.root(x);
+                    c[ix(d)] = x.map(|x| kind.func().eval(&[x]));
+                    c[ix(r)] = x.map(|x| kind.root(x));
                 }
                 Op::Atan { d, a, u, hyp } => {
                     let x = c[ix(a)];
-                    c[ix(d)] = if hyp { x.atanh() } else { x.atan() };
-                    c[ix(u)] = if hyp { 1.0 - x * x } else { 1.0 + x * x };
+                    c[ix(d)] = x.map(if hyp { f64::atanh } else { f64::atan });
+                    c[ix(u)] = x.map(|x| if hyp { 1.0 - x * x } else { 1.0 + x * x });
                 }
-                Op::Erf { d, a, .. } => c[ix(d)] = crate::expr::Func::Erf.eval(&[c[ix(a)]]),
+                Op::Erf { d, a, .. } => c[ix(d)] = c[ix(a)].map(|x| crate::expr::Func::Erf.eval(&[x])),
                 Op::Atan2 { d, a, b, u } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);
-                    c[ix(d)] = x.atan2(y);
+                    c[ix(d)] = x.zip(y, f64::atan2);
                     c[ix(u)] = x * x + y * y;
                 }
-                Op::Root { d, a, q } => c[ix(d)] = crate::eval::real_root(c[ix(a)], q),
-                Op::PowConst { d, a, e } => c[ix(d)] = c[ix(a)].powf(c[ix(e)]),
+                Op::Root { d, a, q } => c[ix(d)] = c[ix(a)].map(|x| crate::eval::real_root(x, q)),
+                Op::PowConst { d, a, e } => c[ix(d)] = c[ix(a)].zip(c[ix(e)], f64::powf),
                 Op::PowVar { d, a, b, l, m } => {
                     let (x, y) = (c[ix(a)], c[ix(b)]);
-                    let lv = x.ln();
-                    c[ix(d)] = x.powf(y);
+                    let lv = x.map(f64::ln);
+                    c[ix(d)] = x.zip(y, f64::powf);
                     c[ix(l)] = lv;
                     c[ix(m)] = y * lv;
                 }
-                Op::Abs { d, a } => c[ix(d)] = c[ix(a)].abs(),
+                Op::Abs { d, a } => c[ix(d)] = c[ix(a)].map(f64::abs),
                 // Only in the recurrences of orders ≥ 1, which start from these rows' values
                 // as the plain operations compute them; given here for completeness.
                 Op::Sqr { d, a } => c[ix(d)] = c[ix(a)] * c[ix(a)],
-                Op::Scale { d, a, f } => c[ix(d)] = c[ix(a)] * f,
-                Op::Power { d, a, e } => c[ix(d)] = c[ix(a)].powf(e),
-                Op::Weigh { d, .. } => c[ix(d)] = 0.0,
+                Op::Scale { d, a, f } => c[ix(d)] = c[ix(a)] * L::splat(f),
+                Op::Power { d, a, e } => c[ix(d)] = c[ix(a)].map(|x| x.powf(e)),
+                Op::Weigh { d, .. } => c[ix(d)] = L::splat(0.0),
             }
         }
     }
@@ -348,7 +356,7 @@ impl TaylorTape {
 }
 
 #[inline(always)]
-fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
+fn row<L: Lane>(c: &[L], r: u32, s: usize) -> &[L] {
     &c[r as usize * s..(r as usize + 1) * s]
 }
 
@@ -368,18 +376,19 @@ fn row(c: &[f64], r: u32, s: usize) -> &[f64] {
 /// weight is a closure (each call site its own copy of the loop, measured 5–8 % faster for the
 /// interpreter than a `Weight` matched inside it), which calls [`Weight::at`].
 #[inline(always)]
-fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_last: bool) -> f64 {
+fn sum4<L: Lane>(x: &[L], y: &[L], w: impl Fn(usize) -> f64, late_first: bool, late_last: bool) -> L {
     let n = x.len();
     assert!(y.len() >= n);
     let lo = usize::from(late_first && n > 0);
     let hi = if late_last && n > lo { n - 1 } else { n };
     // SAFETY: every index below is `i < n` into `x` and `n − 1 − i` (with `i < n`) into `y`,
     // whose length is at least `n` (asserted).
-    let term = |i: usize| unsafe { w(i) * *x.get_unchecked(i) * *y.get_unchecked(n - 1 - i) };
+    let term = |i: usize| unsafe { L::splat(w(i)) * *x.get_unchecked(i) * *y.get_unchecked(n - 1 - i) };
     // The partial sums start from −0.0, the identity of IEEE addition (`−0.0 + t` is `t`
     // for every `t`, where `+0.0 + (−0.0)` is `+0.0`), so the native code can start each
     // from its first term and leave out the partial sums that get none.
-    let (mut s0, mut s1, mut s2, mut s3) = (-0.0, -0.0, -0.0, -0.0);
+    let z = L::splat(-0.0);
+    let (mut s0, mut s1, mut s2, mut s3) = (z, z, z, z);
     let mut i = lo;
     while i + 4 <= hi {
         s0 += term(i);
@@ -411,7 +420,7 @@ fn sum4(x: &[f64], y: &[f64], w: impl Fn(usize) -> f64, late_first: bool, late_l
 /// divides. Each order of a `W q'' = F` expansion runs one solve on its dependency chain from
 /// one order to the next, and the `2n` divisions (13 cycles or more each) were most of that
 /// chain's latency. The whole native expansion does the same operations (the same bits).
-pub(super) fn cholesky_solve(l: &[f64], inv: &[f64], n: usize, x: &mut [f64]) {
+pub(super) fn cholesky_solve<L: Lane>(l: &[L], inv: &[L], n: usize, x: &mut [L]) {
     for i in 0..n {
         let mut v = x[i];
         for k in 0..i {
@@ -429,47 +438,47 @@ pub(super) fn cholesky_solve(l: &[f64], inv: &[f64], n: usize, x: &mut [f64]) {
 }
 /// `Σ_{j=0}^{k} a_j b_{k−j}` (both end terms read order `k`).
 #[inline(always)]
-fn cauchy(a: &[f64], b: &[f64], k: usize) -> f64 {
+fn cauchy<L: Lane>(a: &[L], b: &[L], k: usize) -> L {
     sum4(&a[..=k], &b[..=k], |_| 1.0, true, true)
 }
 /// `Σ_{j=0}^{k} a_j a_{k−j}` over half its terms: `2 Σ_{1≤j<k−j} a_j a_{k−j} + a_{k/2}²`
 /// (even `k`) plus `2a₀ · a_k`, the one term that reads order `k`, last.
 #[inline(always)]
-fn square(a: &[f64], k: usize) -> f64 {
-    square_inner(a, k) + (2.0 * a[0]) * a[k]
+fn square<L: Lane>(a: &[L], k: usize) -> L {
+    square_inner(a, k) + (L::splat(2.0) * a[0]) * a[k]
 }
 /// `Σ_{j=1}^{k−1} a_j a_{k−j}` over half its terms: `2 Σ_{1≤j<k−j} a_j a_{k−j} + a_{k/2}²`.
 #[inline(always)]
-fn square_inner(a: &[f64], k: usize) -> f64 {
+fn square_inner<L: Lane>(a: &[L], k: usize) -> L {
     let n = k.div_ceil(2) - 1;
     let half = sum4(&a[1..1 + n], &a[k - n..k], |_| 1.0, false, false);
-    let mid = if k % 2 == 0 { a[k / 2] * a[k / 2] } else { 0.0 };
-    2.0 * half + mid
+    let mid = if k % 2 == 0 { a[k / 2] * a[k / 2] } else { L::splat(0.0) };
+    L::splat(2.0) * half + mid
 }
 /// `Σ_{j} x_j y_{n−1−j}` for two slices of length `n` (the second read backwards); `late`:
 /// the last `x` is an order-`k` value.
 #[inline(always)]
-pub(super) fn dot_rev(x: &[f64], y: &[f64], late: bool) -> f64 {
+pub(super) fn dot_rev<L: Lane>(x: &[L], y: &[L], late: bool) -> L {
     sum4(x, y, |_| 1.0, false, late)
 }
 /// `Σ_{j=1}^{k} j a_j b_{k−j}` (the coefficient of `t^{k−1}` in `a' b`), given `a`'s weighted
 /// row `wa` (`wa_j = j · a_j`, see `weigh_rows`): the terms `(j · a_j) · b_{k−j}`.
 #[inline(always)]
-fn weighted(wa: &[f64], b: &[f64], k: usize) -> f64 {
+fn weighted<L: Lane>(wa: &[L], b: &[L], k: usize) -> L {
     sum4(&wa[1..=k], &b[..k], |_| 1.0, false, true)
 }
 /// `Σ_{j=1}^{k−1} j a_j b_{k−j}`, given `a`'s weighted row.
 #[inline(always)]
-fn weighted_short(wa: &[f64], b: &[f64], k: usize) -> f64 {
+fn weighted_short<L: Lane>(wa: &[L], b: &[L], k: usize) -> L {
     if k < 2 {
-        return -0.0;
+        return L::splat(-0.0);
     }
     sum4(&wa[1..k], &b[1..k], |_| 1.0, false, false)
 }
 /// Coefficient `k` of `d = a^e` for a constant `e` (also the real root, `e = 1/q`), from
 /// `a d' = e d a'`: `d_k = Σ_{j=1}^{k} (e j − (k − j)) a_j d_{k−j} / (k a₀)`.
 #[inline(always)]
-fn constant_power(ra: &[f64], rd: &[f64], e: f64, k: usize) -> f64 {
+fn constant_power<L: Lane>(ra: &[L], rd: &[L], e: f64, k: usize) -> L {
     let acc = sum4(&ra[1..=k], &rd[..k], |i| Weight::Power(e).at(i, k), false, true);
-    acc * (1.0 / (k as f64 * ra[0]))
+    acc * (L::splat(1.0) / (L::splat(k as f64) * ra[0]))
 }

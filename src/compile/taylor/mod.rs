@@ -23,12 +23,15 @@
 //! is its derivative, and optionally a linear solve `W a = F` per order for `W q'' = F`
 //! systems (`W₀ a_k = F_k − Σ_{j≥1} W_j a_{k−j}`, one factorisation of `W₀` per expansion).
 
+mod batch;
 mod interp;
+mod lanes;
 mod ir;
 mod native;
 mod ode;
 mod tiers;
 
+pub use batch::{LaneWork, TaylorBatch};
 pub use ir::{KinkAt, TaylorTape};
 pub use native::TaylorNative;
 pub use ode::{Derivative, TaylorError, TaylorOde};

@@ -1,6 +1,7 @@
 //! Batch lanes: the host's SIMD width and the refill schedule of a batch.
 
-use lagrangian::compile::{simd_lanes, LaneRefill};
+use lagrangian::compile::simd_lanes;
+use lagrangian::integrate::LaneRefill;
 
 #[test]
 fn simd_lanes_matches_the_host_features() {

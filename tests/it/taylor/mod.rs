@@ -1,5 +1,6 @@
 //! The Taylor method: recurrences, the native emitter, the integrator and its scene statement.
 
+mod batch;
 mod integrate;
 mod native;
 mod recurrences;

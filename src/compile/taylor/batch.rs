@@ -1,0 +1,229 @@
+//! Batch expansions: `B` initial conditions of one [`TaylorOde`] expanded together, one per
+//! lane of [`Lanes<B>`], by the same interpreter as a single expansion (see `lanes.rs` for
+//! why the lanes get the scalar method's bits).
+//!
+//! The per-order mass-matrix solve of a `W q'' = F` system factors `W₀` lane by lane (each
+//! lane's pivots are its own) and, when every lane's factor is Cholesky's, runs the
+//! substitutions on whole lanes; a lane whose `W₀` is not positive definite is solved alone,
+//! by LU, as the scalar method does.
+
+use super::interp::{cholesky_solve, dot_rev};
+use super::lanes::{Lane, Lanes};
+use super::ode::Derivative;
+use super::TaylorOde;
+use crate::integrate::TaylorBatchSystem;
+use crate::linalg::{factor, solve, Factor};
+
+/// The scratch of `B`-lane expansions of one order.
+#[derive(Clone, Debug)]
+pub struct LaneWork<const B: usize> {
+    order: usize,
+    /// The tape's rows, `row · (order + 1) + k`.
+    c: Vec<Lanes<B>>,
+    /// The accelerations' rows (`W q'' = F` systems).
+    acc: Vec<Lanes<B>>,
+    /// `W₀`'s factor per lane, and for a Cholesky factor its diagonal's reciprocals.
+    factor: Vec<Lanes<B>>,
+    inv: Vec<Lanes<B>>,
+    rhs: Vec<Lanes<B>>,
+    /// Each lane's factorisation of `W₀`, with its own LU permutation.
+    kinds: [Factor; B],
+    perms: Vec<f64>,
+}
+
+/// The scratch of a batch expansion, at the width the host's vector registers suggest.
+#[derive(Clone, Debug)]
+pub enum TaylorBatch {
+    /// Two lanes (SSE2, NEON).
+    Two(Box<LaneWork<2>>),
+    /// Four lanes (AVX2).
+    Four(Box<LaneWork<4>>),
+    /// Eight lanes (AVX-512).
+    Eight(Box<LaneWork<8>>),
+}
+
+impl<const B: usize> LaneWork<B> {
+    fn new(ode: &TaylorOde, order: usize) -> Self {
+        let s = order + 1;
+        let n = ode.solve.as_ref().map_or(0, |m| m.n);
+        let z = Lanes::splat(0.0);
+        LaneWork {
+            order,
+            c: vec![z; ode.tape.n_rows() * s],
+            acc: vec![z; n * s],
+            factor: vec![z; n * n],
+            inv: vec![z; n],
+            rhs: vec![z; n],
+            kinds: [Factor::Cholesky; B],
+            perms: vec![0.0; n * B],
+        }
+    }
+}
+
+impl TaylorOde {
+    /// Whether [`TaylorOde::expand_lanes`] can run this system: every operation but `abs`,
+    /// whose kink is a per-lane failure the batch does not split (such systems run one
+    /// trajectory at a time).
+    pub fn batchable(&self) -> bool {
+        self.tape.abs_args.is_empty()
+    }
+
+    /// Expands `B` states at once, each lane exactly as [`TaylorOde::expand_in_place`] would
+    /// (the same bits). `t[l]`, `y[l · dim ..]` is lane `l`'s point; its coefficients go to
+    /// `out[l · dim · (order + 1) + i · (order + 1) + k]`. A lane whose mass matrix is not
+    /// finite or is singular is marked in `failed`; the others are unaffected.
+    fn expand_lanes<const B: usize>(
+        &self,
+        w: &mut LaneWork<B>,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [f64],
+        failed: &mut [bool],
+    ) {
+        let order = w.order;
+        let s = order + 1;
+        let dim = self.dim;
+        let c = &mut w.c[..];
+        self.tape.init(c, s);
+        for i in 0..dim {
+            c[i * s] = Lanes(std::array::from_fn(|l| y[l * dim + i]));
+        }
+        if let Some(ti) = self.time {
+            let r = &mut c[ti * s..(ti + 1) * s];
+            r.fill(Lanes::splat(0.0));
+            r[0] = Lanes(std::array::from_fn(|l| t[l]));
+            if s > 1 {
+                r[1] = Lanes::splat(1.0);
+            }
+        }
+        for k in 0..order {
+            if self.tape.run_order(c, s, k).is_err() {
+                // Only `abs` fails, and `batchable` keeps it out.
+                failed.fill(true);
+                return;
+            }
+            if let Some(m) = &self.solve {
+                let n = m.n;
+                let out_row = |j: usize| self.tape.output_row(j);
+                if k == 0 {
+                    let mut w0 = vec![0.0; n * n];
+                    let mut fm = vec![0.0; n * n];
+                    for l in 0..B {
+                        for (e, &o) in w0.iter_mut().zip(&m.w) {
+                            *e = c[out_row(o) * s].lane(l);
+                        }
+                        let perm = &mut w.perms[l * n..(l + 1) * n];
+                        let kind = if w0.iter().all(|x| x.is_finite()) {
+                            factor(&w0, &mut fm, perm, n, m.symmetric).ok()
+                        } else {
+                            None
+                        };
+                        let Some(kind) = kind else {
+                            failed[l] = true;
+                            // An identity factor keeps this lane's arithmetic finite; its
+                            // coefficients are not used.
+                            fm.fill(0.0);
+                            (0..n).for_each(|i| fm[i * n + i] = 1.0);
+                            w.kinds[l] = Factor::Cholesky;
+                            for i in 0..n * n {
+                                w.factor[i].set_lane(l, fm[i]);
+                            }
+                            for i in 0..n {
+                                w.inv[i].set_lane(l, 1.0);
+                            }
+                            continue;
+                        };
+                        w.kinds[l] = kind;
+                        for i in 0..n * n {
+                            w.factor[i].set_lane(l, fm[i]);
+                        }
+                        if matches!(kind, Factor::Cholesky) {
+                            for i in 0..n {
+                                w.inv[i].set_lane(l, 1.0 / fm[i * n + i]);
+                            }
+                        }
+                    }
+                }
+                for i in 0..n {
+                    let mut v = c[out_row(m.f[i]) * s + k];
+                    for &(l, r) in &m.varying[i] {
+                        v -= dot_rev(&c[r * s + 1..=r * s + k], &w.acc[l * s..l * s + k], true);
+                    }
+                    w.rhs[i] = v;
+                }
+                if w.kinds.iter().all(|k| matches!(k, Factor::Cholesky)) {
+                    cholesky_solve(&w.factor, &w.inv, n, &mut w.rhs);
+                } else {
+                    let (mut fm, mut x, mut tmp) = (vec![0.0; n * n], vec![0.0; n], vec![0.0; n]);
+                    for l in 0..B {
+                        for i in 0..n * n {
+                            fm[i] = w.factor[i].lane(l);
+                        }
+                        for i in 0..n {
+                            x[i] = w.rhs[i].lane(l);
+                        }
+                        match w.kinds[l] {
+                            Factor::Cholesky => {
+                                let inv: Vec<f64> = (0..n).map(|i| w.inv[i].lane(l)).collect();
+                                cholesky_solve(&fm, &inv, n, &mut x);
+                            }
+                            Factor::Lu => solve(Factor::Lu, &fm, &w.perms[l * n..(l + 1) * n], n, &mut x, &mut tmp),
+                        }
+                        for i in 0..n {
+                            w.rhs[i].set_lane(l, x[i]);
+                        }
+                    }
+                }
+                for i in 0..n {
+                    w.acc[i * s + k] = w.rhs[i];
+                }
+            }
+            let inv = Lanes::splat(1.0 / (k + 1) as f64);
+            for i in 0..dim {
+                let v = match self.derivs[i] {
+                    Derivative::Output(j) => c[self.tape.output_row(j) * s + k],
+                    Derivative::State(j) => c[j * s + k],
+                    Derivative::Solve(j) => w.acc[j * s + k],
+                };
+                c[i * s + k + 1] = v * inv;
+            }
+        }
+        for l in 0..B {
+            let lane = &mut out[l * dim * s..(l + 1) * dim * s];
+            for (x, v) in lane.iter_mut().zip(&c[..dim * s]) {
+                *x = v.lane(l);
+            }
+        }
+    }
+}
+
+impl TaylorBatchSystem for TaylorOde {
+    type Batch = TaylorBatch;
+
+    fn batch(&self, order: usize, lanes: usize) -> Option<TaylorBatch> {
+        if !self.batchable() {
+            return None;
+        }
+        Some(match lanes {
+            0..=2 => TaylorBatch::Two(Box::new(LaneWork::new(self, order))),
+            3..=4 => TaylorBatch::Four(Box::new(LaneWork::new(self, order))),
+            _ => TaylorBatch::Eight(Box::new(LaneWork::new(self, order))),
+        })
+    }
+
+    fn lanes(batch: &TaylorBatch) -> usize {
+        match batch {
+            TaylorBatch::Two(_) => 2,
+            TaylorBatch::Four(_) => 4,
+            TaylorBatch::Eight(_) => 8,
+        }
+    }
+
+    fn expand_batch(&self, batch: &mut TaylorBatch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
+        match batch {
+            TaylorBatch::Two(w) => self.expand_lanes(w, t, y, out, failed),
+            TaylorBatch::Four(w) => self.expand_lanes(w, t, y, out, failed),
+            TaylorBatch::Eight(w) => self.expand_lanes(w, t, y, out, failed),
+        }
+    }
+}
