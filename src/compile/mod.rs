@@ -50,8 +50,9 @@ pub use rhs::{
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
 pub use taylor::{
-    Derivative, KinkAt, LaneWork, TaylorBatch, TaylorError, TaylorNative, TaylorOde, TaylorTape, AUTO_NATIVE_AFTER_EXPANSIONS,
-    COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS, UNROLL_AFTER_EXPANSIONS,
+    Derivative, KinkAt, LaneWork, TaylorBatch, TaylorError, TaylorNative, TaylorOde, TaylorTape,
+    AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS,
+    UNROLL_AFTER_EXPANSIONS,
 };
 pub use variational::Variational;
 

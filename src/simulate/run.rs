@@ -15,8 +15,8 @@ use super::method::{Family, MethodId, Needs, Scheme};
 use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
 use crate::integrate::{
-    fmt_value, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate, IntegrateError,
-    BatchOutput, Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
+    fmt_value, BatchOutput, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate,
+    IntegrateError, Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
 };
 
 /// Which states a run keeps.
@@ -346,6 +346,14 @@ pub fn ensemble(
 /// the workers.
 const BATCH_CHUNK_LANES: usize = 16;
 
+/// The lowest Taylor order at which the batch is not slower than one start at a time. At a
+/// low order the recurrences' sums are short and the interpreter's cost per operation, which
+/// the batch shares among its lanes but still pays where the single run's native code does
+/// not, outweighs the lanes' arithmetic (`cargo bench --bench batch`, double pendulum, 8
+/// lanes: 1.25× the time at tol 1e-6 (order 8), 1.04× at 1e-8 (order 11), 1.00× at 1e-10
+/// (order 13), 0.92× at 1e-16).
+const BATCH_FROM_ORDER: usize = 13;
+
 /// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
 /// asks for nothing it lacks: final states or states at given times, no events, no energy
 /// check. `None`: the run goes one start at a time. Each trajectory is bit for bit the one
@@ -369,6 +377,9 @@ fn taylor_batch(
         return None;
     }
     let method = taylor_method(opts);
+    if method.taylor_order() < BATCH_FROM_ORDER {
+        return None;
+    }
     let lanes = crate::compile::simd_lanes();
     let chunks: Vec<&[Vec<f64>]> = starts.chunks(lanes * BATCH_CHUNK_LANES).collect();
     let runs = par_map_with_progress(&chunks, threads, progress, |chunk| {

@@ -27,6 +27,7 @@ impl TaylorTape {
 
     /// Prepares a coefficient buffer (`n_rows · stride` values): constants in their rows with
     /// zero higher coefficients. Inputs are the caller's.
+    #[inline(always)]
     pub fn init<L: Lane>(&self, c: &mut [L], stride: usize) {
         for (i, &v) in self.consts.iter().enumerate() {
             let r = (self.n_inputs + i) * stride;
@@ -39,6 +40,14 @@ impl TaylorTape {
     /// the inputs. Order 0 runs the interpreter's operations. The only failure is an `abs`
     /// whose argument is 0 while its order-`k` coefficient is not (a kink).
     pub fn run_order<L: Lane>(&self, c: &mut [L], stride: usize, k: usize) -> Result<(), KinkAt> {
+        self.run_order_inline(c, stride, k)
+    }
+
+    /// [`TaylorTape::run_order`], inlined into its caller: a batch expansion compiled for
+    /// wider vector registers than the baseline (`target_feature`) gets the whole
+    /// interpreter compiled for them.
+    #[inline(always)]
+    pub(super) fn run_order_inline<L: Lane>(&self, c: &mut [L], stride: usize, k: usize) -> Result<(), KinkAt> {
         assert!(c.len() >= self.n_rows * stride && k < stride, "Taylor buffer too short");
         if k == 0 {
             self.run_order0(c, stride);
@@ -255,6 +264,7 @@ impl TaylorTape {
     }
 
     /// Order 0: the interpreter's operations, plus the auxiliary rows.
+    #[inline(always)]
     fn run_order0<L: Lane>(&self, c: &mut [L], s: usize) {
         let ix = |r: u32| r as usize * s;
         for op in &self.ops0 {
@@ -420,6 +430,7 @@ fn sum4<L: Lane>(x: &[L], y: &[L], w: impl Fn(usize) -> f64, late_first: bool, l
 /// divides. Each order of a `W q'' = F` expansion runs one solve on its dependency chain from
 /// one order to the next, and the `2n` divisions (13 cycles or more each) were most of that
 /// chain's latency. The whole native expansion does the same operations (the same bits).
+#[inline(always)]
 pub(super) fn cholesky_solve<L: Lane>(l: &[L], inv: &[L], n: usize, x: &mut [L]) {
     for i in 0..n {
         let mut v = x[i];

@@ -25,8 +25,8 @@
 
 mod batch;
 mod interp;
-mod lanes;
 mod ir;
+mod lanes;
 mod native;
 mod ode;
 mod tiers;
