@@ -37,6 +37,7 @@ use crate::integrate::{Jacobian, Method, MethodInfo, Rhs, RhsError as StepError,
 use super::error::CompileError;
 use super::rhs::{state_inputs, RhsError};
 use super::tape::{CompileOptions, Tape};
+use super::taylor::TaylorOde;
 use crate::linalg::{factor, solve};
 
 /// How a constrained right-hand side keeps the solution on the constraint manifold.
@@ -162,6 +163,76 @@ impl ConstrainedRhs {
         man.extend(ft.iter().cloned());
         let manifold = Tape::compile_with_options(&man, &inputs, params, &options)?;
         Ok(ConstrainedRhs { n, m, mh, coords: names, tape, manifold, stabilization })
+    }
+
+    /// The Taylor form of the same augmented system, for the Taylor method: a tape of the
+    /// matrix `[W Φᵀ; Φ 0]` and the right-hand side `(F, c)` (with Baumgarte's terms when
+    /// that is the stabilisation), expanded order by order with one LU factorisation of the
+    /// matrix per expansion ([`TaylorOde::second_order_solving`]). Projection, when that is the
+    /// stabilisation, wraps the method as for any other ([`Projected`]).
+    pub fn taylor(
+        w: &[Vec<Expr>],
+        f: &[Expr],
+        holonomic: &[Expr],
+        velocity: &[Expr],
+        coords: &[Symbol],
+        params: &[(&str, f64)],
+        stabilization: Stabilization,
+    ) -> Result<TaylorOde, CompileError> {
+        let n = coords.len();
+        if f.len() != n || w.len() != n || w.iter().any(|r| r.len() != n) {
+            return Err(CompileError::Shape { what: "mass matrix and forces", expected: n, got: f.len() });
+        }
+        let (mut phi, mut c, mut ft) = constraint_parts(holonomic, coords);
+        let (vphi, vc, vft) = velocity_constraint_parts(velocity, coords);
+        phi.extend(vphi);
+        c.extend(vc);
+        ft.extend(vft);
+        let (mh, m) = (holonomic.len(), holonomic.len() + velocity.len());
+        let big = n + m;
+        // The rate is bound as a parameter of the tape, under a name no user can write.
+        const RATE: &str = "baumgarte__rate";
+        let mut params = params.to_vec();
+        if let Stabilization::Baumgarte { rate } = stabilization {
+            let rate_expr = Expr::var(RATE);
+            params.push((RATE, rate));
+            let residuals: Vec<&Expr> = holonomic.iter().chain(velocity).collect();
+            for j in 0..m {
+                let correction = if j >= mh {
+                    // dg/dt + 2α g = 0.
+                    Expr::mul([Expr::int(2), rate_expr.clone(), residuals[j].clone()])
+                } else {
+                    // d²f/dt² + 2α ḟ + α² f = 0, ḟ = Φ q' + ∂f/∂t.
+                    let fdot = coords
+                        .iter()
+                        .enumerate()
+                        .fold(ft[j].clone(), |acc, (i, q)| acc.plus(&phi[j][i].times(&Expr::sym(q.prime()))));
+                    Expr::mul([Expr::int(2), rate_expr.clone(), fdot]).plus(&Expr::mul([
+                        rate_expr.clone(),
+                        rate_expr.clone(),
+                        residuals[j].clone(),
+                    ]))
+                };
+                c[j] = c[j].minus(&correction);
+            }
+        }
+        let mut outputs = Vec::with_capacity(big * big + big);
+        for i in 0..n {
+            outputs.extend(w[i].iter().cloned());
+            outputs.extend((0..m).map(|j| phi[j][i].clone()));
+        }
+        for j in 0..m {
+            outputs.extend(phi[j].iter().cloned());
+            outputs.extend((0..m).map(|_| Expr::zero()));
+        }
+        outputs.extend(f.iter().cloned());
+        outputs.extend(c);
+        let names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
+        let inputs = state_inputs(&names);
+        let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+        let options = CompileOptions::default().with_native(false);
+        let tape = Tape::compile_with_options(&outputs, &inputs, &params, &options)?;
+        Ok(TaylorOde::second_order_solving(&tape, n, big, false))
     }
 
     /// Degrees of freedom (coordinates).

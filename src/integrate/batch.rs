@@ -137,6 +137,7 @@ impl Taylor {
     /// would. Returns `None` when the system cannot batch; else per start its run, or `None`
     /// for one that failed, ran out of its `max_steps` budget or was cancelled (the caller
     /// runs those alone, to report their errors as a single run does).
+    #[allow(clippy::too_many_arguments)] // a single run's inputs, plus the lane count
     pub fn integrate_batch<S: TaylorBatchSystem>(
         &self,
         sys: &S,

@@ -202,15 +202,23 @@ pub fn compile(req: &CompileRequest) -> Result<Compiled, SimulateError> {
             if x.constraints.is_empty() && x.velocity_constraints.is_empty() {
                 second_order(&w, &f)?
             } else {
-                CompiledSystem::Constrained(ConstrainedRhs::with_velocity_constraints(
+                let (holonomic, velocity) = (system.constraints(), system.velocity_constraints());
+                let rhs = ConstrainedRhs::with_velocity_constraints(
                     &w,
                     &f,
-                    system.constraints(),
-                    system.velocity_constraints(),
+                    holonomic,
+                    velocity,
                     &req.coords,
                     &params,
                     x.stabilization,
-                )?)
+                )?;
+                match req.form {
+                    Form::Taylor => CompiledSystem::Taylor(
+                        ConstrainedRhs::taylor(&w, &f, holonomic, velocity, &req.coords, &params, x.stabilization)?,
+                        Box::new(CompiledSystem::Constrained(rhs)),
+                    ),
+                    _ => CompiledSystem::Constrained(rhs),
+                }
             }
         }
     };

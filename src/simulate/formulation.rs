@@ -75,8 +75,6 @@ pub enum RefusalReason {
     NeedsLagrangian,
     /// The method needs a regular `L` (its Legendre map inverts), and this one is first order.
     FirstOrder,
-    /// The Taylor method does not integrate the augmented constrained system.
-    Constrained,
     /// Neither `L` nor `H` is given.
     NothingToIntegrate,
     /// A splitting method needs `H = T(p) + V(q, t)`, and this term mixes coordinates and
@@ -124,9 +122,6 @@ impl fmt::Display for Refusal {
                 f,
                 "`{m}` needs a regular L: this L is first order in the velocities, so its discrete Legendre map has no inverse"
             ),
-            (RefusalReason::Constrained, _) => {
-                write!(f, "`{m}` does not integrate constrained systems (the augmented system [W Φᵀ; Φ 0])")
-            }
             (RefusalReason::NothingToIntegrate, _) => f.write_str("nothing to simulate: no `L` or `H` defined"),
             (RefusalReason::NotSeparable { term }, _) => write!(
                 f,
@@ -202,9 +197,6 @@ fn route_reason(method: MethodId, s: &Shape) -> Result<Route, RefusalReason> {
             if !s.conservative() {
                 if !s.lagrangian {
                     return Err(RefusalReason::NeedsLagrangian);
-                }
-                if taylor && (s.constraints || s.velocity_constraints) {
-                    return Err(RefusalReason::Constrained);
                 }
                 if taylor && s.first_order {
                     return Err(RefusalReason::FirstOrder);

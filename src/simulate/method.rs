@@ -276,7 +276,7 @@ pub fn method_table() -> Vec<String> {
                 Family::Implicit => "implicit collocation of any system",
                 Family::Explicit => "explicit Runge–Kutta of any system",
                 Family::Adaptive if m.id == MethodId::Taylor => {
-                    "Taylor series of any unconstrained, second-order system; tol defaults to machine precision"
+                    "Taylor series of any second-order system (constraints through the augmented system); tol defaults to machine precision"
                 }
                 Family::Adaptive => "embedded Runge–Kutta of any system (the default)",
                 Family::Variational => "map of the discrete Lagrangian of a conservative L; state (q, p); no events",

@@ -252,10 +252,21 @@ pub fn integrate(
     let count = AtomicUsize::new(0);
     let dt = opts.dt.unwrap_or(f64::NAN);
     let mut traj = match &*c.system {
-        CompiledSystem::Taylor(ode, _) => {
+        CompiledSystem::Taylor(ode, inner) => {
             let m = taylor_method(opts);
             m.validate().map_err(SimulateError::InvalidRun)?;
-            let mut t = d.run(&m, ode)?;
+            let mut t = match &**inner {
+                CompiledSystem::Constrained(r) => {
+                    check_constrained_start(r, opts.t0, y0)?;
+                    let mut t = match r.stabilization() {
+                        Stabilization::Projection => d.run(&Projected { method: &m, constraints: r }, ode)?,
+                        _ => d.run(&m, ode)?,
+                    };
+                    t.aux = constrained_aux(r, &t);
+                    t
+                }
+                _ => d.run(&m, ode)?,
+            };
             t.evaluations = t.steps;
             t
         }
@@ -366,7 +377,12 @@ fn taylor_batch(
     threads: Option<usize>,
     progress: &mut dyn FnMut(f64),
 ) -> Option<Vec<Result<Trajectory, SimulateError>>> {
-    let CompiledSystem::Taylor(ode, _) = &*c.system else { return None };
+    // A constrained system's trajectories carry multipliers and residuals, and projection
+    // steps, which the batch does not: they run one at a time.
+    let CompiledSystem::Taylor(ode, inner) = &*c.system else { return None };
+    if matches!(**inner, CompiledSystem::Constrained(_)) {
+        return None;
+    }
     let output = match &opts.sampling {
         Sampling::Final => BatchOutput::Final,
         Sampling::Times(times) => BatchOutput::Times(times),

@@ -7,6 +7,9 @@
 //! substitutions on whole lanes; a lane whose `W₀` is not positive definite is solved alone,
 //! by LU, as the scalar method does.
 
+// Lanes, rows and factor entries are addressed by index, as the layout is written.
+#![allow(clippy::needless_range_loop)]
+
 use super::interp::{cholesky_solve, dot_rev};
 use super::lanes::{Lane, Lanes};
 use super::ode::Derivative;

@@ -10,6 +10,9 @@
 //! loops are what the compiler turns into SIMD instructions. No fused multiply-add is ever
 //! formed (Rust does not contract `a * b + c`), so the lanes cannot drift from the scalar path.
 
+// The lane loops index several arrays in step, as the compiler vectorises them best.
+#![allow(clippy::needless_range_loop)]
+
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
 /// A value of the Taylor interpreter: `f64`, or [`Lanes`] of them.

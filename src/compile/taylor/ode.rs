@@ -35,6 +35,12 @@ pub enum TaylorError {
         "the mass matrix is singular at t = {t} (no pivot for the velocity of coordinate {index}); state {state:?}"
     )]
     SingularMassMatrix { t: f64, index: usize, state: Vec<f64> },
+    /// The augmented matrix of a constrained system is singular at the expansion point: the
+    /// constraints are redundant there, or `W` is singular on their tangent space.
+    #[error(
+        "the augmented matrix [W Φᵀ; Φ 0] is singular at t = {t} (no pivot for the row of constraint {constraint}: the constraints are redundant there); state {state:?}"
+    )]
+    SingularAugmented { t: f64, constraint: usize, state: Vec<f64> },
 }
 /// Where the derivative of a state component comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,18 +100,32 @@ impl TaylorOde {
     /// accelerations solve `W₀ a_k = F_k − Σ_{j=1}^{k} W_j a_{k−j}` with one factorisation of
     /// `W₀` (Cholesky when `W` is symmetric and positive definite, else LU with pivoting).
     pub fn second_order(tape: &Tape, n: usize, symmetric: bool) -> TaylorOde {
+        TaylorOde::second_order_solving(tape, n, n, symmetric)
+    }
+
+    /// [`TaylorOde::second_order`] whose accelerations are the first `n` unknowns of a larger
+    /// linear system of size `big` (outputs: its matrix, row-major, then its right-hand side):
+    /// the augmented system `[W Φᵀ; Φ 0] (q'', −λ) = (F, c)` of a constrained system, whose
+    /// other unknowns are the multipliers.
+    pub fn second_order_solving(tape: &Tape, n: usize, big: usize, symmetric: bool) -> TaylorOde {
         let mut derivs: Vec<Derivative> = (0..n).map(|i| Derivative::State(n + i)).collect();
         derivs.extend((0..n).map(Derivative::Solve));
         let taylor = TaylorTape::new(tape);
-        let varying = (0..n)
+        let varying = (0..big)
             .map(|i| {
-                (0..n)
-                    .map(|l| (l, taylor.output_row(i * n + l)))
+                (0..big)
+                    .map(|l| (l, taylor.output_row(i * big + l)))
                     .filter(|&(_, r)| taylor.row_constant(r as u32).is_none())
                     .collect()
             })
             .collect();
-        let solve = MassSolve { n, w: (0..n * n).collect(), f: (n * n..n * n + n).collect(), symmetric, varying };
+        let solve = MassSolve {
+            n: big,
+            w: (0..big * big).collect(),
+            f: (big * big..big * big + big).collect(),
+            symmetric,
+            varying,
+        };
         TaylorOde {
             tape: taylor,
             plain: tape.clone(),
@@ -238,10 +258,10 @@ impl TaylorOde {
                     if !w0.iter().all(|x| x.is_finite()) {
                         return Err(TaylorError::NonFinite { t, order: 0, state: y[..dim].to_vec() });
                     }
-                    kind = factor(w0, fm, perm, n, m.symmetric).map_err(|index| TaylorError::SingularMassMatrix {
-                        t,
-                        index,
-                        state: y[..dim].to_vec(),
+                    let dof = dim / 2;
+                    kind = factor(w0, fm, perm, n, m.symmetric).map_err(|index| match index.checked_sub(dof) {
+                        Some(j) => TaylorError::SingularAugmented { t, constraint: j + 1, state: y[..dim].to_vec() },
+                        None => TaylorError::SingularMassMatrix { t, index, state: y[..dim].to_vec() },
                     })?;
                     if matches!(kind, Factor::Cholesky) {
                         // `perm` is LU's; a Cholesky factor keeps its diagonal's reciprocals there.
@@ -360,7 +380,7 @@ impl System {
             _ => {
                 if !self.constraints().is_empty() {
                     return Err(CompileError::Unsupported {
-                        what: "holonomic constraints in the Taylor method (use the augmented system of compile_constrained with another method)",
+                        what: "holonomic constraints in compile_taylor (simulate::compile_system with MethodId::Taylor runs them, with projection onto the constraints)",
                     });
                 }
                 let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;

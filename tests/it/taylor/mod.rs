@@ -1,6 +1,7 @@
 //! The Taylor method: recurrences, the native emitter, the integrator and its scene statement.
 
 mod batch;
+mod constrained;
 mod integrate;
 mod native;
 mod recurrences;
