@@ -26,12 +26,14 @@ from ._errors import ArgumentError
 
 @dataclass
 class SweepResult:
-    """Final states of a sweep.
+    """Final states of a sweep, or its states on a time grid.
 
     ``y`` has shape ``grid_shape + (n,)`` (state variables in ``names``; the grid's axes
     first, so ``y[i, j]`` is the state at grid point ``(i, j)``, as xarray's dimensions are
     laid out, rather than SciPy's ``(n, k)``, whose columns are times), ``t`` the final
-    times (the end of ``t_span``, or a terminal event's time), ``ok`` whether each point
+    times (the end of ``t_span``, or a terminal event's time). With ``t_eval`` (``m`` times),
+    ``y`` has shape ``grid_shape + (n, m)``, each point's ``(n, m)`` as SciPy's ``solve_ivp``
+    gives it (NaN after a terminal event or a failure), and ``t`` is ``t_eval``. ``ok`` whether each point
     integrated, ``errors`` the reason where it did not (``None`` elsewhere). ``axes`` maps each
     swept name to its values when the grid was given as axes. ``failures`` lists the failed
     points as dicts with ``index``, ``values`` (the swept values there) and ``reason``.
@@ -47,24 +49,34 @@ class SweepResult:
     failures: list[dict[str, Any]] = field(default_factory=list)
     method: str = ""
     t_span: tuple[float, float] = (float("nan"), float("nan"))
+    t_eval: Optional[np.ndarray] = None
 
     def __getitem__(self, name: str) -> np.ndarray:
-        """Final values of the state variable ``name`` over the grid."""
-        return self.y[..., self.names.index(name)]
+        """Values of the state variable ``name`` over the grid (final, or ``grid_shape + (m,)``
+        on the time grid)."""
+        i = self.names.index(name)
+        return self.y[..., i] if self.t_eval is None else self.y[..., i, :]
 
     def to_xarray(self) -> Any:
         """An ``xarray.Dataset`` (needs xarray) over one dimension per swept axis, named as
         in the grid with the swept values as coordinates (a grid given as an array of states
         has one dimension, ``point``): the final value of each state variable ``q`` as
         ``q_final`` (a swept initial ``θ`` and the final ``θ_final`` are different things),
-        ``t_final`` and ``ok``. The attributes record ``method``, ``t0``, ``t1`` and the
+        ``t_final`` and ``ok``; a sweep on a time grid has ``q(t)`` over the grid's axes and ``t``
+        instead of ``q_final`` and ``t_final``. The attributes record ``method``, ``t0``, ``t1`` and the
         number of ``failed`` points."""
         import xarray as xr  # type: ignore[import-untyped]
 
         dims = list(self.axes) if self.axes else ["point"]
         coords = {k: v for k, v in self.axes.items()}
-        data = {f"{n}_final": (dims, self.y[..., i]) for i, n in enumerate(self.names)}
-        data["t_final"] = (dims, self.t)
+        if self.t_eval is None:
+            data = {f"{n}_final": (dims, self.y[..., i]) for i, n in enumerate(self.names)}
+            data["t_final"] = (dims, self.t)
+        else:
+            # On a time grid each state variable `q` is `q(t)` over the grid's axes and `t`
+            # (a swept initial `θ` is a coordinate of the same name).
+            coords["t"] = self.t_eval
+            data = {f"{n}(t)": (dims + ["t"], self.y[..., i, :]) for i, n in enumerate(self.names)}
         data["ok"] = (dims, self.ok)
         attrs = {
             "method": self.method,
@@ -82,18 +94,22 @@ def _run_chunk(
     run: dict[str, Any],
 ) -> dict[str, Any]:
     """One Dask task: integrates the rows of ``states`` (each with its own parameter values
-    when ``params`` is given) and returns their final states and errors."""
+    when ``params`` is given) and returns their final states (or their states at
+    ``run["t_eval"]``) and errors."""
     if params is None:
         r = system.ensemble(y0=states, **run)
         return {"y": r.y, "t": r.t, "errors": r.errors}
     k, n = states.shape
-    ys = np.full((k, n), np.nan)
+    t_eval = run.get("t_eval")
+    ys = np.full((k, n) if t_eval is None else (k, n, len(t_eval)), np.nan)
     ts = np.full(k, np.nan)
     errors: list[Optional[str]] = [None] * k
     for i in range(k):
         try:
             r = system.with_params(params[i]).ensemble(y0=states[i : i + 1], **run)
-            ys[i], ts[i], errors[i] = r.y[0], r.t[0], r.errors[0]
+            ys[i], errors[i] = r.y[0], r.errors[0]
+            if t_eval is None:
+                ts[i] = r.t[0]
         except Exception as e:  # a bad parameter value fails its own row only
             errors[i] = f"{type(e).__name__}: {e}"
     return {"y": ys, "t": ts, "errors": errors}
@@ -120,6 +136,7 @@ def sweep(
     dt: Optional[float] = None,
     tol: Optional[float] = None,
     atol: Optional[float] = None,
+    t_eval: Optional[Sequence[float]] = None,
     events: Optional[list[Any]] = None,
     max_steps: Optional[int] = None,
     chunk_size: int = 256,
@@ -128,7 +145,8 @@ def sweep(
     threads: Optional[int] = 1,
 ) -> SweepResult:
     """Integrates ``system`` over ``t_span`` from every point of ``grid`` on a Dask cluster and
-    returns the final states as a :class:`SweepResult`. ``t_span`` comes first, as in
+    returns the final states as a :class:`SweepResult` (with ``t_eval``, the states at those
+    times, as ``System.ensemble`` gives them). ``t_span`` comes first, as in
     ``System.integrate``, ``System.ensemble`` and SciPy's ``solve_ivp``.
 
     ``grid`` is either an array of initial states, shape ``(k, n)``, or a dict of axes
@@ -193,13 +211,16 @@ def sweep(
     if chunk_size < 1:
         raise ArgumentError("chunk_size must be at least 1")
     run = dict(method=method, dt=dt, tol=tol, atol=atol, events=events, max_steps=max_steps, threads=threads, progress=False)
+    times = None if t_eval is None else np.asarray(t_eval, dtype=float).ravel()
+    if times is not None:
+        run["t_eval"] = times
     # Check the request once here (method, dt, events), not once per chunk on the workers.
     if len(states):
         system.ensemble(t_span, states[:0], **run)
     run["t_span"] = t_span
 
     total = states.shape[0]
-    ys = np.full((total, n), np.nan)
+    ys = np.full((total, n) if times is None else (total, n, times.size), np.nan)
     ts = np.full(total, np.nan)
     errors = np.empty(total, dtype=object)
     own = client is None
@@ -234,7 +255,8 @@ def sweep(
                 errors[start:stop] = [reason] * (stop - start)
                 continue
             ys[start:stop] = r["y"]
-            ts[start:stop] = r["t"]
+            if times is None:
+                ts[start:stop] = r["t"]
             errors[start:stop] = r["errors"]
     finally:
         if own:
@@ -251,8 +273,8 @@ def sweep(
             values = dict(zip(names, states[j].tolist()))
         failures.append({"index": tuple(int(i) for i in idx), "values": values, "reason": errors[j]})
     return SweepResult(
-        y=ys.reshape(shape + (n,)),
-        t=ts.reshape(shape),
+        y=ys.reshape(shape + ys.shape[1:]),
+        t=ts.reshape(shape) if times is None else times,
         ok=ok.reshape(shape),
         errors=errors.reshape(shape),
         names=names,
@@ -260,6 +282,7 @@ def sweep(
         failures=failures,
         method=method,
         t_span=(float(t_span[0]), float(t_span[1])),
+        t_eval=times,
     )
 
 

@@ -225,3 +225,27 @@ def test_integrate_ensemble_and_compile_run_on_workers(client):
     np.testing.assert_allclose(f(0.0, np.array([0.5, 0.0])), [0.0, -np.sin(0.5)], rtol=1e-15)
     finals = client.gather(client.map(lambda y0: sys.integrate((0, 5), y0, rtol=1e-10).y[:, -1], list(starts)))
     np.testing.assert_array_equal(np.array(finals), ens.y)
+
+
+def test_a_sweep_on_a_time_grid_equals_integrate_at_those_times(client):
+    """With ``t_eval`` each grid point's ``(n, m)`` is ``integrate``'s at the same times (the
+    same engine run, so the same bits), over a state axis and a parameter axis, and the
+    xarray view has the grid's axes and ``t``."""
+    sys = pendulum()
+    times = [0.0, 0.25, 0.5, 1.0]
+    r = lg.sweep(sys, (0.0, 1.0), {"θ": [0.1, 0.7], "g": [1.0, 9.0]}, "taylor", y0=[0.0, 0.0], tol=1e-12, t_eval=times, client=client)
+    assert r.y.shape == (2, 2, 2, 4) and r.ok.all()
+    np.testing.assert_array_equal(r.t, times)
+    for i, θ0 in enumerate([0.1, 0.7]):
+        for j, g in enumerate([1.0, 9.0]):
+            ref = sys.with_params(g=g).integrate((0, 1), [θ0, 0.0], "taylor", tol=1e-12, t_eval=times)
+            np.testing.assert_array_equal(r.y[i, j], ref.y)
+    np.testing.assert_array_equal(r["θ"], r.y[..., 0, :])
+    ds = r.to_xarray()
+    assert ds["θ(t)"].dims == ("θ", "g", "t") and list(ds.coords["t"].values) == times
+    np.testing.assert_array_equal(ds["θ'(t)"].sel(θ=0.7, g=9.0).values, r.y[1, 1, 1])
+    # A grid of states, chunked unevenly: the same as the ensemble of those states.
+    states = np.array([[0.1, 0.0], [0.2, 0.1], [2.0, -0.1]])
+    flat = lg.sweep(sys, (0, 1), states, "taylor", tol=1e-12, t_eval=times, chunk_size=2, client=client)
+    ens = sys.ensemble((0, 1), states, "taylor", tol=1e-12, t_eval=times)
+    np.testing.assert_array_equal(flat.y, ens.y)
