@@ -363,6 +363,7 @@ impl System {
                         what: "holonomic constraints in the Taylor method (use the augmented system of compile_constrained with another method)",
                     });
                 }
+                self.refuse_velocity_constraints("the Taylor method").map_err(CompileError::Mechanics)?;
                 let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
                 let n = w.len();
                 let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();
