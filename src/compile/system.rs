@@ -122,7 +122,8 @@ impl System {
         let Some(l) = self.lagrangian() else {
             return Err(CompileError::Unsupported { what: "the Legendre map of a Hamiltonian system" });
         };
-        self.refuse_velocity_constraints("the implicit Legendre map (Hamilton's equations)").map_err(CompileError::Mechanics)?;
+        self.refuse_velocity_constraints("the implicit Legendre map (Hamilton's equations)")
+            .map_err(CompileError::Mechanics)?;
         let q = names(self.coordinates());
         self.with_param_refs(|params| ImplicitLegendreRhs::new(l, &strs(&q), params))
     }

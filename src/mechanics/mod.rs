@@ -63,8 +63,8 @@ pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};
 #[cfg(feature = "frontends")]
 pub(crate) use system::constant_constraint;
-pub use system::{Kind, System};
 pub(crate) use system::zero_out;
+pub use system::{Kind, System};
 pub use tidy::tidy;
 
 use crate::parse::ParseError;

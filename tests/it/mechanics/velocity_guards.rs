@@ -230,3 +230,24 @@ fn a_point_transformation_carries_the_velocity_constraints() {
         assert!((a - b).abs() < 1e-12 && b.abs() > 1e-3, "{new}: {a} against {old}: {b}");
     }
 }
+
+/// The command line's `--velocity-constraint` is on the system for every command: `hamilton`
+/// and `legendre` refuse it, and `conserved` no longer lists the momenta it breaks (they were
+/// printed as conserved for the unconstrained system).
+#[test]
+fn the_command_line_keeps_or_refuses_velocity_constraints_on_every_command() {
+    let base = ["--coords", "x,y", "--velocity-constraint", "x' = y"];
+    for cmd in [&["hamilton", "1/2 x'^2 + 1/2 y'^2", "--lagrangian"][..], &["legendre", "1/2 x'^2 + 1/2 y'^2"][..]] {
+        let args: Vec<&str> = cmd.iter().chain(&base).copied().collect();
+        let (code, out, err) = crate::support::run(&args);
+        assert_eq!((code, out.as_str()), (2, ""), "{args:?}: {err}");
+        assert!(err.contains("nonholonomic") && err.contains("lagrange_dalembert"), "{args:?}: {err}");
+    }
+    let args: Vec<&str> = ["conserved", "1/2 x'^2 + 1/2 y'^2"].iter().chain(&base).copied().collect();
+    let (code, out, err) = crate::support::run(&args);
+    assert_eq!(code, 0, "{err}");
+    // Its force μ1 acts on x alone, and b = −y does work: p_y stays, p_x and h do not.
+    assert!(out.lines().any(|l| l.starts_with("p_y = y'   (y is ignorable")), "{out}");
+    assert!(out.lines().any(|l| l.starts_with("p_x = x'   (not conserved: dp_x/dt = μ1")), "{out}");
+    assert!(!out.lines().any(|l| l.starts_with("h = ") && !l.contains("not conserved")), "{out}");
+}

@@ -455,7 +455,10 @@ fn ecliptic() {
     assert!(c["t"].len() > 100 && (c["t"].last().unwrap() - 20.0).abs() < 1e-12);
     for i in 0..c["t"].len() {
         let t = c["t"][i];
-        assert!((c["x"][i] - t.sin()).abs() < 1e-9 && (c["y"][i] - (3.0 - t.cos())).abs() < 1e-9, "off the circle at t = {t}");
+        assert!(
+            (c["x"][i] - t.sin()).abs() < 1e-9 && (c["y"][i] - (3.0 - t.cos())).abs() < 1e-9,
+            "off the circle at t = {t}"
+        );
         assert!(c["z"][i].abs() < 1e-14 && c["z'"][i].abs() < 1e-14, "z = {} at t = {t}", c["z"][i]);
         assert!((c["μ1"][i] * c["y"][i] - 0.5).abs() < 1e-9, "μ1 y = {} at t = {t}", c["μ1"][i] * c["y"][i]);
         assert!(c["residual1"][i].abs() < 1e-14);
