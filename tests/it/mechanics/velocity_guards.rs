@@ -54,10 +54,6 @@ fn coin() -> System {
     s
 }
 
-fn ev(e: &Expr) -> f64 {
-    eval_with(e, &value).unwrap_or_else(|err| panic!("{e}: {err}"))
-}
-
 fn refused<T: std::fmt::Debug>(what: &str, r: Result<T, MechanicsError>) {
     match r {
         Err(e @ MechanicsError::DropsVelocityConstraints { .. }) => {

@@ -449,6 +449,7 @@ fn rolling_coin() {
 /// problem, x = sin t, y = 3 − cos t (the closed form of the reduced coordinates x, y: radius 1,
 /// speed 1 = sqrt(k/(m r))), and the multiplier balances the field, μ1 y = m g = 0.5 (by hand).
 #[test]
+#[allow(clippy::needless_range_loop)] // one row of several columns per step
 fn ecliptic() {
     let r = run("ecliptic");
     let c = r.csv("ecliptic.csv");
