@@ -173,7 +173,7 @@ pub enum MechanicsError {
     /// its result would be that of the unconstrained system. Such constraints are not
     /// variational (no Hamiltonian, no phase-space form, no discrete or averaged Lagrangian
     /// carries them), so the error names the routes that do keep them.
-    #[error("error: {what} would leave out the velocity (nonholonomic) constraint{plural} {constraints} and give the unconstrained result; what keeps them: the Lagrange–d'Alembert equations with multipliers μ (`equations`, `lagrange_dalembert`, `el`), the accelerations with μ eliminated, `conserved`, and a simulation with a classical method (rk45, dop853, …), which holds the run on the constraints")]
+    #[error("error: {what} would leave out the velocity (nonholonomic) constraint{plural} {constraints} and give the unconstrained result; what keeps them: the Lagrange–d'Alembert equations with multipliers μ (`equations`, `lagrange_dalembert`, `el`), the accelerations with μ eliminated, `conserved`, and a simulation with a classical method (dop853, rk4, gauss6, …), which holds the run on the constraints")]
     DropsVelocityConstraints {
         /// The derivation refused (`the Hamiltonian`, `the Taylor method`).
         what: &'static str,
