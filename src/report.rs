@@ -191,7 +191,7 @@ pub fn mass_matrix_split(s: &System) -> Result<Vec<Line>, MechanicsError> {
 /// The constraints as the augmented system uses them: `Φ[j,q] = ∂f_j/∂q` and the right side
 /// `c_j` of `Φ q'' = c` (the constraint differentiated twice); empty without constraints.
 pub fn constraints(s: &System) -> Result<Vec<Line>, MechanicsError> {
-    if s.constraints().is_empty() {
+    if s.constraints().is_empty() && s.velocity_constraints().is_empty() {
         return Ok(Vec::new());
     }
     let c = s.constrained_equations()?;
@@ -208,11 +208,11 @@ pub fn constraints(s: &System) -> Result<Vec<Line>, MechanicsError> {
 /// `q'' = …` per coordinate; with constraints the constrained accelerations and then each
 /// multiplier `λ_j = …`, `λ` eliminated with the twice-differentiated constraints.
 pub fn accelerations(s: &System) -> Result<Vec<Line>, MechanicsError> {
-    let (acc, lambdas) =
-        if s.constraints().is_empty() { (s.accelerations()?, Vec::new()) } else { s.constrained_accelerations()? };
+    let constrained = !s.constraints().is_empty() || !s.velocity_constraints().is_empty();
+    let (acc, lambdas) = if constrained { s.constrained_accelerations()? } else { (s.accelerations()?, Vec::new()) };
     let mut lines: Vec<Line> =
         s.coordinates().iter().zip(acc).map(|(q, a)| Line::new(Expr::sym(q.with_primes(2)), a)).collect();
-    lines.extend(s.multipliers().into_iter().zip(lambdas).map(|(l, v)| Line::new(Expr::sym(l), v)));
+    lines.extend(s.constraint_multipliers().into_iter().zip(lambdas).map(|(l, v)| Line::new(Expr::sym(l), v)));
     Ok(lines)
 }
 
@@ -277,6 +277,7 @@ pub fn conserved(s: &System) -> Vec<Line> {
     let drive: Vec<Expr> = drive.iter().map(|x| tidy(&x.subs(&to_momenta))).collect();
     let coords = s.coordinates();
     let lambdas = s.multipliers();
+    let mus = s.velocity_multipliers(s.velocity_constraints().len());
     // What breaks the law of coordinate i (or, for `None`, the energy).
     let culprits = |i: Option<usize>, d: &mut Differentiator| -> Vec<String> {
         let mut who = Vec::new();
@@ -301,6 +302,16 @@ pub fn conserved(s: &System) -> Vec<Line> {
             };
             if acts {
                 who.push(format!("constraint {} (multiplier {})", j + 1, lambdas[j].name()));
+            }
+        }
+        for (j, g) in s.velocity_constraints().iter().enumerate() {
+            // Its force μ a does work −μ b on the motion (a·q' = −b there).
+            let acts = match i {
+                Some(k) => !tidy(&d.diff(g, &s.velocities()[k])).is_zero(),
+                None => !tidy(&crate::mechanics::zero_out(g, s.velocities())).is_zero(),
+            };
+            if acts {
+                who.push(format!("velocity constraint {} (multiplier {})", j + 1, mus[j].name()));
             }
         }
         who
@@ -345,6 +356,11 @@ pub fn conserved(s: &System) -> Vec<Line> {
         }
         for (f, lam) in s.constraints().iter().zip(&lambdas) {
             terms.push(Expr::sym(lam.clone()).times(&d2.diff(f, &t)).neg());
+        }
+        // Σ_i q'_i μ a_i = −μ b on a velocity constraint a·q' + b = 0.
+        for (g, mu) in s.velocity_constraints().iter().zip(&mus) {
+            let b = crate::mechanics::zero_out(g, s.velocities());
+            terms.push(Expr::sym(mu.clone()).times(&b).neg());
         }
         let rate = tidy(&Expr::add(terms));
         if !rate.is_zero() {

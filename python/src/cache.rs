@@ -125,6 +125,8 @@ pub fn hamiltonian(sys: &System) -> Result<Expr, MechanicsError> {
         Kind::Hamiltonian(h) => return Ok(h.clone()),
         Kind::Lagrangian(l) => l,
     };
+    // The cache is keyed by L alone: the refusal must come before a hit for the same L.
+    sys.refuse_velocity_constraints("the Hamiltonian (and everything derived from H)")?;
     let v = cached(sys, Step::Legendre, "python: H", std::slice::from_ref(l), || sys.hamiltonian().map(|h| vec![h]))?;
     match v.into_iter().next() {
         Some(h) => Ok(h),

@@ -30,8 +30,8 @@ pub enum CompiledKey {
 pub type CompiledCache = Arc<Mutex<HashMap<CompiledKey, Arc<Compiled>>>>;
 
 /// A mechanical system given by a Lagrangian ``L(q, q', t)`` or a Hamiltonian
-/// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation and
-/// holonomic constraints.
+/// ``H(q, p_q, t)``, with parameter values and optional forces, Rayleigh dissipation,
+/// holonomic constraints and velocity (nonholonomic) constraints.
 ///
 /// Coordinates are named (``["θ1", "θ2"]``); their velocities are ``θ1'`` and their momenta
 /// ``p_θ1``. Every other free symbol except ``t`` is a parameter. Derivations return exact
@@ -103,6 +103,7 @@ impl PySystem {
             forces,
             rayleigh: sys.rayleigh().map(|r| render(r, Format::Plain)),
             constraints: sys.constraints().iter().map(|c| render(c, Format::Plain)).collect(),
+            velocity_constraints: sys.velocity_constraints().iter().map(|g| render(g, Format::Plain)).collect(),
         }
     }
 }
@@ -119,6 +120,7 @@ pub struct Spec {
     pub forces: Vec<(String, String)>,
     pub rayleigh: Option<String>,
     pub constraints: Vec<String>,
+    pub velocity_constraints: Vec<String>,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -132,6 +134,7 @@ fn build(
     forces: Option<&Bound<'_, PyDict>>,
     rayleigh: Option<String>,
     constraints: Option<Vec<String>>,
+    velocity_constraints: Option<Vec<String>>,
 ) -> PyResult<PySystem> {
     let decls = declarations(positive, functions);
     let cs: Vec<&str> = coords.iter().map(String::as_str).collect();
@@ -153,6 +156,9 @@ fn build(
     }
     for c in constraints.unwrap_or_default() {
         sys = sys.with_constraint(&c).py()?;
+    }
+    for g in velocity_constraints.unwrap_or_default() {
+        sys = sys.with_velocity_constraint(&g).py()?;
     }
     if hamiltonian {
         sys.check_momenta().map_err(|e| match e {
@@ -201,10 +207,11 @@ impl PySystem {
     /// A Lagrangian system. ``params`` gives parameter values (needed to compile),
     /// ``positive`` names positive symbols, ``functions`` undefined functions (``V`` for
     /// ``V(r)``), ``forces`` generalized forces by coordinate (``{"x": "-c x'"}``),
-    /// ``rayleigh`` a dissipation function and ``constraints`` holonomic constraints
-    /// (``"x^2 + y^2 = l^2"``).
+    /// ``rayleigh`` a dissipation function, ``constraints`` holonomic constraints
+    /// (``"x^2 + y^2 = l^2"``) and ``velocity_constraints`` nonholonomic ones, linear in the
+    /// velocities (``"x' = R φ' cos(θ)"``; see :meth:`with_velocity_constraint`).
     #[staticmethod]
-    #[pyo3(signature = (text, coords, *, params=None, positive=None, functions=None, forces=None, rayleigh=None, constraints=None))]
+    #[pyo3(signature = (text, coords, *, params=None, positive=None, functions=None, forces=None, rayleigh=None, constraints=None, velocity_constraints=None))]
     #[allow(clippy::too_many_arguments)]
     fn from_lagrangian(
         text: &str,
@@ -215,8 +222,9 @@ impl PySystem {
         forces: Option<&Bound<'_, PyDict>>,
         rayleigh: Option<String>,
         constraints: Option<Vec<String>>,
+        velocity_constraints: Option<Vec<String>>,
     ) -> PyResult<PySystem> {
-        build(false, text, coords, params, positive, functions, forces, rayleigh, constraints)
+        build(false, text, coords, params, positive, functions, forces, rayleigh, constraints, velocity_constraints)
     }
 
     /// A Hamiltonian system: ``H`` in the coordinates, the momenta ``p_q`` and ``t``.
@@ -229,7 +237,7 @@ impl PySystem {
         positive: Option<Vec<String>>,
         functions: Option<Vec<String>>,
     ) -> PyResult<PySystem> {
-        build(true, text, coords, params, positive, functions, None, None, None)
+        build(true, text, coords, params, positive, functions, None, None, None, None)
     }
 
     fn __repr__(&self) -> String {
@@ -309,6 +317,7 @@ impl PySystem {
             d.set_item("forces", f)?;
             d.set_item("rayleigh", s.rayleigh)?;
             d.set_item("constraints", s.constraints)?;
+            d.set_item("velocity_constraints", s.velocity_constraints)?;
         }
         Ok(d)
     }
@@ -348,6 +357,20 @@ impl PySystem {
         Ok(PySystem::wrap(self.sys.clone().with_constraint(text).py()?))
     }
 
+    /// A copy with a velocity (nonholonomic) constraint ``a(q, t)·q' + b(q, t) = 0``, linear in
+    /// the velocities (``"x' = R φ' cos(θ)"``; ``"f = g"`` means ``f − g``): a disc rolling
+    /// without slipping, a knife edge. Its force ``μ ∂g/∂q'`` enters :meth:`equations` (the
+    /// Lagrange–d'Alembert equations, multipliers ``μ1, μ2, …``), :meth:`accelerations`,
+    /// :meth:`constrained_equations` and ``report("el")``; :meth:`integrate` with a classical
+    /// method holds the run on it (a start must satisfy it) and :meth:`conserved` respects it.
+    /// What has no place for it (the Hamiltonian and everything built on ``H``: ``hamilton``,
+    /// ``legendre``, brackets with ``H``, chaos indicators, Taylor and symplectic methods;
+    /// ``series``, ``average``) raises :class:`MechanicsError` naming what keeps it. A
+    /// constraint without a velocity, or not linear in them, is refused.
+    fn with_velocity_constraint(&self, text: &str) -> PyResult<PySystem> {
+        Ok(PySystem::wrap(self.sys.clone().with_velocity_constraint(text).py()?))
+    }
+
     /// The Euler–Lagrange expressions ``E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i`` (each ``= 0``;
     /// accelerations appear as ``q''``).
     fn euler_lagrange(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
@@ -356,7 +379,8 @@ impl PySystem {
     }
 
     /// The full equations of motion, each ``= 0``: Euler–Lagrange with forces, dissipation
-    /// and constraint multipliers.
+    /// and constraint multipliers (``λ`` of holonomic constraints, ``μ`` of velocity ones:
+    /// the Lagrange–d'Alembert equations).
     fn equations(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
         let sys = &self.sys;
         Ok(self.exs(py.allow_threads(|| sys.equations()).py()?))
@@ -369,7 +393,8 @@ impl PySystem {
         Ok((matrix(w, self.decls()), self.exs(f)))
     }
 
-    /// The accelerations ``q'' = W⁻¹ F`` in closed form (up to four coupled coordinates).
+    /// The accelerations ``q'' = W⁻¹ F`` in closed form (up to four coupled coordinates, or
+    /// four unknowns with the constraint multipliers, which are eliminated).
     fn accelerations(&self, py: Python<'_>) -> PyResult<Vec<PyExpr>> {
         let sys = &self.sys;
         Ok(self.exs(py.allow_threads(|| sys.accelerations()).py()?))
@@ -416,6 +441,7 @@ impl PySystem {
                 "series expands a Lagrangian about a point; this system is Hamiltonian (use lagrangian.series on H with the small names)",
             ));
         };
+        self.sys.refuse_velocity_constraints("a series of L (the small-oscillation Lagrangian)").py()?;
         let coords = self.sys.coordinates();
         let about: Vec<Expr> = match about {
             None => vec![Expr::zero(); coords.len()],
@@ -679,6 +705,7 @@ impl PySystem {
         let Some(l) = self.sys.lagrangian() else {
             return Err(exc::MechanicsError::new_err("error: averaging needs a Lagrangian system"));
         };
+        self.sys.refuse_velocity_constraints("an averaged Lagrangian").py()?;
         let decls = self.decls().clone();
         let mut ts = Vec::new();
         for (k, v) in trials.iter() {

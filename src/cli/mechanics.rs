@@ -156,6 +156,11 @@ fn build(text: &str, args: &SystemArgs, hamiltonian: bool) -> Result<System, Fai
     for c in &args.constraint {
         s = s.with_constraint(c).map_err(fail)?;
     }
+    // On the system, so that every command either includes them or refuses (hamilton, conserved
+    // and legendre used to answer for the unconstrained system).
+    for g in &args.velocity_constraint {
+        s = s.with_velocity_constraint(g).map_err(fail)?;
+    }
     Ok(s)
 }
 
@@ -344,20 +349,7 @@ pub fn run(cmd: MechanicsCommand) -> Result<(), Failure> {
                 out.json.insert("constraints".into(), Value::Array(rows));
             }
             if !system.velocity_constraint.is_empty() {
-                let gs = system
-                    .velocity_constraint
-                    .iter()
-                    .map(|c| {
-                        let (lhs, rhs) = c.split_once('=').map_or((c.as_str(), None), |(a, b)| (a, Some(b)));
-                        let e = lagrangian::parse::parse_with(lhs, s.declarations())?;
-                        match rhs {
-                            Some(r) => Ok(e.minus(&lagrangian::parse::parse_with(r, s.declarations())?)),
-                            None => Ok(e),
-                        }
-                    })
-                    .collect::<Result<Vec<Expr>, lagrangian::parse::ParseError>>()
-                    .map_err(|e| fail(e.into()))?;
-                let c = s.lagrange_dalembert(&gs).map_err(fail)?;
+                let c = s.lagrange_dalembert(&[]).map_err(fail)?;
                 let f = system.common.format.expr_format();
                 for (q, e) in s.coordinates().iter().zip(&c.equations) {
                     out.lines.push(format!("Lagrange–d'Alembert {}: {} = 0", symbol(q, f), render(e, f)));

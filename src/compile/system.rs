@@ -47,6 +47,11 @@ impl System {
                 what: "holonomic constraints as W q'' = F (use compile_constrained for the augmented system)",
             });
         }
+        if !self.velocity_constraints().is_empty() {
+            return Err(CompileError::Unsupported {
+                what: "velocity constraints as W q'' = F (use compile_constrained for the Lagrange–d'Alembert system)",
+            });
+        }
         if let Kind::Hamiltonian(_) = self.kind() {
             return Err(CompileError::Unsupported {
                 what: "a Hamiltonian system as W q'' = F (use compile_hamiltonian)",
@@ -58,7 +63,9 @@ impl System {
     }
 
     /// The augmented system `[W Φᵀ; Φ 0][q''; −λ] = [F; c]` of a Lagrangian system with
-    /// holonomic constraints ([`System::with_constraint`]), forces and dissipation included,
+    /// holonomic constraints ([`System::with_constraint`]) and velocity constraints
+    /// ([`System::with_velocity_constraint`], their rows after the holonomic ones), forces and
+    /// dissipation included,
     /// parameters bound; state `(q, q')`. With [`Stabilization::Projection`] integrate it with
     /// [`super::Projected`] around the method, so each step ends on the constraint manifold.
     ///
@@ -80,7 +87,17 @@ impl System {
             return Err(CompileError::Unsupported { what: "constraints on a Hamiltonian system" });
         }
         let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
-        self.with_param_refs(|p| ConstrainedRhs::new(&w, &f, self.constraints(), self.coordinates(), p, stabilization))
+        self.with_param_refs(|p| {
+            ConstrainedRhs::with_velocity_constraints(
+                &w,
+                &f,
+                self.constraints(),
+                self.velocity_constraints(),
+                self.coordinates(),
+                p,
+                stabilization,
+            )
+        })
     }
 
     /// Hamilton's equations (with their exact Jacobian) of the system's Hamiltonian (derived by
@@ -105,6 +122,8 @@ impl System {
         let Some(l) = self.lagrangian() else {
             return Err(CompileError::Unsupported { what: "the Legendre map of a Hamiltonian system" });
         };
+        self.refuse_velocity_constraints("the implicit Legendre map (Hamilton's equations)")
+            .map_err(CompileError::Mechanics)?;
         let q = names(self.coordinates());
         self.with_param_refs(|params| ImplicitLegendreRhs::new(l, &strs(&q), params))
     }

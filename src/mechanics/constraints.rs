@@ -21,9 +21,11 @@ pub struct ConstrainedEquations {
     pub w: Vec<Vec<Expr>>,
     /// The forcing `F`.
     pub f: Vec<Expr>,
-    /// `Φ_ji = ∂f_j/∂q_i` (one row per constraint).
+    /// `Φ_ji = ∂f_j/∂q_i` (one row per holonomic constraint), then `a_ji = ∂g_j/∂q_i'` (one
+    /// row per velocity constraint).
     pub phi: Vec<Vec<Expr>>,
-    /// `c_j = −(d²f_j/dt² − Σ_i Φ_ji q_i'')`: the right side of `Φ q'' = c`.
+    /// `c_j = −(d²f_j/dt² − Σ_i Φ_ji q_i'')` (or `−(dg_j/dt − Σ_i a_ji q_i'')`): the right side
+    /// of `Φ q'' = c`.
     pub c: Vec<Expr>,
 }
 
@@ -33,7 +35,17 @@ impl System {
         (1..=self.constraints.len()).map(|j| Symbol::new(&format!("λ{j}"))).collect()
     }
 
-    /// The augmented equations of motion with one multiplier per holonomic constraint.
+    /// Every multiplier of the augmented system: `λ1, λ2, …` of the holonomic constraints,
+    /// then `μ1, μ2, …` of the velocity constraints.
+    pub fn constraint_multipliers(&self) -> Vec<Symbol> {
+        let mut all = self.multipliers();
+        all.extend(self.velocity_multipliers(self.velocity_constraints.len()));
+        all
+    }
+
+    /// The augmented equations of motion with one multiplier per holonomic constraint (`λ`,
+    /// its row `∂f/∂q` and `c` from `d²f/dt² = 0`) and then one per velocity constraint (`μ`,
+    /// its row `∂g/∂q'` and `c` from `dg/dt = 0`, as in [`System::lagrange_dalembert`]).
     pub fn constrained_equations(&self) -> Result<ConstrainedEquations, MechanicsError> {
         let equations = self.equations()?;
         let (w, f) = self.mass_matrix_split()?;
@@ -50,7 +62,10 @@ impl System {
             c.push(tidy(&Expr::add(lhs).minus(&d2)));
             phi.push(row);
         }
-        Ok(ConstrainedEquations { multipliers: self.multipliers(), equations, w, f, phi, c })
+        let (vphi, vc) = self.velocity_constraint_rows()?;
+        phi.extend(vphi);
+        c.extend(vc);
+        Ok(ConstrainedEquations { multipliers: self.constraint_multipliers(), equations, w, f, phi, c })
     }
 
     /// The accelerations `q''` and the multipliers `λ` of a constrained system, in closed

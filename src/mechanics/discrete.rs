@@ -110,6 +110,7 @@ impl System {
     /// exact number), with its slot derivatives.
     pub fn discretize(&self, rule: Rule, h: &Expr) -> Result<Discrete, MechanicsError> {
         let l = self.need_lagrangian("discretize")?;
+        self.refuse_velocity_constraints("a discrete Lagrangian (variational integrator)")?;
         if !self.constraints.is_empty() || self.rayleigh.is_some() || self.forces.iter().any(|f| !f.is_zero()) {
             return Err(MechanicsError::WrongKind(
                 "discretize takes a Lagrangian alone (no forces, dissipation or constraints)".into(),

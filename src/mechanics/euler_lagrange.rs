@@ -32,13 +32,15 @@ impl System {
             .collect())
     }
 
-    /// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i` (the
-    /// forces (2.12), the Rayleigh dissipation, the constraint forces with multipliers `λ1, λ2,
-    /// …` (1.25–1.29)), in `q, q', t` and the multipliers; zero for a closed system. The
-    /// equations of motion are `E_i = ` this.
+    /// What drives each coordinate besides `L`: `Q_i − ∂R/∂q'_i + Σ_j λ_j ∂f_j/∂q_i +
+    /// Σ_k μ_k ∂g_k/∂q'_i` (the forces (2.12), the Rayleigh dissipation, the constraint forces
+    /// with multipliers `λ1, λ2, …` (1.25–1.29), and those of the velocity constraints with
+    /// multipliers `μ1, μ2, …` (Lagrange–d'Alembert, §1.5)), in `q, q', t` and the
+    /// multipliers; zero for a closed system. The equations of motion are `E_i = ` this.
     pub fn driving_forces(&self) -> Vec<Expr> {
         let mut d = Differentiator::new();
         let lambdas = self.multipliers();
+        let mus = self.velocity_multipliers(self.velocity_constraints.len());
         (0..self.coords.len())
             .map(|i| {
                 let mut terms = vec![self.forces[i].clone()];
@@ -48,20 +50,32 @@ impl System {
                 for (f, lam) in self.constraints.iter().zip(&lambdas) {
                     terms.push(Expr::sym(lam.clone()).times(&d.diff(f, &self.coords[i])));
                 }
+                for (g, mu) in self.velocity_constraints.iter().zip(&mus) {
+                    terms.push(Expr::sym(mu.clone()).times(&d.diff(g, &self.velocities[i])));
+                }
                 tidy(&Expr::add(terms))
             })
             .collect()
     }
 
-    /// Whether forces, a Rayleigh function or constraints are declared.
+    /// Whether forces, a Rayleigh function or constraints (of either kind) are declared.
     pub fn has_driving_forces(&self) -> bool {
-        self.forces.iter().any(|f| !f.is_zero()) || self.rayleigh.is_some() || !self.constraints.is_empty()
+        self.forces.iter().any(|f| !f.is_zero())
+            || self.rayleigh.is_some()
+            || !self.constraints.is_empty()
+            || !self.velocity_constraints.is_empty()
     }
 
     /// The full left-hand sides of the equations of motion, each `= 0`:
-    /// `E_i − Q_i + ∂R/∂q'_i − Σ_j λ_j ∂f_j/∂q_i` (forces (2.12), Rayleigh dissipation,
-    /// constraint multipliers `λ1, λ2, …` (1.25–1.29)).
+    /// `E_i − Q_i + ∂R/∂q'_i − Σ_j λ_j ∂f_j/∂q_i − Σ_k μ_k ∂g_k/∂q'_i` (forces (2.12), Rayleigh
+    /// dissipation, constraint multipliers `λ1, λ2, …` (1.25–1.29), and with velocity
+    /// constraints `g_k = 0` the Lagrange–d'Alembert multipliers `μ1, μ2, …`): with either kind
+    /// of constraint these are the equations of the constrained motion, which the constraints
+    /// themselves complete.
     pub fn equations(&self) -> Result<Vec<Expr>, MechanicsError> {
+        if !self.velocity_constraints.is_empty() {
+            return Ok(self.lagrange_dalembert(&[])?.equations);
+        }
         let el = self.euler_lagrange()?;
         let mut d = Differentiator::new();
         let lambdas = self.multipliers();
@@ -246,11 +260,11 @@ impl System {
     /// The accelerations `q'' = W⁻¹ F` in closed form: directly when `W` is diagonal, through
     /// the fraction-free adjugate `adj(W) F / det(W)` for up to four coupled coordinates.
     /// A singular `W` is an error naming the velocity or the null direction (Remark 3.1).
-    /// With holonomic constraints these are the constrained accelerations, the multipliers
-    /// eliminated ([`System::constrained_accelerations`]): `W⁻¹ F` alone would ignore the
-    /// constraint forces.
+    /// With constraints (holonomic or velocity ones) these are the constrained accelerations,
+    /// the multipliers eliminated ([`System::constrained_accelerations`]): `W⁻¹ F` alone would
+    /// ignore the constraint forces.
     pub fn accelerations(&self) -> Result<Vec<Expr>, MechanicsError> {
-        if !self.constraints.is_empty() {
+        if !self.constraints.is_empty() || !self.velocity_constraints.is_empty() {
             return self.constrained_accelerations().map(|(acc, _)| acc);
         }
         let (w, f) = self.mass_matrix_split()?;

@@ -48,6 +48,7 @@ impl System {
     /// linear in the velocities) is refused, naming that velocity.
     pub fn first_order(&self) -> Result<FirstOrder, MechanicsError> {
         let l = self.need_lagrangian("the first-order (phase-space) form")?;
+        self.refuse_velocity_constraints("the first-order (phase-space) form")?;
         let mut d = Differentiator::new();
         let mut a = Vec::with_capacity(self.coords.len());
         for v in &self.velocities {

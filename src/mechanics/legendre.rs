@@ -31,21 +31,30 @@ impl System {
     }
 
     /// The Legendre transform: the Hamiltonian system `H(q, p, t) = p·q' − L` (3.10) with the
-    /// same coordinates and parameters. A Hamiltonian system is returned unchanged.
+    /// same coordinates and parameters. A Hamiltonian system is returned unchanged. Velocity
+    /// constraints are refused: no Hamiltonian system carries them, and the transform alone
+    /// would be the unconstrained system.
     pub fn legendre(&self) -> Result<System, MechanicsError> {
         let l = match &self.kind {
             Kind::Hamiltonian(_) => return Ok(self.clone()),
             Kind::Lagrangian(l) => l,
         };
+        self.refuse_velocity_constraints("the Legendre transform (a Hamiltonian system)")?;
         let h = transform(l, &self.velocities, &self.momenta, "L")?;
         Ok(self.with_kind(Kind::Hamiltonian(h)))
     }
 
-    /// The Hamiltonian: the system's own, or the Legendre transform of its Lagrangian.
+    /// The Hamiltonian: the system's own, or the Legendre transform of its Lagrangian. With
+    /// velocity constraints it is refused, and with it everything built on `H` (Hamilton's
+    /// equations, brackets with `H`, Lie flows, chaos indicators, the canonical compiled
+    /// systems): their flow would be the unconstrained one.
     pub fn hamiltonian(&self) -> Result<Expr, MechanicsError> {
         match &self.kind {
             Kind::Hamiltonian(h) => Ok(h.clone()),
-            Kind::Lagrangian(l) => transform(l, &self.velocities, &self.momenta, "L"),
+            Kind::Lagrangian(l) => {
+                self.refuse_velocity_constraints("the Hamiltonian (and everything derived from H)")?;
+                transform(l, &self.velocities, &self.momenta, "L")
+            }
         }
     }
 

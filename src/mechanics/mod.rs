@@ -63,6 +63,7 @@ pub use ritz::{ritz_quadrature_points, Ritz, RitzSolution};
 pub use series::{jacobian, series, series_about, series_terms, SeriesError, MAX_SERIES_ORDER};
 #[cfg(feature = "frontends")]
 pub(crate) use system::constant_constraint;
+pub(crate) use system::zero_out;
 pub use system::{Kind, System};
 pub use tidy::tidy;
 
@@ -168,6 +169,19 @@ pub enum MechanicsError {
     /// the inertia nor a constraint fixes).
     #[error("error: the constrained system is singular: [W −Φᵀ; Φ 0] has the null direction {direction} (are two constraints the same, or does a coordinate have neither inertia nor a constraint?)")]
     SingularConstraints { direction: String },
+    /// A derivation that has no place for the system's velocity (nonholonomic) constraints:
+    /// its result would be that of the unconstrained system. Such constraints are not
+    /// variational (no Hamiltonian, no phase-space form, no discrete or averaged Lagrangian
+    /// carries them), so the error names the routes that do keep them.
+    #[error("error: {what} would leave out the velocity (nonholonomic) constraint{plural} {constraints} and give the unconstrained result; what keeps them: the Lagrange–d'Alembert equations with multipliers μ (`equations`, `lagrange_dalembert`, `el`), the accelerations with μ eliminated, `conserved`, and a simulation with a classical method (dop853, rk4, gauss6, …), which holds the run on the constraints")]
+    DropsVelocityConstraints {
+        /// The derivation refused (`the Hamiltonian`, `the Taylor method`).
+        what: &'static str,
+        /// The constraints, printed `g1 = 0, g2 = 0`.
+        constraints: String,
+        /// `s` for more than one constraint.
+        plural: &'static str,
+    },
     /// The system is too large for a closed-form symbolic inverse.
     #[error("error: {n} coupled velocities: a closed-form inverse is not formed for more than {limit} coupled ones (its size grows like n!); `el` without `--accelerations` prints W q'' = F unsolved, and a simulation (a scene's `simulate`, Python's `System.integrate`) solves it numerically at every step")]
     TooLarge { n: usize, limit: usize },

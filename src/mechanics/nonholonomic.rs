@@ -50,25 +50,22 @@ impl System {
     }
 
     /// The Lagrange–d'Alembert equations of `L` (with its forces, dissipation and holonomic
-    /// constraints) under the velocity constraints `g_j = 0`, each linear in the velocities.
-    /// In the result `phi` holds the rows `a_ji = ∂g_j/∂q_i'` and `c` the right sides of
-    /// `Σ_i a_ji q_i'' = c_j` (`dg_j/dt = 0`). A constraint that is not linear in the velocities,
-    /// or has none, is refused naming what would work.
-    pub fn lagrange_dalembert(&self, velocity_constraints: &[Expr]) -> Result<ConstrainedEquations, MechanicsError> {
-        let base = self.equations()?;
-        let (w, f) = self.mass_matrix_split()?;
-        let names = self.coord_names();
-        let acc = self.accelerations_symbols();
-        let mus = self.velocity_multipliers(velocity_constraints.len());
-        let mut d = Differentiator::new();
-        let (mut phi, mut c) = (Vec::new(), Vec::new());
-        for g in velocity_constraints {
-            let row = self.velocity_constraint_row(g)?;
-            let dg = d.dt(g, &names);
-            let lhs: Vec<Expr> = row.iter().zip(&acc).map(|(a, s)| a.times(&Expr::sym(s.clone()))).collect();
-            c.push(tidy(&Expr::add(lhs).minus(&dg)));
-            phi.push(row);
+    /// constraints) under the system's own velocity constraints followed by `extra` ones
+    /// `g_j = 0`, each linear in the velocities. In the result `phi` holds the rows
+    /// `a_ji = ∂g_j/∂q_i'` and `c` the right sides of `Σ_i a_ji q_i'' = c_j` (`dg_j/dt = 0`),
+    /// one per velocity constraint, multipliers `μ1, μ2, …` in that order. A constraint that is
+    /// not linear in the velocities, or has none, is refused naming what would work.
+    pub fn lagrange_dalembert(&self, extra: &[Expr]) -> Result<ConstrainedEquations, MechanicsError> {
+        let mut all = self.clone();
+        for g in extra {
+            all = all.with_velocity_constraint_expr(g.clone())?;
         }
+        let mut bare = all.clone();
+        bare.velocity_constraints.clear();
+        let base = bare.equations()?;
+        let (w, f) = all.mass_matrix_split()?;
+        let (phi, c) = all.velocity_constraint_rows()?;
+        let mus = all.velocity_multipliers(phi.len());
         let equations = base
             .into_iter()
             .enumerate()
@@ -81,5 +78,22 @@ impl System {
             })
             .collect();
         Ok(ConstrainedEquations { multipliers: mus, equations, w, f, phi, c })
+    }
+
+    /// The rows `a_j = ∂g_j/∂q'` of the system's velocity constraints and the right sides
+    /// `c_j = Σ_i a_ji q_i'' − dg_j/dt` of their derivatives `Σ_i a_ji q_i'' = c_j`.
+    pub(crate) fn velocity_constraint_rows(&self) -> Result<(Vec<Vec<Expr>>, Vec<Expr>), MechanicsError> {
+        let names = self.coord_names();
+        let acc = self.accelerations_symbols();
+        let mut d = Differentiator::new();
+        let (mut phi, mut c) = (Vec::new(), Vec::new());
+        for g in &self.velocity_constraints {
+            let row = self.velocity_constraint_row(g)?;
+            let dg = d.dt(g, &names);
+            let lhs: Vec<Expr> = row.iter().zip(&acc).map(|(a, s)| a.times(&Expr::sym(s.clone()))).collect();
+            c.push(tidy(&Expr::add(lhs).minus(&dg)));
+            phi.push(row);
+        }
+        Ok((phi, c))
     }
 }

@@ -87,6 +87,7 @@ impl System {
         (from, to): (&[Option<Expr>], &[Option<Expr>]),
     ) -> Result<Ritz, MechanicsError> {
         let l = self.need_lagrangian("ritz")?;
+        self.refuse_velocity_constraints("a Ritz solution (a stationary action)")?;
         let n = self.coords.len();
         if trial.len() != n || from.len() != n || to.len() != n {
             return Err(bad(format!(

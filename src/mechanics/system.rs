@@ -555,6 +555,24 @@ impl System {
         Ok(self)
     }
 
+    /// Refuses `what` when the system carries velocity constraints: every derivation that
+    /// has no place for them (the Hamiltonian and everything built on it, the phase-space
+    /// form, a discrete or averaged Lagrangian, a series of `L`) calls this first, so that it
+    /// never returns the unconstrained system's result in their presence. The error names the
+    /// routes that keep them.
+    pub fn refuse_velocity_constraints(&self, what: &'static str) -> Result<(), MechanicsError> {
+        if self.velocity_constraints.is_empty() {
+            return Ok(());
+        }
+        let shown: Vec<String> =
+            self.velocity_constraints.iter().map(|g| format!("{} = 0", crate::print::plain(g))).collect();
+        Err(MechanicsError::DropsVelocityConstraints {
+            what,
+            constraints: shown.join(", "),
+            plural: if shown.len() == 1 { "" } else { "s" },
+        })
+    }
+
     /// Whether the defining function depends on time explicitly.
     pub fn is_time_dependent(&self) -> bool {
         let e = match &self.kind {

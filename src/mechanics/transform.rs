@@ -13,8 +13,10 @@ use super::MechanicsError;
 impl System {
     /// The point transformation `q = Q(s, t)`: `map` gives each old coordinate as an expression
     /// in the new coordinates `new_coords` and `t` (`[("x", "r cos(φ)"), ("y", "r sin(φ)")]`).
-    /// The new Lagrangian is `L(Q(s,t), d/dt Q(s,t), t)`, tidied. Forces, dissipation and
-    /// constraints are not carried over.
+    /// The new Lagrangian is `L(Q(s,t), d/dt Q(s,t), t)`, tidied. Velocity constraints are
+    /// carried over the same way (`g(Q, dQ/dt, t)` is again linear in the new velocities):
+    /// dropping them would make the new system the unconstrained one. Forces, dissipation and
+    /// holonomic constraints are not carried over.
     pub fn transform(&self, map: &[(&str, &str)], new_coords: &[&str]) -> Result<System, MechanicsError> {
         let l = self.need_lagrangian("a point transformation")?;
         let new_names: BTreeSet<String> = new_coords.iter().map(|s| s.trim().to_string()).collect();
@@ -57,7 +59,10 @@ impl System {
         let new_l = tidy(&l.subs(&subs));
         let coords: Vec<&str> = new_coords.iter().map(|s| s.trim()).collect();
         let text = new_l.to_string();
-        let sys = System::from_lagrangian_with(&text, &coords, &decls)?;
+        let mut sys = System::from_lagrangian_with(&text, &coords, &decls)?;
+        for g in &self.velocity_constraints {
+            sys = sys.with_velocity_constraint_expr(tidy(&g.subs(&subs)))?;
+        }
         Ok(System {
             values: self.values.iter().filter(|(k, _)| sys.params.contains(k)).map(|(k, v)| (k.clone(), *v)).collect(),
             ..sys

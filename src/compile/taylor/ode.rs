@@ -383,6 +383,7 @@ impl System {
                         what: "holonomic constraints in compile_taylor (simulate::compile_system with MethodId::Taylor runs them, with projection onto the constraints)",
                     });
                 }
+                self.refuse_velocity_constraints("the Taylor method").map_err(CompileError::Mechanics)?;
                 let (w, f) = self.mass_matrix_split().map_err(CompileError::Mechanics)?;
                 let n = w.len();
                 let mut outputs: Vec<Expr> = w.iter().flatten().cloned().collect();

@@ -7,4 +7,5 @@ mod nonholonomic;
 mod properties;
 mod split_routes;
 mod symmetry_search;
+mod velocity_guards;
 mod worked;

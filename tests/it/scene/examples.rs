@@ -443,3 +443,26 @@ fn rolling_coin() {
     assert!((c["μ1"][0] - 1.760_528_029_587_700_2).abs() < 1e-10);
     r.svg("rolling_coin_path.svg");
 }
+
+/// The notes' ecliptic (§1.6.2) as `examples/ecliptic.scene`: held by the velocity constraint
+/// `y z' − z y' = 0` against the field out of the plane, the orbit is the circle of the planar
+/// problem, x = sin t, y = 3 − cos t (the closed form of the reduced coordinates x, y: radius 1,
+/// speed 1 = sqrt(k/(m r))), and the multiplier balances the field, μ1 y = m g = 0.5 (by hand).
+#[test]
+#[allow(clippy::needless_range_loop)] // one row of several columns per step
+fn ecliptic() {
+    let r = run("ecliptic");
+    let c = r.csv("ecliptic.csv");
+    assert!(c["t"].len() > 100 && (c["t"].last().unwrap() - 20.0).abs() < 1e-12);
+    for i in 0..c["t"].len() {
+        let t = c["t"][i];
+        assert!(
+            (c["x"][i] - t.sin()).abs() < 1e-9 && (c["y"][i] - (3.0 - t.cos())).abs() < 1e-9,
+            "off the circle at t = {t}"
+        );
+        assert!(c["z"][i].abs() < 1e-14 && c["z'"][i].abs() < 1e-14, "z = {} at t = {t}", c["z"][i]);
+        assert!((c["μ1"][i] * c["y"][i] - 0.5).abs() < 1e-9, "μ1 y = {} at t = {t}", c["μ1"][i] * c["y"][i]);
+        assert!(c["residual1"][i].abs() < 1e-14);
+    }
+    r.svg("ecliptic_path.svg");
+}
