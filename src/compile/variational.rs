@@ -120,7 +120,10 @@ impl Variational {
     /// flow of its `H`; only a system without them is [`Variational::is_hamiltonian`].
     /// Constraints are refused: their multipliers are not functions of `(q, p, t)` here.
     pub fn of_system(sys: &System, tangents: usize, megno: bool) -> Result<Variational, CompileError> {
-        if !sys.constraints().is_empty() || !sys.velocity_constraints().is_empty() {
+        // A velocity constraint gets the refusal that names the routes keeping it.
+        sys.refuse_velocity_constraints("the variational equations (chaos indicators, the flow's Jacobian)")
+            .map_err(CompileError::Mechanics)?;
+        if !sys.constraints().is_empty() {
             return Err(CompileError::Unsupported {
                 what: "the variational equations of a constrained system (the multipliers are not functions of (q, p, t)); write the system in coordinates that satisfy the constraints",
             });
