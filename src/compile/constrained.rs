@@ -107,6 +107,30 @@ fn velocity_constraint_parts(constraints: &[Expr], coords: &[Symbol]) -> (Vec<Ve
     (phi, c, vec![Expr::zero(); constraints.len()])
 }
 
+/// `Φ` (one row per constraint), `c` and `∂f/∂t`.
+type Parts = (Vec<Vec<Expr>>, Vec<Expr>, Vec<Expr>);
+
+/// The shape check of `W q'' = F`, then the holonomic constraints' parts followed by the
+/// velocity constraints': the rows of the augmented system, in order.
+fn all_parts(
+    w: &[Vec<Expr>],
+    f: &[Expr],
+    holonomic: &[Expr],
+    velocity: &[Expr],
+    coords: &[Symbol],
+) -> Result<Parts, CompileError> {
+    let n = coords.len();
+    if f.len() != n || w.len() != n || w.iter().any(|r| r.len() != n) {
+        return Err(CompileError::Shape { what: "mass matrix and forces", expected: n, got: f.len() });
+    }
+    let (mut phi, mut c, mut ft) = constraint_parts(holonomic, coords);
+    let (vphi, vc, vft) = velocity_constraint_parts(velocity, coords);
+    phi.extend(vphi);
+    c.extend(vc);
+    ft.extend(vft);
+    Ok((phi, c, ft))
+}
+
 impl ConstrainedRhs {
     /// Compiles the augmented system of `W q'' = F` (from the mechanics stage, forces
     /// included) and the constraints `f_j = 0` for the coordinates `coords`, with `params`
@@ -137,14 +161,7 @@ impl ConstrainedRhs {
         let n = coords.len();
         let mh = holonomic.len();
         let m = mh + velocity.len();
-        if f.len() != n || w.len() != n || w.iter().any(|r| r.len() != n) {
-            return Err(CompileError::Shape { what: "mass matrix and forces", expected: n, got: f.len() });
-        }
-        let (mut phi, mut c, mut ft) = constraint_parts(holonomic, coords);
-        let (vphi, vc, vft) = velocity_constraint_parts(velocity, coords);
-        phi.extend(vphi);
-        c.extend(vc);
-        ft.extend(vft);
+        let (phi, c, ft) = all_parts(w, f, holonomic, velocity, coords)?;
         let constraints: Vec<Expr> = holonomic.iter().chain(velocity).cloned().collect();
         let constraints = &constraints[..];
         let names: Vec<String> = coords.iter().map(|q| q.name().to_string()).collect();
@@ -180,14 +197,7 @@ impl ConstrainedRhs {
         stabilization: Stabilization,
     ) -> Result<TaylorOde, CompileError> {
         let n = coords.len();
-        if f.len() != n || w.len() != n || w.iter().any(|r| r.len() != n) {
-            return Err(CompileError::Shape { what: "mass matrix and forces", expected: n, got: f.len() });
-        }
-        let (mut phi, mut c, mut ft) = constraint_parts(holonomic, coords);
-        let (vphi, vc, vft) = velocity_constraint_parts(velocity, coords);
-        phi.extend(vphi);
-        c.extend(vc);
-        ft.extend(vft);
+        let (phi, mut c, ft) = all_parts(w, f, holonomic, velocity, coords)?;
         let (mh, m) = (holonomic.len(), holonomic.len() + velocity.len());
         let big = n + m;
         // The rate is bound as a parameter of the tape, under a name no user can write.
