@@ -38,5 +38,6 @@ pub use syntax::{ast, error, help, parser};
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};
-pub use session::{read_scene, Cache, Mode, Options, PlanEntry, Status, Step};
+pub use session::{read_scene, Cache, PlanEntry, Status, Step};
 pub use state::Session;
+pub use state::{Mode, Options};

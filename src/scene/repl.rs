@@ -18,8 +18,8 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
-use super::session::{Mode, Options};
 use super::state::Session;
+use super::state::{Mode, Options};
 use super::syntax::help::TOPICS;
 use super::syntax::parser::{is_incomplete, Unfinished};
 use super::syntax::registry::statement_words;

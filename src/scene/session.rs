@@ -19,8 +19,7 @@ use std::sync::Arc;
 use miette::NamedSource;
 
 use super::engine::backend::{BackendError, SystemRef};
-use super::engine::progress::Draw;
-use super::state::{At, DefBody, DefEntry, Param, Printed, Refs, Session};
+use super::state::{At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session};
 use super::syntax::ast::{DefValue, DerivCall, DerivKind, Item, Src, Statement, StmtKind};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::syntax::parser;
@@ -30,58 +29,6 @@ use crate::print::{render, Format};
 
 /// The derivations usable as functions inside expressions.
 const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "pb", "energy", "accelerations"];
-
-/// Where a session's text comes from, which decides when values are computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// A scene file: definitions and simulations are lazy; only outputs demand work.
-    Scene,
-    /// The REPL: every statement is an explicit request, so definitions are derived and
-    /// echoed at once and simulations run at once.
-    Repl,
-}
-
-/// Session settings.
-#[derive(Clone, Debug)]
-pub struct Options {
-    /// Scene or REPL.
-    pub mode: Mode,
-    /// Where relative output paths go.
-    pub out_dir: PathBuf,
-    /// Where relative `load` paths are looked up.
-    pub base_dir: PathBuf,
-    /// The stem of default output names (`pendulum` → `pendulum_phase.svg`).
-    pub stem: String,
-    /// Where progress bars of long simulations go ([`Draw::from_env`] on a terminal).
-    pub progress: Draw,
-    /// Default output format.
-    pub format: Format,
-    /// Let a scene write outside `out_dir` (absolute paths, `..`, links): `--allow-outside`.
-    pub allow_outside: bool,
-    /// The relative energy drift above which a run is reported (`--drift`; a `simulate`
-    /// statement's `drift = …` overrides it). See [`super::statements::drift`].
-    pub drift_threshold: f64,
-    /// Excess drift (or an energy jump in one step) is an error instead of a warning:
-    /// `--strict`.
-    pub strict: bool,
-}
-
-impl Options {
-    /// Defaults for `mode`: outputs and loads relative to the current directory, Unicode.
-    pub fn new(mode: Mode) -> Options {
-        Options {
-            mode,
-            out_dir: PathBuf::from("."),
-            base_dir: PathBuf::from("."),
-            stem: "scene".to_string(),
-            progress: Draw::Hidden,
-            format: Format::Unicode,
-            allow_outside: false,
-            drift_threshold: crate::integrate::drift::DEFAULT_THRESHOLD,
-            strict: false,
-        }
-    }
-}
 
 pub use super::engine::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;

@@ -11,12 +11,14 @@ use miette::NamedSource;
 use super::engine::backend::{Backend, Line, NativeBackend, Trajectory};
 use super::engine::output::Staging;
 use super::engine::plan::PlanEntry;
-use super::session::{Mode, Options};
-use super::syntax::ast::{DerivKind, SimSpec};
+use super::engine::progress::Draw;
+use super::syntax::ast::{DerivKind, SimSpec, Src};
 use super::syntax::error::Span;
 use crate::cache::{Cache, CacheKey, Value};
+use crate::chaos::{Indicator, Indicators};
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
+use crate::print::Format;
 use crate::simulate::MethodId;
 
 /// Where the statement being run is: its line (for the plan) and its span (for errors).
@@ -64,7 +66,7 @@ pub(super) struct RunEntry {
     pub(super) line: usize,
     pub(super) result: Option<RunResult>,
     /// The forces, Rayleigh function and constraints declared before the `simulate`.
-    pub(super) dynamics: super::statements::dynamics::Dynamics,
+    pub(super) dynamics: Dynamics,
 }
 
 #[derive(Clone)]
@@ -116,14 +118,14 @@ pub struct Session {
     /// `average`), accepted in its expressions.
     pub(super) local_names: Vec<String>,
     /// `force`, `rayleigh` and `constraint` statements so far.
-    pub(super) dynamics: super::statements::dynamics::Dynamics,
+    pub(super) dynamics: Dynamics,
     /// Ensembles: a name for several runs (`from NAME` means all of them), with what they
     /// share (the level set they start on), in statement order.
-    pub(super) groups: Vec<super::statements::ensemble::Group>,
+    pub(super) groups: Vec<Group>,
     /// What every figure drawn so far shows, by file.
     pub(super) figures: Vec<(PathBuf, crate::plot::Description)>,
     /// Finished `lyapunov` / `megno` / `fli` statements, for their plots.
-    pub(super) chaos_runs: Vec<super::statements::chaos::ChaosRun>,
+    pub(super) chaos_runs: Vec<ChaosRun>,
     /// `allow nonfinite` was given: exports keep inf and NaN.
     pub(super) allow_nonfinite: bool,
 }
@@ -166,4 +168,97 @@ impl Session {
             allow_nonfinite: false,
         }
     }
+}
+
+/// Where a session's text comes from, which decides when values are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// A scene file: definitions and simulations are lazy; only outputs demand work.
+    Scene,
+    /// The REPL: every statement is an explicit request, so definitions are derived and
+    /// echoed at once and simulations run at once.
+    Repl,
+}
+
+/// Session settings.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Scene or REPL.
+    pub mode: Mode,
+    /// Where relative output paths go.
+    pub out_dir: PathBuf,
+    /// Where relative `load` paths are looked up.
+    pub base_dir: PathBuf,
+    /// The stem of default output names (`pendulum` → `pendulum_phase.svg`).
+    pub stem: String,
+    /// Where progress bars of long simulations go ([`Draw::from_env`] on a terminal).
+    pub progress: Draw,
+    /// Default output format.
+    pub format: Format,
+    /// Let a scene write outside `out_dir` (absolute paths, `..`, links): `--allow-outside`.
+    pub allow_outside: bool,
+    /// The relative energy drift above which a run is reported (`--drift`; a `simulate`
+    /// statement's `drift = …` overrides it). See [`super::statements::drift`].
+    pub drift_threshold: f64,
+    /// Excess drift (or an energy jump in one step) is an error instead of a warning:
+    /// `--strict`.
+    pub strict: bool,
+}
+
+impl Options {
+    /// Defaults for `mode`: outputs and loads relative to the current directory, Unicode.
+    pub fn new(mode: Mode) -> Options {
+        Options {
+            mode,
+            out_dir: PathBuf::from("."),
+            base_dir: PathBuf::from("."),
+            stem: "scene".to_string(),
+            progress: Draw::Hidden,
+            format: Format::Unicode,
+            allow_outside: false,
+            drift_threshold: crate::integrate::drift::DEFAULT_THRESHOLD,
+            strict: false,
+        }
+    }
+}
+
+/// A finished one-orbit chaos statement, for `plot megno` and its kin.
+pub(in crate::scene) struct ChaosRun {
+    pub(in crate::scene) name: String,
+    pub(in crate::scene) which: Indicator,
+    pub(in crate::scene) result: Indicators,
+}
+
+/// A named set of runs from one `simulate … for each …` statement.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Group {
+    /// The statement's run name.
+    pub(in crate::scene) name: String,
+    /// Its members' run ids, in order of the swept value.
+    pub(in crate::scene) ids: Vec<usize>,
+    /// The swept variable's values, one per member.
+    pub(in crate::scene) values: Vec<f64>,
+    /// The swept variable as written.
+    pub(in crate::scene) var: String,
+    /// `H = 1/8`, as written.
+    pub(in crate::scene) level: String,
+}
+
+/// A declared expression: as parsed, the definitions it refers to, and its source.
+#[derive(Clone)]
+pub(in crate::scene) struct Declared {
+    pub(in crate::scene) raw: Expr,
+    pub(in crate::scene) refs: Refs,
+    pub(in crate::scene) src: Src,
+}
+
+/// The forces, Rayleigh function and constraints declared so far.
+#[derive(Clone, Default)]
+pub(in crate::scene) struct Dynamics {
+    /// Coordinate index and force.
+    pub(in crate::scene) forces: Vec<(usize, Declared)>,
+    pub(in crate::scene) rayleigh: Option<Declared>,
+    pub(in crate::scene) constraints: Vec<Declared>,
+    /// Velocity constraints `g(q, q', t) = 0`, linear in the velocities.
+    pub(in crate::scene) velocity_constraints: Vec<Declared>,
 }

@@ -20,22 +20,15 @@
 use std::collections::HashMap;
 
 use crate::cache::{CacheKey, Value};
-use crate::chaos::{Indicator, Indicators};
+use crate::chaos::Indicator;
 use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::{BackendError, CompiledVariational, VariationalRequest};
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::{backend_error, fmt_num};
-use crate::scene::state::{At, Layout, Session};
+use crate::scene::state::{At, ChaosRun, Layout, Session};
 use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
-
-/// A finished one-orbit chaos statement, for `plot megno` and its kin.
-pub(in crate::scene) struct ChaosRun {
-    pub(in crate::scene) name: String,
-    pub(in crate::scene) which: Indicator,
-    pub(in crate::scene) result: Indicators,
-}
 
 /// The default tolerance of chaos statements: the tangent vectors grow like `e^{λt}`, so
 /// machine precision buys nothing for the indicator and costs steps.

@@ -13,8 +13,8 @@ use std::collections::{BTreeSet, HashMap};
 use crate::compile::Stabilization;
 use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::ExtendedLagrangian;
-use crate::scene::session::{fmt_num, symbol_span, Mode};
-use crate::scene::state::{At, Refs, Session};
+use crate::scene::session::{fmt_num, symbol_span};
+use crate::scene::state::{At, Declared, Dynamics, Mode, Session};
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -23,25 +23,6 @@ pub(in crate::scene) type ResolvedDynamics = (Vec<Expr>, Option<Expr>, Vec<Expr>
 
 /// The default Baumgarte rate `α = β` (1/time) when `stabilize baumgarte` gives none.
 pub(in crate::scene) const DEFAULT_BAUMGARTE_RATE: f64 = 10.0;
-
-/// A declared expression: as parsed, the definitions it refers to, and its source.
-#[derive(Clone)]
-pub(in crate::scene) struct Declared {
-    raw: Expr,
-    refs: Refs,
-    src: Src,
-}
-
-/// The forces, Rayleigh function and constraints declared so far.
-#[derive(Clone, Default)]
-pub(in crate::scene) struct Dynamics {
-    /// Coordinate index and force.
-    forces: Vec<(usize, Declared)>,
-    rayleigh: Option<Declared>,
-    constraints: Vec<Declared>,
-    /// Velocity constraints `g(q, q', t) = 0`, linear in the velocities.
-    velocity_constraints: Vec<Declared>,
-}
 
 impl Dynamics {
     /// Nothing beyond `L`.

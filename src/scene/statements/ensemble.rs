@@ -17,27 +17,12 @@ use crate::expr::Symbol;
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::fmt_num;
-use crate::scene::state::{At, RunEntry, RunResult, Session};
+use crate::scene::state::{At, Group, RunEntry, RunResult, Session};
 use crate::scene::syntax::ast::{EnsembleSpec, SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 /// The most members one ensemble may have.
 pub const MAX_MEMBERS: usize = 10_000;
-
-/// A named set of runs from one `simulate … for each …` statement.
-#[derive(Clone, Debug)]
-pub(in crate::scene) struct Group {
-    /// The statement's run name.
-    pub(in crate::scene) name: String,
-    /// Its members' run ids, in order of the swept value.
-    pub(in crate::scene) ids: Vec<usize>,
-    /// The swept variable's values, one per member.
-    pub(in crate::scene) values: Vec<f64>,
-    /// The swept variable as written.
-    pub(in crate::scene) var: String,
-    /// `H = 1/8`, as written.
-    pub(in crate::scene) level: String,
-}
 
 impl Session {
     pub(in crate::scene) fn simulate_ensemble(&mut self, at: At, spec: &SimSpec) -> Result<(), SceneError> {

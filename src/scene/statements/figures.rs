@@ -7,7 +7,7 @@ use crate::cache::Value;
 use crate::expr::Symbol;
 use crate::print::Format;
 use crate::scene::session::fmt_num;
-use crate::scene::session::Mode;
+use crate::scene::state::Mode;
 use crate::scene::state::{At, Layout, Printed, RunResult, Session};
 use crate::scene::syntax::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};

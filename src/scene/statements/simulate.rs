@@ -5,15 +5,14 @@ use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
 use super::drift::EnergyPlan;
-use super::dynamics::Dynamics;
 use crate::cache::{CacheKey, Value};
 use crate::expr::{Expr, Symbol};
 use crate::print::{render, Format};
 use crate::scene::engine::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::{backend_error, fmt_num, short, Mode};
-use crate::scene::state::{At, Layout, RunEntry, RunResult, Session};
+use crate::scene::session::{backend_error, fmt_num, short};
+use crate::scene::state::{At, Dynamics, Layout, Mode, RunEntry, RunResult, Session};
 use crate::scene::syntax::ast::{DerivKind, EventSpec, SimSpec, Src};
 use crate::scene::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::simulate::{
