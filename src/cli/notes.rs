@@ -157,80 +157,7 @@ fn fail(e: MechanicsError) -> Failure {
 pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
     match cmd {
         NotesCommand::PhaseSpace { lagrangian, coords, bracket, common } => {
-            if !bracket.is_empty() && bracket.len() != 2 {
-                return Err(bad_input(format!(
-                    "error: --bracket takes exactly two expressions (f and g), {} given",
-                    bracket.len()
-                )));
-            }
-            let text = read_expr_arg(&lagrangian)?;
-            let decls = common.declarations();
-            let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
-            let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
-            let f = s.first_order().map_err(fail)?;
-            let z = s.coordinates().to_vec();
-            let mut out = Out::empty(common.format);
-            out.json.insert("input".into(), json!(text.trim()));
-            out.json.insert("coordinates".into(), json!(z.iter().map(|q| q.to_string()).collect::<Vec<_>>()));
-            for (q, a) in z.iter().zip(&f.a) {
-                let label = format!("a_{}", out.s(q));
-                out.line(label, a);
-            }
-            out.json.insert("one_form".into(), json!(f.a.iter().map(plain).collect::<Vec<_>>()));
-            out.line("H".into(), &f.h);
-            out.json.insert("hamiltonian".into(), json!(plain(&f.h)));
-            for i in 0..z.len() {
-                for j in i + 1..z.len() {
-                    let label = format!("ω[{},{}]", out.s(&z[i]), out.s(&z[j]));
-                    out.line(label, &f.omega[i][j]);
-                }
-            }
-            let omega: Vec<Vec<String>> = f.omega.iter().map(|r| r.iter().map(plain).collect()).collect();
-            out.json.insert("two_form".into(), json!(omega));
-            // ω z' = b, printed row by row as `Σ_j ω_ij z_j' = b_i`.
-            let mut eqs = Vec::new();
-            for (i, q) in z.iter().enumerate() {
-                let lhs = Expr::add(f.omega[i].iter().zip(&z).map(|(w, zj)| w.times(&Expr::sym(zj.prime()))));
-                let lhs = lagrangian::mechanics::tidy(&lhs);
-                out.lines.push(format!("({})_{}: {} = {}", "ω z'", out.s(q), out.r(&lhs), out.r(&f.force[i])));
-                eqs.push(json!({ "coordinate": q.to_string(), "lhs": plain(&lhs), "rhs": plain(&f.force[i]) }));
-            }
-            out.json.insert("equations".into(), Value::Array(eqs));
-            f.check_nondegenerate().map_err(fail)?;
-            match f.poisson_tensor() {
-                Ok(p) => {
-                    for i in 0..z.len() {
-                        for j in i + 1..z.len() {
-                            let label = format!("{{{}, {}}}", out.s(&z[i]), out.s(&z[j]));
-                            out.line(label, &p[i][j]);
-                        }
-                    }
-                    let pj: Vec<Vec<String>> = p.iter().map(|r| r.iter().map(plain).collect()).collect();
-                    out.json.insert("poisson_tensor".into(), json!(pj));
-                    let v = f.velocities().map_err(fail)?;
-                    for (q, e) in z.iter().zip(&v) {
-                        let label = out.s(&q.prime());
-                        out.line(label, e);
-                    }
-                    out.json.insert("velocities".into(), json!(v.iter().map(plain).collect::<Vec<_>>()));
-                }
-                Err(MechanicsError::TooLarge { n, limit }) => {
-                    out.lines.push(format!(
-                        "note: {n} variables: the Poisson tensor is not formed in closed form beyond {limit}; \
-                         the compiled right-hand side solves ω z' = b numerically"
-                    ));
-                }
-                Err(e) => return Err(fail(e)),
-            }
-            if let [fa, ga] = bracket.as_slice() {
-                let (_, fe) = parse_arg(fa, &decls)?;
-                let (_, ge) = parse_arg(ga, &decls)?;
-                let b = f.bracket(&fe, &ge).map_err(fail)?;
-                let label = format!("{{{}, {}}}", fa.trim(), ga.trim());
-                out.line(label, &b);
-                out.json.insert("bracket".into(), json!(plain(&b)));
-            }
-            out.print();
+            phase_space(lagrangian, coords, bracket, common)?
         }
         NotesCommand::Geodesic {
             line_element,
@@ -258,56 +185,149 @@ pub fn run(cmd: NotesCommand) -> Result<(), Failure> {
             iterate_map(updates, vars, from, steps, params, common)?
         }
         NotesCommand::Discretize { lagrangian, coords, rule, step, common } => {
-            let Some(r) = Rule::from_name(rule.trim()) else {
-                return Err(bad_input(format!(
-                    "error: unknown rule `{rule}` for discretize (expected midpoint, trapezoid or gauss2)"
-                )));
-            };
-            let text = read_expr_arg(&lagrangian)?;
-            let decls = common.declarations();
-            let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
-            let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
-            let (_, h) = parse_arg(&step, &decls)?;
-            let d = s.discretize(r, &h).map_err(fail)?;
-            let mut out = Out::empty(common.format);
-            out.json.insert("input".into(), json!(text.trim()));
-            out.json.insert("rule".into(), json!(r.name()));
-            out.line("L_d".into(), &d.ld);
-            out.json.insert("discrete_lagrangian".into(), json!(plain(&d.ld)));
-            let del = d.euler_lagrange();
-            for (q, e) in d.coords.iter().zip(&del) {
-                let label = format!("DEL_{}", out.s(q));
-                out.lines.push(format!("{label}: {} = 0", out.r(e)));
-            }
-            out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
-            if !d.inner.is_empty() {
-                // Galerkin: each step's inner point is fixed by ∂L̃/∂Q = 0.
-                let stages = d.stage_equations();
-                let labels =
-                    ["m0", "m1"].iter().flat_map(|tag| d.coords.iter().map(move |q| format!("{}_{tag}", q.name())));
-                for (label, e) in labels.zip(&stages) {
-                    out.lines.push(format!("stage_{label}: {} = 0", out.r(e)));
-                }
-                for (m, e) in d.inner.iter().zip(&d.dm) {
-                    out.lines.push(format!("∂L_d/∂{}: {} = 0", out.s(m), out.r(e)));
-                }
-                out.json.insert("stage_equations".into(), json!(stages.iter().map(plain).collect::<Vec<_>>()));
-                out.json.insert("inner_condition".into(), json!(d.dm.iter().map(plain).collect::<Vec<_>>()));
-            }
-            let (pk, pk1) = d.legendre_maps();
-            for (q, e) in d.coords.iter().zip(&pk) {
-                let label = format!("p_{}_0", q.name());
-                out.line(label, e);
-            }
-            for (q, e) in d.coords.iter().zip(&pk1) {
-                let label = format!("p_{}_1", q.name());
-                out.line(label, e);
-            }
-            out.json.insert("momentum_k".into(), json!(pk.iter().map(plain).collect::<Vec<_>>()));
-            out.json.insert("momentum_k1".into(), json!(pk1.iter().map(plain).collect::<Vec<_>>()));
-            out.print();
+            discretize(lagrangian, coords, rule, step, common)?
         }
     }
+    Ok(())
+}
+
+/// `phase-space`: the first-order (phase-space) form of a Lagrangian: its one-form, Hamiltonian,
+/// symplectic two-form ω, the equations ω z' = b, and where ω is invertible in closed form the
+/// Poisson tensor, the velocities and an optional bracket {f, g}.
+fn phase_space(lagrangian: String, coords: Vec<String>, bracket: Vec<String>, common: Common) -> Result<(), Failure> {
+    if !bracket.is_empty() && bracket.len() != 2 {
+        return Err(bad_input(format!(
+            "error: --bracket takes exactly two expressions (f and g), {} given",
+            bracket.len()
+        )));
+    }
+    let text = read_expr_arg(&lagrangian)?;
+    let decls = common.declarations();
+    let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+    let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+    let f = s.first_order().map_err(fail)?;
+    let z = s.coordinates().to_vec();
+    let mut out = Out::empty(common.format);
+    out.json.insert("input".into(), json!(text.trim()));
+    out.json.insert("coordinates".into(), json!(z.iter().map(|q| q.to_string()).collect::<Vec<_>>()));
+    for (q, a) in z.iter().zip(&f.a) {
+        let label = format!("a_{}", out.s(q));
+        out.line(label, a);
+    }
+    out.json.insert("one_form".into(), json!(f.a.iter().map(plain).collect::<Vec<_>>()));
+    out.line("H".into(), &f.h);
+    out.json.insert("hamiltonian".into(), json!(plain(&f.h)));
+    for i in 0..z.len() {
+        for j in i + 1..z.len() {
+            let label = format!("ω[{},{}]", out.s(&z[i]), out.s(&z[j]));
+            out.line(label, &f.omega[i][j]);
+        }
+    }
+    let omega: Vec<Vec<String>> = f.omega.iter().map(|r| r.iter().map(plain).collect()).collect();
+    out.json.insert("two_form".into(), json!(omega));
+    // ω z' = b, printed row by row as `Σ_j ω_ij z_j' = b_i`.
+    let mut eqs = Vec::new();
+    for (i, q) in z.iter().enumerate() {
+        let lhs = Expr::add(f.omega[i].iter().zip(&z).map(|(w, zj)| w.times(&Expr::sym(zj.prime()))));
+        let lhs = lagrangian::mechanics::tidy(&lhs);
+        out.lines.push(format!("({})_{}: {} = {}", "ω z'", out.s(q), out.r(&lhs), out.r(&f.force[i])));
+        eqs.push(json!({ "coordinate": q.to_string(), "lhs": plain(&lhs), "rhs": plain(&f.force[i]) }));
+    }
+    out.json.insert("equations".into(), Value::Array(eqs));
+    f.check_nondegenerate().map_err(fail)?;
+    match f.poisson_tensor() {
+        Ok(p) => {
+            for i in 0..z.len() {
+                for j in i + 1..z.len() {
+                    let label = format!("{{{}, {}}}", out.s(&z[i]), out.s(&z[j]));
+                    out.line(label, &p[i][j]);
+                }
+            }
+            let pj: Vec<Vec<String>> = p.iter().map(|r| r.iter().map(plain).collect()).collect();
+            out.json.insert("poisson_tensor".into(), json!(pj));
+            let v = f.velocities().map_err(fail)?;
+            for (q, e) in z.iter().zip(&v) {
+                let label = out.s(&q.prime());
+                out.line(label, e);
+            }
+            out.json.insert("velocities".into(), json!(v.iter().map(plain).collect::<Vec<_>>()));
+        }
+        Err(MechanicsError::TooLarge { n, limit }) => {
+            out.lines.push(format!(
+                "note: {n} variables: the Poisson tensor is not formed in closed form beyond {limit}; \
+                 the compiled right-hand side solves ω z' = b numerically"
+            ));
+        }
+        Err(e) => return Err(fail(e)),
+    }
+    if let [fa, ga] = bracket.as_slice() {
+        let (_, fe) = parse_arg(fa, &decls)?;
+        let (_, ge) = parse_arg(ga, &decls)?;
+        let b = f.bracket(&fe, &ge).map_err(fail)?;
+        let label = format!("{{{}, {}}}", fa.trim(), ga.trim());
+        out.line(label, &b);
+        out.json.insert("bracket".into(), json!(plain(&b)));
+    }
+    out.print();
+    Ok(())
+}
+
+/// `discretize`: the discrete Lagrangian of a quadrature rule, its discrete Euler–Lagrange
+/// equations (with the inner-point conditions of a Galerkin rule) and the two discrete Legendre maps.
+fn discretize(
+    lagrangian: String,
+    coords: Vec<String>,
+    rule: String,
+    step: String,
+    common: Common,
+) -> Result<(), Failure> {
+    let Some(r) = Rule::from_name(rule.trim()) else {
+        return Err(bad_input(format!(
+            "error: unknown rule `{rule}` for discretize (expected midpoint, trapezoid or gauss2)"
+        )));
+    };
+    let text = read_expr_arg(&lagrangian)?;
+    let decls = common.declarations();
+    let names: Vec<&str> = coords.iter().map(|s| s.trim()).collect();
+    let s = System::from_lagrangian_with(&text, &names, &decls).map_err(fail)?;
+    let (_, h) = parse_arg(&step, &decls)?;
+    let d = s.discretize(r, &h).map_err(fail)?;
+    let mut out = Out::empty(common.format);
+    out.json.insert("input".into(), json!(text.trim()));
+    out.json.insert("rule".into(), json!(r.name()));
+    out.line("L_d".into(), &d.ld);
+    out.json.insert("discrete_lagrangian".into(), json!(plain(&d.ld)));
+    let del = d.euler_lagrange();
+    for (q, e) in d.coords.iter().zip(&del) {
+        let label = format!("DEL_{}", out.s(q));
+        out.lines.push(format!("{label}: {} = 0", out.r(e)));
+    }
+    out.json.insert("discrete_euler_lagrange".into(), json!(del.iter().map(plain).collect::<Vec<_>>()));
+    if !d.inner.is_empty() {
+        // Galerkin: each step's inner point is fixed by ∂L̃/∂Q = 0.
+        let stages = d.stage_equations();
+        let labels = ["m0", "m1"].iter().flat_map(|tag| d.coords.iter().map(move |q| format!("{}_{tag}", q.name())));
+        for (label, e) in labels.zip(&stages) {
+            out.lines.push(format!("stage_{label}: {} = 0", out.r(e)));
+        }
+        for (m, e) in d.inner.iter().zip(&d.dm) {
+            out.lines.push(format!("∂L_d/∂{}: {} = 0", out.s(m), out.r(e)));
+        }
+        out.json.insert("stage_equations".into(), json!(stages.iter().map(plain).collect::<Vec<_>>()));
+        out.json.insert("inner_condition".into(), json!(d.dm.iter().map(plain).collect::<Vec<_>>()));
+    }
+    let (pk, pk1) = d.legendre_maps();
+    for (q, e) in d.coords.iter().zip(&pk) {
+        let label = format!("p_{}_0", q.name());
+        out.line(label, e);
+    }
+    for (q, e) in d.coords.iter().zip(&pk1) {
+        let label = format!("p_{}_1", q.name());
+        out.line(label, e);
+    }
+    out.json.insert("momentum_k".into(), json!(pk.iter().map(plain).collect::<Vec<_>>()));
+    out.json.insert("momentum_k1".into(), json!(pk1.iter().map(plain).collect::<Vec<_>>()));
+    out.print();
     Ok(())
 }
 

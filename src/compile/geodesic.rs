@@ -130,33 +130,7 @@ pub fn shoot_with(
     budget: ShootBudget,
 ) -> Result<Shot, ShootError> {
     let n = g.coords.len();
-    let lookup = |s: &crate::expr::Symbol| {
-        g.coords
-            .iter()
-            .position(|q| q == s)
-            .map(|i| from[i])
-            .or_else(|| params.iter().find(|(k, _)| *k == s.to_string()).map(|(_, v)| *v))
-    };
-    let mut m = vec![0.0; n * n];
-    let mut scale = 0.0f64;
-    for i in 0..n {
-        for j in 0..n {
-            m[i * n + j] = match eval_with(&g.metric[i][j], &lookup) {
-                Ok(v) => v,
-                Err(crate::eval::EvalError::Unbound(name)) => {
-                    return Err(ShootError::Numeric(format!(
-                        "the metric needs a value for `{name}` to shoot (give the parameter a value)"
-                    )))
-                }
-                Err(_) => f64::NAN,
-            };
-            scale = scale.max(m[i * n + j].abs());
-        }
-    }
-    let det = determinant(&m, n);
-    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(n as i32) {
-        return Err(ShootError::SingularMetric { point: from.to_vec(), det });
-    }
+    check_metric(g, from, params)?;
     let numeric = |e: String| ShootError::Numeric(e);
     let sys =
         g.system().map_err(|e| numeric(e.to_string()))?.with_params(params).map_err(|e| numeric(e.to_string()))?;
@@ -271,38 +245,89 @@ pub fn shoot_with(
     let (v, iterations) = match newton(to, straight.clone()) {
         Ok(found) => found,
         Err(direct @ (ShootError::NoConvergence { .. } | ShootError::FirstTrial { .. })) => {
-            let (mut reached, mut step) = (0.0f64, 0.25f64);
-            let mut v = Vec::new();
-            let mut total = 0;
-            loop {
-                let s = (reached + step).min(1.0);
-                let target: Vec<f64> = (0..n).map(|i| from[i] + s * (to[i] - from[i])).collect();
-                // The last shot's velocity, or (nothing reached yet) the straight line's.
-                let guess = if reached > 0.0 { v.clone() } else { straight.iter().map(|x| x * s).collect() };
-                let attempt = newton(&target, guess);
-                match attempt {
-                    Ok((found, its)) => {
-                        total += its;
-                        v = found;
-                        reached = s;
-                        if s >= 1.0 {
-                            break (v, total);
-                        }
-                        step = (step * 2.0).min(0.5);
-                    }
-                    Err(ShootError::NoConvergence { .. } | ShootError::FirstTrial { .. }) => {
-                        step *= 0.5;
-                        if step < 1.0 / 4096.0 {
-                            return Err(direct);
-                        }
-                    }
-                    Err(e) => return Err(e),
-                }
-            }
+            by_continuation(&newton, from, to, &straight, direct)?
         }
         Err(e) => return Err(e),
     };
     Ok(Shot { velocity: v.clone(), path: sample(&method, &rhs, from, &v, samples)?, iterations })
+}
+
+/// The metric at the start point is evaluated (every parameter bound) and invertible before any
+/// path is shot: a degenerate start is reported as such, not as a shot that did not converge.
+fn check_metric(g: &Geodesic, from: &[f64], params: &[(&str, f64)]) -> Result<(), ShootError> {
+    let n = g.coords.len();
+    let lookup = |s: &crate::expr::Symbol| {
+        g.coords
+            .iter()
+            .position(|q| q == s)
+            .map(|i| from[i])
+            .or_else(|| params.iter().find(|(k, _)| *k == s.to_string()).map(|(_, v)| *v))
+    };
+    let mut m = vec![0.0; n * n];
+    let mut scale = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            m[i * n + j] = match eval_with(&g.metric[i][j], &lookup) {
+                Ok(v) => v,
+                Err(crate::eval::EvalError::Unbound(name)) => {
+                    return Err(ShootError::Numeric(format!(
+                        "the metric needs a value for `{name}` to shoot (give the parameter a value)"
+                    )))
+                }
+                Err(_) => f64::NAN,
+            };
+            scale = scale.max(m[i * n + j].abs());
+        }
+    }
+    let det = determinant(&m, n);
+    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(n as i32) {
+        return Err(ShootError::SingularMetric { point: from.to_vec(), det });
+    }
+    Ok(())
+}
+
+/// A damped Newton shot from a velocity to an end point: (velocity, Newton steps).
+type Newton<'a> = dyn Fn(&[f64], Vec<f64>) -> Result<(Vec<f64>, usize), ShootError> + 'a;
+
+/// Continuation when the direct shot fails: end points moved from `from` towards `to`, each shot
+/// from the last one's velocity, the step doubled after a success and halved after a failure;
+/// `direct` (the direct shot's failure) is the answer when the step becomes too small.
+fn by_continuation(
+    newton: &Newton<'_>,
+    from: &[f64],
+    to: &[f64],
+    straight: &[f64],
+    direct: ShootError,
+) -> Result<(Vec<f64>, usize), ShootError> {
+    let n = straight.len();
+    let (mut reached, mut step) = (0.0f64, 0.25f64);
+    let mut v = Vec::new();
+    let mut total = 0;
+    loop {
+        let s = (reached + step).min(1.0);
+        let target: Vec<f64> = (0..n).map(|i| from[i] + s * (to[i] - from[i])).collect();
+        // The last shot's velocity, or (nothing reached yet) the straight line's.
+        let guess = if reached > 0.0 { v.clone() } else { straight.iter().map(|x| x * s).collect() };
+        let attempt = newton(&target, guess);
+        match attempt {
+            Ok((found, its)) => {
+                total += its;
+                v = found;
+                reached = s;
+                if s >= 1.0 {
+                    return Ok((v, total));
+                }
+                step = (step * 2.0).min(0.5);
+            }
+            Err(ShootError::NoConvergence { .. } | ShootError::FirstTrial { .. }) => {
+                step *= 0.5;
+                if step < 1.0 / 4096.0 {
+                    return Err(direct);
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 /// Newton steps before shooting gives up.

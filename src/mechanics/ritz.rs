@@ -236,124 +236,19 @@ impl Ritz {
     /// Solves `∂S/∂a = 0` by Newton's method from `guess`, with `params` bound.
     pub fn solve(&self, guess: &[f64], params: &[(&str, f64)]) -> Result<RitzSolution, MechanicsError> {
         let k = self.unknowns.len();
-        let t = time();
-        let bind = |a: &[f64], tt: f64| {
-            let unknowns = self.unknowns.clone();
-            let a = a.to_vec();
-            let t = t.clone();
-            move |s: &Symbol| {
-                if *s == t {
-                    return Some(tt);
-                }
-                if let Some(i) = unknowns.iter().position(|u| u == s) {
-                    return Some(a[i]);
-                }
-                params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v)
-            }
-        };
         let numeric = |e: &Expr| eval_with(e, &|s| params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v));
         let (t0, t1) =
             (numeric(&self.t0).map_err(|e| bad(e.to_string()))?, numeric(&self.t1).map_err(|e| bad(e.to_string()))?);
         let exact = self.action.is_some();
-        let nodes = gauss_legendre(NODES);
-        // ∫ e dt and ∫ e² dt over the graded panels, each panel split in `split` equal parts.
-        let evaluations = std::cell::Cell::new(0usize);
-        let quad = |e: &Expr, a: &[f64], split: usize| -> Result<(f64, f64), MechanicsError> {
-            let ev = |tt: f64| {
-                eval_with(e, &bind(a, tt)).map_err(|err| bad(format!("evaluating the Ritz conditions: {err}")))
-            };
-            if exact {
-                let v = ev(t0)?;
-                return Ok((v, v * v));
-            }
-            let w = t1 - t0;
-            let (mut s, mut sq, mut abs) = (0.0, 0.0, 0.0);
-            let panel = |pa: f64, pb: f64| -> Result<(f64, f64, f64), MechanicsError> {
-                let part = (pb - pa) / split as f64;
-                let (mut ps, mut psq, mut pabs) = (0.0, 0.0, 0.0);
-                evaluations.set(evaluations.get() + split * NODES);
-                for j in 0..split {
-                    let (ja, jb) = (pa + part * j as f64, pa + part * (j + 1) as f64);
-                    let (mid, half) = (0.5 * (ja + jb), 0.5 * (jb - ja));
-                    for (x, wt) in &nodes {
-                        let f = ev(mid + half * x)?;
-                        ps += wt * half * f;
-                        psq += wt * half * f * f;
-                        pabs += wt * half * f.abs();
-                    }
-                }
-                Ok((ps, psq, pabs))
-            };
-            // The middle half, then panels [2^-(k+2), 2^-(k+1)]·w from each end inwards until
-            // two in a row add nothing at double precision (an integrable end singularity
-            // such as the brachistochrone's `1/√y` needs about 110 halvings for that, a smooth
-            // integrand about 55), then the last sliver, whose Gauss nodes stay off the end.
-            let (ps, psq, pabs) = panel(t0 + 0.25 * w, t1 - 0.25 * w)?;
-            (s, sq, abs) = (s + ps, sq + psq, abs + pabs);
-            for from_start in [true, false] {
-                let mut quiet = 0;
-                let mut k = 0;
-                let sliver = loop {
-                    let (lo, hi) = (0.5f64.powi(k + 3), 0.5f64.powi(k + 2));
-                    let (a, b) = if from_start { (t0 + lo * w, t0 + hi * w) } else { (t1 - hi * w, t1 - lo * w) };
-                    let end = if from_start { t0 } else { t1 };
-                    if a == b || a == end || b == end || k as usize >= MAX_LEVELS {
-                        break if from_start { (t0, a.min(b)) } else { (a.max(b), t1) };
-                    }
-                    let (ps, psq, pabs) = panel(a, b)?;
-                    // `∫ e²` only over a fixed depth: it detects a pole inside the span, and at an
-                    // integrable end singularity (`1/√t`) it diverges slowly with the depth.
-                    let psq = if (k as usize) < SQUARE_LEVELS { psq } else { 0.0 };
-                    (s, sq, abs) = (s + ps, sq + psq, abs + pabs);
-                    quiet = if pabs <= 1e-17 * abs { quiet + 1 } else { 0 };
-                    k += 1;
-                    if quiet >= 2 {
-                        break if from_start { (t0, a) } else { (b, t1) };
-                    }
-                };
-                if sliver.1 > sliver.0 {
-                    s += panel(sliver.0, sliver.1)?.0;
-                }
-            }
-            Ok((s, sq))
+        let q = Quadrature {
+            ritz: self,
+            params,
+            t: time(),
+            span: (t0, t1),
+            nodes: gauss_legendre(NODES),
+            evaluations: std::cell::Cell::new(0),
         };
-        let value = |e: &Expr, a: &[f64], split: usize| quad(e, a, split).map(|(v, _)| v);
-        // The quadrature's own error estimate at the solution: the same integrals with every
-        // panel halved, of the integrand and of its square (smooth where the integrand is, and
-        // divergent at a pole inside the span even where the signed sum is a principal value).
-        // A smooth integrand (or an integrable end singularity, which the grading resolves)
-        // agrees to rounding; one oscillating faster than the panels resolve, or not
-        // integrable inside the span, does not, and the solution is refused instead of printed
-        // as if it were right. The signed integral is compared on the scale √(T ∫ e²) ≥ ∫ |e|.
-        // `Ok(false)`: not yet reliable, but a finer split may be.
-        let check = |a: &[f64], split: usize| -> Result<bool, MechanicsError> {
-            if exact {
-                return Ok(true);
-            }
-            for (what, e) in std::iter::once(("L(trial)".to_string(), &self.integrand))
-                .chain(self.unknowns.iter().zip(&self.conditions).map(|(u, c)| (format!("∂L/∂{u}"), c)))
-            {
-                let ((q1, s1), (q2, s2)) = (quad(e, a, split)?, quad(e, a, 2 * split)?);
-                let scale = ((t1 - t0).abs() * s2).sqrt();
-                if scale == 0.0 {
-                    continue;
-                }
-                if !((q1 - q2).abs() <= 1e-6 * scale && (s1 - s2).abs() <= 1e-6 * s2) {
-                    if split < MAX_SPLIT {
-                        return Ok(false);
-                    }
-                    return Err(bad(format!(
-                        "the quadrature of ∫ {what} dt is not reliable at the solution: with each panel split in {} and {} parts \
-                         it gives {q1:e} and {q2:e} (∫ ({what})² dt: {s1:e} and {s2:e}); the integrand \
-                         oscillates faster than the quadrature resolves, or is not integrable inside the span \
-                         (a singular point). A trial path and span on which L(trial) is smooth would work",
-                        split,
-                        2 * split
-                    )));
-                }
-            }
-            Ok(true)
-        };
+        let value = |e: &Expr, a: &[f64], split: usize| q.value(e, a, split);
         let mut a = guess.to_vec();
         a.resize(k, 0.0);
         // Each panel split in `split` parts; doubled (and Newton resumed from where it
@@ -427,22 +322,22 @@ impl Ritz {
                 scale = scale.max(a[i].abs());
             }
             if at_rounding || step <= 1e-13 * scale {
-                if !check(&a, split)? {
+                if !q.check(&a, split)? {
                     split *= 2;
                     first_gradient = None;
                     continue;
                 }
-                evaluations.set(0);
+                q.evaluations.set(0);
                 let action = match &self.action {
                     Some(s) => value(s, &a, split)?,
                     None => value(&self.integrand, &a, split)?,
                 };
-                let points = if exact { 0 } else { evaluations.get() };
+                let points = if exact { 0 } else { q.evaluations.get() };
                 let natural = self
                     .natural
                     .iter()
                     .map(|(_, _, p)| {
-                        eval_with(p, &bind(&a, f64::NAN))
+                        eval_with(p, &q.bind(&a, f64::NAN))
                             .map_err(|err| bad(format!("evaluating the natural boundary condition: {err}")))
                     })
                     .collect::<Result<_, _>>()?;
@@ -450,6 +345,145 @@ impl Ritz {
             }
         }
         Err(bad("Newton's method on ∂S/∂a = 0 did not converge in 50 steps (try another guess)".into()))
+    }
+}
+
+/// The integrals of one [`Ritz::solve`]: each condition's integrand over the span as a function of
+/// the unknowns, by graded Gauss–Legendre panels (by substitution when `S` is exact), with the
+/// integrand evaluations counted for [`RitzSolution::points`]. A type of its own so the Newton
+/// iteration reads as Newton's method, and the quadrature and its reliability check as one unit.
+struct Quadrature<'a> {
+    ritz: &'a Ritz,
+    params: &'a [(&'a str, f64)],
+    /// The time symbol of the trial path.
+    t: Symbol,
+    /// The span `(t0, t1)`, evaluated.
+    span: (f64, f64),
+    nodes: Vec<(f64, f64)>,
+    evaluations: std::cell::Cell<usize>,
+}
+
+impl Quadrature<'_> {
+    /// `S` known in closed form: every integral is the substitution at one point.
+    fn exact(&self) -> bool {
+        self.ritz.action.is_some()
+    }
+
+    /// The values of the time, the unknowns `a` and the parameters, for [`eval_with`].
+    fn bind<'b>(&'b self, a: &'b [f64], tt: f64) -> impl Fn(&Symbol) -> Option<f64> + 'b {
+        move |s: &Symbol| {
+            if *s == self.t {
+                return Some(tt);
+            }
+            if let Some(i) = self.ritz.unknowns.iter().position(|u| u == s) {
+                return Some(a[i]);
+            }
+            self.params.iter().find(|(n, _)| *n == s.to_string()).map(|(_, v)| *v)
+        }
+    }
+
+    /// ∫ e dt and ∫ e² dt over the graded panels, each panel split in `split` equal parts.
+    fn integrals(&self, e: &Expr, a: &[f64], split: usize) -> Result<(f64, f64), MechanicsError> {
+        let (t0, t1) = self.span;
+        let ev = |tt: f64| {
+            eval_with(e, &self.bind(a, tt)).map_err(|err| bad(format!("evaluating the Ritz conditions: {err}")))
+        };
+        if self.exact() {
+            let v = ev(t0)?;
+            return Ok((v, v * v));
+        }
+        let w = t1 - t0;
+        let (mut s, mut sq, mut abs) = (0.0, 0.0, 0.0);
+        let panel = |pa: f64, pb: f64| -> Result<(f64, f64, f64), MechanicsError> {
+            let part = (pb - pa) / split as f64;
+            let (mut ps, mut psq, mut pabs) = (0.0, 0.0, 0.0);
+            self.evaluations.set(self.evaluations.get() + split * NODES);
+            for j in 0..split {
+                let (ja, jb) = (pa + part * j as f64, pa + part * (j + 1) as f64);
+                let (mid, half) = (0.5 * (ja + jb), 0.5 * (jb - ja));
+                for (x, wt) in &self.nodes {
+                    let f = ev(mid + half * x)?;
+                    ps += wt * half * f;
+                    psq += wt * half * f * f;
+                    pabs += wt * half * f.abs();
+                }
+            }
+            Ok((ps, psq, pabs))
+        };
+        // The middle half, then panels [2^-(k+2), 2^-(k+1)]·w from each end inwards until
+        // two in a row add nothing at double precision (an integrable end singularity
+        // such as the brachistochrone's `1/√y` needs about 110 halvings for that, a smooth
+        // integrand about 55), then the last sliver, whose Gauss nodes stay off the end.
+        let (ps, psq, pabs) = panel(t0 + 0.25 * w, t1 - 0.25 * w)?;
+        (s, sq, abs) = (s + ps, sq + psq, abs + pabs);
+        for from_start in [true, false] {
+            let mut quiet = 0;
+            let mut k = 0;
+            let sliver = loop {
+                let (lo, hi) = (0.5f64.powi(k + 3), 0.5f64.powi(k + 2));
+                let (a, b) = if from_start { (t0 + lo * w, t0 + hi * w) } else { (t1 - hi * w, t1 - lo * w) };
+                let end = if from_start { t0 } else { t1 };
+                if a == b || a == end || b == end || k as usize >= MAX_LEVELS {
+                    break if from_start { (t0, a.min(b)) } else { (a.max(b), t1) };
+                }
+                let (ps, psq, pabs) = panel(a, b)?;
+                // `∫ e²` only over a fixed depth: it detects a pole inside the span, and at an
+                // integrable end singularity (`1/√t`) it diverges slowly with the depth.
+                let psq = if (k as usize) < SQUARE_LEVELS { psq } else { 0.0 };
+                (s, sq, abs) = (s + ps, sq + psq, abs + pabs);
+                quiet = if pabs <= 1e-17 * abs { quiet + 1 } else { 0 };
+                k += 1;
+                if quiet >= 2 {
+                    break if from_start { (t0, a) } else { (b, t1) };
+                }
+            };
+            if sliver.1 > sliver.0 {
+                s += panel(sliver.0, sliver.1)?.0;
+            }
+        }
+        Ok((s, sq))
+    }
+
+    /// ∫ e dt.
+    fn value(&self, e: &Expr, a: &[f64], split: usize) -> Result<f64, MechanicsError> {
+        self.integrals(e, a, split).map(|(v, _)| v)
+    }
+
+    /// The quadrature's own error estimate at the solution: the same integrals with every
+    /// panel halved, of the integrand and of its square (smooth where the integrand is, and
+    /// divergent at a pole inside the span even where the signed sum is a principal value).
+    /// A smooth integrand (or an integrable end singularity, which the grading resolves)
+    /// agrees to rounding; one oscillating faster than the panels resolve, or not
+    /// integrable inside the span, does not, and the solution is refused instead of printed
+    /// as if it were right. The signed integral is compared on the scale √(T ∫ e²) ≥ ∫ |e|.
+    /// `Ok(false)`: not yet reliable, but a finer split may be.
+    fn check(&self, a: &[f64], split: usize) -> Result<bool, MechanicsError> {
+        if self.exact() {
+            return Ok(true);
+        }
+        for (what, e) in std::iter::once(("L(trial)".to_string(), &self.ritz.integrand))
+            .chain(self.ritz.unknowns.iter().zip(&self.ritz.conditions).map(|(u, c)| (format!("∂L/∂{u}"), c)))
+        {
+            let ((q1, s1), (q2, s2)) = (self.integrals(e, a, split)?, self.integrals(e, a, 2 * split)?);
+            let scale = ((self.span.1 - self.span.0).abs() * s2).sqrt();
+            if scale == 0.0 {
+                continue;
+            }
+            if !((q1 - q2).abs() <= 1e-6 * scale && (s1 - s2).abs() <= 1e-6 * s2) {
+                if split < MAX_SPLIT {
+                    return Ok(false);
+                }
+                return Err(bad(format!(
+                    "the quadrature of ∫ {what} dt is not reliable at the solution: with each panel split in {} and {} parts \
+                     it gives {q1:e} and {q2:e} (∫ ({what})² dt: {s1:e} and {s2:e}); the integrand \
+                     oscillates faster than the quadrature resolves, or is not integrable inside the span \
+                     (a singular point). A trial path and span on which L(trial) is smooth would work",
+                    split,
+                    2 * split
+                )));
+            }
+        }
+        Ok(true)
     }
 }
 

@@ -508,10 +508,11 @@ impl Session {
         Ok(given)
     }
 
-    /// The checked options, `H`, its parameters and the compiled variational system.
-    fn chaos_setup(&mut self, at: At, spec: &ChaosSpec, tangents: usize, megno: bool) -> Result<Setup, SceneError> {
+    /// The options of a chaos statement, checked before anything is derived: the time variable,
+    /// no integration option the Taylor method's variational run cannot honour, the span from
+    /// t = 0, and the tolerance; `(t1, tol)`.
+    fn chaos_options(&mut self, at: At, spec: &ChaosSpec) -> Result<(f64, f64), SceneError> {
         let sim = &spec.sim;
-        let span = (spec.indicator.span.0, sim.span_span.1);
         let word = &spec.indicator.text;
         if sim.time_var.text != "t" {
             return Err(SceneError::new(
@@ -576,6 +577,52 @@ impl Session {
                 x
             }
         };
+        Ok((t1, tol))
+    }
+
+    /// The parameters `H` and the momenta (when velocities are given) use, with their values,
+    /// sorted by name: what the compiled code binds and what its cache key records.
+    fn chaos_params(
+        &self,
+        span: Span,
+        h: &Expr,
+        momenta: Option<&Vec<Expr>>,
+    ) -> Result<Vec<(String, f64)>, SceneError> {
+        let mut params = Vec::new();
+        let mut needed: Vec<String> = h
+            .free_symbols()
+            .into_iter()
+            .filter(|s| s.primes() == 0 && self.params.contains_key(s.name()))
+            .map(|s| s.name().to_string())
+            .collect();
+        for e in momenta.into_iter().flatten() {
+            needed.extend(
+                e.free_symbols()
+                    .into_iter()
+                    .filter(|s| self.params.contains_key(s.name()))
+                    .map(|s| s.name().to_string()),
+            );
+        }
+        needed.sort();
+        needed.dedup();
+        for p in needed {
+            match self.params.get(&p).and_then(|x| x.value) {
+                Some(v) => params.push((p, v)),
+                None => {
+                    return Err(SceneError::new(ErrorKind::MissingValue, format!("parameter `{p}` has no value"))
+                        .at(span)
+                        .hint(format!("declare `{p}` with a value first: `parameters {p} = …`")))
+                }
+            }
+        }
+        Ok(params)
+    }
+
+    /// The checked options, `H`, its parameters and the compiled variational system.
+    fn chaos_setup(&mut self, at: At, spec: &ChaosSpec, tangents: usize, megno: bool) -> Result<Setup, SceneError> {
+        let sim = &spec.sim;
+        let span = (spec.indicator.span.0, sim.span_span.1);
+        let (t1, tol) = self.chaos_options(at, spec)?;
         if !self.dynamics.is_empty() {
             return Err(SceneError::new(
                 ErrorKind::Derivation,
@@ -603,33 +650,7 @@ impl Session {
             )
             .at(span));
         }
-        let mut params = Vec::new();
-        let mut needed: Vec<String> = h
-            .free_symbols()
-            .into_iter()
-            .filter(|s| s.primes() == 0 && self.params.contains_key(s.name()))
-            .map(|s| s.name().to_string())
-            .collect();
-        for e in momenta.iter().flatten() {
-            needed.extend(
-                e.free_symbols()
-                    .into_iter()
-                    .filter(|s| self.params.contains_key(s.name()))
-                    .map(|s| s.name().to_string()),
-            );
-        }
-        needed.sort();
-        needed.dedup();
-        for p in needed {
-            match self.params.get(&p).and_then(|x| x.value) {
-                Some(v) => params.push((p, v)),
-                None => {
-                    return Err(SceneError::new(ErrorKind::MissingValue, format!("parameter `{p}` has no value"))
-                        .at(span)
-                        .hint(format!("declare `{p}` with a value first: `parameters {p} = …`")))
-                }
-            }
-        }
+        let params = self.chaos_params(span, &h, momenta.as_ref())?;
         // Compiled through the backend, cached like a run's right-hand side: by the content
         // of H, the parameter values and what rides along.
         let key = CacheKey {
