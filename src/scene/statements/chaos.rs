@@ -27,7 +27,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::{backend_error, fmt_num};
 use crate::scene::state::{At, ChaosRun, Layout, Session};
-use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, Src};
+use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// The default tolerance of chaos statements: the tangent vectors grow like `e^{λt}`, so
@@ -39,6 +39,39 @@ const DEFAULT_GRID: usize = 32;
 
 /// The largest side of a chaos map's grid.
 const MAX_GRID: usize = 2000;
+
+/// The checks every statement that integrates the variational equations (the chaos
+/// indicators, `flow`) makes of its `simulate`-like options: the time is `t`, and no method,
+/// step, events, `stabilize` or `every` (named `every` as the caller words it) are given, each
+/// refused at its span with `hint`. Returns the refusal, for the caller's own options.
+pub(in crate::scene) fn variational_run_refusals<'a>(
+    sim: &SimSpec,
+    word: &'a str,
+    hint: &'a str,
+    every: &str,
+) -> Result<impl Fn(&str, Option<Span>) -> Result<(), SceneError> + 'a, SceneError> {
+    if sim.time_var.text != "t" {
+        return Err(SceneError::new(
+            ErrorKind::Syntax,
+            format!("the time variable is `t`, not `{}`", sim.time_var.text),
+        )
+        .at(sim.time_var.span));
+    }
+    let refuse = move |what: &str, src: Option<Span>| -> Result<(), SceneError> {
+        match src {
+            None => Ok(()),
+            Some(s) => {
+                Err(SceneError::new(ErrorKind::Syntax, format!("`{word}` does not take {what}")).at(s).hint(hint))
+            }
+        }
+    };
+    refuse("a method", sim.method.as_ref().map(|m| m.span))?;
+    refuse("a step", sim.dt.as_ref().or(sim.steps.as_ref()).map(|m| m.span))?;
+    refuse("events", sim.events.first().map(|e| e.span))?;
+    refuse(every, sim.every.as_ref().map(|e| e.span))?;
+    refuse("`stabilize`", sim.stabilize.as_ref().map(|e| e.span))?;
+    Ok(refuse)
+}
 
 /// The indicator a keyword names.
 pub(in crate::scene) fn indicator(word: &str) -> Option<Indicator> {
@@ -514,26 +547,8 @@ impl Session {
     fn chaos_options(&mut self, at: At, spec: &ChaosSpec) -> Result<(f64, f64), SceneError> {
         let sim = &spec.sim;
         let word = &spec.indicator.text;
-        if sim.time_var.text != "t" {
-            return Err(SceneError::new(
-                ErrorKind::Syntax,
-                format!("the time variable is `t`, not `{}`", sim.time_var.text),
-            )
-            .at(sim.time_var.span));
-        }
-        let refuse = |what: &str, src: Option<Span>| -> Result<(), SceneError> {
-            match src {
-                None => Ok(()),
-                Some(s) => Err(SceneError::new(ErrorKind::Syntax, format!("`{word}` does not take {what}"))
-                    .at(s)
-                    .hint("a chaos indicator integrates the variational equations with the Taylor method; it takes `tol = …` (and a map `points N`)")),
-            }
-        };
-        refuse("a method", sim.method.as_ref().map(|m| m.span))?;
-        refuse("a step", sim.dt.as_ref().or(sim.steps.as_ref()).map(|m| m.span))?;
-        refuse("events", sim.events.first().map(|e| e.span))?;
-        refuse("`every`", sim.every.as_ref().map(|e| e.span))?;
-        refuse("`stabilize`", sim.stabilize.as_ref().map(|e| e.span))?;
+        let hint = "a chaos indicator integrates the variational equations with the Taylor method; it takes `tol = …` (and a map `points N`)";
+        let refuse = variational_run_refusals(sim, word, hint, "`every`")?;
         if !spec.map {
             refuse("`points` (only `chaos_map` has a grid)", sim.points.as_ref().map(|e| e.span))?;
         }

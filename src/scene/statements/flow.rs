@@ -20,6 +20,7 @@ use crate::print::Format;
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
+use crate::scene::statements::chaos::variational_run_refusals;
 use crate::scene::syntax::ast::{FlowSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -121,26 +122,8 @@ impl Session {
     /// constraints, which the variational equations cannot carry.
     fn flow_refusals(&self, spec: &FlowSpec) -> Result<(), SceneError> {
         let sim = &spec.sim;
-        if sim.time_var.text != "t" {
-            return Err(SceneError::new(
-                ErrorKind::Syntax,
-                format!("the time variable is `t`, not `{}`", sim.time_var.text),
-            )
-            .at(sim.time_var.span));
-        }
-        let refuse = |what: &str, src: Option<Span>| -> Result<(), SceneError> {
-            match src {
-                None => Ok(()),
-                Some(s) => Err(SceneError::new(ErrorKind::Syntax, format!("`flow` does not take {what}"))
-                    .at(s)
-                    .hint("`flow` integrates the variational equations with the Taylor method; it takes `tol = …`, `points N`, `max_steps = N`, `time_limit = S` and `to FILE`")),
-            }
-        };
-        refuse("a method", sim.method.as_ref().map(|m| m.span))?;
-        refuse("a step", sim.dt.as_ref().or(sim.steps.as_ref()).map(|m| m.span))?;
-        refuse("events", sim.events.first().map(|e| e.span))?;
-        refuse("`every` (`points N` sets how many steps are kept)", sim.every.as_ref().map(|e| e.span))?;
-        refuse("`stabilize`", sim.stabilize.as_ref().map(|e| e.span))?;
+        let hint = "`flow` integrates the variational equations with the Taylor method; it takes `tol = …`, `points N`, `max_steps = N`, `time_limit = S` and `to FILE`";
+        let refuse = variational_run_refusals(sim, "flow", hint, "`every` (`points N` sets how many steps are kept)")?;
         refuse("`drift`", sim.drift.as_ref().map(|e| e.span))?;
         refuse("`as NAME`", sim.name.as_ref().map(|e| e.span))?;
         if self.dynamics.constrained() || self.dynamics.velocity_constrained() {
