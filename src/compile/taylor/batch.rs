@@ -69,7 +69,7 @@ impl<const B: usize> LaneWork<B> {
 }
 
 impl TaylorOde {
-    /// Whether [`TaylorOde::expand_lanes`] can run this system: every operation but `abs`,
+    /// Whether a batch expansion (`expand_lanes`) can run this system: every operation but `abs`,
     /// whose kink is a per-lane failure the batch does not split (such systems run one
     /// trajectory at a time).
     pub fn batchable(&self) -> bool {
