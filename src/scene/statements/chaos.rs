@@ -460,7 +460,7 @@ impl Session {
     }
 
     /// The state variable a start names (`θ`, `θ'` or `p_θ`), as the key of its value.
-    fn state_key(&mut self, sym: &Src) -> Result<String, SceneError> {
+    pub(in crate::scene) fn state_key(&mut self, sym: &Src) -> Result<String, SceneError> {
         let (e, _) = self.expr(sym)?;
         let s = e.as_sym().cloned().ok_or_else(|| {
             SceneError::new(ErrorKind::Syntax, "expected a coordinate, velocity or momentum").at(sym.span)

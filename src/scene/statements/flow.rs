@@ -21,7 +21,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::chaos::variational_run_refusals;
-use crate::scene::syntax::ast::{FlowSpec, Src};
+use crate::scene::syntax::ast::FlowSpec;
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// The default tolerance: `Φ` is compared with exact identities (`det Φ = 1`), so it is
@@ -265,7 +265,7 @@ impl Session {
     fn flow_start(&mut self, at: At, spec: &FlowSpec, system: &System) -> Result<Vec<f64>, SceneError> {
         let mut given: HashMap<String, f64> = HashMap::new();
         for (sym, val) in &spec.sim.inits {
-            let key = self.flow_key(sym)?;
+            let key = self.state_key(sym)?;
             let v = self.resolved(at, val)?;
             let x = self.number(&v, val.span)?;
             if given.insert(key.clone(), x).is_some() {
@@ -314,25 +314,5 @@ impl Session {
             x.push(crate::eval::eval(p, &env).map_err(|e| self.value_error(e, spec.word))?);
         }
         Ok(x)
-    }
-
-    /// The state variable a start names (`θ`, `θ'` or `p_θ`), as the key of its value.
-    fn flow_key(&mut self, sym: &Src) -> Result<String, SceneError> {
-        let (e, _) = self.expr(sym)?;
-        let s = e.as_sym().cloned().ok_or_else(|| {
-            SceneError::new(ErrorKind::Syntax, "expected a coordinate, velocity or momentum").at(sym.span)
-        })?;
-        let coords = &self.coords;
-        let is_state = coords.iter().any(|c| c.name() == s.name() && s.primes() <= 1)
-            || (s.primes() == 0 && s.name().strip_prefix("p_").is_some_and(|c| coords.iter().any(|q| q.name() == c)));
-        if !is_state {
-            return Err(SceneError::new(
-                ErrorKind::UndefinedSymbol,
-                format!("`{}` is not part of the state", sym.text),
-            )
-            .at(sym.span)
-            .hint("give coordinates, their velocities (`θ'`) or their momenta (`p_θ`)"));
-        }
-        Ok(s.to_string())
     }
 }
