@@ -1125,6 +1125,16 @@ fn at_pi_multiple(func: Func, x: &Expr) -> Option<Expr> {
                 .map(|&(_, _, a, b)| pi_times(a, b));
         }
         Func::Atan => return x.is_one().then(|| pi_times(1, 4)),
+        // The reciprocals of cos and sin at an exact rational multiple of π: undefined at a
+        // zero of theirs (a pole). A shifted argument (`x + π`) is left as written.
+        Func::Sec | Func::Csc => {
+            if x.is_zero() {
+                return Some(if func == Func::Sec { Expr::one() } else { Expr::undefined() });
+            }
+            pi_coefficient(x)?;
+            let of = at_pi_multiple(if func == Func::Sec { Func::Cos } else { Func::Sin }, x)?;
+            return Some(if of.is_zero() { Expr::undefined() } else { Expr::pow(of, Expr::int(-1)) });
+        }
         _ => return None,
     }
     if let Some(k) = pi_coefficient(x) {

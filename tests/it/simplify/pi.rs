@@ -46,6 +46,35 @@ fn trigonometric_values_at_rational_multiples_of_pi_are_exact() {
     }
 }
 
+/// sec and csc fold at the same multiples as 1/cos and 1/sin (the float reciprocals), and
+/// are undefined exactly at the zeros of cos and sin.
+#[test]
+fn secant_and_cosecant_at_rational_multiples_of_pi_are_exact() {
+    for d in [1i64, 2, 3, 4, 6] {
+        for n in -25i64..=25 {
+            let arg = Expr::frac(n, d).times(&Expr::pi());
+            let x = n as f64 / d as f64 * PI;
+            for (f, of) in [(Func::Sec, x.cos()), (Func::Csc, x.sin())] {
+                let e = Expr::call(f, vec![arg.clone()]);
+                // A zero of cos or sin: sin at n/d an integer, cos at an odd multiple of 1/2.
+                let pole = match f {
+                    Func::Sec => (2 * n) % d == 0 && ((2 * n) / d) % 2 != 0,
+                    _ => n % d == 0,
+                };
+                if pole {
+                    assert!(e.is_undefined(), "{f:?}({n}π/{d}) = {e}, a pole");
+                    continue;
+                }
+                assert!(!has_call(&e) && !e.to_string().contains("pi"), "{f:?}({n}π/{d}) not folded: {e}");
+                let (got, want) = (value(&e, 0.0), 1.0 / of);
+                assert!((got - want).abs() < 1e-14 * (1.0 + want.abs()), "{f:?}({n}π/{d}) = {e} = {got}, float {want}");
+            }
+        }
+    }
+    assert_eq!(Expr::call(Func::Sec, vec![Expr::pi()]), Expr::int(-1));
+    assert_eq!(Expr::call(Func::Csc, vec![Expr::frac(1, 6).times(&Expr::pi())]), Expr::int(2));
+}
+
 /// `sin(x + n π/2)`, `cos(…)`, `tan(…)` drop the multiple of π from the argument (a quarter
 /// turn swaps sin and cos), and the result has the float value at sample points.
 #[test]
