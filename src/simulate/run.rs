@@ -339,17 +339,27 @@ pub fn ensemble(
     if let Err(e) = opts.check() {
         return starts.iter().map(|_| Err(e.clone())).collect();
     }
-    if let Some(out) = taylor_batch(c, starts, opts, threads, progress) {
-        return out;
-    }
+    // What the batch ran, then every start it did not run (all of them when it does not
+    // apply; the ones it handed back otherwise) one at a time, in parallel.
+    let mut out: Vec<Option<Result<Trajectory, SimulateError>>> = match taylor_batch(c, starts, opts, threads, progress)
+    {
+        Some(runs) => runs.into_iter().map(|r| r.map(Ok)).collect(),
+        None => starts.iter().map(|_| None).collect(),
+    };
+    let rest: Vec<usize> = (0..starts.len()).filter(|&i| out[i].is_none()).collect();
+    let rest_starts: Vec<&Vec<f64>> = rest.iter().map(|&i| &starts[i]).collect();
     let cancel = opts.cancel.clone();
-    par_map_with_progress(starts, threads, progress, |y0| {
+    let alone = par_map_with_progress(&rest_starts, threads, progress, |y0| {
         if cancel.as_ref().is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
             return Err(SimulateError::Cancelled);
         }
         integrate(c, y0, opts, &mut |_| {})
     })
-    .unwrap_or_else(|_| starts.iter().map(|_| Err(SimulateError::Internal("an ensemble worker panicked"))).collect())
+    .unwrap_or_else(|_| rest.iter().map(|_| Err(SimulateError::Internal("an ensemble worker panicked"))).collect());
+    for (i, r) in rest.into_iter().zip(alone) {
+        out[i] = Some(r);
+    }
+    out.into_iter().map(|r| r.expect("every start ran, in the batch or alone")).collect()
 }
 
 /// How many trajectories one batch driver takes: enough for its lanes to refill many times
@@ -368,15 +378,16 @@ const BATCH_FROM_ORDER: usize = 13;
 /// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
 /// asks for nothing it lacks: final states or states at given times, no events, no energy
 /// check. `None`: the run goes one start at a time. Each trajectory is bit for bit the one
-/// [`integrate`] gives (the batch's promise); a start the batch hands back (a failure, a
-/// budget, a cancellation) runs alone, so its error is the single run's.
+/// [`integrate`] gives (the batch's promise); a start the batch hands back (`None` in its
+/// place: a failure, a budget, a cancellation) the caller runs alone, so its error is the
+/// single run's.
 fn taylor_batch(
     c: &Compiled,
     starts: &[Vec<f64>],
     opts: &RunOptions,
     threads: Option<usize>,
     progress: &mut dyn FnMut(f64),
-) -> Option<Vec<Result<Trajectory, SimulateError>>> {
+) -> Option<Vec<Option<Trajectory>>> {
     // A constrained system's trajectories carry multipliers and residuals, and projection
     // steps, which the batch does not: they run one at a time.
     let CompiledSystem::Taylor(ode, inner) = &*c.system else { return None };
@@ -405,20 +416,17 @@ fn taylor_batch(
     })
     .ok()?;
     let mut out = Vec::with_capacity(starts.len());
-    for (chunk, runs) in chunks.iter().zip(runs) {
-        for (y0, run) in chunk.iter().zip(runs?) {
-            out.push(match run {
-                Some(r) => Ok(Trajectory {
-                    t: r.t,
-                    y: r.y,
-                    steps: r.steps,
-                    evaluations: r.steps,
-                    energy: Ledger::from_report(None, None),
-                    ..Trajectory::default()
-                }),
-                None => integrate(c, y0, opts, &mut |_| {}),
-            });
-        }
+    for runs in runs {
+        out.extend(runs?.into_iter().map(|run| {
+            run.map(|r| Trajectory {
+                t: r.t,
+                y: r.y,
+                steps: r.steps,
+                evaluations: r.steps,
+                energy: Ledger::from_report(None, None),
+                ..Trajectory::default()
+            })
+        }));
     }
     Some(out)
 }
