@@ -257,15 +257,12 @@ impl Taylor {
                         }
                     }
                 };
-                if let Some(ok) = ended {
-                    let mut done = active[lane].take().expect("the lane is active");
-                    if ok {
-                        done.run.steps = done.solver.steps();
-                        results[done.index] = Some(done.run);
-                    }
-                    let next = refill.finish(lane);
-                    active[lane] = fill(lane, next, &mut refill, &mut results);
+                let Some(ok) = ended else { continue };
+                if let Some(done) = active[lane].take().filter(|_| ok) {
+                    results[done.index] = Some(LaneRun { steps: done.solver.steps(), ..done.run });
                 }
+                let next = refill.finish(lane);
+                active[lane] = fill(lane, next, &mut refill, &mut results);
             }
         }
         Some(results)

@@ -359,7 +359,7 @@ pub fn ensemble(
     for (i, r) in rest.into_iter().zip(alone) {
         out[i] = Some(r);
     }
-    out.into_iter().map(|r| r.expect("every start ran, in the batch or alone")).collect()
+    out.into_iter().map(|r| r.unwrap_or(Err(SimulateError::Internal("an ensemble start ran nowhere")))).collect()
 }
 
 /// How many trajectories one batch driver takes: enough for its lanes to refill many times

@@ -702,7 +702,7 @@ impl Session {
 
     /// `max_steps = N` and `time_limit = S` of a chaos statement, checked, as its budget; the
     /// time counts from here.
-    fn chaos_budget(
+    pub(in crate::scene) fn chaos_budget(
         &mut self,
         at: At,
         sim: &crate::scene::syntax::ast::SimSpec,

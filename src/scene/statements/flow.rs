@@ -11,7 +11,6 @@
 
 use std::collections::HashMap;
 
-use crate::chaos::Budget;
 use crate::compile::Variational;
 use crate::expr::{Expr, Symbol};
 use crate::integrate::FailureReason;
@@ -58,7 +57,7 @@ impl Session {
         }
         let tol = self.flow_tol(at, spec)?;
         let points = self.flow_points(at, spec)?;
-        let budget = self.flow_budget(at, spec)?;
+        let budget = self.chaos_budget(at, &spec.sim)?;
         let (path, ext) = match &spec.path {
             Some(p) => {
                 let (path, pspan, ext) = self.out_file(
@@ -158,28 +157,6 @@ impl Session {
             .label("too small"));
         }
         Ok(x)
-    }
-
-    /// `max_steps = N` (Taylor steps, default 10⁷) and `time_limit = S` (seconds, default 600),
-    /// checked, as the budget of the run, the time counted from here (as a chaos statement's).
-    fn flow_budget(&mut self, at: At, spec: &FlowSpec) -> Result<Budget, SceneError> {
-        let max_steps = self.step_budget(at, &spec.sim)?.unwrap_or(Budget::DEFAULT_STEPS);
-        let seconds = match &spec.sim.time_limit {
-            None => Budget::DEFAULT_SECONDS,
-            Some(src) => {
-                let e = self.resolved(at, src)?;
-                let x = self.number(&e, src.span)?;
-                if !(x > 0.0 && x.is_finite() && x < 1e9) {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`time_limit` is a positive number of seconds below 10⁹; found {}", fmt_num(x)),
-                    )
-                    .at(src.span));
-                }
-                x
-            }
-        };
-        Ok(Budget::new(max_steps, std::time::Duration::from_secs_f64(seconds)))
     }
 
     /// `points N`, checked: a whole number from 2 to [`MAX_POINTS`].
