@@ -5,8 +5,26 @@
 //! same Lagrangian (all the `∂L/∂q'_i`, then their `∂/∂q'_j`) reuse each other's work.
 
 use std::collections::{BTreeSet, HashMap};
+use std::sync::OnceLock;
 
 use crate::expr::{Expr, Func, Node, Symbol};
+use crate::func::SPECS;
+use crate::parse::parse;
+
+/// `f'(u)` for a built-in of one argument, from its row of the function table ([`SPECS`]):
+/// the row's text is parsed once, in the argument `u`, and `u` replaced by the argument.
+/// Undefined for a function without a derivative there (`atan2`, handled by its gradient).
+fn outer_derivative(f: Func, u: &Expr) -> Expr {
+    static PARSED: OnceLock<Vec<Option<Expr>>> = OnceLock::new();
+    let parsed = PARSED.get_or_init(|| {
+        // Every row parses (`func`'s tests); a row that did not would be undefined, not a panic.
+        SPECS.iter().map(|spec| spec.derivative.map(|text| parse(text).unwrap_or_else(|_| Expr::undefined()))).collect()
+    });
+    match &parsed[f as usize] {
+        Some(outer) => outer.subs1(&Symbol::new("u"), u),
+        None => Expr::undefined(),
+    }
+}
 
 /// A memo table for derivatives. Keep one alive across many derivatives of related
 /// expressions to share work.
@@ -151,11 +169,7 @@ impl Differentiator {
         if du.is_zero() {
             return Expr::zero();
         }
-        let Some(derivative) = f.spec().derivative else {
-            return Expr::undefined();
-        };
-        let outer = derivative(u);
-        outer.times(&du)
+        outer_derivative(f, u).times(&du)
     }
 
     /// The total time derivative

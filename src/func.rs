@@ -8,8 +8,6 @@
 //!
 //! `sqrt` is not here: it is the power `x^(1/2)`.
 
-use crate::expr::Expr;
-
 /// A built-in function. The discriminant indexes [`SPECS`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Func {
@@ -54,9 +52,12 @@ pub struct Spec {
     pub arity: usize,
     /// The value on floats (`args.len() == arity`).
     pub eval: fn(&[f64]) -> f64,
-    /// `∂f/∂u` as an expression in the (first) argument `u`; `None` for functions of two
-    /// arguments, which `diff` handles by their gradient.
-    pub derivative: Option<fn(&Expr) -> Expr>,
+    /// `∂f/∂u`, written in the grammar's notation in the (first) argument `u` (`"cos(u)"`);
+    /// `diff` parses each once and substitutes the argument. `None` for functions of two
+    /// arguments, which `diff` handles by their gradient. Text rather than code keeps this
+    /// table below the expression type `Expr`, which imports it (for
+    /// `Expr::call`'s folds), while the table imports nothing.
+    pub derivative: Option<&'static str>,
     /// Symmetry under `u → -u`.
     pub parity: Parity,
     /// The exact value at `u = 0`, when it is an integer.
@@ -89,22 +90,13 @@ macro_rules! native {
     }};
 }
 
-fn call1(f: Func, u: &Expr) -> Expr {
-    Expr::call(f, vec![u.clone()])
-}
-
-/// `(1 - u²)^(-1/2)`, the derivative of `asin`.
-fn inv_sqrt_one_minus_square(u: &Expr) -> Expr {
-    Expr::pow(Expr::one().minus(&u.powi(2)), Expr::frac(-1, 2))
-}
-
 /// One row per [`Func`], in declaration order (checked by a unit test).
 pub const SPECS: [Spec; 20] = [
     Spec {
         name: "sin",
         arity: 1,
         eval: |a| a[0].sin(),
-        derivative: Some(|u| call1(Func::Cos, u)),
+        derivative: Some("cos(u)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -116,7 +108,7 @@ pub const SPECS: [Spec; 20] = [
         name: "cos",
         arity: 1,
         eval: |a| a[0].cos(),
-        derivative: Some(|u| call1(Func::Sin, u).neg()),
+        derivative: Some("-sin(u)"),
         parity: Parity::Even,
         at_zero: Some(1),
         at_one: None,
@@ -128,7 +120,7 @@ pub const SPECS: [Spec; 20] = [
         name: "tan",
         arity: 1,
         eval: |a| a[0].tan(),
-        derivative: Some(|u| call1(Func::Cos, u).powi(-2)),
+        derivative: Some("cos(u)^(-2)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -140,7 +132,7 @@ pub const SPECS: [Spec; 20] = [
         name: "exp",
         arity: 1,
         eval: |a| a[0].exp(),
-        derivative: Some(|u| call1(Func::Exp, u)),
+        derivative: Some("exp(u)"),
         parity: Parity::None,
         at_zero: Some(1),
         at_one: None,
@@ -152,7 +144,7 @@ pub const SPECS: [Spec; 20] = [
         name: "log",
         arity: 1,
         eval: |a| a[0].ln(),
-        derivative: Some(|u| u.powi(-1)),
+        derivative: Some("u^(-1)"),
         parity: Parity::None,
         at_zero: None,
         at_one: Some(0),
@@ -164,7 +156,7 @@ pub const SPECS: [Spec; 20] = [
         name: "sinh",
         arity: 1,
         eval: |a| a[0].sinh(),
-        derivative: Some(|u| call1(Func::Cosh, u)),
+        derivative: Some("cosh(u)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -176,7 +168,7 @@ pub const SPECS: [Spec; 20] = [
         name: "cosh",
         arity: 1,
         eval: |a| a[0].cosh(),
-        derivative: Some(|u| call1(Func::Sinh, u)),
+        derivative: Some("sinh(u)"),
         parity: Parity::Even,
         at_zero: Some(1),
         at_one: None,
@@ -188,7 +180,7 @@ pub const SPECS: [Spec; 20] = [
         name: "tanh",
         arity: 1,
         eval: |a| a[0].tanh(),
-        derivative: Some(|u| call1(Func::Cosh, u).powi(-2)),
+        derivative: Some("cosh(u)^(-2)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -200,7 +192,7 @@ pub const SPECS: [Spec; 20] = [
         name: "asin",
         arity: 1,
         eval: |a| a[0].asin(),
-        derivative: Some(inv_sqrt_one_minus_square),
+        derivative: Some("(1 - u^2)^(-1/2)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -212,7 +204,7 @@ pub const SPECS: [Spec; 20] = [
         name: "acos",
         arity: 1,
         eval: |a| a[0].acos(),
-        derivative: Some(|u| inv_sqrt_one_minus_square(u).neg()),
+        derivative: Some("-(1 - u^2)^(-1/2)"),
         parity: Parity::None,
         at_zero: None,
         at_one: Some(0),
@@ -224,7 +216,7 @@ pub const SPECS: [Spec; 20] = [
         name: "atan",
         arity: 1,
         eval: |a| a[0].atan(),
-        derivative: Some(|u| Expr::one().plus(&u.powi(2)).powi(-1)),
+        derivative: Some("(1 + u^2)^(-1)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -249,7 +241,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         eval: |a| a[0].abs(),
         // d|u|/du = |u|/u, defined wherever u ≠ 0.
-        derivative: Some(|u| call1(Func::Abs, u).over(u)),
+        derivative: Some("abs(u)/u"),
         parity: Parity::None,
         at_zero: None,
         at_one: None,
@@ -261,7 +253,7 @@ pub const SPECS: [Spec; 20] = [
         name: "asinh",
         arity: 1,
         eval: |a| a[0].asinh(),
-        derivative: Some(|u| Expr::pow(Expr::one().plus(&u.powi(2)), Expr::frac(-1, 2))),
+        derivative: Some("(1 + u^2)^(-1/2)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -275,7 +267,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         // NaN below 1, as `log` is below 0: the real branch only.
         eval: |a| a[0].acosh(),
-        derivative: Some(|u| Expr::pow(u.powi(2).minus(&Expr::one()), Expr::frac(-1, 2))),
+        derivative: Some("(u^2 - 1)^(-1/2)"),
         parity: Parity::None,
         at_zero: None,
         at_one: Some(0),
@@ -288,7 +280,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         // NaN outside [−1, 1], ±∞ at ±1.
         eval: |a| a[0].atanh(),
-        derivative: Some(|u| Expr::one().minus(&u.powi(2)).powi(-1)),
+        derivative: Some("(1 - u^2)^(-1)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
@@ -301,7 +293,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         // The reciprocal, as the Taylor recurrence computes it (`1/cos`), bit for bit.
         eval: |a| 1.0 / a[0].cos(),
-        derivative: Some(|u| call1(Func::Sec, u).times(&call1(Func::Tan, u))),
+        derivative: Some("sec(u) tan(u)"),
         parity: Parity::Even,
         at_zero: Some(1),
         at_one: None,
@@ -314,7 +306,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         eval: |a| 1.0 / a[0].sin(),
         // −csc u cot u = −cos u / sin² u.
-        derivative: Some(|u| call1(Func::Csc, u).powi(2).times(&call1(Func::Cos, u)).neg()),
+        derivative: Some("-csc(u)^2 cos(u)"),
         parity: Parity::Odd,
         at_zero: None,
         at_one: None,
@@ -327,7 +319,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         // `1/tanh` rather than `cosh/sinh`, which is ∞/∞ = NaN for |u| above about 710.
         eval: |a| 1.0 / a[0].tanh(),
-        derivative: Some(|u| call1(Func::Sinh, u).powi(-2).neg()),
+        derivative: Some("-sinh(u)^(-2)"),
         parity: Parity::Odd,
         at_zero: None,
         at_one: None,
@@ -340,9 +332,7 @@ pub const SPECS: [Spec; 20] = [
         arity: 1,
         eval: |a| libm::erf(a[0]),
         // 2/√π · e^(−u²), with the exact π.
-        derivative: Some(|u| {
-            Expr::mul([Expr::int(2), Expr::pow(Expr::pi(), Expr::frac(-1, 2)), call1(Func::Exp, &u.powi(2).neg())])
-        }),
+        derivative: Some("2 pi^(-1/2) exp(-u^2)"),
         parity: Parity::Odd,
         at_zero: Some(0),
         at_one: None,
