@@ -216,7 +216,7 @@ fn a_refusal_names_the_methods_that_run_the_system() {
 
 /// Every fixed-step method of the registry shows its stated order on the pendulum
 /// `H = ½ p² − cos q` (from `q = 1` at rest to `t = 4`): halving the step divides the error by
-/// about `2^p`. The reference is the Taylor method at machine precision. A scheme added to the
+/// about `2^p` (`2^(p+2)` at most for a symmetric scheme). The reference is the Taylor method at machine precision. A scheme added to the
 /// registry is measured here without touching this file.
 #[test]
 fn every_fixed_step_method_of_the_registry_has_its_stated_order() {
@@ -255,6 +255,12 @@ fn every_fixed_step_method_of_the_registry_has_its_stated_order() {
             (tr.last_state().unwrap()[0] - reference).abs()
         };
         let observed = (err(h) / err(h / 2.0)).log2();
-        assert!((observed - p as f64).abs() < 0.4, "{}: observed order {observed:.2}, stated {p}", m.name());
+        let p = p as f64;
+        // A symmetric scheme's error has only even powers of h, and one built for a small
+        // leading constant shows the next power, p + 2, wherever its error is above round-off
+        // (Kahan–Li 8: 9.5, 10.0, 10.0 over h = 1 … 1/8 here, Yoshida 8: 7.8, 8.0, 8.0). Its
+        // order p itself is checked exactly by the order conditions (`integrate::coefficients`).
+        let range = if m.symmetric() { p - 0.4..p + 2.4 } else { p - 0.4..p + 0.4 };
+        assert!(range.contains(&observed), "{}: observed order {observed:.2}, stated {p}", m.name());
     }
 }
