@@ -14,6 +14,7 @@ pub(super) mod canonical;
 pub(super) mod chaos;
 pub mod drift;
 pub(super) mod dynamics;
+pub(super) mod energy_at;
 pub(super) mod ensemble;
 pub(super) mod expansion;
 pub(super) mod figures;
