@@ -4,7 +4,8 @@
 //! Three layers, each importing only the ones below it:
 //! * [`syntax`]: text → statements ([`parser`] over `grammar/scene.pest`, which reuses
 //!   `grammar/expr.pest`; [`ast`]; errors ([`SceneError`]) with a span, a label and a hint,
-//!   rendered by miette; [`help`]).
+//!   rendered by miette). `registry` (one row per statement: keywords, help topic, grammar
+//!   rule, reader) sits above `syntax` and `statements` and joins them; [`help`] reads it.
 //! * [`engine`]: what statements run on — the [`backend`] (the one place that calls the
 //!   mechanics, canonical, compile and integrate stages, through the library's `simulate`),
 //!   the plan of what was built, reused, loaded or skipped (`--explain`), [`progress`] bars
@@ -26,6 +27,8 @@
 //! ```
 
 pub mod engine;
+pub mod help;
+mod registry;
 pub mod repl;
 pub mod session;
 mod state;
@@ -34,7 +37,14 @@ pub mod syntax;
 
 pub use engine::{backend, output, progress};
 pub use statements::drift;
-pub use syntax::{ast, error, help, parser};
+pub use syntax::{ast, error};
+
+/// Scene text → statements: the text layer's splitting (`syntax::parser`) and the registry's
+/// reading of each statement.
+pub mod parser {
+    pub use super::registry::{parse_scene, parse_statement_at, Statement};
+    pub use super::syntax::parser::{is_incomplete, split_statements, Unfinished, MAX_STATEMENT};
+}
 
 pub use backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 pub use error::{ErrorKind, SceneError};

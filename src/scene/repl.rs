@@ -18,11 +18,11 @@ use rustyline::history::{FileHistory, History};
 use rustyline::validate::{ValidationContext, ValidationResult, Validator};
 use rustyline::{Context, Editor, Helper};
 
+use super::help::TOPICS;
+use super::registry::statement_words;
 use super::state::Session;
 use super::state::{Mode, Options};
-use super::syntax::help::TOPICS;
 use super::syntax::parser::{is_incomplete, Unfinished};
-use super::syntax::registry::statement_words;
 use crate::cache::Cache;
 use crate::simulate::METHODS;
 

@@ -19,10 +19,14 @@ use std::sync::Arc;
 use miette::NamedSource;
 
 use super::engine::backend::{BackendError, SystemRef};
+use super::registry::{parse_scene, Statement};
 use super::state::{At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session};
-use super::syntax::ast::{DefValue, DerivCall, DerivKind, Item, Src, Statement, StmtKind};
+use super::statements::Stmt;
+use super::syntax::ast::{
+    AllowNonfinite, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Functions, Help, History,
+    Item, Load, Parameters, Print, Src,
+};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
-use super::syntax::parser;
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 use crate::print::{render, Format};
@@ -158,7 +162,7 @@ impl Session {
         let saved = self.source.clone();
         self.source = Arc::new(NamedSource::new(name, text.to_string()));
         let src = self.source.clone();
-        let result = refuse_lookalikes(text).and_then(|()| parser::parse_scene(text)).and_then(|stmts| {
+        let result = refuse_lookalikes(text).and_then(|()| parse_scene(text)).and_then(|stmts| {
             self.claim_outputs(&stmts)?;
             // Line numbers by one forward pass: counting from the start for every statement
             // made a scene of 10⁵ definitions quadratic (44 s).
@@ -180,98 +184,9 @@ impl Session {
         result.map_err(|e| e.with_source(&src))
     }
 
+    /// Runs one statement: its own type's handler ([`Stmt::run`]), told where it is.
     pub(super) fn exec(&mut self, st: &Statement, line: usize) -> Result<(), SceneError> {
-        let at = At { line, span: st.span };
-        match &st.kind {
-            StmtKind::Coordinates(names) => self.declare_coordinates(names),
-            StmtKind::Parameters { params, positive } => self.declare_parameters(params, *positive),
-            StmtKind::Functions(names) => self.declare_functions(names),
-            StmtKind::Define { name, value } => self.define(at, name, value),
-            StmtKind::Derive { call, format } => {
-                let v = self.derive_call(at, call)?;
-                let printed = match v {
-                    Value::Expr(e) => {
-                        let label = match call.kind {
-                            DerivKind::Legendre => "H".to_string(),
-                            DerivKind::Energy => "E".to_string(),
-                            _ => format!(
-                                "{{{}}}",
-                                call.args.iter().map(|a| a.text.trim()).collect::<Vec<_>>().join(", ")
-                            ),
-                        };
-                        Printed::Named(label, e)
-                    }
-                    Value::Lines(l) => Printed::Lines(l),
-                    _ => return Ok(()),
-                };
-                self.print_all(vec![printed], *format);
-                Ok(())
-            }
-            StmtKind::Print { items, format } => {
-                let mut printed = Vec::new();
-                for item in items {
-                    printed.push(self.printed_item(at, item)?);
-                }
-                self.print_all(printed, *format);
-                Ok(())
-            }
-            StmtKind::Simulate(spec) => self.simulate(at, spec),
-            StmtKind::Chaos(spec) => self.chaos(at, spec),
-            StmtKind::Flow(spec) => self.flow(at, spec),
-            StmtKind::Plot(spec) => self.plot(at, spec),
-            StmtKind::Animate(spec) => self.animate(at, spec),
-            StmtKind::Export { items, run, path } => self.export(at, items, run.as_ref(), path),
-            StmtKind::Average { .. } => self.average_statement(at, &st.kind),
-            StmtKind::Transform { h, kind, f, new, format } => {
-                self.generating_transform(at, h.as_ref(), kind, f, new, *format)
-            }
-            StmtKind::PointTransform { l, map, to, format } => self.point_transform(at, l.as_ref(), map, to, *format),
-            StmtKind::Lie { f, generator, order, epsilon, format } => {
-                self.lie(at, f, generator, order.as_ref(), epsilon.as_ref(), *format)
-            }
-            StmtKind::Series { f, small, about, order, format } => {
-                self.series(at, f, small, about, order.as_ref(), *format)
-            }
-            StmtKind::Map { updates, steps, starts, points, path } => {
-                self.map(at, updates, steps, starts, points.as_ref(), path.as_ref())
-            }
-            StmtKind::Jacobian { map, vars, format } => self.jacobian(at, map, vars, *format),
-            StmtKind::Integral { f, h, format } => self.integral(at, f, h.as_ref(), *format),
-            StmtKind::Action { h, energies, near } => self.action(at, h.as_ref(), energies, near.as_ref()),
-            StmtKind::Geodesic(spec) => self.geodesic(at, spec),
-            StmtKind::Ritz(spec) => self.ritz(at, spec),
-            StmtKind::ExportPoincare { items, run, path } => self.export_poincare(at, items, run.as_ref(), path),
-            StmtKind::Force { coord, value } => self.declare_force(coord, value),
-            StmtKind::Rayleigh { name, value } => self.declare_rayleigh(at, name.as_ref(), value),
-            StmtKind::Constraint { velocity: false, lhs, rhs } => self.declare_constraint(lhs, rhs.as_ref()),
-            StmtKind::Constraint { velocity: true, lhs, rhs } => self.declare_velocity_constraint(lhs, rhs.as_ref()),
-            StmtKind::Load(path) => self.load(path),
-            StmtKind::Help(word) => {
-                let text = super::syntax::help::help(word.as_ref().map(|w| w.text.as_str()));
-                self.output.push(text);
-                Ok(())
-            }
-            StmtKind::History => {
-                self.output.push("(history is kept by the REPL)".to_string());
-                Ok(())
-            }
-            StmtKind::AllowNonfinite => {
-                self.allow_nonfinite = true;
-                Ok(())
-            }
-            StmtKind::Format { format, set_default } => {
-                if *set_default {
-                    self.opts.format = *format;
-                    self.output.push(format!("output format: {}", format_name(*format)));
-                } else if self.last_printed.is_empty() {
-                    self.output.push("nothing to reprint yet".to_string());
-                } else {
-                    let last = self.last_printed.clone();
-                    self.print_all(last, Some(*format));
-                }
-                Ok(())
-            }
-        }
+        st.node.run(self, At { line, span: st.span })
     }
 
     // ----- declarations -------------------------------------------------------------------
@@ -1186,4 +1101,103 @@ fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
         }
     }
     std::borrow::Cow::Owned(out)
+}
+
+impl Stmt for Coordinates {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.declare_coordinates(&self.0)
+    }
+}
+
+impl Stmt for Parameters {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.declare_parameters(&self.params, self.positive)
+    }
+}
+
+impl Stmt for Functions {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.declare_functions(&self.0)
+    }
+}
+
+impl Stmt for Define {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.define(at, &self.name, &self.value)
+    }
+}
+
+impl Stmt for Derive {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        let call = &self.call;
+        let v = s.derive_call(at, call)?;
+        let printed = match v {
+            Value::Expr(e) => {
+                let label = match call.kind {
+                    DerivKind::Legendre => "H".to_string(),
+                    DerivKind::Energy => "E".to_string(),
+                    _ => format!("{{{}}}", call.args.iter().map(|a| a.text.trim()).collect::<Vec<_>>().join(", ")),
+                };
+                Printed::Named(label, e)
+            }
+            Value::Lines(l) => Printed::Lines(l),
+            _ => return Ok(()),
+        };
+        s.print_all(vec![printed], self.format);
+        Ok(())
+    }
+}
+
+impl Stmt for Print {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        let mut printed = Vec::new();
+        for item in &self.items {
+            printed.push(s.printed_item(at, item)?);
+        }
+        s.print_all(printed, self.format);
+        Ok(())
+    }
+}
+
+impl Stmt for Load {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.load(&self.0)
+    }
+}
+
+impl Stmt for Help {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        let text = super::help::help(self.0.as_ref().map(|w| w.text.as_str()));
+        s.output.push(text);
+        Ok(())
+    }
+}
+
+impl Stmt for History {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.output.push("(history is kept by the REPL)".to_string());
+        Ok(())
+    }
+}
+
+impl Stmt for AllowNonfinite {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.allow_nonfinite = true;
+        Ok(())
+    }
+}
+
+impl Stmt for FormatStmt {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        if self.set_default {
+            s.opts.format = self.format;
+            s.output.push(format!("output format: {}", format_name(self.format)));
+        } else if s.last_printed.is_empty() {
+            s.output.push("nothing to reprint yet".to_string());
+        } else {
+            let last = s.last_printed.clone();
+            s.print_all(last, Some(self.format));
+        }
+        Ok(())
+    }
 }

@@ -6,6 +6,7 @@
 use crate::animate::{Animation, Frame};
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
+use crate::scene::statements::{Output, Stmt};
 use crate::scene::syntax::ast::{AnimateSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -100,5 +101,21 @@ impl Session {
             .at(src.span));
         }
         Ok(x)
+    }
+}
+
+impl Stmt for AnimateSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.animate(at, self)
+    }
+
+    fn output(&self) -> Option<Output<'_>> {
+        Some(Output {
+            path: Some(&self.path),
+            default: "animation",
+            what: "animation",
+            formats: &["gif"],
+            hint: ANIMATION_FORMATS,
+        })
     }
 }

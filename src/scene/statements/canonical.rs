@@ -14,7 +14,9 @@ use crate::print::{render, Format};
 
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
-use crate::scene::syntax::ast::{LieGenerator, Src, StmtKind};
+use crate::scene::statements::Stmt;
+use crate::scene::syntax::ast::{Action, Average, Integral, Lie, PointTransform, Transform};
+use crate::scene::syntax::ast::{LieGenerator, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 fn failed(what: &str, e: impl std::fmt::Display, span: crate::scene::syntax::ast::Span) -> SceneError {
@@ -233,10 +235,8 @@ impl Session {
 
     /// `average [L] with x = … phase θ frequency ω amplitudes A… [small σ unperturbed ω0
     /// [principal A]]`: `lagrangian average`, with `--small` the relations solved to first order.
-    pub(in crate::scene) fn average_statement(&mut self, at: At, st: &StmtKind) -> Result<(), SceneError> {
-        let StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format } = st else {
-            return Ok(());
-        };
+    pub(in crate::scene) fn average_statement(&mut self, at: At, st: &Average) -> Result<(), SceneError> {
+        let Average { l, trials, phase, frequency, amplitudes, small, format } = st;
         let (l, format) = (l.as_ref(), *format);
         let mut local: Vec<String> = [Some(phase), Some(frequency), small.as_ref().map(|s| &s.small)]
             .into_iter()
@@ -440,5 +440,41 @@ impl Session {
         let fmt = format.unwrap_or(self.opts.format);
         self.emit(canonical::report::transform_lines(&t, fmt));
         Ok(())
+    }
+}
+
+impl Stmt for Average {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.average_statement(at, self)
+    }
+}
+
+impl Stmt for Transform {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.generating_transform(at, self.h.as_ref(), &self.kind, &self.f, &self.new, self.format)
+    }
+}
+
+impl Stmt for PointTransform {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.point_transform(at, self.l.as_ref(), &self.map, &self.to, self.format)
+    }
+}
+
+impl Stmt for Lie {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.lie(at, &self.f, &self.generator, self.order.as_ref(), self.epsilon.as_ref(), self.format)
+    }
+}
+
+impl Stmt for Integral {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.integral(at, &self.f, self.h.as_ref(), self.format)
+    }
+}
+
+impl Stmt for Action {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.action(at, self.h.as_ref(), &self.energies, self.near.as_ref())
     }
 }

@@ -27,6 +27,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::{backend_error, fmt_num};
 use crate::scene::state::{At, ChaosRun, Layout, Session};
+use crate::scene::statements::{Output, Stmt};
 use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -824,4 +825,20 @@ fn map_table(axes: &[Axis], side: usize, on_surface: &[bool], values: &[f64], in
         }
     }
     s
+}
+
+impl Stmt for ChaosSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.chaos(at, self)
+    }
+
+    fn output(&self) -> Option<Output<'_>> {
+        self.map.then_some(Output {
+            path: self.path.as_ref(),
+            default: "chaos_map",
+            what: "chaos map",
+            formats: &["svg", "png", "csv"],
+            hint: "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
+        })
+    }
 }

@@ -15,6 +15,8 @@ use crate::expr::{Expr, Symbol};
 use crate::scene::engine::backend::ExtendedLagrangian;
 use crate::scene::session::{fmt_num, symbol_span};
 use crate::scene::state::{At, Declared, Dynamics, Mode, Session};
+use crate::scene::statements::Stmt;
+use crate::scene::syntax::ast::{Constraint, Force, Rayleigh};
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -409,5 +411,27 @@ impl Session {
             }
         }
         Ok(())
+    }
+}
+
+impl Stmt for Force {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        s.declare_force(&self.coord, &self.value)
+    }
+}
+
+impl Stmt for Rayleigh {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.declare_rayleigh(at, self.name.as_ref(), &self.value)
+    }
+}
+
+impl Stmt for Constraint {
+    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
+        if self.velocity {
+            s.declare_velocity_constraint(&self.lhs, self.rhs.as_ref())
+        } else {
+            s.declare_constraint(&self.lhs, self.rhs.as_ref())
+        }
     }
 }

@@ -6,7 +6,9 @@ use crate::expr::{Expr, Symbol};
 use crate::mechanics::{self, SeriesError};
 use crate::print::{render, Format};
 use crate::scene::state::{At, Session};
+use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::Src;
+use crate::scene::syntax::ast::{Jacobian, Series};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
 impl Session {
@@ -106,5 +108,17 @@ impl Session {
         }
         self.output.push(format!("det = {}", render(&det, f)));
         Ok(())
+    }
+}
+
+impl Stmt for Series {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.series(at, &self.f, &self.small, &self.about, self.order.as_ref(), self.format)
+    }
+}
+
+impl Stmt for Jacobian {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.jacobian(at, &self.map, &self.vars, self.format)
     }
 }

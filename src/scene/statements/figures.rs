@@ -6,10 +6,12 @@ use super::simulate::state_names;
 use crate::cache::Value;
 use crate::expr::Symbol;
 use crate::print::Format;
+use crate::scene::registry::Statement;
 use crate::scene::session::fmt_num;
 use crate::scene::state::Mode;
 use crate::scene::state::{At, Layout, Printed, RunResult, Session};
-use crate::scene::syntax::ast::{DerivKind, Item, PlotKind, PlotSpec, Src, Statement, StmtKind};
+use crate::scene::statements::{Output, Stmt};
+use crate::scene::syntax::ast::{DerivKind, Export, Item, PlotKind, PlotSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
 /// Columns of numbers as CSV (a header of names, one row per index) or as JSON (the run, its
@@ -151,58 +153,9 @@ impl Session {
     /// REPL entry) write the same file, where the second would silently replace the first.
     pub(in crate::scene) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
         for st in stmts {
-            let (file, span) = match &st.kind {
-                StmtKind::Plot(spec) => {
-                    let (file, span, _) = self.out_file(
-                        st.span,
-                        spec.path.as_ref(),
-                        plot_default(&spec.kind),
-                        "image",
-                        &["svg", "png"],
-                        PLOT_FORMATS,
-                    )?;
-                    (file, if spec.path.is_some() { span } else { st.span })
-                }
-                StmtKind::Chaos(spec) if spec.map => {
-                    let (file, span, _) = self.out_file(
-                        st.span,
-                        spec.path.as_ref(),
-                        "chaos_map",
-                        "chaos map",
-                        &["svg", "png", "csv"],
-                        "a chaos map is drawn as `.svg` or `.png`, or written as a table to `.csv`",
-                    )?;
-                    (file, if spec.path.is_some() { span } else { st.span })
-                }
-                StmtKind::Flow(spec) if spec.path.is_some() => {
-                    let (file, span, _) = self.out_file(
-                        st.span,
-                        spec.path.as_ref(),
-                        "flow",
-                        "flow",
-                        &["svg", "png", "csv"],
-                        "the flow's checks are drawn as `.svg` or `.png`, or written as a table to `.csv`",
-                    )?;
-                    (file, span)
-                }
-                StmtKind::Export { path, .. } => {
-                    let (file, span, _) =
-                        self.out_file(st.span, Some(path), "export", "export", &["csv", "json"], EXPORT_FORMATS)?;
-                    (file, span)
-                }
-                StmtKind::Animate(spec) => {
-                    let (file, span, _) = self.out_file(
-                        st.span,
-                        Some(&spec.path),
-                        "animation",
-                        "animation",
-                        &["gif"],
-                        super::animate::ANIMATION_FORMATS,
-                    )?;
-                    (file, span)
-                }
-                _ => continue,
-            };
+            let Some(out) = st.node.output() else { continue };
+            let (file, span, _) = self.out_file(st.span, out.path, out.default, out.what, out.formats, out.hint)?;
+            let span = if out.path.is_some() { span } else { st.span };
             self.staging.claim(&file).map_err(|e| e.at(span))?;
         }
         Ok(())
@@ -860,4 +813,31 @@ pub(in crate::scene) fn subscript_indices(s: &str) -> String {
         out.push(c);
     }
     out
+}
+
+impl Stmt for PlotSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.plot(at, self)
+    }
+
+    fn output(&self) -> Option<Output<'_>> {
+        let default = plot_default(&self.kind);
+        Some(Output { path: self.path.as_ref(), default, what: "image", formats: &["svg", "png"], hint: PLOT_FORMATS })
+    }
+}
+
+impl Stmt for Export {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.export(at, &self.items, self.run.as_ref(), &self.path)
+    }
+
+    fn output(&self) -> Option<Output<'_>> {
+        Some(Output {
+            path: Some(&self.path),
+            default: "export",
+            what: "export",
+            formats: &["csv", "json"],
+            hint: EXPORT_FORMATS,
+        })
+    }
 }

@@ -20,6 +20,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::chaos::variational_run_refusals;
+use crate::scene::statements::{Output, Stmt};
 use crate::scene::syntax::ast::FlowSpec;
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -291,5 +292,21 @@ impl Session {
             x.push(crate::eval::eval(p, &env).map_err(|e| self.value_error(e, spec.word))?);
         }
         Ok(x)
+    }
+}
+
+impl Stmt for FlowSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.flow(at, self)
+    }
+
+    fn output(&self) -> Option<Output<'_>> {
+        self.path.as_ref().map(|path| Output {
+            path: Some(path),
+            default: "flow",
+            what: "flow",
+            formats: &["svg", "png", "csv"],
+            hint: "the flow's checks are drawn as `.svg` or `.png`, or written as a table to `.csv`",
+        })
     }
 }

@@ -3,6 +3,7 @@
 
 use crate::mechanics::{embedded, geodesic, geodesic_from_metric, Geodesic};
 use crate::scene::state::{At, Session};
+use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::{GeodesicSpec, Geometry};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 
@@ -83,5 +84,11 @@ impl Session {
         }
         self.output.extend(lines);
         Ok(())
+    }
+}
+
+impl Stmt for GeodesicSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.geodesic(at, self)
     }
 }

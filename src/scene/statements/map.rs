@@ -6,6 +6,8 @@ use crate::expr::Symbol;
 use crate::mechanics::PhaseMap;
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
+use crate::scene::statements::Stmt;
+use crate::scene::syntax::ast::Map;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -138,5 +140,11 @@ impl Session {
             self.wrote(&file);
         }
         Ok(())
+    }
+}
+
+impl Stmt for Map {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.map(at, &self.updates, &self.steps, &self.starts, self.points.as_ref(), self.path.as_ref())
     }
 }

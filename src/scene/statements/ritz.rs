@@ -4,6 +4,7 @@
 use crate::expr::Expr;
 use crate::mechanics::{Ritz, System};
 use crate::scene::state::{At, Session};
+use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::RitzSpec;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -77,5 +78,11 @@ impl Session {
         let fmt = spec.format.unwrap_or(self.opts.format);
         self.output.extend(r.report(&sol, fmt));
         Ok(())
+    }
+}
+
+impl Stmt for RitzSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.ritz(at, self)
     }
 }

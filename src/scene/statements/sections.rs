@@ -7,6 +7,8 @@ use super::figures::members_text;
 use super::simulate::state_names;
 use crate::scene::engine::backend::Trajectory;
 use crate::scene::state::{At, RunResult, Session};
+use crate::scene::statements::Stmt;
+use crate::scene::syntax::ast::ExportPoincare;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
 
@@ -81,5 +83,11 @@ impl Session {
         let of = if ids.len() > 1 { format!(" of {} runs", ids.len()) } else { String::new() };
         self.output.push(format!("wrote {} ({points} points{of})", file.display()));
         Ok(())
+    }
+}
+
+impl Stmt for ExportPoincare {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.export_poincare(at, &self.items, self.run.as_ref(), &self.path)
     }
 }

@@ -13,6 +13,7 @@ use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
 use crate::scene::session::{backend_error, fmt_num, short};
 use crate::scene::state::{At, Dynamics, Layout, Mode, RunEntry, RunResult, Session};
+use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::{DerivKind, EventSpec, SimSpec, Src};
 use crate::scene::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::simulate::{
@@ -990,4 +991,10 @@ pub(in crate::scene) fn state_names(coords: &[Symbol], layout: Layout) -> Vec<St
         });
     }
     names
+}
+
+impl Stmt for SimSpec {
+    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
+        s.simulate(at, self)
+    }
 }

@@ -15,15 +15,6 @@ pub struct Src {
     pub span: Span,
 }
 
-/// One statement and its span.
-#[derive(Clone, Debug)]
-pub struct Statement {
-    /// What it says.
-    pub kind: StmtKind,
-    /// Where it is (all its lines).
-    pub span: Span,
-}
-
 /// The derivations a statement can ask for by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum DerivKind {
@@ -369,217 +360,248 @@ pub struct PlotSpec {
     pub path: Option<Src>,
 }
 
-/// Every statement.
+/// `coordinates θ, φ`
 #[derive(Clone, Debug)]
-pub enum StmtKind {
-    /// `coordinates θ, φ`
-    Coordinates(Vec<Src>),
-    /// `parameters m = 1, l positive`
-    Parameters {
-        /// Names and optional values.
-        params: Vec<(Src, Option<Src>)>,
-        /// `positive` at the end.
-        positive: bool,
-    },
-    /// `functions V`
-    Functions(Vec<Src>),
-    /// `name = …`
-    Define {
-        /// The name defined.
-        name: Src,
-        /// Its value.
-        value: DefValue,
-    },
-    /// `el`, `legendre`, `pb f, g`: derive and print.
-    Derive {
-        /// The derivation.
-        call: DerivCall,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `print …`
-    Print {
-        /// What to print.
-        items: Vec<Item>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `simulate …`
-    Simulate(Box<SimSpec>),
-    /// `megno …`, `chaos_map megno …`
-    Chaos(Box<ChaosSpec>),
-    /// `flow θ = 1, θ' = 0 for t in 0..10`
-    Flow(Box<FlowSpec>),
-    /// `plot …`
-    Plot(Box<PlotSpec>),
-    /// `animate …`
-    Animate(Box<AnimateSpec>),
-    /// `export … to FILE`
-    Export {
-        /// Columns or symbolic results (empty: the whole state).
-        items: Vec<Item>,
-        /// `from RUN`.
-        run: Option<Src>,
-        /// The file.
-        path: Src,
-    },
-    /// `export poincare [EXPR, …] [from RUN] to FILE`
-    ExportPoincare {
-        /// Expressions at the recorded points (empty: the state).
-        items: Vec<Src>,
-        /// `from RUN`.
-        run: Option<Src>,
-        /// The file.
-        path: Src,
-    },
-    /// `average [L] with x = … phase θ frequency ω amplitudes A, B`
-    Average {
-        /// The Lagrangian (default `L`).
-        l: Option<Src>,
-        /// Trial functions: coordinate and its value as a function of the phase.
-        trials: Vec<(Src, Src)>,
-        /// The phase.
-        phase: Src,
-        /// The frequency `ω = θ'`.
-        frequency: Src,
-        /// The amplitudes.
-        amplitudes: Vec<Src>,
-        /// `small σ unperturbed ω0 [principal A]`: solve to first order in `σ`.
-        small: Option<SmallSpec>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `transform [L] with x = r cos(φ), … [to r, φ]`: a point transformation.
-    PointTransform {
-        /// The Lagrangian (default `L`).
-        l: Option<Src>,
-        /// Old coordinate and its value in the new coordinates.
-        map: Vec<(Src, Src)>,
-        /// The new coordinates (empty: the map's new symbols, in order).
-        to: Vec<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
-    Lie {
-        /// The function transformed.
-        f: Src,
-        /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
-        generator: LieGenerator,
-        /// `order N` (default 3, as on the command line).
-        order: Option<Src>,
-        /// `in ε` (default `ε`).
-        epsilon: Option<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
-    Series {
-        /// The expanded expression.
-        f: Src,
-        /// `in x, y`: the small quantities.
-        small: Vec<Src>,
-        /// `about q = q0, …`: the coordinates and the point.
-        about: Vec<(Src, Src)>,
-        /// `order N` (default 2, as on the command line).
-        order: Option<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
-    Map {
-        /// The assignments, in order.
-        updates: Vec<(Src, Src)>,
-        /// The number of iterations.
-        steps: Src,
-        /// The starts: a variable and a value, or a range `lo..hi`.
-        starts: Vec<(Src, Src, Option<Src>)>,
-        /// `points N`: values per range (default 10).
-        points: Option<Src>,
-        /// `to FILE`.
-        path: Option<Src>,
-    },
-    /// `jacobian (X1, …) in y1, …`.
-    Jacobian {
-        /// The map's components.
-        map: Vec<Src>,
-        /// The variables they depend on.
-        vars: Vec<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `integral f [with H]`.
-    Integral {
-        /// The candidate.
-        f: Src,
-        /// The Hamiltonian (default the session's).
-        h: Option<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `geodesic …`
-    Geodesic(Box<GeodesicSpec>),
-    /// `ritz …`
-    Ritz(Box<RitzSpec>),
-    /// `action [H] at E = … [near q0]`.
-    Action {
-        /// The Hamiltonian (default the session's).
-        h: Option<Src>,
-        /// The energies.
-        energies: Vec<Src>,
-        /// A coordinate value inside the well (default 0).
-        near: Option<Src>,
-    },
-    /// `transform [H] with F1 = … new Q, P`
-    Transform {
-        /// The Hamiltonian (default `H`, or `legendre(L)`).
-        h: Option<Src>,
-        /// `F1` … `F4`.
-        kind: String,
-        /// The generating function.
-        f: Src,
-        /// New coordinates then new momenta.
-        new: Vec<Src>,
-        /// `as latex`.
-        format: Option<Format>,
-    },
-    /// `force x = …`: a generalized force on a coordinate.
-    Force {
-        /// The coordinate.
-        coord: Src,
-        /// The force `Q(q, q', t)`.
-        value: Src,
-    },
-    /// `rayleigh [R =] …`: the Rayleigh dissipation function.
-    Rayleigh {
-        /// The name it is defined as, if any.
-        name: Option<Src>,
-        /// `R(q, q')`.
-        value: Src,
-    },
-    /// `constraint f = g`: the holonomic constraint `f − g = 0`; `constraint velocity g = h`:
-    /// the velocity constraint `g − h = 0`, linear in the velocities.
-    Constraint {
-        /// Whether it is a velocity (nonholonomic) constraint.
-        velocity: bool,
-        /// The left side.
-        lhs: Src,
-        /// The right side (zero when absent).
-        rhs: Option<Src>,
-    },
-    /// `load FILE`
-    Load(Src),
-    /// `help`, `help WORD`
-    Help(Option<Src>),
-    /// `history`
-    History,
-    /// `allow nonfinite`: later exports keep inf and NaN.
-    AllowNonfinite,
-    /// `latex` (reprint the last result) or `format unicode` (set the default).
-    Format {
-        /// The format.
-        format: Format,
-        /// `format …` sets the default; a bare format name reprints.
-        set_default: bool,
-    },
+pub struct Coordinates(pub Vec<Src>);
+
+/// `parameters m = 1, l positive`
+#[derive(Clone, Debug)]
+pub struct Parameters {
+    /// Names and optional values.
+    pub params: Vec<(Src, Option<Src>)>,
+    /// `positive` at the end.
+    pub positive: bool,
+}
+
+/// `functions V`
+#[derive(Clone, Debug)]
+pub struct Functions(pub Vec<Src>);
+
+/// `name = …`
+#[derive(Clone, Debug)]
+pub struct Define {
+    /// The name defined.
+    pub name: Src,
+    /// Its value.
+    pub value: DefValue,
+}
+
+/// `el`, `legendre`, `pb f, g`: derive and print.
+#[derive(Clone, Debug)]
+pub struct Derive {
+    /// The derivation.
+    pub call: DerivCall,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `print …`
+#[derive(Clone, Debug)]
+pub struct Print {
+    /// What to print.
+    pub items: Vec<Item>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `export … to FILE`
+#[derive(Clone, Debug)]
+pub struct Export {
+    /// Columns or symbolic results (empty: the whole state).
+    pub items: Vec<Item>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The file.
+    pub path: Src,
+}
+
+/// `export poincare [EXPR, …] [from RUN] to FILE`
+#[derive(Clone, Debug)]
+pub struct ExportPoincare {
+    /// Expressions at the recorded points (empty: the state).
+    pub items: Vec<Src>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The file.
+    pub path: Src,
+}
+
+/// `average [L] with x = … phase θ frequency ω amplitudes A, B`
+#[derive(Clone, Debug)]
+pub struct Average {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Trial functions: coordinate and its value as a function of the phase.
+    pub trials: Vec<(Src, Src)>,
+    /// The phase.
+    pub phase: Src,
+    /// The frequency `ω = θ'`.
+    pub frequency: Src,
+    /// The amplitudes.
+    pub amplitudes: Vec<Src>,
+    /// `small σ unperturbed ω0 [principal A]`: solve to first order in `σ`.
+    pub small: Option<SmallSpec>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `transform [L] with x = r cos(φ), … [to r, φ]`: a point transformation.
+#[derive(Clone, Debug)]
+pub struct PointTransform {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Old coordinate and its value in the new coordinates.
+    pub map: Vec<(Src, Src)>,
+    /// The new coordinates (empty: the map's new symbols, in order).
+    pub to: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
+#[derive(Clone, Debug)]
+pub struct Lie {
+    /// The function transformed.
+    pub f: Src,
+    /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
+    pub generator: LieGenerator,
+    /// `order N` (default 3, as on the command line).
+    pub order: Option<Src>,
+    /// `in ε` (default `ε`).
+    pub epsilon: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// The expanded expression.
+    pub f: Src,
+    /// `in x, y`: the small quantities.
+    pub small: Vec<Src>,
+    /// `about q = q0, …`: the coordinates and the point.
+    pub about: Vec<(Src, Src)>,
+    /// `order N` (default 2, as on the command line).
+    pub order: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
+#[derive(Clone, Debug)]
+pub struct Map {
+    /// The assignments, in order.
+    pub updates: Vec<(Src, Src)>,
+    /// The number of iterations.
+    pub steps: Src,
+    /// The starts: a variable and a value, or a range `lo..hi`.
+    pub starts: Vec<(Src, Src, Option<Src>)>,
+    /// `points N`: values per range (default 10).
+    pub points: Option<Src>,
+    /// `to FILE`.
+    pub path: Option<Src>,
+}
+
+/// `jacobian (X1, …) in y1, …`.
+#[derive(Clone, Debug)]
+pub struct Jacobian {
+    /// The map's components.
+    pub map: Vec<Src>,
+    /// The variables they depend on.
+    pub vars: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `integral f [with H]`.
+#[derive(Clone, Debug)]
+pub struct Integral {
+    /// The candidate.
+    pub f: Src,
+    /// The Hamiltonian (default the session's).
+    pub h: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `action [H] at E = … [near q0]`.
+#[derive(Clone, Debug)]
+pub struct Action {
+    /// The Hamiltonian (default the session's).
+    pub h: Option<Src>,
+    /// The energies.
+    pub energies: Vec<Src>,
+    /// A coordinate value inside the well (default 0).
+    pub near: Option<Src>,
+}
+
+/// `transform [H] with F1 = … new Q, P`
+#[derive(Clone, Debug)]
+pub struct Transform {
+    /// The Hamiltonian (default `H`, or `legendre(L)`).
+    pub h: Option<Src>,
+    /// `F1` … `F4`.
+    pub kind: String,
+    /// The generating function.
+    pub f: Src,
+    /// New coordinates then new momenta.
+    pub new: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `force x = …`: a generalized force on a coordinate.
+#[derive(Clone, Debug)]
+pub struct Force {
+    /// The coordinate.
+    pub coord: Src,
+    /// The force `Q(q, q', t)`.
+    pub value: Src,
+}
+
+/// `rayleigh [R =] …`: the Rayleigh dissipation function.
+#[derive(Clone, Debug)]
+pub struct Rayleigh {
+    /// The name it is defined as, if any.
+    pub name: Option<Src>,
+    /// `R(q, q')`.
+    pub value: Src,
+}
+
+/// `constraint f = g`: the holonomic constraint `f − g = 0`; `constraint velocity g = h`:
+/// the velocity constraint `g − h = 0`, linear in the velocities.
+#[derive(Clone, Debug)]
+pub struct Constraint {
+    /// Whether it is a velocity (nonholonomic) constraint.
+    pub velocity: bool,
+    /// The left side.
+    pub lhs: Src,
+    /// The right side (zero when absent).
+    pub rhs: Option<Src>,
+}
+
+/// `load FILE`
+#[derive(Clone, Debug)]
+pub struct Load(pub Src);
+
+/// `help`, `help WORD`
+#[derive(Clone, Debug)]
+pub struct Help(pub Option<Src>);
+
+/// `history`
+#[derive(Clone, Debug)]
+pub struct History;
+
+/// `allow nonfinite`: later exports keep inf and NaN.
+#[derive(Clone, Debug)]
+pub struct AllowNonfinite;
+
+/// `latex` (reprint the last result) or `format unicode` (set the default).
+#[derive(Clone, Debug)]
+pub struct FormatStmt {
+    /// The format.
+    pub format: Format,
+    /// `format …` sets the default; a bare format name reprints.
+    pub set_default: bool,
 }

@@ -1,9 +1,9 @@
-//! The scene language as text: its statements ([`ast`]), the parser over `grammar/scene.pest`
-//! ([`parser`]), the errors every stage reports with a span ([`error`]) and the `help` topics
-//! ([`help`]), all derived from the statement [`registry`]. Nothing here runs a statement.
+//! The scene language as text: its statements' types ([`ast`]), the parser over
+//! `grammar/scene.pest` and the `Reader` every statement reads its pairs with
+//! ([`parser`]), and the errors every stage reports with a span ([`error`]). Which rule is
+//! which statement is the registry's (`scene/registry.rs`), handed to the parser; nothing
+//! here imports a statement or runs one.
 
 pub mod ast;
 pub mod error;
-pub mod help;
 pub mod parser;
-pub mod registry;

@@ -3,15 +3,20 @@
 //! the next line is indented or starts with an operator); each statement is then parsed by the pest grammar
 //! in `grammar/scene.pest`, which reuses the expression rules of `grammar/expr.pest`.
 //!
-//! No pest type leaves this module. Every span is a byte range of the whole scene text.
+//! The pest types leave this module only for the statements' readers: each statement reads its
+//! own pairs with a [`Reader`], and the registry (`scene/registry.rs`) hands the parser its
+//! [`Language`]. Nothing outside the scene sees them. Every span is a byte range of the whole
+//! scene text.
 
-use pest::iterators::Pair;
+pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    AnimateSpec, AverageSweep, ChaosSpec, DefValue, DerivCall, DerivKind, EnsembleSpec, EventSpec, FlowSpec,
-    GeodesicSpec, Geometry, Item, LevelSpec, LieGenerator, PlotKind, PlotSpec, RitzSpec, SimSpec, SmallSpec, Src,
-    StabilizeSpec, Statement, StmtKind,
+    Action, AnimateSpec, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall,
+    DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions,
+    GeodesicSpec, Geometry, Help, Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters,
+    PlotKind, PlotSpec, PointTransform, Print, Rayleigh, RitzSpec, Series, SimSpec, SmallSpec, Src, StabilizeSpec,
+    Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -135,19 +140,23 @@ fn strip_comment(line: &str) -> &str {
     }
 }
 
-/// Parses a whole scene into statements; stops at the first malformed one.
-pub fn parse_scene(text: &str) -> Result<Vec<Statement>, SceneError> {
-    let mut out = Vec::new();
-    for (s, e) in split_statements(text) {
-        if let Some(stmt) = parse_statement_at(text, s, e)? {
-            out.push(stmt);
-        }
-    }
-    Ok(out)
+/// What the parser needs from the statement registry: how to read a statement's pest pair
+/// (its rule says which statement it is) and which words start a statement (for "did you
+/// mean"). The registry passes it in, so this module imports no statement.
+pub(crate) struct Language<T> {
+    /// Reads one statement's pair.
+    pub read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>,
+    /// The words that start a statement.
+    pub words: fn() -> Vec<&'static str>,
 }
 
-/// Parses the statement in `text[start..end]` (spans are positions in `text`).
-pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
+/// Parses the statement in `text[start..end]` (spans are positions in `text`) with `lang`.
+pub(crate) fn parse_statement_at<T>(
+    text: &str,
+    start: usize,
+    end: usize,
+    lang: &Language<T>,
+) -> Result<Option<T>, SceneError> {
     let src = &text[start..end];
     if src.len() > MAX_STATEMENT {
         return Err(SceneError::new(
@@ -158,22 +167,21 @@ pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option
         .hint("split it into named parts: `T = …`, `V = …`, `L = T - V`"));
     }
     let depth = check_depth(src, start)?;
-    crate::parse::with_stack_for_depth(depth, || parse_checked(src, start, end))
+    crate::parse::with_stack_for_depth(depth, || parse_checked(src, start, lang))
 }
 
 /// [`parse_statement_at`] after the size and depth checks, on a stack deep enough for it.
-fn parse_checked(src: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
+fn parse_checked<T>(src: &str, start: usize, lang: &Language<T>) -> Result<Option<T>, SceneError> {
     let pairs = match SceneGrammar::parse(Rule::statement, src) {
         Ok(p) => p,
-        Err(e) => return Err(syntax_error(src, start, e)),
+        Err(e) => return Err(syntax_error(src, start, e, &(lang.words)())),
     };
-    let b = Builder { base: start };
+    let r = Reader { base: start };
     for pair in pairs {
         if pair.as_rule() == Rule::EOI {
             continue;
         }
-        let kind = b.stmt(pair)?;
-        return Ok(Some(Statement { kind, span: (start, end) }));
+        return (lang.read)(&r, pair).map(Some);
     }
     Ok(None)
 }
@@ -248,14 +256,14 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
     })
 }
 
-fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneError {
+fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>, words: &[&str]) -> SceneError {
     let pos = match e.location {
         pest::error::InputLocation::Pos(p) => p,
         pest::error::InputLocation::Span((s, _)) => s,
     };
     let first_word: String = src.trim_start().chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
     let word_start = src.len() - src.trim_start().len();
-    let is_known = super::registry::is_statement_word(&first_word);
+    let is_known = words.contains(&first_word.as_str());
     // A first word that is no statement and is not followed by `=` is an unknown statement.
     let after = src.trim_start()[first_word.len()..].trim_start();
     let looks_like_definition = after.starts_with('=') && !after.starts_with("==");
@@ -264,7 +272,7 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>) -> SceneErr
         let mut err = SceneError::new(ErrorKind::UnknownStatement, format!("unknown statement `{first_word}`"))
             .at(span)
             .label("not a statement");
-        err = match did_you_mean(&first_word, super::registry::statement_words()) {
+        err = match did_you_mean(&first_word, words.iter().copied()) {
             Some(s) => err.hint(format!("did you mean `{s}`? (`help` lists every statement)")),
             None => err.hint("a statement starts with a keyword (`help` lists them) or is a definition `name = …`"),
         };
@@ -402,33 +410,35 @@ fn is_kw(rule: Rule) -> bool {
     )
 }
 
-struct Builder {
+/// Reads a statement's pest pairs into its statement type: the helpers every statement's
+/// reader shares (spans, names, paths, formats, the `simulate`-like options).
+pub(crate) struct Reader {
     base: usize,
 }
 
-impl Builder {
+impl Reader {
     /// The text of a pair without the blanks and comments pest's implicit rules may have
     /// consumed at its end (expressions never contain `#`).
-    fn src(&self, p: &Pair<Rule>) -> Src {
+    pub(crate) fn src(&self, p: &Pair<Rule>) -> Src {
         let s = p.as_span();
         let raw = p.as_str();
         let text = raw.split('#').next().unwrap_or(raw).trim_end();
         Src { text: text.to_string(), span: (self.base + s.start(), self.base + s.start() + text.len()) }
     }
 
-    fn span(&self, p: &Pair<Rule>) -> Span {
+    pub(crate) fn span(&self, p: &Pair<Rule>) -> Span {
         let s = p.as_span();
         (self.base + s.start(), self.base + s.end())
     }
 
-    fn names(&self, p: Pair<Rule>) -> Vec<Src> {
+    pub(crate) fn names(&self, p: Pair<Rule>) -> Vec<Src> {
         p.into_inner().filter(|q| q.as_rule() == Rule::name).map(|q| self.src(&q)).collect()
     }
 
     /// The names a statement declares (coordinates, parameters, functions, definitions),
     /// refusing `pi`: expressions read it as the exact constant, so a declaration would
     /// otherwise be silently ignored.
-    fn declared(&self, names: Vec<Src>) -> Result<Vec<Src>, SceneError> {
+    pub(crate) fn declared(&self, names: Vec<Src>) -> Result<Vec<Src>, SceneError> {
         match names.iter().find(|n| crate::parse::is_constant_name(&n.text)) {
             Some(n) => Err(SceneError::new(
                 ErrorKind::Redeclared,
@@ -443,7 +453,7 @@ impl Builder {
         }
     }
 
-    fn format(&self, p: Pair<Rule>) -> Format {
+    pub(crate) fn format(&self, p: Pair<Rule>) -> Format {
         let name = p.into_inner().find(|q| q.as_rule() == Rule::format_name).map(|q| q.as_str().to_string());
         match name.as_deref() {
             Some("latex") => Format::Latex,
@@ -452,7 +462,7 @@ impl Builder {
         }
     }
 
-    fn format_name(p: &Pair<Rule>) -> Format {
+    pub(crate) fn format_name(p: &Pair<Rule>) -> Format {
         match p.as_str() {
             "latex" => Format::Latex,
             "plain" => Format::Plain,
@@ -460,7 +470,7 @@ impl Builder {
         }
     }
 
-    fn path(&self, p: Pair<Rule>) -> Src {
+    pub(crate) fn path(&self, p: Pair<Rule>) -> Src {
         let inner = p.into_inner().next();
         match inner {
             Some(q) if q.as_rule() == Rule::quoted_path => {
@@ -473,7 +483,7 @@ impl Builder {
         }
     }
 
-    fn deriv_call(&self, p: Pair<Rule>) -> Result<DerivCall, SceneError> {
+    pub(crate) fn deriv_call(&self, p: Pair<Rule>) -> Result<DerivCall, SceneError> {
         let span = self.span(&p);
         let mut kind = None;
         let mut args = Vec::new();
@@ -488,7 +498,7 @@ impl Builder {
         Ok(DerivCall { kind, args, span })
     }
 
-    fn item(&self, p: Pair<Rule>) -> Result<Item, SceneError> {
+    pub(crate) fn item(&self, p: Pair<Rule>) -> Result<Item, SceneError> {
         let span = self.span(&p);
         let Some(q) = p.into_inner().next() else {
             return Err(SceneError::new(ErrorKind::Syntax, "expected something to print").at(span));
@@ -503,125 +513,139 @@ impl Builder {
         })
     }
 
-    fn stmt(&self, p: Pair<Rule>) -> Result<StmtKind, SceneError> {
-        let rule = p.as_rule();
+    /// The statement's parts without its keyword pairs.
+    pub(crate) fn inner<'i>(&self, p: &Pair<'i, Rule>) -> Vec<Pair<'i, Rule>> {
+        p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect()
+    }
+
+    /// `coordinates θ, φ`.
+    pub(crate) fn coordinates(&self, p: Pair<Rule>) -> Result<Coordinates, SceneError> {
+        Ok(Coordinates(self.declared(self.inner(&p).into_iter().flat_map(|q| self.names(q)).collect())?))
+    }
+
+    /// `functions V`.
+    pub(crate) fn functions(&self, p: Pair<Rule>) -> Result<Functions, SceneError> {
+        Ok(Functions(self.declared(self.inner(&p).into_iter().flat_map(|q| self.names(q)).collect())?))
+    }
+
+    /// `name = …`: an expression or a derivation.
+    pub(crate) fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
         let span = self.span(&p);
-        let inner: Vec<Pair<Rule>> = p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect();
-        Ok(match rule {
-            Rule::coordinates => {
-                StmtKind::Coordinates(self.declared(inner.into_iter().flat_map(|q| self.names(q)).collect())?)
+        let mut it = self.inner(&p).into_iter();
+        let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
+        let value = it.next();
+        match (name, value) {
+            (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
+                Ok(Define { name, value: DefValue::Derivation(self.deriv_call(v)?) })
             }
-            Rule::functions => {
-                StmtKind::Functions(self.declared(inner.into_iter().flat_map(|q| self.names(q)).collect())?)
+            (Some(name), Some(v)) => Ok(Define { name, value: DefValue::Expr(self.src(&v)) }),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed definition").at(span)),
+        }
+    }
+
+    /// `el`, `pb f, g`, … with an optional format.
+    pub(crate) fn derive(&self, p: Pair<Rule>) -> Result<Derive, SceneError> {
+        let span = self.span(&p);
+        let mut format = None;
+        let mut kind = None;
+        let mut args = Vec::new();
+        for q in self.inner(&p) {
+            match q.as_rule() {
+                Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
+                Rule::sexpr => args.push(self.src(&q)),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
             }
-            Rule::parameters => self.parameters_stmt(inner)?,
-            Rule::definition => {
-                let mut it = inner.into_iter();
-                let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
-                let value = it.next();
-                match (name, value) {
-                    (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
-                        StmtKind::Define { name, value: DefValue::Derivation(self.deriv_call(v)?) }
-                    }
-                    (Some(name), Some(v)) => StmtKind::Define { name, value: DefValue::Expr(self.src(&v)) },
-                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed definition").at(span)),
-                }
+        }
+        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
+        Ok(Derive { call: DerivCall { kind, args, span }, format })
+    }
+
+    /// `print ITEM, … [as FORMAT]`.
+    pub(crate) fn print(&self, p: Pair<Rule>) -> Result<Print, SceneError> {
+        let mut items = Vec::new();
+        let mut format = None;
+        for q in self.inner(&p) {
+            match q.as_rule() {
+                Rule::print_item => items.push(self.item(q)?),
+                Rule::as_format => format = Some(self.format(q)),
+                _ => {}
             }
-            Rule::derive_stmt => {
-                let mut format = None;
-                let mut kind = None;
-                let mut args = Vec::new();
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
-                        Rule::sexpr => args.push(self.src(&q)),
-                        Rule::as_format => format = Some(self.format(q)),
-                        _ => {}
-                    }
-                }
-                let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
-                StmtKind::Derive { call: DerivCall { kind, args, span }, format }
+        }
+        Ok(Print { items, format })
+    }
+
+    /// `simulate …`.
+    pub(crate) fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
+        self.simulate(self.inner(&p), self.span(&p))
+    }
+
+    /// `flow …`: a simulate-like start and an optional output file.
+    pub(crate) fn flow(&self, p: Pair<Rule>) -> Result<FlowSpec, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
+        let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| self.path(q.clone()));
+        let word = (span.0, span.0 + "flow".len());
+        Ok(FlowSpec { sim: self.simulate(inner, span)?, path, word })
+    }
+
+    /// `force q = Q`.
+    pub(crate) fn force(&self, p: Pair<Rule>) -> Result<Force, SceneError> {
+        let span = self.span(&p);
+        let mut it = self.inner(&p).into_iter();
+        match (it.next(), it.next()) {
+            (Some(c), Some(v)) => Ok(Force { coord: self.src(&c), value: self.src(&v) }),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
+        }
+    }
+
+    /// `rayleigh [R =] …`.
+    pub(crate) fn rayleigh(&self, p: Pair<Rule>) -> Result<Rayleigh, SceneError> {
+        let span = self.span(&p);
+        let mut name = None;
+        let mut value = None;
+        for q in self.inner(&p) {
+            match q.as_rule() {
+                Rule::name => name = Some(self.src(&q)),
+                _ => value = Some(self.src(&q)),
             }
-            Rule::print => {
-                let mut items = Vec::new();
-                let mut format = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::print_item => items.push(self.item(q)?),
-                        Rule::as_format => format = Some(self.format(q)),
-                        _ => {}
-                    }
-                }
-                StmtKind::Print { items, format }
-            }
-            Rule::simulate => StmtKind::Simulate(Box::new(self.simulate(inner, span)?)),
-            Rule::chaos | Rule::chaos_map => self.chaos_stmt(rule == Rule::chaos_map, inner, span)?,
-            Rule::flow_stmt => {
-                let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| self.path(q.clone()));
-                let word = (span.0, span.0 + "flow".len());
-                StmtKind::Flow(Box::new(FlowSpec { sim: self.simulate(inner, span)?, path, word }))
-            }
-            Rule::plot => self.plot_stmt(inner, span)?,
-            Rule::animate => self.animate_stmt(inner, span)?,
-            Rule::export => self.export_stmt(inner, span)?,
-            Rule::export_poincare => self.export_poincare_stmt(inner, span)?,
-            Rule::average => self.average_stmt(inner, span)?,
-            Rule::transform => self.transform_stmt(inner, span)?,
-            Rule::transform_point => self.point_transform(inner),
-            Rule::lie => self.lie(inner, span)?,
-            Rule::integral => self.integral(inner, span)?,
-            Rule::series => self.series(inner, span)?,
-            Rule::jacobian => self.jacobian(inner),
-            Rule::map_stmt => self.map(inner, span)?,
-            Rule::action => self.action(inner),
-            Rule::geodesic => self.geodesic(inner),
-            // Unfiltered: the keywords `with`, `from`, `to` say which list an `x = …` is in.
-            Rule::ritz => self.ritz(p.clone().into_inner().collect(), span)?,
-            Rule::force => {
-                let mut it = inner.into_iter();
-                match (it.next(), it.next()) {
-                    (Some(c), Some(v)) => StmtKind::Force { coord: self.src(&c), value: self.src(&v) },
-                    _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
-                }
-            }
-            Rule::rayleigh => {
-                let mut name = None;
-                let mut value = None;
-                for q in inner {
-                    match q.as_rule() {
-                        Rule::name => name = Some(self.src(&q)),
-                        _ => value = Some(self.src(&q)),
-                    }
-                }
-                let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
-                StmtKind::Rayleigh { name, value }
-            }
-            Rule::constraint => {
-                let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
-                let mut it = inner.into_iter();
-                let lhs = it.next().map(|q| self.src(&q));
-                let rhs = it.next().map(|q| self.src(&q));
-                let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
-                StmtKind::Constraint { velocity, lhs, rhs }
-            }
-            Rule::load => {
-                let path = inner.into_iter().next().map(|q| self.path(q));
-                StmtKind::Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?)
-            }
-            Rule::help => StmtKind::Help(inner.into_iter().next().map(|q| self.src(&q))),
-            Rule::history => StmtKind::History,
-            Rule::allow => StmtKind::AllowNonfinite,
-            Rule::format_stmt => {
-                let set_default = p.as_str().trim_start().starts_with("format");
-                let f = inner.iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
-                StmtKind::Format { format: f.unwrap_or(Format::Unicode), set_default }
-            }
-            _ => return Err(SceneError::new(ErrorKind::Syntax, "unrecognised statement").at(span)),
-        })
+        }
+        let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
+        Ok(Rayleigh { name, value })
+    }
+
+    /// `constraint [velocity] f [= g]`.
+    pub(crate) fn constraint(&self, p: Pair<Rule>) -> Result<Constraint, SceneError> {
+        let span = self.span(&p);
+        let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
+        let mut it = self.inner(&p).into_iter();
+        let lhs = it.next().map(|q| self.src(&q));
+        let rhs = it.next().map(|q| self.src(&q));
+        let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
+        Ok(Constraint { velocity, lhs, rhs })
+    }
+
+    /// `load FILE`.
+    pub(crate) fn load(&self, p: Pair<Rule>) -> Result<Load, SceneError> {
+        let span = self.span(&p);
+        let path = self.inner(&p).into_iter().next().map(|q| self.path(q));
+        Ok(Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?))
+    }
+
+    /// `help [WORD]`.
+    pub(crate) fn help(&self, p: Pair<Rule>) -> Help {
+        Help(self.inner(&p).into_iter().next().map(|q| self.src(&q)))
+    }
+
+    /// `format NAME` (sets the default) or a bare format name (reprints).
+    pub(crate) fn format_stmt(&self, p: Pair<Rule>) -> FormatStmt {
+        let set_default = p.as_str().trim_start().starts_with("format");
+        let f = self.inner(&p).iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
+        FormatStmt { format: f.unwrap_or(Format::Unicode), set_default }
     }
 
     /// `parameters …`: the names, their values if given, and `positive`.
-    fn parameters_stmt(&self, inner: Vec<Pair<Rule>>) -> Result<StmtKind, SceneError> {
+    pub(crate) fn parameters_stmt(&self, p: Pair<Rule>) -> Result<Parameters, SceneError> {
+        let inner = self.inner(&p);
         let mut params = Vec::new();
         let mut positive = false;
         for q in inner {
@@ -639,11 +663,12 @@ impl Builder {
                 _ => {}
             }
         }
-        Ok(StmtKind::Parameters { params, positive })
+        Ok(Parameters { params, positive })
     }
 
     /// `lyapunov`/`megno`/`fli` of one orbit, or `chaos_map` (`map`) over a grid of starts.
-    fn chaos_stmt(&self, map: bool, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn chaos_stmt(&self, map: bool, p: Pair<Rule>) -> Result<ChaosSpec, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
         let mut ranges = Vec::new();
         let mut path = None;
@@ -679,11 +704,12 @@ impl Builder {
         let indicator =
             indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
         let sim = self.simulate(inner, span)?;
-        Ok(StmtKind::Chaos(Box::new(ChaosSpec { indicator, sim, map, ranges, path, level })))
+        Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
     }
 
     /// `plot …`: what is drawn, from which runs, to which file.
-    fn plot_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn plot_stmt(&self, p: Pair<Rule>) -> Result<PlotSpec, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut kind = None;
         let mut runs = Vec::new();
         let mut path = None;
@@ -729,11 +755,12 @@ impl Builder {
             }
         }
         let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
-        Ok(StmtKind::Plot(Box::new(PlotSpec { kind, runs, path })))
+        Ok(PlotSpec { kind, runs, path })
     }
 
     /// `animate …`: the points drawn, the run, the file and the frame options.
-    fn animate_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn animate_stmt(&self, p: Pair<Rule>) -> Result<AnimateSpec, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut points = Vec::new();
         let mut run = None;
         let mut path = None;
@@ -763,11 +790,12 @@ impl Builder {
             }
         }
         let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
-        Ok(StmtKind::Animate(Box::new(AnimateSpec { points, run, path, fps, duration, size })))
+        Ok(AnimateSpec { points, run, path, fps, duration, size })
     }
 
     /// `export …`: the items, the run and the file.
-    fn export_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn export_stmt(&self, p: Pair<Rule>) -> Result<Export, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut items = Vec::new();
         let mut run = None;
         let mut path = None;
@@ -780,11 +808,12 @@ impl Builder {
             }
         }
         let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(StmtKind::Export { items, run, path })
+        Ok(Export { items, run, path })
     }
 
     /// `export poincare …`: the section's columns, the run and the file.
-    fn export_poincare_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn export_poincare_stmt(&self, p: Pair<Rule>) -> Result<ExportPoincare, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut items = Vec::new();
         let mut run = None;
         let mut path = None;
@@ -797,11 +826,12 @@ impl Builder {
             }
         }
         let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(StmtKind::ExportPoincare { items, run, path })
+        Ok(ExportPoincare { items, run, path })
     }
 
     /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
-    fn average_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn average_stmt(&self, p: Pair<Rule>) -> Result<Average, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut l = None;
         let mut trials = Vec::new();
         let mut names = Vec::new();
@@ -826,15 +856,14 @@ impl Builder {
         }
         let mut it = names.into_iter();
         Ok(match (it.next(), it.next()) {
-            (Some(phase), Some(frequency)) => {
-                StmtKind::Average { l, trials, phase, frequency, amplitudes, small, format }
-            }
+            (Some(phase), Some(frequency)) => Average { l, trials, phase, frequency, amplitudes, small, format },
             _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
         })
     }
 
     /// `transform … with F1 = …`: `H`, the generating function's kind and expression, the new names.
-    fn transform_stmt(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn transform_stmt(&self, p: Pair<Rule>) -> Result<Transform, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut exprs = Vec::new();
         let mut kind = String::new();
         let mut new = Vec::new();
@@ -849,10 +878,10 @@ impl Builder {
             }
         }
         let f = exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
-        Ok(StmtKind::Transform { h: exprs.pop(), kind, f, new, format })
+        Ok(Transform { h: exprs.pop(), kind, f, new, format })
     }
 
-    fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
+    pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
         let mut inits = Vec::new();
         let mut time_var = None;
         let mut t0 = None;
@@ -954,7 +983,7 @@ impl Builder {
         })
     }
 
-    fn ensemble(&self, q: Pair<Rule>) -> EnsembleSpec {
+    pub(crate) fn ensemble(&self, q: Pair<Rule>) -> EnsembleSpec {
         let espan = self.span(&q);
         let parts: Vec<Pair<Rule>> = q.into_inner().filter(|q| !is_kw(q.as_rule())).collect();
         let src = |i: usize| parts.get(i).map_or(Src { text: String::new(), span: espan }, |p| self.src(p));
@@ -980,8 +1009,8 @@ impl Builder {
 
 /// The derivation statements that mirror the command line (`transform … with x = …`, `lie`,
 /// `integral`, `action`, `average … small`): scene parity with the command line.
-impl Builder {
-    fn small(&self, p: Pair<Rule>) -> SmallSpec {
+impl Reader {
+    pub(crate) fn small(&self, p: Pair<Rule>) -> SmallSpec {
         let mut names = Vec::new();
         let mut exprs = Vec::new();
         let mut sweep = None;
@@ -1000,7 +1029,7 @@ impl Builder {
         SmallSpec { small, unperturbed, principal: it.next(), order: exprs.next(), sweep }
     }
 
-    fn average_sweep(&self, p: Pair<Rule>) -> Option<AverageSweep> {
+    pub(crate) fn average_sweep(&self, p: Pair<Rule>) -> Option<AverageSweep> {
         let (mut amplitude, mut bounds, mut points, mut path) = (None, Vec::new(), None, None);
         for q in p.into_inner() {
             match q.as_rule() {
@@ -1015,7 +1044,8 @@ impl Builder {
         Some(AverageSweep { amplitude: amplitude?, from: b.next()?, to: b.next()?, points, path })
     }
 
-    fn point_transform(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+    pub(crate) fn point_transform(&self, p: Pair<Rule>) -> PointTransform {
+        let inner = self.inner(&p);
         let (mut l, mut map, mut to, mut format) = (None, Vec::new(), Vec::new(), None);
         for q in inner {
             match q.as_rule() {
@@ -1031,10 +1061,11 @@ impl Builder {
                 _ => {}
             }
         }
-        StmtKind::PointTransform { l, map, to, format }
+        PointTransform { l, map, to, format }
     }
 
-    fn lie(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn lie(&self, p: Pair<Rule>) -> Result<Lie, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
         for q in inner {
             match q.as_rule() {
@@ -1054,14 +1085,15 @@ impl Builder {
             }
         }
         match (f, generator) {
-            (Some(f), Some(generator)) => Ok(StmtKind::Lie { f, generator, order, epsilon, format }),
+            (Some(f), Some(generator)) => Ok(Lie { f, generator, order, epsilon, format }),
             _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `lie`")
                 .at(span)
                 .hint("`lie f with G order 3` or `lie f flow H order 3`")),
         }
     }
 
-    fn integral(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn integral(&self, p: Pair<Rule>) -> Result<Integral, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let mut exprs = Vec::new();
         let mut format = None;
         for q in inner {
@@ -1073,10 +1105,11 @@ impl Builder {
         }
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
-        Ok(StmtKind::Integral { f, h: it.next(), format })
+        Ok(Integral { f, h: it.next(), format })
     }
 
-    fn series(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn series(&self, p: Pair<Rule>) -> Result<Series, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let (mut exprs, mut small, mut about, mut format) = (Vec::new(), Vec::new(), Vec::new(), None);
         for q in inner {
             match q.as_rule() {
@@ -1096,10 +1129,11 @@ impl Builder {
         }
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
-        Ok(StmtKind::Series { f, small, about, order: it.next(), format })
+        Ok(Series { f, small, about, order: it.next(), format })
     }
 
-    fn map(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn map(&self, p: Pair<Rule>) -> Result<Map, SceneError> {
+        let (span, inner) = (self.span(&p), self.inner(&p));
         let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
         for q in inner {
             match q.as_rule() {
@@ -1131,10 +1165,11 @@ impl Builder {
             }
         }
         let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
-        Ok(StmtKind::Map { updates, steps, starts, points, path })
+        Ok(Map { updates, steps, starts, points, path })
     }
 
-    fn jacobian(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+    pub(crate) fn jacobian(&self, p: Pair<Rule>) -> Jacobian {
+        let inner = self.inner(&p);
         let (mut map, mut vars, mut format) = (Vec::new(), Vec::new(), None);
         for q in inner {
             match q.as_rule() {
@@ -1144,14 +1179,15 @@ impl Builder {
                 _ => {}
             }
         }
-        StmtKind::Jacobian { map, vars, format }
+        Jacobian { map, vars, format }
     }
 
-    fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
+    pub(crate) fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
         p.into_inner().filter(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)).collect()
     }
 
-    fn geodesic(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+    pub(crate) fn geodesic(&self, p: Pair<Rule>) -> GeodesicSpec {
+        let inner = self.inner(&p);
         let (mut geometry, mut tuples, mut format) = (None, Vec::new(), None);
         for q in inner {
             match q.as_rule() {
@@ -1176,14 +1212,11 @@ impl Builder {
         }
         let mut it = tuples.into_iter();
         let ends = it.next().zip(it.next());
-        StmtKind::Geodesic(Box::new(GeodesicSpec {
-            geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())),
-            ends,
-            format,
-        }))
+        GeodesicSpec { geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())), ends, format }
     }
 
-    fn ritz(&self, inner: Vec<Pair<Rule>>, span: Span) -> Result<StmtKind, SceneError> {
+    pub(crate) fn ritz(&self, p: Pair<Rule>) -> Result<RitzSpec, SceneError> {
+        let (span, inner) = (self.span(&p), p.into_inner().collect::<Vec<_>>());
         let (mut l, mut time_var, mut t0, mut t1, mut format) = (None, None, None, None, None);
         let (mut trials, mut from, mut to, mut unknowns, mut guess) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -1217,23 +1250,15 @@ impl Builder {
             }
         }
         match (time_var, t0, t1) {
-            (Some(time_var), Some(t0), Some(t1)) => Ok(StmtKind::Ritz(Box::new(RitzSpec {
-                l,
-                trials,
-                time_var,
-                t0,
-                t1,
-                from,
-                to,
-                unknowns,
-                guess,
-                format,
-            }))),
+            (Some(time_var), Some(t0), Some(t1)) => {
+                Ok(RitzSpec { l, trials, time_var, t0, t1, from, to, unknowns, guess, format })
+            }
             _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `ritz`").at(span)),
         }
     }
 
-    fn action(&self, inner: Vec<Pair<Rule>>) -> StmtKind {
+    pub(crate) fn action(&self, p: Pair<Rule>) -> Action {
+        let inner = self.inner(&p);
         let (mut h, mut energies, mut near) = (None, Vec::new(), None);
         let first = |q: Pair<Rule>| q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
         for q in inner {
@@ -1244,7 +1269,7 @@ impl Builder {
                 _ => {}
             }
         }
-        StmtKind::Action { h, energies, near }
+        Action { h, energies, near }
     }
 }
 
@@ -1252,10 +1277,24 @@ impl Builder {
 mod tests {
     use super::*;
 
-    fn one(s: &str) -> StmtKind {
-        match parse_scene(s) {
-            Ok(mut v) if v.len() == 1 => v.remove(0).kind,
-            other => panic!("{s}: {other:?}"),
+    /// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
+    /// fields); `rule` is the rule the grammar must have chosen.
+    fn one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>) -> T {
+        thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
+        let lang = Language { read, words: Vec::new };
+        let seen = Language {
+            read: |_, p| {
+                RULE.with(|r| r.set(Some(p.as_rule())));
+                Ok(())
+            },
+            words: Vec::new,
+        };
+        parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
+        assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
+        match parse_statement_at(s, 0, s.len(), &lang) {
+            Ok(Some(v)) => v,
+            Ok(None) => panic!("{s}: no statement"),
+            Err(e) => panic!("{s}: {e:?}"),
         }
     }
 
@@ -1279,9 +1318,10 @@ mod tests {
 
     #[test]
     fn flow_reads_a_simulate_start_and_an_output_file() {
-        let StmtKind::Flow(f) = one("flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg") else {
-            panic!()
-        };
+        let f =
+            one("flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg", Rule::flow_stmt, |r, p| {
+                r.flow(p)
+            });
         assert_eq!(f.sim.inits.len(), 2);
         assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
         assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
@@ -1289,14 +1329,15 @@ mod tests {
         assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
         assert_eq!(f.word, (0, 4));
         // `flow` inside `lie` is still the Lie flow, not this statement.
-        assert!(matches!(one("lie q flow order 4"), StmtKind::Lie { .. }));
+        let lie = one("lie q flow order 4", Rule::lie, |r, p| r.lie(p));
+        assert!(matches!(lie.generator, LieGenerator::Flow(None)));
     }
 
     #[test]
     fn simulate_keywords_end_expressions() {
-        let StmtKind::Simulate(s) = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01") else {
-            panic!()
-        };
+        let s = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
+            r.simulate_stmt(p)
+        });
         assert_eq!(s.inits.len(), 2);
         assert_eq!(s.inits[0].1.text, "3.0");
         assert_eq!(s.inits[1].0.text, "θ'");
@@ -1307,9 +1348,8 @@ mod tests {
 
     #[test]
     fn parameters_with_assumption() {
-        let StmtKind::Parameters { params, positive } = one("parameters m = 1, l = 2/3, g = 9.81 positive") else {
-            panic!()
-        };
+        let Parameters { params, positive } =
+            one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
         assert!(positive);
         assert_eq!(params.len(), 3);
         assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
@@ -1317,18 +1357,11 @@ mod tests {
 
     #[test]
     fn definitions_and_derivations() {
-        assert!(matches!(one("H = legendre(L)"), StmtKind::Define { value: DefValue::Derivation(_), .. }));
-        assert!(matches!(one("H2 = legendre(L) + 1"), StmtKind::Define { value: DefValue::Expr(_), .. }));
-        assert!(matches!(one("el as latex"), StmtKind::Derive { format: Some(Format::Latex), .. }));
-        let StmtKind::Derive { call, .. } = one("pb Lx, Ly") else { panic!() };
-        assert_eq!(call.args.len(), 2);
-    }
-
-    #[test]
-    fn unknown_statement_suggests() {
-        let err = parse_scene("coordinates x\nsimulat x = 1 for t in 0..1").unwrap_err();
-        assert_eq!(err.kind, ErrorKind::UnknownStatement);
-        assert_eq!(err.span, Some((14, 21)));
-        assert!(err.hint.as_deref().is_some_and(|h| h.contains("`simulate`")), "{err:?}");
+        let define = |s| one(s, Rule::definition, |r, p| r.definition(p));
+        assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
+        assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
+        let derive = |s| one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
+        assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
 }

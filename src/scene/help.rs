@@ -1,7 +1,7 @@
 //! `help`: every statement with its form, what it does and an example (the examples are
 //! parsed by a test, so they stay valid).
 
-use super::error::did_you_mean;
+use super::syntax::error::did_you_mean;
 
 pub use super::registry::{Topic, REGISTRY as TOPICS};
 
@@ -38,8 +38,7 @@ pub fn help(word: Option<&str>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::parser::parse_scene;
-    use crate::scene::syntax::registry::statement_words;
+    use crate::scene::registry::{parse_scene, statement_words};
 
     #[test]
     fn every_statement_has_help_with_an_example_that_parses() {
