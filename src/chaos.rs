@@ -262,8 +262,17 @@ pub fn indicators_from(
             let (mut acc, mut acc_s) = (0.0, 0.0);
             for (x, w) in GL5 {
                 let s = mid + half * x;
-                solver.interpolate(s, &mut buf)?;
-                let y_s = 2.0 * buf[dim - 1] / s;
+                // Only the accumulator's polynomial (the last of `dim`): the other components'
+                // were a tenth of a chaos map's time. Same bits as `interpolate`'s.
+                let theta = (s - t0) / (t1 - t0);
+                let integral = match solver.work().dense_component(dim - 1, theta) {
+                    Some(v) if t1 != t0 => v,
+                    _ => {
+                        solver.interpolate(s, &mut buf)?;
+                        buf[dim - 1]
+                    }
+                };
+                let y_s = 2.0 * integral / s;
                 acc += w * y_s;
                 acc_s += w * s * y_s;
             }
