@@ -143,7 +143,8 @@ fn megno_stop_scan() {
         picked.len(),
         load()
     );
-    let budget = Budget { max_steps: usize::MAX, deadline: None, time_limit: None, max_samples: usize::MAX, megno_stop: None };
+    let budget =
+        Budget { max_steps: usize::MAX, deadline: None, time_limit: None, max_samples: usize::MAX, megno_stop: None };
     let t0 = Instant::now();
     let runs: Vec<_> = {
         use rayon::prelude::*;

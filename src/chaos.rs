@@ -296,9 +296,9 @@ pub fn indicators_from(
         fli = fli.max(logs[0]);
         solver.set_state(t1, &y);
         // The budget's early stop: this step's end is the orbit's end.
-        let diverged = budget.megno_stop.is_some_and(|stop| {
-            sys.has_megno() && t1 >= stop.after && t1 > 0.0 && ybar_int / t1 >= stop.above
-        });
+        let diverged = budget
+            .megno_stop
+            .is_some_and(|stop| sys.has_megno() && t1 >= stop.after && t1 > 0.0 && ybar_int / t1 >= stop.above);
         if diverged && status != Status::Finished {
             stopped_at = Some(t1);
         }

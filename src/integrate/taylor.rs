@@ -219,7 +219,8 @@ impl TaylorWork {
     /// at five) then sums one polynomial per point instead of one per component.
     pub fn dense_component(&self, i: usize, theta: f64) -> Option<f64> {
         let s = self.order + 1;
-        (self.dense_ready && i < self.comp.len()).then(|| polynomial(&self.buf[i * s..(i + 1) * s], theta * self.h_last, 0))
+        (self.dense_ready && i < self.comp.len())
+            .then(|| polynomial(&self.buf[i * s..(i + 1) * s], theta * self.h_last, 0))
     }
 }
 

@@ -84,7 +84,8 @@ fn a_map_marks_the_stopped_cells_and_keeps_the_others_values() {
 
 #[test]
 fn a_stop_below_the_quasi_periodic_value_or_not_finite_is_refused() {
-    for (above, after) in [(2.0, 10.0), (1.0, 10.0), (f64::NAN, 10.0), (f64::INFINITY, 10.0), (5.0, -1.0), (5.0, f64::NAN)]
+    for (above, after) in
+        [(2.0, 10.0), (1.0, 10.0), (f64::NAN, 10.0), (f64::INFINITY, 10.0), (5.0, -1.0), (5.0, f64::NAN)]
     {
         let e = MegnoStop::new(above, after).expect_err("refused");
         assert!(e.contains("MEGNO stop"), "{e}");
