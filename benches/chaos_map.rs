@@ -7,6 +7,8 @@
 //! CHAOS_STRIDE=1 cargo bench --bench chaos_map     # the whole 200 × 200 grid (long)
 //! CHAOS_STRIDE=5 cargo bench --bench chaos_map -- double-pendulum
 //! cargo bench --bench chaos_map -- henon-heiles    # the scene statement on the surface of section
+//! CHAOS_STOP=5,20 cargo bench --bench chaos_map -- double-pendulum   # with the early stop Ȳ ≥ 5 after t = 20
+//! CHAOS_STRIDE=5 cargo bench --bench chaos_map -- megno-stop-scan    # which early stops keep the regular cells
 //! ```
 //!
 //! A stride `s` keeps the cells `(i, j)` of the full grid with `i, j ≡ s/2 (mod s)`: the same
@@ -20,7 +22,7 @@
 use std::f64::consts::PI;
 use std::time::Instant;
 
-use lagrangian::chaos::{chaos_map, Indicator};
+use lagrangian::chaos::{chaos_map_with, indicators_with, Budget, Indicator, MegnoStop};
 use lagrangian::compile::Variational;
 use lagrangian::mechanics::System;
 
@@ -51,9 +53,16 @@ fn cpu_seconds() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-fn double_pendulum() {
-    let stride = env("CHAOS_STRIDE", 10).clamp(1, SIDE);
-    let tol = 1e-9;
+/// The early stop of `CHAOS_STOP=Y,T` (`Ȳ ≥ Y` after `t = T`), if set.
+fn megno_stop() -> Option<MegnoStop> {
+    let spec = std::env::var("CHAOS_STOP").ok()?;
+    let (y, t) = spec.split_once(',').expect("CHAOS_STOP=Y,T");
+    Some(MegnoStop::new(y.trim().parse().expect("Y"), t.trim().parse().expect("T")).expect("a valid stop"))
+}
+
+/// The double pendulum's variational system (one tangent vector and the MEGNO accumulator),
+/// its compile time, and the sample of cell centres kept at `stride`.
+fn double_pendulum_map(stride: usize) -> (Variational, f64, Vec<usize>, Vec<Vec<f64>>) {
     let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
              + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
     let t_compile = Instant::now();
@@ -67,23 +76,36 @@ fn double_pendulum() {
     let picked: Vec<usize> = (0..SIDE).filter(|k| k % stride == stride / 2).collect();
     let starts: Vec<Vec<f64>> =
         picked.iter().flat_map(|&j| picked.iter().map(move |&i| vec![centre(i), centre(j), 0.0, 0.0])).collect();
+    (var, compile, picked, starts)
+}
+
+fn double_pendulum() {
+    let stride = env("CHAOS_STRIDE", 10).clamp(1, SIDE);
+    let tol = 1e-9;
+    let stop = megno_stop();
+    let (var, compile, picked, starts) = double_pendulum_map(stride);
     println!(
         "## Double pendulum MEGNO, 200 × 200 grid over (θ1, θ2) ∈ [−π, π]² at rest, t = 100, tol {tol:e}, \
-         stride {stride}: {} × {} cells, {} threads, load {}",
+         stride {stride}: {} × {} cells, {} threads, early stop {}, load {}",
         picked.len(),
         picked.len(),
         rayon::current_num_threads(),
+        stop.map_or("none".to_string(), |s| format!("Ȳ ≥ {} after t = {}", s.above, s.after)),
         load()
     );
+    // No step or time budget: the measure is the whole map.
+    let budget = Budget { max_steps: usize::MAX, deadline: None, time_limit: None, max_samples: 2, megno_stop: stop };
     let (t0, c0) = (Instant::now(), cpu_seconds());
-    let map = chaos_map(&var, &starts, 100.0, tol, Indicator::Megno);
+    let cells = chaos_map_with(&var, &starts, 100.0, tol, Indicator::Megno, &budget);
+    let map: Vec<f64> = cells.iter().map(|c| c.value).collect();
+    let stopped = cells.iter().filter(|c| c.stopped_at.is_some()).count();
     let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
     let n = starts.len() as f64;
     let failed = map.iter().filter(|v| v.is_nan()).count();
     let regular = map.iter().filter(|v| **v < 2.5).count();
     println!("compile (text → variational tape): {:.1} ms", 1e3 * compile);
     println!(
-        "{} points in {secs:.1} s: {:.1} points/s ({failed} failed; {regular} with ⟨Y⟩ < 2.5, max {:.1})",
+        "{} points in {secs:.1} s: {:.1} points/s ({failed} failed; {regular} with ⟨Y⟩ < 2.5, {stopped} stopped early, max {:.1})",
         starts.len(),
         n / secs,
         map.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max)
@@ -104,6 +126,57 @@ fn double_pendulum() {
         );
     }
     println!("load after: {}", load());
+}
+
+/// Which early stops (`Ȳ ≥ Y` after `t = T`) would keep the regular cells (⟨Y⟩ < 2.5 at
+/// t = 100) of the sample, and what each would save: every orbit runs to its end keeping
+/// every step's running mean, then each candidate stop is applied to those series. A stop
+/// changes nothing before it, so a cell it spares ends bit for bit as without it; the
+/// regular cells are kept exactly when no stopped cell would have ended below 2.5.
+fn megno_stop_scan() {
+    let stride = env("CHAOS_STRIDE", 5).clamp(1, SIDE);
+    let tol = 1e-9;
+    let (var, _, picked, starts) = double_pendulum_map(stride);
+    println!(
+        "## Early stops on the double pendulum's MEGNO map, stride {stride} ({} × {} cells), t = 100, tol {tol:e}, load {}",
+        picked.len(),
+        picked.len(),
+        load()
+    );
+    let budget =
+        Budget { max_steps: usize::MAX, deadline: None, time_limit: None, max_samples: usize::MAX, megno_stop: None };
+    let t0 = Instant::now();
+    let runs: Vec<_> = {
+        use rayon::prelude::*;
+        starts.par_iter().map(|x0| indicators_with(&var, x0, 100.0, tol, &budget).ok()).collect()
+    };
+    println!("{} orbits in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
+    let runs: Vec<_> = runs.into_iter().flatten().collect();
+    let total: usize = runs.iter().map(|r| r.steps).sum();
+    let regular = runs.iter().filter(|r| r.megno < 2.5).count();
+    println!("{} finished ({regular} with ⟨Y⟩ < 2.5), {total} steps", runs.len());
+    println!("| stop Ȳ ≥ | after t | stopped | of them ending < 2.5 | least final Ȳ of a stopped cell | steps left |");
+    println!("|---|---|---|---|---|---|");
+    for above in [3.0, 4.0, 5.0, 8.0] {
+        for after in [5.0, 10.0, 20.0, 30.0] {
+            let (mut stopped, mut wrong, mut least, mut steps) = (0, 0, f64::INFINITY, 0usize);
+            for r in &runs {
+                match r.samples.iter().position(|s| s.t >= after && s.megno >= above) {
+                    Some(k) if k + 1 < r.samples.len() => {
+                        stopped += 1;
+                        wrong += usize::from(r.megno < 2.5);
+                        least = least.min(r.megno);
+                        steps += k + 1;
+                    }
+                    _ => steps += r.steps,
+                }
+            }
+            println!(
+                "| {above} | {after} | {stopped} | {wrong} | {least:.2} | {:.1} % |",
+                100.0 * steps as f64 / total as f64
+            );
+        }
+    }
 }
 
 /// The scene statement on the Hénon–Heiles surface of section (the product path: parse,
@@ -161,6 +234,9 @@ fn main() {
     rayon::ThreadPoolBuilder::new().num_threads(env("CHAOS_THREADS", 2)).build_global().expect("rayon's global pool");
     if want("double-pendulum") {
         double_pendulum();
+    }
+    if args.iter().any(|a| a == "megno-stop-scan") {
+        megno_stop_scan();
     }
     if want("henon-heiles") {
         henon_heiles();

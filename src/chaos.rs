@@ -44,6 +44,43 @@ pub struct Budget {
     pub time_limit: Option<Duration>,
     /// Samples kept along one orbit (at least 2).
     pub max_samples: usize,
+    /// Stop an orbit early once its mean MEGNO has clearly diverged (`None`: run every orbit
+    /// to its end). Opt-in because it changes what is reported: see [`MegnoStop`].
+    pub megno_stop: Option<MegnoStop>,
+}
+
+/// An early stop for orbits whose running mean MEGNO `Ȳ(t)` has left the regular range: once
+/// `t ≥ after`, the first step ending with `Ȳ(t) ≥ above` ends the orbit there, and its
+/// [`Indicators::stopped_at`] says when. The indicators are then those at that time, so a map
+/// reports the cell as "`Ȳ ≥ above`", never as a value at the end time. A chaotic orbit's `Ȳ`
+/// grows like `λ t / 2`, so in a chaos map most of the time goes to orbits whose class is
+/// already settled; a regular one stays near 2 (quasi-periodic) or 0 (isochronous). Whether a
+/// stopped orbit could have come back below a threshold by the end time is not decided here:
+/// `Ȳ(T) ≥ (after / T) · above` holds only when `Y ≥ 0` afterwards, so the choice of `above`
+/// and `after` is the caller's, checked on the map it is used for (BENCHMARKS.md, the double
+/// pendulum's 200 × 200 map). Without the MEGNO accumulator it never stops an orbit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MegnoStop {
+    /// The mean MEGNO at or above which an orbit stops (finite, above 2: the quasi-periodic
+    /// value).
+    pub above: f64,
+    /// The time before which no orbit stops (finite, at least 0).
+    pub after: f64,
+}
+
+impl MegnoStop {
+    /// The stop, or why it is refused.
+    pub fn new(above: f64, after: f64) -> Result<MegnoStop, String> {
+        if !(above.is_finite() && above > 2.0) {
+            return Err(format!(
+                "the MEGNO stop level {above} must be finite and above 2 (a quasi-periodic orbit's mean MEGNO tends to 2)"
+            ));
+        }
+        if !(after.is_finite() && after >= 0.0) {
+            return Err(format!("the MEGNO stop time {after} must be finite and at least 0"));
+        }
+        Ok(MegnoStop { above, after })
+    }
 }
 
 impl Budget {
@@ -61,6 +98,7 @@ impl Budget {
             deadline: Instant::now().checked_add(time_limit),
             time_limit: Some(time_limit),
             max_samples: Budget::DEFAULT_SAMPLES,
+            megno_stop: None,
         }
     }
 }
@@ -124,6 +162,10 @@ pub struct Indicators {
     pub samples: Vec<Sample>,
     /// Taylor steps taken.
     pub steps: usize,
+    /// The time at which the orbit stopped because its mean MEGNO reached the budget's
+    /// [`MegnoStop::above`] (`None`: it ran to the end time). The indicators are those at
+    /// that time.
+    pub stopped_at: Option<f64>,
 }
 
 /// Integrates the variational system from `x0` (tangents start as unit vectors) over
@@ -198,6 +240,7 @@ pub fn indicators_from(
     let mut samples = Vec::new();
     let max_samples = budget.max_samples.max(2);
     let (mut stride, mut taken) = (1usize, 0usize);
+    let mut stopped_at = None;
     let stop = |solver: &crate::integrate::Solver<'_, Variational, Taylor>, reason: FailureReason| IntegrateError {
         t: solver.t(),
         state: solver.y()[..n].to_vec(),
@@ -219,8 +262,17 @@ pub fn indicators_from(
             let (mut acc, mut acc_s) = (0.0, 0.0);
             for (x, w) in GL5 {
                 let s = mid + half * x;
-                solver.interpolate(s, &mut buf)?;
-                let y_s = 2.0 * buf[dim - 1] / s;
+                // Only the accumulator's polynomial (the last of `dim`): the other components'
+                // were a tenth of a chaos map's time. Same bits as `interpolate`'s.
+                let theta = (s - t0) / (t1 - t0);
+                let integral = match solver.work().dense_component(dim - 1, theta) {
+                    Some(v) if t1 != t0 => v,
+                    _ => {
+                        solver.interpolate(s, &mut buf)?;
+                        buf[dim - 1]
+                    }
+                };
+                let y_s = 2.0 * integral / s;
                 acc += w * y_s;
                 acc_s += w * s * y_s;
             }
@@ -243,7 +295,14 @@ pub fn indicators_from(
         }
         fli = fli.max(logs[0]);
         solver.set_state(t1, &y);
-        let finished = status == Status::Finished;
+        // The budget's early stop: this step's end is the orbit's end.
+        let diverged = budget
+            .megno_stop
+            .is_some_and(|stop| sys.has_megno() && t1 >= stop.after && t1 > 0.0 && ybar_int / t1 >= stop.above);
+        if diverged && status != Status::Finished {
+            stopped_at = Some(t1);
+        }
+        let finished = status == Status::Finished || diverged;
         taken += 1;
         if taken % stride == 0 || finished {
             samples.push(Sample {
@@ -275,6 +334,7 @@ pub fn indicators_from(
         megno_lyapunov: if sys.has_megno() { megno_slope(t, ybar_int, sy_int) } else { f64::NAN },
         samples,
         steps: solver.steps(),
+        stopped_at,
     })
 }
 
@@ -306,6 +366,37 @@ pub enum Indicator {
 /// refuses a map whose starts ran out of the budget ([`is_budget`]).
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
     starts.par_iter().map(|x0| indicators(sys, x0, t_end, tol).map_or(f64::NAN, |r| r.value(which))).collect()
+}
+
+/// One cell of a chaos map from [`chaos_map_with`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// The indicator (NaN for a start whose integration failed).
+    pub value: f64,
+    /// When the orbit stopped early by the budget's [`MegnoStop`]: its `value` is then the
+    /// mean MEGNO at that time, at least [`MegnoStop::above`], and stands for "`Ȳ ≥ above`",
+    /// not for a value at the end time.
+    pub stopped_at: Option<f64>,
+}
+
+/// [`chaos_map`] within `budget` (its deadline is for the whole map), with each cell marked
+/// when the budget's [`MegnoStop`] ended its orbit early. A start whose integration fails or
+/// runs out of the budget gets NaN, as in [`chaos_map`].
+pub fn chaos_map_with(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    which: Indicator,
+    budget: &Budget,
+) -> Vec<Cell> {
+    starts
+        .par_iter()
+        .map(|x0| match indicators_with(sys, x0, t_end, tol, budget) {
+            Ok(r) => Cell { value: r.value(which), stopped_at: r.stopped_at },
+            Err(_) => Cell { value: f64::NAN, stopped_at: None },
+        })
+        .collect()
 }
 
 /// Whether `e` is an orbit stopped by its [`Budget`] (steps or time), not by its dynamics.

@@ -8,7 +8,7 @@
 //! `lagrangian flow` ([`lagrangian::chaos::flow_with`], its lines from
 //! [`lagrangian::report::flow`]).
 
-use lagrangian::chaos::{self, Budget, Indicator};
+use lagrangian::chaos::{self, Budget, Indicator, MegnoStop};
 use lagrangian::compile::Variational;
 use lagrangian::print::Format;
 use lagrangian::report;
@@ -163,8 +163,11 @@ impl PySystem {
     /// One indicator (``"megno"``, ``"fli"`` or ``"lyapunov"``, the maximal exponent) for
     /// each canonical start, a row of ``starts`` ``(k, 2n)``, in parallel; NaN where an orbit
     /// failed (escaped, hit a singularity, ran out of the budget), as the library's
-    /// ``chaos_map``.
-    #[pyo3(signature = (t_span, starts, which, *, tol=None))]
+    /// ``chaos_map``. With ``megno_stop = (above, after)`` (a MEGNO map only) an orbit whose
+    /// mean MEGNO reaches ``above`` at ``t ≥ after`` stops there (``chaos::MegnoStop``), and
+    /// the result is the pair ``(values, stopped_at)``, ``stopped_at`` NaN for a cell that ran
+    /// to the end.
+    #[pyo3(signature = (t_span, starts, which, *, tol=None, megno_stop=None))]
     fn _chaos_map<'py>(
         &self,
         py: Python<'py>,
@@ -172,6 +175,7 @@ impl PySystem {
         starts: &Bound<'py, PyAny>,
         which: &str,
         tol: Option<f64>,
+        megno_stop: Option<(f64, f64)>,
     ) -> PyResult<Bound<'py, PyAny>> {
         self.hamiltonian_flow_only("a chaos map")?;
         let (t1, tol) = (from_zero(t_span)?, tolerance(tol)?);
@@ -195,9 +199,34 @@ impl PySystem {
                 return Err(exc::ArgumentError::new_err(format!("unknown indicator `{other}`: megno, fli or lyapunov")))
             }
         };
+        let stop = match megno_stop {
+            None => None,
+            Some(_) if which != Indicator::Megno => {
+                return Err(exc::ArgumentError::new_err(
+                    "megno_stop stops orbits by their mean MEGNO: it applies to a map of `megno` only",
+                ))
+            }
+            Some((above, after)) => Some(MegnoStop::new(above, after).map_err(exc::ArgumentError::new_err)?),
+        };
         let var = self.variational_system(py, 1, which == Indicator::Megno)?;
-        let values = py.allow_threads(|| chaos::chaos_map(&var, &rows, t1, tol, which));
-        Ok(PyArray1::from_vec(py, values).into_any())
+        let Some(stop) = stop else {
+            let values = py.allow_threads(|| chaos::chaos_map(&var, &rows, t1, tol, which));
+            return Ok(PyArray1::from_vec(py, values).into_any());
+        };
+        // Each start within a default budget of its own, as `chaos::chaos_map` runs them.
+        let cells: Vec<(f64, f64)> = py.allow_threads(|| {
+            use rayon::prelude::*;
+            rows.par_iter()
+                .map(|x0| {
+                    let budget = Budget { megno_stop: Some(stop), ..Budget::default() };
+                    chaos::indicators_with(&var, x0, t1, tol, &budget)
+                        .map_or((f64::NAN, f64::NAN), |r| (r.value(which), r.stopped_at.unwrap_or(f64::NAN)))
+                })
+                .collect()
+        });
+        let values = PyArray1::from_iter(py, cells.iter().map(|c| c.0));
+        let stopped = PyArray1::from_iter(py, cells.iter().map(|c| c.1));
+        Ok((values, stopped).into_pyobject(py)?.into_any())
     }
 
     /// The state transition matrix ``Φ(t1) = ∂x(t1)/∂x(0)`` of the canonical state

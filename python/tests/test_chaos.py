@@ -163,3 +163,37 @@ def test_chaos_refusals(dp):
         dp.megno((0, 10), {"θ1": 1.0, "θ2": 1.0, "θ1'": 0.0})
     with pytest.raises(ValueError, match="unknown indicator"):
         dp.indicators((0, 10), HIGH, "entropy")
+
+
+def test_chaos_map_megno_stop_marks_the_stopped_cells(dp):
+    grid = {"θ1": [0.3, 2.0], "θ2": [0.2, 2.5]}
+    rest = {"θ1'": 0.0, "θ2'": 0.0}
+    plain = dp.chaos_map((0, 50), grid, rest)
+    m = dp.chaos_map((0, 50), grid, rest, megno_stop=(3.0, 5.0))
+    assert "stopped_at" not in plain.coords
+    assert m.attrs["megno_stop_above"] == 3.0 and m.attrs["megno_stop_after"] == 5.0
+    # The regular cell runs to the end, bit for bit as without the stop.
+    low = {"θ1": 0.3, "θ2": 0.2}
+    assert np.isnan(m["stopped_at"].sel(low).item())
+    assert m.sel(low).item() == plain.sel(low).item() < 3.0
+    # The chaotic cell stops where its full run's Ȳ(t) first reaches 3 after t = 5.
+    high = {"θ1": 2.0, "θ2": 2.5}
+    full = dp.indicators((0, 50), HIGH)
+    k = np.flatnonzero((full.t >= 5.0) & (full.megno_t >= 3.0))[0]
+    assert k + 1 < len(full.t), "the full run crosses 3 before its end"
+    assert m["stopped_at"].sel(high).item() == full.t[k]
+    assert m.sel(high).item() == full.megno_t[k] >= 3.0
+    assert plain.sel(high).item() == full.megno
+
+
+def test_chaos_map_megno_stop_refusals(dp):
+    grid = {"θ1": [2.0]}
+    rest = {"θ2": 2.5, "θ1'": 0.0, "θ2'": 0.0}
+    with pytest.raises(lg.ArgumentError, match="megno` only"):
+        dp.chaos_map((0, 10), grid, rest, which="fli", megno_stop=(5.0, 1.0))
+    with pytest.raises(lg.ArgumentError, match="above 2"):
+        dp.chaos_map((0, 10), grid, rest, megno_stop=(2.0, 1.0))
+    with pytest.raises(lg.ArgumentError, match="at least 0"):
+        dp.chaos_map((0, 10), grid, rest, megno_stop=(5.0, -1.0))
+    with pytest.raises(lg.ArgumentError, match=r"\(above, after\)"):
+        dp.chaos_map((0, 10), grid, rest, megno_stop=(5.0,))

@@ -132,6 +132,12 @@ impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
         (self.t_prev, &self.y_prev)
     }
 
+    /// The method's working storage: its dense output of the last step, for a driver that
+    /// needs only some components of it ([`crate::integrate::TaylorWork::dense_component`]).
+    pub fn work(&self) -> &M::Work {
+        &self.work
+    }
+
     /// Accepted steps so far.
     pub fn steps(&self) -> usize {
         self.steps

@@ -211,6 +211,17 @@ impl TaylorWork {
     pub fn last_step(&self) -> f64 {
         self.h_last
     }
+
+    /// Component `i` of the last step's dense output at the fraction `theta` of the step
+    /// (`None` when there is no step to interpolate), the same bits as that component of
+    /// [`super::Solver::interpolate`] at `t_prev + theta · (t − t_prev)`. A driver that reads
+    /// one component at many points of each step (the MEGNO quadrature reads the accumulator
+    /// at five) then sums one polynomial per point instead of one per component.
+    pub fn dense_component(&self, i: usize, theta: f64) -> Option<f64> {
+        let s = self.order + 1;
+        (self.dense_ready && i < self.comp.len())
+            .then(|| polynomial(&self.buf[i * s..(i + 1) * s], theta * self.h_last, 0))
+    }
 }
 
 /// `Σ_k c_k x^(k − lo)`, `k = lo..c.len()`. Horner's rule is one chain of `p` dependent

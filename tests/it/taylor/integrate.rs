@@ -111,6 +111,44 @@ fn double_pendulum_against_the_50_digit_reference() {
     assert!(drift < 1e-12, "energy drift {drift:e}");
 }
 
+/// One component of the dense output (what the MEGNO quadrature reads) is that component of
+/// `Solver::interpolate`, bit for bit, at every point of every step; before the first step and
+/// after `set_state` there is none.
+#[test]
+fn one_component_of_the_dense_output_is_interpolate_s() {
+    use lagrangian::integrate::Status;
+    let l = "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) \
+             + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)";
+    let params = [("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)];
+    let sys = lagrangian(l, &["θ1", "θ2"], &params);
+    let method = Taylor::new(1e-9);
+    let mut solver = method.solver(&sys, 0.0, &DoublePendulum::Y0, 3.0).unwrap();
+    assert_eq!(solver.work().dense_component(0, 0.5), None);
+    let mut y = [0.0; 4];
+    let mut points = 0;
+    loop {
+        let status = solver.step().unwrap();
+        let (t0, t1) = (solver.previous().0, solver.t());
+        for x in [-0.9, -0.5, 0.0, 0.3, 0.9, 1.0] {
+            let t = 0.5 * (t0 + t1) + 0.5 * (t1 - t0) * x;
+            solver.interpolate(t, &mut y).unwrap();
+            for (i, yi) in y.iter().enumerate() {
+                let one = solver.work().dense_component(i, (t - t0) / (t1 - t0)).unwrap();
+                assert_eq!(one.to_bits(), yi.to_bits(), "component {i} at t = {t}");
+                points += 1;
+            }
+        }
+        assert_eq!(solver.work().dense_component(4, 0.5), None, "no fifth component");
+        if status == Status::Finished {
+            break;
+        }
+    }
+    assert!(points > 100, "{points} points");
+    let end = solver.y().to_vec();
+    solver.set_state(3.0, &end);
+    assert_eq!(solver.work().dense_component(0, 0.5), None);
+}
+
 #[test]
 fn pendulum_turning_points_are_half_periods_apart() {
     // θ'' = −sin θ released from rest at θ0 = 2.5: turning points (θ' = 0) every T/2 with
