@@ -4,7 +4,8 @@
 # /tmp/lagrangian-heyoka-venv); if that fails, only our side runs and a note says so.
 #   scripts/bench_taylor.sh                 # every section
 #   scripts/bench_taylor.sh kepler          # one of: kepler, double-pendulum, step-profile, cold-start, chaos-map
-#   HEYOKA_COLD_MAX_N=2 scripts/bench_taylor.sh cold-start   # skip heyoka's 10-link compile (minutes)
+#   HEYOKA_COLD_MAX_N=2 scripts/bench_taylor.sh cold-start   # heyoka: n = 2 only
+#   HEYOKA_COLD_UNROLLED_MAX_N=5 scripts/bench_taylor.sh cold-start   # also heyoka's unrolled mode at n = 5
 set -uo pipefail
 cd "$(dirname "$0")/.."
 VENV="${HEYOKA_VENV:-/tmp/lagrangian-heyoka-venv}"

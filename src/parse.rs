@@ -661,8 +661,18 @@ impl Ctx<'_> {
         Ok(Expr::sym(self.decls.symbol(name, primes)))
     }
 
-    /// The value of an index expression (`i + 1`) under the enclosing sums' bindings.
+    /// The value of an index expression (`i + 1`) under the enclosing sums' bindings, which
+    /// must be a whole number ≥ 0.
     fn index_value(&self, pair: Pair<Rule>) -> Result<u64, ParseError> {
+        let total = self.signed_index(pair.clone())?;
+        u64::try_from(total).map_err(|_| {
+            self.err(&pair, format!("the index `{}` is {total}, and indices are whole numbers ≥ 0", pair.as_str()))
+        })
+    }
+
+    /// The value of an index expression, of either sign (a range's upper bound below zero
+    /// only makes the range empty).
+    fn signed_index(&self, pair: Pair<Rule>) -> Result<i128, ParseError> {
         let mut total: i128 = 0;
         let mut sign: i128 = 1;
         for p in pair.clone().into_inner() {
@@ -689,9 +699,7 @@ impl Ctx<'_> {
                 _ => {}
             }
         }
-        u64::try_from(total).map_err(|_| {
-            self.err(&pair, format!("the index `{}` is {total}, and indices are whole numbers ≥ 0", pair.as_str()))
-        })
+        Ok(total)
     }
 
     /// `x[i]'`: the symbol named by the family and the index's value (`x3'`), refused when a
@@ -789,17 +797,23 @@ impl Ctx<'_> {
         let (Some(lo), Some(hi)) = (bounds.next(), bounds.next()) else {
             return Err(self.err(&range, "malformed sum range"));
         };
-        let (lo, hi) = (self.index_value(lo)?, self.index_value(hi)?);
-        let count: u128 = if lo > hi {
+        let (lo, hi) = (self.index_value(lo)?, self.signed_index(hi)?);
+        let count: u128 = if i128::from(lo) > hi {
             0
         } else {
-            let n = u128::from(hi - lo) + 1;
+            let n = (hi - i128::from(lo)) as u128 + 1;
             if paired {
                 n * (n - 1) / 2
             } else {
                 n
             }
         };
+        // A bound that moves with an enclosing index (`j = i+1..4`) may leave nothing for the
+        // last values of that index: an empty sum, zero, as written out. A range of fixed
+        // numbers that holds nothing is a mistake.
+        if count == 0 && range.clone().into_inner().flatten().any(|p| p.as_rule() == Rule::index_name) {
+            return Ok(Expr::int(0));
+        }
         if count == 0 {
             let what = if paired { "no pair i < j" } else { "no index" };
             return Err(self
@@ -817,6 +831,7 @@ impl Ctx<'_> {
         }
         self.scope.terms.set(terms_after as usize);
         self.scope.bytes.set(bytes_after as usize);
+        let hi = hi as u64; // lo ≤ hi here, and lo is a u64
         let mut terms = Vec::with_capacity(count as usize);
         let first = names[0].as_str().to_string();
         let second = names.get(1).map(|n| n.as_str().to_string());
