@@ -16,5 +16,7 @@ echo "load: $(cut -d' ' -f1-3 /proc/loadavg)"
 if "$VENV/bin/python" -c "import heyoka" 2>/dev/null; then
     "$VENV/bin/python" scripts/bench_taylor_heyoka.py "$@"
 fi
-cargo bench --bench taylor -- "$@"
+# BENCH_PROFILE=dev reuses the tests' build (our code at opt-level 1: slower than the bench
+# profile, so our rows are then upper bounds) where the bench profile would rebuild everything.
+cargo bench --bench taylor ${BENCH_PROFILE:+--profile "$BENCH_PROFILE"} -- "$@"
 echo "load: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -424,8 +424,29 @@ fn friendly(rule: &Rule) -> &'static str {
         Rule::name => "a name",
         Rule::primes => "`'`",
         Rule::partials => "`∂`",
+        Rule::indexed_sum | Rule::indexed => "an expression",
+        Rule::index_expr | Rule::index_inner | Rule::index_int | Rule::index_name | Rule::index_op => {
+            "an index (a whole number, or an index bound by `sum`)"
+        }
+        Rule::index_range => "a range `a..b`",
+        Rule::sum_single | Rule::sum_pair => "`i = a..b` or `i < j in a..b`",
         _ => "something else",
     }
+}
+
+/// Whether the innermost parenthesis still open at the end of `before` is a `sum(`.
+fn inside_sum(before: &str) -> bool {
+    let mut open = Vec::new();
+    for (i, c) in before.char_indices() {
+        match c {
+            '(' => open.push(i),
+            ')' => {
+                open.pop();
+            }
+            _ => {}
+        }
+    }
+    open.last().is_some_and(|&i| before[..i].ends_with("sum"))
 }
 
 fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
@@ -456,7 +477,9 @@ fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
     };
     let mut err = ParseError::new(input, (start, end.max(start + 1)), message);
     let rest = &input[start.min(input.len())..];
-    if rest.starts_with(')') {
+    if inside_sum(&input[..start.min(input.len())]) {
+        err = err.with_hint("an indexed sum is `sum(i = 0..4, body)` or `sum(i < j in 0..4, body)`, ranges inclusive");
+    } else if rest.starts_with(')') {
         err = err.with_hint("a parenthesis or call is empty or unbalanced");
     } else if rest.is_empty() && input.matches('(').count() > input.matches(')').count() {
         err = err.with_hint("a `(` is never closed");
@@ -679,10 +702,9 @@ impl Ctx<'_> {
             match p.as_rule() {
                 Rule::index_op => sign = if p.as_str() == "-" { -1 } else { 1 },
                 Rule::index_int => {
-                    let v: u64 = p
-                        .as_str()
-                        .parse()
-                        .map_err(|_| self.err(&p, "index too large").with_hint("indices are whole numbers below 2^64"))?;
+                    let v: u64 = p.as_str().parse().map_err(|_| {
+                        self.err(&p, "index too large").with_hint("indices are whole numbers below 2^64")
+                    })?;
                     total += sign * i128::from(v);
                 }
                 Rule::index_name => {
@@ -767,7 +789,9 @@ impl Ctx<'_> {
             }
         }
         let (Some(binder), Some(body)) = (binder, body) else {
-            return Err(self.err(&pair, "malformed sum").with_hint("write `sum(i = 0..4, …)` or `sum(i < j in 0..4, …)`"));
+            return Err(self
+                .err(&pair, "malformed sum")
+                .with_hint("write `sum(i = 0..4, …)` or `sum(i < j in 0..4, …)`"));
         };
         let paired = binder.as_rule() == Rule::sum_pair;
         let mut names = Vec::new();
@@ -881,6 +905,11 @@ impl Ctx<'_> {
                 }
                 _ => {}
             }
+        }
+        if name == "sum" && !self.decls.functions.contains(name) {
+            return Err(self
+                .err(&pair, "`sum` needs an index and its range before the summand")
+                .with_hint("an indexed sum is `sum(i = 0..4, body)` or `sum(i < j in 0..4, body)`, ranges inclusive"));
         }
         let mut args = Vec::new();
         for a in inner {

@@ -278,7 +278,12 @@ impl Session {
 
     pub(super) fn declarations(&self) -> Declarations {
         let positive = self.params.iter().filter(|(_, p)| p.positive).map(|(n, _)| n.clone());
-        let names = self.coords.iter().map(|c| c.name().to_string()).chain(self.params.keys().cloned()).chain(self.def_names.keys().cloned());
+        let names = self
+            .coords
+            .iter()
+            .map(|c| c.name().to_string())
+            .chain(self.params.keys().cloned())
+            .chain(self.def_names.keys().cloned());
         Declarations::new().with_functions(self.functions.iter()).with_positive(positive).with_families_of(names)
     }
 

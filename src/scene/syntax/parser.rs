@@ -434,13 +434,17 @@ impl Builder {
         let span = self.span(q);
         let mut inner = q.clone().into_inner();
         let base = inner.next().map(|n| n.as_str().to_string()).unwrap_or_default();
-        let bounds: Vec<Option<u64>> = inner
-            .next()
-            .map(|r| r.into_inner().map(|b| b.as_str().parse().ok()).collect())
-            .unwrap_or_default();
+        let bounds: Vec<Option<u64>> =
+            inner.next().map(|r| r.into_inner().map(|b| b.as_str().parse().ok()).collect()).unwrap_or_default();
         let (lo, hi) = match bounds[..] {
             [Some(lo), Some(hi)] => (lo, hi),
-            _ => return Err(SceneError::new(ErrorKind::BadNumber, "a family's range needs two whole numbers below 2^64").at(span)),
+            _ => {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    "a family's range needs two whole numbers below 2^64",
+                )
+                .at(span))
+            }
         };
         if lo > hi {
             return Err(SceneError::new(ErrorKind::BadNumber, format!("the range {lo}..{hi} of `{base}` is empty"))

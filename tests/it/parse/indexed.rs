@@ -219,6 +219,10 @@ fn errors_say_where_and_what_would_work() {
     assert_eq!(e.column, col(t, "i - 1"));
     let e = err("x[99999999999999999999999]", &none);
     assert!(e.message.contains("index too large"), "{e}");
+    for t in ["sum(i = 0..4)", "sum(i in 0..4, x[i])", "2 sum(i = 0...4, x[i])"] {
+        let e = err(t, &none);
+        assert!(e.hint.as_deref().is_some_and(|h| h.contains("sum(i = 0..4, body)")), "{t}: {e}");
+    }
     let e = err("sin[2] + pi[0]", &none);
     assert!(e.message.contains("cannot be indexed"), "{e}");
     let e = err("sum(i = 0..2, i' x[i])", &none);
