@@ -294,7 +294,11 @@ proptest! {
         lo in 0u64..20, len in 1u64..12, coeffs in proptest::collection::vec(-9i64..10, 12), power in 1u32..4
     ) {
         let hi = lo + len - 1;
-        let c = |k: u64| coeffs[(k - lo) as usize];
+        // A bound index standing alone is its number: `(i - K) y[i]` against `(k - K) y{k}`.
+        let shift = coeffs[0];
+        let valued = format!("sum(i = {lo}..{hi}, (i - ({shift})) y[i])");
+        let written: Vec<String> = (lo..=hi).map(|k| format!("({}) y{k}", k as i64 - shift)).collect();
+        prop_assert_eq!(p(&valued), p(&written.join(" + ")));
         let single = format!("sum(i = {lo}..{hi}, c[i] x[i]^{power})");
         let written: Vec<String> = (lo..=hi).map(|k| format!("c{k} x{k}^{power}")).collect();
         prop_assert_eq!(p(&single), p(&written.join(" + ")));
