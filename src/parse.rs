@@ -11,7 +11,8 @@
 //! printer is held to: every expression the engine's own stages produce from parsed input
 //! prints with less nesting than this (`tests/it/robust/roundtrip.rs`).
 
-use std::collections::BTreeSet;
+use std::cell::{Cell, RefCell};
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::sync::OnceLock;
 
@@ -60,6 +61,10 @@ pub struct Declarations {
     pub functions: BTreeSet<String>,
     /// Symbols known to be strictly positive.
     pub positive: BTreeSet<String>,
+    /// Indexed families and the inclusive range of indices declared for each (`x` → 0..=4
+    /// when `x0` … `x4` are declared): `x[7]` is then refused rather than read as a new
+    /// symbol `x7`. A family not listed is unchecked (the command line declares no names).
+    pub families: BTreeMap<String, (u64, u64)>,
 }
 
 impl Declarations {
@@ -80,6 +85,18 @@ impl Declarations {
         self
     }
 
+    /// Declares indexed families from plain names: every name that ends in digits after a
+    /// letter or `_` (`x0`, `m12`, `θ1`) widens its family's range to cover that index.
+    pub fn with_families_of<S: AsRef<str>>(mut self, names: impl IntoIterator<Item = S>) -> Declarations {
+        for name in names {
+            if let Some((base, k)) = split_index(name.as_ref()) {
+                let range = self.families.entry(base.to_string()).or_insert((k, k));
+                *range = (range.0.min(k), range.1.max(k));
+            }
+        }
+        self
+    }
+
     /// The symbol `name` with `primes` time derivatives, positive if declared so.
     pub fn symbol(&self, name: &str, primes: u8) -> Symbol {
         if primes == 0 && self.positive.contains(name) {
@@ -89,6 +106,22 @@ impl Declarations {
         }
     }
 }
+
+/// `x12` → (`x`, 12): a name that ends in decimal digits after a non-digit, read as a member
+/// of an indexed family. Leading zeros (`x01`) are not an index: `x[1]` names `x1`.
+pub fn split_index(name: &str) -> Option<(&str, u64)> {
+    let base = name.trim_end_matches(|c: char| c.is_ascii_digit());
+    let digits = &name[base.len()..];
+    if base.is_empty() || digits.is_empty() || (digits.len() > 1 && digits.starts_with('0')) {
+        return None;
+    }
+    digits.parse().ok().map(|k| (base, k))
+}
+
+/// The most terms the indexed sums of one expression may expand to (all sums together,
+/// nested ones counted per instance): a resource limit, so a typo in a range is an error
+/// rather than a parse that runs for minutes.
+pub const MAX_SUM_TERMS: usize = 10_000;
 
 /// Whether `name` is the exact constant π (`pi` or `π`), which the parser reads as a number:
 /// it cannot name a coordinate, a parameter or a function.
@@ -342,7 +375,8 @@ pub fn parse_with(input: &str, decls: &Declarations) -> Result<Expr, ParseError>
 /// [`parse_with`] after the size and depth checks, on a stack deep enough for the input.
 fn parse_checked(input: &str, decls: &Declarations) -> Result<Expr, ParseError> {
     let pairs = ExprGrammar::parse(Rule::input, input).map_err(|e| from_pest(input, e))?;
-    let mut ctx = Ctx { input, decls };
+    let scope = Scope::default();
+    let mut ctx = Ctx { input, decls, scope: &scope };
     let mut exprs = pairs.filter(|p| p.as_rule() == Rule::expr);
     let Some(top) = exprs.next() else {
         return Err(ParseError::new(input, (0, input.len()), "expected an expression"));
@@ -390,8 +424,29 @@ fn friendly(rule: &Rule) -> &'static str {
         Rule::name => "a name",
         Rule::primes => "`'`",
         Rule::partials => "`∂`",
+        Rule::indexed_sum | Rule::indexed => "an expression",
+        Rule::index_expr | Rule::index_inner | Rule::index_int | Rule::index_name | Rule::index_op => {
+            "an index (a whole number, or an index bound by `sum`)"
+        }
+        Rule::index_range => "a range `a..b`",
+        Rule::sum_single | Rule::sum_pair => "`i = a..b` or `i < j in a..b`",
         _ => "something else",
     }
+}
+
+/// Whether the innermost parenthesis still open at the end of `before` is a `sum(`.
+fn inside_sum(before: &str) -> bool {
+    let mut open = Vec::new();
+    for (i, c) in before.char_indices() {
+        match c {
+            '(' => open.push(i),
+            ')' => {
+                open.pop();
+            }
+            _ => {}
+        }
+    }
+    open.last().is_some_and(|&i| before[..i].ends_with("sum"))
 }
 
 fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
@@ -422,7 +477,9 @@ fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
     };
     let mut err = ParseError::new(input, (start, end.max(start + 1)), message);
     let rest = &input[start.min(input.len())..];
-    if rest.starts_with(')') {
+    if inside_sum(&input[..start.min(input.len())]) {
+        err = err.with_hint("an indexed sum is `sum(i = 0..4, body)` or `sum(i < j in 0..4, body)`, ranges inclusive");
+    } else if rest.starts_with(')') {
         err = err.with_hint("a parenthesis or call is empty or unbalanced");
     } else if rest.is_empty() && input.matches('(').count() > input.matches(')').count() {
         err = err.with_hint("a `(` is never closed");
@@ -435,6 +492,23 @@ fn from_pest(input: &str, e: pest::error::Error<Rule>) -> ParseError {
 struct Ctx<'a> {
     input: &'a str,
     decls: &'a Declarations,
+    scope: &'a Scope,
+}
+
+/// The indices bound by the enclosing `sum(…)`s, innermost last, and what the expansion has
+/// cost so far (terms, and bytes of body text walked) against [`MAX_SUM_TERMS`] and
+/// [`MAX_INPUT`].
+#[derive(Default)]
+struct Scope {
+    bound: RefCell<Vec<(String, u64)>>,
+    terms: Cell<usize>,
+    bytes: Cell<usize>,
+}
+
+impl Scope {
+    fn value(&self, name: &str) -> Option<u64> {
+        self.bound.borrow().iter().rev().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
 }
 
 impl Ctx<'_> {
@@ -522,13 +596,15 @@ impl Ctx<'_> {
                 let inner = pair.into_inner().next();
                 match inner {
                     Some(e) => {
-                        let mut ctx = Ctx { input: self.input, decls: self.decls };
+                        let mut ctx = Ctx { input: self.input, decls: self.decls, scope: self.scope };
                         ctx.expr(e)
                     }
                     None => Err(ParseError::new(self.input, (0, 0), "empty parentheses")),
                 }
             }
             Rule::call => self.call(pair),
+            Rule::indexed_sum => self.indexed_sum(pair),
+            Rule::indexed => self.indexed(pair),
             _ => Err(self.err(&pair, "unexpected input")),
         }
     }
@@ -588,6 +664,14 @@ impl Ctx<'_> {
                 .err(&pair, format!("`{name}` is declared a function, so it must be called"))
                 .with_hint(format!("write `{name}(…)` with its arguments")));
         }
+        if let Some(v) = self.scope.value(name) {
+            if primes > 0 {
+                return Err(self
+                    .err(&pair, format!("`{name}` is an index of an enclosing `sum`, a number with no time derivative"))
+                    .with_hint(format!("write `{name}` without primes, or name the index differently")));
+            }
+            return Ok(Expr::int(v as i64));
+        }
         if is_constant_name(name) {
             if primes > 0 {
                 return Err(self
@@ -598,6 +682,204 @@ impl Ctx<'_> {
         }
         let primes = u8::try_from(primes).map_err(|_| self.err(&pair, "too many primes"))?;
         Ok(Expr::sym(self.decls.symbol(name, primes)))
+    }
+
+    /// The value of an index expression (`i + 1`) under the enclosing sums' bindings, which
+    /// must be a whole number ≥ 0.
+    fn index_value(&self, pair: Pair<Rule>) -> Result<u64, ParseError> {
+        let total = self.signed_index(pair.clone())?;
+        u64::try_from(total).map_err(|_| {
+            self.err(&pair, format!("the index `{}` is {total}, and indices are whole numbers ≥ 0", pair.as_str()))
+        })
+    }
+
+    /// The value of an index expression, of either sign (a range's upper bound below zero
+    /// only makes the range empty).
+    fn signed_index(&self, pair: Pair<Rule>) -> Result<i128, ParseError> {
+        let mut total: i128 = 0;
+        let mut sign: i128 = 1;
+        for p in pair.clone().into_inner() {
+            match p.as_rule() {
+                Rule::index_op => sign = if p.as_str() == "-" { -1 } else { 1 },
+                Rule::index_int => {
+                    let v: u64 = p.as_str().parse().map_err(|_| {
+                        self.err(&p, "index too large").with_hint("indices are whole numbers below 2^64")
+                    })?;
+                    total += sign * i128::from(v);
+                }
+                Rule::index_name => {
+                    let name = p.as_str();
+                    let Some(v) = self.scope.value(name) else {
+                        return Err(self
+                            .err(&p, format!("`{name}` is not an index bound by an enclosing `sum`"))
+                            .with_hint(format!(
+                                "bind it, as in `sum({name} = 0..4, …)`, or write a whole number such as `x[0]`"
+                            )));
+                    };
+                    total += sign * i128::from(v);
+                }
+                _ => {}
+            }
+        }
+        Ok(total)
+    }
+
+    /// `x[i]'`: the symbol named by the family and the index's value (`x3'`), refused when a
+    /// declared family's range does not hold that index.
+    fn indexed(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        let mut base = "";
+        let mut index = None;
+        let mut primes = 0usize;
+        for p in pair.clone().into_inner() {
+            match p.as_rule() {
+                Rule::name => base = p.as_str(),
+                Rule::index_inner => index = p.into_inner().next(),
+                Rule::primes => primes = p.as_str().len(),
+                _ => {}
+            }
+        }
+        let Some(index) = index else {
+            return Err(self.err(&pair, "malformed index"));
+        };
+        let ispan = index.as_span();
+        let k = self.index_value(index)?;
+        if Func::from_name(base).is_some()
+            || ["sqrt", "cot", "sum"].contains(&base)
+            || is_constant_name(base)
+            || self.decls.functions.contains(base)
+            || self.scope.value(base).is_some()
+        {
+            return Err(self
+                .err(&pair, format!("`{base}` is a function, a constant or an index, and cannot be indexed"))
+                .with_hint("indexed names are families of plain symbols, such as `x[i]` for `x0`, `x1`, …"));
+        }
+        // A momentum `p_x[i]` belongs to the coordinate family `x`.
+        let family = self
+            .decls
+            .families
+            .get(base)
+            .map(|r| (base, *r))
+            .or_else(|| base.strip_prefix("p_").and_then(|c| self.decls.families.get(c).map(|r| (c, *r))));
+        if let Some((fam, (lo, hi))) = family {
+            if k < lo || k > hi {
+                return Err(ParseError::new(
+                    self.input,
+                    (ispan.start(), ispan.end()),
+                    format!("index {k} is outside `{fam}`'s declared range {lo}..{hi}"),
+                )
+                .with_hint(format!("`{fam}` is declared for indices {lo}..{hi}; check the sum's range or the index")));
+            }
+        }
+        let name = format!("{base}{k}");
+        let primes = u8::try_from(primes).map_err(|_| self.err(&pair, "too many primes"))?;
+        Ok(Expr::sym(self.decls.symbol(&name, primes)))
+    }
+
+    /// `sum(i = a..b, body)` and `sum(i < j in a..b, body)`: the body parsed once per value
+    /// (or per pair i < j) with the index bound, and the terms added as a written-out chain
+    /// `body₀ + body₁ + …` in parentheses would be, so the tree is the same node.
+    fn indexed_sum(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
+        let mut binder = None;
+        let mut body = None;
+        for p in pair.clone().into_inner() {
+            match p.as_rule() {
+                Rule::sum_single | Rule::sum_pair => binder = Some(p),
+                Rule::expr => body = Some(p),
+                _ => {}
+            }
+        }
+        let (Some(binder), Some(body)) = (binder, body) else {
+            return Err(self
+                .err(&pair, "malformed sum")
+                .with_hint("write `sum(i = 0..4, …)` or `sum(i < j in 0..4, …)`"));
+        };
+        let paired = binder.as_rule() == Rule::sum_pair;
+        let mut names = Vec::new();
+        let mut range = None;
+        for p in binder.into_inner() {
+            match p.as_rule() {
+                Rule::index_name => names.push(p),
+                Rule::index_range => range = Some(p),
+                _ => {}
+            }
+        }
+        let Some(range) = range else {
+            return Err(self.err(&pair, "malformed sum range"));
+        };
+        for (k, n) in names.iter().enumerate() {
+            let name = n.as_str();
+            if self.scope.value(name).is_some() || names[..k].iter().any(|m| m.as_str() == name) {
+                return Err(self
+                    .err(n, format!("the index `{name}` is already bound by an enclosing `sum`"))
+                    .with_hint("give the inner sum's index another name (`j`, `k`, …)"));
+            }
+            if is_constant_name(name) || Func::from_name(name).is_some() || self.decls.functions.contains(name) {
+                return Err(self.err(n, format!("`{name}` cannot name an index")).with_hint("use `i`, `j`, `k`, …"));
+            }
+        }
+        let mut bounds = range.clone().into_inner().filter(|p| p.as_rule() == Rule::index_expr);
+        let (Some(lo), Some(hi)) = (bounds.next(), bounds.next()) else {
+            return Err(self.err(&range, "malformed sum range"));
+        };
+        let (lo, hi) = (self.index_value(lo)?, self.signed_index(hi)?);
+        let count: u128 = if i128::from(lo) > hi {
+            0
+        } else {
+            let n = (hi - i128::from(lo)) as u128 + 1;
+            if paired {
+                n * (n - 1) / 2
+            } else {
+                n
+            }
+        };
+        // A bound that moves with an enclosing index (`j = i+1..4`) may leave nothing for the
+        // last values of that index: an empty sum, zero, as written out. A range of fixed
+        // numbers that holds nothing is a mistake.
+        if count == 0 && range.clone().into_inner().flatten().any(|p| p.as_rule() == Rule::index_name) {
+            return Ok(Expr::int(0));
+        }
+        if count == 0 {
+            let what = if paired { "no pair i < j" } else { "no index" };
+            return Err(self
+                .err(&range, format!("the range {lo}..{hi} is empty: it holds {what}"))
+                .with_hint("ranges are inclusive and ascending, as in `0..4` for 0, 1, 2, 3, 4"));
+        }
+        let terms_after = u128::try_from(self.scope.terms.get()).unwrap_or(u128::MAX).saturating_add(count);
+        let bytes_after = u128::try_from(self.scope.bytes.get())
+            .unwrap_or(u128::MAX)
+            .saturating_add(count.saturating_mul(body.as_str().len() as u128));
+        if terms_after > MAX_SUM_TERMS as u128 || bytes_after > MAX_INPUT as u128 {
+            return Err(self
+                .err(&range, format!("the sums expand to more than {MAX_SUM_TERMS} terms or {MAX_INPUT} bytes of text"))
+                .with_hint(format!("this range has {count} terms; a smaller range, or fewer nested sums, fits")));
+        }
+        self.scope.terms.set(terms_after as usize);
+        self.scope.bytes.set(bytes_after as usize);
+        let hi = hi as u64; // lo ≤ hi here, and lo is a u64
+        let mut terms = Vec::with_capacity(count as usize);
+        let first = names[0].as_str().to_string();
+        let second = names.get(1).map(|n| n.as_str().to_string());
+        let mut parse_with_bound = |values: &[(String, u64)]| -> Result<(), ParseError> {
+            self.scope.bound.borrow_mut().extend(values.iter().cloned());
+            let mut ctx = Ctx { input: self.input, decls: self.decls, scope: self.scope };
+            let term = ctx.expr(body.clone());
+            let mut bound = self.scope.bound.borrow_mut();
+            let keep = bound.len() - values.len();
+            bound.truncate(keep);
+            terms.push(term?);
+            Ok(())
+        };
+        for i in lo..=hi {
+            match &second {
+                None => parse_with_bound(&[(first.clone(), i)])?,
+                Some(j_name) => {
+                    for j in (i..=hi).skip(1) {
+                        parse_with_bound(&[(first.clone(), i), (j_name.clone(), j)])?;
+                    }
+                }
+            }
+        }
+        Ok(Expr::add(terms))
     }
 
     fn call(&self, pair: Pair<Rule>) -> Result<Expr, ParseError> {
@@ -624,9 +906,14 @@ impl Ctx<'_> {
                 _ => {}
             }
         }
+        if name == "sum" && !self.decls.functions.contains(name) {
+            return Err(self
+                .err(&pair, "`sum` needs an index and its range before the summand")
+                .with_hint("an indexed sum is `sum(i = 0..4, body)` or `sum(i < j in 0..4, body)`, ranges inclusive"));
+        }
         let mut args = Vec::new();
         for a in inner {
-            let mut ctx = Ctx { input: self.input, decls: self.decls };
+            let mut ctx = Ctx { input: self.input, decls: self.decls, scope: self.scope };
             args.push(ctx.expr(a)?);
         }
         let builtin_arity = match name {

@@ -27,7 +27,18 @@ BIN = os.environ.get("LAGRANGIAN", os.path.join(ROOT, "target", "release", "lagr
 def read_scene():
     text = open(SCENE).read()
     line = lambda p: next(l[len(p):] for l in text.splitlines() if l.startswith(p))
-    params = dict((k, float(v)) for k, v in (p.split(" = ") for p in line("parameters ").removesuffix(" positive").split(", ")))
+    # `G = …, m[0..4] = v0, v1, …`: a family's values go to m0, m1, … in order.
+    params, family = {}, []
+    for piece in line("parameters ").removesuffix(" positive").split(", "):
+        if " = " in piece:
+            name, piece = piece.split(" = ")
+            if "[" in name:
+                base, rng = name.rstrip("]").split("[")
+                lo, hi = map(int, rng.split(".."))
+                family = [f"{base}{k}" for k in range(lo, hi + 1)]
+            else:
+                family = [name]
+        params[family.pop(0)] = float(piece)
     starts_text, rest = line("simulate ").split(" for t in 0..")
     t_end = float(rest.split()[0])
     starts = {}

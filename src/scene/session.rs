@@ -193,7 +193,13 @@ impl Session {
 
     pub(super) fn declarations(&self) -> Declarations {
         let positive = self.params.iter().filter(|(_, p)| p.positive).map(|(n, _)| n.clone());
-        Declarations::new().with_functions(self.functions.iter()).with_positive(positive)
+        let names = self
+            .coords
+            .iter()
+            .map(|c| c.name().to_string())
+            .chain(self.params.keys().cloned())
+            .chain(self.def_names.keys().cloned());
+        Declarations::new().with_functions(self.functions.iter()).with_positive(positive).with_families_of(names)
     }
 
     pub(super) fn name_in_use(&self, name: &str) -> Option<&'static str> {

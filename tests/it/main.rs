@@ -11,6 +11,7 @@ mod compile;
 mod integrate;
 mod mechanics;
 mod notes;
+mod parse;
 mod robust;
 mod scene;
 mod simplify;

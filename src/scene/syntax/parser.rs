@@ -435,6 +435,42 @@ impl Reader {
         p.into_inner().filter(|q| q.as_rule() == Rule::name).map(|q| self.src(&q)).collect()
     }
 
+    /// A declared name, or the members of a family `x[0..4]` (x0 … x4, each with the family's
+    /// span): the plain symbols that `x[i]` names in expressions.
+    fn family_or_name(&self, q: &Pair<Rule>) -> Result<Vec<Src>, SceneError> {
+        if q.as_rule() != Rule::name_family {
+            return Ok(vec![self.src(q)]);
+        }
+        let span = self.span(q);
+        let mut inner = q.clone().into_inner();
+        let base = inner.next().map(|n| n.as_str().to_string()).unwrap_or_default();
+        let bounds: Vec<Option<u64>> =
+            inner.next().map(|r| r.into_inner().map(|b| b.as_str().parse().ok()).collect()).unwrap_or_default();
+        let (lo, hi) = match bounds[..] {
+            [Some(lo), Some(hi)] => (lo, hi),
+            _ => {
+                return Err(SceneError::new(
+                    ErrorKind::BadNumber,
+                    "a family's range needs two whole numbers below 2^64",
+                )
+                .at(span))
+            }
+        };
+        if lo > hi {
+            return Err(SceneError::new(ErrorKind::BadNumber, format!("the range {lo}..{hi} of `{base}` is empty"))
+                .at(span)
+                .hint("ranges are inclusive and ascending, as in `x[0..4]` for x0 … x4"));
+        }
+        if hi - lo >= crate::parse::MAX_SUM_TERMS as u64 {
+            return Err(SceneError::new(
+                ErrorKind::TooLarge,
+                format!("`{base}[{lo}..{hi}]` declares more than {} names", crate::parse::MAX_SUM_TERMS),
+            )
+            .at(span));
+        }
+        Ok((lo..=hi).map(|k| Src { text: format!("{base}{k}"), span }).collect())
+    }
+
     /// The names a statement declares (coordinates, parameters, functions, definitions),
     /// refusing `pi`: expressions read it as the exact constant, so a declaration would
     /// otherwise be silently ignored.
@@ -518,9 +554,13 @@ impl Reader {
         p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect()
     }
 
-    /// `coordinates θ, φ`.
+    /// `coordinates θ, φ` or a family `coordinates x[0..4]`.
     pub(crate) fn coordinates(&self, p: Pair<Rule>) -> Result<Coordinates, SceneError> {
-        Ok(Coordinates(self.declared(self.inner(&p).into_iter().flat_map(|q| self.names(q)).collect())?))
+        let mut names = Vec::new();
+        for q in self.inner(&p) {
+            names.extend(self.family_or_name(&q)?);
+        }
+        Ok(Coordinates(self.declared(names)?))
     }
 
     /// `functions V`.
@@ -651,12 +691,22 @@ impl Reader {
         for q in inner {
             match q.as_rule() {
                 Rule::param => {
+                    let pspan = self.span(&q);
                     let mut it = q.into_inner();
-                    let name =
-                        it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
-                    let value = it.next().map(|v| self.src(&v));
-                    if let Some(name) = name {
-                        params.push((name, value));
+                    let Some(first) = it.next() else { continue };
+                    let names = self.declared(self.family_or_name(&first)?)?;
+                    let values: Vec<Src> = it.map(|v| self.src(&v)).collect();
+                    if values.is_empty() {
+                        params.extend(names.into_iter().map(|n| (n, None)));
+                    } else if values.len() == names.len() {
+                        params.extend(names.into_iter().zip(values.into_iter().map(Some)));
+                    } else {
+                        return Err(SceneError::new(
+                            ErrorKind::Syntax,
+                            format!("`{}` has {} members but {} values", first.as_str(), names.len(), values.len()),
+                        )
+                        .at(pspan)
+                        .hint("give one value per member, in order, or none; a parameter declared without a value goes before the family or gets `= value`"));
                     }
                 }
                 Rule::assumption => positive = true,

@@ -70,17 +70,37 @@ pub fn snapshot(name: &str, text: impl AsRef<str>) {
 }
 
 /// The `name = value` pairs of a scene's first `parameters` line (numbers only, an optional
-/// trailing `positive`), in order: what a test reads from an example scene.
+/// trailing `positive`), in order: what a test reads from an example scene. A family
+/// `m[0..2] = 1, 2, 3` gives `m0`, `m1`, `m2` their values in order.
 pub fn scene_parameters(scene: &str) -> Vec<(String, f64)> {
-    scene
-        .lines()
-        .find_map(|l| l.strip_prefix("parameters "))
-        .expect("a `parameters` line")
-        .trim_end_matches(" positive")
-        .split(", ")
-        .map(|p| {
-            let (k, v) = p.split_once(" = ").expect("name = value");
-            (k.to_string(), v.parse().expect("a number"))
+    let line = scene.lines().find_map(|l| l.strip_prefix("parameters ")).expect("a `parameters` line");
+    let mut out = Vec::new();
+    let mut family: Vec<String> = Vec::new();
+    for piece in line.trim_end_matches(" positive").split(", ") {
+        let (names, value) = match piece.split_once(" = ") {
+            Some((k, v)) => {
+                family = scene_names(k);
+                family.reverse();
+                (family.pop(), v)
+            }
+            None => (family.pop(), piece),
+        };
+        let name = names.unwrap_or_else(|| panic!("a value with no name: {piece}"));
+        out.push((name, value.parse().expect("a number")));
+    }
+    out
+}
+
+/// The names a declaration lists, with families expanded (`x[0..2], y` → x0, x1, x2, y).
+pub fn scene_names(list: &str) -> Vec<String> {
+    list.split(", ")
+        .flat_map(|item| match item.split_once('[') {
+            Some((base, range)) => {
+                let (lo, hi) = range.trim_end_matches(']').split_once("..").expect("a range `a..b`");
+                let (lo, hi): (u64, u64) = (lo.parse().expect("a whole number"), hi.parse().expect("a whole number"));
+                (lo..=hi).map(|k| format!("{base}{k}")).collect()
+            }
+            None => vec![item.to_string()],
         })
         .collect()
 }

@@ -28,7 +28,7 @@ fn read_example() -> Scene {
     let line = |prefix: &str| {
         text.lines().find_map(|l| l.strip_prefix(prefix)).unwrap_or_else(|| panic!("no `{prefix}` line")).to_string()
     };
-    let coords: Vec<String> = line("coordinates ").split(", ").map(str::to_string).collect();
+    let coords = crate::support::scene_names(&line("coordinates "));
     let params = crate::support::scene_parameters(&text);
     let values: HashMap<String, f64> = params.iter().cloned().collect();
     let simulate = line("simulate ");

@@ -1,0 +1,3 @@
+//! The expression language's parse-time features (`src/parse.rs`, `grammar/expr.pest`).
+
+mod indexed;
