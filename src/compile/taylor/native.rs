@@ -7,7 +7,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Value};
+use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, StackSlot, Value};
 use cranelift_codegen::isa::CallConv;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_module::{Linkage, Module};
@@ -352,6 +352,7 @@ fn compile_taylor_code(
                 mirror,
                 inv_diag: Vec::new(),
                 ssa_orders: ssa_orders(tape, expansion),
+                sin_cos_slot: None,
             };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             let mut redo = None;
@@ -499,6 +500,8 @@ struct TaylorEmitter<'a, 'b> {
     /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
     /// values and reloads older ones ([`ssa_orders`]).
     ssa_orders: usize,
+    /// The stack slot the `sin_cos` wrapper writes to (`call_sin_cos`), made on first use.
+    sin_cos_slot: Option<StackSlot>,
 }
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
 /// `span` is the function's argument [`WINDOW_BYTES`].
@@ -1124,16 +1127,6 @@ impl TaylorEmitter<'_, '_> {
     /// native code calls, so the values are the interpreter's bit for bit.
     fn order0(&mut self) {
         let tape = self.tape;
-        let mut pair = None;
-        let (cc, ptr) = (self.call_conv, self.ptr);
-        let unary = |em: &mut Self, f: Func, x: Value| match wrapper(f) {
-            Some(w) => call_f64(em.b, cc, ptr, w as usize, &[x]),
-            None => unreachable!("abs and atan2 have their own operations"),
-        };
-        let binary = |em: &mut Self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value| {
-            call_f64(em.b, cc, ptr, f as usize, &[x, y])
-        };
-        let one = self.c(1.0);
         for op in tape.ops0() {
             match *op {
                 Op::Add { d, a, b } | Op::Sub { d, a, b } | Op::Mul { d, a, b } | Op::Div { d, a, b } => {
@@ -1156,106 +1149,6 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.b.ins().fabs(x);
                     self.put_at(d, 0, v);
                 }
-                Op::SinCos { s, c, a } => {
-                    let x = self.at(a, 0);
-                    let (sv, cv) = call_sin_cos(self.b, cc, ptr, &mut pair, x);
-                    self.put_at(s, 0, sv);
-                    self.put_at(c, 0, cv);
-                }
-                Op::SinhCosh { s, c, a } => {
-                    let x = self.at(a, 0);
-                    let sv = unary(self, Func::Sinh, x);
-                    let cv = unary(self, Func::Cosh, x);
-                    self.put_at(s, 0, sv);
-                    self.put_at(c, 0, cv);
-                }
-                Op::Exp { d, a } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Exp, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Log { d, a } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Log, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Tan { d, a, u, hyp } => {
-                    // u = 1 − tanh² or 1 + tan².
-                    let x = self.at(a, 0);
-                    let v = unary(self, if hyp { Func::Tanh } else { Func::Tan }, x);
-                    let sq = self.b.ins().fmul(v, v);
-                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Asin { d, a, r, kind } => {
-                    // r as `ArcKind::root` computes it.
-                    let x = self.at(a, 0);
-                    let v = unary(self, kind.func(), x);
-                    let rv = match kind {
-                        ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
-                            let sq = self.b.ins().fmul(x, x);
-                            let rest = if kind == ArcKind::Asinh {
-                                self.b.ins().fadd(one, sq)
-                            } else {
-                                self.b.ins().fsub(one, sq)
-                            };
-                            self.b.ins().sqrt(rest)
-                        }
-                        ArcKind::Acosh => {
-                            let below = self.b.ins().fsub(x, one);
-                            let above = self.b.ins().fadd(x, one);
-                            let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
-                            self.b.ins().fmul(p, q)
-                        }
-                    };
-                    self.put_at(d, 0, v);
-                    self.put_at(r, 0, rv);
-                }
-                Op::Atan { d, a, u, hyp } => {
-                    // u = 1 + x² (atanh: 1 − x²).
-                    let x = self.at(a, 0);
-                    let v = unary(self, if hyp { Func::Atanh } else { Func::Atan }, x);
-                    let sq = self.b.ins().fmul(x, x);
-                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Erf { d, a, .. } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Erf, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Atan2 { d, a, b, u } => {
-                    // u = x² + y².
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = binary(self, atan2, x, y);
-                    let (xx, yy) = (self.b.ins().fmul(x, x), self.b.ins().fmul(y, y));
-                    let uv = self.b.ins().fadd(xx, yy);
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Root { d, a, q } => {
-                    let x = self.at(a, 0);
-                    let qv = self.c(f64::from(q));
-                    let v = binary(self, real_root, x, qv);
-                    self.put_at(d, 0, v);
-                }
-                Op::PowConst { d, a, e } => {
-                    let (x, y) = (self.at(a, 0), self.at(e, 0));
-                    let v = binary(self, powf, x, y);
-                    self.put_at(d, 0, v);
-                }
-                Op::PowVar { d, a, b, l, m } => {
-                    // l = ln x, m = y l.
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let lv = unary(self, Func::Log, x);
-                    let v = binary(self, powf, x, y);
-                    let mv = self.b.ins().fmul(y, lv);
-                    self.put_at(d, 0, v);
-                    self.put_at(l, 0, lv);
-                    self.put_at(m, 0, mv);
-                }
                 Op::Sqr { d, a } => {
                     let x = self.at(a, 0);
                     let v = self.b.ins().fmul(x, x);
@@ -1267,17 +1160,162 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.b.ins().fmul(x, fv);
                     self.put_at(d, 0, v);
                 }
-                Op::Power { d, a, e } => {
-                    let x = self.at(a, 0);
-                    let ev = self.c(e);
-                    let v = binary(self, powf, x, ev);
-                    self.put_at(d, 0, v);
-                }
                 Op::Weigh { d, .. } => {
                     let zero = self.c(0.0);
                     self.put_at(d, 0, zero);
                 }
+                Op::SinCos { .. } | Op::SinhCosh { .. } | Op::Exp { .. } | Op::Log { .. } | Op::Tan { .. } => {
+                    self.elementary0(op)
+                }
+                Op::Asin { .. }
+                | Op::Atan { .. }
+                | Op::Erf { .. }
+                | Op::Atan2 { .. }
+                | Op::Root { .. }
+                | Op::PowConst { .. }
+                | Op::Power { .. }
+                | Op::PowVar { .. } => self.inverse_or_power0(op),
             }
+        }
+    }
+
+    /// `f(x)` by the native wrapper of a one-argument built-in.
+    fn unary(&mut self, f: Func, x: Value) -> Value {
+        match wrapper(f) {
+            Some(w) => self.call_fn(w as usize, &[x]),
+            None => unreachable!("abs and atan2 have their own operations"),
+        }
+    }
+
+    /// `f(x, y)` for a two-argument wrapper.
+    fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
+        self.call_fn(f as usize, &[x, y])
+    }
+
+    /// A call of the `extern "C" fn(f64, …) -> f64` at `addr`.
+    fn call_fn(&mut self, addr: usize, args: &[Value]) -> Value {
+        call_f64(self.b, self.call_conv, self.ptr, addr, args)
+    }
+
+    /// Order 0 of the sine–cosine, hyperbolic, exponential, logarithm and tangent rows.
+    fn elementary0(&mut self, op: &Op) {
+        let one = self.c(1.0);
+        match *op {
+            Op::SinCos { s, c, a } => {
+                let x = self.at(a, 0);
+                let (sv, cv) = call_sin_cos(self.b, self.call_conv, self.ptr, &mut self.sin_cos_slot, x);
+                self.put_at(s, 0, sv);
+                self.put_at(c, 0, cv);
+            }
+            Op::SinhCosh { s, c, a } => {
+                let x = self.at(a, 0);
+                let sv = self.unary(Func::Sinh, x);
+                let cv = self.unary(Func::Cosh, x);
+                self.put_at(s, 0, sv);
+                self.put_at(c, 0, cv);
+            }
+            Op::Exp { d, a } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Exp, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Log { d, a } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Log, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Tan { d, a, u, hyp } => {
+                // u = 1 − tanh² or 1 + tan².
+                let x = self.at(a, 0);
+                let v = self.unary(if hyp { Func::Tanh } else { Func::Tan }, x);
+                let sq = self.b.ins().fmul(v, v);
+                let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            _ => unreachable!("`order0` emits the other operations"),
+        }
+    }
+
+    /// Order 0 of the inverse functions' and the powers' rows.
+    fn inverse_or_power0(&mut self, op: &Op) {
+        let one = self.c(1.0);
+        match *op {
+            Op::Asin { d, a, r, kind } => {
+                // r as `ArcKind::root` computes it.
+                let x = self.at(a, 0);
+                let v = self.unary(kind.func(), x);
+                let rv = match kind {
+                    ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
+                        let sq = self.b.ins().fmul(x, x);
+                        let rest = if kind == ArcKind::Asinh {
+                            self.b.ins().fadd(one, sq)
+                        } else {
+                            self.b.ins().fsub(one, sq)
+                        };
+                        self.b.ins().sqrt(rest)
+                    }
+                    ArcKind::Acosh => {
+                        let below = self.b.ins().fsub(x, one);
+                        let above = self.b.ins().fadd(x, one);
+                        let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
+                        self.b.ins().fmul(p, q)
+                    }
+                };
+                self.put_at(d, 0, v);
+                self.put_at(r, 0, rv);
+            }
+            Op::Atan { d, a, u, hyp } => {
+                // u = 1 + x² (atanh: 1 − x²).
+                let x = self.at(a, 0);
+                let v = self.unary(if hyp { Func::Atanh } else { Func::Atan }, x);
+                let sq = self.b.ins().fmul(x, x);
+                let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            Op::Erf { d, a, .. } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Erf, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Atan2 { d, a, b, u } => {
+                // u = x² + y².
+                let (x, y) = (self.at(a, 0), self.at(b, 0));
+                let v = self.binary(atan2, x, y);
+                let (xx, yy) = (self.b.ins().fmul(x, x), self.b.ins().fmul(y, y));
+                let uv = self.b.ins().fadd(xx, yy);
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            Op::Root { d, a, q } => {
+                let x = self.at(a, 0);
+                let qv = self.c(f64::from(q));
+                let v = self.binary(real_root, x, qv);
+                self.put_at(d, 0, v);
+            }
+            Op::PowConst { d, a, e } => {
+                let (x, y) = (self.at(a, 0), self.at(e, 0));
+                let v = self.binary(powf, x, y);
+                self.put_at(d, 0, v);
+            }
+            Op::PowVar { d, a, b, l, m } => {
+                // l = ln x, m = y l.
+                let (x, y) = (self.at(a, 0), self.at(b, 0));
+                let lv = self.unary(Func::Log, x);
+                let v = self.binary(powf, x, y);
+                let mv = self.b.ins().fmul(y, lv);
+                self.put_at(d, 0, v);
+                self.put_at(l, 0, lv);
+                self.put_at(m, 0, mv);
+            }
+            Op::Power { d, a, e } => {
+                let x = self.at(a, 0);
+                let ev = self.c(e);
+                let v = self.binary(powf, x, ev);
+                self.put_at(d, 0, v);
+            }
+            _ => unreachable!("`order0` emits the other operations"),
         }
     }
 
