@@ -60,6 +60,10 @@ pub(super) struct NativeCache {
     by_order: Vec<OnceLock<Option<TaylorNative>>>,
     /// `compact[p]`: compact code, run until `by_order[p]` exists.
     compact: Vec<OnceLock<Option<TaylorNative>>>,
+    /// Batch expansions' lane-pair code per order (`batch.rs`), and the lanes expanded so far
+    /// without it.
+    lanes: Vec<OnceLock<Option<Arc<NativeTaylor>>>>,
+    lane_uses: AtomicUsize,
 }
 impl NativeCache {
     /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
@@ -74,6 +78,8 @@ impl NativeCache {
             uses: AtomicUsize::new(0),
             by_order: slots(),
             compact: slots(),
+            lanes: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
+            lane_uses: AtomicUsize::new(0),
         })
     }
 
@@ -124,6 +130,39 @@ impl NativeCache {
             return None;
         }
         self.by_order[order].get_or_init(compile).clone()
+    }
+
+    /// The lane-pair code a batch expansion of `order` over `width` lanes runs on, in the tiers
+    /// of the final code (a lane counts as one expansion): `None` until then, or when native
+    /// code is off or the tape has none (too large to unroll, or `abs`).
+    pub(super) fn lanes_tiered(
+        &self,
+        tape: &TaylorTape,
+        order: usize,
+        width: usize,
+        compile: impl FnOnce() -> Option<NativeTaylor>,
+    ) -> Option<&NativeTaylor> {
+        if !self.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        let slot = &self.lanes[order];
+        if let Some(code) = slot.get() {
+            return code.as_deref();
+        }
+        let uses = self.lane_uses.fetch_add(width, Ordering::Relaxed);
+        let after = match unrolled_terms(tape, order - 1) {
+            t if t <= COMPACT_ABOVE_TERMS => self.after,
+            _ => self.unroll_after,
+        };
+        if uses < after {
+            return None;
+        }
+        slot.get_or_init(|| compile().map(Arc::new)).as_deref()
+    }
+
+    /// Whether the lane-pair code of `order` exists (compiling nothing).
+    pub(super) fn lanes_compiled(&self, order: usize) -> bool {
+        self.lanes.get(order).is_some_and(|c| c.get().is_some_and(Option::is_some))
     }
 
     /// The code compiled so far for `order` (the final code if it exists, else compact code),
