@@ -79,11 +79,11 @@ impl<const B: usize> LaneWork<B> {
 }
 
 impl TaylorOde {
-    /// Whether batch expansions of `order` have their native lane-pair code yet (see the
-    /// module's documentation; it is compiled in the single run's tiers, and never when
-    /// native code is off).
-    pub fn native_lanes_compiled(&self, order: usize) -> bool {
-        self.native.lanes_compiled(order)
+    /// Whether a batch expansion has run on native lane-pair code (see the module's
+    /// documentation; it is compiled in the single run's tiers, and never when native code is
+    /// off), rather than on the interpreter's lanes.
+    pub fn native_lanes_ran(&self) -> bool {
+        self.native.lanes_ran()
     }
 
     /// The lane-pair code for batch expansions of `order`; none for a non-symmetric `W`,
@@ -136,6 +136,7 @@ impl TaylorOde {
                 }
             }
         }
+        self.native.note_lanes_ran();
         true
     }
 

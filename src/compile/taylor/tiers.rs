@@ -1,7 +1,7 @@
 //! When a Taylor tape gets machine code, and which form: the tiering policy between the
 //! interpreter, unrolled, whole-expansion and compact code.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use crate::compile::jit::jit_disabled_by_env;
@@ -64,6 +64,8 @@ pub(super) struct NativeCache {
     /// without it.
     lanes: Vec<OnceLock<Option<Arc<NativeTaylor>>>>,
     lane_uses: AtomicUsize,
+    /// Whether a batch expansion has run on lane-pair code to its end.
+    lanes_ran: AtomicBool,
 }
 impl NativeCache {
     /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
@@ -80,6 +82,7 @@ impl NativeCache {
             compact: slots(),
             lanes: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
             lane_uses: AtomicUsize::new(0),
+            lanes_ran: AtomicBool::new(false),
         })
     }
 
@@ -160,9 +163,16 @@ impl NativeCache {
         slot.get_or_init(|| compile().map(Arc::new)).as_deref()
     }
 
-    /// Whether the lane-pair code of `order` exists (compiling nothing).
-    pub(super) fn lanes_compiled(&self, order: usize) -> bool {
-        self.lanes.get(order).is_some_and(|c| c.get().is_some_and(Option::is_some))
+    /// Records that a batch expansion ran on lane-pair code to its end.
+    pub(super) fn note_lanes_ran(&self) {
+        if !self.lanes_ran.load(Ordering::Relaxed) {
+            self.lanes_ran.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Whether a batch expansion has run on lane-pair code to its end.
+    pub(super) fn lanes_ran(&self) -> bool {
+        self.lanes_ran.load(Ordering::Relaxed)
     }
 
     /// The code compiled so far for `order` (the final code if it exists, else compact code),
