@@ -1,6 +1,11 @@
 //! Batch expansions: `B` initial conditions of one [`TaylorOde`] expanded together, one per
 //! lane of [`Lanes<B>`], by the same interpreter as a single expansion (see `lanes.rs` for
-//! why the lanes get the scalar method's bits).
+//! why the lanes get the scalar method's bits); and, once native code pays (the tiers of the
+//! single run's code), by native lane-pair code: the whole expansion compiled with every value
+//! an `F64X2` of two lanes (`NativeTaylor::compile_lanes`), run once per pair of lanes, each
+//! lane with the scalar native code's bits (which are the interpreter's). A pair whose `W₀`
+//! needs the interpreter (not finite, or not positive definite: LU) sends the whole batch
+//! expansion back to the interpreter, which handles it lane by lane as before.
 //!
 //! The per-order mass-matrix solve of a `W q'' = F` system factors `W₀` lane by lane (each
 //! lane's pivots are its own) and, when every lane's factor is Cholesky's, runs the
@@ -12,6 +17,7 @@
 
 use super::interp::{cholesky_solve, dot_rev};
 use super::lanes::{Lane, Lanes};
+use super::native::{LanePair, NativeTaylor, Ran};
 use super::ode::Derivative;
 use super::TaylorOde;
 use crate::integrate::TaylorBatchSystem;
@@ -35,6 +41,9 @@ pub struct LaneWork<const B: usize> {
     /// One lane's `W₀` and its factor, for `linalg::factor`.
     w0: Vec<f64>,
     fm: Vec<f64>,
+    /// Lane-pair code's buffers, one per pair of lanes (`expand`'s layout, two lanes per
+    /// slot), made when the code first runs; the constants' rows are written once.
+    pairs: Vec<Vec<LanePair>>,
 }
 
 /// The scratch of a batch expansion, at the width the host's vector registers suggest.
@@ -64,11 +73,73 @@ impl<const B: usize> LaneWork<B> {
             perms: vec![0.0; n * B],
             w0: vec![0.0; n * n],
             fm: vec![0.0; n * n],
+            pairs: Vec::new(),
         }
     }
 }
 
 impl TaylorOde {
+    /// Whether a batch expansion has run on native lane-pair code (see the module's
+    /// documentation; it is compiled in the single run's tiers, and never when native code is
+    /// off), rather than on the interpreter's lanes.
+    pub fn native_lanes_ran(&self) -> bool {
+        self.native.lanes_ran()
+    }
+
+    /// The lane-pair code for batch expansions of `order`; none for a non-symmetric `W`,
+    /// whose LU solve the whole expansion does not do (as for the single run).
+    fn compile_lanes(&self, order: usize) -> Option<NativeTaylor> {
+        if crate::compile::jit::jit_disabled_by_env() || self.solve.as_ref().is_some_and(|m| !m.symmetric) {
+            return None;
+        }
+        NativeTaylor::compile_lanes(&self.tape, order + 1, order - 1, &self.expansion(order))
+    }
+
+    /// [`TaylorOde::expand_lanes`] by the native lane-pair code, one call per pair of lanes;
+    /// `false` (with `out` partly written) when there is no such code yet or a pair's `W₀`
+    /// needs the interpreter, which then redoes the whole batch.
+    fn expand_native_lanes<const B: usize>(&self, w: &mut LaneWork<B>, t: &[f64], y: &[f64], out: &mut [f64]) -> bool {
+        let order = w.order;
+        let Some(code) = self.native.lanes_tiered(&self.tape, order, B, || self.compile_lanes(order)) else {
+            return false;
+        };
+        let (s, dim) = (order + 1, self.dim);
+        if w.pairs.is_empty() {
+            let mut consts = vec![0.0; self.tape.n_rows() * s];
+            self.tape.init(&mut consts, s);
+            let len = self.scratch_len(order);
+            let buffer = |_| {
+                let mut b = vec![LanePair::default(); len];
+                b.iter_mut().zip(&consts).for_each(|(p, &x)| *p = LanePair([x, x]));
+                b
+            };
+            // `B` is even (2, 4 or 8).
+            w.pairs = (0..B / 2).map(buffer).collect();
+        }
+        for (p, c) in w.pairs.iter_mut().enumerate() {
+            let (l0, l1) = (2 * p, 2 * p + 1);
+            for i in 0..dim {
+                c[i * s] = LanePair([y[l0 * dim + i], y[l1 * dim + i]]);
+            }
+            if let Some(ti) = self.time {
+                // Orders ≥ 2 of the time stay the zeros the buffer was made with.
+                c[ti * s] = LanePair([t[l0], t[l1]]);
+                c[ti * s + 1] = LanePair([1.0; 2]);
+            }
+            if code.run_lanes(c) != Ran::Done {
+                return false;
+            }
+            for (h, l) in [l0, l1].into_iter().enumerate() {
+                let lane = &mut out[l * dim * s..(l + 1) * dim * s];
+                for (x, v) in lane.iter_mut().zip(&c[..dim * s]) {
+                    *x = v.0[h];
+                }
+            }
+        }
+        self.native.note_lanes_ran();
+        true
+    }
+
     /// Whether a batch expansion (`expand_lanes`) can run this system: every operation but `abs`,
     /// whose kink is a per-lane failure the batch does not split (such systems run one
     /// trajectory at a time).
@@ -228,6 +299,14 @@ impl TaylorBatchSystem for TaylorOde {
     }
 
     fn expand_batch(&self, batch: &mut TaylorBatch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
+        let native = match batch {
+            TaylorBatch::Two(w) => self.expand_native_lanes(w, t, y, out),
+            TaylorBatch::Four(w) => self.expand_native_lanes(w, t, y, out),
+            TaylorBatch::Eight(w) => self.expand_native_lanes(w, t, y, out),
+        };
+        if native {
+            return;
+        }
         match batch {
             TaylorBatch::Two(w) => self.expand_lanes(w, t, y, out, failed),
             TaylorBatch::Four(w) => {

@@ -7,7 +7,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
-use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, Value};
+use cranelift_codegen::ir::{types, AbiParam, InstBuilder, MemFlags, StackSlot, Value};
 use cranelift_codegen::isa::CallConv;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_module::{Linkage, Module};
@@ -53,6 +53,12 @@ pub(crate) struct CholeskySolve {
 /// the expansion (and choose LU, or report the error).
 const STATUS_KINK: i32 = 1;
 const STATUS_REDO: i32 = 2;
+/// One slot of lane-pair code's buffer ([`NativeTaylor::compile_lanes`]): lane 0's and lane 1's
+/// value. Aligned as an `F64X2`, because the generated loads and stores say they are aligned
+/// (and may become SSE memory operands, which must be).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(16))]
+pub(crate) struct LanePair(pub [f64; 2]);
 /// How a whole native expansion ended ([`NativeTaylor::run_expansion`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Ran {
@@ -148,8 +154,10 @@ pub(crate) struct NativeTaylor {
     _module: OwnedModule,
     stride: usize,
     n_rows: usize,
-    /// The length of the buffer the code reads and writes.
+    /// The length of the buffer the code reads and writes, in `f64`s.
     buffer_len: usize,
+    /// Lane-pair code ([`NativeTaylor::compile_lanes`]).
+    lanes: bool,
 }
 // SAFETY: as for `NativeCode`: the module is touched only by `Drop`, and each generated
 // function reads and writes only the buffer its caller passes (exclusively, `&mut`).
@@ -193,7 +201,7 @@ impl NativeTaylor {
         if unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
             return compact_pays(tape).then(|| Self::compile_compact(tape, stride, max_order)).flatten();
         }
-        Self::compile_with(tape, stride, max_order, Form::PerOrder, None)
+        Self::compile_with(tape, stride, max_order, Form::PerOrder, None, false)
     }
 
     /// Compact code for orders `1..=max_order` whatever the tape's size (up to
@@ -202,7 +210,7 @@ impl NativeTaylor {
         if tape.ops().len() > MAX_NATIVE_INSTRS {
             return None;
         }
-        Self::compile_with(tape, stride, max_order, Form::Compact, None)
+        Self::compile_with(tape, stride, max_order, Form::Compact, None, false)
     }
 
     /// The whole expansion of an ODE in one function (see [`Expansion`]); `None` also when
@@ -216,7 +224,28 @@ impl NativeTaylor {
         if max_order + 1 >= stride || unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
             return None;
         }
-        Self::compile_with(tape, stride, max_order, Form::Whole, Some(expansion))
+        Self::compile_with(tape, stride, max_order, Form::Whole, Some(expansion), false)
+    }
+
+    /// [`NativeTaylor::compile_expansion`] for two expansions side by side: every value an
+    /// `F64X2` whose lane `l` is expansion `l`'s, in a buffer of the same layout whose slots
+    /// hold both lanes (slot `i` at `f64`s `2i`, `2i + 1`; [`NativeTaylor::run_lanes`]).
+    /// Each lane runs the scalar code's operations in the same order (the pairs of
+    /// [`TaylorEmitter::pair`] aside, which do not change the bits), and the transcendental
+    /// functions are called lane by lane through the same wrappers, so each lane gets the
+    /// scalar expansion's bits. `W₀`'s factor is flagged for the interpreter when any lane's
+    /// is. `None` also for tapes with `abs`, whose kinks a batch does not split.
+    pub(crate) fn compile_lanes(
+        tape: &TaylorTape,
+        stride: usize,
+        max_order: usize,
+        expansion: &Expansion,
+    ) -> Option<NativeTaylor> {
+        let abs = tape.ops().iter().any(|op| matches!(op, Op::Abs { .. }));
+        if abs || max_order + 1 >= stride || unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS {
+            return None;
+        }
+        Self::compile_with(tape, stride, max_order, Form::Whole, Some(expansion), true)
     }
 
     fn compile_with(
@@ -225,12 +254,16 @@ impl NativeTaylor {
         max_order: usize,
         form: Form,
         expansion: Option<&Expansion>,
+        lanes: bool,
     ) -> Option<NativeTaylor> {
         // Every offset must fit Cranelift's 32-bit immediate.
-        if max_order == 0 || max_order >= stride || tape.n_rows().saturating_mul(stride) > (i32::MAX as usize) / 8 {
+        let len = expansion.map_or(tape.n_rows().saturating_mul(stride), |g| g.len);
+        if max_order == 0 || max_order >= stride || len > (i32::MAX as usize) / 16 {
             return None;
         }
-        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, form, expansion))).ok().flatten()
+        catch_unwind(AssertUnwindSafe(|| compile_taylor_code(tape, stride, max_order, form, expansion, lanes)))
+            .ok()
+            .flatten()
     }
 
     /// Whether this is a whole expansion ([`NativeTaylor::compile_expansion`]).
@@ -246,7 +279,21 @@ impl NativeTaylor {
     /// Runs a whole expansion: orders `0..=max_order` and the glue after each (the state's
     /// order 0 and the time's orders given).
     pub(crate) fn run_expansion(&self, c: &mut [f64]) -> Ran {
-        assert!(self.is_whole(), "not a whole expansion");
+        assert!(self.is_whole() && !self.lanes, "not a whole expansion");
+        self.run_whole(c)
+    }
+
+    /// [`NativeTaylor::run_expansion`] of lane-pair code ([`NativeTaylor::compile_lanes`]) on
+    /// its buffer of two `f64`s per slot; [`Ran::Kink`] or [`Ran::Redo`] when any lane needs it.
+    pub(crate) fn run_lanes(&self, c: &mut [LanePair]) -> Ran {
+        assert!(self.is_whole() && self.lanes, "not lane-pair code");
+        // SAFETY: `LanePair` is two `f64`s with no padding (`repr(C)`, size 16), so `c` is
+        // `2 · c.len()` of them.
+        let flat = unsafe { std::slice::from_raw_parts_mut(c.as_mut_ptr().cast::<f64>(), 2 * c.len()) };
+        self.run_whole(flat)
+    }
+
+    fn run_whole(&self, c: &mut [f64]) -> Ran {
         match self.call(c, 0) {
             s if s & STATUS_REDO != 0 => Ran::Redo,
             s if s & STATUS_KINK != 0 => Ran::Kink,
@@ -294,6 +341,7 @@ fn compile_taylor_code(
     max_order: usize,
     form: Form,
     expansion: Option<&Expansion>,
+    lanes: bool,
 ) -> Option<NativeTaylor> {
     let (mut module, call_conv, ptr) = host_module(&[])?;
     let mut ctx = module.make_context();
@@ -337,7 +385,8 @@ fn compile_taylor_code(
             let rows = tape.n_rows() + expansion.and_then(|g| g.solve.as_ref()).map_or(0, |m| m.n);
             let known = if form == Form::Compact { Vec::new() } else { vec![None; rows * stride] };
             let windows = Windows { span: second, bases: Vec::new() };
-            let mirror = expansion.filter(|_| max_order + 1 >= PAIRS_FROM_ORDER).map(|g| g.mirror_at);
+            // Pairs are scalar code's: lane-pair code's values are vectors already.
+            let mirror = expansion.filter(|_| !lanes && max_order + 1 >= PAIRS_FROM_ORDER).map(|g| g.mirror_at);
             let mut em = TaylorEmitter {
                 b: &mut b,
                 tape,
@@ -352,6 +401,8 @@ fn compile_taylor_code(
                 mirror,
                 inv_diag: Vec::new(),
                 ssa_orders: ssa_orders(tape, expansion),
+                sin_cos_slot: None,
+                lanes,
             };
             let mut kink = Some(em.b.ins().iconst(types::I8, 0));
             let mut redo = None;
@@ -393,6 +444,7 @@ fn compile_taylor_code(
             kink.is_some()
         };
         let name = match form {
+            Form::Whole if lanes => "taylor_expansion_lanes".to_string(),
             Form::Whole => "taylor_expansion".to_string(),
             Form::Compact => "taylor_compact".to_string(),
             Form::PerOrder => format!("taylor_order_{}", orders[0]),
@@ -421,7 +473,8 @@ fn compile_taylor_code(
         _module: OwnedModule(ManuallyDrop::new(module)),
         stride,
         n_rows: tape.n_rows(),
-        buffer_len: expansion.map_or(tape.n_rows() * stride, |g| g.len),
+        buffer_len: expansion.map_or(tape.n_rows() * stride, |g| g.len) * if lanes { 2 } else { 1 },
+        lanes,
     })
 }
 /// The order a [`TaylorEmitter`] writes.
@@ -499,6 +552,11 @@ struct TaylorEmitter<'a, 'b> {
     /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
     /// values and reloads older ones ([`ssa_orders`]).
     ssa_orders: usize,
+    /// The stack slot the `sin_cos` wrapper writes to (`call_sin_cos`), made on first use.
+    sin_cos_slot: Option<StackSlot>,
+    /// Lane-pair code ([`NativeTaylor::compile_lanes`]): every value an `F64X2` of two
+    /// expansions side by side, every buffer slot 16 bytes.
+    lanes: bool,
 }
 /// The base registers of unrolled code: `bases[w] = base + w · span`, made on first use;
 /// `span` is the function's argument [`WINDOW_BYTES`].
@@ -518,7 +576,8 @@ impl TaylorEmitter<'_, '_> {
             (Some(v), _) => v,
             (None, _) => {
                 let (p, off) = self.window(i);
-                let v = self.b.ins().load(types::F64, MemFlags::trusted(), p, off);
+                let ty = self.ty();
+                let v = self.b.ins().load(ty, MemFlags::trusted(), p, off);
                 self.mirror_store(r, j, v);
                 self.known[i] = Some(v);
                 v
@@ -546,7 +605,7 @@ impl TaylorEmitter<'_, '_> {
     /// bit-for-bit comparisons with the interpreter on reused buffers
     /// (`tests/it/taylor/native.rs`) would catch a load moved above its store.
     fn reload(&mut self, i: usize) -> Value {
-        self.pure_load(types::F64, MemFlags::trusted(), i)
+        self.pure_load(self.ty(), MemFlags::trusted(), i)
     }
 
     /// A `readonly` load of type `ty` at word `i` of the buffer with its own address
@@ -572,7 +631,7 @@ impl TaylorEmitter<'_, '_> {
     /// displacement (16.0 kB). Each is `base + w · span`, where `span` is a function argument,
     /// so that Cranelift cannot fold it back into `base` plus a constant.
     fn window(&mut self, i: usize) -> (Value, i32) {
-        let bytes = 8 * i;
+        let bytes = self.slot_bytes() * i;
         let w = (bytes + WINDOW_BYTES / 2) / WINDOW_BYTES;
         let off = (bytes as i64 - (w * WINDOW_BYTES) as i64) as i32;
         if w == 0 || w >= MAX_WINDOWS {
@@ -688,8 +747,40 @@ impl TaylorEmitter<'_, '_> {
         self.b.ins().insertlane(v, x1, 1)
     }
 
+    /// The constant `x` (in every lane of lane-pair code).
     fn c(&mut self, x: f64) -> Value {
-        self.b.ins().f64const(x)
+        if self.lanes {
+            self.pair_const(x, x)
+        } else {
+            self.b.ins().f64const(x)
+        }
+    }
+
+    /// The type of a value: `F64`, or `F64X2` in lane-pair code.
+    fn ty(&self) -> types::Type {
+        if self.lanes {
+            types::F64X2
+        } else {
+            types::F64
+        }
+    }
+
+    /// The bytes of one buffer slot (one coefficient of every lane).
+    fn slot_bytes(&self) -> usize {
+        if self.lanes {
+            16
+        } else {
+            8
+        }
+    }
+
+    /// An `i8` that is 1 when the comparison mask `m` (an `fcmp` of values) holds in any lane.
+    fn any_lane(&mut self, m: Value) -> Value {
+        if self.lanes {
+            self.b.ins().vany_true(m)
+        } else {
+            m
+        }
     }
 
     /// The vector constant `(x, y)`.
@@ -940,8 +1031,9 @@ impl TaylorEmitter<'_, '_> {
         let mut scale = self.c(0.0);
         for &x in &a {
             let ax = self.b.ins().fabs(x);
-            let finite = self.b.ins().fcmp(FloatCC::LessThan, ax, inf);
-            let bad = self.b.ins().bxor_imm(finite, 1);
+            // Not finite: `|x| < ∞` fails (NaN included).
+            let bad = self.b.ins().fcmp(FloatCC::UnorderedOrGreaterThanOrEqual, ax, inf);
+            let bad = self.any_lane(bad);
             redo = self.b.ins().bor(redo, bad);
             // `f64::max` of finite values (a non-finite one sets `redo` anyway).
             scale = self.b.ins().fmax(scale, ax);
@@ -955,6 +1047,7 @@ impl TaylorEmitter<'_, '_> {
                 d = self.b.ins().fsub(d, p);
             }
             let small = self.b.ins().fcmp(FloatCC::LessThanOrEqual, d, tol);
+            let small = self.any_lane(small);
             redo = self.b.ins().bor(redo, small);
             let l = self.b.ins().sqrt(d);
             a[j * n + j] = l;
@@ -969,7 +1062,7 @@ impl TaylorEmitter<'_, '_> {
         }
         for i in 0..n {
             for j in 0..=i {
-                let off = ((m.factor_at + i * n + j) * 8) as i32;
+                let off = ((m.factor_at + i * n + j) * self.slot_bytes()) as i32;
                 self.b.ins().store(MemFlags::trusted(), a[i * n + j], self.base, off);
             }
         }
@@ -997,8 +1090,9 @@ impl TaylorEmitter<'_, '_> {
             x.push(v);
         }
         let lf = |em: &mut Self, i: usize, j: usize| {
-            let off = ((m.factor_at + i * n + j) * 8) as i32;
-            em.b.ins().load(types::F64, MemFlags::trusted(), em.base, off)
+            let off = ((m.factor_at + i * n + j) * em.slot_bytes()) as i32;
+            let ty = em.ty();
+            em.b.ins().load(ty, MemFlags::trusted(), em.base, off)
         };
         for i in 0..n {
             let mut v = x[i];
@@ -1124,16 +1218,6 @@ impl TaylorEmitter<'_, '_> {
     /// native code calls, so the values are the interpreter's bit for bit.
     fn order0(&mut self) {
         let tape = self.tape;
-        let mut pair = None;
-        let (cc, ptr) = (self.call_conv, self.ptr);
-        let unary = |em: &mut Self, f: Func, x: Value| match wrapper(f) {
-            Some(w) => call_f64(em.b, cc, ptr, w as usize, &[x]),
-            None => unreachable!("abs and atan2 have their own operations"),
-        };
-        let binary = |em: &mut Self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value| {
-            call_f64(em.b, cc, ptr, f as usize, &[x, y])
-        };
-        let one = self.c(1.0);
         for op in tape.ops0() {
             match *op {
                 Op::Add { d, a, b } | Op::Sub { d, a, b } | Op::Mul { d, a, b } | Op::Div { d, a, b } => {
@@ -1156,106 +1240,6 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.b.ins().fabs(x);
                     self.put_at(d, 0, v);
                 }
-                Op::SinCos { s, c, a } => {
-                    let x = self.at(a, 0);
-                    let (sv, cv) = call_sin_cos(self.b, cc, ptr, &mut pair, x);
-                    self.put_at(s, 0, sv);
-                    self.put_at(c, 0, cv);
-                }
-                Op::SinhCosh { s, c, a } => {
-                    let x = self.at(a, 0);
-                    let sv = unary(self, Func::Sinh, x);
-                    let cv = unary(self, Func::Cosh, x);
-                    self.put_at(s, 0, sv);
-                    self.put_at(c, 0, cv);
-                }
-                Op::Exp { d, a } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Exp, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Log { d, a } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Log, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Tan { d, a, u, hyp } => {
-                    // u = 1 − tanh² or 1 + tan².
-                    let x = self.at(a, 0);
-                    let v = unary(self, if hyp { Func::Tanh } else { Func::Tan }, x);
-                    let sq = self.b.ins().fmul(v, v);
-                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Asin { d, a, r, kind } => {
-                    // r as `ArcKind::root` computes it.
-                    let x = self.at(a, 0);
-                    let v = unary(self, kind.func(), x);
-                    let rv = match kind {
-                        ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
-                            let sq = self.b.ins().fmul(x, x);
-                            let rest = if kind == ArcKind::Asinh {
-                                self.b.ins().fadd(one, sq)
-                            } else {
-                                self.b.ins().fsub(one, sq)
-                            };
-                            self.b.ins().sqrt(rest)
-                        }
-                        ArcKind::Acosh => {
-                            let below = self.b.ins().fsub(x, one);
-                            let above = self.b.ins().fadd(x, one);
-                            let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
-                            self.b.ins().fmul(p, q)
-                        }
-                    };
-                    self.put_at(d, 0, v);
-                    self.put_at(r, 0, rv);
-                }
-                Op::Atan { d, a, u, hyp } => {
-                    // u = 1 + x² (atanh: 1 − x²).
-                    let x = self.at(a, 0);
-                    let v = unary(self, if hyp { Func::Atanh } else { Func::Atan }, x);
-                    let sq = self.b.ins().fmul(x, x);
-                    let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Erf { d, a, .. } => {
-                    let x = self.at(a, 0);
-                    let v = unary(self, Func::Erf, x);
-                    self.put_at(d, 0, v);
-                }
-                Op::Atan2 { d, a, b, u } => {
-                    // u = x² + y².
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let v = binary(self, atan2, x, y);
-                    let (xx, yy) = (self.b.ins().fmul(x, x), self.b.ins().fmul(y, y));
-                    let uv = self.b.ins().fadd(xx, yy);
-                    self.put_at(d, 0, v);
-                    self.put_at(u, 0, uv);
-                }
-                Op::Root { d, a, q } => {
-                    let x = self.at(a, 0);
-                    let qv = self.c(f64::from(q));
-                    let v = binary(self, real_root, x, qv);
-                    self.put_at(d, 0, v);
-                }
-                Op::PowConst { d, a, e } => {
-                    let (x, y) = (self.at(a, 0), self.at(e, 0));
-                    let v = binary(self, powf, x, y);
-                    self.put_at(d, 0, v);
-                }
-                Op::PowVar { d, a, b, l, m } => {
-                    // l = ln x, m = y l.
-                    let (x, y) = (self.at(a, 0), self.at(b, 0));
-                    let lv = unary(self, Func::Log, x);
-                    let v = binary(self, powf, x, y);
-                    let mv = self.b.ins().fmul(y, lv);
-                    self.put_at(d, 0, v);
-                    self.put_at(l, 0, lv);
-                    self.put_at(m, 0, mv);
-                }
                 Op::Sqr { d, a } => {
                     let x = self.at(a, 0);
                     let v = self.b.ins().fmul(x, x);
@@ -1267,17 +1251,188 @@ impl TaylorEmitter<'_, '_> {
                     let v = self.b.ins().fmul(x, fv);
                     self.put_at(d, 0, v);
                 }
-                Op::Power { d, a, e } => {
-                    let x = self.at(a, 0);
-                    let ev = self.c(e);
-                    let v = binary(self, powf, x, ev);
-                    self.put_at(d, 0, v);
-                }
                 Op::Weigh { d, .. } => {
                     let zero = self.c(0.0);
                     self.put_at(d, 0, zero);
                 }
+                Op::SinCos { .. } | Op::SinhCosh { .. } | Op::Exp { .. } | Op::Log { .. } | Op::Tan { .. } => {
+                    self.elementary0(op)
+                }
+                Op::Asin { .. }
+                | Op::Atan { .. }
+                | Op::Erf { .. }
+                | Op::Atan2 { .. }
+                | Op::Root { .. }
+                | Op::PowConst { .. }
+                | Op::Power { .. }
+                | Op::PowVar { .. } => self.inverse_or_power0(op),
             }
+        }
+    }
+
+    /// `f(x)` by the native wrapper of a one-argument built-in.
+    fn unary(&mut self, f: Func, x: Value) -> Value {
+        match wrapper(f) {
+            Some(w) => self.call_fn(w as usize, &[x]),
+            None => unreachable!("abs and atan2 have their own operations"),
+        }
+    }
+
+    /// `f(x, y)` for a two-argument wrapper.
+    fn binary(&mut self, f: extern "C" fn(f64, f64) -> f64, x: Value, y: Value) -> Value {
+        self.call_fn(f as usize, &[x, y])
+    }
+
+    /// A call of the `extern "C" fn(f64, …) -> f64` at `addr`; in lane-pair code one call
+    /// per lane, on that lane's arguments (so each lane gets the scalar code's bits).
+    fn call_fn(&mut self, addr: usize, args: &[Value]) -> Value {
+        if !self.lanes {
+            return call_f64(self.b, self.call_conv, self.ptr, addr, args);
+        }
+        let mut out = None;
+        for lane in 0..2u8 {
+            let xs: Vec<Value> = args.iter().map(|&x| self.b.ins().extractlane(x, lane)).collect();
+            let v = call_f64(self.b, self.call_conv, self.ptr, addr, &xs);
+            out = Some(match out {
+                None => self.b.ins().scalar_to_vector(types::F64X2, v),
+                Some(o) => self.b.ins().insertlane(o, v, lane),
+            });
+        }
+        out.expect("two lanes")
+    }
+
+    /// `(sin x, cos x)` by the `sin_cos` wrapper (per lane in lane-pair code).
+    fn sin_cos(&mut self, x: Value) -> (Value, Value) {
+        if !self.lanes {
+            return call_sin_cos(self.b, self.call_conv, self.ptr, &mut self.sin_cos_slot, x);
+        }
+        let x0 = self.b.ins().extractlane(x, 0);
+        let x1 = self.b.ins().extractlane(x, 1);
+        let (s0, c0) = call_sin_cos(self.b, self.call_conv, self.ptr, &mut self.sin_cos_slot, x0);
+        let (s1, c1) = call_sin_cos(self.b, self.call_conv, self.ptr, &mut self.sin_cos_slot, x1);
+        let (s, c) = (self.b.ins().scalar_to_vector(types::F64X2, s0), self.b.ins().scalar_to_vector(types::F64X2, c0));
+        (self.b.ins().insertlane(s, s1, 1), self.b.ins().insertlane(c, c1, 1))
+    }
+
+    /// Order 0 of the sine–cosine, hyperbolic, exponential, logarithm and tangent rows.
+    fn elementary0(&mut self, op: &Op) {
+        let one = self.c(1.0);
+        match *op {
+            Op::SinCos { s, c, a } => {
+                let x = self.at(a, 0);
+                let (sv, cv) = self.sin_cos(x);
+                self.put_at(s, 0, sv);
+                self.put_at(c, 0, cv);
+            }
+            Op::SinhCosh { s, c, a } => {
+                let x = self.at(a, 0);
+                let sv = self.unary(Func::Sinh, x);
+                let cv = self.unary(Func::Cosh, x);
+                self.put_at(s, 0, sv);
+                self.put_at(c, 0, cv);
+            }
+            Op::Exp { d, a } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Exp, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Log { d, a } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Log, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Tan { d, a, u, hyp } => {
+                // u = 1 − tanh² or 1 + tan².
+                let x = self.at(a, 0);
+                let v = self.unary(if hyp { Func::Tanh } else { Func::Tan }, x);
+                let sq = self.b.ins().fmul(v, v);
+                let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            _ => unreachable!("`order0` emits the other operations"),
+        }
+    }
+
+    /// Order 0 of the inverse functions' and the powers' rows.
+    fn inverse_or_power0(&mut self, op: &Op) {
+        let one = self.c(1.0);
+        match *op {
+            Op::Asin { d, a, r, kind } => {
+                // r as `ArcKind::root` computes it.
+                let x = self.at(a, 0);
+                let v = self.unary(kind.func(), x);
+                let rv = match kind {
+                    ArcKind::Asin | ArcKind::Acos | ArcKind::Asinh => {
+                        let sq = self.b.ins().fmul(x, x);
+                        let rest = if kind == ArcKind::Asinh {
+                            self.b.ins().fadd(one, sq)
+                        } else {
+                            self.b.ins().fsub(one, sq)
+                        };
+                        self.b.ins().sqrt(rest)
+                    }
+                    ArcKind::Acosh => {
+                        let below = self.b.ins().fsub(x, one);
+                        let above = self.b.ins().fadd(x, one);
+                        let (p, q) = (self.b.ins().sqrt(below), self.b.ins().sqrt(above));
+                        self.b.ins().fmul(p, q)
+                    }
+                };
+                self.put_at(d, 0, v);
+                self.put_at(r, 0, rv);
+            }
+            Op::Atan { d, a, u, hyp } => {
+                // u = 1 + x² (atanh: 1 − x²).
+                let x = self.at(a, 0);
+                let v = self.unary(if hyp { Func::Atanh } else { Func::Atan }, x);
+                let sq = self.b.ins().fmul(x, x);
+                let uv = if hyp { self.b.ins().fsub(one, sq) } else { self.b.ins().fadd(one, sq) };
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            Op::Erf { d, a, .. } => {
+                let x = self.at(a, 0);
+                let v = self.unary(Func::Erf, x);
+                self.put_at(d, 0, v);
+            }
+            Op::Atan2 { d, a, b, u } => {
+                // u = x² + y².
+                let (x, y) = (self.at(a, 0), self.at(b, 0));
+                let v = self.binary(atan2, x, y);
+                let (xx, yy) = (self.b.ins().fmul(x, x), self.b.ins().fmul(y, y));
+                let uv = self.b.ins().fadd(xx, yy);
+                self.put_at(d, 0, v);
+                self.put_at(u, 0, uv);
+            }
+            Op::Root { d, a, q } => {
+                let x = self.at(a, 0);
+                let qv = self.c(f64::from(q));
+                let v = self.binary(real_root, x, qv);
+                self.put_at(d, 0, v);
+            }
+            Op::PowConst { d, a, e } => {
+                let (x, y) = (self.at(a, 0), self.at(e, 0));
+                let v = self.binary(powf, x, y);
+                self.put_at(d, 0, v);
+            }
+            Op::PowVar { d, a, b, l, m } => {
+                // l = ln x, m = y l.
+                let (x, y) = (self.at(a, 0), self.at(b, 0));
+                let lv = self.unary(Func::Log, x);
+                let v = self.binary(powf, x, y);
+                let mv = self.b.ins().fmul(y, lv);
+                self.put_at(d, 0, v);
+                self.put_at(l, 0, lv);
+                self.put_at(m, 0, mv);
+            }
+            Op::Power { d, a, e } => {
+                let x = self.at(a, 0);
+                let ev = self.c(e);
+                let v = self.binary(powf, x, ev);
+                self.put_at(d, 0, v);
+            }
+            _ => unreachable!("`order0` emits the other operations"),
         }
     }
 

@@ -444,6 +444,25 @@ impl TaylorOde {
         if jit_disabled_by_env() {
             return None;
         }
+        let expansion = self.expansion(order);
+        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
+            Some(code) => Some(TaylorNative(Arc::new(code))),
+            // Too large to unroll: compact code, one call per order (none past
+            // `MAX_COMPACT_RECURRENCES`).
+            None => self.tape.compile_native(stride, order - 1),
+        }
+    }
+
+    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
+    /// describes: the interpreter (`None`), then compact code, then the final code
+    /// ([`TaylorOde::native_for`]).
+    pub(super) fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
+        self.native.tiered(&self.tape, order, || self.compile_native(order))
+    }
+
+    /// What a whole native expansion of `order` does between orders, in `expand`'s layout.
+    pub(super) fn expansion(&self, order: usize) -> Expansion {
+        let stride = order + 1;
         let n_rows = self.tape.n_rows();
         let glue = (0..self.dim)
             .map(|i| {
@@ -465,19 +484,6 @@ impl TaylorOde {
             factor_at: (n_rows + m.n) * stride,
             w_rows: m.w.iter().map(|&o| self.tape.output_row(o) as u32).collect(),
         });
-        let expansion = Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) };
-        match NativeTaylor::compile_expansion(&self.tape, stride, order - 1, &expansion) {
-            Some(code) => Some(TaylorNative(Arc::new(code))),
-            // Too large to unroll: compact code, one call per order (none past
-            // `MAX_COMPACT_RECURRENCES`).
-            None => self.tape.compile_native(stride, order - 1),
-        }
-    }
-
-    /// The code an expansion of `order` runs on, compiled in the tiers [`TaylorOde::with_native`]
-    /// describes: the interpreter (`None`), then compact code, then the final code
-    /// ([`TaylorOde::native_for`]).
-    pub(super) fn native_tiered(&self, order: usize) -> Option<&TaylorNative> {
-        self.native.tiered(&self.tape, order, || self.compile_native(order))
+        Expansion { glue, solve, mirror_at: self.mirror_at(stride), len: self.scratch_len(order) }
     }
 }

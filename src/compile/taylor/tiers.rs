@@ -1,7 +1,7 @@
 //! When a Taylor tape gets machine code, and which form: the tiering policy between the
 //! interpreter, unrolled, whole-expansion and compact code.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use crate::compile::jit::jit_disabled_by_env;
@@ -60,6 +60,12 @@ pub(super) struct NativeCache {
     by_order: Vec<OnceLock<Option<TaylorNative>>>,
     /// `compact[p]`: compact code, run until `by_order[p]` exists.
     compact: Vec<OnceLock<Option<TaylorNative>>>,
+    /// Batch expansions' lane-pair code per order (`batch.rs`), and the lanes expanded so far
+    /// without it.
+    lanes: Vec<OnceLock<Option<Arc<NativeTaylor>>>>,
+    lane_uses: AtomicUsize,
+    /// Whether a batch expansion has run on lane-pair code to its end.
+    lanes_ran: AtomicBool,
 }
 impl NativeCache {
     /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
@@ -74,6 +80,9 @@ impl NativeCache {
             uses: AtomicUsize::new(0),
             by_order: slots(),
             compact: slots(),
+            lanes: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
+            lane_uses: AtomicUsize::new(0),
+            lanes_ran: AtomicBool::new(false),
         })
     }
 
@@ -124,6 +133,46 @@ impl NativeCache {
             return None;
         }
         self.by_order[order].get_or_init(compile).clone()
+    }
+
+    /// The lane-pair code a batch expansion of `order` over `width` lanes runs on, in the tiers
+    /// of the final code (a lane counts as one expansion): `None` until then, or when native
+    /// code is off or the tape has none (too large to unroll, or `abs`).
+    pub(super) fn lanes_tiered(
+        &self,
+        tape: &TaylorTape,
+        order: usize,
+        width: usize,
+        compile: impl FnOnce() -> Option<NativeTaylor>,
+    ) -> Option<&NativeTaylor> {
+        if !self.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
+            return None;
+        }
+        let slot = &self.lanes[order];
+        if let Some(code) = slot.get() {
+            return code.as_deref();
+        }
+        let uses = self.lane_uses.fetch_add(width, Ordering::Relaxed);
+        let after = match unrolled_terms(tape, order - 1) {
+            t if t <= COMPACT_ABOVE_TERMS => self.after,
+            _ => self.unroll_after,
+        };
+        if uses < after {
+            return None;
+        }
+        slot.get_or_init(|| compile().map(Arc::new)).as_deref()
+    }
+
+    /// Records that a batch expansion ran on lane-pair code to its end.
+    pub(super) fn note_lanes_ran(&self) {
+        if !self.lanes_ran.load(Ordering::Relaxed) {
+            self.lanes_ran.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Whether a batch expansion has run on lane-pair code to its end.
+    pub(super) fn lanes_ran(&self) -> bool {
+        self.lanes_ran.load(Ordering::Relaxed)
     }
 
     /// The code compiled so far for `order` (the final code if it exists, else compact code),

@@ -143,3 +143,61 @@ fn abs_runs_one_start_at_a_time() {
     let batch = simulate::ensemble(&c, &starts, &o, Some(1), &mut |_| {});
     assert_same(&batch, &c, &starts, &o);
 }
+
+/// Final states of `starts` by the batch over `lanes` lanes, as bits (`None`: the start failed).
+fn batch_bits(
+    ode: &TaylorOde,
+    lanes: usize,
+    m: &Taylor,
+    span: std::ops::Range<f64>,
+    starts: &[Vec<f64>],
+) -> Vec<Option<Vec<u64>>> {
+    let refs: Vec<&[f64]> = starts.iter().map(Vec::as_slice).collect();
+    let runs = m.integrate_batch(ode, lanes, span, &refs, BatchOutput::Final, 1_000_000, None).unwrap();
+    runs.iter().map(|r| r.as_ref().map(|r| r.y.last().unwrap().iter().map(|x| x.to_bits()).collect())).collect()
+}
+
+/// Once native code is on, the batch expands through native lane-pair code (it is compiled,
+/// for the order the run used) and gives the interpreter lanes' bits, which are the single
+/// run's, at every lane width.
+#[test]
+fn native_lane_pairs_give_the_interpreter_lanes_bits() {
+    let plain: TaylorOde = double_pendulum().compile_taylor().unwrap();
+    let interpreted = plain.clone().with_native(false);
+    let starts = starts();
+    let m = Taylor::new(1e-12);
+    let want = batch_bits(&interpreted, 8, &m, 0.0..3.0, &starts);
+    assert!(want.iter().all(Option::is_some));
+    assert!(!interpreted.native_lanes_ran());
+    for lanes in [2, 4, 8] {
+        let native = plain.clone().with_native(true);
+        assert!(!native.native_lanes_ran());
+        assert_eq!(batch_bits(&native, lanes, &m, 0.0..3.0, &starts), want, "{lanes} lanes");
+        assert!(native.native_lanes_ran(), "{lanes} lanes: the lane-pair code ran");
+    }
+}
+
+/// A `W` that is symmetric but, in one lane, not positive definite (`W = 2 − x²` at x = 1.8,
+/// where the single run factors by LU), among starts of positive `W`: the first eight run on
+/// the native lane-pair code once it exists; while the LU start is in a lane (in the second
+/// eight) the batch goes back to the interpreter; every start gets the single run's bits.
+#[test]
+fn a_lane_whose_mass_matrix_needs_lu_falls_back_to_the_interpreter() {
+    let sys = System::from_lagrangian("1/2 (2 - x^2) x'^2 - 1/2 x^2", &["x"]).unwrap();
+    let plain: TaylorOde = sys.compile_taylor().unwrap();
+    let starts: Vec<Vec<f64>> = (0..16).map(|i| vec![if i == 12 { 1.8 } else { 0.05 * i as f64 }, 0.01]).collect();
+    let m = Taylor::new(1e-12);
+    let alone: Vec<Option<Vec<u64>>> = starts
+        .iter()
+        .map(|y0| {
+            let tr = m.integrate_with(&plain, 0.0..0.5, y0, Options::new().final_only()).ok()?;
+            Some(tr.states[tr.states.len() - 2..].iter().map(|x| x.to_bits()).collect())
+        })
+        .collect();
+    assert!(alone[12].is_some(), "the LU start integrates alone");
+    let native = plain.clone().with_native(true);
+    for round in 0..3 {
+        assert_eq!(batch_bits(&native, 8, &m, 0.0..0.5, &starts), alone, "round {round}");
+    }
+    assert!(native.native_lanes_ran());
+}
