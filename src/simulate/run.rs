@@ -367,13 +367,12 @@ pub fn ensemble(
 /// the workers.
 const BATCH_CHUNK_LANES: usize = 16;
 
-/// The lowest Taylor order at which the batch is not slower than one start at a time. At a
-/// low order the recurrences' sums are short and the interpreter's cost per operation, which
-/// the batch shares among its lanes but still pays where the single run's native code does
-/// not, outweighs the lanes' arithmetic (`cargo bench --bench batch`, double pendulum, 8
-/// lanes: 1.25× the time at tol 1e-6 (order 8), 1.04× at 1e-8 (order 11), 1.00× at 1e-10
-/// (order 13), 0.92× at 1e-16).
-const BATCH_FROM_ORDER: usize = 13;
+/// The lowest Taylor order at which the batch has been measured faster than one start at a
+/// time. With native lane-pair code the batch takes 0.69–0.78× the time of single runs on the
+/// double pendulum from tol 1e-6 (order 8) to 1e-16 (`cargo bench --bench batch`, BENCHMARKS.md,
+/// "The Taylor method's batch mode"); below order 8 it is unmeasured, so one start at a time.
+/// Either way each start's result has the single run's bits.
+const BATCH_FROM_ORDER: usize = 8;
 
 /// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
 /// asks for nothing it lacks: final states or states at given times, no events, no energy
