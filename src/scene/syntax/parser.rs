@@ -4,8 +4,8 @@
 //! in `grammar/scene.pest`, which reuses the expression rules of `grammar/expr.pest`.
 //!
 //! The pest types leave this module only for the statements' readers: each statement reads its
-//! own pairs with a [`Reader`], and the registry (`scene/registry.rs`) hands the parser its
-//! [`Language`]. Nothing outside the scene sees them. Every span is a byte range of the whole
+//! own pairs with a `Reader`, and the registry (`scene/registry.rs`) hands the parser its
+//! `Language`. Nothing outside the scene sees them. Every span is a byte range of the whole
 //! scene text.
 
 pub(crate) use pest::iterators::Pair;
