@@ -1289,16 +1289,13 @@ impl TaylorEmitter<'_, '_> {
         if !self.lanes {
             return call_f64(self.b, self.call_conv, self.ptr, addr, args);
         }
-        let mut out = None;
-        for lane in 0..2u8 {
+        let mut lane_call = |lane: u8| {
             let xs: Vec<Value> = args.iter().map(|&x| self.b.ins().extractlane(x, lane)).collect();
-            let v = call_f64(self.b, self.call_conv, self.ptr, addr, &xs);
-            out = Some(match out {
-                None => self.b.ins().scalar_to_vector(types::F64X2, v),
-                Some(o) => self.b.ins().insertlane(o, v, lane),
-            });
-        }
-        out.expect("two lanes")
+            call_f64(self.b, self.call_conv, self.ptr, addr, &xs)
+        };
+        let (v0, v1) = (lane_call(0), lane_call(1));
+        let out = self.b.ins().scalar_to_vector(types::F64X2, v0);
+        self.b.ins().insertlane(out, v1, 1)
     }
 
     /// `(sin x, cos x)` by the `sin_cos` wrapper (per lane in lane-pair code).
