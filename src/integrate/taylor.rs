@@ -218,9 +218,14 @@ impl TaylorWork {
     /// one component at many points of each step (the MEGNO quadrature reads the accumulator
     /// at five) then sums one polynomial per point instead of one per component.
     pub fn dense_component(&self, i: usize, theta: f64) -> Option<f64> {
+        (self.dense_ready && i < self.comp.len()).then(|| self.series_at(i, theta * self.h_last))
+    }
+
+    /// Component `i` of the last step's series at `x = θ h`: the one sum that dense output
+    /// and [`TaylorWork::dense_component`] both read.
+    fn series_at(&self, i: usize, x: f64) -> f64 {
         let s = self.order + 1;
-        (self.dense_ready && i < self.comp.len())
-            .then(|| polynomial(&self.buf[i * s..(i + 1) * s], theta * self.h_last, 0))
+        polynomial(&self.buf[i * s..(i + 1) * s], x, 0)
     }
 }
 
@@ -341,10 +346,9 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         if !w.dense_ready {
             return Ok(false);
         }
-        let s = w.order + 1;
         let x = theta * w.h_last;
         for (i, o) in out.iter_mut().enumerate() {
-            *o = polynomial(&w.buf[i * s..(i + 1) * s], x, 0);
+            *o = w.series_at(i, x);
         }
         Ok(true)
     }
