@@ -44,7 +44,8 @@ pub mod eval;
 pub mod expr;
 pub mod func;
 pub mod integrate;
-mod linalg;
+#[doc(hidden)]
+pub mod linalg;
 pub mod mechanics;
 pub mod parse;
 #[cfg(feature = "frontends")]

@@ -11,7 +11,7 @@
 
 /// How a matrix was factorised in place.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Factor {
+pub enum Factor {
     /// `A = L Lᵀ`, `L` in the lower triangle.
     Cholesky,
     /// `P A = L U` with unit `L` below the diagonal, `U` on and above, `perm` the row order.
@@ -20,7 +20,7 @@ pub(crate) enum Factor {
 
 /// The pivot at or below which an `n × n` matrix counts as singular to working precision:
 /// `n·ε·max|a_ij|`.
-pub(crate) fn singular_below(a: &[f64], n: usize) -> f64 {
+pub fn singular_below(a: &[f64], n: usize) -> f64 {
     let scale = a[..n * n].iter().fold(0.0f64, |s, x| s.max(x.abs()));
     n as f64 * f64::EPSILON * scale
 }
@@ -30,12 +30,7 @@ pub(crate) fn singular_below(a: &[f64], n: usize) -> f64 {
 /// `swapped(j, p)` is told of each row exchange, for the caller to apply to what goes with
 /// the rows (a permutation, a right-hand side, a sign). A pivot no larger than `tol` stops it:
 /// the error is its column.
-pub(crate) fn lu_in_place(
-    m: &mut [f64],
-    n: usize,
-    tol: f64,
-    mut swapped: impl FnMut(usize, usize),
-) -> Result<(), usize> {
+pub fn lu_in_place(m: &mut [f64], n: usize, tol: f64, mut swapped: impl FnMut(usize, usize)) -> Result<(), usize> {
     for j in 0..n {
         let mut piv = j;
         for i in j + 1..n {
@@ -66,7 +61,7 @@ pub(crate) fn lu_in_place(
 
 /// Solves `L U x = b` with the factors of [`lu_in_place`] (`b` already in the pivots' row
 /// order): `x` holds `b` on entry and the solution on exit.
-pub(crate) fn lu_substitute(m: &[f64], n: usize, x: &mut [f64]) {
+pub fn lu_substitute(m: &[f64], n: usize, x: &mut [f64]) {
     for i in 0..n {
         let mut v = x[i];
         for k in 0..i {
@@ -88,7 +83,7 @@ pub(crate) fn lu_substitute(m: &[f64], n: usize, x: &mut [f64]) {
 /// finite non-zero entry (all zeros or NaN, as a Newton Jacobian evaluated past its domain) is
 /// degenerate at column 0 rather than solved into NaN: the callers report a degenerate
 /// Jacobian or two-form there, not a non-finite state later.
-pub(crate) fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(), usize> {
+pub fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(), usize> {
     let tol = singular_below(a, n);
     if n > 0 && tol == 0.0 {
         return Err(0);
@@ -100,7 +95,7 @@ pub(crate) fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> Result<(
 
 /// `A = L Lᵀ` in place (`L` in the lower triangle; the upper is left as it was); `false` when
 /// a pivot is not above `tol` (not positive definite to working precision).
-pub(crate) fn cholesky_in_place(m: &mut [f64], n: usize, tol: f64) -> bool {
+pub fn cholesky_in_place(m: &mut [f64], n: usize, tol: f64) -> bool {
     for j in 0..n {
         let mut d = m[j * n + j];
         for k in 0..j {
@@ -126,13 +121,7 @@ pub(crate) fn cholesky_in_place(m: &mut [f64], n: usize, tol: f64) -> bool {
 /// matrix is positive definite, otherwise LU with partial pivoting. `perm` receives the row
 /// order (as `f64`, exact for any realistic `n`). A pivot no larger than [`singular_below`]
 /// means singular to working precision; the error carries the column of the failing pivot.
-pub(crate) fn factor(
-    a: &[f64],
-    m: &mut [f64],
-    perm: &mut [f64],
-    n: usize,
-    try_cholesky: bool,
-) -> Result<Factor, usize> {
+pub fn factor(a: &[f64], m: &mut [f64], perm: &mut [f64], n: usize, try_cholesky: bool) -> Result<Factor, usize> {
     let tol = singular_below(a, n);
     if try_cholesky {
         m[..n * n].copy_from_slice(&a[..n * n]);
@@ -150,7 +139,7 @@ pub(crate) fn factor(
 
 /// Solves with a factorisation from [`factor`]: `x` holds the right-hand side on entry and the
 /// solution on exit; `tmp` is `n` values of workspace.
-pub(crate) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
+pub fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f64], tmp: &mut [f64]) {
     match kind {
         Factor::Cholesky => {
             for i in 0..n {
@@ -179,7 +168,7 @@ pub(crate) fn solve(kind: Factor, m: &[f64], perm: &[f64], n: usize, x: &mut [f6
 }
 
 /// The determinant of a small row-major matrix (exactly 0 when a pivot is exactly 0).
-pub(crate) fn determinant(m: &[f64], n: usize) -> f64 {
+pub fn determinant(m: &[f64], n: usize) -> f64 {
     let mut a = m[..n * n].to_vec();
     let mut sign = 1.0;
     if lu_in_place(&mut a, n, 0.0, |_, _| sign = -sign).is_err() {
@@ -188,28 +177,4 @@ pub(crate) fn determinant(m: &[f64], n: usize) -> f64 {
     // Negation is exact, so the sign applied last gives the bits of flipping it between the
     // products.
     sign * (0..n).fold(1.0, |d, j| d * a[j * n + j])
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{determinant, solve_in_place};
-
-    #[test]
-    fn solves_and_reports_the_degenerate_column() {
-        // [[0, -1], [1, 0]] x = [3, 4] → x = [4, -3].
-        let mut a = [0.0, -1.0, 1.0, 0.0];
-        let mut b = [3.0, 4.0];
-        solve_in_place(&mut a, &mut b, 2).unwrap();
-        assert_eq!(b, [4.0, -3.0]);
-        let mut a = [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        let mut b = [1.0, 1.0, 1.0];
-        assert_eq!(solve_in_place(&mut a, &mut b, 3), Err(2));
-    }
-
-    #[test]
-    fn determinant_by_elimination() {
-        // det [[0, 2], [3, 4]] = −6 (one row exchange); a zero column gives exactly 0.
-        assert_eq!(determinant(&[0.0, 2.0, 3.0, 4.0], 2), -6.0);
-        assert_eq!(determinant(&[0.0, 1.0, 0.0, 1.0], 2), 0.0);
-    }
 }

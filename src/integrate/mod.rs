@@ -54,7 +54,8 @@ pub mod problems;
 mod rk;
 mod solver;
 mod splitting;
-mod taylor;
+#[doc(hidden)]
+pub mod taylor;
 
 pub use batch::{BatchOutput, LaneRefill, LaneRun, TaylorBatchSystem};
 pub use dop853::Dop853;

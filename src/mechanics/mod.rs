@@ -45,7 +45,8 @@ mod nonholonomic;
 mod ritz;
 mod series;
 mod system;
-mod tidy;
+#[doc(hidden)]
+pub mod tidy;
 mod transform;
 
 pub use algebraic::AlgebraicElimination;

@@ -84,13 +84,14 @@ type Terms = Vec<(Key, Rational)>;
 
 /// A Lagrangian at most quadratic in the velocities, by degree:
 /// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`.
-pub(crate) struct QuadraticParts {
+#[doc(hidden)]
+pub struct QuadraticParts {
     /// `W_ij` for `i ≤ j` (entries below the diagonal are empty).
-    pub(crate) w: Vec<Vec<Poly>>,
+    pub w: Vec<Vec<Poly>>,
     /// `b_i`.
-    pub(crate) b: Vec<Poly>,
+    pub b: Vec<Poly>,
     /// `L0`.
-    pub(crate) l0: Poly,
+    pub l0: Poly,
 }
 
 /// The trigonometric shape of a monomial (atom ids of the sin/cos factors stripped off).
@@ -107,7 +108,8 @@ enum Trig {
 
 /// Atom table and memo for one tidy run.
 #[derive(Default)]
-pub(crate) struct Ctx {
+#[doc(hidden)]
+pub struct Ctx {
     /// Expand every small positive power of a sum; otherwise only powers of sums that contain
     /// a velocity or a sin/cos (where cancellations and contractions happen), so that
     /// `(a − u t)²` and `(p − m ω x)²` keep their shape.
@@ -130,18 +132,18 @@ pub(crate) struct Ctx {
 
 impl Ctx {
     /// A context for the mechanics pipeline (powers of velocity-free sums stay whole).
-    pub(crate) fn new() -> Ctx {
+    pub fn new() -> Ctx {
         Ctx::default()
     }
 
     /// `e` as a contracted polynomial in its atoms.
-    pub(crate) fn poly(&mut self, e: &Expr) -> Poly {
+    pub fn poly(&mut self, e: &Expr) -> Poly {
         let p = self.expand(e);
         self.contract(p)
     }
 
     /// `∂p/∂x`: each atom is differentiated once per variable (memoised) by the chain rule.
-    pub(crate) fn diff(&mut self, p: &Poly, x: &Symbol) -> Poly {
+    pub fn diff(&mut self, p: &Poly, x: &Symbol) -> Poly {
         let next = self.vars.len() as u32;
         let xid = *self.vars.entry(x.clone()).or_insert(next);
         self.chain(p, &mut |ctx, a| ctx.atom_diff_id(a, xid, x))
@@ -149,7 +151,7 @@ impl Ctx {
 
     /// `Σ_j (∂p/∂q_j) q'_j`: the part of `d/dt p` carried by the coordinates, in one pass
     /// (each atom's own `Σ_j ∂a/∂q_j q'_j` is memoised; one `Ctx` serves one coordinate set).
-    pub(crate) fn dt_coords(&mut self, p: &Poly, coords: &[Symbol], velocities: &[Symbol]) -> Poly {
+    pub fn dt_coords(&mut self, p: &Poly, coords: &[Symbol], velocities: &[Symbol]) -> Poly {
         self.chain(p, &mut |ctx, a| {
             if let Some(d) = ctx.dtmemo.get(&a) {
                 return d.clone();
@@ -215,7 +217,7 @@ impl Ctx {
     /// `L = ½ Σ_ij W_ij v_i v_j + Σ_i b_i v_i + L0`, into its coefficient polynomials, or `None`
     /// when `L` is not of that form (a velocity inside another atom, as in `sqrt(1 − v²)`, a
     /// negative or fractional velocity power, a cubic term, an acceleration).
-    pub(crate) fn quadratic_split(&mut self, p: &Poly, velocities: &[Symbol]) -> Option<QuadraticParts> {
+    pub fn quadratic_split(&mut self, p: &Poly, velocities: &[Symbol]) -> Option<QuadraticParts> {
         let n = velocities.len();
         let vid: Vec<u32> = velocities.iter().map(|v| self.atom_id(&Expr::sym(v.clone()))).collect();
         let mut parts =
@@ -254,7 +256,7 @@ impl Ctx {
     /// power, stays one atom. Used on already collected expressions (entries of `W`) so that
     /// their derivatives keep factors like `(m2 + … + m_n)` whole, and terms with the same
     /// such factor meet as one monomial. The value is unchanged.
-    pub(crate) fn shallow(&mut self, e: &Expr) -> Poly {
+    pub fn shallow(&mut self, e: &Expr) -> Poly {
         match e.node() {
             Node::Add(ts) => {
                 let mut acc = Poly::default();
@@ -287,7 +289,7 @@ impl Ctx {
     }
 
     /// Contracts and collects `p` into an expression.
-    pub(crate) fn finish(&mut self, p: Poly) -> Expr {
+    pub fn finish(&mut self, p: Poly) -> Expr {
         let p = self.contract(p);
         self.collect_poly(&p)
     }
@@ -701,7 +703,8 @@ fn worth_expanding(b: &Expr) -> bool {
 /// such a sum unchanged (nothing to expand, contract or factor, and no equal expression has
 /// fewer operations: with one negation, `k` symbols need `k − 1` additions and one negation),
 /// so the e-graph run inside it is skipped.
-fn is_signed_symbol_sum(e: &Expr) -> bool {
+#[doc(hidden)]
+pub fn is_signed_symbol_sum(e: &Expr) -> bool {
     let Node::Add(ts) = e.node() else { return false };
     let mut negatives = 0;
     for t in ts {
@@ -755,68 +758,4 @@ fn merge_cofactors(terms: Vec<Expr>) -> Expr {
         }
     }
     Expr::add(out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::parse::parse;
-
-    fn p(s: &str) -> Expr {
-        parse(s).unwrap()
-    }
-
-    #[test]
-    fn contracts_angle_addition_and_pythagoras() {
-        assert_eq!(tidy(&p("cos(a) cos(b) + sin(a) sin(b)")), p("cos(a - b)"));
-        assert_eq!(tidy(&p("m cos(a)^2 + m sin(a)^2")), p("m"));
-        assert_eq!(tidy(&p("k - k cos(a)^2")), p("k sin(a)^2"));
-        assert_eq!(tidy(&p("sin(a) cos(b) - cos(a) sin(b)")), p("sin(a - b)"));
-    }
-
-    #[test]
-    fn pulls_content_and_merges_equal_cofactors() {
-        let e = p("m1 l^2 c + m2 l^2 c + m1 l^2 s + m2 l^2 s");
-        assert_eq!(tidy(&e), p("l^2 (c + s) (m1 + m2)"));
-    }
-
-    #[test]
-    fn signed_symbol_sums_are_already_tidy() {
-        for s in ["a - b", "a + b", "b - a + c", "θ1 + θ2 - θ3"] {
-            let e = p(s);
-            assert!(is_signed_symbol_sum(&e), "{s}");
-            assert_eq!(tidy(&e), e, "{s}");
-        }
-        for s in ["-a - b", "2 a - b", "a b + c", "a"] {
-            assert!(!is_signed_symbol_sum(&p(s)), "{s}");
-        }
-    }
-
-    /// Which Lagrangians take the quadratic (Christoffel) route of `mass_matrix_split`.
-    #[test]
-    fn quadratic_split_accepts_exactly_the_quadratic_lagrangians() {
-        let v = |names: &[&str]| names.iter().map(|n| Symbol::new(n).with_primes(1)).collect::<Vec<_>>();
-        let split = |l: &str, vs: &[&str]| {
-            let mut ctx = Ctx::new();
-            let lp = ctx.poly(&p(l));
-            ctx.quadratic_split(&lp, &v(vs)).map(|q| {
-                let w = q.w.iter().flatten().filter(|x| !x.is_zero()).count();
-                let b = q.b.iter().filter(|x| !x.is_zero()).count();
-                (w, b, !q.l0.is_zero())
-            })
-        };
-        // ½ m (x'² + y'²) + e B x y' − V: W diagonal (2 entries), one linear term, L0.
-        assert_eq!(split("1/2 m (x'^2 + y'^2) + e B x y' - k x^2", &["x", "y"]), Some((2, 1, true)));
-        // A cross term x' y' fills the upper triangle only.
-        assert_eq!(split("x'^2 + x' y' cos(x - y)", &["x", "y"]), Some((2, 0, false)));
-        for l in ["-m sqrt(1 - x'^2)", "x'^3", "1/x'", "exp(x') + y'", "x'' x", "x'^2 y'"] {
-            assert_eq!(split(l, &["x", "y"]), None, "{l}");
-        }
-    }
-
-    #[test]
-    fn never_lengthens() {
-        let e = p("m (a - u t)^2 φ'");
-        assert_eq!(tidy(&e), e);
-    }
 }

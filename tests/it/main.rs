@@ -5,13 +5,19 @@
 
 mod support;
 
+mod cache;
+mod cancel;
 mod canonical;
 mod chaos;
 mod compile;
+mod expr;
 mod integrate;
+mod linalg;
 mod mechanics;
 mod notes;
 mod parse;
+mod plot;
+mod report;
 mod robust;
 mod scene;
 mod simplify;

@@ -7,4 +7,5 @@ mod cli;
 mod lie;
 mod poisson;
 mod props;
+mod reduce;
 mod transform;

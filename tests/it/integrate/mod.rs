@@ -2,7 +2,10 @@
 
 mod coefficients;
 mod drift;
+mod drift_bound;
 mod events;
 mod order;
+mod polynomial;
+mod problems;
 mod stress;
 mod structure;

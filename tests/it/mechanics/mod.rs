@@ -7,5 +7,6 @@ mod nonholonomic;
 mod properties;
 mod split_routes;
 mod symmetry_search;
+mod tidy;
 mod velocity_guards;
 mod worked;
