@@ -91,3 +91,54 @@ fn a_forced_bar_is_driven_to_completion() {
     // `never` wins over everything.
     assert_eq!(run("100", Some("never")), "");
 }
+
+// Formerly the unit tests of `src/scene/engine/progress.rs`.
+mod unit {
+    use lagrangian::scene::engine::progress::*;
+    use std::time::Duration;
+
+    #[test]
+    fn a_bar_is_drawn_only_on_a_terminal_unless_forced() {
+        assert_eq!(Draw::choose(false, None), Draw::Hidden);
+        assert_eq!(Draw::choose(true, None), Draw::Terminal);
+        assert_eq!(Draw::choose(true, Some("never")), Draw::Hidden);
+        assert_eq!(Draw::choose(false, Some("always")), Draw::Lines);
+    }
+
+    /// A progress report that started `ago` before now.
+    fn started(draw: Draw, ago: Duration) -> Progress {
+        let mut p = Progress::new("run", draw);
+        p.backdate(ago);
+        p
+    }
+
+    /// The terminal bar appears once the run has lasted [`Draw::DELAY`], and not if it is
+    /// nearly done by then; a hidden one never does however long the run. The start time is
+    /// set in the past, so the test does not depend on how fast this host runs.
+    #[test]
+    fn a_terminal_bar_waits_for_its_delay() {
+        let mut fresh = started(Draw::Terminal, Duration::ZERO);
+        fresh.update(0.5);
+        assert!(!fresh.shown(), "a bar appeared before the delay");
+        let mut late = started(Draw::Terminal, 2 * Draw::DELAY);
+        late.update(0.5);
+        assert!(late.shown(), "no bar after twice the delay");
+        late.finish();
+        let mut nearly_done = started(Draw::Terminal, 2 * Draw::DELAY);
+        nearly_done.update(0.95);
+        assert!(!nearly_done.shown(), "a bar appeared for a run that was nearly done");
+        let mut hidden = started(Draw::Hidden, 100 * Draw::DELAY);
+        hidden.update(0.5);
+        assert!(!hidden.shown());
+    }
+
+    #[test]
+    fn progress_never_moves_back_and_a_hidden_one_draws_nothing() {
+        let mut p = Progress::new("run", Draw::Hidden);
+        for f in [0.2, 0.1, f64::NAN, 0.7, 1.5] {
+            p.update(f);
+        }
+        assert_eq!(p.fraction(), 1.0);
+        assert!(!p.shown());
+    }
+}

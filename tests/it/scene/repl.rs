@@ -151,3 +151,42 @@ fn a_long_repl_session_keeps_a_bounded_plan() {
     let last = out.iter().rev().find(|l| l.starts_with("E_x")).expect("the last el");
     assert!(last.contains("1500 x"), "{last}");
 }
+
+// Formerly the unit tests of `src/scene/repl.rs`.
+mod unit {
+    use lagrangian::scene::repl::*;
+
+    #[test]
+    fn bounded_lines_end_at_newlines_and_skip_overlong_ones() {
+        let mut input = std::io::Cursor::new(b"ab\r\n\nxxxxxxxxxx\ncd".to_vec());
+        let mut next = || read_line_bounded(&mut input, 4).map_err(|e| e.kind());
+        assert_eq!(next(), Ok(Some("ab".to_string())));
+        assert_eq!(next(), Ok(Some(String::new())));
+        assert_eq!(next(), Err(std::io::ErrorKind::InvalidData));
+        assert_eq!(next(), Ok(Some("cd".to_string())));
+        assert_eq!(next(), Ok(None));
+    }
+
+    #[test]
+    fn an_unfinished_statement_asks_for_more_until_a_blank_line() {
+        assert!(wants_more("print (x + 1"));
+        assert!(wants_more("print (x + 1\n  + 2"));
+        assert!(!wants_more("print (x + 1\n"));
+        assert!(!wants_more("print (x + 1\n  "));
+        assert!(!wants_more("print (x + 1)"));
+        // A blank first line is not a blank line after an unfinished one.
+        assert!(!wants_more(""));
+    }
+
+    #[test]
+    fn completes_statements_methods_and_symbols() {
+        let names = vec!["θ".to_string(), "θ'".to_string(), "theta0".to_string()];
+        assert_eq!(complete("sim", 3, &names), (0, vec!["simulate".to_string()]));
+        let line = "simulate θ = 1 for t in 0..1 with gau";
+        assert_eq!(complete(line, line.len(), &names).1, ["gauss4", "gauss6"]);
+        let line = "print th";
+        assert_eq!(complete(line, line.len(), &names), (6, vec!["theta0".to_string()]));
+        let line = "print θ";
+        assert_eq!(complete(line, line.len(), &names).1, ["θ'"]);
+    }
+}
