@@ -7,7 +7,7 @@
 //! cargo bench --bench taylor                    # everything (~1 minute on 2 cores)
 //! cargo bench --bench taylor -- kepler          # one section: kepler, double-pendulum,
 //!                                               #   step-profile, cold-start, large-tapes,
-//!                                               #   compact-size, chaos-map
+//!                                               #   compact-size, chaos-map, dp-split
 //! ```
 //!
 //! Every system is compiled from text (the library's own path), not hand-written.
@@ -238,6 +238,59 @@ fn step_profile() {
     profile_one("double pendulum, tol 1e-12", &ode, &DoublePendulum::Y0, m.taylor_order(), &dp_step);
 }
 
+/// The double pendulum's step at loose tolerances, split as in BENCHMARKS.md: the whole
+/// step (a run to t = 10 over its steps), the expansion alone (`expand_in_place` at the start
+/// state, as a step calls it) and the rest (step size, update, solver), ns per step, median of
+/// `DP_ROUNDS` (default 5) rounds of best-of-5. `DP_LOOP=n` instead runs the tol `DP_TOL`
+/// (default 1e-6) case `n` times and prints nothing else: a target for `perf record`.
+fn dp_split() {
+    let sys = double_pendulum_system();
+    let ode = sys.compile_taylor().expect("compiles").with_native(true);
+    if let Some(n) = std::env::var("DP_LOOP").ok().and_then(|s| s.parse::<usize>().ok()) {
+        let tol: f64 = std::env::var("DP_TOL").ok().and_then(|s| s.parse().ok()).unwrap_or(1e-6);
+        let m = Taylor::new(tol).compensated();
+        ode.native_for(m.taylor_order());
+        let t0 = cpu_now();
+        let mut steps = 0;
+        for _ in 0..n {
+            let r = m.integrate_with(&ode, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+            steps += r.expect("integrates").stats.steps;
+        }
+        println!("tol {tol:e}: {:.1} ns per step", (cpu_now() - t0) / steps as f64 * 1e9);
+        return;
+    }
+    let rounds: usize = std::env::var("DP_ROUNDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
+    println!("## Double pendulum step split (ns per step, CPU time, median of {rounds} rounds)");
+    println!("| tol (order) | whole step | expansion | rest of the step | steps |");
+    println!("|---|---|---|---|---|");
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    for tol in [1e-6, 1e-8, 1e-10, 1e-12] {
+        let m = Taylor::new(tol).compensated();
+        let p = m.taylor_order();
+        ode.native_for(p);
+        let run = || m.integrate_with(&ode, 0.0..10.0, &DoublePendulum::Y0, Options::new().final_only());
+        let steps = run().expect("integrates").stats.steps;
+        let mut buf = vec![0.0; ode.scratch_len(p)];
+        let (mut whole, mut exp) = (Vec::new(), Vec::new());
+        for _ in 0..rounds {
+            let (t, _) = best(5, || run().expect("integrates"));
+            whole.push(t / steps as f64 * 1e9);
+            let reps = 20_000;
+            let (t, _) = best(5, || {
+                for _ in 0..reps {
+                    ode.expand_in_place(0.0, std::hint::black_box(&DoublePendulum::Y0), p, &mut buf).expect("expands");
+                }
+            });
+            exp.push(t / reps as f64 * 1e9);
+        }
+        let (w, e) = (median(whole), median(exp));
+        println!("| {tol:.0e} ({p}) | {w:.0} | {e:.0} | {:.0} | {steps} |", w - e);
+    }
+}
+
 fn cold_start() {
     println!("## Cold start: text → W, F → Taylor tape → trajectory to t = 1 (tol 1e-12), n-link pendulum, CPU time");
     println!(
@@ -421,6 +474,9 @@ fn main() {
     }
     if want("step-profile") {
         step_profile();
+    }
+    if want("dp-split") {
+        dp_split();
     }
     if want("cold-start") {
         cold_start();

@@ -140,8 +140,16 @@ impl From<RhsError> for StepFailure {
 /// Whether some entry of `v` is infinite or NaN. Every step of every method asks this of
 /// whole vectors (a Taylor step of all its coefficients), and nearly always the answer is no:
 /// the test is folded over the slice without a branch per entry, which vectorises.
+///
+/// Short vectors are tested entry by entry instead: they are typically a state that the
+/// step's update has just stored entry by entry, and a 16-byte load of two entries stored
+/// separately waits until both stores complete (no store forwarding), 3 % of a
+/// double-pendulum step at tol 1e-6 (BENCHMARKS.md).
 #[inline]
 pub(crate) fn any_non_finite(v: &[f64]) -> bool {
+    if v.len() <= 8 {
+        return v.iter().any(|x| !x.is_finite());
+    }
     v.iter().fold(false, |bad, x| bad | !x.is_finite())
 }
 

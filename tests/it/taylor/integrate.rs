@@ -342,3 +342,57 @@ fn acosh_and_atanh_outside_their_domain_are_typed_failures() {
     let row = tt.output_row(0);
     assert!(c[row * s..(row + 1) * s].iter().all(|v| v.is_nan()), "{:?}", &c[row * s..(row + 1) * s]);
 }
+
+/// A compiled system whose every expansion is written as if for the first time: it forwards
+/// `taylor_coefficients` alone, so the integrator's `taylor_coefficients_again` is the
+/// default, which fills the whole buffer.
+struct Fresh<'a>(&'a TaylorOde);
+
+impl TaylorSystem for Fresh<'_> {
+    fn dim(&self) -> usize {
+        TaylorSystem::dim(self.0)
+    }
+    fn scratch_len(&self, order: usize) -> usize {
+        TaylorSystem::scratch_len(self.0, order)
+    }
+    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), RhsError> {
+        self.0.taylor_coefficients(t, y, order, buf)
+    }
+    fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), RhsError> {
+        self.0.check_step(scratch, order, h)
+    }
+}
+
+#[test]
+fn expansions_into_the_last_buffer_equal_fresh_ones() {
+    // A driven, damped pendulum (constants in the tape, and the time as an input row whose
+    // higher orders a reused buffer keeps) and the double pendulum (`W q'' = F`, whose solve
+    // has its own scratch in the buffer), interpreted and on native code (from the 64th
+    // expansion on).
+    let driven = TaylorOde::from_exprs(
+        &[parse("v").unwrap(), parse("-9.81 sin(x) + 0.3 cos(1.1 t) - 0.05 v").unwrap()],
+        &["x", "v"],
+        &[],
+    )
+    .unwrap();
+    let double = lagrangian(
+        "1/2 (m1 + m2) l1^2 θ1'^2 + 1/2 m2 l2^2 θ2'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)",
+        &["θ1", "θ2"],
+        &[("m1", 1.0), ("m2", 1.0), ("l1", 1.0), ("l2", 1.0), ("g", 9.81)],
+    );
+    let bits = |tr: &lagrangian::integrate::Trajectory| {
+        tr.iter().map(|(t, y)| (t.to_bits(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>())).collect::<Vec<_>>()
+    };
+    for (sys, y0) in [(&driven, &[1.0, 0.0][..]), (&double, &DoublePendulum::Y0[..])] {
+        for native in [false, true] {
+            let ode = sys.clone().with_native(native);
+            for tol in [1e-6, 1e-12] {
+                let m = Taylor::new(tol).compensated();
+                let again = m.integrate(&ode, 0.0..10.0, y0).unwrap();
+                let fresh = m.integrate(&Fresh(&ode), 0.0..10.0, y0).unwrap();
+                assert!(again.stats.steps > 100, "{} steps", again.stats.steps);
+                assert_eq!(bits(&again), bits(&fresh), "tol {tol:e}, native {native}");
+            }
+        }
+    }
+}
