@@ -56,7 +56,7 @@ mod solver;
 mod splitting;
 mod taylor;
 
-pub use batch::{BatchOutput, LaneRefill, LaneRun, TaylorBatchSystem};
+pub use batch::{BatchOutput, LaneRefill, LaneRun, LaneTask, TaylorBatchSystem, BATCH_FROM_ORDER};
 pub use dop853::Dop853;
 pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
