@@ -473,7 +473,7 @@ pub fn chaos_map_with(
 /// (from [`BATCH_FROM_ORDER`], as the ensembles) the orbits run in lane groups of batch
 /// expansions ([`Taylor::integrate_lanes`]), each lane with its own step sizes, quadrature,
 /// renormalisation, early stop, budget and failure, by the same per-step code as the single
-/// run ([`Orbit`]); the lane groups spread over rayon's threads. A start the batch hands back
+/// run; the lane groups spread over rayon's threads. A start the batch hands back
 /// (its lane's expansion failed, or the run was interrupted) runs alone.
 pub fn indicators_map(
     sys: &Variational,

@@ -191,6 +191,14 @@ impl Variational {
     pub fn taylor(&self) -> &TaylorOde {
         &self.taylor
     }
+
+    /// The same system with native code from the first expansion (`true`) or never (`false`),
+    /// as [`TaylorOde::with_native`]: for comparing the single run with the batch lanes on
+    /// each kind of code.
+    pub fn with_native(mut self, on: bool) -> Variational {
+        self.taylor = self.taylor.with_native(on);
+        self
+    }
 }
 
 impl Rhs for Variational {

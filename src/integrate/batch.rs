@@ -8,8 +8,13 @@
 //! (the system's promise), and the step, the dense output and the bookkeeping are the single
 //! method's own code, every trajectory is bit for bit the one [`Taylor`] computes alone,
 //! whatever its neighbours. A trajectory that ends loads the next one into its lane
-//! ([`LaneRefill`]); one that fails is handed back to be run alone, which reproduces its
-//! error exactly.
+//! ([`LaneRefill`]).
+//!
+//! What a run does around each step is its [`LaneTask`]: the ensembles keep states at given
+//! times and hand every failure back to be run alone (which reproduces its error exactly);
+//! the chaos maps integrate MEGNO's quadrature, renormalise the tangent vectors, apply their
+//! early stop and budget, and keep a failure's error, by the same per-step code as their
+//! single run.
 
 use std::ops::Range;
 use std::sync::Mutex;
