@@ -20,6 +20,7 @@
 //! Floquet multipliers: the linear stability of a periodic orbit, or of a periodically
 //! forced linear system such as Mathieu's equation.
 
+use std::sync::atomic::AtomicUsize;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -504,13 +505,10 @@ impl Deadline {
     }
 }
 
-/// How many lane groups of starts a batch driver takes at most: enough for its lanes to
-/// refill many times (a lane idles only once its group's starts are all taken), few enough
-/// for the groups to spread over the threads.
-const BATCH_CHUNK_LANES: usize = 16;
-
 /// The orbits of a map: batched where the batch pays, else one at a time (see
-/// [`indicators_map`]).
+/// [`indicators_map`]). One batch driver per thread of rayon's pool, all taking starts from
+/// one queue, so a lane idles only once no start is left (groups of starts per driver left a
+/// sixth of the lanes idle at each group's end, where its longest orbits ran alone).
 fn orbits(
     sys: &Variational,
     starts: &[Vec<f64>],
@@ -529,27 +527,20 @@ fn orbits(
         && sys.taylor().batchable()
         && method.validate().is_ok()
         && starts.iter().all(|x0| x0.len() >= n);
-    if !batch {
-        return starts.par_iter().map(alone).collect();
+    let mut results: Vec<Option<Result<Indicators, IntegrateError>>> = (0..starts.len()).map(|_| None).collect();
+    if batch {
+        let lanes = crate::compile::simd_lanes();
+        let y0: Vec<Vec<f64>> = starts.iter().map(|x0| sys.initial_state(x0)).collect();
+        let refs: Vec<&[f64]> = y0.iter().map(Vec::as_slice).collect();
+        let queue = AtomicUsize::new(0);
+        let task = Orbits { sys, budget, deadline };
+        let drivers = rayon::broadcast(|_| method.integrate_lanes(sys, lanes, 0.0..t_end, &refs, &queue, &task, None));
+        for (index, r) in drivers.into_iter().flatten().flatten() {
+            results[index] = r;
+        }
     }
-    let lanes = crate::compile::simd_lanes();
-    // Groups of whole lane widths, at least four per thread when the map is small.
-    let groups = starts.len() / (lanes * rayon::current_num_threads() * 4);
-    let chunk = lanes * groups.clamp(1, BATCH_CHUNK_LANES);
-    let task = Orbits { sys, budget, deadline };
-    let runs: Vec<Vec<Result<Indicators, IntegrateError>>> = starts
-        .par_chunks(chunk)
-        .map(|group| {
-            let y0: Vec<Vec<f64>> = group.iter().map(|x0| sys.initial_state(x0)).collect();
-            let refs: Vec<&[f64]> = y0.iter().map(Vec::as_slice).collect();
-            let ran = method.integrate_lanes(sys, lanes, 0.0..t_end, &refs, &task, None);
-            match ran {
-                Some(ran) => ran.into_iter().zip(group).map(|(r, x0)| r.unwrap_or_else(|| alone(x0))).collect(),
-                None => group.iter().map(alone).collect(),
-            }
-        })
-        .collect();
-    runs.into_iter().flatten().collect()
+    // What the batch did not run (or handed back) runs alone.
+    results.into_par_iter().zip(starts).map(|(r, x0)| r.unwrap_or_else(|| alone(x0))).collect()
 }
 
 /// The chaos maps' lane task: each lane an [`Orbit`], ended by its budget, its failure, its

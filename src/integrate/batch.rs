@@ -17,6 +17,7 @@
 //! single run.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::error::{IntegrateError, RhsError, StepFailure};
@@ -284,26 +285,36 @@ impl Taylor {
         cancel: Option<&CancelToken>,
     ) -> Option<Vec<Option<LaneRun>>> {
         let task = Keep { span: span.clone(), starts, output, max_steps };
-        let runs = self.integrate_lanes(sys, lanes, span, starts, &task, cancel)?;
-        Some(runs.into_iter().map(Option::flatten).collect())
+        let queue = AtomicUsize::new(0);
+        let ran = self.integrate_lanes(sys, lanes, span, starts, &queue, &task, cancel)?;
+        let mut runs: Vec<Option<LaneRun>> = vec![None; starts.len()];
+        for (index, run) in ran {
+            runs[index] = run.flatten();
+        }
+        Some(runs)
     }
 
-    /// The batch driver under [`Taylor::integrate_batch`] and the chaos maps: every start in
+    /// The batch driver under [`Taylor::integrate_batch`] and the chaos maps: the starts of
     /// `starts` over `span` in lanes of batch expansions (about `lanes` wide), each with its
-    /// own [`Solver`] and `task`'s bookkeeping around its steps. Returns `None` when the
-    /// system cannot batch; else per start the task's output, or `None` for a start the
-    /// driver hands back: its solver could not start, its lane's expansion failed, or the run
-    /// was cancelled before it ended (the caller runs those alone, which reproduces what the
-    /// single run does with them).
+    /// own [`Solver`] and `task`'s bookkeeping around its steps. A lane whose trajectory ends
+    /// takes the next start from `queue` (the index of the next untaken start), which several
+    /// drivers, one per thread, may share: each start is taken by one of them, and their lanes
+    /// idle only once no start is left. Returns `None` when the system cannot batch; else, for
+    /// each start this driver took, its index and the task's output, or `None` for a start the
+    /// driver hands back: its solver could not start, or its lane's expansion failed. A start
+    /// running when the run is cancelled is not listed. The caller runs the starts handed back
+    /// or not listed alone, which reproduces what the single run does with them.
+    #[allow(clippy::too_many_arguments)] // a single run's inputs, the lanes and their queue
     pub fn integrate_lanes<S: TaylorBatchSystem, T: LaneTask>(
         &self,
         sys: &S,
         lanes: usize,
         span: Range<f64>,
         starts: &[&[f64]],
+        queue: &AtomicUsize,
         task: &T,
         cancel: Option<&CancelToken>,
-    ) -> Option<Vec<Option<T::Output>>> {
+    ) -> Option<Vec<(usize, Option<T::Output>)>> {
         self.validate().ok()?;
         let order = self.taylor_order().clamp(2, 100);
         let mut batch = sys.batch(order, lanes)?;
@@ -311,42 +322,41 @@ impl Taylor {
         let (dim, s) = (sys.dim(), order + 1);
         let slots: Vec<LaneSystem<S>> =
             (0..width).map(|_| LaneSystem { sys, order, coeffs: Mutex::new(vec![0.0; dim * s]) }).collect();
-        let mut results: Vec<Option<T::Output>> = (0..starts.len()).map(|_| None).collect();
-        let mut refill = LaneRefill::new(width, starts.len());
+        let mut ended: Vec<(usize, Option<T::Output>)> = Vec::new();
+        let take = || {
+            let index = queue.fetch_add(1, Ordering::Relaxed);
+            (index < starts.len()).then_some(index)
+        };
         // Starts a trajectory in `lane`; `None` when it has nothing to step (done or refused).
-        let start = |index: usize, lane: usize, results: &mut Vec<Option<T::Output>>| -> Option<Running<S, T::Lane>> {
-            let solver = self.solver(&slots[lane], span.start, starts[index], span.end).ok()?;
+        let start = |index: usize, lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
+            let Ok(solver) = self.solver(&slots[lane], span.start, starts[index], span.end) else {
+                ended.push((index, None));
+                return None;
+            };
             match task.begin(index, &solver) {
                 Ok(lane) => Some(Running { index, solver, lane }),
                 Err(out) => {
-                    results[index] = Some(out);
+                    ended.push((index, Some(out)));
                     None
                 }
             }
         };
         // Loads trajectories into `lane` until one has steps to take, or none is left.
-        let fill =
-            |lane: usize, first: Option<usize>, refill: &mut LaneRefill, results: &mut Vec<Option<T::Output>>| {
-                let mut candidate = first;
-                while let Some(j) = candidate {
-                    if let Some(r) = start(j, lane, results) {
-                        return Some(r);
-                    }
-                    candidate = refill.finish(lane);
+        let fill = |lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
+            while let Some(j) = take() {
+                if let Some(r) = start(j, lane, ended) {
+                    return Some(r);
                 }
-                None
-            };
-        let mut active: Vec<Option<Running<S, T::Lane>>> = Vec::with_capacity(width);
-        for lane in 0..width {
-            let first = refill.lane(lane);
-            active.push(fill(lane, first, &mut refill, &mut results));
-        }
+            }
+            None
+        };
+        let mut active: Vec<Option<Running<S, T::Lane>>> = (0..width).map(|lane| fill(lane, &mut ended)).collect();
         let (mut ts, mut ys) = (vec![0.0; width], vec![0.0; width * dim]);
         let mut out = vec![0.0; width * dim * s];
         let mut failed = vec![false; width];
         while active.iter().any(Option::is_some) {
             if cancel.is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
-                return Some(results);
+                return Some(ended);
             }
             for (lane, r) in active.iter().enumerate() {
                 // An empty lane expands its last state again, which is finite.
@@ -359,7 +369,7 @@ impl Taylor {
             sys.expand_batch(&mut batch, &ts, &ys, &mut out, &mut failed);
             for lane in 0..width {
                 let Some(r) = active[lane].as_mut() else { continue };
-                let ended = if failed[lane] {
+                let end = if failed[lane] {
                     Some(None)
                 } else if let Some(output) = task.before_step(&mut r.lane, &r.solver) {
                     Some(Some(output))
@@ -369,14 +379,13 @@ impl Taylor {
                     let step = r.solver.step();
                     task.after_step(&mut r.lane, &mut r.solver, step).map(Some)
                 };
-                let Some(output) = ended else { continue };
+                let Some(output) = end else { continue };
                 if let Some(done) = active[lane].take() {
-                    results[done.index] = output;
+                    ended.push((done.index, output));
                 }
-                let next = refill.finish(lane);
-                active[lane] = fill(lane, next, &mut refill, &mut results);
+                active[lane] = fill(lane, &mut ended);
             }
         }
-        Some(results)
+        Some(ended)
     }
 }
