@@ -507,8 +507,9 @@ impl Deadline {
 
 /// The orbits of a map: batched where the batch pays, else one at a time (see
 /// [`indicators_map`]). One batch driver per thread of rayon's pool, all taking starts from
-/// one queue, so a lane idles only once no start is left (groups of starts per driver left a
-/// sixth of the lanes idle at each group's end, where its longest orbits ran alone).
+/// one queue, so a lane idles only once no start is left: with a fixed group of starts per
+/// driver, its lanes would expand for nothing while the group's longest orbits finish (a
+/// map's orbits differ in length by the early stop and by their step sizes).
 fn orbits(
     sys: &Variational,
     starts: &[Vec<f64>],
