@@ -459,7 +459,26 @@ pub fn chaos_map_with(
     which: Indicator,
     budget: &Budget,
 ) -> Vec<Cell> {
-    indicators_map(sys, starts, t_end, tol, budget)
+    cells(indicators_map(sys, starts, t_end, tol, budget), which)
+}
+
+/// [`chaos_map_with`] with each orbit within a budget of its own: `budget`'s steps, samples and
+/// early stop, and its time limit counted from the orbit's start (as one [`indicators_with`]
+/// per start with a fresh [`Budget`]), so the map's size does not eat into its orbits' time.
+pub fn chaos_map_each(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    which: Indicator,
+    budget: &Budget,
+) -> Vec<Cell> {
+    cells(orbits(sys, starts, t_end, tol, budget, Deadline::PerOrbit), which)
+}
+
+/// A map's cells from its orbits (NaN for one that failed).
+fn cells(orbits: Vec<Result<Indicators, IntegrateError>>, which: Indicator) -> Vec<Cell> {
+    orbits
         .into_iter()
         .map(|r| match r {
             Ok(r) => Cell { value: r.value(which), stopped_at: r.stopped_at },

@@ -4,7 +4,8 @@
 //! beside a chaotic one, an orbit stopped early by the MEGNO stop, a collision, a step budget.
 
 use lagrangian::chaos::{
-    chaos_map, chaos_map_with, indicators, indicators_map, indicators_with, Budget, Indicator, Indicators, MegnoStop,
+    chaos_map, chaos_map_each, chaos_map_with, indicators, indicators_map, indicators_with, Budget, Indicator,
+    Indicators, MegnoStop,
 };
 use lagrangian::compile::Variational;
 use lagrangian::integrate::IntegrateError;
@@ -95,7 +96,8 @@ fn a_map_in_lanes_equals_its_cells_run_alone_bit_for_bit() {
 }
 
 /// `chaos_map` (each orbit within the default budget of its own) gives each start the value of
-/// `indicators` run alone, for every indicator.
+/// `indicators` run alone, for every indicator; `chaos_map_each` with the early stop (what
+/// Python's `chaos_map(..., megno_stop=)` calls) the value and stop of `indicators_with`.
 #[test]
 fn chaos_map_equals_indicators_per_start() {
     let var = double_pendulum(1);
@@ -107,6 +109,13 @@ fn chaos_map_equals_indicators_per_start() {
             assert_eq!(v.to_bits(), alone.to_bits(), "{which:?} at {x0:?}");
         }
     }
+    let budget = Budget { megno_stop: Some(MegnoStop::new(5.0, 10.0).unwrap()), ..Budget::default() };
+    let cells = chaos_map_each(&var, &starts, 30.0, 1e-10, Indicator::Megno, &budget);
+    for (x0, c) in starts.iter().zip(&cells) {
+        let alone = indicators_with(&var, x0, 30.0, 1e-10, &budget).unwrap();
+        assert_eq!((c.value.to_bits(), c.stopped_at), (alone.megno.to_bits(), alone.stopped_at), "{x0:?}");
+    }
+    assert!(cells.iter().any(|c| c.stopped_at.is_some()) && cells.iter().any(|c| c.stopped_at.is_none()));
 }
 
 /// One lane's failure leaves the other lanes' values as they are alone: in the attractive
