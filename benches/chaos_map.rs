@@ -9,7 +9,13 @@
 //! cargo bench --bench chaos_map -- henon-heiles    # the scene statement on the surface of section
 //! CHAOS_STOP=5,20 cargo bench --bench chaos_map -- double-pendulum   # with the early stop Ȳ ≥ 5 after t = 20
 //! CHAOS_STRIDE=5 cargo bench --bench chaos_map -- megno-stop-scan    # which early stops keep the regular cells
+//! CHAOS_PATHS=cells,lanes CHAOS_ROUNDS=2 cargo bench --bench chaos_map -- double-pendulum   # one orbit at a time against the batch lanes, interleaved
+//! CHAOS_TOL=1e-6 CHAOS_PATHS=cells,lanes cargo bench --bench chaos_map -- double-pendulum    # another tolerance (default 1e-9)
 //! ```
+//!
+//! `CHAOS_PATHS` (default `lanes`): `lanes` is `chaos_map_with` (orbits in lane groups of the
+//! Taylor method's batch mode), `cells` one `indicators_with` per orbit (the map before the
+//! lanes); every run after the first is checked bit for bit against the first.
 //!
 //! A stride `s` keeps the cells `(i, j)` of the full grid with `i, j ≡ s/2 (mod s)`: the same
 //! cell centres as the full map, spread evenly over it, so regular and chaotic regions are in
@@ -22,7 +28,7 @@
 use std::f64::consts::PI;
 use std::time::Instant;
 
-use lagrangian::chaos::{chaos_map_with, indicators_with, Budget, Indicator, MegnoStop};
+use lagrangian::chaos::{chaos_map_with, indicators_with, Budget, Cell, Indicator, MegnoStop};
 use lagrangian::compile::Variational;
 use lagrangian::mechanics::System;
 
@@ -81,7 +87,8 @@ fn double_pendulum_map(stride: usize) -> (Variational, f64, Vec<usize>, Vec<Vec<
 
 fn double_pendulum() {
     let stride = env("CHAOS_STRIDE", 10).clamp(1, SIDE);
-    let tol = 1e-9;
+    // The example's tolerance; `CHAOS_TOL` for where the lanes pay (the order follows it).
+    let tol: f64 = std::env::var("CHAOS_TOL").ok().and_then(|s| s.parse().ok()).unwrap_or(1e-9);
     let stop = megno_stop();
     let (var, compile, picked, starts) = double_pendulum_map(stride);
     println!(
@@ -95,37 +102,78 @@ fn double_pendulum() {
     );
     // No step or time budget: the measure is the whole map.
     let budget = Budget { max_steps: usize::MAX, deadline: None, time_limit: None, max_samples: 2, megno_stop: stop };
-    let (t0, c0) = (Instant::now(), cpu_seconds());
-    let cells = chaos_map_with(&var, &starts, 100.0, tol, Indicator::Megno, &budget);
+    let paths: Vec<String> = std::env::var("CHAOS_PATHS")
+        .unwrap_or_else(|_| "lanes".into())
+        .split(',')
+        .map(|p| p.trim().to_string())
+        .collect();
+    let rounds = env("CHAOS_ROUNDS", 1).max(1);
+    println!("compile (text → variational tape): {:.1} ms", 1e3 * compile);
+    let mut first: Option<(String, Vec<Cell>)> = None;
+    for round in 1..=rounds {
+        for path in &paths {
+            let (t0, c0) = (Instant::now(), cpu_seconds());
+            let cells: Vec<Cell> = match path.as_str() {
+                // One orbit at a time on each thread: the reference, and the map before the lanes.
+                "cells" => {
+                    use rayon::prelude::*;
+                    starts
+                        .par_iter()
+                        .map(|x0| match indicators_with(&var, x0, 100.0, tol, &budget) {
+                            Ok(r) => Cell { value: r.megno, stopped_at: r.stopped_at },
+                            Err(_) => Cell { value: f64::NAN, stopped_at: None },
+                        })
+                        .collect()
+                }
+                "lanes" => chaos_map_with(&var, &starts, 100.0, tol, Indicator::Megno, &budget),
+                other => panic!("CHAOS_PATHS: `{other}` is neither `cells` nor `lanes`"),
+            };
+            let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
+            report(path, round, &cells, secs, cpu, stride);
+            match &first {
+                None => first = Some((path.clone(), cells)),
+                Some((p0, c)) => {
+                    let same = c.iter().zip(&cells).all(|(a, b)| {
+                        a.value.to_bits() == b.value.to_bits()
+                            && a.stopped_at.map(f64::to_bits) == b.stopped_at.map(f64::to_bits)
+                    });
+                    assert!(same, "{path} (round {round}) differs from {p0}'s first run");
+                    println!("  every cell bit for bit as {p0}'s first run");
+                }
+            }
+        }
+    }
+    println!("load after: {}", load());
+}
+
+/// One run of the map: its counts, wall and CPU time.
+fn report(path: &str, round: usize, cells: &[Cell], secs: f64, cpu: f64, stride: usize) {
     let map: Vec<f64> = cells.iter().map(|c| c.value).collect();
     let stopped = cells.iter().filter(|c| c.stopped_at.is_some()).count();
-    let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
-    let n = starts.len() as f64;
+    let n = cells.len() as f64;
     let failed = map.iter().filter(|v| v.is_nan()).count();
     let regular = map.iter().filter(|v| **v < 2.5).count();
-    println!("compile (text → variational tape): {:.1} ms", 1e3 * compile);
     println!(
-        "{} points in {secs:.1} s: {:.1} points/s ({failed} failed; {regular} with ⟨Y⟩ < 2.5, {stopped} stopped early, max {:.1})",
-        starts.len(),
+        "[{path}, round {round}] {} points in {secs:.1} s: {:.1} points/s ({failed} failed; {regular} with ⟨Y⟩ < 2.5, {stopped} stopped early, max {:.1}), load {}",
+        cells.len(),
         n / secs,
-        map.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max)
+        map.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max),
+        load()
     );
     println!(
-        "CPU time {cpu:.1} s ({:.1} points per CPU-second; 2 cores to themselves would give about {:.1} points/s, \
-         the full map about {:.0} min)",
+        "  CPU time {cpu:.1} s ({:.1} points per CPU-second; 2 cores to themselves would give about {:.1} points/s, \
+         the full map about {:.0} s)",
         n / cpu,
         2.0 * n / cpu,
-        40000.0 / (2.0 * n / cpu) / 60.0
+        40000.0 / (2.0 * n / cpu)
     );
     if stride > 1 {
         println!(
-            "full 200 × 200 map extrapolated from this sample: {:.0} s ({:.0} min) at {:.1} points/s",
+            "  full 200 × 200 map extrapolated from this sample's wall time: {:.0} s at {:.1} points/s",
             40000.0 / (n / secs),
-            40000.0 / (n / secs) / 60.0,
             n / secs
         );
     }
-    println!("load after: {}", load());
 }
 
 /// Which early stops (`Ȳ ≥ Y` after `t = T`) would keep the regular cells (⟨Y⟩ < 2.5 at

@@ -20,12 +20,15 @@
 //! Floquet multipliers: the linear stability of a periodic orbit, or of a periodically
 //! forced linear system such as Mathieu's equation.
 
+use std::sync::atomic::AtomicUsize;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use crate::compile::Variational;
-use crate::integrate::{FailureReason, Integrate, IntegrateError, Status, Taylor};
+use crate::integrate::{
+    FailureReason, Integrate, IntegrateError, LaneTask, Solver, Status, Taylor, TaylorSystem, BATCH_FROM_ORDER,
+};
 
 /// What a chaos statement may spend: Taylor steps per orbit, wall-clock time for all its
 /// orbits together, and samples kept along an orbit. An indicator over `0..1e9` would
@@ -228,34 +231,88 @@ pub fn indicators_from(
     tol: f64,
     budget: &Budget,
 ) -> Result<Indicators, IntegrateError> {
-    let (n, m) = (sys.n(), sys.tangents());
-    let dim = sys.dim();
     let method = Taylor::new(tol);
     let mut solver = method.solver(sys, 0.0, y0, t_end)?;
-    let mut logs = vec![0.0; m];
-    // ∫ Y ds and ∫ s Y ds over the run, for Ȳ and for the slope of Y against s.
-    let (mut fli, mut ybar_int, mut sy_int) = (0.0f64, 0.0f64, 0.0f64);
-    let mut y = vec![0.0; dim];
-    let mut buf = vec![0.0; dim];
-    let mut samples = Vec::new();
-    let max_samples = budget.max_samples.max(2);
-    let (mut stride, mut taken) = (1usize, 0usize);
-    let mut stopped_at = None;
-    let stop = |solver: &crate::integrate::Solver<'_, Variational, Taylor>, reason: FailureReason| IntegrateError {
-        t: solver.t(),
-        state: solver.y()[..n].to_vec(),
-        reason,
-        steps: solver.steps(),
-    };
+    let mut orbit = Orbit::new(sys, budget, budget.deadline);
     loop {
-        if solver.steps() >= budget.max_steps {
-            return Err(stop(&solver, FailureReason::StepLimit { max_steps: budget.max_steps }));
-        }
-        if solver.steps() % 64 == 0 && budget.deadline.is_some_and(|d| Instant::now() >= d) {
-            let seconds = budget.time_limit.map_or(0.0, |l| l.as_secs_f64());
-            return Err(stop(&solver, FailureReason::TimeLimit { seconds }));
-        }
+        orbit.check_budget(&solver)?;
         let status = solver.step()?;
+        if orbit.after_step(&mut solver, status)? {
+            return Ok(orbit.finish(&solver));
+        }
+    }
+}
+
+/// One orbit's indicators between steps: the single run's loop ([`indicators_from`]) and a
+/// lane of the batch ([`chaos_map_with`]) both step a solver and hand each step to
+/// [`Orbit::after_step`], so an orbit's numbers are the same bits whichever ran it.
+struct Orbit<'a> {
+    sys: &'a Variational,
+    budget: &'a Budget,
+    /// When this orbit must have ended: the map's deadline, or one of its own.
+    deadline: Option<Instant>,
+    logs: Vec<f64>,
+    fli: f64,
+    /// `∫ Y ds` and `∫ s Y ds` over the run, for `Ȳ` and for the slope of `Y` against `s`.
+    ybar_int: f64,
+    sy_int: f64,
+    y: Vec<f64>,
+    buf: Vec<f64>,
+    samples: Vec<Sample>,
+    stride: usize,
+    taken: usize,
+    stopped_at: Option<f64>,
+}
+
+impl<'a> Orbit<'a> {
+    fn new(sys: &'a Variational, budget: &'a Budget, deadline: Option<Instant>) -> Orbit<'a> {
+        let dim = sys.dim();
+        Orbit {
+            sys,
+            budget,
+            deadline,
+            logs: vec![0.0; sys.tangents()],
+            fli: 0.0,
+            ybar_int: 0.0,
+            sy_int: 0.0,
+            y: vec![0.0; dim],
+            buf: vec![0.0; dim],
+            samples: Vec::new(),
+            stride: 1,
+            taken: 0,
+            stopped_at: None,
+        }
+    }
+
+    /// The budget before a step: the orbit's steps and the deadline (read every 64 steps).
+    fn check_budget<X: TaylorSystem>(&self, solver: &Solver<'_, X, Taylor>) -> Result<(), IntegrateError> {
+        let budget = self.budget;
+        let stop = |reason: FailureReason| IntegrateError {
+            t: solver.t(),
+            state: solver.y()[..self.sys.n()].to_vec(),
+            reason,
+            steps: solver.steps(),
+        };
+        if solver.steps() >= budget.max_steps {
+            return Err(stop(FailureReason::StepLimit { max_steps: budget.max_steps }));
+        }
+        if solver.steps() % 64 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {
+            let seconds = budget.time_limit.map_or(0.0, |l| l.as_secs_f64());
+            return Err(stop(FailureReason::TimeLimit { seconds }));
+        }
+        Ok(())
+    }
+
+    /// Takes in the step `solver` has just taken (with `status`): the MEGNO quadrature on its
+    /// polynomial, the tangent vectors' renormalisation (written back into the solver), the
+    /// sample, the early stop. Whether the orbit has ended.
+    fn after_step<X: TaylorSystem>(
+        &mut self,
+        solver: &mut Solver<'_, X, Taylor>,
+        status: Status,
+    ) -> Result<bool, IntegrateError> {
+        let sys = self.sys;
+        let (n, m, dim) = (sys.n(), sys.tangents(), sys.dim());
         let (t0, t1) = (solver.previous().0, solver.t());
         if sys.has_megno() {
             let (mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
@@ -268,20 +325,21 @@ pub fn indicators_from(
                 let integral = match solver.work().dense_component(dim - 1, theta) {
                     Some(v) if t1 != t0 => v,
                     _ => {
-                        solver.interpolate(s, &mut buf)?;
-                        buf[dim - 1]
+                        solver.interpolate(s, &mut self.buf)?;
+                        self.buf[dim - 1]
                     }
                 };
                 let y_s = 2.0 * integral / s;
                 acc += w * y_s;
                 acc_s += w * s * y_s;
             }
-            ybar_int += acc * half;
-            sy_int += acc_s * half;
+            self.ybar_int += acc * half;
+            self.sy_int += acc_s * half;
         }
+        let y = &mut self.y;
         y.copy_from_slice(solver.y());
         // Modified Gram–Schmidt on the tangent vectors: w_j ← (w_j − Σ_{k<j} (w_j·q_k) q_k) / R_jj.
-        for (j, log) in logs.iter_mut().enumerate() {
+        for (j, log) in self.logs.iter_mut().enumerate() {
             let (done, rest) = y[n..n + m * n].split_at_mut(j * n);
             let wj = &mut rest[..n];
             for k in 0..j {
@@ -293,49 +351,55 @@ pub fn indicators_from(
             *log += norm.ln();
             wj.iter_mut().for_each(|a| *a /= norm);
         }
-        fli = fli.max(logs[0]);
-        solver.set_state(t1, &y);
+        self.fli = self.fli.max(self.logs[0]);
+        solver.set_state(t1, y);
         // The budget's early stop: this step's end is the orbit's end.
-        let diverged = budget
+        let ybar_int = self.ybar_int;
+        let diverged = self
+            .budget
             .megno_stop
             .is_some_and(|stop| sys.has_megno() && t1 >= stop.after && t1 > 0.0 && ybar_int / t1 >= stop.above);
         if diverged && status != Status::Finished {
-            stopped_at = Some(t1);
+            self.stopped_at = Some(t1);
         }
         let finished = status == Status::Finished || diverged;
-        taken += 1;
-        if taken % stride == 0 || finished {
-            samples.push(Sample {
+        self.taken += 1;
+        if self.taken % self.stride == 0 || finished {
+            self.samples.push(Sample {
                 t: t1,
-                lyapunov: logs[0] / t1,
-                log_norm: logs[0],
+                lyapunov: self.logs[0] / t1,
+                log_norm: self.logs[0],
                 megno: if sys.has_megno() { ybar_int / t1 } else { f64::NAN },
             });
-            if samples.len() > max_samples && !finished {
+            if self.samples.len() > self.budget.max_samples.max(2) && !finished {
                 // Keep the 2nd, 4th, … sample: those are the steps that are multiples of the
                 // doubled stride, so the kept ones stay evenly spaced in steps.
                 let mut k = 0;
-                samples.retain(|_| {
+                self.samples.retain(|_| {
                     k += 1;
                     k % 2 == 0
                 });
-                stride *= 2;
+                self.stride *= 2;
             }
         }
-        if finished {
-            break;
+        Ok(finished)
+    }
+
+    /// The indicators of the ended orbit.
+    fn finish<X: TaylorSystem>(&mut self, solver: &Solver<'_, X, Taylor>) -> Indicators {
+        let sys = self.sys;
+        let t = solver.t();
+        let (ybar_int, sy_int) = (self.ybar_int, self.sy_int);
+        Indicators {
+            lyapunov: self.logs.iter().map(|l| l / t).collect(),
+            fli: self.fli,
+            megno: if sys.has_megno() { ybar_int / t } else { f64::NAN },
+            megno_lyapunov: if sys.has_megno() { megno_slope(t, ybar_int, sy_int) } else { f64::NAN },
+            samples: std::mem::take(&mut self.samples),
+            steps: solver.steps(),
+            stopped_at: self.stopped_at,
         }
     }
-    let t = solver.t();
-    Ok(Indicators {
-        lyapunov: logs.iter().map(|l| l / t).collect(),
-        fli,
-        megno: if sys.has_megno() { ybar_int / t } else { f64::NAN },
-        megno_lyapunov: if sys.has_megno() { megno_slope(t, ybar_int, sy_int) } else { f64::NAN },
-        samples,
-        steps: solver.steps(),
-        stopped_at,
-    })
 }
 
 impl Indicators {
@@ -361,11 +425,16 @@ pub enum Indicator {
 }
 
 /// An indicator over many initial conditions, in parallel (rayon), within the default
-/// [`Budget`]. A start whose integration fails (escapes to infinity, hits a singularity, runs
-/// out of the budget) gets NaN; the scene's `chaos_map` goes through [`indicators_with`] and
-/// refuses a map whose starts ran out of the budget ([`is_budget`]).
+/// [`Budget`] for each orbit (its time budget counted from the orbit's start). A start whose
+/// integration fails (escapes to infinity, hits a singularity, runs out of the budget) gets
+/// NaN; the scene's `chaos_map` goes through [`indicators_with`] and refuses a map whose starts
+/// ran out of the budget ([`is_budget`]). The orbits run in lane groups of the Taylor method's
+/// batch mode where it pays, each with the bits of its run alone (see [`indicators_map`]).
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
-    starts.par_iter().map(|x0| indicators(sys, x0, t_end, tol).map_or(f64::NAN, |r| r.value(which))).collect()
+    orbits(sys, starts, t_end, tol, &Budget::default(), Deadline::PerOrbit)
+        .into_iter()
+        .map(|r| r.map_or(f64::NAN, |r| r.value(which)))
+        .collect()
 }
 
 /// One cell of a chaos map from [`chaos_map_with`].
@@ -390,13 +459,146 @@ pub fn chaos_map_with(
     which: Indicator,
     budget: &Budget,
 ) -> Vec<Cell> {
-    starts
-        .par_iter()
-        .map(|x0| match indicators_with(sys, x0, t_end, tol, budget) {
+    cells(indicators_map(sys, starts, t_end, tol, budget), which)
+}
+
+/// [`chaos_map_with`] with each orbit within a budget of its own: `budget`'s steps, samples and
+/// early stop, and its time limit counted from the orbit's start (as one [`indicators_with`]
+/// per start with a fresh [`Budget`]), so the map's size does not eat into its orbits' time.
+pub fn chaos_map_each(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    which: Indicator,
+    budget: &Budget,
+) -> Vec<Cell> {
+    cells(orbits(sys, starts, t_end, tol, budget, Deadline::PerOrbit), which)
+}
+
+/// A map's cells from its orbits (NaN for one that failed).
+fn cells(orbits: Vec<Result<Indicators, IntegrateError>>, which: Indicator) -> Vec<Cell> {
+    orbits
+        .into_iter()
+        .map(|r| match r {
             Ok(r) => Cell { value: r.value(which), stopped_at: r.stopped_at },
             Err(_) => Cell { value: f64::NAN, stopped_at: None },
         })
         .collect()
+}
+
+/// [`indicators_with`] for every start of `starts`, in parallel, within `budget` (its deadline
+/// is for all of them): per start the orbit's indicators or its error, bit for bit what
+/// [`indicators_with`] gives for that start alone. Where the Taylor method's batch mode pays
+/// (from [`BATCH_FROM_ORDER`], as the ensembles) the orbits run in lane groups of batch
+/// expansions ([`Taylor::integrate_lanes`]), each lane with its own step sizes, quadrature,
+/// renormalisation, early stop, budget and failure, by the same per-step code as the single
+/// run; the lane groups spread over rayon's threads. A start the batch hands back
+/// (its lane's expansion failed, or the run was interrupted) runs alone.
+pub fn indicators_map(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    budget: &Budget,
+) -> Vec<Result<Indicators, IntegrateError>> {
+    orbits(sys, starts, t_end, tol, budget, Deadline::Shared)
+}
+
+/// Whose deadline an orbit of a map keeps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Deadline {
+    /// The budget's, for the whole map.
+    Shared,
+    /// Its own: the budget's time limit from the orbit's start (as one [`indicators`] call
+    /// per start).
+    PerOrbit,
+}
+
+impl Deadline {
+    fn of(self, budget: &Budget) -> Option<Instant> {
+        match self {
+            Deadline::Shared => budget.deadline,
+            Deadline::PerOrbit => budget.time_limit.and_then(|l| Instant::now().checked_add(l)),
+        }
+    }
+}
+
+/// The orbits of a map: batched where the batch pays, else one at a time (see
+/// [`indicators_map`]). One batch driver per thread of rayon's pool, all taking starts from
+/// one queue, so a lane idles only once no start is left: with a fixed group of starts per
+/// driver, its lanes would expand for nothing while the group's longest orbits finish (a
+/// map's orbits differ in length by the early stop and by their step sizes).
+fn orbits(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    budget: &Budget,
+    deadline: Deadline,
+) -> Vec<Result<Indicators, IntegrateError>> {
+    let alone = |x0: &Vec<f64>| {
+        let own = Budget { deadline: deadline.of(budget), ..*budget };
+        indicators_with(sys, x0, t_end, tol, &own)
+    };
+    let method = Taylor::new(tol);
+    let n = sys.n();
+    let batch = method.taylor_order() >= BATCH_FROM_ORDER
+        && sys.taylor().batchable()
+        && method.validate().is_ok()
+        && starts.iter().all(|x0| x0.len() >= n);
+    let mut results: Vec<Option<Result<Indicators, IntegrateError>>> = (0..starts.len()).map(|_| None).collect();
+    if batch {
+        let lanes = crate::compile::simd_lanes();
+        let y0: Vec<Vec<f64>> = starts.iter().map(|x0| sys.initial_state(x0)).collect();
+        let refs: Vec<&[f64]> = y0.iter().map(Vec::as_slice).collect();
+        let queue = AtomicUsize::new(0);
+        let task = Orbits { sys, budget, deadline };
+        let drivers = rayon::broadcast(|_| method.integrate_lanes(sys, lanes, 0.0..t_end, &refs, &queue, &task, None));
+        for (index, r) in drivers.into_iter().flatten().flatten() {
+            results[index] = r;
+        }
+    }
+    // What the batch did not run (or handed back) runs alone.
+    results.into_par_iter().zip(starts).map(|(r, x0)| r.unwrap_or_else(|| alone(x0))).collect()
+}
+
+/// The chaos maps' lane task: each lane an [`Orbit`], ended by its budget, its failure, its
+/// end time or its early stop, exactly as [`indicators_from`] ends it.
+struct Orbits<'a> {
+    sys: &'a Variational,
+    budget: &'a Budget,
+    deadline: Deadline,
+}
+
+impl<'a> LaneTask for Orbits<'a> {
+    type Lane = Orbit<'a>;
+    type Output = Result<Indicators, IntegrateError>;
+
+    fn begin<X: TaylorSystem>(&self, _: usize, _: &Solver<'_, X, Taylor>) -> Result<Orbit<'a>, Self::Output> {
+        Ok(Orbit::new(self.sys, self.budget, self.deadline.of(self.budget)))
+    }
+
+    fn before_step<X: TaylorSystem>(
+        &self,
+        orbit: &mut Orbit<'a>,
+        solver: &Solver<'_, X, Taylor>,
+    ) -> Option<Self::Output> {
+        orbit.check_budget(solver).err().map(Err)
+    }
+
+    fn after_step<X: TaylorSystem>(
+        &self,
+        orbit: &mut Orbit<'a>,
+        solver: &mut Solver<'_, X, Taylor>,
+        step: Result<Status, IntegrateError>,
+    ) -> Option<Self::Output> {
+        match step.and_then(|status| orbit.after_step(solver, status)) {
+            Err(e) => Some(Err(e)),
+            Ok(true) => Some(Ok(orbit.finish(solver))),
+            Ok(false) => None,
+        }
+    }
 }
 
 /// Whether `e` is an orbit stopped by its [`Budget`] (steps or time), not by its dynamics.

@@ -215,14 +215,9 @@ impl PySystem {
         };
         // Each start within a default budget of its own, as `chaos::chaos_map` runs them.
         let cells: Vec<(f64, f64)> = py.allow_threads(|| {
-            use rayon::prelude::*;
-            rows.par_iter()
-                .map(|x0| {
-                    let budget = Budget { megno_stop: Some(stop), ..Budget::default() };
-                    chaos::indicators_with(&var, x0, t1, tol, &budget)
-                        .map_or((f64::NAN, f64::NAN), |r| (r.value(which), r.stopped_at.unwrap_or(f64::NAN)))
-                })
-                .collect()
+            let budget = Budget { megno_stop: Some(stop), ..Budget::default() };
+            let map = chaos::chaos_map_each(&var, &rows, t1, tol, which, &budget);
+            map.iter().map(|c| (c.value, c.stopped_at.unwrap_or(f64::NAN))).collect()
         });
         let values = PyArray1::from_iter(py, cells.iter().map(|c| c.0));
         let stopped = PyArray1::from_iter(py, cells.iter().map(|c| c.1));

@@ -13,7 +13,7 @@
 
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
-use crate::integrate::{Rhs, RhsError as StepError, StepFailure, TaylorSystem};
+use crate::integrate::{Rhs, RhsError as StepError, StepFailure, TaylorBatchSystem, TaylorSystem};
 use crate::mechanics::System;
 
 use super::error::CompileError;
@@ -191,6 +191,14 @@ impl Variational {
     pub fn taylor(&self) -> &TaylorOde {
         &self.taylor
     }
+
+    /// The same system with native code from the first expansion (`true`) or never (`false`),
+    /// as [`TaylorOde::with_native`]: for comparing the single run with the batch lanes on
+    /// each kind of code.
+    pub fn with_native(mut self, on: bool) -> Variational {
+        self.taylor = self.taylor.with_native(on);
+        self
+    }
 }
 
 impl Rhs for Variational {
@@ -218,5 +226,22 @@ impl TaylorSystem for Variational {
     }
     fn non_finite(&self, t: f64, y: &[f64], order: usize, at: usize) -> StepFailure {
         self.taylor.non_finite(t, y, order, at)
+    }
+}
+
+/// The chaos maps' batch: the variational system is its [`TaylorOde`], so its lanes are that
+/// tape's batch expansions (native lane pairs once the tiers compile them), each lane with the
+/// single expansion's bits.
+impl TaylorBatchSystem for Variational {
+    type Batch = <TaylorOde as TaylorBatchSystem>::Batch;
+
+    fn batch(&self, order: usize, lanes: usize) -> Option<Self::Batch> {
+        self.taylor.batch(order, lanes)
+    }
+    fn lanes(batch: &Self::Batch) -> usize {
+        <TaylorOde as TaylorBatchSystem>::lanes(batch)
+    }
+    fn expand_batch(&self, batch: &mut Self::Batch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
+        self.taylor.expand_batch(batch, t, y, out, failed)
     }
 }

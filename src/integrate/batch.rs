@@ -8,16 +8,30 @@
 //! (the system's promise), and the step, the dense output and the bookkeeping are the single
 //! method's own code, every trajectory is bit for bit the one [`Taylor`] computes alone,
 //! whatever its neighbours. A trajectory that ends loads the next one into its lane
-//! ([`LaneRefill`]); one that fails is handed back to be run alone, which reproduces its
-//! error exactly.
+//! ([`LaneRefill`]).
+//!
+//! What a run does around each step is its [`LaneTask`]: the ensembles keep states at given
+//! times and hand every failure back to be run alone (which reproduces its error exactly);
+//! the chaos maps integrate MEGNO's quadrature, renormalise the tangent vectors, apply their
+//! early stop and budget, and keep a failure's error, by the same per-step code as their
+//! single run.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-use super::error::{RhsError, StepFailure};
+use super::error::{IntegrateError, RhsError, StepFailure};
 use super::solver::{Integrate, Solver, Status};
 use super::taylor::{Taylor, TaylorSystem};
 use crate::cancel::CancelToken;
+
+/// The lowest Taylor order at which the batch has been measured faster than one start at a
+/// time. With native lane-pair code the batch takes 0.69–0.78× the time of single runs on the
+/// double pendulum from tol 1e-6 (order 8) to 1e-16 (`cargo bench --bench batch`, BENCHMARKS.md,
+/// "The Taylor method's batch mode"); below order 8 it is unmeasured, so one start at a time.
+/// Either way each start's result has the single run's bits. The ensembles and the chaos maps
+/// batch from this order.
+pub const BATCH_FROM_ORDER: usize = 8;
 
 /// A [`TaylorSystem`] that can also expand several states at once.
 pub trait TaylorBatchSystem: TaylorSystem {
@@ -122,13 +136,135 @@ impl<S: TaylorSystem> TaylorSystem for LaneSystem<'_, S> {
     }
 }
 
+/// What a batch run does with each trajectory around the single method's steps: its own
+/// bookkeeping between steps (an ensemble's kept states, a chaos indicator's quadrature and
+/// renormalisation), its budget, and when it ends. The driver ([`Taylor::integrate_lanes`])
+/// owns the lanes, the expansions and the refills; the task sees one trajectory's [`Solver`]
+/// at a time, exactly as a driver stepping that trajectory alone would, so a task that does
+/// the same as its single-run driver gives the same bits.
+///
+/// The methods are generic over the solver's system because the lanes' system is the
+/// driver's own view of `S` (the batch's coefficients handed to the single method's step).
+pub trait LaneTask {
+    /// One trajectory's bookkeeping between steps.
+    type Lane;
+    /// What a trajectory gives when it ends.
+    type Output;
+    /// Begins trajectory `index` on its fresh solver: its bookkeeping, or at once its output
+    /// when it has no step to take.
+    fn begin<X: TaylorSystem>(&self, index: usize, solver: &Solver<'_, X, Taylor>) -> Result<Self::Lane, Self::Output>;
+    /// Called before each step: `Some` ends the trajectory there with that output (a budget).
+    fn before_step<X: TaylorSystem>(
+        &self,
+        lane: &mut Self::Lane,
+        solver: &Solver<'_, X, Taylor>,
+    ) -> Option<Self::Output>;
+    /// Called with each step's result (the solver has taken it, or failed): `Some` ends the
+    /// trajectory with that output.
+    fn after_step<X: TaylorSystem>(
+        &self,
+        lane: &mut Self::Lane,
+        solver: &mut Solver<'_, X, Taylor>,
+        step: Result<Status, IntegrateError>,
+    ) -> Option<Self::Output>;
+}
+
 /// A trajectory in a lane.
-struct Running<'s, S: TaylorSystem> {
+struct Running<'s, S: TaylorSystem, L> {
     index: usize,
     solver: Solver<'s, LaneSystem<'s, S>, Taylor>,
+    lane: L,
+}
+
+/// The ensemble's task: the states [`BatchOutput`] asks for, a step budget, and every failure
+/// handed back (`None`) to be run alone.
+struct Keep<'a> {
+    span: Range<f64>,
+    starts: &'a [&'a [f64]],
+    output: BatchOutput<'a>,
+    max_steps: usize,
+}
+
+/// An ensemble trajectory's kept states, its next output time, and a buffer for the dense
+/// output.
+struct Kept {
     run: LaneRun,
-    /// The next output time (for [`BatchOutput::Times`]).
     next: usize,
+    dense: Vec<f64>,
+}
+
+impl LaneTask for Keep<'_> {
+    type Lane = Kept;
+    type Output = Option<LaneRun>;
+
+    fn begin<X: TaylorSystem>(&self, index: usize, _: &Solver<'_, X, Taylor>) -> Result<Kept, Option<LaneRun>> {
+        let (y0, t0) = (self.starts[index], self.span.start);
+        let mut run = LaneRun { t: vec![], y: vec![], steps: 0 };
+        let mut next = 0;
+        match self.output {
+            BatchOutput::Final => {
+                run.t.push(t0);
+                run.y.push(y0.to_vec());
+                if t0 == self.span.end {
+                    return Err(Some(run));
+                }
+            }
+            BatchOutput::Times(times) => {
+                while next < times.len() && times[next] == t0 {
+                    run.t.push(t0);
+                    run.y.push(y0.to_vec());
+                    next += 1;
+                }
+                if next == times.len() {
+                    return Err(Some(run));
+                }
+            }
+        }
+        Ok(Kept { run, next, dense: vec![0.0; y0.len()] })
+    }
+
+    fn before_step<X: TaylorSystem>(&self, _: &mut Kept, solver: &Solver<'_, X, Taylor>) -> Option<Option<LaneRun>> {
+        (solver.steps() >= self.max_steps).then_some(None)
+    }
+
+    fn after_step<X: TaylorSystem>(
+        &self,
+        kept: &mut Kept,
+        solver: &mut Solver<'_, X, Taylor>,
+        step: Result<Status, IntegrateError>,
+    ) -> Option<Option<LaneRun>> {
+        let Ok(status) = step else { return Some(None) };
+        let finished = status == Status::Finished;
+        let done = |kept: &mut Kept, solver: &Solver<'_, X, Taylor>| {
+            let run = std::mem::replace(&mut kept.run, LaneRun { t: vec![], y: vec![], steps: 0 });
+            Some(Some(LaneRun { steps: solver.steps(), ..run }))
+        };
+        match self.output {
+            BatchOutput::Final => {
+                if finished {
+                    kept.run.t.push(solver.t());
+                    kept.run.y.push(solver.y().to_vec());
+                    return done(kept, solver);
+                }
+            }
+            BatchOutput::Times(times) => {
+                let dir = (self.span.end - self.span.start).signum();
+                let until = solver.t();
+                while kept.next < times.len() && dir * (times[kept.next] - until) <= 0.0 {
+                    if solver.interpolate(times[kept.next], &mut kept.dense).is_err() {
+                        return Some(None);
+                    }
+                    kept.run.t.push(times[kept.next]);
+                    kept.run.y.push(kept.dense.clone());
+                    kept.next += 1;
+                }
+                if finished || kept.next == times.len() {
+                    return done(kept, solver);
+                }
+            }
+        }
+        None
+    }
 }
 
 impl Taylor {
@@ -148,6 +284,37 @@ impl Taylor {
         max_steps: usize,
         cancel: Option<&CancelToken>,
     ) -> Option<Vec<Option<LaneRun>>> {
+        let task = Keep { span: span.clone(), starts, output, max_steps };
+        let queue = AtomicUsize::new(0);
+        let ran = self.integrate_lanes(sys, lanes, span, starts, &queue, &task, cancel)?;
+        let mut runs: Vec<Option<LaneRun>> = vec![None; starts.len()];
+        for (index, run) in ran {
+            runs[index] = run.flatten();
+        }
+        Some(runs)
+    }
+
+    /// The batch driver under [`Taylor::integrate_batch`] and the chaos maps: the starts of
+    /// `starts` over `span` in lanes of batch expansions (about `lanes` wide), each with its
+    /// own [`Solver`] and `task`'s bookkeeping around its steps. A lane whose trajectory ends
+    /// takes the next start from `queue` (the index of the next untaken start), which several
+    /// drivers, one per thread, may share: each start is taken by one of them, and their lanes
+    /// idle only once no start is left. Returns `None` when the system cannot batch; else, for
+    /// each start this driver took, its index and the task's output, or `None` for a start the
+    /// driver hands back: its solver could not start, or its lane's expansion failed. A start
+    /// running when the run is cancelled is not listed. The caller runs the starts handed back
+    /// or not listed alone, which reproduces what the single run does with them.
+    #[allow(clippy::too_many_arguments)] // a single run's inputs, the lanes and their queue
+    pub fn integrate_lanes<S: TaylorBatchSystem, T: LaneTask>(
+        &self,
+        sys: &S,
+        lanes: usize,
+        span: Range<f64>,
+        starts: &[&[f64]],
+        queue: &AtomicUsize,
+        task: &T,
+        cancel: Option<&CancelToken>,
+    ) -> Option<Vec<(usize, Option<T::Output>)>> {
         self.validate().ok()?;
         let order = self.taylor_order().clamp(2, 100);
         let mut batch = sys.batch(order, lanes)?;
@@ -155,61 +322,41 @@ impl Taylor {
         let (dim, s) = (sys.dim(), order + 1);
         let slots: Vec<LaneSystem<S>> =
             (0..width).map(|_| LaneSystem { sys, order, coeffs: Mutex::new(vec![0.0; dim * s]) }).collect();
-        let mut results: Vec<Option<LaneRun>> = vec![None; starts.len()];
-        let mut refill = LaneRefill::new(width, starts.len());
-        let dir = (span.end - span.start).signum();
+        let mut ended: Vec<(usize, Option<T::Output>)> = Vec::new();
+        let take = || {
+            let index = queue.fetch_add(1, Ordering::Relaxed);
+            (index < starts.len()).then_some(index)
+        };
         // Starts a trajectory in `lane`; `None` when it has nothing to step (done or refused).
-        let start = |index: usize, lane: usize, results: &mut Vec<Option<LaneRun>>| -> Option<Running<S>> {
-            let y0 = starts[index];
-            let solver = self.solver(&slots[lane], span.start, y0, span.end).ok()?;
-            let mut run = LaneRun { t: vec![], y: vec![], steps: 0 };
-            let mut next = 0;
-            match output {
-                BatchOutput::Final => {
-                    run.t.push(span.start);
-                    run.y.push(y0.to_vec());
-                    if span.start == span.end {
-                        results[index] = Some(run);
-                        return None;
-                    }
-                }
-                BatchOutput::Times(times) => {
-                    while next < times.len() && times[next] == span.start {
-                        run.t.push(span.start);
-                        run.y.push(y0.to_vec());
-                        next += 1;
-                    }
-                    if next == times.len() {
-                        results[index] = Some(run);
-                        return None;
-                    }
+        let start = |index: usize, lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
+            let Ok(solver) = self.solver(&slots[lane], span.start, starts[index], span.end) else {
+                ended.push((index, None));
+                return None;
+            };
+            match task.begin(index, &solver) {
+                Ok(lane) => Some(Running { index, solver, lane }),
+                Err(out) => {
+                    ended.push((index, Some(out)));
+                    None
                 }
             }
-            Some(Running { index, solver, run, next })
         };
         // Loads trajectories into `lane` until one has steps to take, or none is left.
-        let fill = |lane: usize, first: Option<usize>, refill: &mut LaneRefill, results: &mut Vec<Option<LaneRun>>| {
-            let mut candidate = first;
-            while let Some(j) = candidate {
-                if let Some(r) = start(j, lane, results) {
+        let fill = |lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
+            while let Some(j) = take() {
+                if let Some(r) = start(j, lane, ended) {
                     return Some(r);
                 }
-                candidate = refill.finish(lane);
             }
             None
         };
-        let mut active: Vec<Option<Running<S>>> = Vec::with_capacity(width);
-        for lane in 0..width {
-            let first = refill.lane(lane);
-            active.push(fill(lane, first, &mut refill, &mut results));
-        }
+        let mut active: Vec<Option<Running<S, T::Lane>>> = (0..width).map(|lane| fill(lane, &mut ended)).collect();
         let (mut ts, mut ys) = (vec![0.0; width], vec![0.0; width * dim]);
         let mut out = vec![0.0; width * dim * s];
         let mut failed = vec![false; width];
-        let mut dense = vec![0.0; dim];
         while active.iter().any(Option::is_some) {
             if cancel.is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
-                return Some(results);
+                return Some(ended);
             }
             for (lane, r) in active.iter().enumerate() {
                 // An empty lane expands its last state again, which is finite.
@@ -222,49 +369,23 @@ impl Taylor {
             sys.expand_batch(&mut batch, &ts, &ys, &mut out, &mut failed);
             for lane in 0..width {
                 let Some(r) = active[lane].as_mut() else { continue };
-                let ended = if failed[lane] || r.solver.steps() >= max_steps {
-                    Some(false)
+                let end = if failed[lane] {
+                    Some(None)
+                } else if let Some(output) = task.before_step(&mut r.lane, &r.solver) {
+                    Some(Some(output))
                 } else {
                     let coeffs = &out[lane * dim * s..(lane + 1) * dim * s];
                     slots[lane].coeffs.lock().unwrap_or_else(|e| e.into_inner()).copy_from_slice(coeffs);
-                    match r.solver.step() {
-                        Err(_) => Some(false),
-                        Ok(status) => {
-                            let finished = status == Status::Finished;
-                            let mut ok = true;
-                            match output {
-                                BatchOutput::Final => {
-                                    if finished {
-                                        r.run.t.push(r.solver.t());
-                                        r.run.y.push(r.solver.y().to_vec());
-                                    }
-                                }
-                                BatchOutput::Times(times) => {
-                                    let until = r.solver.t();
-                                    while r.next < times.len() && dir * (times[r.next] - until) <= 0.0 {
-                                        if r.solver.interpolate(times[r.next], &mut dense).is_err() {
-                                            ok = false;
-                                            break;
-                                        }
-                                        r.run.t.push(times[r.next]);
-                                        r.run.y.push(dense.clone());
-                                        r.next += 1;
-                                    }
-                                }
-                            }
-                            let all_out = matches!(output, BatchOutput::Times(times) if r.next == times.len());
-                            (!ok || finished || all_out).then_some(ok)
-                        }
-                    }
+                    let step = r.solver.step();
+                    task.after_step(&mut r.lane, &mut r.solver, step).map(Some)
                 };
-                let Some(ok) = ended else { continue };
-                if let Some(done) = active[lane].take().filter(|_| ok) {
-                    results[done.index] = Some(LaneRun { steps: done.solver.steps(), ..done.run });
+                let Some(output) = end else { continue };
+                if let Some(done) = active[lane].take() {
+                    ended.push((done.index, output));
                 }
-                let next = refill.finish(lane);
-                active[lane] = fill(lane, next, &mut refill, &mut results);
+                active[lane] = fill(lane, &mut ended);
             }
         }
-        Some(results)
+        Some(ended)
     }
 }

@@ -17,6 +17,7 @@ use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, Variational
 use crate::integrate::{
     fmt_value, BatchOutput, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate,
     IntegrateError, Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
+    BATCH_FROM_ORDER,
 };
 
 /// Which states a run keeps.
@@ -366,13 +367,6 @@ pub fn ensemble(
 /// (lanes idle only at the very end of a chunk), few enough for the chunks to spread over
 /// the workers.
 const BATCH_CHUNK_LANES: usize = 16;
-
-/// The lowest Taylor order at which the batch has been measured faster than one start at a
-/// time. With native lane-pair code the batch takes 0.69–0.78× the time of single runs on the
-/// double pendulum from tol 1e-6 (order 8) to 1e-16 (`cargo bench --bench batch`, BENCHMARKS.md,
-/// "The Taylor method's batch mode"); below order 8 it is unmeasured, so one start at a time.
-/// Either way each start's result has the single run's bits.
-const BATCH_FROM_ORDER: usize = 8;
 
 /// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
 /// asks for nothing it lacks: final states or states at given times, no events, no energy
