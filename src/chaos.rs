@@ -20,7 +20,7 @@
 //! Floquet multipliers: the linear stability of a periodic orbit, or of a periodically
 //! forced linear system such as Mathieu's equation.
 
-use std::sync::atomic::AtomicUsize;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -431,7 +431,7 @@ pub enum Indicator {
 /// ran out of the budget ([`is_budget`]). The orbits run in lane groups of the Taylor method's
 /// batch mode where it pays, each with the bits of its run alone (see [`indicators_map`]).
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
-    orbits(sys, starts, t_end, tol, &Budget::default(), Deadline::PerOrbit)
+    orbits(sys, starts, t_end, tol, &Budget::default(), Deadline::PerOrbit, &AtomicUsize::new(0))
         .into_iter()
         .map(|r| r.map_or(f64::NAN, |r| r.value(which)))
         .collect()
@@ -473,7 +473,7 @@ pub fn chaos_map_each(
     which: Indicator,
     budget: &Budget,
 ) -> Vec<Cell> {
-    cells(orbits(sys, starts, t_end, tol, budget, Deadline::PerOrbit), which)
+    cells(orbits(sys, starts, t_end, tol, budget, Deadline::PerOrbit, &AtomicUsize::new(0)), which)
 }
 
 /// A map's cells from its orbits (NaN for one that failed).
@@ -502,7 +502,20 @@ pub fn indicators_map(
     tol: f64,
     budget: &Budget,
 ) -> Vec<Result<Indicators, IntegrateError>> {
-    orbits(sys, starts, t_end, tol, budget, Deadline::Shared)
+    indicators_map_counting(sys, starts, t_end, tol, budget, &AtomicUsize::new(0))
+}
+
+/// [`indicators_map`], adding one to `done` as each orbit ends, so that another thread can
+/// report the map's progress while it runs (the scene's progress bar).
+pub fn indicators_map_counting(
+    sys: &Variational,
+    starts: &[Vec<f64>],
+    t_end: f64,
+    tol: f64,
+    budget: &Budget,
+    done: &AtomicUsize,
+) -> Vec<Result<Indicators, IntegrateError>> {
+    orbits(sys, starts, t_end, tol, budget, Deadline::Shared, done)
 }
 
 /// Whose deadline an orbit of a map keeps.
@@ -536,10 +549,13 @@ fn orbits(
     tol: f64,
     budget: &Budget,
     deadline: Deadline,
+    done: &AtomicUsize,
 ) -> Vec<Result<Indicators, IntegrateError>> {
     let alone = |x0: &Vec<f64>| {
         let own = Budget { deadline: deadline.of(budget), ..*budget };
-        indicators_with(sys, x0, t_end, tol, &own)
+        let r = indicators_with(sys, x0, t_end, tol, &own);
+        done.fetch_add(1, Ordering::Relaxed);
+        r
     };
     let method = Taylor::new(tol);
     let n = sys.n();
@@ -553,7 +569,7 @@ fn orbits(
         let y0: Vec<Vec<f64>> = starts.iter().map(|x0| sys.initial_state(x0)).collect();
         let refs: Vec<&[f64]> = y0.iter().map(Vec::as_slice).collect();
         let queue = AtomicUsize::new(0);
-        let task = Orbits { sys, budget, deadline };
+        let task = Orbits { sys, budget, deadline, done };
         let drivers = rayon::broadcast(|_| method.integrate_lanes(sys, lanes, 0.0..t_end, &refs, &queue, &task, None));
         for (index, r) in drivers.into_iter().flatten().flatten() {
             results[index] = r;
@@ -569,6 +585,18 @@ struct Orbits<'a> {
     sys: &'a Variational,
     budget: &'a Budget,
     deadline: Deadline,
+    /// Orbits ended so far (the progress report's count).
+    done: &'a AtomicUsize,
+}
+
+impl Orbits<'_> {
+    /// Counts an orbit that ends with `out`.
+    fn ended<T>(&self, out: Option<T>) -> Option<T> {
+        if out.is_some() {
+            self.done.fetch_add(1, Ordering::Relaxed);
+        }
+        out
+    }
 }
 
 impl<'a> LaneTask for Orbits<'a> {
@@ -584,7 +612,7 @@ impl<'a> LaneTask for Orbits<'a> {
         orbit: &mut Orbit<'a>,
         solver: &Solver<'_, X, Taylor>,
     ) -> Option<Self::Output> {
-        orbit.check_budget(solver).err().map(Err)
+        self.ended(orbit.check_budget(solver).err().map(Err))
     }
 
     fn after_step<X: TaylorSystem>(
@@ -593,11 +621,11 @@ impl<'a> LaneTask for Orbits<'a> {
         solver: &mut Solver<'_, X, Taylor>,
         step: Result<Status, IntegrateError>,
     ) -> Option<Self::Output> {
-        match step.and_then(|status| orbit.after_step(solver, status)) {
+        self.ended(match step.and_then(|status| orbit.after_step(solver, status)) {
             Err(e) => Some(Err(e)),
             Ok(true) => Some(Ok(orbit.finish(solver))),
             Ok(false) => None,
-        }
+        })
     }
 }
 

@@ -42,8 +42,8 @@ pub use error::SimulateError;
 pub use formulation::{not_separable, route, ExtendedLagrangian, Formulation, Refusal, RefusalReason, Route, Shape};
 pub use method::{Family, Form, MethodId, MethodSpec, Needs, Scheme, DEFAULT_METHOD, METHODS};
 pub use run::{
-    default_every, ensemble, integrate, par_map_with_progress, EventSpec, RunOptions, Sampling, Trajectory,
-    WorkerPanicked, MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS, MAX_STORED_STATES,
+    default_every, ensemble, integrate, par_map_with_progress, with_progress, EventSpec, RunOptions, Sampling,
+    Trajectory, WorkerPanicked, MAX_ADAPTIVE_STEPS, MAX_FIXED_STEPS, MAX_POINTS, MAX_STORED_STATES,
 };
 pub use system::{
     compile_formulation, compile_system, compile_system_with, formulation_for, formulation_of, is_first_order,

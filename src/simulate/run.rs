@@ -449,7 +449,6 @@ pub fn par_map_with_progress<T: Sync, R: Send>(
 ) -> Result<Vec<R>, WorkerPanicked> {
     use rayon::prelude::*;
     let done = AtomicUsize::new(0);
-    let n = items.len().max(1) as f64;
     let work = || {
         items
             .par_iter()
@@ -460,14 +459,26 @@ pub fn par_map_with_progress<T: Sync, R: Send>(
             })
             .collect::<Vec<_>>()
     };
+    with_progress(&done, items.len(), progress, || match threads {
+        Some(k) => match rayon::ThreadPoolBuilder::new().num_threads(k.max(1)).build() {
+            Ok(pool) => pool.install(work),
+            Err(_) => work(),
+        },
+        None => work(),
+    })
+}
+
+/// `work` on a thread of its own, while this thread reports `done / n` every 50 ms (`work`
+/// counts its finished items in `done`) and `1` at its end.
+pub fn with_progress<R: Send>(
+    done: &AtomicUsize,
+    n: usize,
+    progress: &mut dyn FnMut(f64),
+    work: impl FnOnce() -> R + Send,
+) -> Result<R, WorkerPanicked> {
+    let n = n.max(1) as f64;
     std::thread::scope(|scope| {
-        let handle = scope.spawn(|| match threads {
-            Some(k) => match rayon::ThreadPoolBuilder::new().num_threads(k.max(1)).build() {
-                Ok(pool) => pool.install(work),
-                Err(_) => work(),
-            },
-            None => work(),
-        });
+        let handle = scope.spawn(work);
         while !handle.is_finished() {
             progress(done.load(Ordering::Relaxed) as f64 / n);
             std::thread::sleep(std::time::Duration::from_millis(50));

@@ -299,8 +299,9 @@ impl Backend for NativeBackend {
         crate::chaos::indicators_with(compiled, x0, t_end, tol, budget).map_err(chaos_error)
     }
 
-    /// The starts in parallel on rayon's pool (each start on one thread, so the values do not
-    /// depend on the number of threads); this thread reports progress every 50 ms.
+    /// The starts in parallel on rayon's pool, in lane groups of the Taylor method's batch mode
+    /// where it pays (each start's value is that of its run alone, so the values do not depend
+    /// on the number of threads or lanes); this thread reports progress every 50 ms.
     fn chaos_map(
         &self,
         compiled: &CompiledVariational,
@@ -312,8 +313,12 @@ impl Backend for NativeBackend {
         progress: &mut dyn FnMut(f64),
     ) -> Vec<Result<f64, BackendError>> {
         let var = &**compiled;
-        simulate::par_map_with_progress(starts, None, progress, |x0| {
-            crate::chaos::indicators_with(var, x0, t_end, tol, budget).map(|r| r.value(which)).map_err(chaos_error)
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        simulate::with_progress(&done, starts.len(), progress, || {
+            crate::chaos::indicators_map_counting(var, starts, t_end, tol, budget, &done)
+                .into_iter()
+                .map(|r| r.map(|r| r.value(which)).map_err(chaos_error))
+                .collect()
         })
         .unwrap_or_else(|_| {
             starts.iter().map(|_| Err(BackendError::Failed("internal: a chaos map worker panicked".into()))).collect()
