@@ -303,30 +303,6 @@ pub struct GeodesicSpec {
     pub format: Option<Format>,
 }
 
-/// `ritz …` (src/scene/notes.rs).
-#[derive(Clone, Debug)]
-pub struct RitzSpec {
-    /// The Lagrangian (default `L`).
-    pub l: Option<Src>,
-    /// Each coordinate's trial path.
-    pub trials: Vec<(Src, Src)>,
-    /// The name after `for` (must be `t`).
-    pub time_var: Src,
-    /// The end times.
-    pub t0: Src,
-    pub t1: Src,
-    /// `from x = …`: the values at `t0`.
-    pub from: Vec<(Src, Src)>,
-    /// `to x = …`: the values at `t1`.
-    pub to: Vec<(Src, Src)>,
-    /// `solve a, b`: the unknown coefficients.
-    pub unknowns: Vec<Src>,
-    /// `near 0.1, 0`: Newton's starting values (default 0).
-    pub guess: Vec<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
 /// What a `plot` draws.
 #[derive(Clone, Debug)]
 pub enum PlotKind {

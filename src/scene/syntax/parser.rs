@@ -15,8 +15,7 @@ use super::ast::{
     Action, AnimateSpec, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall,
     DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions,
     GeodesicSpec, Geometry, Help, Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters,
-    PlotKind, PlotSpec, PointTransform, Print, Rayleigh, RitzSpec, Series, SimSpec, SmallSpec, Src, StabilizeSpec,
-    Transform,
+    PlotKind, PlotSpec, PointTransform, Print, Rayleigh, Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -1263,48 +1262,6 @@ impl Reader {
         let mut it = tuples.into_iter();
         let ends = it.next().zip(it.next());
         GeodesicSpec { geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())), ends, format }
-    }
-
-    pub(crate) fn ritz(&self, p: Pair<Rule>) -> Result<RitzSpec, SceneError> {
-        let (span, inner) = (self.span(&p), p.into_inner().collect::<Vec<_>>());
-        let (mut l, mut time_var, mut t0, mut t1, mut format) = (None, None, None, None, None);
-        let (mut trials, mut from, mut to, mut unknowns, mut guess) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        // Which list an `x = …` belongs to: the keyword before it.
-        let mut group = Rule::kw_with;
-        for q in inner {
-            match q.as_rule() {
-                r @ (Rule::kw_with | Rule::kw_from | Rule::kw_to) => group = r,
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        let pair = (self.src(&s), self.src(&v));
-                        match group {
-                            Rule::kw_from => from.push(pair),
-                            Rule::kw_to => to.push(pair),
-                            _ => trials.push(pair),
-                        }
-                    }
-                }
-                Rule::name => time_var = Some(self.src(&q)),
-                Rule::time_span => {
-                    let mut it = q.into_inner();
-                    t0 = it.next().map(|b| self.src(&b));
-                    t1 = it.next().map(|b| self.src(&b));
-                }
-                Rule::name_list => unknowns = self.names(q),
-                Rule::ritz_near => guess = self.tuple(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        match (time_var, t0, t1) {
-            (Some(time_var), Some(t0), Some(t1)) => {
-                Ok(RitzSpec { l, trials, time_var, t0, t1, from, to, unknowns, guess, format })
-            }
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `ritz`").at(span)),
-        }
     }
 
     pub(crate) fn action(&self, p: Pair<Rule>) -> Action {
