@@ -281,28 +281,6 @@ pub enum LieGenerator {
     Flow(Option<Src>),
 }
 
-/// The geometry of a `geodesic` statement.
-#[derive(Clone, Debug)]
-pub enum Geometry {
-    /// `ds^2 = dθ^2 + sin(θ)^2 dφ^2`
-    LineElement(Src),
-    /// `metric (1, 0), (0, sin(θ)^2)`: the rows.
-    Metric(Vec<Vec<Src>>),
-    /// `embedding (X, Y, Z)`: a surface in Euclidean space.
-    Embedding(Vec<Src>),
-}
-
-/// `geodesic …` (src/scene/notes.rs).
-#[derive(Clone, Debug)]
-pub struct GeodesicSpec {
-    /// The line element, metric or embedding.
-    pub geometry: Geometry,
-    /// `from (…) to (…)`: a shooting solution between two points.
-    pub ends: Option<(Vec<Src>, Vec<Src>)>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
 /// What a `plot` draws.
 #[derive(Clone, Debug)]
 pub enum PlotKind {

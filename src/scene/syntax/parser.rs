@@ -13,9 +13,9 @@ use pest::Parser as _;
 
 use super::ast::{
     Action, AnimateSpec, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall,
-    DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions,
-    GeodesicSpec, Geometry, Help, Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters,
-    PlotKind, PlotSpec, PointTransform, Print, Rayleigh, Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions, Help,
+    Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters, PlotKind, PlotSpec, PointTransform,
+    Print, Rayleigh, Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -1233,35 +1233,6 @@ impl Reader {
 
     pub(crate) fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
         p.into_inner().filter(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)).collect()
-    }
-
-    pub(crate) fn geodesic(&self, p: Pair<Rule>) -> GeodesicSpec {
-        let inner = self.inner(&p);
-        let (mut geometry, mut tuples, mut format) = (None, Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::geo_line => {
-                    geometry =
-                        q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| Geometry::LineElement(self.src(&x)))
-                }
-                Rule::geo_metric => {
-                    let rows = q.into_inner().filter(|x| x.as_rule() == Rule::geo_tuple).map(|x| self.tuple(x));
-                    geometry = Some(Geometry::Metric(rows.collect()));
-                }
-                Rule::geo_embedding => {
-                    geometry = q
-                        .into_inner()
-                        .find(|x| x.as_rule() == Rule::geo_tuple)
-                        .map(|x| Geometry::Embedding(self.tuple(x)))
-                }
-                Rule::geo_tuple => tuples.push(self.tuple(q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = tuples.into_iter();
-        let ends = it.next().zip(it.next());
-        GeodesicSpec { geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())), ends, format }
     }
 
     pub(crate) fn action(&self, p: Pair<Rule>) -> Action {
