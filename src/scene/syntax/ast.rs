@@ -170,23 +170,6 @@ pub struct EnsembleSpec {
     pub span: Span,
 }
 
-/// `animate …`.
-#[derive(Clone, Debug)]
-pub struct AnimateSpec {
-    /// The points `(x, y)`: bodies, joined by arms in order.
-    pub points: Vec<(Src, Src)>,
-    /// `from RUN`.
-    pub run: Option<Src>,
-    /// The GIF file.
-    pub path: Src,
-    /// `fps N`.
-    pub fps: Option<Src>,
-    /// `duration SECONDS`.
-    pub duration: Option<Src>,
-    /// `size PIXELS`.
-    pub size: Option<Src>,
-}
-
 /// `stabilize …` of a `simulate` statement.
 #[derive(Clone, Debug)]
 pub struct StabilizeSpec {

@@ -12,10 +12,10 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Action, AnimateSpec, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall,
-    DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions, Help,
-    Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters, PlotKind, PlotSpec, PointTransform,
-    Print, Rayleigh, Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
+    EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item,
+    Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh,
+    Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -805,41 +805,6 @@ impl Reader {
         }
         let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
         Ok(PlotSpec { kind, runs, path })
-    }
-
-    /// `animate …`: the points drawn, the run, the file and the frame options.
-    pub(crate) fn animate_stmt(&self, p: Pair<Rule>) -> Result<AnimateSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut points = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        let (mut fps, mut duration, mut size) = (None, None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::anim_point => {
-                    let xs: Vec<Src> = q.into_inner().map(|s| self.src(&s)).collect();
-                    if let [x, y] = &xs[..] {
-                        points.push((x.clone(), y.clone()));
-                    }
-                }
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                Rule::anim_option => {
-                    let parts: Vec<Pair<Rule>> = q.into_inner().collect();
-                    if let [key, value] = &parts[..] {
-                        let v = Some(self.src(value));
-                        match key.as_str() {
-                            "fps" => fps = v,
-                            "duration" => duration = v,
-                            _ => size = v,
-                        }
-                    }
-                }
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
-        Ok(AnimateSpec { points, run, path, fps, duration, size })
     }
 
     /// `export …`: the items, the run and the file.
