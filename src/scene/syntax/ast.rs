@@ -425,21 +425,6 @@ pub struct Series {
     pub format: Option<Format>,
 }
 
-/// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
-#[derive(Clone, Debug)]
-pub struct Map {
-    /// The assignments, in order.
-    pub updates: Vec<(Src, Src)>,
-    /// The number of iterations.
-    pub steps: Src,
-    /// The starts: a variable and a value, or a range `lo..hi`.
-    pub starts: Vec<(Src, Src, Option<Src>)>,
-    /// `points N`: values per range (default 10).
-    pub points: Option<Src>,
-    /// `to FILE`.
-    pub path: Option<Src>,
-}
-
 /// `jacobian (X1, …) in y1, …`.
 #[derive(Clone, Debug)]
 pub struct Jacobian {

@@ -14,7 +14,7 @@ use pest::Parser as _;
 use super::ast::{
     Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
     EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item,
-    Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh,
+    Jacobian, LevelSpec, Lie, LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh,
     Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
@@ -1144,42 +1144,6 @@ impl Reader {
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
         Ok(Series { f, small, about, order: it.next(), format })
-    }
-
-    pub(crate) fn map(&self, p: Pair<Rule>) -> Result<Map, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::init if steps.is_none() => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        updates.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::sexpr => steps = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        starts.push((self.src(&s), self.src(&v), None));
-                    }
-                }
-                Rule::map_range => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
-                        let mut b = r.into_inner();
-                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
-                            starts.push((self.src(&s), self.src(&lo), Some(self.src(&hi))));
-                        }
-                    }
-                }
-                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
-        Ok(Map { updates, steps, starts, points, path })
     }
 
     pub(crate) fn jacobian(&self, p: Pair<Rule>) -> Jacobian {
