@@ -352,17 +352,6 @@ pub struct Export {
     pub path: Src,
 }
 
-/// `export poincare [EXPR, …] [from RUN] to FILE`
-#[derive(Clone, Debug)]
-pub struct ExportPoincare {
-    /// Expressions at the recorded points (empty: the state).
-    pub items: Vec<Src>,
-    /// `from RUN`.
-    pub run: Option<Src>,
-    /// The file.
-    pub path: Src,
-}
-
 /// `average [L] with x = … phase θ frequency ω amplitudes A, B`
 #[derive(Clone, Debug)]
 pub struct Average {

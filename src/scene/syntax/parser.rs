@@ -13,9 +13,9 @@ use pest::Parser as _;
 
 use super::ast::{
     Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item,
-    Jacobian, LevelSpec, Lie, LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh,
-    Series, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    EnsembleSpec, EventSpec, Export, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item, Jacobian, LevelSpec,
+    Lie, LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, Series, SimSpec,
+    SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -823,24 +823,6 @@ impl Reader {
         }
         let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
         Ok(Export { items, run, path })
-    }
-
-    /// `export poincare …`: the section's columns, the run and the file.
-    pub(crate) fn export_poincare_stmt(&self, p: Pair<Rule>) -> Result<ExportPoincare, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut items = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => items.push(self.src(&q)),
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(ExportPoincare { items, run, path })
     }
 
     /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
