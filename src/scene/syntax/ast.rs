@@ -399,32 +399,6 @@ pub struct Lie {
     pub format: Option<Format>,
 }
 
-/// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
-#[derive(Clone, Debug)]
-pub struct Series {
-    /// The expanded expression.
-    pub f: Src,
-    /// `in x, y`: the small quantities.
-    pub small: Vec<Src>,
-    /// `about q = q0, …`: the coordinates and the point.
-    pub about: Vec<(Src, Src)>,
-    /// `order N` (default 2, as on the command line).
-    pub order: Option<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `jacobian (X1, …) in y1, …`.
-#[derive(Clone, Debug)]
-pub struct Jacobian {
-    /// The map's components.
-    pub map: Vec<Src>,
-    /// The variables they depend on.
-    pub vars: Vec<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
 /// `integral f [with H]`.
 #[derive(Clone, Debug)]
 pub struct Integral {

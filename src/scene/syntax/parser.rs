@@ -13,9 +13,9 @@ use pest::Parser as _;
 
 use super::ast::{
     Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, Export, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item, Jacobian, LevelSpec,
-    Lie, LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, Series, SimSpec,
-    SmallSpec, Src, StabilizeSpec, Transform,
+    EnsembleSpec, EventSpec, Export, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie,
+    LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, SimSpec, SmallSpec, Src,
+    StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -1102,44 +1102,6 @@ impl Reader {
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
         Ok(Integral { f, h: it.next(), format })
-    }
-
-    pub(crate) fn series(&self, p: Pair<Rule>) -> Result<Series, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut exprs, mut small, mut about, mut format) = (Vec::new(), Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::series_in => small = q.into_inner().flat_map(|n| self.names(n)).collect(),
-                Rule::series_about => {
-                    for init in q.into_inner().filter(|i| i.as_rule() == Rule::init) {
-                        let mut it = init.into_inner();
-                        if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                            about.push((self.src(&s), self.src(&v)));
-                        }
-                    }
-                }
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = exprs.into_iter();
-        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
-        Ok(Series { f, small, about, order: it.next(), format })
-    }
-
-    pub(crate) fn jacobian(&self, p: Pair<Rule>) -> Jacobian {
-        let inner = self.inner(&p);
-        let (mut map, mut vars, mut format) = (Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::geo_tuple => map = self.tuple(q),
-                Rule::name_list => vars = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        Jacobian { map, vars, format }
     }
 
     pub(crate) fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
