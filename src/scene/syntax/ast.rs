@@ -198,17 +198,6 @@ pub struct ChaosSpec {
     pub level: Option<LevelSpec>,
 }
 
-/// `flow θ = 1, θ' = 0 for t in 0..T [tol = …] [points N] [to FILE]`.
-#[derive(Clone, Debug)]
-pub struct FlowSpec {
-    /// The starts, time span and options, read like a `simulate` statement's.
-    pub sim: SimSpec,
-    /// `to FILE`: the checks against time, drawn or as a table.
-    pub path: Option<Src>,
-    /// The word `flow`.
-    pub word: Span,
-}
-
 /// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
 /// variable solved for (on the given side of zero).
 #[derive(Clone, Debug)]

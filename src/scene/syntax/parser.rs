@@ -13,9 +13,9 @@ use pest::Parser as _;
 
 use super::ast::{
     Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, Export, FlowSpec, Force, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie,
-    LieGenerator, Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, SimSpec, SmallSpec, Src,
-    StabilizeSpec, Transform,
+    EnsembleSpec, EventSpec, Export, Force, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator,
+    Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, SimSpec, SmallSpec, Src, StabilizeSpec,
+    Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -619,14 +619,6 @@ impl Reader {
         self.simulate(self.inner(&p), self.span(&p))
     }
 
-    /// `flow …`: a simulate-like start and an optional output file.
-    pub(crate) fn flow(&self, p: Pair<Rule>) -> Result<FlowSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| self.path(q.clone()));
-        let word = (span.0, span.0 + "flow".len());
-        Ok(FlowSpec { sim: self.simulate(inner, span)?, path, word })
-    }
-
     /// `force q = Q`.
     pub(crate) fn force(&self, p: Pair<Rule>) -> Result<Force, SceneError> {
         let span = self.span(&p);
@@ -1124,30 +1116,35 @@ impl Reader {
     }
 }
 
+/// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
+/// fields); `rule` is the rule the grammar must have chosen. For the statements' unit tests.
+#[cfg(test)]
+pub(crate) fn read_one<T>(
+    s: &str,
+    rule: Rule,
+    read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>,
+) -> T {
+    thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
+    let lang = Language { read, words: Vec::new };
+    let seen = Language {
+        read: |_, p| {
+            RULE.with(|r| r.set(Some(p.as_rule())));
+            Ok(())
+        },
+        words: Vec::new,
+    };
+    parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
+    assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
+    match parse_statement_at(s, 0, s.len(), &lang) {
+        Ok(Some(v)) => v,
+        Ok(None) => panic!("{s}: no statement"),
+        Err(e) => panic!("{s}: {e:?}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
-    /// fields); `rule` is the rule the grammar must have chosen.
-    fn one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>) -> T {
-        thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
-        let lang = Language { read, words: Vec::new };
-        let seen = Language {
-            read: |_, p| {
-                RULE.with(|r| r.set(Some(p.as_rule())));
-                Ok(())
-            },
-            words: Vec::new,
-        };
-        parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
-        assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
-        match parse_statement_at(s, 0, s.len(), &lang) {
-            Ok(Some(v)) => v,
-            Ok(None) => panic!("{s}: no statement"),
-            Err(e) => panic!("{s}: {e:?}"),
-        }
-    }
 
     /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
     /// read here, in a test, so the parser itself never classifies rules by their names).
@@ -1168,25 +1165,8 @@ mod tests {
     }
 
     #[test]
-    fn flow_reads_a_simulate_start_and_an_output_file() {
-        let f =
-            one("flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg", Rule::flow_stmt, |r, p| {
-                r.flow(p)
-            });
-        assert_eq!(f.sim.inits.len(), 2);
-        assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
-        assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
-        assert_eq!(f.sim.points.map(|m| m.text), Some("50".to_string()));
-        assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
-        assert_eq!(f.word, (0, 4));
-        // `flow` inside `lie` is still the Lie flow, not this statement.
-        let lie = one("lie q flow order 4", Rule::lie, |r, p| r.lie(p));
-        assert!(matches!(lie.generator, LieGenerator::Flow(None)));
-    }
-
-    #[test]
     fn simulate_keywords_end_expressions() {
-        let s = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
+        let s = read_one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
             r.simulate_stmt(p)
         });
         assert_eq!(s.inits.len(), 2);
@@ -1200,7 +1180,7 @@ mod tests {
     #[test]
     fn parameters_with_assumption() {
         let Parameters { params, positive } =
-            one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
+            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
         assert!(positive);
         assert_eq!(params.len(), 3);
         assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
@@ -1208,10 +1188,10 @@ mod tests {
 
     #[test]
     fn definitions_and_derivations() {
-        let define = |s| one(s, Rule::definition, |r, p| r.definition(p));
+        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
         assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
         assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
-        let derive = |s| one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
         assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
         assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
