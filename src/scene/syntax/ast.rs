@@ -425,36 +425,6 @@ pub struct Transform {
     pub format: Option<Format>,
 }
 
-/// `force x = …`: a generalized force on a coordinate.
-#[derive(Clone, Debug)]
-pub struct Force {
-    /// The coordinate.
-    pub coord: Src,
-    /// The force `Q(q, q', t)`.
-    pub value: Src,
-}
-
-/// `rayleigh [R =] …`: the Rayleigh dissipation function.
-#[derive(Clone, Debug)]
-pub struct Rayleigh {
-    /// The name it is defined as, if any.
-    pub name: Option<Src>,
-    /// `R(q, q')`.
-    pub value: Src,
-}
-
-/// `constraint f = g`: the holonomic constraint `f − g = 0`; `constraint velocity g = h`:
-/// the velocity constraint `g − h = 0`, linear in the velocities.
-#[derive(Clone, Debug)]
-pub struct Constraint {
-    /// Whether it is a velocity (nonholonomic) constraint.
-    pub velocity: bool,
-    /// The left side.
-    pub lhs: Src,
-    /// The right side (zero when absent).
-    pub rhs: Option<Src>,
-}
-
 /// `load FILE`
 #[derive(Clone, Debug)]
 pub struct Load(pub Src);

@@ -12,10 +12,9 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Action, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, Export, Force, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator,
-    Load, Parameters, PlotKind, PlotSpec, PointTransform, Print, Rayleigh, SimSpec, SmallSpec, Src, StabilizeSpec,
-    Transform,
+    Action, Average, AverageSweep, ChaosSpec, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
+    EnsembleSpec, EventSpec, Export, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator, Load,
+    Parameters, PlotKind, PlotSpec, PointTransform, Print, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -617,42 +616,6 @@ impl Reader {
     /// `simulate …`.
     pub(crate) fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
         self.simulate(self.inner(&p), self.span(&p))
-    }
-
-    /// `force q = Q`.
-    pub(crate) fn force(&self, p: Pair<Rule>) -> Result<Force, SceneError> {
-        let span = self.span(&p);
-        let mut it = self.inner(&p).into_iter();
-        match (it.next(), it.next()) {
-            (Some(c), Some(v)) => Ok(Force { coord: self.src(&c), value: self.src(&v) }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
-        }
-    }
-
-    /// `rayleigh [R =] …`.
-    pub(crate) fn rayleigh(&self, p: Pair<Rule>) -> Result<Rayleigh, SceneError> {
-        let span = self.span(&p);
-        let mut name = None;
-        let mut value = None;
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::name => name = Some(self.src(&q)),
-                _ => value = Some(self.src(&q)),
-            }
-        }
-        let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
-        Ok(Rayleigh { name, value })
-    }
-
-    /// `constraint [velocity] f [= g]`.
-    pub(crate) fn constraint(&self, p: Pair<Rule>) -> Result<Constraint, SceneError> {
-        let span = self.span(&p);
-        let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
-        let mut it = self.inner(&p).into_iter();
-        let lhs = it.next().map(|q| self.src(&q));
-        let rhs = it.next().map(|q| self.src(&q));
-        let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
-        Ok(Constraint { velocity, lhs, rhs })
     }
 
     /// `load FILE`.
