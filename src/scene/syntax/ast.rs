@@ -253,39 +253,6 @@ pub enum LieGenerator {
     Flow(Option<Src>),
 }
 
-/// What a `plot` draws.
-#[derive(Clone, Debug)]
-pub enum PlotKind {
-    /// Phase portrait of one coordinate with contours of `H`.
-    Phase(Option<Src>),
-    /// Relative energy error against time.
-    Energy,
-    /// A configuration-space path `(x, y)`.
-    Path(Src, Src),
-    /// The points recorded by a `record when` event.
-    Poincare(Src, Src),
-    /// Expressions against time.
-    Series(Vec<Src>),
-    /// log₁₀ of the phase-space distance between two runs against time.
-    Separation(Src, Src),
-    /// A chaos indicator (`lyapunov`, `megno`, `fli`) against time, from chaos statements.
-    Chaos(Src),
-    /// Error against work over several runs of the system, one line per method; the error
-    /// is against the named reference run, else the largest relative energy error.
-    WorkPrecision(Option<Src>),
-}
-
-/// `plot …`.
-#[derive(Clone, Debug)]
-pub struct PlotSpec {
-    /// What to draw.
-    pub kind: PlotKind,
-    /// `from RUN, RUN` (default: the latest run).
-    pub runs: Vec<Src>,
-    /// `to FILE` (default: a name derived from the scene and the plot kind).
-    pub path: Option<Src>,
-}
-
 /// `coordinates θ, φ`
 #[derive(Clone, Debug)]
 pub struct Coordinates(pub Vec<Src>);
@@ -328,17 +295,6 @@ pub struct Print {
     pub items: Vec<Item>,
     /// `as latex`.
     pub format: Option<Format>,
-}
-
-/// `export … to FILE`
-#[derive(Clone, Debug)]
-pub struct Export {
-    /// Columns or symbolic results (empty: the whole state).
-    pub items: Vec<Item>,
-    /// `from RUN`.
-    pub run: Option<Src>,
-    /// The file.
-    pub path: Src,
 }
 
 /// `average [L] with x = … phase θ frequency ω amplitudes A, B`

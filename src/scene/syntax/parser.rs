@@ -13,8 +13,8 @@ use pest::Parser as _;
 
 use super::ast::{
     Action, Average, AverageSweep, ChaosSpec, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, Export, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator, Load,
-    Parameters, PlotKind, PlotSpec, PointTransform, Print, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    EnsembleSpec, EventSpec, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator, Load,
+    Parameters, PointTransform, Print, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -709,75 +709,6 @@ impl Reader {
             indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
         let sim = self.simulate(inner, span)?;
         Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
-    }
-
-    /// `plot …`: what is drawn, from which runs, to which file.
-    pub(crate) fn plot_stmt(&self, p: Pair<Rule>) -> Result<PlotSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut kind = None;
-        let mut runs = Vec::new();
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::plot_phase => {
-                    let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
-                    kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
-                }
-                Rule::plot_energy => kind = Some(PlotKind::Energy),
-                Rule::plot_separation => {
-                    let names: Vec<Src> =
-                        q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| self.src(&s)).collect();
-                    if let [a, b] = &names[..] {
-                        kind = Some(PlotKind::Separation(a.clone(), b.clone()));
-                    }
-                }
-                Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(self.src(&k))),
-                Rule::plot_work_precision => {
-                    let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
-                    kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
-                }
-                Rule::plot_path | Rule::plot_poincare => {
-                    let is_path = q.as_rule() == Rule::plot_path;
-                    let xs: Vec<Src> =
-                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect();
-                    if let [x, y] = &xs[..] {
-                        kind = Some(if is_path {
-                            PlotKind::Path(x.clone(), y.clone())
-                        } else {
-                            PlotKind::Poincare(x.clone(), y.clone())
-                        });
-                    }
-                }
-                Rule::plot_series => {
-                    kind = Some(PlotKind::Series(
-                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect(),
-                    ));
-                }
-                Rule::name_list => runs = self.names(q),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
-        Ok(PlotSpec { kind, runs, path })
-    }
-
-    /// `export …`: the items, the run and the file.
-    pub(crate) fn export_stmt(&self, p: Pair<Rule>) -> Result<Export, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut items = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::print_item => items.push(self.item(q)?),
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(Export { items, run, path })
     }
 
     /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
