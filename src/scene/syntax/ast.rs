@@ -181,39 +181,6 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
-/// `megno …`, `lyapunov …`, `fli …` (one orbit) or `chaos_map INDICATOR …` (a grid).
-#[derive(Clone, Debug)]
-pub struct ChaosSpec {
-    /// `lyapunov`, `megno` or `fli`.
-    pub indicator: Src,
-    /// The starts, time span, options and name, read like a `simulate` statement's.
-    pub sim: SimSpec,
-    /// `chaos_map`: over a grid of starts.
-    pub map: bool,
-    /// The map's axes: `θ1 = -3..3` as (coordinate, from, to).
-    pub ranges: Vec<(Src, Src, Src)>,
-    /// The map's `to FILE`.
-    pub path: Option<Src>,
-    /// The map's `on H = 1/6 solve p_x > 0`: every start on that level set.
-    pub level: Option<LevelSpec>,
-}
-
-/// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
-/// variable solved for (on the given side of zero).
-#[derive(Clone, Debug)]
-pub struct LevelSpec {
-    /// The named expression held fixed (`H`).
-    pub on: Src,
-    /// Its value.
-    pub value: Src,
-    /// The state variable solved for.
-    pub solve: Src,
-    /// Solve on the positive (`> 0`) or negative side.
-    pub positive: bool,
-    /// The whole clause.
-    pub span: Span,
-}
-
 /// `small σ unperturbed ω0 [principal A] [order N]` of an `average` statement.
 #[derive(Clone, Debug)]
 pub struct SmallSpec {

@@ -12,9 +12,9 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Action, Average, AverageSweep, ChaosSpec, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive,
-    EnsembleSpec, EventSpec, FormatStmt, Functions, Help, Integral, Item, LevelSpec, Lie, LieGenerator, Load,
-    Parameters, PointTransform, Print, SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    Action, Average, AverageSweep, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec,
+    EventSpec, FormatStmt, Functions, Help, Integral, Item, Lie, LieGenerator, Load, Parameters, PointTransform, Print,
+    SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -668,47 +668,6 @@ impl Reader {
             }
         }
         Ok(Parameters { params, positive })
-    }
-
-    /// `lyapunov`/`megno`/`fli` of one orbit, or `chaos_map` (`map`) over a grid of starts.
-    pub(crate) fn chaos_stmt(&self, map: bool, p: Pair<Rule>) -> Result<ChaosSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
-        let mut ranges = Vec::new();
-        let mut path = None;
-        let mut level = None;
-        for q in &inner {
-            match q.as_rule() {
-                Rule::map_range => {
-                    let mut it = q.clone().into_inner();
-                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
-                        let mut b = r.into_inner();
-                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
-                            ranges.push((self.src(&s), self.src(&lo), self.src(&hi)));
-                        }
-                    }
-                }
-                Rule::path => path = Some(self.path(q.clone())),
-                Rule::map_level => {
-                    let lspan = self.span(q);
-                    let parts: Vec<Pair<Rule>> = q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
-                    if let [on, value, solve, sign] = &parts[..] {
-                        level = Some(LevelSpec {
-                            on: self.src(on),
-                            value: self.src(value),
-                            solve: self.src(solve),
-                            positive: sign.as_str() == ">",
-                            span: lspan,
-                        });
-                    }
-                }
-                _ => {}
-            }
-        }
-        let indicator =
-            indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
-        let sim = self.simulate(inner, span)?;
-        Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
     }
 
     /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
