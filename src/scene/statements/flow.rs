@@ -337,7 +337,7 @@ impl Stmt for FlowSpec {
 #[cfg(test)]
 mod tests {
     use super::FlowSpec;
-    use crate::scene::syntax::ast::LieGenerator;
+    use crate::scene::statements::canonical::{Lie, LieGenerator};
     use crate::scene::syntax::parser::{read_one, Rule};
 
     #[test]
@@ -354,7 +354,7 @@ mod tests {
         assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
         assert_eq!(f.word, (0, 4));
         // `flow` inside `lie` is still the Lie flow, not this statement.
-        let lie = read_one("lie q flow order 4", Rule::lie, |r, p| r.lie(p));
+        let lie = read_one("lie q flow order 4", Rule::lie, Lie::read);
         assert!(matches!(lie.generator, LieGenerator::Flow(None)));
     }
 }

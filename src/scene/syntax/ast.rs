@@ -181,45 +181,6 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
-/// `small σ unperturbed ω0 [principal A] [order N]` of an `average` statement.
-#[derive(Clone, Debug)]
-pub struct SmallSpec {
-    /// The small parameter.
-    pub small: Src,
-    /// The frequency at zeroth order.
-    pub unperturbed: Src,
-    /// The amplitude left free (default: the first).
-    pub principal: Option<Src>,
-    /// The order of the series in the small parameter (default 1).
-    pub order: Option<Src>,
-    /// `for A in a..b [points N] [to FILE]`: the relations solved numerically along `A`.
-    pub sweep: Option<Box<AverageSweep>>,
-}
-
-/// `for A in a..b [points N] [to FILE]` of an `average … small` statement.
-#[derive(Clone, Debug)]
-pub struct AverageSweep {
-    /// The principal amplitude swept.
-    pub amplitude: Src,
-    /// The first and last amplitude.
-    pub from: Src,
-    /// The last amplitude.
-    pub to: Src,
-    /// How many amplitudes (default 20).
-    pub points: Option<Src>,
-    /// The figure or table written.
-    pub path: Option<Src>,
-}
-
-/// The generator of a `lie` statement.
-#[derive(Clone, Debug)]
-pub enum LieGenerator {
-    /// `with G`.
-    With(Src),
-    /// `flow [H]`.
-    Flow(Option<Src>),
-}
-
 /// `coordinates θ, φ`
 #[derive(Clone, Debug)]
 pub struct Coordinates(pub Vec<Src>);
@@ -260,90 +221,6 @@ pub struct Derive {
 pub struct Print {
     /// What to print.
     pub items: Vec<Item>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `average [L] with x = … phase θ frequency ω amplitudes A, B`
-#[derive(Clone, Debug)]
-pub struct Average {
-    /// The Lagrangian (default `L`).
-    pub l: Option<Src>,
-    /// Trial functions: coordinate and its value as a function of the phase.
-    pub trials: Vec<(Src, Src)>,
-    /// The phase.
-    pub phase: Src,
-    /// The frequency `ω = θ'`.
-    pub frequency: Src,
-    /// The amplitudes.
-    pub amplitudes: Vec<Src>,
-    /// `small σ unperturbed ω0 [principal A]`: solve to first order in `σ`.
-    pub small: Option<SmallSpec>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `transform [L] with x = r cos(φ), … [to r, φ]`: a point transformation.
-#[derive(Clone, Debug)]
-pub struct PointTransform {
-    /// The Lagrangian (default `L`).
-    pub l: Option<Src>,
-    /// Old coordinate and its value in the new coordinates.
-    pub map: Vec<(Src, Src)>,
-    /// The new coordinates (empty: the map's new symbols, in order).
-    pub to: Vec<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
-#[derive(Clone, Debug)]
-pub struct Lie {
-    /// The function transformed.
-    pub f: Src,
-    /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
-    pub generator: LieGenerator,
-    /// `order N` (default 3, as on the command line).
-    pub order: Option<Src>,
-    /// `in ε` (default `ε`).
-    pub epsilon: Option<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `integral f [with H]`.
-#[derive(Clone, Debug)]
-pub struct Integral {
-    /// The candidate.
-    pub f: Src,
-    /// The Hamiltonian (default the session's).
-    pub h: Option<Src>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `action [H] at E = … [near q0]`.
-#[derive(Clone, Debug)]
-pub struct Action {
-    /// The Hamiltonian (default the session's).
-    pub h: Option<Src>,
-    /// The energies.
-    pub energies: Vec<Src>,
-    /// A coordinate value inside the well (default 0).
-    pub near: Option<Src>,
-}
-
-/// `transform [H] with F1 = … new Q, P`
-#[derive(Clone, Debug)]
-pub struct Transform {
-    /// The Hamiltonian (default `H`, or `legendre(L)`).
-    pub h: Option<Src>,
-    /// `F1` … `F4`.
-    pub kind: String,
-    /// The generating function.
-    pub f: Src,
-    /// New coordinates then new momenta.
-    pub new: Vec<Src>,
     /// `as latex`.
     pub format: Option<Format>,
 }

@@ -12,9 +12,8 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Action, Average, AverageSweep, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec,
-    EventSpec, FormatStmt, Functions, Help, Integral, Item, Lie, LieGenerator, Load, Parameters, PointTransform, Print,
-    SimSpec, SmallSpec, Src, StabilizeSpec, Transform,
+    Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Functions, Help,
+    Item, Load, Parameters, Print, SimSpec, Src, StabilizeSpec,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -504,6 +503,12 @@ impl Reader {
         }
     }
 
+    /// An empty piece of source at the statement's start (for a part a malformed statement
+    /// lacks; the grammar makes it rare).
+    pub(crate) fn empty(&self) -> Src {
+        Src { text: String::new(), span: (self.base, self.base) }
+    }
+
     pub(crate) fn path(&self, p: Pair<Rule>) -> Src {
         let inner = p.into_inner().next();
         match inner {
@@ -513,7 +518,7 @@ impl Reader {
                 Src { text: t[1..t.len() - 1].to_string(), span: s }
             }
             Some(q) => self.src(&q),
-            None => Src { text: String::new(), span: (self.base, self.base) },
+            None => self.empty(),
         }
     }
 
@@ -670,58 +675,6 @@ impl Reader {
         Ok(Parameters { params, positive })
     }
 
-    /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
-    pub(crate) fn average_stmt(&self, p: Pair<Rule>) -> Result<Average, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut l = None;
-        let mut trials = Vec::new();
-        let mut names = Vec::new();
-        let mut amplitudes = Vec::new();
-        let mut small = None;
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        trials.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::name => names.push(self.src(&q)),
-                Rule::name_list => amplitudes = self.names(q),
-                Rule::average_small => small = Some(self.small(q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = names.into_iter();
-        Ok(match (it.next(), it.next()) {
-            (Some(phase), Some(frequency)) => Average { l, trials, phase, frequency, amplitudes, small, format },
-            _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
-        })
-    }
-
-    /// `transform … with F1 = …`: `H`, the generating function's kind and expression, the new names.
-    pub(crate) fn transform_stmt(&self, p: Pair<Rule>) -> Result<Transform, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut exprs = Vec::new();
-        let mut kind = String::new();
-        let mut new = Vec::new();
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::gen_kind => kind = q.as_str().to_string(),
-                Rule::name_list => new = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let f = exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
-        Ok(Transform { h: exprs.pop(), kind, f, new, format })
-    }
-
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
         let mut inits = Vec::new();
         let mut time_var = None;
@@ -846,126 +799,11 @@ impl Reader {
             span: espan,
         }
     }
-}
 
-/// The derivation statements that mirror the command line (`transform … with x = …`, `lie`,
-/// `integral`, `action`, `average … small`): scene parity with the command line.
-impl Reader {
-    pub(crate) fn small(&self, p: Pair<Rule>) -> SmallSpec {
-        let mut names = Vec::new();
-        let mut exprs = Vec::new();
-        let mut sweep = None;
-        for q in p.into_inner() {
-            match q.as_rule() {
-                Rule::name => names.push(self.src(&q)),
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::average_sweep => sweep = self.average_sweep(q).map(Box::new),
-                _ => {}
-            }
-        }
-        let mut it = names.into_iter();
-        let small = it.next().unwrap_or_else(|| Src { text: String::new(), span: (self.base, self.base) });
-        let mut exprs = exprs.into_iter();
-        let unperturbed = exprs.next().unwrap_or_else(|| small.clone());
-        SmallSpec { small, unperturbed, principal: it.next(), order: exprs.next(), sweep }
-    }
-
-    pub(crate) fn average_sweep(&self, p: Pair<Rule>) -> Option<AverageSweep> {
-        let (mut amplitude, mut bounds, mut points, mut path) = (None, Vec::new(), None, None);
-        for q in p.into_inner() {
-            match q.as_rule() {
-                Rule::name => amplitude = Some(self.src(&q)),
-                Rule::time_span => bounds = q.into_inner().map(|b| self.src(&b)).collect(),
-                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
-                Rule::path => path = Some(self.src(&q)),
-                _ => {}
-            }
-        }
-        let mut b = bounds.into_iter();
-        Some(AverageSweep { amplitude: amplitude?, from: b.next()?, to: b.next()?, points, path })
-    }
-
-    pub(crate) fn point_transform(&self, p: Pair<Rule>) -> PointTransform {
-        let inner = self.inner(&p);
-        let (mut l, mut map, mut to, mut format) = (None, Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        map.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::name_list => to = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        PointTransform { l, map, to, format }
-    }
-
-    pub(crate) fn lie(&self, p: Pair<Rule>) -> Result<Lie, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr if f.is_none() => f = Some(self.src(&q)),
-                Rule::sexpr => order = Some(self.src(&q)),
-                Rule::lie_with => {
-                    let g = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-                    generator = g.map(LieGenerator::With);
-                }
-                Rule::lie_flow => {
-                    let h = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-                    generator = Some(LieGenerator::Flow(h));
-                }
-                Rule::name => epsilon = Some(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        match (f, generator) {
-            (Some(f), Some(generator)) => Ok(Lie { f, generator, order, epsilon, format }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `lie`")
-                .at(span)
-                .hint("`lie f with G order 3` or `lie f flow H order 3`")),
-        }
-    }
-
-    pub(crate) fn integral(&self, p: Pair<Rule>) -> Result<Integral, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut exprs = Vec::new();
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = exprs.into_iter();
-        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
-        Ok(Integral { f, h: it.next(), format })
-    }
-
+    /// A tuple `(a, b, …)` of expressions: `jacobian`'s map, `geodesic`'s metric rows and ends,
+    /// `ritz`'s `near`.
     pub(crate) fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
         p.into_inner().filter(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)).collect()
-    }
-
-    pub(crate) fn action(&self, p: Pair<Rule>) -> Action {
-        let inner = self.inner(&p);
-        let (mut h, mut energies, mut near) = (None, Vec::new(), None);
-        let first = |q: Pair<Rule>| q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-        for q in inner {
-            match q.as_rule() {
-                Rule::action_h => h = first(q),
-                Rule::action_energy => energies.extend(first(q)),
-                Rule::action_near => near = first(q),
-                _ => {}
-            }
-        }
-        Action { h, energies, near }
     }
 }
 
