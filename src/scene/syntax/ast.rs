@@ -1,4 +1,5 @@
-//! The statement tree. Expressions stay as source text with their span until the session
+//! The statement tree's shared pieces (a statement with its own file under `statements/` keeps
+//! its type there, beside its reader and handler). Expressions stay as source text with their span until the session
 //! parses them with its current declarations (which functions exist, which symbols are
 //! positive): declarations earlier in a scene change how later text parses.
 
