@@ -7,8 +7,63 @@ use crate::animate::{Animation, Frame};
 use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::{Output, Stmt};
-use crate::scene::syntax::ast::{AnimateSpec, Src};
+use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `animate …`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct AnimateSpec {
+    /// The points `(x, y)`: bodies, joined by arms in order.
+    pub points: Vec<(Src, Src)>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The GIF file.
+    pub path: Src,
+    /// `fps N`.
+    pub fps: Option<Src>,
+    /// `duration SECONDS`.
+    pub duration: Option<Src>,
+    /// `size PIXELS`.
+    pub size: Option<Src>,
+}
+
+impl AnimateSpec {
+    /// `animate …`: the points drawn, the run, the file and the frame options.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<AnimateSpec, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut points = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        let (mut fps, mut duration, mut size) = (None, None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::anim_point => {
+                    let xs: Vec<Src> = q.into_inner().map(|s| r.src(&s)).collect();
+                    if let [x, y] = &xs[..] {
+                        points.push((x.clone(), y.clone()));
+                    }
+                }
+                Rule::name => run = Some(r.src(&q)),
+                Rule::path => path = Some(r.path(q)),
+                Rule::anim_option => {
+                    let parts: Vec<Pair<Rule>> = q.into_inner().collect();
+                    if let [key, value] = &parts[..] {
+                        let v = Some(r.src(value));
+                        match key.as_str() {
+                            "fps" => fps = v,
+                            "duration" => duration = v,
+                            _ => size = v,
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
+        Ok(AnimateSpec { points, run, path, fps, duration, size })
+    }
+}
 
 /// The error hint for a file that is not a GIF.
 pub(in crate::scene) const ANIMATION_FORMATS: &str = "animations are written as `.gif`";

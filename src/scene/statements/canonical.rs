@@ -15,9 +15,319 @@ use crate::print::{render, Format};
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::{Action, Average, Integral, Lie, PointTransform, Transform};
-use crate::scene::syntax::ast::{LieGenerator, Src};
+use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `average [L] with x = … phase θ frequency ω amplitudes A, B`
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Average {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Trial functions: coordinate and its value as a function of the phase.
+    pub trials: Vec<(Src, Src)>,
+    /// The phase.
+    pub phase: Src,
+    /// The frequency `ω = θ'`.
+    pub frequency: Src,
+    /// The amplitudes.
+    pub amplitudes: Vec<Src>,
+    /// `small σ unperturbed ω0 [principal A]`: solve to first order in `σ`.
+    pub small: Option<SmallSpec>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `transform [H] with F1 = … new Q, P`
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Transform {
+    /// The Hamiltonian (default `H`, or `legendre(L)`).
+    pub h: Option<Src>,
+    /// `F1` … `F4`.
+    pub kind: String,
+    /// The generating function.
+    pub f: Src,
+    /// New coordinates then new momenta.
+    pub new: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `transform [L] with x = r cos(φ), … [to r, φ]`: a point transformation.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct PointTransform {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Old coordinate and its value in the new coordinates.
+    pub map: Vec<(Src, Src)>,
+    /// The new coordinates (empty: the map's new symbols, in order).
+    pub to: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Lie {
+    /// The function transformed.
+    pub f: Src,
+    /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
+    pub generator: LieGenerator,
+    /// `order N` (default 3, as on the command line).
+    pub order: Option<Src>,
+    /// `in ε` (default `ε`).
+    pub epsilon: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `integral f [with H]`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Integral {
+    /// The candidate.
+    pub f: Src,
+    /// The Hamiltonian (default the session's).
+    pub h: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `action [H] at E = … [near q0]`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Action {
+    /// The Hamiltonian (default the session's).
+    pub h: Option<Src>,
+    /// The energies.
+    pub energies: Vec<Src>,
+    /// A coordinate value inside the well (default 0).
+    pub near: Option<Src>,
+}
+
+/// `small σ unperturbed ω0 [principal A] [order N]` of an `average` statement.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct SmallSpec {
+    /// The small parameter.
+    pub small: Src,
+    /// The frequency at zeroth order.
+    pub unperturbed: Src,
+    /// The amplitude left free (default: the first).
+    pub principal: Option<Src>,
+    /// The order of the series in the small parameter (default 1).
+    pub order: Option<Src>,
+    /// `for A in a..b [points N] [to FILE]`: the relations solved numerically along `A`.
+    pub sweep: Option<Box<AverageSweep>>,
+}
+
+/// `for A in a..b [points N] [to FILE]` of an `average … small` statement.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct AverageSweep {
+    /// The principal amplitude swept.
+    pub amplitude: Src,
+    /// The first and last amplitude.
+    pub from: Src,
+    /// The last amplitude.
+    pub to: Src,
+    /// How many amplitudes (default 20).
+    pub points: Option<Src>,
+    /// The figure or table written.
+    pub path: Option<Src>,
+}
+
+/// The generator of a `lie` statement.
+#[derive(Clone, Debug)]
+pub(in crate::scene) enum LieGenerator {
+    /// `with G`.
+    With(Src),
+    /// `flow [H]`.
+    Flow(Option<Src>),
+}
+
+impl Average {
+    /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Average, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut l = None;
+        let mut trials = Vec::new();
+        let mut names = Vec::new();
+        let mut amplitudes = Vec::new();
+        let mut small = None;
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => l = Some(r.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        trials.push((r.src(&s), r.src(&v)));
+                    }
+                }
+                Rule::name => names.push(r.src(&q)),
+                Rule::name_list => amplitudes = r.names(q),
+                Rule::average_small => small = Some(SmallSpec::read(r, q)),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = names.into_iter();
+        Ok(match (it.next(), it.next()) {
+            (Some(phase), Some(frequency)) => Average { l, trials, phase, frequency, amplitudes, small, format },
+            _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
+        })
+    }
+}
+
+impl Transform {
+    /// `transform … with F1 = …`: `H`, the generating function's kind and expression, the new names.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Transform, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut exprs = Vec::new();
+        let mut kind = String::new();
+        let mut new = Vec::new();
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(r.src(&q)),
+                Rule::gen_kind => kind = q.as_str().to_string(),
+                Rule::name_list => new = r.names(q),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        let f = exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
+        Ok(Transform { h: exprs.pop(), kind, f, new, format })
+    }
+}
+
+impl PointTransform {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> PointTransform {
+        let inner = r.inner(&p);
+        let (mut l, mut map, mut to, mut format) = (None, Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => l = Some(r.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        map.push((r.src(&s), r.src(&v)));
+                    }
+                }
+                Rule::name_list => to = r.names(q),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        PointTransform { l, map, to, format }
+    }
+}
+
+impl Lie {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Lie, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr if f.is_none() => f = Some(r.src(&q)),
+                Rule::sexpr => order = Some(r.src(&q)),
+                Rule::lie_with => {
+                    let g = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| r.src(&x));
+                    generator = g.map(LieGenerator::With);
+                }
+                Rule::lie_flow => {
+                    let h = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| r.src(&x));
+                    generator = Some(LieGenerator::Flow(h));
+                }
+                Rule::name => epsilon = Some(r.src(&q)),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        match (f, generator) {
+            (Some(f), Some(generator)) => Ok(Lie { f, generator, order, epsilon, format }),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `lie`")
+                .at(span)
+                .hint("`lie f with G order 3` or `lie f flow H order 3`")),
+        }
+    }
+}
+
+impl Integral {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Integral, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut exprs = Vec::new();
+        let mut format = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(r.src(&q)),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = exprs.into_iter();
+        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
+        Ok(Integral { f, h: it.next(), format })
+    }
+}
+
+impl Action {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Action {
+        let inner = r.inner(&p);
+        let (mut h, mut energies, mut near) = (None, Vec::new(), None);
+        let first = |q: Pair<Rule>| q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| r.src(&x));
+        for q in inner {
+            match q.as_rule() {
+                Rule::action_h => h = first(q),
+                Rule::action_energy => energies.extend(first(q)),
+                Rule::action_near => near = first(q),
+                _ => {}
+            }
+        }
+        Action { h, energies, near }
+    }
+}
+
+impl SmallSpec {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> SmallSpec {
+        let mut names = Vec::new();
+        let mut exprs = Vec::new();
+        let mut sweep = None;
+        for q in p.into_inner() {
+            match q.as_rule() {
+                Rule::name => names.push(r.src(&q)),
+                Rule::sexpr => exprs.push(r.src(&q)),
+                Rule::average_sweep => sweep = AverageSweep::read(r, q).map(Box::new),
+                _ => {}
+            }
+        }
+        let mut it = names.into_iter();
+        let small = it.next().unwrap_or_else(|| r.empty());
+        let mut exprs = exprs.into_iter();
+        let unperturbed = exprs.next().unwrap_or_else(|| small.clone());
+        SmallSpec { small, unperturbed, principal: it.next(), order: exprs.next(), sweep }
+    }
+}
+
+impl AverageSweep {
+    /// Reads the statement's pair.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Option<AverageSweep> {
+        let (mut amplitude, mut bounds, mut points, mut path) = (None, Vec::new(), None, None);
+        for q in p.into_inner() {
+            match q.as_rule() {
+                Rule::name => amplitude = Some(r.src(&q)),
+                Rule::time_span => bounds = q.into_inner().map(|b| r.src(&b)).collect(),
+                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| r.src(&x)),
+                Rule::path => path = Some(r.src(&q)),
+                _ => {}
+            }
+        }
+        let mut b = bounds.into_iter();
+        Some(AverageSweep { amplitude: amplitude?, from: b.next()?, to: b.next()?, points, path })
+    }
+}
 
 fn failed(what: &str, e: impl std::fmt::Display, span: crate::scene::syntax::ast::Span) -> SceneError {
     SceneError::new(ErrorKind::Derivation, format!("{what}: {e}")).at(span)
@@ -309,7 +619,7 @@ impl Session {
         w: &Symbol,
         w0: &crate::expr::Expr,
         lo: &canonical::LeadingOrder,
-        sweep: &crate::scene::syntax::ast::AverageSweep,
+        sweep: &AverageSweep,
     ) -> Result<(), SceneError> {
         let principal = Symbol::new(sweep.amplitude.text.trim());
         if !avg.relations.iter().any(|(a, _)| *a == principal) {

@@ -28,8 +28,85 @@ use crate::scene::engine::progress::Progress;
 use crate::scene::session::{backend_error, fmt_num};
 use crate::scene::state::{At, ChaosRun, Layout, Session};
 use crate::scene::statements::{Output, Stmt};
-use crate::scene::syntax::ast::{ChaosSpec, LevelSpec, SimSpec, Src};
+use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `megno …`, `lyapunov …`, `fli …` (one orbit) or `chaos_map INDICATOR …` (a grid).
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct ChaosSpec {
+    /// `lyapunov`, `megno` or `fli`.
+    pub indicator: Src,
+    /// The starts, time span, options and name, read like a `simulate` statement's.
+    pub sim: SimSpec,
+    /// `chaos_map`: over a grid of starts.
+    pub map: bool,
+    /// The map's axes: `θ1 = -3..3` as (coordinate, from, to).
+    pub ranges: Vec<(Src, Src, Src)>,
+    /// The map's `to FILE`.
+    pub path: Option<Src>,
+    /// The map's `on H = 1/6 solve p_x > 0`: every start on that level set.
+    pub level: Option<LevelSpec>,
+}
+
+/// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
+/// variable solved for (on the given side of zero).
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct LevelSpec {
+    /// The named expression held fixed (`H`).
+    pub on: Src,
+    /// Its value.
+    pub value: Src,
+    /// The state variable solved for.
+    pub solve: Src,
+    /// Solve on the positive (`> 0`) or negative side.
+    pub positive: bool,
+    /// The whole clause.
+    pub span: Span,
+}
+
+impl ChaosSpec {
+    /// `lyapunov`/`megno`/`fli` of one orbit, or `chaos_map` (`map`) over a grid of starts.
+    pub(in crate::scene) fn read(r: &Reader, map: bool, p: Pair<'_, Rule>) -> Result<ChaosSpec, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| r.src(q));
+        let mut ranges = Vec::new();
+        let mut path = None;
+        let mut level = None;
+        for q in &inner {
+            match q.as_rule() {
+                Rule::map_range => {
+                    let mut it = q.clone().into_inner();
+                    if let (Some(s), Some(range)) = (it.next(), it.next()) {
+                        let mut b = range.into_inner();
+                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                            ranges.push((r.src(&s), r.src(&lo), r.src(&hi)));
+                        }
+                    }
+                }
+                Rule::path => path = Some(r.path(q.clone())),
+                Rule::map_level => {
+                    let lspan = r.span(q);
+                    let parts: Vec<Pair<Rule>> = r.inner(q);
+                    if let [on, value, solve, sign] = &parts[..] {
+                        level = Some(LevelSpec {
+                            on: r.src(on),
+                            value: r.src(value),
+                            solve: r.src(solve),
+                            positive: sign.as_str() == ">",
+                            span: lspan,
+                        });
+                    }
+                }
+                _ => {}
+            }
+        }
+        let indicator =
+            indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
+        let sim = r.simulate(inner, span)?;
+        Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
+    }
+}
 
 /// The default tolerance of chaos statements: the tangent vectors grow like `e^{λt}`, so
 /// machine precision buys nothing for the indicator and costs steps.

@@ -16,9 +16,81 @@ use crate::scene::engine::backend::ExtendedLagrangian;
 use crate::scene::session::{fmt_num, symbol_span};
 use crate::scene::state::{At, Declared, Dynamics, Mode, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::{Constraint, Force, Rayleigh};
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `force x = …`: a generalized force on a coordinate.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Force {
+    /// The coordinate.
+    pub coord: Src,
+    /// The force `Q(q, q', t)`.
+    pub value: Src,
+}
+
+/// `rayleigh [R =] …`: the Rayleigh dissipation function.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Rayleigh {
+    /// The name it is defined as, if any.
+    pub name: Option<Src>,
+    /// `R(q, q')`.
+    pub value: Src,
+}
+
+/// `constraint f = g`: the holonomic constraint `f − g = 0`; `constraint velocity g = h`:
+/// the velocity constraint `g − h = 0`, linear in the velocities.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Constraint {
+    /// Whether it is a velocity (nonholonomic) constraint.
+    pub velocity: bool,
+    /// The left side.
+    pub lhs: Src,
+    /// The right side (zero when absent).
+    pub rhs: Option<Src>,
+}
+
+impl Force {
+    /// `force q = Q`.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Force, SceneError> {
+        let span = r.span(&p);
+        let mut it = r.inner(&p).into_iter();
+        match (it.next(), it.next()) {
+            (Some(c), Some(v)) => Ok(Force { coord: r.src(&c), value: r.src(&v) }),
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
+        }
+    }
+}
+
+impl Rayleigh {
+    /// `rayleigh [R =] …`.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Rayleigh, SceneError> {
+        let span = r.span(&p);
+        let mut name = None;
+        let mut value = None;
+        for q in r.inner(&p) {
+            match q.as_rule() {
+                Rule::name => name = Some(r.src(&q)),
+                _ => value = Some(r.src(&q)),
+            }
+        }
+        let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
+        Ok(Rayleigh { name, value })
+    }
+}
+
+impl Constraint {
+    /// `constraint [velocity] f [= g]`.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Constraint, SceneError> {
+        let span = r.span(&p);
+        let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
+        let mut it = r.inner(&p).into_iter();
+        let lhs = it.next().map(|q| r.src(&q));
+        let rhs = it.next().map(|q| r.src(&q));
+        let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
+        Ok(Constraint { velocity, lhs, rhs })
+    }
+}
 
 /// Forces per coordinate, the Rayleigh function and the constraints, resolved.
 pub(in crate::scene) type ResolvedDynamics = (Vec<Expr>, Option<Expr>, Vec<Expr>);

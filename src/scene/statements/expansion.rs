@@ -8,8 +8,78 @@ use crate::print::{render, Format};
 use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::Src;
-use crate::scene::syntax::ast::{Jacobian, Series};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Series {
+    /// The expanded expression.
+    pub f: Src,
+    /// `in x, y`: the small quantities.
+    pub small: Vec<Src>,
+    /// `about q = q0, …`: the coordinates and the point.
+    pub about: Vec<(Src, Src)>,
+    /// `order N` (default 2, as on the command line).
+    pub order: Option<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// `jacobian (X1, …) in y1, …`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Jacobian {
+    /// The map's components.
+    pub map: Vec<Src>,
+    /// The variables they depend on.
+    pub vars: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+impl Series {
+    /// Reads the rule `series`: the first expression is expanded, a second one is the order.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Series, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let (mut exprs, mut small, mut about, mut format) = (Vec::new(), Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => exprs.push(r.src(&q)),
+                Rule::series_in => small = q.into_inner().flat_map(|n| r.names(n)).collect(),
+                Rule::series_about => {
+                    for init in q.into_inner().filter(|i| i.as_rule() == Rule::init) {
+                        let mut it = init.into_inner();
+                        if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                            about.push((r.src(&s), r.src(&v)));
+                        }
+                    }
+                }
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = exprs.into_iter();
+        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
+        Ok(Series { f, small, about, order: it.next(), format })
+    }
+}
+
+impl Jacobian {
+    /// Reads the rule `jacobian`: the map's tuple and the variables.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Jacobian {
+        let inner = r.inner(&p);
+        let (mut map, mut vars, mut format) = (Vec::new(), Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::geo_tuple => map = r.tuple(q),
+                Rule::name_list => vars = r.names(q),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        Jacobian { map, vars, format }
+    }
+}
 
 impl Session {
     /// `name` as a symbol, accepted even when nothing declared it (a small quantity `ε`).

@@ -1,4 +1,5 @@
-//! Outputs that read runs: `plot` (the figures) and `export` (CSV and JSON).
+//! Outputs that read runs: `plot` (the figures) and `export` (CSV and JSON): the statements'
+//! types, readers and handlers.
 
 use std::path::{Component, PathBuf};
 
@@ -11,8 +12,126 @@ use crate::scene::session::fmt_num;
 use crate::scene::state::Mode;
 use crate::scene::state::{At, Layout, Printed, RunResult, Session};
 use crate::scene::statements::{Output, Stmt};
-use crate::scene::syntax::ast::{DerivKind, Export, Item, PlotKind, PlotSpec, Src};
+use crate::scene::syntax::ast::{DerivKind, Item, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `plot …`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct PlotSpec {
+    /// What to draw.
+    pub kind: PlotKind,
+    /// `from RUN, RUN` (default: the latest run).
+    pub runs: Vec<Src>,
+    /// `to FILE` (default: a name derived from the scene and the plot kind).
+    pub path: Option<Src>,
+}
+
+/// What a `plot` draws.
+#[derive(Clone, Debug)]
+pub(in crate::scene) enum PlotKind {
+    /// Phase portrait of one coordinate with contours of `H`.
+    Phase(Option<Src>),
+    /// Relative energy error against time.
+    Energy,
+    /// A configuration-space path `(x, y)`.
+    Path(Src, Src),
+    /// The points recorded by a `record when` event.
+    Poincare(Src, Src),
+    /// Expressions against time.
+    Series(Vec<Src>),
+    /// log₁₀ of the phase-space distance between two runs against time.
+    Separation(Src, Src),
+    /// A chaos indicator (`lyapunov`, `megno`, `fli`) against time, from chaos statements.
+    Chaos(Src),
+    /// Error against work over several runs of the system, one line per method; the error
+    /// is against the named reference run, else the largest relative energy error.
+    WorkPrecision(Option<Src>),
+}
+
+/// `export … to FILE`
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Export {
+    /// Columns or symbolic results (empty: the whole state).
+    pub items: Vec<Item>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The file.
+    pub path: Src,
+}
+
+impl PlotSpec {
+    /// `plot …`: what is drawn, from which runs, to which file.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<PlotSpec, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut kind = None;
+        let mut runs = Vec::new();
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::plot_phase => {
+                    let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
+                    kind = Some(PlotKind::Phase(sym.map(|s| r.src(&s))));
+                }
+                Rule::plot_energy => kind = Some(PlotKind::Energy),
+                Rule::plot_separation => {
+                    let names: Vec<Src> =
+                        q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| r.src(&s)).collect();
+                    if let [a, b] = &names[..] {
+                        kind = Some(PlotKind::Separation(a.clone(), b.clone()));
+                    }
+                }
+                Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(r.src(&k))),
+                Rule::plot_work_precision => {
+                    let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
+                    kind = Some(PlotKind::WorkPrecision(reference.map(|s| r.src(&s))));
+                }
+                Rule::plot_path | Rule::plot_poincare => {
+                    let is_path = q.as_rule() == Rule::plot_path;
+                    let xs: Vec<Src> =
+                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| r.src(&s)).collect();
+                    if let [x, y] = &xs[..] {
+                        kind = Some(if is_path {
+                            PlotKind::Path(x.clone(), y.clone())
+                        } else {
+                            PlotKind::Poincare(x.clone(), y.clone())
+                        });
+                    }
+                }
+                Rule::plot_series => {
+                    kind = Some(PlotKind::Series(
+                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| r.src(&s)).collect(),
+                    ));
+                }
+                Rule::name_list => runs = r.names(q),
+                Rule::path => path = Some(r.path(q)),
+                _ => {}
+            }
+        }
+        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
+        Ok(PlotSpec { kind, runs, path })
+    }
+}
+
+impl Export {
+    /// `export …`: the items, the run and the file.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Export, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut items = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::print_item => items.push(r.item(q)?),
+                Rule::name => run = Some(r.src(&q)),
+                Rule::path => path = Some(r.path(q)),
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+        Ok(Export { items, run, path })
+    }
+}
 
 /// Columns of numbers as CSV (a header of names, one row per index) or as JSON (the run, its
 /// method and the named columns). Every column has the same length.

@@ -1,11 +1,66 @@
 //! The statement `geodesic` (§1.4.1, §1.6.3), which calls the same library functions as
-//! `lagrangian geodesic` and prints the same lines ([`Geodesic::report`]).
+//! `lagrangian geodesic` and prints the same lines ([`Geodesic::report`]): its type, its reader,
+//! its handler.
 
 use crate::mechanics::{embedded, geodesic, geodesic_from_metric, Geodesic};
+use crate::print::Format;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::{GeodesicSpec, Geometry};
+use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `geodesic …`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct GeodesicSpec {
+    /// The line element, metric or embedding.
+    pub geometry: Geometry,
+    /// `from (…) to (…)`: a shooting solution between two points.
+    pub ends: Option<(Vec<Src>, Vec<Src>)>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+/// The geometry of a `geodesic` statement.
+#[derive(Clone, Debug)]
+pub(in crate::scene) enum Geometry {
+    /// `ds^2 = dθ^2 + sin(θ)^2 dφ^2`
+    LineElement(Src),
+    /// `metric (1, 0), (0, sin(θ)^2)`: the rows.
+    Metric(Vec<Vec<Src>>),
+    /// `embedding (X, Y, Z)`: a surface in Euclidean space.
+    Embedding(Vec<Src>),
+}
+
+impl GeodesicSpec {
+    /// Reads the rule `geodesic`: the geometry, then the two end tuples of `from … to …`.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> GeodesicSpec {
+        let inner = r.inner(&p);
+        let (mut geometry, mut tuples, mut format) = (None, Vec::new(), None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::geo_line => {
+                    geometry =
+                        q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| Geometry::LineElement(r.src(&x)))
+                }
+                Rule::geo_metric => {
+                    let rows = q.into_inner().filter(|x| x.as_rule() == Rule::geo_tuple).map(|x| r.tuple(x));
+                    geometry = Some(Geometry::Metric(rows.collect()));
+                }
+                Rule::geo_embedding => {
+                    geometry =
+                        q.into_inner().find(|x| x.as_rule() == Rule::geo_tuple).map(|x| Geometry::Embedding(r.tuple(x)))
+                }
+                Rule::geo_tuple => tuples.push(r.tuple(q)),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        let mut it = tuples.into_iter();
+        let ends = it.next().zip(it.next());
+        GeodesicSpec { geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())), ends, format }
+    }
+}
 
 impl Session {
     /// `geodesic …`: the metric, Christoffel symbols, geodesic equations, curvature and

@@ -1,15 +1,71 @@
 //! `map`: iterates an explicit or implicit map of phase space through
 //! [`crate::mechanics::PhaseMap`]
-//! (the iteration is the library's; this file resolves the statement and draws the orbits).
+//! (the iteration is the library's; this file holds the statement's type and reader, resolves
+//! it and draws the orbits).
 
 use crate::expr::Symbol;
 use crate::mechanics::PhaseMap;
 use crate::plot::{Figure, Series};
 use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::Map;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `map q = …, p = … for N steps from q = A..B, p = C [points N] [to FILE]`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct Map {
+    /// The assignments, in order.
+    pub updates: Vec<(Src, Src)>,
+    /// The number of iterations.
+    pub steps: Src,
+    /// The starts: a variable and a value, or a range `lo..hi`.
+    pub starts: Vec<(Src, Src, Option<Src>)>,
+    /// `points N`: values per range (default 10).
+    pub points: Option<Src>,
+    /// `to FILE`.
+    pub path: Option<Src>,
+}
+
+impl Map {
+    /// Reads the rule `map_stmt`: the `x = …` before `for` are the updates, those after it the
+    /// starts (a range `lo..hi` is a `map_range`).
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Map, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
+        for q in inner {
+            match q.as_rule() {
+                Rule::init if steps.is_none() => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        updates.push((r.src(&s), r.src(&v)));
+                    }
+                }
+                Rule::sexpr => steps = Some(r.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        starts.push((r.src(&s), r.src(&v), None));
+                    }
+                }
+                Rule::map_range => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(range)) = (it.next(), it.next()) {
+                        let mut b = range.into_inner();
+                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
+                            starts.push((r.src(&s), r.src(&lo), Some(r.src(&hi))));
+                        }
+                    }
+                }
+                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| r.src(&x)),
+                Rule::path => path = Some(r.path(q)),
+                _ => {}
+            }
+        }
+        let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
+        Ok(Map { updates, steps, starts, points, path })
+    }
+}
 
 /// The most values per range (`points`).
 const MAX_POINTS: f64 = 1000.0;

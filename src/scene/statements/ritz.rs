@@ -1,12 +1,84 @@
 //! The statement `ritz` (§1.4.2), which calls the same library function as `lagrangian ritz`
-//! and prints the same lines ([`Ritz::report`]).
+//! and prints the same lines ([`Ritz::report`]): its type, its reader, its handler.
 
 use crate::expr::Expr;
 use crate::mechanics::{Ritz, System};
+use crate::print::Format;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::RitzSpec;
+use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `ritz …`.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct RitzSpec {
+    /// The Lagrangian (default `L`).
+    pub l: Option<Src>,
+    /// Each coordinate's trial path.
+    pub trials: Vec<(Src, Src)>,
+    /// The name after `for` (must be `t`).
+    pub time_var: Src,
+    /// The end times.
+    pub t0: Src,
+    pub t1: Src,
+    /// `from x = …`: the values at `t0`.
+    pub from: Vec<(Src, Src)>,
+    /// `to x = …`: the values at `t1`.
+    pub to: Vec<(Src, Src)>,
+    /// `solve a, b`: the unknown coefficients.
+    pub unknowns: Vec<Src>,
+    /// `near 0.1, 0`: Newton's starting values (default 0).
+    pub guess: Vec<Src>,
+    /// `as latex`.
+    pub format: Option<Format>,
+}
+
+impl RitzSpec {
+    /// Reads the rule `ritz`: each `x = …` goes to the trial paths, the start values or the end
+    /// values by the keyword (`with`, `from`, `to`) before it.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<RitzSpec, SceneError> {
+        let (span, inner) = (r.span(&p), p.into_inner().collect::<Vec<_>>());
+        let (mut l, mut time_var, mut t0, mut t1, mut format) = (None, None, None, None, None);
+        let (mut trials, mut from, mut to, mut unknowns, mut guess) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Which list an `x = …` belongs to: the keyword before it.
+        let mut group = Rule::kw_with;
+        for q in inner {
+            match q.as_rule() {
+                kw @ (Rule::kw_with | Rule::kw_from | Rule::kw_to) => group = kw,
+                Rule::sexpr => l = Some(r.src(&q)),
+                Rule::init => {
+                    let mut it = q.into_inner();
+                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
+                        let pair = (r.src(&s), r.src(&v));
+                        match group {
+                            Rule::kw_from => from.push(pair),
+                            Rule::kw_to => to.push(pair),
+                            _ => trials.push(pair),
+                        }
+                    }
+                }
+                Rule::name => time_var = Some(r.src(&q)),
+                Rule::time_span => {
+                    let mut it = q.into_inner();
+                    t0 = it.next().map(|b| r.src(&b));
+                    t1 = it.next().map(|b| r.src(&b));
+                }
+                Rule::name_list => unknowns = r.names(q),
+                Rule::ritz_near => guess = r.tuple(q),
+                Rule::as_format => format = Some(r.format(q)),
+                _ => {}
+            }
+        }
+        match (time_var, t0, t1) {
+            (Some(time_var), Some(t0), Some(t1)) => {
+                Ok(RitzSpec { l, trials, time_var, t0, t1, from, to, unknowns, guess, format })
+            }
+            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `ritz`").at(span)),
+        }
+    }
+}
 
 impl Session {
     /// `ritz [L] with x = TRIAL for t in A..B from x = … to x = … solve a, b [near …]`: the

@@ -8,9 +8,40 @@ use super::simulate::state_names;
 use crate::scene::engine::backend::Trajectory;
 use crate::scene::state::{At, RunResult, Session};
 use crate::scene::statements::Stmt;
-use crate::scene::syntax::ast::ExportPoincare;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
+use crate::scene::syntax::parser::{Pair, Reader, Rule};
+
+/// `export poincare [EXPR, …] [from RUN] to FILE`
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct ExportPoincare {
+    /// Expressions at the recorded points (empty: the state).
+    pub items: Vec<Src>,
+    /// `from RUN`.
+    pub run: Option<Src>,
+    /// The file.
+    pub path: Src,
+}
+
+impl ExportPoincare {
+    /// `export poincare …`: the section's columns, the run and the file.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<ExportPoincare, SceneError> {
+        let (span, inner) = (r.span(&p), r.inner(&p));
+        let mut items = Vec::new();
+        let mut run = None;
+        let mut path = None;
+        for q in inner {
+            match q.as_rule() {
+                Rule::sexpr => items.push(r.src(&q)),
+                Rule::name => run = Some(r.src(&q)),
+                Rule::path => path = Some(r.path(q)),
+                _ => {}
+            }
+        }
+        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
+        Ok(ExportPoincare { items, run, path })
+    }
+}
 
 impl Session {
     /// The run's recorded event states as a trajectory (time = the crossing's time), or an

@@ -12,11 +12,8 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Action, AnimateSpec, Average, AverageSweep, ChaosSpec, Constraint, Coordinates, DefValue, Define, DerivCall,
-    DerivKind, Derive, EnsembleSpec, EventSpec, Export, ExportPoincare, FlowSpec, Force, FormatStmt, Functions,
-    GeodesicSpec, Geometry, Help, Integral, Item, Jacobian, LevelSpec, Lie, LieGenerator, Load, Map, Parameters,
-    PlotKind, PlotSpec, PointTransform, Print, Rayleigh, RitzSpec, Series, SimSpec, SmallSpec, Src, StabilizeSpec,
-    Transform,
+    Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Functions, Help,
+    Item, Load, Parameters, Print, SimSpec, Src, StabilizeSpec,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -506,6 +503,12 @@ impl Reader {
         }
     }
 
+    /// An empty piece of source at the statement's start (for a part a malformed statement
+    /// lacks; the grammar makes it rare).
+    pub(crate) fn empty(&self) -> Src {
+        Src { text: String::new(), span: (self.base, self.base) }
+    }
+
     pub(crate) fn path(&self, p: Pair<Rule>) -> Src {
         let inner = p.into_inner().next();
         match inner {
@@ -515,7 +518,7 @@ impl Reader {
                 Src { text: t[1..t.len() - 1].to_string(), span: s }
             }
             Some(q) => self.src(&q),
-            None => Src { text: String::new(), span: (self.base, self.base) },
+            None => self.empty(),
         }
     }
 
@@ -620,50 +623,6 @@ impl Reader {
         self.simulate(self.inner(&p), self.span(&p))
     }
 
-    /// `flow …`: a simulate-like start and an optional output file.
-    pub(crate) fn flow(&self, p: Pair<Rule>) -> Result<FlowSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| self.path(q.clone()));
-        let word = (span.0, span.0 + "flow".len());
-        Ok(FlowSpec { sim: self.simulate(inner, span)?, path, word })
-    }
-
-    /// `force q = Q`.
-    pub(crate) fn force(&self, p: Pair<Rule>) -> Result<Force, SceneError> {
-        let span = self.span(&p);
-        let mut it = self.inner(&p).into_iter();
-        match (it.next(), it.next()) {
-            (Some(c), Some(v)) => Ok(Force { coord: self.src(&c), value: self.src(&v) }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `force`").at(span)),
-        }
-    }
-
-    /// `rayleigh [R =] …`.
-    pub(crate) fn rayleigh(&self, p: Pair<Rule>) -> Result<Rayleigh, SceneError> {
-        let span = self.span(&p);
-        let mut name = None;
-        let mut value = None;
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::name => name = Some(self.src(&q)),
-                _ => value = Some(self.src(&q)),
-            }
-        }
-        let value = value.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `rayleigh`").at(span))?;
-        Ok(Rayleigh { name, value })
-    }
-
-    /// `constraint [velocity] f [= g]`.
-    pub(crate) fn constraint(&self, p: Pair<Rule>) -> Result<Constraint, SceneError> {
-        let span = self.span(&p);
-        let velocity = p.clone().into_inner().any(|q| q.as_rule() == Rule::kw_velocity);
-        let mut it = self.inner(&p).into_iter();
-        let lhs = it.next().map(|q| self.src(&q));
-        let rhs = it.next().map(|q| self.src(&q));
-        let lhs = lhs.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `constraint`").at(span))?;
-        Ok(Constraint { velocity, lhs, rhs })
-    }
-
     /// `load FILE`.
     pub(crate) fn load(&self, p: Pair<Rule>) -> Result<Load, SceneError> {
         let span = self.span(&p);
@@ -714,221 +673,6 @@ impl Reader {
             }
         }
         Ok(Parameters { params, positive })
-    }
-
-    /// `lyapunov`/`megno`/`fli` of one orbit, or `chaos_map` (`map`) over a grid of starts.
-    pub(crate) fn chaos_stmt(&self, map: bool, p: Pair<Rule>) -> Result<ChaosSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let indicator = inner.iter().find(|q| q.as_rule() == Rule::chaos_kw).map(|q| self.src(q));
-        let mut ranges = Vec::new();
-        let mut path = None;
-        let mut level = None;
-        for q in &inner {
-            match q.as_rule() {
-                Rule::map_range => {
-                    let mut it = q.clone().into_inner();
-                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
-                        let mut b = r.into_inner();
-                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
-                            ranges.push((self.src(&s), self.src(&lo), self.src(&hi)));
-                        }
-                    }
-                }
-                Rule::path => path = Some(self.path(q.clone())),
-                Rule::map_level => {
-                    let lspan = self.span(q);
-                    let parts: Vec<Pair<Rule>> = q.clone().into_inner().filter(|p| !is_kw(p.as_rule())).collect();
-                    if let [on, value, solve, sign] = &parts[..] {
-                        level = Some(LevelSpec {
-                            on: self.src(on),
-                            value: self.src(value),
-                            solve: self.src(solve),
-                            positive: sign.as_str() == ">",
-                            span: lspan,
-                        });
-                    }
-                }
-                _ => {}
-            }
-        }
-        let indicator =
-            indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
-        let sim = self.simulate(inner, span)?;
-        Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
-    }
-
-    /// `plot …`: what is drawn, from which runs, to which file.
-    pub(crate) fn plot_stmt(&self, p: Pair<Rule>) -> Result<PlotSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut kind = None;
-        let mut runs = Vec::new();
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::plot_phase => {
-                    let sym = q.into_inner().find(|s| s.as_rule() == Rule::symbol);
-                    kind = Some(PlotKind::Phase(sym.map(|s| self.src(&s))));
-                }
-                Rule::plot_energy => kind = Some(PlotKind::Energy),
-                Rule::plot_separation => {
-                    let names: Vec<Src> =
-                        q.into_inner().filter(|s| s.as_rule() == Rule::name).map(|s| self.src(&s)).collect();
-                    if let [a, b] = &names[..] {
-                        kind = Some(PlotKind::Separation(a.clone(), b.clone()));
-                    }
-                }
-                Rule::plot_chaos => kind = q.into_inner().next().map(|k| PlotKind::Chaos(self.src(&k))),
-                Rule::plot_work_precision => {
-                    let reference = q.into_inner().find(|s| s.as_rule() == Rule::name);
-                    kind = Some(PlotKind::WorkPrecision(reference.map(|s| self.src(&s))));
-                }
-                Rule::plot_path | Rule::plot_poincare => {
-                    let is_path = q.as_rule() == Rule::plot_path;
-                    let xs: Vec<Src> =
-                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect();
-                    if let [x, y] = &xs[..] {
-                        kind = Some(if is_path {
-                            PlotKind::Path(x.clone(), y.clone())
-                        } else {
-                            PlotKind::Poincare(x.clone(), y.clone())
-                        });
-                    }
-                }
-                Rule::plot_series => {
-                    kind = Some(PlotKind::Series(
-                        q.into_inner().filter(|s| s.as_rule() == Rule::sexpr).map(|s| self.src(&s)).collect(),
-                    ));
-                }
-                Rule::name_list => runs = self.names(q),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected what to plot").at(span))?;
-        Ok(PlotSpec { kind, runs, path })
-    }
-
-    /// `animate …`: the points drawn, the run, the file and the frame options.
-    pub(crate) fn animate_stmt(&self, p: Pair<Rule>) -> Result<AnimateSpec, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut points = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        let (mut fps, mut duration, mut size) = (None, None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::anim_point => {
-                    let xs: Vec<Src> = q.into_inner().map(|s| self.src(&s)).collect();
-                    if let [x, y] = &xs[..] {
-                        points.push((x.clone(), y.clone()));
-                    }
-                }
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                Rule::anim_option => {
-                    let parts: Vec<Pair<Rule>> = q.into_inner().collect();
-                    if let [key, value] = &parts[..] {
-                        let v = Some(self.src(value));
-                        match key.as_str() {
-                            "fps" => fps = v,
-                            "duration" => duration = v,
-                            _ => size = v,
-                        }
-                    }
-                }
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE.gif`").at(span))?;
-        Ok(AnimateSpec { points, run, path, fps, duration, size })
-    }
-
-    /// `export …`: the items, the run and the file.
-    pub(crate) fn export_stmt(&self, p: Pair<Rule>) -> Result<Export, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut items = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::print_item => items.push(self.item(q)?),
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(Export { items, run, path })
-    }
-
-    /// `export poincare …`: the section's columns, the run and the file.
-    pub(crate) fn export_poincare_stmt(&self, p: Pair<Rule>) -> Result<ExportPoincare, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut items = Vec::new();
-        let mut run = None;
-        let mut path = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => items.push(self.src(&q)),
-                Rule::name => run = Some(self.src(&q)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let path = path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `to FILE`").at(span))?;
-        Ok(ExportPoincare { items, run, path })
-    }
-
-    /// `average …`: `L`, the trial solution, its phase, frequency and amplitudes, and `small`.
-    pub(crate) fn average_stmt(&self, p: Pair<Rule>) -> Result<Average, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut l = None;
-        let mut trials = Vec::new();
-        let mut names = Vec::new();
-        let mut amplitudes = Vec::new();
-        let mut small = None;
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        trials.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::name => names.push(self.src(&q)),
-                Rule::name_list => amplitudes = self.names(q),
-                Rule::average_small => small = Some(self.small(q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = names.into_iter();
-        Ok(match (it.next(), it.next()) {
-            (Some(phase), Some(frequency)) => Average { l, trials, phase, frequency, amplitudes, small, format },
-            _ => return Err(SceneError::new(ErrorKind::Syntax, "malformed `average`").at(span)),
-        })
-    }
-
-    /// `transform … with F1 = …`: `H`, the generating function's kind and expression, the new names.
-    pub(crate) fn transform_stmt(&self, p: Pair<Rule>) -> Result<Transform, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut exprs = Vec::new();
-        let mut kind = String::new();
-        let mut new = Vec::new();
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::gen_kind => kind = q.as_str().to_string(),
-                Rule::name_list => new = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let f = exprs.pop().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `transform`").at(span))?;
-        Ok(Transform { h: exprs.pop(), kind, f, new, format })
     }
 
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
@@ -1055,298 +799,43 @@ impl Reader {
             span: espan,
         }
     }
-}
 
-/// The derivation statements that mirror the command line (`transform … with x = …`, `lie`,
-/// `integral`, `action`, `average … small`): scene parity with the command line.
-impl Reader {
-    pub(crate) fn small(&self, p: Pair<Rule>) -> SmallSpec {
-        let mut names = Vec::new();
-        let mut exprs = Vec::new();
-        let mut sweep = None;
-        for q in p.into_inner() {
-            match q.as_rule() {
-                Rule::name => names.push(self.src(&q)),
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::average_sweep => sweep = self.average_sweep(q).map(Box::new),
-                _ => {}
-            }
-        }
-        let mut it = names.into_iter();
-        let small = it.next().unwrap_or_else(|| Src { text: String::new(), span: (self.base, self.base) });
-        let mut exprs = exprs.into_iter();
-        let unperturbed = exprs.next().unwrap_or_else(|| small.clone());
-        SmallSpec { small, unperturbed, principal: it.next(), order: exprs.next(), sweep }
-    }
-
-    pub(crate) fn average_sweep(&self, p: Pair<Rule>) -> Option<AverageSweep> {
-        let (mut amplitude, mut bounds, mut points, mut path) = (None, Vec::new(), None, None);
-        for q in p.into_inner() {
-            match q.as_rule() {
-                Rule::name => amplitude = Some(self.src(&q)),
-                Rule::time_span => bounds = q.into_inner().map(|b| self.src(&b)).collect(),
-                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
-                Rule::path => path = Some(self.src(&q)),
-                _ => {}
-            }
-        }
-        let mut b = bounds.into_iter();
-        Some(AverageSweep { amplitude: amplitude?, from: b.next()?, to: b.next()?, points, path })
-    }
-
-    pub(crate) fn point_transform(&self, p: Pair<Rule>) -> PointTransform {
-        let inner = self.inner(&p);
-        let (mut l, mut map, mut to, mut format) = (None, Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        map.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::name_list => to = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        PointTransform { l, map, to, format }
-    }
-
-    pub(crate) fn lie(&self, p: Pair<Rule>) -> Result<Lie, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr if f.is_none() => f = Some(self.src(&q)),
-                Rule::sexpr => order = Some(self.src(&q)),
-                Rule::lie_with => {
-                    let g = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-                    generator = g.map(LieGenerator::With);
-                }
-                Rule::lie_flow => {
-                    let h = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-                    generator = Some(LieGenerator::Flow(h));
-                }
-                Rule::name => epsilon = Some(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        match (f, generator) {
-            (Some(f), Some(generator)) => Ok(Lie { f, generator, order, epsilon, format }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `lie`")
-                .at(span)
-                .hint("`lie f with G order 3` or `lie f flow H order 3`")),
-        }
-    }
-
-    pub(crate) fn integral(&self, p: Pair<Rule>) -> Result<Integral, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let mut exprs = Vec::new();
-        let mut format = None;
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = exprs.into_iter();
-        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `integral`").at(span))?;
-        Ok(Integral { f, h: it.next(), format })
-    }
-
-    pub(crate) fn series(&self, p: Pair<Rule>) -> Result<Series, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut exprs, mut small, mut about, mut format) = (Vec::new(), Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::sexpr => exprs.push(self.src(&q)),
-                Rule::series_in => small = q.into_inner().flat_map(|n| self.names(n)).collect(),
-                Rule::series_about => {
-                    for init in q.into_inner().filter(|i| i.as_rule() == Rule::init) {
-                        let mut it = init.into_inner();
-                        if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                            about.push((self.src(&s), self.src(&v)));
-                        }
-                    }
-                }
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = exprs.into_iter();
-        let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
-        Ok(Series { f, small, about, order: it.next(), format })
-    }
-
-    pub(crate) fn map(&self, p: Pair<Rule>) -> Result<Map, SceneError> {
-        let (span, inner) = (self.span(&p), self.inner(&p));
-        let (mut updates, mut steps, mut starts, mut points, mut path) = (Vec::new(), None, Vec::new(), None, None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::init if steps.is_none() => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        updates.push((self.src(&s), self.src(&v)));
-                    }
-                }
-                Rule::sexpr => steps = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        starts.push((self.src(&s), self.src(&v), None));
-                    }
-                }
-                Rule::map_range => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(r)) = (it.next(), it.next()) {
-                        let mut b = r.into_inner();
-                        if let (Some(lo), Some(hi)) = (b.next(), b.next()) {
-                            starts.push((self.src(&s), self.src(&lo), Some(self.src(&hi))));
-                        }
-                    }
-                }
-                Rule::points => points = q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)),
-                Rule::path => path = Some(self.path(q)),
-                _ => {}
-            }
-        }
-        let steps = steps.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `for N steps`").at(span))?;
-        Ok(Map { updates, steps, starts, points, path })
-    }
-
-    pub(crate) fn jacobian(&self, p: Pair<Rule>) -> Jacobian {
-        let inner = self.inner(&p);
-        let (mut map, mut vars, mut format) = (Vec::new(), Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::geo_tuple => map = self.tuple(q),
-                Rule::name_list => vars = self.names(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        Jacobian { map, vars, format }
-    }
-
+    /// A tuple `(a, b, …)` of expressions: `jacobian`'s map, `geodesic`'s metric rows and ends,
+    /// `ritz`'s `near`.
     pub(crate) fn tuple(&self, p: Pair<Rule>) -> Vec<Src> {
         p.into_inner().filter(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x)).collect()
     }
+}
 
-    pub(crate) fn geodesic(&self, p: Pair<Rule>) -> GeodesicSpec {
-        let inner = self.inner(&p);
-        let (mut geometry, mut tuples, mut format) = (None, Vec::new(), None);
-        for q in inner {
-            match q.as_rule() {
-                Rule::geo_line => {
-                    geometry =
-                        q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| Geometry::LineElement(self.src(&x)))
-                }
-                Rule::geo_metric => {
-                    let rows = q.into_inner().filter(|x| x.as_rule() == Rule::geo_tuple).map(|x| self.tuple(x));
-                    geometry = Some(Geometry::Metric(rows.collect()));
-                }
-                Rule::geo_embedding => {
-                    geometry = q
-                        .into_inner()
-                        .find(|x| x.as_rule() == Rule::geo_tuple)
-                        .map(|x| Geometry::Embedding(self.tuple(x)))
-                }
-                Rule::geo_tuple => tuples.push(self.tuple(q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let mut it = tuples.into_iter();
-        let ends = it.next().zip(it.next());
-        GeodesicSpec { geometry: geometry.unwrap_or(Geometry::Embedding(Vec::new())), ends, format }
-    }
-
-    pub(crate) fn ritz(&self, p: Pair<Rule>) -> Result<RitzSpec, SceneError> {
-        let (span, inner) = (self.span(&p), p.into_inner().collect::<Vec<_>>());
-        let (mut l, mut time_var, mut t0, mut t1, mut format) = (None, None, None, None, None);
-        let (mut trials, mut from, mut to, mut unknowns, mut guess) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        // Which list an `x = …` belongs to: the keyword before it.
-        let mut group = Rule::kw_with;
-        for q in inner {
-            match q.as_rule() {
-                r @ (Rule::kw_with | Rule::kw_from | Rule::kw_to) => group = r,
-                Rule::sexpr => l = Some(self.src(&q)),
-                Rule::init => {
-                    let mut it = q.into_inner();
-                    if let (Some(s), Some(v)) = (it.next(), it.next()) {
-                        let pair = (self.src(&s), self.src(&v));
-                        match group {
-                            Rule::kw_from => from.push(pair),
-                            Rule::kw_to => to.push(pair),
-                            _ => trials.push(pair),
-                        }
-                    }
-                }
-                Rule::name => time_var = Some(self.src(&q)),
-                Rule::time_span => {
-                    let mut it = q.into_inner();
-                    t0 = it.next().map(|b| self.src(&b));
-                    t1 = it.next().map(|b| self.src(&b));
-                }
-                Rule::name_list => unknowns = self.names(q),
-                Rule::ritz_near => guess = self.tuple(q),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        match (time_var, t0, t1) {
-            (Some(time_var), Some(t0), Some(t1)) => {
-                Ok(RitzSpec { l, trials, time_var, t0, t1, from, to, unknowns, guess, format })
-            }
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed `ritz`").at(span)),
-        }
-    }
-
-    pub(crate) fn action(&self, p: Pair<Rule>) -> Action {
-        let inner = self.inner(&p);
-        let (mut h, mut energies, mut near) = (None, Vec::new(), None);
-        let first = |q: Pair<Rule>| q.into_inner().find(|x| x.as_rule() == Rule::sexpr).map(|x| self.src(&x));
-        for q in inner {
-            match q.as_rule() {
-                Rule::action_h => h = first(q),
-                Rule::action_energy => energies.extend(first(q)),
-                Rule::action_near => near = first(q),
-                _ => {}
-            }
-        }
-        Action { h, energies, near }
+/// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
+/// fields); `rule` is the rule the grammar must have chosen. For the statements' unit tests.
+#[cfg(test)]
+pub(crate) fn read_one<T>(
+    s: &str,
+    rule: Rule,
+    read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>,
+) -> T {
+    thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
+    let lang = Language { read, words: Vec::new };
+    let seen = Language {
+        read: |_, p| {
+            RULE.with(|r| r.set(Some(p.as_rule())));
+            Ok(())
+        },
+        words: Vec::new,
+    };
+    parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
+    assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
+    match parse_statement_at(s, 0, s.len(), &lang) {
+        Ok(Some(v)) => v,
+        Ok(None) => panic!("{s}: no statement"),
+        Err(e) => panic!("{s}: {e:?}"),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
-    /// fields); `rule` is the rule the grammar must have chosen.
-    fn one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>) -> T {
-        thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
-        let lang = Language { read, words: Vec::new };
-        let seen = Language {
-            read: |_, p| {
-                RULE.with(|r| r.set(Some(p.as_rule())));
-                Ok(())
-            },
-            words: Vec::new,
-        };
-        parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
-        assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
-        match parse_statement_at(s, 0, s.len(), &lang) {
-            Ok(Some(v)) => v,
-            Ok(None) => panic!("{s}: no statement"),
-            Err(e) => panic!("{s}: {e:?}"),
-        }
-    }
 
     /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
     /// read here, in a test, so the parser itself never classifies rules by their names).
@@ -1367,25 +856,8 @@ mod tests {
     }
 
     #[test]
-    fn flow_reads_a_simulate_start_and_an_output_file() {
-        let f =
-            one("flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg", Rule::flow_stmt, |r, p| {
-                r.flow(p)
-            });
-        assert_eq!(f.sim.inits.len(), 2);
-        assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
-        assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
-        assert_eq!(f.sim.points.map(|m| m.text), Some("50".to_string()));
-        assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
-        assert_eq!(f.word, (0, 4));
-        // `flow` inside `lie` is still the Lie flow, not this statement.
-        let lie = one("lie q flow order 4", Rule::lie, |r, p| r.lie(p));
-        assert!(matches!(lie.generator, LieGenerator::Flow(None)));
-    }
-
-    #[test]
     fn simulate_keywords_end_expressions() {
-        let s = one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
+        let s = read_one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
             r.simulate_stmt(p)
         });
         assert_eq!(s.inits.len(), 2);
@@ -1399,7 +871,7 @@ mod tests {
     #[test]
     fn parameters_with_assumption() {
         let Parameters { params, positive } =
-            one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
+            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
         assert!(positive);
         assert_eq!(params.len(), 3);
         assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
@@ -1407,10 +879,10 @@ mod tests {
 
     #[test]
     fn definitions_and_derivations() {
-        let define = |s| one(s, Rule::definition, |r, p| r.definition(p));
+        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
         assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
         assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
-        let derive = |s| one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
         assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
         assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
