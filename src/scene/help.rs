@@ -34,21 +34,3 @@ pub fn help(word: Option<&str>) -> String {
         }
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::registry::{parse_scene, statement_words};
-
-    #[test]
-    fn every_statement_has_help_with_an_example_that_parses() {
-        for word in statement_words() {
-            let text = help(Some(word));
-            assert!(text.contains("example: "), "no help for `{word}`: {text}");
-        }
-        for t in TOPICS {
-            let parsed = parse_scene(t.example);
-            assert!(matches!(&parsed, Ok(v) if v.len() == 1), "`{}`: {parsed:?}", t.example);
-        }
-    }
-}

@@ -28,11 +28,13 @@
 
 pub mod engine;
 pub mod help;
-mod registry;
+#[doc(hidden)]
+pub mod registry;
 pub mod repl;
 pub mod session;
 mod state;
-mod statements;
+#[doc(hidden)]
+pub mod statements;
 pub mod syntax;
 
 pub use engine::{backend, output, progress};

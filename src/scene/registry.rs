@@ -2,7 +2,7 @@
 //! rule it parses from and the function that reads that rule's pairs into the statement's
 //! own type. The parser's dispatch (rule → reader), its list of statement words ("did you
 //! mean", the REPL's completion) and `help` are all derived from this table; the session runs
-//! whatever the reader returned through [`Stmt::run`]. Adding a statement adds its grammar
+//! whatever the reader returned through `Stmt::run`. Adding a statement adds its grammar
 //! rule, its row here and its own file under `statements/` (its type, reader, handler and
 //! output file); nothing else lists statements.
 //!
@@ -45,16 +45,16 @@ pub struct Topic {
     pub example: &'static str,
     /// The grammar rule this topic's statements parse from and their reader; `None` for a
     /// topic that shares another row's rule (`megno` reads like `lyapunov`).
-    pub(in crate::scene) read: Option<Read>,
+    pub read: Option<Read>,
 }
 
 /// A grammar rule and the function reading its pairs into a statement.
 #[derive(Clone, Copy)]
-pub(in crate::scene) struct Read {
+pub struct Read {
     /// The rule (one of `stmt`'s alternatives in `grammar/scene.pest`).
     pub rule: Rule,
     /// Reads the rule's pair.
-    pub read: ReadFn,
+    pub(in crate::scene) read: ReadFn,
 }
 
 /// Reads one statement's pair into its statement.
@@ -153,34 +153,4 @@ pub fn parse_scene(text: &str) -> Result<Vec<Statement>, SceneError> {
 pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
     let node = parser::parse_statement_at(text, start, end, &LANGUAGE)?;
     Ok(node.map(|node| Statement { node, span: (start, end) }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every statement rule of the grammar (`stmt`'s alternatives) has exactly one row.
-    #[test]
-    fn every_statement_rule_has_one_row() {
-        let grammar = include_str!("../../grammar/scene.pest");
-        let start = grammar.find("\nstmt = _{").expect("the `stmt` rule");
-        let body = &grammar[start..];
-        let body = &body[body.find('{').unwrap() + 1..body.find('}').unwrap()];
-        let rules: Vec<&str> = body.split('|').map(str::trim).collect();
-        assert!(rules.len() > 30, "{rules:?}");
-        for name in &rules {
-            let rows = REGISTRY.iter().filter(|t| t.read.is_some_and(|x| format!("{:?}", x.rule) == *name)).count();
-            assert_eq!(rows, 1, "rule `{name}`");
-        }
-        let with_reader = REGISTRY.iter().filter(|t| t.read.is_some()).count();
-        assert_eq!(with_reader, rules.len());
-    }
-
-    #[test]
-    fn unknown_statement_suggests() {
-        let err = parse_scene("coordinates x\nsimulat x = 1 for t in 0..1").unwrap_err();
-        assert_eq!(err.kind, ErrorKind::UnknownStatement);
-        assert_eq!(err.span, Some((14, 21)));
-        assert!(err.hint.as_deref().is_some_and(|h| h.contains("`simulate`")), "{err:?}");
-    }
 }

@@ -68,7 +68,8 @@ pub(in crate::scene) struct PointTransform {
 
 /// `lie f with G [order N] [in ε]` or `lie f flow [H] [order N]`.
 #[derive(Clone, Debug)]
-pub(in crate::scene) struct Lie {
+#[doc(hidden)]
+pub struct Lie {
     /// The function transformed.
     pub f: Src,
     /// `with G` (a Lie series in `ε`) or `flow [H]` (the flow of H in `t`).
@@ -135,7 +136,8 @@ pub(in crate::scene) struct AverageSweep {
 
 /// The generator of a `lie` statement.
 #[derive(Clone, Debug)]
-pub(in crate::scene) enum LieGenerator {
+#[doc(hidden)]
+pub enum LieGenerator {
     /// `with G`.
     With(Src),
     /// `flow [H]`.
@@ -223,7 +225,7 @@ impl PointTransform {
 
 impl Lie {
     /// Reads the statement's pair.
-    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Lie, SceneError> {
+    pub fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<Lie, SceneError> {
         let (span, inner) = (r.span(&p), r.inner(&p));
         let (mut f, mut generator, mut order, mut epsilon, mut format) = (None, None, None, None, None);
         for q in inner {

@@ -28,7 +28,8 @@ use crate::scene::syntax::parser::{Pair, Reader, Rule};
 
 /// `flow θ = 1, θ' = 0 for t in 0..T [tol = …] [points N] [to FILE]`.
 #[derive(Clone, Debug)]
-pub(in crate::scene) struct FlowSpec {
+#[doc(hidden)]
+pub struct FlowSpec {
     /// The starts, time span and options, read like a `simulate` statement's.
     pub sim: SimSpec,
     /// `to FILE`: the checks against time, drawn or as a table.
@@ -39,7 +40,7 @@ pub(in crate::scene) struct FlowSpec {
 
 impl FlowSpec {
     /// `flow …`: a simulate-like start and an optional output file.
-    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<FlowSpec, SceneError> {
+    pub fn read(r: &Reader, p: Pair<'_, Rule>) -> Result<FlowSpec, SceneError> {
         let (span, inner) = (r.span(&p), r.inner(&p));
         let path = inner.iter().find(|q| q.as_rule() == Rule::path).map(|q| r.path(q.clone()));
         let word = (span.0, span.0 + "flow".len());
@@ -331,30 +332,5 @@ impl Stmt for FlowSpec {
             formats: &["svg", "png", "csv"],
             hint: "the flow's checks are drawn as `.svg` or `.png`, or written as a table to `.csv`",
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::FlowSpec;
-    use crate::scene::statements::canonical::{Lie, LieGenerator};
-    use crate::scene::syntax::parser::{read_one, Rule};
-
-    #[test]
-    fn flow_reads_a_simulate_start_and_an_output_file() {
-        let f = read_one(
-            "flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg",
-            Rule::flow_stmt,
-            FlowSpec::read,
-        );
-        assert_eq!(f.sim.inits.len(), 2);
-        assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
-        assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
-        assert_eq!(f.sim.points.map(|m| m.text), Some("50".to_string()));
-        assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
-        assert_eq!(f.word, (0, 4));
-        // `flow` inside `lie` is still the Lie flow, not this statement.
-        let lie = read_one("lie q flow order 4", Rule::lie, Lie::read);
-        assert!(matches!(lie.generator, LieGenerator::Flow(None)));
     }
 }

@@ -1,7 +1,7 @@
 //! One file per family of statements, each an `impl Session` block with the handlers, and the
-//! [`Stmt`] impls that tie each statement's type to its handler. The registry
+//! `Stmt` impls that tie each statement's type to its handler. The registry
 //! (`scene/registry.rs`) says which grammar rule reads into which type; the session runs the
-//! result through [`Stmt::run`].
+//! result through `Stmt::run`.
 
 use std::fmt::Debug;
 
@@ -10,7 +10,7 @@ use super::syntax::ast::Src;
 use super::syntax::error::SceneError;
 
 pub(super) mod animate;
-pub(super) mod canonical;
+pub mod canonical;
 pub(super) mod chaos;
 pub mod drift;
 pub(super) mod dynamics;
@@ -19,7 +19,7 @@ pub(super) mod ensemble;
 pub(super) mod expansion;
 pub(super) mod figures;
 pub(super) mod first_order;
-pub(super) mod flow;
+pub mod flow;
 pub(super) mod geodesic;
 pub(super) mod map;
 pub(super) mod ritz;

@@ -329,7 +329,8 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>, words: &[&s
 
 /// Keyword pairs carry no information beyond the statement's rule. (Every `kw_*` rule of
 /// `grammar/scene.pest` is listed: a test reads the grammar and checks it.)
-fn is_kw(rule: Rule) -> bool {
+#[doc(hidden)]
+pub fn is_kw(rule: Rule) -> bool {
     matches!(
         rule,
         Rule::kw_as
@@ -409,7 +410,8 @@ fn is_kw(rule: Rule) -> bool {
 
 /// Reads a statement's pest pairs into its statement type: the helpers every statement's
 /// reader shares (spans, names, paths, formats, the `simulate`-like options).
-pub(crate) struct Reader {
+#[doc(hidden)]
+pub struct Reader {
     base: usize,
 }
 
@@ -572,7 +574,7 @@ impl Reader {
     }
 
     /// `name = …`: an expression or a derivation.
-    pub(crate) fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
+    pub fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
         let span = self.span(&p);
         let mut it = self.inner(&p).into_iter();
         let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
@@ -587,7 +589,7 @@ impl Reader {
     }
 
     /// `el`, `pb f, g`, … with an optional format.
-    pub(crate) fn derive(&self, p: Pair<Rule>) -> Result<Derive, SceneError> {
+    pub fn derive(&self, p: Pair<Rule>) -> Result<Derive, SceneError> {
         let span = self.span(&p);
         let mut format = None;
         let mut kind = None;
@@ -619,7 +621,7 @@ impl Reader {
     }
 
     /// `simulate …`.
-    pub(crate) fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
+    pub fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
         self.simulate(self.inner(&p), self.span(&p))
     }
 
@@ -643,7 +645,7 @@ impl Reader {
     }
 
     /// `parameters …`: the names, their values if given, and `positive`.
-    pub(crate) fn parameters_stmt(&self, p: Pair<Rule>) -> Result<Parameters, SceneError> {
+    pub fn parameters_stmt(&self, p: Pair<Rule>) -> Result<Parameters, SceneError> {
         let inner = self.inner(&p);
         let mut params = Vec::new();
         let mut positive = false;
@@ -809,12 +811,8 @@ impl Reader {
 
 /// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
 /// fields); `rule` is the rule the grammar must have chosen. For the statements' unit tests.
-#[cfg(test)]
-pub(crate) fn read_one<T>(
-    s: &str,
-    rule: Rule,
-    read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>,
-) -> T {
+#[doc(hidden)]
+pub fn read_one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>) -> T {
     thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
     let lang = Language { read, words: Vec::new };
     let seen = Language {
@@ -830,60 +828,5 @@ pub(crate) fn read_one<T>(
         Ok(Some(v)) => v,
         Ok(None) => panic!("{s}: no statement"),
         Err(e) => panic!("{s}: {e:?}"),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
-    /// read here, in a test, so the parser itself never classifies rules by their names).
-    #[test]
-    fn is_kw_lists_exactly_the_keyword_rules() {
-        for &rule in Rule::all_rules() {
-            let named_kw = format!("{rule:?}").starts_with("kw_");
-            assert_eq!(is_kw(rule), named_kw, "{rule:?}");
-        }
-    }
-
-    #[test]
-    fn splits_lines_and_continuations() {
-        let text = "coordinates x\n# a comment\nL = 1/2 m x'^2 -\n    1/2 k x^2\nH = (a +\n b)\nprint L\n  + 1\n";
-        let spans = split_statements(text);
-        let parts: Vec<&str> = spans.iter().map(|&(s, e)| &text[s..e]).collect();
-        assert_eq!(parts, ["coordinates x", "L = 1/2 m x'^2 -\n    1/2 k x^2", "H = (a +\n b)", "print L\n  + 1"]);
-    }
-
-    #[test]
-    fn simulate_keywords_end_expressions() {
-        let s = read_one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
-            r.simulate_stmt(p)
-        });
-        assert_eq!(s.inits.len(), 2);
-        assert_eq!(s.inits[0].1.text, "3.0");
-        assert_eq!(s.inits[1].0.text, "θ'");
-        assert_eq!((s.t0.text.as_str(), s.t1.text.as_str()), ("0", "20"));
-        assert_eq!(s.method.map(|m| m.text), Some("gauss6".to_string()));
-        assert_eq!(s.dt.map(|m| m.text), Some("0.01".to_string()));
-    }
-
-    #[test]
-    fn parameters_with_assumption() {
-        let Parameters { params, positive } =
-            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
-        assert!(positive);
-        assert_eq!(params.len(), 3);
-        assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
-    }
-
-    #[test]
-    fn definitions_and_derivations() {
-        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
-        assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
-        assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
-        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
-        assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
-        assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
 }

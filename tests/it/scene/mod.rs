@@ -3,6 +3,7 @@
 mod bad_input;
 mod cache;
 mod dynamics;
+mod energy_at;
 mod examples;
 mod expansion;
 mod figures;
@@ -15,3 +16,4 @@ mod repl;
 mod repl_pty;
 mod run;
 mod symmetry;
+mod syntax;

@@ -1,0 +1,128 @@
+//! The scene language's reader: statements split into lines, keywords, each statement's reader, the registry and help.
+
+mod help {
+    use lagrangian::scene::help::*;
+    use lagrangian::scene::registry::{parse_scene, statement_words};
+
+    #[test]
+    fn every_statement_has_help_with_an_example_that_parses() {
+        for word in statement_words() {
+            let text = help(Some(word));
+            assert!(text.contains("example: "), "no help for `{word}`: {text}");
+        }
+        for t in TOPICS {
+            let parsed = parse_scene(t.example);
+            assert!(matches!(&parsed, Ok(v) if v.len() == 1), "`{}`: {parsed:?}", t.example);
+        }
+    }
+}
+
+mod registry {
+    use lagrangian::scene::registry::*;
+    use lagrangian::scene::ErrorKind;
+
+    /// Every statement rule of the grammar (`stmt`'s alternatives) has exactly one row.
+    #[test]
+    fn every_statement_rule_has_one_row() {
+        let grammar = include_str!("../../../grammar/scene.pest");
+        let start = grammar.find("\nstmt = _{").expect("the `stmt` rule");
+        let body = &grammar[start..];
+        let body = &body[body.find('{').unwrap() + 1..body.find('}').unwrap()];
+        let rules: Vec<&str> = body.split('|').map(str::trim).collect();
+        assert!(rules.len() > 30, "{rules:?}");
+        for name in &rules {
+            let rows = REGISTRY.iter().filter(|t| t.read.is_some_and(|x| format!("{:?}", x.rule) == *name)).count();
+            assert_eq!(rows, 1, "rule `{name}`");
+        }
+        let with_reader = REGISTRY.iter().filter(|t| t.read.is_some()).count();
+        assert_eq!(with_reader, rules.len());
+    }
+
+    #[test]
+    fn unknown_statement_suggests() {
+        let err = parse_scene("coordinates x\nsimulat x = 1 for t in 0..1").unwrap_err();
+        assert_eq!(err.kind, ErrorKind::UnknownStatement);
+        assert_eq!(err.span, Some((14, 21)));
+        assert!(err.hint.as_deref().is_some_and(|h| h.contains("`simulate`")), "{err:?}");
+    }
+}
+
+mod parser {
+    use lagrangian::scene::ast::{DefValue, Parameters};
+    use lagrangian::scene::syntax::parser::*;
+    use lagrangian::Format;
+
+    /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
+    /// read here, in a test, so the parser itself never classifies rules by their names).
+    #[test]
+    fn is_kw_lists_exactly_the_keyword_rules() {
+        for &rule in Rule::all_rules() {
+            let named_kw = format!("{rule:?}").starts_with("kw_");
+            assert_eq!(is_kw(rule), named_kw, "{rule:?}");
+        }
+    }
+
+    #[test]
+    fn splits_lines_and_continuations() {
+        let text = "coordinates x\n# a comment\nL = 1/2 m x'^2 -\n    1/2 k x^2\nH = (a +\n b)\nprint L\n  + 1\n";
+        let spans = split_statements(text);
+        let parts: Vec<&str> = spans.iter().map(|&(s, e)| &text[s..e]).collect();
+        assert_eq!(parts, ["coordinates x", "L = 1/2 m x'^2 -\n    1/2 k x^2", "H = (a +\n b)", "print L\n  + 1"]);
+    }
+
+    #[test]
+    fn simulate_keywords_end_expressions() {
+        let s = read_one("simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", Rule::simulate, |r, p| {
+            r.simulate_stmt(p)
+        });
+        assert_eq!(s.inits.len(), 2);
+        assert_eq!(s.inits[0].1.text, "3.0");
+        assert_eq!(s.inits[1].0.text, "θ'");
+        assert_eq!((s.t0.text.as_str(), s.t1.text.as_str()), ("0", "20"));
+        assert_eq!(s.method.map(|m| m.text), Some("gauss6".to_string()));
+        assert_eq!(s.dt.map(|m| m.text), Some("0.01".to_string()));
+    }
+
+    #[test]
+    fn parameters_with_assumption() {
+        let Parameters { params, positive } =
+            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
+        assert!(positive);
+        assert_eq!(params.len(), 3);
+        assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
+    }
+
+    #[test]
+    fn definitions_and_derivations() {
+        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
+        assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
+        assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
+        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
+        assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
+    }
+}
+
+mod flow {
+    use lagrangian::scene::statements::canonical::{Lie, LieGenerator};
+    use lagrangian::scene::statements::flow::FlowSpec;
+    use lagrangian::scene::syntax::parser::{read_one, Rule};
+
+    #[test]
+    fn flow_reads_a_simulate_start_and_an_output_file() {
+        let f = read_one(
+            "flow θ = 1, θ' = 0 for t in 0..10 tol = 1e-12 points 50 to checks.svg",
+            Rule::flow_stmt,
+            FlowSpec::read,
+        );
+        assert_eq!(f.sim.inits.len(), 2);
+        assert_eq!((f.sim.t0.text.as_str(), f.sim.t1.text.as_str()), ("0", "10"));
+        assert_eq!(f.sim.tol.map(|m| m.text), Some("1e-12".to_string()));
+        assert_eq!(f.sim.points.map(|m| m.text), Some("50".to_string()));
+        assert_eq!(f.path.map(|p| p.text), Some("checks.svg".to_string()));
+        assert_eq!(f.word, (0, 4));
+        // `flow` inside `lie` is still the Lie flow, not this statement.
+        let lie = read_one("lie q flow order 4", Rule::lie, Lie::read);
+        assert!(matches!(lie.generator, LieGenerator::Flow(None)));
+    }
+}
