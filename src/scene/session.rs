@@ -18,13 +18,15 @@ use std::sync::Arc;
 
 use miette::NamedSource;
 
-use super::engine::backend::{BackendError, SystemRef};
+use super::engine::backend::SystemRef;
 use super::registry::{parse_scene, Statement};
-use super::state::{At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session};
+use super::state::{
+    backend_error, interruption, short, At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session,
+};
 use super::statements::Stmt;
 use super::syntax::ast::{
-    AllowNonfinite, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Functions, Help, History,
-    Item, Load, Parameters, Print, Src,
+    symbol_span, AllowNonfinite, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Functions,
+    Help, History, Item, Load, Parameters, Print, Src,
 };
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::expr::{Expr, Symbol};
@@ -44,33 +46,23 @@ pub(super) const MAX_LOAD_DEPTH: usize = 8;
 /// The largest scene file read, in bytes.
 pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 
-/// `Err(Interrupted)` at `span` once Ctrl-C was pressed (the process-wide token).
-pub(super) fn interruption(span: Span) -> Result<(), SceneError> {
-    crate::cancel::check().map_err(|_| {
-        SceneError::new(ErrorKind::Interrupted, "interrupted (Ctrl-C); this statement's results were discarded")
-            .at(span)
-    })
-}
-
-pub(super) fn backend_error(e: BackendError, span: Span) -> SceneError {
-    let kind = match &e {
-        BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
-        BackendError::Failed(_) => ErrorKind::Derivation,
-        BackendError::Numeric(_) | BackendError::Budget(_) => ErrorKind::Numeric,
-        BackendError::Simulate(crate::simulate::SimulateError::Integrate { .. }) => ErrorKind::Numeric,
-        BackendError::Simulate(_) => ErrorKind::Derivation,
-    };
-    let mut err = SceneError::new(kind, e.to_string()).at(span);
-    if kind == ErrorKind::NotAvailable {
-        err = err.hint("the statement is valid; this build of lagrangian cannot carry it out yet");
-    }
-    err
-}
-
 /// The plan entries a REPL keeps (see `Session::bound_plan`).
 const MAX_REPL_PLAN: usize = 2048;
 
 impl Session {
+    /// Checks every output of `stmts` before any of them runs: each path is allowed
+    /// ([`Session::out_path`]) and has a known format, and no two outputs of this scene (or
+    /// REPL entry) write the same file, where the second would silently replace the first.
+    pub(in crate::scene) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
+        for st in stmts {
+            let Some(out) = st.node.output() else { continue };
+            let (file, span, _) = self.out_file(st.span, out.path, out.default, out.what, out.formats, out.hint)?;
+            let span = if out.path.is_some() { span } else { st.span };
+            self.staging.claim(&file).map_err(|e| e.at(span))?;
+        }
+        Ok(())
+    }
+
     /// What each figure drawn so far shows (title, labels, series, ranges, legend), by file,
     /// in the order drawn: the content a test can check without reading pixels.
     pub fn figures(&self) -> &[(PathBuf, crate::plot::Description)] {
@@ -924,17 +916,6 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
     }
 }
 
-/// The first characters of an expression's plain form, for the plan.
-pub(super) fn short(e: &Expr) -> String {
-    let s = crate::print::plain(e);
-    if s.chars().count() > 48 {
-        let cut: String = s.chars().take(45).collect();
-        format!("{cut}…")
-    } else {
-        s
-    }
-}
-
 pub(super) fn format_name(f: Format) -> &'static str {
     match f {
         Format::Plain => "plain",
@@ -946,24 +927,6 @@ pub(super) fn format_name(f: Format) -> &'static str {
 /// Numbers in messages and reports ([`crate::print::fmt_num`]), where the scene's statements
 /// import it from.
 pub use crate::print::fmt_num;
-
-/// The span of the first whole-word occurrence of `spelled` in `src`, else all of `src`.
-pub(super) fn symbol_span(src: &Src, spelled: &str) -> Span {
-    let text = &src.text;
-    let is_ident = |c: char| c.is_alphanumeric() || c == '_' || c == '\'';
-    let mut from = 0;
-    while let Some(i) = text[from..].find(spelled) {
-        let start = from + i;
-        let end = start + spelled.len();
-        let before_ok = text[..start].chars().next_back().map_or(true, |c| !is_ident(c));
-        let after_ok = text[end..].chars().next().map_or(true, |c| !is_ident(c));
-        if before_ok && after_ok {
-            return (src.span.0 + start, src.span.0 + end);
-        }
-        from = end;
-    }
-    src.span
-}
 
 /// Reads a scene file: at most [`MAX_SCENE_BYTES`], valid UTF-8, or a clear error. The limit
 /// holds for anything the path names (a device such as `/dev/zero`, a pipe): the read

@@ -8,12 +8,12 @@ use std::sync::Arc;
 
 use miette::NamedSource;
 
-use super::engine::backend::{Backend, Line, NativeBackend, Trajectory};
+use super::engine::backend::{Backend, BackendError, Line, NativeBackend, Trajectory};
 use super::engine::output::Staging;
 use super::engine::plan::PlanEntry;
 use super::engine::progress::Draw;
 use super::syntax::ast::{DerivKind, SimSpec, Src};
-use super::syntax::error::Span;
+use super::syntax::error::{ErrorKind, SceneError, Span};
 use crate::cache::{Cache, CacheKey, Value};
 use crate::chaos::{Indicator, Indicators};
 use crate::diff::Differentiator;
@@ -261,4 +261,38 @@ pub(in crate::scene) struct Dynamics {
     pub(in crate::scene) constraints: Vec<Declared>,
     /// Velocity constraints `g(q, q', t) = 0`, linear in the velocities.
     pub(in crate::scene) velocity_constraints: Vec<Declared>,
+}
+
+pub(in crate::scene) fn backend_error(e: BackendError, span: Span) -> SceneError {
+    let kind = match &e {
+        BackendError::NotYetAvailable { .. } => ErrorKind::NotAvailable,
+        BackendError::Failed(_) => ErrorKind::Derivation,
+        BackendError::Numeric(_) | BackendError::Budget(_) => ErrorKind::Numeric,
+        BackendError::Simulate(crate::simulate::SimulateError::Integrate { .. }) => ErrorKind::Numeric,
+        BackendError::Simulate(_) => ErrorKind::Derivation,
+    };
+    let mut err = SceneError::new(kind, e.to_string()).at(span);
+    if kind == ErrorKind::NotAvailable {
+        err = err.hint("the statement is valid; this build of lagrangian cannot carry it out yet");
+    }
+    err
+}
+
+/// The first characters of an expression's plain form, for the plan.
+pub(in crate::scene) fn short(e: &Expr) -> String {
+    let s = crate::print::plain(e);
+    if s.chars().count() > 48 {
+        let cut: String = s.chars().take(45).collect();
+        format!("{cut}…")
+    } else {
+        s
+    }
+}
+
+/// `Err(Interrupted)` at `span` once Ctrl-C was pressed (the process-wide token).
+pub(in crate::scene) fn interruption(span: Span) -> Result<(), SceneError> {
+    crate::cancel::check().map_err(|_| {
+        SceneError::new(ErrorKind::Interrupted, "interrupted (Ctrl-C); this statement's results were discarded")
+            .at(span)
+    })
 }

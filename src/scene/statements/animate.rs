@@ -4,7 +4,7 @@
 //! stored states at the frame's time (drawing only: the run's numbers are untouched).
 
 use crate::animate::{Animation, Frame};
-use crate::scene::session::fmt_num;
+use crate::print::fmt_num;
 use crate::scene::state::{At, Session};
 use crate::scene::statements::{Output, Stmt};
 use crate::scene::syntax::ast::Src;

@@ -12,10 +12,11 @@ use std::collections::{BTreeSet, HashMap};
 
 use crate::compile::Stabilization;
 use crate::expr::{Expr, Symbol};
+use crate::print::fmt_num;
 use crate::scene::engine::backend::ExtendedLagrangian;
-use crate::scene::session::{fmt_num, symbol_span};
 use crate::scene::state::{At, Declared, Dynamics, Mode, Session};
 use crate::scene::statements::Stmt;
+use crate::scene::syntax::ast::symbol_span;
 use crate::scene::syntax::ast::{SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError, Span};
 use crate::scene::syntax::parser::{Pair, Reader, Rule};

@@ -14,9 +14,9 @@ use std::sync::Arc;
 
 use super::simulate::state_names;
 use crate::expr::Symbol;
+use crate::print::fmt_num;
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::fmt_num;
 use crate::scene::state::{At, Group, RunEntry, RunResult, Session};
 use crate::scene::syntax::ast::{EnsembleSpec, SimSpec, Src};
 use crate::scene::syntax::error::{ErrorKind, SceneError};
@@ -121,7 +121,7 @@ impl Session {
         let mut ids = Vec::new();
         for (k, r) in results.into_iter().enumerate() {
             let traj = r.map_err(|e| {
-                crate::scene::session::backend_error(e, stmt_span).hint(format!(
+                crate::scene::state::backend_error(e, stmt_span).hint(format!(
                     "in the ensemble member {} = {}",
                     ens.var.text,
                     fmt_num(kept[k])

@@ -6,9 +6,8 @@ use std::path::{Component, PathBuf};
 use super::simulate::state_names;
 use crate::cache::Value;
 use crate::expr::Symbol;
+use crate::print::fmt_num;
 use crate::print::Format;
-use crate::scene::registry::Statement;
-use crate::scene::session::fmt_num;
 use crate::scene::state::Mode;
 use crate::scene::state::{At, Layout, Printed, RunResult, Session};
 use crate::scene::statements::{Output, Stmt};
@@ -265,19 +264,6 @@ impl Session {
             }
         }
         Ok((full, p.span))
-    }
-
-    /// Checks every output of `stmts` before any of them runs: each path is allowed
-    /// ([`Session::out_path`]) and has a known format, and no two outputs of this scene (or
-    /// REPL entry) write the same file, where the second would silently replace the first.
-    pub(in crate::scene) fn claim_outputs(&mut self, stmts: &[Statement]) -> Result<(), SceneError> {
-        for st in stmts {
-            let Some(out) = st.node.output() else { continue };
-            let (file, span, _) = self.out_file(st.span, out.path, out.default, out.what, out.formats, out.hint)?;
-            let span = if out.path.is_some() { span } else { st.span };
-            self.staging.claim(&file).map_err(|e| e.at(span))?;
-        }
-        Ok(())
     }
 
     /// The output file of a plot or an export, its span (the statement's, `stmt`, when the

@@ -7,11 +7,12 @@ use std::sync::Arc;
 use super::drift::EnergyPlan;
 use crate::cache::{CacheKey, Value};
 use crate::expr::{Expr, Symbol};
+use crate::print::fmt_num;
 use crate::print::{render, Format};
 use crate::scene::engine::backend::{CompileRequest, Compiled, Formulation, RunRequest, Trajectory};
 use crate::scene::engine::plan::{PlanEntry, Status, Step};
 use crate::scene::engine::progress::Progress;
-use crate::scene::session::{backend_error, fmt_num, short};
+use crate::scene::state::{backend_error, short};
 use crate::scene::state::{At, Dynamics, Layout, Mode, RunEntry, RunResult, Session};
 use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::{DerivKind, EventSpec, SimSpec, Src};
@@ -902,7 +903,7 @@ impl Session {
             // Ctrl-C: a long run evaluated for a plot or an export stops here (about 4096
             // evaluations, well under a millisecond, between checks).
             if k % 4096 == 0 {
-                crate::scene::session::interruption(span)?;
+                crate::scene::state::interruption(span)?;
             }
             let lookup = |s: &Symbol| -> Option<f64> {
                 if s.is_time() {

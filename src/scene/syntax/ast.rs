@@ -250,3 +250,21 @@ pub struct FormatStmt {
     /// `format …` sets the default; a bare format name reprints.
     pub set_default: bool,
 }
+
+/// The span of the first whole-word occurrence of `spelled` in `src`, else all of `src`.
+pub(in crate::scene) fn symbol_span(src: &Src, spelled: &str) -> Span {
+    let text = &src.text;
+    let is_ident = |c: char| c.is_alphanumeric() || c == '_' || c == '\'';
+    let mut from = 0;
+    while let Some(i) = text[from..].find(spelled) {
+        let start = from + i;
+        let end = start + spelled.len();
+        let before_ok = text[..start].chars().next_back().map_or(true, |c| !is_ident(c));
+        let after_ok = text[end..].chars().next().map_or(true, |c| !is_ident(c));
+        if before_ok && after_ok {
+            return (src.span.0 + start, src.span.0 + end);
+        }
+        from = end;
+    }
+    src.span
+}
