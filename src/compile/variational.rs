@@ -221,6 +221,11 @@ impl TaylorSystem for Variational {
     fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), StepError> {
         self.taylor.taylor_coefficients(t, y, order, buf)
     }
+    /// The inner system's: a run's buffer is the inner expansion's, so its constant rows can
+    /// stay as the last step left them, as in a run of the [`TaylorOde`] alone.
+    fn taylor_coefficients_again(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), StepError> {
+        self.taylor.taylor_coefficients_again(t, y, order, buf)
+    }
     fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), StepError> {
         self.taylor.check_step(scratch, order, h)
     }

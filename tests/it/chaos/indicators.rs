@@ -326,3 +326,62 @@ fn lyapunov_exponent_from_the_slope_of_megno() {
     let ratio = r.megno_lyapunov / r.lyapunov[0];
     assert!((0.5..2.0).contains(&ratio), "slope {} against λ {:?}", r.megno_lyapunov, r.lyapunov);
 }
+
+/// A variational system whose every expansion is written as if for the first time: it
+/// forwards `taylor_coefficients` alone, so the integrator's `taylor_coefficients_again` is
+/// the default, which fills the whole buffer.
+struct FreshVariational<'a>(&'a Variational);
+
+impl lagrangian::integrate::TaylorSystem for FreshVariational<'_> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn scratch_len(&self, order: usize) -> usize {
+        lagrangian::integrate::TaylorSystem::scratch_len(self.0, order)
+    }
+    fn taylor_coefficients(
+        &self,
+        t: f64,
+        y: &[f64],
+        order: usize,
+        buf: &mut [f64],
+    ) -> Result<(), lagrangian::integrate::RhsError> {
+        lagrangian::integrate::TaylorSystem::taylor_coefficients(self.0, t, y, order, buf)
+    }
+    fn check_step(&self, scratch: &[f64], order: usize, h: f64) -> Result<(), lagrangian::integrate::RhsError> {
+        lagrangian::integrate::TaylorSystem::check_step(self.0, scratch, order, h)
+    }
+}
+
+#[test]
+fn variational_expansions_into_the_last_buffer_equal_fresh_ones() {
+    // The Hénon–Heiles tangent flow with MEGNO (constant rows in the tape) and a driven,
+    // damped oscillator (the time as an input row, whose orders past 1 a reused buffer keeps),
+    // interpreted and on native code: the run that reuses the buffer has every bit of the run
+    // that writes it whole at every step.
+    let bits = |tr: &lagrangian::integrate::Trajectory| {
+        tr.iter().map(|(t, y)| (t.to_bits(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>())).collect::<Vec<_>>()
+    };
+    let driven = Variational::new(
+        &[parse("v").unwrap(), parse("-x - 0.1 v + 0.3 cos(1.1 t)").unwrap()],
+        &["x", "v"],
+        &[],
+        2,
+        false,
+    )
+    .unwrap();
+    let hh = henon_heiles(2, true);
+    for (sys, x0) in [(&hh, &hh_start(1.0 / 8.0, 0.1, 0.0)[..]), (&driven, &[1.0, 0.0][..])] {
+        for native in [false, true] {
+            let v = sys.clone().with_native(native);
+            let y0 = v.initial_state(x0);
+            for tol in [1e-6, 1e-12] {
+                let m = Taylor::new(tol);
+                let again = m.integrate(&v, 0.0..20.0, &y0).unwrap();
+                let fresh = m.integrate(&FreshVariational(&v), 0.0..20.0, &y0).unwrap();
+                assert!(again.stats.steps > 20, "{} steps", again.stats.steps);
+                assert_eq!(bits(&again), bits(&fresh), "tol {tol:e}, native {native}");
+            }
+        }
+    }
+}
