@@ -810,9 +810,14 @@ impl Reader {
 }
 
 /// The one statement of `s`, read by `read` (typed, so a test sees the statement's own
-/// fields); `rule` is the rule the grammar must have chosen. For the statements' unit tests.
+/// fields), or what went wrong: a parse error, no statement, or a grammar rule other than
+/// `rule`. For the statements' tests (`tests/it/scene/syntax.rs`).
 #[doc(hidden)]
-pub fn read_one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>) -> T {
+pub fn try_read_one<T>(
+    s: &str,
+    rule: Rule,
+    read: for<'i> fn(&Reader, Pair<'i, Rule>) -> Result<T, SceneError>,
+) -> Result<T, String> {
     thread_local!(static RULE: std::cell::Cell<Option<Rule>> = const { std::cell::Cell::new(None) });
     let lang = Language { read, words: Vec::new };
     let seen = Language {
@@ -822,11 +827,14 @@ pub fn read_one<T>(s: &str, rule: Rule, read: for<'i> fn(&Reader, Pair<'i, Rule>
         },
         words: Vec::new,
     };
-    parse_statement_at(s, 0, s.len(), &seen).unwrap_or_else(|e| panic!("{s}: {e:?}"));
-    assert_eq!(RULE.with(|r| r.get()), Some(rule), "{s}");
+    parse_statement_at(s, 0, s.len(), &seen).map_err(|e| format!("{s}: {e:?}"))?;
+    let chosen = RULE.with(|r| r.get());
+    if chosen != Some(rule) {
+        return Err(format!("{s}: the grammar chose {chosen:?}, not {rule:?}"));
+    }
     match parse_statement_at(s, 0, s.len(), &lang) {
-        Ok(Some(v)) => v,
-        Ok(None) => panic!("{s}: no statement"),
-        Err(e) => panic!("{s}: {e:?}"),
+        Ok(Some(v)) => Ok(v),
+        Ok(None) => Err(format!("{s}: no statement")),
+        Err(e) => Err(format!("{s}: {e:?}")),
     }
 }

@@ -1,5 +1,17 @@
 //! The scene language's reader: statements split into lines, keywords, each statement's reader, the registry and help.
 
+/// The one statement of `s` read by `read`; the test fails on anything else (see `try_read_one`).
+fn read_one<T>(
+    s: &str,
+    rule: lagrangian::scene::syntax::parser::Rule,
+    read: for<'i> fn(
+        &lagrangian::scene::syntax::parser::Reader,
+        pest::iterators::Pair<'i, lagrangian::scene::syntax::parser::Rule>,
+    ) -> Result<T, lagrangian::scene::SceneError>,
+) -> T {
+    lagrangian::scene::syntax::parser::try_read_one(s, rule, read).unwrap_or_else(|e| panic!("{e}"))
+}
+
 mod help {
     use lagrangian::scene::help::*;
     use lagrangian::scene::registry::{parse_scene, statement_words};
@@ -48,6 +60,7 @@ mod registry {
 }
 
 mod parser {
+    use super::read_one;
     use lagrangian::scene::ast::{DefValue, Parameters};
     use lagrangian::scene::syntax::parser::*;
     use lagrangian::Format;
@@ -104,9 +117,10 @@ mod parser {
 }
 
 mod flow {
+    use super::read_one;
     use lagrangian::scene::statements::canonical::{Lie, LieGenerator};
     use lagrangian::scene::statements::flow::FlowSpec;
-    use lagrangian::scene::syntax::parser::{read_one, Rule};
+    use lagrangian::scene::syntax::parser::Rule;
 
     #[test]
     fn flow_reads_a_simulate_start_and_an_output_file() {
