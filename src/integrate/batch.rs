@@ -7,8 +7,8 @@
 //! lane's coefficients. Since a lane's coefficients are the bits a single expansion gives
 //! (the system's promise), and the step, the dense output and the bookkeeping are the single
 //! method's own code, every trajectory is bit for bit the one [`Taylor`] computes alone,
-//! whatever its neighbours. A trajectory that ends loads the next one into its lane
-//! ([`LaneRefill`]).
+//! whatever its neighbours. A trajectory that ends loads the next unstarted one into its lane,
+//! taken from a queue the drivers of all threads share.
 //!
 //! What a run does around each step is its [`LaneTask`]: the ensembles keep states at given
 //! times and hand every failure back to be run alone (which reproduces its error exactly);
@@ -47,44 +47,6 @@ pub trait TaylorBatchSystem: TaylorSystem {
     /// [`TaylorSystem::taylor_coefficients`] gives for it; lanes the system cannot expand are
     /// marked in `failed`.
     fn expand_batch(&self, batch: &mut Self::Batch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]);
-}
-
-/// Which trajectory each lane of a batch holds. When a lane's trajectory ends (finished or
-/// failed), [`LaneRefill::finish`] loads the next unstarted one into that lane, so a batch
-/// never idles while trajectories remain; one lane's end never touches the others.
-#[derive(Debug, Clone)]
-pub struct LaneRefill {
-    lanes: Vec<Option<usize>>,
-    next: usize,
-    total: usize,
-}
-
-impl LaneRefill {
-    /// `lanes` lanes over trajectories `0..total`, the first `min(lanes, total)` loaded.
-    pub fn new(lanes: usize, total: usize) -> Self {
-        let loaded = lanes.min(total);
-        let slots = (0..lanes).map(|i| (i < loaded).then_some(i)).collect();
-        LaneRefill { lanes: slots, next: loaded, total }
-    }
-
-    /// The trajectory lane `lane` holds, or `None` if it is empty (nothing left to load).
-    pub fn lane(&self, lane: usize) -> Option<usize> {
-        self.lanes[lane]
-    }
-
-    /// Ends lane `lane`'s trajectory and loads the next unstarted one, which it returns (the
-    /// caller copies that initial condition into the lane); `None` leaves the lane empty.
-    pub fn finish(&mut self, lane: usize) -> Option<usize> {
-        let refill = (self.next < self.total).then_some(self.next);
-        self.next += usize::from(refill.is_some());
-        self.lanes[lane] = refill;
-        refill
-    }
-
-    /// Whether every lane is empty: all trajectories have ended.
-    pub fn done(&self) -> bool {
-        self.lanes.iter().all(Option::is_none)
-    }
 }
 
 /// Which states a batch run keeps of each trajectory.
