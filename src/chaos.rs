@@ -431,10 +431,7 @@ pub enum Indicator {
 /// ran out of the budget ([`is_budget`]). The orbits run in lane groups of the Taylor method's
 /// batch mode where it pays, each with the bits of its run alone (see [`indicators_map`]).
 pub fn chaos_map(sys: &Variational, starts: &[Vec<f64>], t_end: f64, tol: f64, which: Indicator) -> Vec<f64> {
-    orbits(sys, starts, t_end, tol, &Budget::default(), Deadline::PerOrbit, &AtomicUsize::new(0))
-        .into_iter()
-        .map(|r| r.map_or(f64::NAN, |r| r.value(which)))
-        .collect()
+    chaos_map_each(sys, starts, t_end, tol, which, &Budget::default()).into_iter().map(|c| c.value).collect()
 }
 
 /// One cell of a chaos map from [`chaos_map_with`].
