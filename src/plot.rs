@@ -145,8 +145,6 @@ struct HeatMap {
     y: (f64, f64),
     side: usize,
     values: Vec<f64>,
-    /// A last legend line that says how to read some cells (a chaos map's early-stopped ones).
-    note: Option<String>,
 }
 
 /// Viridis at five evenly spaced points (the published colour map of matplotlib's
@@ -278,19 +276,10 @@ impl Figure {
             xlabel: xlabel.into(),
             ylabel: ylabel.into(),
             series: Vec::new(),
-            style: Style::Heat(HeatMap { x, y, side, values, note: None }),
+            style: Style::Heat(HeatMap { x, y, side, values }),
             periodic: false,
             equal_aspect: false,
         }
-    }
-
-    /// A heat map's legend ends with `note` (a line of text under the colour levels), for what
-    /// the colours alone do not say; other figures are returned unchanged.
-    pub fn with_heat_note(mut self, note: &str) -> Figure {
-        if let Style::Heat(h) = &mut self.style {
-            h.note = Some(note.to_string());
-        }
-        self
     }
 
     /// A phase portrait: orbits and, optionally, contours of an energy function.
@@ -1123,13 +1112,6 @@ where
             .map_err(err)?
             .label(format!("{:.3}{}", lo + s * (hi - lo), if k == 4 { " and above" } else { "" }))
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 16, y + 6)], color.filled()));
-    }
-    if let Some(note) = &h.note {
-        chart
-            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
-            .map_err(err)?
-            .label(note.clone())
-            .legend(|(x, y)| Rectangle::new([(x, y - 6), (x + 16, y + 6)], BLACK.stroke_width(1)));
     }
     chart
         .configure_series_labels()

@@ -494,8 +494,19 @@ impl Session {
                 SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", path.display())).at(pspan)
             })?;
         } else {
-            let title = format!("{} at t = {}", label(which), fmt_num(setup.t1));
-            let mut fig = crate::plot::Figure::heat_map(
+            // A stopped cell's colour is its ⟨Y⟩ at the stop, not at `T`: the title says so
+            // (in the legend it would widen the box over the cells).
+            let title = match &stop {
+                None => format!("{} at t = {}", label(which), fmt_num(setup.t1)),
+                Some(st) => format!(
+                    "{} at t = {}; ⟨Y⟩ ≥ {} after t = {}: stopped there (colour at the stop)",
+                    label(which),
+                    fmt_num(setup.t1),
+                    fmt_num(st.above),
+                    fmt_num(st.after)
+                ),
+            };
+            let fig = crate::plot::Figure::heat_map(
                 &title,
                 xn,
                 yn,
@@ -504,14 +515,6 @@ impl Session {
                 side,
                 values.clone(),
             );
-            // A stopped cell's colour is its ⟨Y⟩ at the stop, not at `T`: the legend says so.
-            if let Some(st) = &stop {
-                fig = fig.with_heat_note(&format!(
-                    "⟨Y⟩ ≥ {} by t ≥ {}: stopped early ({stopped} cells; colour at the stop)",
-                    fmt_num(st.above),
-                    fmt_num(st.after)
-                ));
-            }
             crate::plot::draw(&fig, &tmp).map_err(|e| {
                 SceneError::new(ErrorKind::Io, format!("cannot write the plot `{}`: {e}", path.display())).at(pspan)
             })?;
