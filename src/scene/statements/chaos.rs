@@ -104,8 +104,13 @@ impl ChaosSpec {
                 }
                 Rule::path => path = Some(r.path(q.clone())),
                 Rule::megno_stop => {
+                    if stop.is_some() {
+                        return Err(SceneError::new(ErrorKind::Syntax, "the early stop is given twice")
+                            .at(r.span(q))
+                            .hint("keep one `stop megno >= … after …`"));
+                    }
                     let parts: Vec<Pair<Rule>> = r.inner(q);
-                    if let [word, above, after] = &parts[..] {
+                    if let [word, _, above, after] = &parts[..] {
                         stop = Some(StopSpec {
                             word: r.src(word),
                             above: r.src(above),

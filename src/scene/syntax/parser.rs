@@ -231,6 +231,7 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::time_limit => "`time_limit = …`",
         Rule::megno_stop | Rule::kw_stop => "`stop megno >= LEVEL after T`",
         Rule::kw_after => "`after T` (the time from which MEGNO may stop an orbit)",
+        Rule::at_least => "`>=` (or `≥`)",
         Rule::points => "`points N`",
         Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
         Rule::direction => "`rising` or `falling`",
