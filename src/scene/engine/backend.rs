@@ -158,7 +158,9 @@ pub trait Backend {
     }
     /// One indicator from each of many starts (a chaos map); `progress` receives the fraction
     /// of starts finished. Only the final value is kept per start (a 200 × 200 map would not
-    /// hold every start's samples). One at a time unless a backend does better.
+    /// hold every start's samples), with when the budget's MEGNO stop ended it early (so a
+    /// stopped cell is never read as a value at `t_end`). One at a time unless a backend does
+    /// better.
     // The statement's settings (span, tolerance, budget, indicator) and the progress sink
     // are the request; a struct for them would be one more type for each backend to build.
     #[allow(clippy::too_many_arguments)]
@@ -171,13 +173,15 @@ pub trait Backend {
         budget: &crate::chaos::Budget,
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
-    ) -> Vec<Result<f64, BackendError>> {
+    ) -> Vec<Result<crate::chaos::Cell, BackendError>> {
         let n = starts.len().max(1) as f64;
         starts
             .iter()
             .enumerate()
             .map(|(k, x0)| {
-                let out = self.indicators(compiled, x0, t_end, tol, budget).map(|r| r.value(which));
+                let out = self
+                    .indicators(compiled, x0, t_end, tol, budget)
+                    .map(|r| crate::chaos::Cell { value: r.value(which), stopped_at: r.stopped_at });
                 progress((k + 1) as f64 / n);
                 out
             })
@@ -311,13 +315,16 @@ impl Backend for NativeBackend {
         budget: &crate::chaos::Budget,
         which: crate::chaos::Indicator,
         progress: &mut dyn FnMut(f64),
-    ) -> Vec<Result<f64, BackendError>> {
+    ) -> Vec<Result<crate::chaos::Cell, BackendError>> {
         let var = &**compiled;
         let done = std::sync::atomic::AtomicUsize::new(0);
         simulate::with_progress(&done, starts.len(), progress, || {
             crate::chaos::indicators_map_counting(var, starts, t_end, tol, budget, &done)
                 .into_iter()
-                .map(|r| r.map(|r| r.value(which)).map_err(chaos_error))
+                .map(|r| {
+                    r.map(|r| crate::chaos::Cell { value: r.value(which), stopped_at: r.stopped_at })
+                        .map_err(chaos_error)
+                })
                 .collect()
         })
         .unwrap_or_else(|_| {

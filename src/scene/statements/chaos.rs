@@ -48,6 +48,22 @@ pub(in crate::scene) struct ChaosSpec {
     pub path: Option<Src>,
     /// The map's `on H = 1/6 solve p_x > 0`: every start on that level set.
     pub level: Option<LevelSpec>,
+    /// The map's `stop megno >= 5 after 10`: the early stop of MEGNO maps.
+    pub stop: Option<StopSpec>,
+}
+
+/// `stop megno >= 5 after 10` of a chaos map: the orbits' early stop
+/// ([`crate::chaos::MegnoStop`]), as written; the library checks the numbers.
+#[derive(Clone, Debug)]
+pub(in crate::scene) struct StopSpec {
+    /// The indicator compared (only `megno` is accepted).
+    pub word: Src,
+    /// The mean MEGNO at or above which an orbit stops.
+    pub above: Src,
+    /// The time from which an orbit may stop.
+    pub after: Src,
+    /// The whole clause.
+    pub span: Span,
 }
 
 /// `on H = 1/6 solve p_x > 0` of a chaos map: the level set its starts lie on, and the state
@@ -74,6 +90,7 @@ impl ChaosSpec {
         let mut ranges = Vec::new();
         let mut path = None;
         let mut level = None;
+        let mut stop = None;
         for q in &inner {
             match q.as_rule() {
                 Rule::map_range => {
@@ -86,6 +103,22 @@ impl ChaosSpec {
                     }
                 }
                 Rule::path => path = Some(r.path(q.clone())),
+                Rule::megno_stop => {
+                    if stop.is_some() {
+                        return Err(SceneError::new(ErrorKind::Syntax, "the early stop is given twice")
+                            .at(r.span(q))
+                            .hint("keep one `stop megno >= … after …`"));
+                    }
+                    let parts: Vec<Pair<Rule>> = r.inner(q);
+                    if let [word, _, above, after] = &parts[..] {
+                        stop = Some(StopSpec {
+                            word: r.src(word),
+                            above: r.src(above),
+                            after: r.src(after),
+                            span: r.span(q),
+                        });
+                    }
+                }
                 Rule::map_level => {
                     let lspan = r.span(q);
                     let parts: Vec<Pair<Rule>> = r.inner(q);
@@ -105,7 +138,7 @@ impl ChaosSpec {
         let indicator =
             indicator.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected an indicator").at(span))?;
         let sim = r.simulate(inner, span)?;
-        Ok(ChaosSpec { indicator, sim, map, ranges, path, level })
+        Ok(ChaosSpec { indicator, sim, map, ranges, path, level, stop })
     }
 }
 
@@ -159,6 +192,15 @@ pub(in crate::scene) fn indicator(word: &str) -> Option<Indicator> {
         "megno" => Some(Indicator::Megno),
         "fli" => Some(Indicator::Fli),
         _ => None,
+    }
+}
+
+/// The keyword of an indicator.
+fn word_of(which: Indicator) -> &'static str {
+    match which {
+        Indicator::Lyapunov => "lyapunov",
+        Indicator::Megno => "megno",
+        Indicator::Fli => "fli",
     }
 }
 
@@ -368,10 +410,15 @@ impl Session {
 
     fn chaos_map(&mut self, at: At, spec: &ChaosSpec, which: Indicator) -> Result<(), SceneError> {
         let (side, axes) = self.map_grid(at, spec)?;
+        let stop = match &spec.stop {
+            Some(s) => Some(self.megno_stop(at, s, which)?),
+            None => None,
+        };
         let mut names: Vec<Src> = axes.iter().map(|a| a.0.clone()).collect();
         names.extend(spec.level.as_ref().map(|l| l.solve.clone()));
         let base = self.chaos_values(at, spec, &names)?;
-        let setup = self.chaos_setup(at, spec, 1, which == Indicator::Megno)?;
+        let mut setup = self.chaos_setup(at, spec, 1, which == Indicator::Megno)?;
+        setup.budget.megno_stop = stop;
         let level = match &spec.level {
             Some(l) => Some(self.chaos_level(at, l, &setup)?),
             None => None,
@@ -421,9 +468,13 @@ impl Session {
         }
         // A start whose integration fails (escapes, meets a singularity) is blank too, but
         // counted apart from the cells off the level set.
-        let mut computed = computed.into_iter().map(|r| r.unwrap_or(f64::NAN));
-        let values: Vec<f64> =
-            on_surface.iter().map(|&on| if on { computed.next().unwrap_or(f64::NAN) } else { f64::NAN }).collect();
+        let blank = crate::chaos::Cell { value: f64::NAN, stopped_at: None };
+        let mut computed = computed.into_iter().map(|r| r.unwrap_or(blank));
+        let cells: Vec<crate::chaos::Cell> =
+            on_surface.iter().map(|&on| if on { computed.next().unwrap_or(blank) } else { blank }).collect();
+        let values: Vec<f64> = cells.iter().map(|c| c.value).collect();
+        let stopped_at: Vec<Option<f64>> = cells.iter().map(|c| c.stopped_at).collect();
+        let stopped = stopped_at.iter().filter(|t| t.is_some()).count();
         let off = on_surface.iter().filter(|on| !**on).count();
         let failed = values.iter().zip(&on_surface).filter(|(v, on)| **on && !v.is_finite()).count();
         self.plan.push(PlanEntry {
@@ -443,12 +494,23 @@ impl Session {
         let (xn, yn) = (&axes[0].0.text, &axes[1].0.text);
         let tmp = self.staging.stage(&path).map_err(|e| e.at(pspan))?;
         if ext == "csv" {
-            let s = map_table(&axes, side, &on_surface, &values, &spec.indicator.text);
+            let s = map_table(&axes, side, &on_surface, &values, &spec.indicator.text, stop.map(|_| &stopped_at[..]));
             std::fs::write(&tmp, s).map_err(|e| {
                 SceneError::new(ErrorKind::Io, format!("cannot write `{}`: {e}", path.display())).at(pspan)
             })?;
         } else {
-            let title = format!("{} at t = {}", label(which), fmt_num(setup.t1));
+            // A stopped cell's colour is its ⟨Y⟩ at the stop, not at `T`: the title says so
+            // (in the legend it would widen the box over the cells).
+            let title = match &stop {
+                None => format!("{} at t = {}", label(which), fmt_num(setup.t1)),
+                Some(st) => format!(
+                    "{} at t = {}; ⟨Y⟩ ≥ {} after t = {}: stopped there (colour at the stop)",
+                    label(which),
+                    fmt_num(setup.t1),
+                    fmt_num(st.above),
+                    fmt_num(st.after)
+                ),
+            };
             let fig = crate::plot::Figure::heat_map(
                 &title,
                 xn,
@@ -482,9 +544,49 @@ impl Session {
                 ),
                 None => String::new(),
             } + &if failed > 0 { format!(", {failed} starts failed (blank)") } else { String::new() }
+                + &match &stop {
+                    Some(st) => format!(
+                        ", {stopped} stopped early at ⟨Y⟩ ≥ {} after t = {} (their value is ⟨Y⟩ at the stop)",
+                        fmt_num(st.above),
+                        fmt_num(st.after)
+                    ),
+                    None => String::new(),
+                }
         ));
         self.wrote(&path);
         Ok(())
+    }
+
+    /// A map's `stop megno >= L after T` as the library's [`crate::chaos::MegnoStop`]: refused
+    /// on a map of another indicator (it compares MEGNO) and for a word other than `megno`;
+    /// the numbers are checked by [`crate::chaos::MegnoStop::new`], whose message is put at
+    /// the clause.
+    fn megno_stop(&mut self, at: At, s: &StopSpec, which: Indicator) -> Result<crate::chaos::MegnoStop, SceneError> {
+        if which != Indicator::Megno {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("`stop megno >= …` applies to MEGNO maps only, not to a `{}` map", word_of(which)),
+            )
+            .at(s.span)
+            .hint(
+                "the early stop ends orbits whose mean MEGNO has diverged: map `megno`, or remove the `stop` clause",
+            ));
+        }
+        if s.word.text != "megno" {
+            return Err(SceneError::new(
+                ErrorKind::Syntax,
+                format!("the early stop compares MEGNO ⟨Y⟩, not `{}`", s.word.text),
+            )
+            .at(s.word.span)
+            .hint("write `stop megno >= 5 after 10`"));
+        }
+        let above = self.bound(at, &s.above)?;
+        let after = self.bound(at, &s.after)?;
+        crate::chaos::MegnoStop::new(above, after).map_err(|m| {
+            SceneError::new(ErrorKind::BadNumber, m)
+                .at(s.span)
+                .hint("for example `stop megno >= 5 after 10`: an orbit stops once t ≥ 10 and ⟨Y⟩ ≥ 5")
+        })
     }
 
     /// A chaos map's grid: the side (`points`, default [`DEFAULT_GRID`]) and the two axes,
@@ -885,21 +987,39 @@ fn centre(side: usize, k: usize, (_, a, b): &Axis) -> f64 {
 }
 
 /// A chaos map as a CSV table of x, y and the value; a cell off the level set has no value.
-fn map_table(axes: &[Axis], side: usize, on_surface: &[bool], values: &[f64], indicator: &str) -> String {
+/// With an early stop (`stopped_at`), a last column `stopped_at` gives the time a cell's orbit
+/// stopped, empty for one that ran to the end (and for a cell without an orbit); without it
+/// the table has only the three columns.
+fn map_table(
+    axes: &[Axis],
+    side: usize,
+    on_surface: &[bool],
+    values: &[f64],
+    indicator: &str,
+    stopped_at: Option<&[Option<f64>]>,
+) -> String {
     let mut s = format!(
-        "{},{},{}\n",
+        "{},{},{}{}\n",
         super::figures::csv_field(&axes[0].0.text),
         super::figures::csv_field(&axes[1].0.text),
-        indicator
+        indicator,
+        if stopped_at.is_some() { ",stopped_at" } else { "" }
     );
     for j in 0..side {
         for i in 0..side {
+            let k = j * side + i;
             let (x, y) = (centre(side, i, &axes[0]), centre(side, j, &axes[1]));
-            match (on_surface[j * side + i], values[j * side + i]) {
+            match (on_surface[k], values[k]) {
                 // Off the level set: no value at all.
-                (false, _) => s.push_str(&format!("{x:e},{y:e},\n")),
-                (true, v) => s.push_str(&format!("{x:e},{y:e},{v:e}\n")),
+                (false, _) => s.push_str(&format!("{x:e},{y:e},")),
+                (true, v) => s.push_str(&format!("{x:e},{y:e},{v:e}")),
             }
+            match stopped_at.map(|st| st[k]) {
+                None => {}
+                Some(None) => s.push(','),
+                Some(Some(t)) => s.push_str(&format!(",{t:e}")),
+            }
+            s.push('\n');
         }
     }
     s

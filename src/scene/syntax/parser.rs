@@ -229,6 +229,9 @@ fn friendly(rule: &Rule) -> Option<&'static str> {
         Rule::drift => "`drift = …`",
         Rule::max_steps => "`max_steps = …`",
         Rule::time_limit => "`time_limit = …`",
+        Rule::megno_stop | Rule::kw_stop => "`stop megno >= LEVEL after T`",
+        Rule::kw_after => "`after T` (the time from which MEGNO may stop an orbit)",
+        Rule::at_least => "`>=` (or `≥`)",
         Rule::points => "`points N`",
         Rule::event | Rule::event_kind => "`record when …` or `stop when …`",
         Rule::direction => "`rising` or `falling`",
@@ -397,6 +400,8 @@ pub fn is_kw(rule: Rule) -> bool {
             | Rule::kw_drift
             | Rule::kw_max_steps
             | Rule::kw_time_limit
+            | Rule::kw_stop
+            | Rule::kw_after
             | Rule::kw_vs
             | Rule::kw_when
             | Rule::kw_with

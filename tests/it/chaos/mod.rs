@@ -5,4 +5,5 @@ mod early_stop;
 mod flow;
 mod flow_statement;
 mod indicators;
+mod map_stop;
 mod scene;

@@ -371,7 +371,7 @@ mod counting {
             budget: &Budget,
             which: Indicator,
             progress: &mut dyn FnMut(f64),
-        ) -> Vec<Result<f64, BackendError>> {
+        ) -> Vec<Result<lagrangian::chaos::Cell, BackendError>> {
             self.bump("chaos_map");
             NativeBackend.chaos_map(c, starts, t, tol, budget, which, progress)
         }
