@@ -16,6 +16,7 @@
 use super::statements::animate::AnimateSpec;
 use super::statements::canonical::{Action, Average, Integral, Lie, PointTransform, Transform};
 use super::statements::chaos::ChaosSpec;
+use super::statements::declare::{Coordinates, Functions, Parameters};
 use super::statements::dynamics::{Constraint, Force, Rayleigh};
 use super::statements::energy_at::EnergyAt;
 use super::statements::expansion::{Jacobian, Series};
@@ -76,9 +77,9 @@ pub struct Statement {
 
 /// Every statement, in the order `help` lists them.
 pub const REGISTRY: &[Topic] = &[
-    Topic { word: "coordinates", keywords: &["coordinates"], form: "coordinates q1, q2, … | coordinates x[0..4], …", about: "declares the generalized coordinates; `q'` is the velocity of `q`, `p_q` its momentum; `x[0..4]` declares x0 … x4 (inclusive), which expressions name `x[i]` (and their momenta `p_x[i]`)", example: "coordinates θ", read: reads(Rule::coordinates, |r, p| Ok(Box::new(r.coordinates(p)?))) },
-    Topic { word: "parameters", keywords: &["parameters"], form: "parameters a = VALUE, b, m[0..2] = V0, V1, V2, … [positive]", about: "declares constants, with optional values (needed to simulate); `m[0..2]` declares m0, m1, m2 with one value each, in order; `positive` applies to all of them", example: "parameters m = 1, l = 1, g = 9.81 positive", read: reads(Rule::parameters, |r, p| Ok(Box::new(r.parameters_stmt(p)?))) },
-    Topic { word: "functions", keywords: &["functions"], form: "functions V, …", about: "declares undefined functions such as a general potential `V(r)`; `V'(r)` is its derivative", example: "functions V", read: reads(Rule::functions, |r, p| Ok(Box::new(r.functions(p)?))) },
+    Topic { word: "coordinates", keywords: &["coordinates"], form: "coordinates q1, q2, … | coordinates x[0..4], …", about: "declares the generalized coordinates; `q'` is the velocity of `q`, `p_q` its momentum; `x[0..4]` declares x0 … x4 (inclusive), which expressions name `x[i]` (and their momenta `p_x[i]`)", example: "coordinates θ", read: reads(Rule::coordinates, |r, p| Ok(Box::new(Coordinates::read(r, p)?))) },
+    Topic { word: "parameters", keywords: &["parameters"], form: "parameters a = VALUE, b, m[0..2] = V0, V1, V2, … [positive]", about: "declares constants, with optional values (needed to simulate); `m[0..2]` declares m0, m1, m2 with one value each, in order; `positive` applies to all of them", example: "parameters m = 1, l = 1, g = 9.81 positive", read: reads(Rule::parameters, |r, p| Ok(Box::new(Parameters::read(r, p)?))) },
+    Topic { word: "functions", keywords: &["functions"], form: "functions V, …", about: "declares undefined functions such as a general potential `V(r)`; `V'(r)` is its derivative", example: "functions V", read: reads(Rule::functions, |r, p| Ok(Box::new(Functions::read(r, p)?))) },
     Topic { word: "define", keywords: &[], form: "NAME = EXPRESSION | NAME = el(L) | legendre(L) | hamilton(H) | conserved(L) | pb(f, g) | energy(L) | accelerations(L)", about: "defines `L`, `H` or any named expression; derivations on the right are computed only when an output needs them. `sum(i = 0..4, …)` and `sum(i < j in 0..4, …)` (each pair once) with `x[i]` for x0 … are expanded as they are read, so printed output shows the written-out terms, never `sum(…)`", example: "L = 1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", read: reads(Rule::definition, |r, p| Ok(Box::new(r.definition(p)?))) },
     Topic { word: "el", keywords: &["el"], form: "el [as FORMAT]", about: "prints the Euler–Lagrange equations E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i = Q_i − ∂R/∂q'_i + Σ λ_j ∂f_j/∂q_i (0 without force, rayleigh or constraint), as `lagrangian el` prints them", example: "el", read: reads(Rule::derive_stmt, |r, p| Ok(Box::new(r.derive(p)?))) },
     Topic { word: "accelerations", keywords: &["accelerations"], form: "accelerations [as FORMAT]", about: "prints the accelerations q'' = W⁻¹ F with the declared forces and dissipation; with constraints the constrained accelerations (λ eliminated by the constraints differentiated twice) and each multiplier λ_j, as `lagrangian el --accelerations` prints them", example: "accelerations", read: None },

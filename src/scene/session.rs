@@ -12,7 +12,7 @@
 //! a derivation's key, so re-running a scene with other numbers reuses the derivations —
 //! from memory in the same process, from the disk cache ([`crate::cache`]) in another.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -20,13 +20,11 @@ use miette::NamedSource;
 
 use super::engine::backend::SystemRef;
 use super::registry::{parse_scene, Statement};
-use super::state::{
-    backend_error, interruption, short, At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session,
-};
+use super::state::{backend_error, interruption, short, At, DefBody, DefEntry, Mode, Options, Printed, Refs, Session};
 use super::statements::Stmt;
 use super::syntax::ast::{
-    symbol_span, AllowNonfinite, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Functions,
-    Help, History, Item, Load, Parameters, Print, Src,
+    symbol_span, AllowNonfinite, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Help, History, Item, Load,
+    Print, Src,
 };
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::expr::{Expr, Symbol};
@@ -206,82 +204,6 @@ impl Session {
         } else {
             None
         }
-    }
-
-    pub(super) fn declare_coordinates(&mut self, names: &[Src]) -> Result<(), SceneError> {
-        let mut seen = BTreeSet::new();
-        for n in names {
-            let name = n.text.as_str();
-            if !seen.insert(name) || self.coords.iter().any(|c| c.name() == name) {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("coordinate `{name}` is declared twice"))
-                    .at(n.span)
-                    .label("declared again here"));
-            }
-            if let Some(what) = self.name_in_use(name) {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{name}` is already {what}"))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            if name == "t" {
-                return Err(SceneError::new(ErrorKind::Redeclared, "`t` is time and cannot be a coordinate")
-                    .at(n.span)
-                    .hint("choose another name"));
-            }
-        }
-        self.coords.extend(names.iter().map(|n| Symbol::new(&n.text)));
-        Ok(())
-    }
-
-    pub(super) fn declare_parameters(
-        &mut self,
-        params: &[(Src, Option<Src>)],
-        positive: bool,
-    ) -> Result<(), SceneError> {
-        for (n, v) in params {
-            let name = n.text.as_str();
-            if let Some(what) = self.name_in_use(name).filter(|w| *w != "a parameter") {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{name}` is already {what}"))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            let value = match v {
-                Some(src) => {
-                    let (e, refs) = self.expr(src)?;
-                    if !refs.is_empty() {
-                        return Err(SceneError::new(ErrorKind::Syntax, "a parameter value must be a number")
-                            .at(src.span)
-                            .hint("use numbers and earlier parameters only"));
-                    }
-                    Some(self.number(&e, src.span)?)
-                }
-                None => self.params.get(name).and_then(|p| p.value),
-            };
-            let was_positive = self.params.get(name).is_some_and(|p| p.positive);
-            if positive {
-                if let Some(x) = value.filter(|x| *x <= 0.0) {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`{name}` is declared positive but its value is {x}"),
-                    )
-                    .at(n.span)
-                    .hint("drop `positive` or give a positive value"));
-                }
-            }
-            self.params.insert(name.to_string(), Param { value, positive: positive || was_positive });
-        }
-        Ok(())
-    }
-
-    pub(super) fn declare_functions(&mut self, names: &[Src]) -> Result<(), SceneError> {
-        for n in names {
-            if let Some(what) = self.name_in_use(&n.text).filter(|w| *w != "a function") {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{}` is already {what}", n.text))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            self.functions.insert(n.text.clone());
-        }
-        Ok(())
     }
 
     // ----- expressions ---------------------------------------------------------------------
@@ -1070,24 +992,6 @@ fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
         }
     }
     std::borrow::Cow::Owned(out)
-}
-
-impl Stmt for Coordinates {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_coordinates(&self.0)
-    }
-}
-
-impl Stmt for Parameters {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_parameters(&self.params, self.positive)
-    }
-}
-
-impl Stmt for Functions {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_functions(&self.0)
-    }
 }
 
 impl Stmt for Define {

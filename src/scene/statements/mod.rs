@@ -12,6 +12,7 @@ use super::syntax::error::SceneError;
 pub(super) mod animate;
 pub mod canonical;
 pub(super) mod chaos;
+pub mod declare;
 pub mod drift;
 pub(super) mod dynamics;
 pub(super) mod energy_at;

@@ -182,23 +182,6 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
-/// `coordinates θ, φ`
-#[derive(Clone, Debug)]
-pub struct Coordinates(pub Vec<Src>);
-
-/// `parameters m = 1, l positive`
-#[derive(Clone, Debug)]
-pub struct Parameters {
-    /// Names and optional values.
-    pub params: Vec<(Src, Option<Src>)>,
-    /// `positive` at the end.
-    pub positive: bool,
-}
-
-/// `functions V`
-#[derive(Clone, Debug)]
-pub struct Functions(pub Vec<Src>);
-
 /// `name = …`
 #[derive(Clone, Debug)]
 pub struct Define {

@@ -12,8 +12,8 @@ pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
 use super::ast::{
-    Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Functions, Help,
-    Item, Load, Parameters, Print, SimSpec, Src, StabilizeSpec,
+    DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Help, Item, Load, Print,
+    SimSpec, Src, StabilizeSpec,
 };
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
@@ -436,7 +436,7 @@ impl Reader {
 
     /// A declared name, or the members of a family `x[0..4]` (x0 … x4, each with the family's
     /// span): the plain symbols that `x[i]` names in expressions.
-    fn family_or_name(&self, q: &Pair<Rule>) -> Result<Vec<Src>, SceneError> {
+    pub(crate) fn family_or_name(&self, q: &Pair<Rule>) -> Result<Vec<Src>, SceneError> {
         if q.as_rule() != Rule::name_family {
             return Ok(vec![self.src(q)]);
         }
@@ -559,20 +559,6 @@ impl Reader {
         p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect()
     }
 
-    /// `coordinates θ, φ` or a family `coordinates x[0..4]`.
-    pub(crate) fn coordinates(&self, p: Pair<Rule>) -> Result<Coordinates, SceneError> {
-        let mut names = Vec::new();
-        for q in self.inner(&p) {
-            names.extend(self.family_or_name(&q)?);
-        }
-        Ok(Coordinates(self.declared(names)?))
-    }
-
-    /// `functions V`.
-    pub(crate) fn functions(&self, p: Pair<Rule>) -> Result<Functions, SceneError> {
-        Ok(Functions(self.declared(self.inner(&p).into_iter().flat_map(|q| self.names(q)).collect())?))
-    }
-
     /// `name = …`: an expression or a derivation.
     pub fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
         let span = self.span(&p);
@@ -642,39 +628,6 @@ impl Reader {
         let set_default = p.as_str().trim_start().starts_with("format");
         let f = self.inner(&p).iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
         FormatStmt { format: f.unwrap_or(Format::Unicode), set_default }
-    }
-
-    /// `parameters …`: the names, their values if given, and `positive`.
-    pub fn parameters_stmt(&self, p: Pair<Rule>) -> Result<Parameters, SceneError> {
-        let inner = self.inner(&p);
-        let mut params = Vec::new();
-        let mut positive = false;
-        for q in inner {
-            match q.as_rule() {
-                Rule::param => {
-                    let pspan = self.span(&q);
-                    let mut it = q.into_inner();
-                    let Some(first) = it.next() else { continue };
-                    let names = self.declared(self.family_or_name(&first)?)?;
-                    let values: Vec<Src> = it.map(|v| self.src(&v)).collect();
-                    if values.is_empty() {
-                        params.extend(names.into_iter().map(|n| (n, None)));
-                    } else if values.len() == names.len() {
-                        params.extend(names.into_iter().zip(values.into_iter().map(Some)));
-                    } else {
-                        return Err(SceneError::new(
-                            ErrorKind::Syntax,
-                            format!("`{}` has {} members but {} values", first.as_str(), names.len(), values.len()),
-                        )
-                        .at(pspan)
-                        .hint("give one value per member, in order, or none; a parameter declared without a value goes before the family or gets `= value`"));
-                    }
-                }
-                Rule::assumption => positive = true,
-                _ => {}
-            }
-        }
-        Ok(Parameters { params, positive })
     }
 
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {

@@ -61,7 +61,8 @@ mod registry {
 
 mod parser {
     use super::read_one;
-    use lagrangian::scene::ast::{DefValue, Parameters};
+    use lagrangian::scene::ast::DefValue;
+    use lagrangian::scene::statements::declare::Parameters;
     use lagrangian::scene::syntax::parser::*;
     use lagrangian::Format;
 
@@ -99,7 +100,7 @@ mod parser {
     #[test]
     fn parameters_with_assumption() {
         let Parameters { params, positive } =
-            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
+            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, Parameters::read);
         assert!(positive);
         assert_eq!(params.len(), 3);
         assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
