@@ -20,16 +20,12 @@ use miette::NamedSource;
 
 use super::engine::backend::SystemRef;
 use super::registry::{parse_scene, Statement};
-use super::state::{backend_error, interruption, short, At, DefBody, DefEntry, Mode, Options, Printed, Refs, Session};
+use super::state::{backend_error, interruption, short, At, DefBody, Mode, Options, Refs, Session};
 use super::statements::Stmt;
-use super::syntax::ast::{
-    symbol_span, AllowNonfinite, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Help, History, Item, Load,
-    Print, Src,
-};
+use super::syntax::ast::{symbol_span, AllowNonfinite, DerivCall, DerivKind, Help, History, Load, Src};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
-use crate::print::{render, Format};
 
 /// The derivations usable as functions inside expressions.
 const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "pb", "energy", "accelerations"];
@@ -443,61 +439,6 @@ impl Session {
 
     // ----- definitions ---------------------------------------------------------------------
 
-    pub(super) fn define(&mut self, at: At, name: &Src, value: &DefValue) -> Result<(), SceneError> {
-        let n = name.text.as_str();
-        if let Some(what) = self.name_in_use(n).filter(|w| *w != "a definition") {
-            return Err(SceneError::new(ErrorKind::Redeclared, format!("`{n}` is already {what}"))
-                .at(name.span)
-                .label("cannot be redefined")
-                .hint("choose another name for the definition"));
-        }
-        if n == "t" {
-            return Err(SceneError::new(ErrorKind::Redeclared, "`t` is time and cannot be defined").at(name.span));
-        }
-        let body = match value {
-            DefValue::Expr(src) => {
-                let (raw, refs) = self.expr(src)?;
-                DefBody::Expr { raw, refs }
-            }
-            DefValue::Derivation(call) => {
-                let mut args = Vec::new();
-                for a in &call.args {
-                    args.push(self.expr(a)?);
-                }
-                DefBody::Deriv { kind: call.kind, args, span: call.span }
-            }
-        };
-        let id = self.defs.len();
-        self.defs.push(DefEntry { name: n.to_string(), body, line: at.line, value: None, demanded: false });
-        // The value of the definition this one supersedes is a memo: a later definition that
-        // captured the old version recomputes it from its body, and a REPL redefining `L` ten
-        // thousand times does not keep ten thousand derived values.
-        if let Some(old) = self.def_names.insert(n.to_string(), id) {
-            self.defs[old].value = None;
-            // Nothing can reach an unreferenced superseded definition: in a long-lived REPL
-            // its body goes too (a scene keeps it, for the plan's list of skipped work).
-            if self.opts.mode == Mode::Repl && !self.referenced.contains(&old) {
-                match &mut self.defs[old].body {
-                    DefBody::Expr { raw, refs } => {
-                        *raw = Expr::zero();
-                        *refs = Vec::new();
-                    }
-                    DefBody::Deriv { args, .. } => *args = Vec::new(),
-                }
-            }
-        }
-        if self.opts.mode == Mode::Repl {
-            let v = self.demand_def(at, id)?;
-            let printed = match v {
-                Value::Expr(e) => Printed::Named(n.to_string(), e),
-                Value::Lines(l) => Printed::Lines(l),
-                _ => return Ok(()),
-            };
-            self.print_all(vec![printed], None);
-        }
-        Ok(())
-    }
-
     pub(super) fn demand_def(&mut self, at: At, id: usize) -> Result<Value, SceneError> {
         if let Some(v) = &self.defs[id].value {
             return Ok(v.clone());
@@ -729,54 +670,6 @@ impl Session {
         }
     }
 
-    // ----- printing ------------------------------------------------------------------------
-
-    pub(super) fn printed_item(&mut self, at: At, item: &Item) -> Result<Printed, SceneError> {
-        match item {
-            Item::Derivation(call) => Ok(match self.derive_call(at, call)? {
-                Value::Expr(e) => Printed::Named(call.kind.keyword().to_string(), e),
-                Value::Lines(l) => Printed::Lines(l),
-                _ => Printed::Lines(vec![]),
-            }),
-            Item::Expr(src) => {
-                let (raw, refs) = self.expr(src)?;
-                if let (Some(s), [(_, id)]) = (raw.as_sym(), &refs[..]) {
-                    let name = s.name().to_string();
-                    return Ok(match self.demand_def(at, *id)? {
-                        Value::Expr(e) => Printed::Named(name, e),
-                        Value::Lines(l) => Printed::Lines(l),
-                        _ => Printed::Lines(vec![]),
-                    });
-                }
-                Ok(Printed::Value(printable(&self.resolve(at, &raw, &refs)?)))
-            }
-        }
-    }
-
-    pub(super) fn print_all(&mut self, printed: Vec<Printed>, format: Option<Format>) {
-        let f = format.unwrap_or(self.opts.format);
-        for p in &printed {
-            match p {
-                Printed::Named(n, e) => {
-                    let name = match f {
-                        // A bracket's label `{f, g}` is not a name: its braces are escaped.
-                        Format::Latex if n.starts_with('{') => n.replace('{', "\\{").replace('}', "\\}"),
-                        Format::Latex => render(&Expr::var(n), f),
-                        _ => n.clone(),
-                    };
-                    self.output.push(format!("{name} = {}", render(e, f)));
-                }
-                Printed::Value(e) => self.output.push(render(e, f)),
-                Printed::Lines(lines) => {
-                    for l in lines {
-                        self.output.push(crate::report::render_line(l, f));
-                    }
-                }
-            }
-        }
-        self.last_printed = printed;
-    }
-
     pub(super) fn load(&mut self, path: &Src) -> Result<(), SceneError> {
         if self.load_depth >= MAX_LOAD_DEPTH {
             return Err(SceneError::new(ErrorKind::Io, format!("`load` nested deeper than {MAX_LOAD_DEPTH} files"))
@@ -804,28 +697,6 @@ impl Session {
     }
 }
 
-/// An expression as `print` shows it: `0` when it is identically zero (a symbolic proof by
-/// the canonical normal form, as a Jacobi-identity check expects), otherwise with
-/// inverse-function compositions (`exp(log x)`, `sinh(asinh x)`, …) reduced under their domain
-/// conditions.
-pub(super) fn printable(e: &Expr) -> Expr {
-    if e.is_zero() {
-        return e.clone();
-    }
-    if crate::canonical::decide_zero(e) == crate::canonical::ZeroCheck::Proven {
-        return Expr::zero();
-    }
-    // The command line's `simplify` (identities such as sin² + cos² = 1 that tidying alone does
-    // not see), kept when it is shorter: tidying orders the terms the way the notes print them.
-    let tidied = crate::canonical::reduce::tidy(e);
-    let simplified = crate::simplify::simplify(e);
-    if simplified.op_count() < tidied.op_count() {
-        crate::canonical::reduce::tidy(&simplified)
-    } else {
-        tidied
-    }
-}
-
 pub(super) fn deriv_step(kind: DerivKind) -> Step {
     match kind {
         DerivKind::El => Step::EulerLagrange,
@@ -835,14 +706,6 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
         DerivKind::Pb => Step::Bracket,
         DerivKind::Energy => Step::Energy,
         DerivKind::Accelerations => Step::Accelerations,
-    }
-}
-
-pub(super) fn format_name(f: Format) -> &'static str {
-    match f {
-        Format::Plain => "plain",
-        Format::Unicode => "unicode",
-        Format::Latex => "latex",
     }
 }
 
@@ -994,44 +857,6 @@ fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(out)
 }
 
-impl Stmt for Define {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        s.define(at, &self.name, &self.value)
-    }
-}
-
-impl Stmt for Derive {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        let call = &self.call;
-        let v = s.derive_call(at, call)?;
-        let printed = match v {
-            Value::Expr(e) => {
-                let label = match call.kind {
-                    DerivKind::Legendre => "H".to_string(),
-                    DerivKind::Energy => "E".to_string(),
-                    _ => format!("{{{}}}", call.args.iter().map(|a| a.text.trim()).collect::<Vec<_>>().join(", ")),
-                };
-                Printed::Named(label, e)
-            }
-            Value::Lines(l) => Printed::Lines(l),
-            _ => return Ok(()),
-        };
-        s.print_all(vec![printed], self.format);
-        Ok(())
-    }
-}
-
-impl Stmt for Print {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        let mut printed = Vec::new();
-        for item in &self.items {
-            printed.push(s.printed_item(at, item)?);
-        }
-        s.print_all(printed, self.format);
-        Ok(())
-    }
-}
-
 impl Stmt for Load {
     fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
         s.load(&self.0)
@@ -1056,21 +881,6 @@ impl Stmt for History {
 impl Stmt for AllowNonfinite {
     fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
         s.allow_nonfinite = true;
-        Ok(())
-    }
-}
-
-impl Stmt for FormatStmt {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        if self.set_default {
-            s.opts.format = self.format;
-            s.output.push(format!("output format: {}", format_name(self.format)));
-        } else if s.last_printed.is_empty() {
-            s.output.push("nothing to reprint yet".to_string());
-        } else {
-            let last = s.last_printed.clone();
-            s.print_all(last, Some(self.format));
-        }
         Ok(())
     }
 }

@@ -11,10 +11,7 @@
 pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
-use super::ast::{
-    DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Help, Item, Load, Print,
-    SimSpec, Src, StabilizeSpec,
-};
+use super::ast::{DerivCall, DerivKind, EnsembleSpec, EventSpec, Help, Item, Load, SimSpec, Src, StabilizeSpec};
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
 
@@ -559,53 +556,6 @@ impl Reader {
         p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect()
     }
 
-    /// `name = …`: an expression or a derivation.
-    pub fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
-        let span = self.span(&p);
-        let mut it = self.inner(&p).into_iter();
-        let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
-        let value = it.next();
-        match (name, value) {
-            (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
-                Ok(Define { name, value: DefValue::Derivation(self.deriv_call(v)?) })
-            }
-            (Some(name), Some(v)) => Ok(Define { name, value: DefValue::Expr(self.src(&v)) }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed definition").at(span)),
-        }
-    }
-
-    /// `el`, `pb f, g`, … with an optional format.
-    pub fn derive(&self, p: Pair<Rule>) -> Result<Derive, SceneError> {
-        let span = self.span(&p);
-        let mut format = None;
-        let mut kind = None;
-        let mut args = Vec::new();
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
-                Rule::sexpr => args.push(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
-        Ok(Derive { call: DerivCall { kind, args, span }, format })
-    }
-
-    /// `print ITEM, … [as FORMAT]`.
-    pub(crate) fn print(&self, p: Pair<Rule>) -> Result<Print, SceneError> {
-        let mut items = Vec::new();
-        let mut format = None;
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::print_item => items.push(self.item(q)?),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        Ok(Print { items, format })
-    }
-
     /// `simulate …`.
     pub fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
         self.simulate(self.inner(&p), self.span(&p))
@@ -621,13 +571,6 @@ impl Reader {
     /// `help [WORD]`.
     pub(crate) fn help(&self, p: Pair<Rule>) -> Help {
         Help(self.inner(&p).into_iter().next().map(|q| self.src(&q)))
-    }
-
-    /// `format NAME` (sets the default) or a bare format name (reprints).
-    pub(crate) fn format_stmt(&self, p: Pair<Rule>) -> FormatStmt {
-        let set_default = p.as_str().trim_start().starts_with("format");
-        let f = self.inner(&p).iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
-        FormatStmt { format: f.unwrap_or(Format::Unicode), set_default }
     }
 
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {

@@ -63,6 +63,8 @@ mod parser {
     use super::read_one;
     use lagrangian::scene::ast::DefValue;
     use lagrangian::scene::statements::declare::Parameters;
+    use lagrangian::scene::statements::define::Define;
+    use lagrangian::scene::statements::print::Derive;
     use lagrangian::scene::syntax::parser::*;
     use lagrangian::Format;
 
@@ -108,10 +110,10 @@ mod parser {
 
     #[test]
     fn definitions_and_derivations() {
-        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
+        let define = |s| read_one(s, Rule::definition, Define::read);
         assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
         assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
-        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        let derive = |s| read_one(s, Rule::derive_stmt, Derive::read);
         assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
         assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
