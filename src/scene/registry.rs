@@ -1,7 +1,8 @@
 //! The statement registry: one row per statement — its keywords, its help topic, the grammar
 //! rule it parses from and the function that reads that rule's pairs into the statement's
 //! own type. The parser's dispatch (rule → reader), its list of statement words ("did you
-//! mean", the REPL's completion) and `help` are all derived from this table; the session runs
+//! mean", the REPL's completion) and `help` (here, handed to the `help` statement's reader)
+//! are all derived from this table; the session runs
 //! whatever the reader returned through `Stmt::run`. Adding a statement adds its grammar
 //! rule, its row here and its own file under `statements/` (its type, reader, handler and
 //! output file); nothing else lists statements.
@@ -16,6 +17,7 @@
 use super::statements::animate::AnimateSpec;
 use super::statements::canonical::{Action, Average, Integral, Lie, PointTransform, Transform};
 use super::statements::chaos::ChaosSpec;
+use super::statements::control::{AllowNonfinite, Help, History, Load};
 use super::statements::declare::{Coordinates, Functions, Parameters};
 use super::statements::define::Define;
 use super::statements::dynamics::{Constraint, Force, Rayleigh};
@@ -29,8 +31,7 @@ use super::statements::print::{Derive, FormatStmt, Print};
 use super::statements::ritz::RitzSpec;
 use super::statements::sections::ExportPoincare;
 use super::statements::Stmt;
-use super::syntax::ast::{AllowNonfinite, History};
-use super::syntax::error::{ErrorKind, SceneError, Span};
+use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::syntax::parser::{self, Language, Pair, Reader, Rule};
 
 /// One statement's row: its help (keyword, form, description, example) and how it is read.
@@ -117,11 +118,11 @@ pub const REGISTRY: &[Topic] = &[
     Topic { word: "export", keywords: &["export"], form: "export [ITEM, …] [from RUN] to FILE.csv|FILE.json", about: "writes a run's state (or expressions along it) as CSV or JSON, or derived equations as JSON; every stored state is written (a fixed-step run of more than 20,000 steps stores every k-th, with a printed note, unless `simulate … every N` or `points N` says otherwise)", example: "export t, θ, θ' to pendulum.csv", read: reads(Rule::export, |r, p| Ok(Box::new(Export::read(r, p)?))) },
     Topic { word: "allow", keywords: &["allow"], form: "allow nonfinite", about: "lets later `export … to FILE.csv` keep inf and NaN (written `inf`, `-inf`, `NaN`, with a note counting them) instead of refusing the export; JSON still refuses them, having no spelling for them", example: "allow nonfinite", read: reads(Rule::allow, |_, _| Ok(Box::new(AllowNonfinite))) },
     Topic { word: "export poincare", keywords: &[], form: "export poincare [EXPR, …] [from RUN] to FILE.csv|FILE.json", about: "writes the points recorded by `record when …` (the Poincaré section that `plot poincare` draws): the time, the event's number and the expressions (default: the state) at each crossing", example: "export poincare θ, θ' to section.csv", read: reads(Rule::export_poincare, |r, p| Ok(Box::new(ExportPoincare::read(r, p)?))) },
-    Topic { word: "load", keywords: &["load"], form: "load FILE", about: "runs the statements of a scene file in this session", example: "load examples/pendulum.scene", read: reads(Rule::load, |r, p| Ok(Box::new(r.load(p)?))) },
+    Topic { word: "load", keywords: &["load"], form: "load FILE", about: "runs the statements of a scene file in this session", example: "load examples/pendulum.scene", read: reads(Rule::load, |r, p| Ok(Box::new(Load::read(r, p)?))) },
     Topic { word: "format", keywords: &["format"], form: "format plain|unicode|latex", about: "sets the default output format (Unicode at start)", example: "format latex", read: reads(Rule::format_stmt, |r, p| Ok(Box::new(FormatStmt::read(r, p)))) },
     Topic { word: "latex", keywords: &["latex", "unicode", "plain"], form: "latex | unicode | plain", about: "reprints the last result in that format", example: "latex", read: None },
     Topic { word: "history", keywords: &["history"], form: "history", about: "lists the remembered input lines (REPL)", example: "history", read: reads(Rule::history, |_, _| Ok(Box::new(History))) },
-    Topic { word: "help", keywords: &["help"], form: "help [STATEMENT]", about: "this help", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(r.help(p)))) },
+    Topic { word: "help", keywords: &["help"], form: "help [STATEMENT]", about: "this help", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(Help::read(r, p, help)))) },
 ];
 
 /// The words that start a statement, in registry order (for "did you mean" and completion).
@@ -156,4 +157,34 @@ pub fn parse_scene(text: &str) -> Result<Vec<Statement>, SceneError> {
 pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
     let node = parser::parse_statement_at(text, start, end, &LANGUAGE)?;
     Ok(node.map(|node| Statement { node, span: (start, end) }))
+}
+
+/// The help text for `word`, or the overview.
+pub fn help(word: Option<&str>) -> String {
+    match word {
+        None => {
+            let mut s = String::from("statements (`help NAME` for details):\n");
+            for t in REGISTRY {
+                s.push_str(&format!("  {:<12} {}\n", t.word, t.form));
+            }
+            s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open, after a trailing operator, or on an indented line.");
+            s
+        }
+        Some(w) => {
+            let w = if ["plain", "unicode"].contains(&w) { "latex" } else { w };
+            let found = REGISTRY.iter().find(|t| t.word == w || (t.word == "define" && ["L", "H", "="].contains(&w)));
+            match found {
+                Some(t) if t.word == "simulate" => {
+                    let methods: Vec<String> =
+                        crate::simulate::method::method_table().iter().map(|l| format!("    {l}")).collect();
+                    format!("{}\n  {}\n  example: {}\n  methods:\n{}", t.form, t.about, t.example, methods.join("\n"))
+                }
+                Some(t) => format!("{}\n  {}\n  example: {}", t.form, t.about, t.example),
+                None => match did_you_mean(w, REGISTRY.iter().map(|t| t.word)) {
+                    Some(s) => format!("no help for `{w}`; did you mean `{s}`?"),
+                    None => format!("no help for `{w}`; `help` lists the statements"),
+                },
+            }
+        }
+    }
 }

@@ -278,7 +278,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         }
         pending.push_str(&line);
         open.push_line(&line);
-        if open.is_incomplete() && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+        if open.is_incomplete() && !blank && pending.len() as u64 <= super::syntax::source::MAX_SCENE_BYTES {
             continue;
         }
         // An indented line continues the statement above it, as in a scene file
@@ -289,7 +289,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
             if let Ok(Some(next)) = read_line_bounded(&mut input, MAX_LINE_BYTES) {
                 let continues = next.starts_with([' ', '\t']) && !next.trim().is_empty();
                 lookahead = Some(next);
-                if continues && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+                if continues && pending.len() as u64 <= super::syntax::source::MAX_SCENE_BYTES {
                     continue;
                 }
             }

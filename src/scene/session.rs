@@ -1,7 +1,9 @@
-//! Executing statements: `exec` dispatches each to its handler with where it is (an
-//! `At`); here are the declarations, expressions, lazy definitions and derivations,
-//! printing, `load` and the plan's closing. The session's data is in `state.rs`; the other
-//! statement families are in `statements/`, one file each.
+//! Running statements, and what many of them share: `run_scene` / `run_line` run a text
+//! (`exec` dispatches each statement to its own `Stmt::run` with where it is, an `At`);
+//! expressions are parsed and checked against the declarations, definitions demanded and
+//! substituted, derivations looked up, built and recorded, and the plan closed. The session's
+//! data is in `state.rs`; every statement, with its type, reader and handler, is in
+//! `statements/`, one family per file.
 //!
 //! Demand-driven evaluation: a definition (`H = legendre(L)`, `E = el(L)`) and a `simulate`
 //! only record what they would build. Outputs — `print`, a bare derivation (`el`), `plot`,
@@ -13,7 +15,7 @@
 //! from memory in the same process, from the disk cache ([`crate::cache`]) in another.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use miette::NamedSource;
@@ -21,9 +23,9 @@ use miette::NamedSource;
 use super::engine::backend::SystemRef;
 use super::registry::{parse_scene, Statement};
 use super::state::{backend_error, interruption, short, At, DefBody, Mode, Options, Refs, Session};
-use super::statements::Stmt;
-use super::syntax::ast::{symbol_span, AllowNonfinite, DerivCall, DerivKind, Help, History, Load, Src};
+use super::syntax::ast::{symbol_span, DerivCall, DerivKind, Src};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
+use super::syntax::source::{line_breaks, refuse_lookalikes};
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
 
@@ -33,12 +35,6 @@ const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "
 pub use super::engine::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;
 use crate::cache::{CacheKey, Value};
-
-/// The deepest chain of `load` statements.
-pub(super) const MAX_LOAD_DEPTH: usize = 8;
-
-/// The largest scene file read, in bytes.
-pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 
 /// The plan entries a REPL keeps (see `Session::bound_plan`).
 const MAX_REPL_PLAN: usize = 2048;
@@ -669,32 +665,6 @@ impl Session {
             _ => Ok(vec![]),
         }
     }
-
-    pub(super) fn load(&mut self, path: &Src) -> Result<(), SceneError> {
-        if self.load_depth >= MAX_LOAD_DEPTH {
-            return Err(SceneError::new(ErrorKind::Io, format!("`load` nested deeper than {MAX_LOAD_DEPTH} files"))
-                .at(path.span)
-                .hint("a scene probably loads itself"));
-        }
-        let p = PathBuf::from(&path.text);
-        let full = if p.is_absolute() { p } else { self.opts.base_dir.join(p) };
-        let text = read_scene(&full).map_err(|e| {
-            if e.has_source() {
-                e
-            } else {
-                let span = e.span.unwrap_or(path.span);
-                let e = if e.span.is_none() { e.at(span) } else { e };
-                e.with_source(&self.source)
-            }
-        })?;
-        let name = full.display().to_string();
-        self.load_depth += 1;
-        let r = self.run_text(&name, &text);
-        self.load_depth -= 1;
-        r?;
-        self.output.push(format!("loaded {name}"));
-        Ok(())
-    }
 }
 
 pub(super) fn deriv_step(kind: DerivKind) -> Step {
@@ -712,72 +682,6 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
 /// Numbers in messages and reports ([`crate::print::fmt_num`]), where the scene's statements
 /// import it from.
 pub use crate::print::fmt_num;
-
-/// Reads a scene file: at most [`MAX_SCENE_BYTES`], valid UTF-8, or a clear error. The limit
-/// holds for anything the path names (a device such as `/dev/zero`, a pipe): the read
-/// itself stops one byte past it, so no input can make it allocate more.
-pub fn read_scene(path: &Path) -> Result<String, SceneError> {
-    use std::io::Read;
-    let cannot = |e: std::io::Error| SceneError::new(ErrorKind::Io, format!("cannot read `{}`: {e}", path.display()));
-    let too_large = |size: String| {
-        SceneError::new(
-            ErrorKind::TooLarge,
-            format!("`{}` is {size}; scene files are limited to {} MB", path.display(), MAX_SCENE_BYTES >> 20),
-        )
-        .hint("a scene is a short list of statements; generate large inputs as data files")
-    };
-    let meta = std::fs::metadata(path).map_err(cannot)?;
-    if meta.is_dir() {
-        return Err(SceneError::new(ErrorKind::Io, format!("cannot read `{}`: it is a directory", path.display()))
-            .hint("give the path of a scene file"));
-    }
-    if meta.is_file() && meta.len() > MAX_SCENE_BYTES {
-        return Err(too_large(format!("{:.1} MB", meta.len() as f64 / 1e6)));
-    }
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes)).map_err(cannot)?;
-    if bytes.len() as u64 > MAX_SCENE_BYTES {
-        return Err(too_large("not a regular file and longer than the limit".to_string()));
-    }
-    // A byte-order mark some editors write is not part of the scene.
-    if bytes.starts_with("\u{feff}".as_bytes()) {
-        bytes.drain(..3);
-    }
-    String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
-        let col = bytes[..at].iter().rev().take_while(|&&b| b != b'\n').count() + 1;
-        SceneError::new(
-            ErrorKind::Encoding,
-            format!("`{}` is not UTF-8: invalid byte 0x{:02x} at line {line}, column {col}", path.display(), bytes[at]),
-        )
-        .hint("save the scene as UTF-8 (Greek letters such as θ must be UTF-8 encoded)")
-    })
-}
-
-/// Refuses a look-alike character (Cyrillic, full-width, combining mark) anywhere in a scene
-/// but comments and quoted paths, at its location (the command line does the
-/// same for its arguments).
-fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
-    let (mut in_comment, mut in_quote) = (false, false);
-    for (i, c) in text.char_indices() {
-        match c {
-            '\n' => (in_comment, in_quote) = (false, false),
-            '#' if !in_quote => in_comment = true,
-            '"' if !in_comment => in_quote = !in_quote,
-            _ if in_comment || in_quote => {}
-            _ => {
-                if let Some(what) = crate::parse::lookalike_kind(c) {
-                    return Err(SceneError::new(ErrorKind::Syntax, crate::parse::lookalike_message(c, what))
-                        .at((i, i + c.len_utf8()))
-                        .hint(crate::parse::LOOKALIKE_HINT));
-                }
-            }
-        }
-    }
-    Ok(())
-}
 
 impl Session {
     /// Lazy definitions and simulations nothing asked for, and the standard derivations
@@ -836,51 +740,5 @@ impl Session {
     /// The plan as text, for `--explain`.
     pub fn explain(&self) -> String {
         super::engine::plan::explain(&self.plan)
-    }
-}
-
-/// The scene's text with every lone carriage return (old Mac line ends) read as a line break,
-/// as editors show it; `\r\n` stays. The length is unchanged, so spans stay true.
-fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.contains('\r') {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let bytes = text.as_bytes();
-    let mut out = String::with_capacity(text.len());
-    for (i, c) in text.char_indices() {
-        if c == '\r' && bytes.get(i + 1) != Some(&b'\n') {
-            out.push('\n');
-        } else {
-            out.push(c);
-        }
-    }
-    std::borrow::Cow::Owned(out)
-}
-
-impl Stmt for Load {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.load(&self.0)
-    }
-}
-
-impl Stmt for Help {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        let text = super::help::help(self.0.as_ref().map(|w| w.text.as_str()));
-        s.output.push(text);
-        Ok(())
-    }
-}
-
-impl Stmt for History {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.output.push("(history is kept by the REPL)".to_string());
-        Ok(())
-    }
-}
-
-impl Stmt for AllowNonfinite {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.allow_nonfinite = true;
-        Ok(())
     }
 }

@@ -12,6 +12,7 @@ use super::syntax::error::SceneError;
 pub(super) mod animate;
 pub mod canonical;
 pub(super) mod chaos;
+pub(super) mod control;
 pub mod declare;
 pub mod define;
 pub mod drift;

@@ -180,22 +180,6 @@ pub struct StabilizeSpec {
     pub span: Span,
 }
 
-/// `load FILE`
-#[derive(Clone, Debug)]
-pub struct Load(pub Src);
-
-/// `help`, `help WORD`
-#[derive(Clone, Debug)]
-pub struct Help(pub Option<Src>);
-
-/// `history`
-#[derive(Clone, Debug)]
-pub struct History;
-
-/// `allow nonfinite`: later exports keep inf and NaN.
-#[derive(Clone, Debug)]
-pub struct AllowNonfinite;
-
 /// The span of the first whole-word occurrence of `spelled` in `src`, else all of `src`.
 pub(in crate::scene) fn symbol_span(src: &Src, spelled: &str) -> Span {
     let text = &src.text;

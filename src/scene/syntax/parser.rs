@@ -11,7 +11,7 @@
 pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
-use super::ast::{DerivCall, DerivKind, EnsembleSpec, EventSpec, Help, Item, Load, SimSpec, Src, StabilizeSpec};
+use super::ast::{DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, SimSpec, Src, StabilizeSpec};
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
 
@@ -559,18 +559,6 @@ impl Reader {
     /// `simulate …`.
     pub fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
         self.simulate(self.inner(&p), self.span(&p))
-    }
-
-    /// `load FILE`.
-    pub(crate) fn load(&self, p: Pair<Rule>) -> Result<Load, SceneError> {
-        let span = self.span(&p);
-        let path = self.inner(&p).into_iter().next().map(|q| self.path(q));
-        Ok(Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?))
-    }
-
-    /// `help [WORD]`.
-    pub(crate) fn help(&self, p: Pair<Rule>) -> Help {
-        Help(self.inner(&p).into_iter().next().map(|q| self.src(&q)))
     }
 
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {
