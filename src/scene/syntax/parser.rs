@@ -324,85 +324,12 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>, words: &[&s
     err
 }
 
-/// Keyword pairs carry no information beyond the statement's rule. (Every `kw_*` rule of
-/// `grammar/scene.pest` is listed: a test reads the grammar and checks it.)
+/// Keyword pairs carry no information beyond the statement's rule. The rules are every `kw_*`
+/// rule of the grammar, listed by `build.rs` as it reads `grammar/*.pest` (a test checks the
+/// list against the rules pest generated).
 #[doc(hidden)]
 pub fn is_kw(rule: Rule) -> bool {
-    matches!(
-        rule,
-        Rule::kw_as
-            | Rule::kw_chaos_map
-            | Rule::kw_lie
-            | Rule::kw_geodesic
-            | Rule::kw_metric
-            | Rule::kw_embedding
-            | Rule::kw_ritz
-            | Rule::kw_integral
-            | Rule::kw_action
-            | Rule::kw_order
-            | Rule::kw_flow
-            | Rule::kw_at
-            | Rule::kw_near
-            | Rule::kw_small
-            | Rule::kw_unperturbed
-            | Rule::kw_principal
-            | Rule::kw_each
-            | Rule::kw_step
-            | Rule::kw_on
-            | Rule::kw_solve
-            | Rule::kw_separation
-            | Rule::kw_animate
-            | Rule::kw_stabilize
-            | Rule::kw_every
-            | Rule::kw_points
-            | Rule::kw_force
-            | Rule::kw_rayleigh
-            | Rule::kw_constraint
-            | Rule::kw_velocity
-            | Rule::kw_average
-            | Rule::kw_transform
-            | Rule::kw_new
-            | Rule::kw_frequency
-            | Rule::kw_amplitudes
-            | Rule::kw_against
-            | Rule::kw_work_precision
-            | Rule::kw_coordinates
-            | Rule::kw_dt
-            | Rule::kw_energy
-            | Rule::kw_export
-            | Rule::kw_for
-            | Rule::kw_format
-            | Rule::kw_from
-            | Rule::kw_functions
-            | Rule::kw_help
-            | Rule::kw_history
-            | Rule::kw_allow
-            | Rule::kw_nonfinite
-            | Rule::kw_in
-            | Rule::kw_load
-            | Rule::kw_parameters
-            | Rule::kw_path
-            | Rule::kw_phase
-            | Rule::kw_plot
-            | Rule::kw_positive
-            | Rule::kw_print
-            | Rule::kw_simulate
-            | Rule::kw_steps
-            | Rule::kw_t
-            | Rule::kw_to
-            | Rule::kw_tol
-            | Rule::kw_drift
-            | Rule::kw_max_steps
-            | Rule::kw_time_limit
-            | Rule::kw_vs
-            | Rule::kw_when
-            | Rule::kw_with
-            | Rule::kw_poincare
-            | Rule::kw_series
-            | Rule::kw_about
-            | Rule::kw_jacobian
-            | Rule::kw_map
-    )
+    include!(concat!(env!("OUT_DIR"), "/keyword_rules.rs"))
 }
 
 /// Reads a statement's pest pairs into its statement type: the helpers every statement's

@@ -68,8 +68,10 @@ mod parser {
     use lagrangian::scene::syntax::parser::*;
     use lagrangian::Format;
 
-    /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
-    /// read here, in a test, so the parser itself never classifies rules by their names).
+    /// `is_kw` (its list written by `build.rs` from the grammar) names every keyword rule pest
+    /// generated and nothing else: a keyword rule the script missed, or a rule it took for
+    /// one, fails here (the rule names are read in a test, so the parser itself never
+    /// classifies rules by their names).
     #[test]
     fn is_kw_lists_exactly_the_keyword_rules() {
         for &rule in Rule::all_rules() {
