@@ -122,7 +122,7 @@ pub const REGISTRY: &[Topic] = &[
     Topic { word: "format", keywords: &["format"], form: "format plain|unicode|latex", about: "sets the default output format (Unicode at start)", example: "format latex", read: reads(Rule::format_stmt, |r, p| Ok(Box::new(FormatStmt::read(r, p)))) },
     Topic { word: "latex", keywords: &["latex", "unicode", "plain"], form: "latex | unicode | plain", about: "reprints the last result in that format", example: "latex", read: None },
     Topic { word: "history", keywords: &["history"], form: "history", about: "lists the remembered input lines (REPL)", example: "history", read: reads(Rule::history, |_, _| Ok(Box::new(History))) },
-    Topic { word: "help", keywords: &["help"], form: "help [STATEMENT]", about: "this help", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(Help::read(r, p, help)))) },
+    Topic { word: "help", keywords: &["help"], form: "help [TOPIC]", about: "this help: with a topic (one or more words, as listed: `help energy at`), its form, what it does and an example", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(Help::read(r, p, help)?))) },
 ];
 
 /// The words that start a statement, in registry order (for "did you mean" and completion).
@@ -159,32 +159,40 @@ pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option
     Ok(node.map(|node| Statement { node, span: (start, end) }))
 }
 
-/// The help text for `word`, or the overview.
-pub fn help(word: Option<&str>) -> String {
-    match word {
-        None => {
-            let mut s = String::from("statements (`help NAME` for details):\n");
-            for t in REGISTRY {
-                s.push_str(&format!("  {:<12} {}\n", t.word, t.form));
-            }
-            s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open, after a trailing operator, or on an indented line.");
-            s
-        }
-        Some(w) => {
-            let w = if ["plain", "unicode"].contains(&w) { "latex" } else { w };
-            let found = REGISTRY.iter().find(|t| t.word == w || (t.word == "define" && ["L", "H", "="].contains(&w)));
-            match found {
-                Some(t) if t.word == "simulate" => {
-                    let methods: Vec<String> =
-                        crate::simulate::method::method_table().iter().map(|l| format!("    {l}")).collect();
-                    format!("{}\n  {}\n  example: {}\n  methods:\n{}", t.form, t.about, t.example, methods.join("\n"))
-                }
-                Some(t) => format!("{}\n  {}\n  example: {}", t.form, t.about, t.example),
-                None => match did_you_mean(w, REGISTRY.iter().map(|t| t.word)) {
-                    Some(s) => format!("no help for `{w}`; did you mean `{s}`?"),
-                    None => format!("no help for `{w}`; `help` lists the statements"),
-                },
-            }
-        }
+/// The help for `topic` (its words separated by single blanks): the form, what it does, an
+/// example, and the longer topics that begin with it (`energy` names `energy at`); with no
+/// topic, the overview. An unknown topic is `Err` with the nearest topic, if one is near.
+pub fn help(topic: Option<&str>) -> Result<String, Option<&'static str>> {
+    let Some(w) = topic else { return Ok(overview()) };
+    let w = if ["plain", "unicode"].contains(&w) { "latex" } else { w };
+    // `transform (point)` may be asked for without its brackets.
+    let bare = |word: &str| word.replace(['(', ')'], "");
+    let found = REGISTRY
+        .iter()
+        .find(|t| t.word == w || bare(t.word) == w || (t.word == "define" && ["L", "H", "="].contains(&w)));
+    let Some(t) = found else { return Err(did_you_mean(w, REGISTRY.iter().map(|t| t.word))) };
+    let mut s = format!("{}\n  {}\n  example: {}", t.form, t.about, t.example);
+    if t.word == "simulate" {
+        let methods: Vec<String> = crate::simulate::method::method_table().iter().map(|l| format!("    {l}")).collect();
+        s.push_str(&format!("\n  methods:\n{}", methods.join("\n")));
     }
+    let longer: Vec<String> = REGISTRY
+        .iter()
+        .filter(|u| u.word.strip_prefix(t.word).is_some_and(|rest| rest.starts_with(' ')))
+        .map(|u| format!("`help {}`", u.word))
+        .collect();
+    if !longer.is_empty() {
+        s.push_str(&format!("\n  see also: {}", longer.join(", ")));
+    }
+    Ok(s)
+}
+
+/// Every topic with its form.
+fn overview() -> String {
+    let mut s = String::from("statements (`help NAME` for details):\n");
+    for t in REGISTRY {
+        s.push_str(&format!("  {:<12} {}\n", t.word, t.form));
+    }
+    s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open, after a trailing operator, or on an indented line.");
+    s
 }

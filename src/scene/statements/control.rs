@@ -47,12 +47,28 @@ impl Load {
     }
 }
 
+/// The registry's help: the text for a topic (its words joined by single blanks) or, with
+/// none, the overview; an unknown topic is `Err` with the nearest topic, if one is near.
+pub(in crate::scene) type Answer = fn(Option<&str>) -> Result<String, Option<&'static str>>;
+
 impl Help {
-    /// `help [WORD]`, answered by `answer` (the registry's help text for a topic, or the
-    /// overview).
-    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>, answer: fn(Option<&str>) -> String) -> Help {
-        let word = r.inner(&p).into_iter().next().map(|q| r.src(&q));
-        Help(answer(word.as_ref().map(|w| w.text.as_str())))
+    /// `help [WORD …]`, answered by `answer`. An unknown topic is refused here, at the
+    /// topic's words, as an unknown statement is.
+    pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>, answer: Answer) -> Result<Help, SceneError> {
+        let words = r.inner(&p);
+        let (Some(first), Some(last)) = (words.first(), words.last()) else {
+            return answer(None).map(Help).map_err(|_| SceneError::new(ErrorKind::Syntax, "no help").at(r.span(&p)));
+        };
+        let topic = words.iter().map(|q| q.as_str()).collect::<Vec<_>>().join(" ");
+        answer(Some(&topic)).map(Help).map_err(|near| {
+            SceneError::new(ErrorKind::UnknownStatement, format!("no help for `{topic}`"))
+                .at((r.span(first).0, r.span(last).1))
+                .label("not a help topic")
+                .hint(match near {
+                    Some(t) => format!("did you mean `help {t}`?"),
+                    None => "`help` lists every topic".to_string(),
+                })
+        })
     }
 }
 
