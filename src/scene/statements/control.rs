@@ -26,7 +26,7 @@ const MAX_LOAD_DEPTH: usize = 8;
 #[derive(Clone, Debug)]
 pub struct Load(pub Src);
 
-/// `help`, `help WORD`: the text it prints, answered when read.
+/// `help`, `help TOPIC …`: the text it prints, answered when read.
 #[derive(Clone, Debug)]
 pub struct Help(pub String);
 
@@ -56,13 +56,14 @@ impl Help {
     /// topic's words, as an unknown statement is.
     pub(in crate::scene) fn read(r: &Reader, p: Pair<'_, Rule>, answer: Answer) -> Result<Help, SceneError> {
         let words = r.inner(&p);
-        let (Some(first), Some(last)) = (words.first(), words.last()) else {
-            return answer(None).map(Help).map_err(|_| SceneError::new(ErrorKind::Syntax, "no help").at(r.span(&p)));
-        };
-        let topic = words.iter().map(|q| q.as_str()).collect::<Vec<_>>().join(" ");
-        answer(Some(&topic)).map(Help).map_err(|near| {
-            SceneError::new(ErrorKind::UnknownStatement, format!("no help for `{topic}`"))
-                .at((r.span(first).0, r.span(last).1))
+        let topic = (!words.is_empty()).then(|| words.iter().map(|q| q.as_str()).collect::<Vec<_>>().join(" "));
+        answer(topic.as_deref()).map(Help).map_err(|near| {
+            let span = match (words.first(), words.last()) {
+                (Some(first), Some(last)) => (r.span(first).0, r.span(last).1),
+                _ => r.span(&p),
+            };
+            SceneError::new(ErrorKind::UnknownStatement, format!("no help for `{}`", topic.unwrap_or_default()))
+                .at(span)
                 .label("not a help topic")
                 .hint(match near {
                     Some(t) => format!("did you mean `help {t}`?"),
