@@ -1,7 +1,8 @@
 //! The statement registry: one row per statement — its keywords, its help topic, the grammar
 //! rule it parses from and the function that reads that rule's pairs into the statement's
 //! own type. The parser's dispatch (rule → reader), its list of statement words ("did you
-//! mean", the REPL's completion) and `help` are all derived from this table; the session runs
+//! mean", the REPL's completion) and `help` (here, handed to the `help` statement's reader)
+//! are all derived from this table; the session runs
 //! whatever the reader returned through `Stmt::run`. Adding a statement adds its grammar
 //! rule, its row here and its own file under `statements/` (its type, reader, handler and
 //! output file); nothing else lists statements.
@@ -16,6 +17,9 @@
 use super::statements::animate::AnimateSpec;
 use super::statements::canonical::{Action, Average, Integral, Lie, PointTransform, Transform};
 use super::statements::chaos::ChaosSpec;
+use super::statements::control::{AllowNonfinite, Help, History, Load};
+use super::statements::declare::{Coordinates, Functions, Parameters};
+use super::statements::define::Define;
 use super::statements::dynamics::{Constraint, Force, Rayleigh};
 use super::statements::energy_at::EnergyAt;
 use super::statements::expansion::{Jacobian, Series};
@@ -23,11 +27,11 @@ use super::statements::figures::{Export, PlotSpec};
 use super::statements::flow::FlowSpec;
 use super::statements::geodesic::GeodesicSpec;
 use super::statements::map::Map;
+use super::statements::print::{Derive, FormatStmt, Print};
 use super::statements::ritz::RitzSpec;
 use super::statements::sections::ExportPoincare;
 use super::statements::Stmt;
-use super::syntax::ast::{AllowNonfinite, History};
-use super::syntax::error::{ErrorKind, SceneError, Span};
+use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
 use super::syntax::parser::{self, Language, Pair, Reader, Rule};
 
 /// One statement's row: its help (keyword, form, description, example) and how it is read.
@@ -76,11 +80,11 @@ pub struct Statement {
 
 /// Every statement, in the order `help` lists them.
 pub const REGISTRY: &[Topic] = &[
-    Topic { word: "coordinates", keywords: &["coordinates"], form: "coordinates q1, q2, … | coordinates x[0..4], …", about: "declares the generalized coordinates; `q'` is the velocity of `q`, `p_q` its momentum; `x[0..4]` declares x0 … x4 (inclusive), which expressions name `x[i]` (and their momenta `p_x[i]`)", example: "coordinates θ", read: reads(Rule::coordinates, |r, p| Ok(Box::new(r.coordinates(p)?))) },
-    Topic { word: "parameters", keywords: &["parameters"], form: "parameters a = VALUE, b, m[0..2] = V0, V1, V2, … [positive]", about: "declares constants, with optional values (needed to simulate); `m[0..2]` declares m0, m1, m2 with one value each, in order; `positive` applies to all of them", example: "parameters m = 1, l = 1, g = 9.81 positive", read: reads(Rule::parameters, |r, p| Ok(Box::new(r.parameters_stmt(p)?))) },
-    Topic { word: "functions", keywords: &["functions"], form: "functions V, …", about: "declares undefined functions such as a general potential `V(r)`; `V'(r)` is its derivative", example: "functions V", read: reads(Rule::functions, |r, p| Ok(Box::new(r.functions(p)?))) },
-    Topic { word: "define", keywords: &[], form: "NAME = EXPRESSION | NAME = el(L) | legendre(L) | hamilton(H) | conserved(L) | pb(f, g) | energy(L) | accelerations(L)", about: "defines `L`, `H` or any named expression; derivations on the right are computed only when an output needs them. `sum(i = 0..4, …)` and `sum(i < j in 0..4, …)` (each pair once) with `x[i]` for x0 … are expanded as they are read, so printed output shows the written-out terms, never `sum(…)`", example: "L = 1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", read: reads(Rule::definition, |r, p| Ok(Box::new(r.definition(p)?))) },
-    Topic { word: "el", keywords: &["el"], form: "el [as FORMAT]", about: "prints the Euler–Lagrange equations E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i = Q_i − ∂R/∂q'_i + Σ λ_j ∂f_j/∂q_i (0 without force, rayleigh or constraint), as `lagrangian el` prints them", example: "el", read: reads(Rule::derive_stmt, |r, p| Ok(Box::new(r.derive(p)?))) },
+    Topic { word: "coordinates", keywords: &["coordinates"], form: "coordinates q1, q2, … | coordinates x[0..4], …", about: "declares the generalized coordinates; `q'` is the velocity of `q`, `p_q` its momentum; `x[0..4]` declares x0 … x4 (inclusive), which expressions name `x[i]` (and their momenta `p_x[i]`)", example: "coordinates θ", read: reads(Rule::coordinates, |r, p| Ok(Box::new(Coordinates::read(r, p)?))) },
+    Topic { word: "parameters", keywords: &["parameters"], form: "parameters a = VALUE, b, m[0..2] = V0, V1, V2, … [positive]", about: "declares constants, with optional values (needed to simulate); `m[0..2]` declares m0, m1, m2 with one value each, in order; `positive` applies to all of them", example: "parameters m = 1, l = 1, g = 9.81 positive", read: reads(Rule::parameters, |r, p| Ok(Box::new(Parameters::read(r, p)?))) },
+    Topic { word: "functions", keywords: &["functions"], form: "functions V, …", about: "declares undefined functions such as a general potential `V(r)`; `V'(r)` is its derivative", example: "functions V", read: reads(Rule::functions, |r, p| Ok(Box::new(Functions::read(r, p)?))) },
+    Topic { word: "define", keywords: &[], form: "NAME = EXPRESSION | NAME = el(L) | legendre(L) | hamilton(H) | conserved(L) | pb(f, g) | energy(L) | accelerations(L)", about: "defines `L`, `H` or any named expression; derivations on the right are computed only when an output needs them. `sum(i = 0..4, …)` and `sum(i < j in 0..4, …)` (each pair once) with `x[i]` for x0 … are expanded as they are read, so printed output shows the written-out terms, never `sum(…)`", example: "L = 1/2 m l^2 θ'^2 - m g l (1 - cos(θ))", read: reads(Rule::definition, |r, p| Ok(Box::new(Define::read(r, p)?))) },
+    Topic { word: "el", keywords: &["el"], form: "el [as FORMAT]", about: "prints the Euler–Lagrange equations E_i = d/dt ∂L/∂q'_i − ∂L/∂q_i = Q_i − ∂R/∂q'_i + Σ λ_j ∂f_j/∂q_i (0 without force, rayleigh or constraint), as `lagrangian el` prints them", example: "el", read: reads(Rule::derive_stmt, |r, p| Ok(Box::new(Derive::read(r, p)?))) },
     Topic { word: "accelerations", keywords: &["accelerations"], form: "accelerations [as FORMAT]", about: "prints the accelerations q'' = W⁻¹ F with the declared forces and dissipation; with constraints the constrained accelerations (λ eliminated by the constraints differentiated twice) and each multiplier λ_j, as `lagrangian el --accelerations` prints them", example: "accelerations", read: None },
     Topic { word: "legendre", keywords: &["legendre"], form: "legendre [as FORMAT]", about: "prints the Hamiltonian H(q, p) obtained from L by the Legendre transform", example: "legendre", read: None },
     Topic { word: "hamilton", keywords: &["hamilton"], form: "hamilton [as FORMAT]", about: "prints Hamilton's equations q' = ∂H/∂p, then p' = −∂H/∂q plus the declared forces, dissipation and constraint terms (H from `H = …` or from L)", example: "hamilton", read: None },
@@ -102,7 +106,7 @@ pub const REGISTRY: &[Topic] = &[
     Topic { word: "force", keywords: &["force"], form: "force q = Q(q, q', t)", about: "adds a generalized (non-potential) force on the coordinate q: the equation of motion becomes E_q = Q (PHYSICS.md (2.12)); runs integrate it from L (dop853, rk4, gauss6)", example: "force θ = A cos(Ω t)", read: reads(Rule::force, |r, p| Ok(Box::new(Force::read(r, p)?))) },
     Topic { word: "rayleigh", keywords: &["rayleigh"], form: "rayleigh [R =] R(q, q')", about: "sets the Rayleigh dissipation function: the equations become E + ∂R/∂q' = 0, and the energy decays as dE/dt = −2R for R quadratic in the velocities; with a name, R is also defined", example: "rayleigh R = 1/2 b x'^2", read: reads(Rule::rayleigh, |r, p| Ok(Box::new(Rayleigh::read(r, p)?))) },
     Topic { word: "constraint", keywords: &["constraint"], form: "constraint f(q, t) [= g(q, t)] | constraint velocity a(q, t)·q' + b(q, t) [= …]", about: "adds the holonomic constraint f − g = 0 with a multiplier λ1, λ2, … (in order). Runs solve the augmented system [W Φᵀ; Φ 0][q''; −λ] = [F; c] and are held on the constraint by `stabilize projection` (default) or `stabilize baumgarte [= RATE]`; `λ1` and `residual1` can be exported and plotted along the run, and the run summary reports the drift. `constraint velocity …` adds a nonholonomic constraint linear in the velocities (rolling: `constraint velocity x' = R φ' cos(θ)`) with a multiplier μ1, μ2, …: runs solve the Lagrange–d'Alembert equations W q'' = F + aᵀμ with a q'' = −ȧ q' − ḃ, held on a q' + b = 0 by projection of the velocities; its residual follows the holonomic ones", example: "constraint x^2 + y^2 = l^2", read: reads(Rule::constraint, |r, p| Ok(Box::new(Constraint::read(r, p)?))) },
-    Topic { word: "print", keywords: &["print"], form: "print ITEM, … [as plain|unicode|latex]", about: "prints expressions, definitions or derivations; a derivation is also a function inside an expression (`pb(pb(x, p_x), H)`, `legendre(L) + 1`); each value is simplified as `lagrangian simplify` does (an identically zero one prints 0)", example: "print L as latex", read: reads(Rule::print, |r, p| Ok(Box::new(r.print(p)?))) },
+    Topic { word: "print", keywords: &["print"], form: "print ITEM, … [as plain|unicode|latex]", about: "prints expressions, definitions or derivations; a derivation is also a function inside an expression (`pb(pb(x, p_x), H)`, `legendre(L) + 1`); each value is simplified as `lagrangian simplify` does (an identically zero one prints 0)", example: "print L as latex", read: reads(Rule::print, |r, p| Ok(Box::new(Print::read(r, p)?))) },
     Topic { word: "simulate", keywords: &["simulate"], form: "simulate q = …, q' = … for t in A..B [with METHOD] [dt = … | steps = … | tol = …] [record|stop when EXPR [= EXPR] [rising|falling]] [stabilize projection|baumgarte [= RATE]|none] [every N | points N] [drift = X] [max_steps = N] [as NAME]; an ensemble: simulate … for each y in A..B step H on E = VALUE solve p_x > 0 for t in …", about: "integrates the equations of motion (with the forces, dissipation and constraints declared before it). With `for each`, one run per value of the swept variable, each started on the level set E = VALUE by solving for the named variable on the given side of zero, integrated in parallel; `from NAME` then means all of them, `NAME_k` the k-th. The conserved energy (H, or h when L has no t) is checked after every step: a relative drift above X (default 1e-3) is a warning naming the run and the time (an error with `--strict`); adaptive methods stop after 10⁶ steps unless `max_steps = N` raises the budget; Ctrl-C stops the run. The methods are listed below. Velocities are turned into momenta through L when the method integrates H", example: "simulate θ = 3.0, θ' = 0 for t in 0..20 with gauss6 dt = 0.01", read: reads(Rule::simulate, |r, p| Ok(Box::new(r.simulate_stmt(p)?))) },
     Topic { word: "lyapunov", keywords: &["lyapunov"], form: "lyapunov q = …, q' = … for t in 0..T [tol = …] [max_steps = N] [time_limit = S] [as NAME]", about: "the Lyapunov spectrum of the orbit (Benettin's QR algorithm on the variational equations of H, Taylor method, tol 1e-12 by default): printed largest first; a Hamiltonian spectrum comes in ± pairs. `plot lyapunov` draws λ(t)", example: "lyapunov θ = 1, θ' = 0 for t in 0..100", read: reads(Rule::chaos, |r, p| Ok(Box::new(ChaosSpec::read(r, false, p)?))) },
     Topic { word: "megno", keywords: &["megno"], form: "megno q = …, q' = … for t in 0..T [tol = …] [max_steps = N] [time_limit = S] [as NAME]", about: "MEGNO ⟨Y⟩ of the orbit (Cincotta & Simó): → 2 for quasi-periodic motion, → 0 for isochronous linear motion, grows like λt/2 for chaotic motion; also prints the maximal exponent. `plot megno` draws ⟨Y⟩(t)", example: "megno θ = 1, θ' = 0 for t in 0..100", read: None },
@@ -114,11 +118,11 @@ pub const REGISTRY: &[Topic] = &[
     Topic { word: "export", keywords: &["export"], form: "export [ITEM, …] [from RUN] to FILE.csv|FILE.json", about: "writes a run's state (or expressions along it) as CSV or JSON, or derived equations as JSON; every stored state is written (a fixed-step run of more than 20,000 steps stores every k-th, with a printed note, unless `simulate … every N` or `points N` says otherwise)", example: "export t, θ, θ' to pendulum.csv", read: reads(Rule::export, |r, p| Ok(Box::new(Export::read(r, p)?))) },
     Topic { word: "allow", keywords: &["allow"], form: "allow nonfinite", about: "lets later `export … to FILE.csv` keep inf and NaN (written `inf`, `-inf`, `NaN`, with a note counting them) instead of refusing the export; JSON still refuses them, having no spelling for them", example: "allow nonfinite", read: reads(Rule::allow, |_, _| Ok(Box::new(AllowNonfinite))) },
     Topic { word: "export poincare", keywords: &[], form: "export poincare [EXPR, …] [from RUN] to FILE.csv|FILE.json", about: "writes the points recorded by `record when …` (the Poincaré section that `plot poincare` draws): the time, the event's number and the expressions (default: the state) at each crossing", example: "export poincare θ, θ' to section.csv", read: reads(Rule::export_poincare, |r, p| Ok(Box::new(ExportPoincare::read(r, p)?))) },
-    Topic { word: "load", keywords: &["load"], form: "load FILE", about: "runs the statements of a scene file in this session", example: "load examples/pendulum.scene", read: reads(Rule::load, |r, p| Ok(Box::new(r.load(p)?))) },
-    Topic { word: "format", keywords: &["format"], form: "format plain|unicode|latex", about: "sets the default output format (Unicode at start)", example: "format latex", read: reads(Rule::format_stmt, |r, p| Ok(Box::new(r.format_stmt(p)))) },
+    Topic { word: "load", keywords: &["load"], form: "load FILE", about: "runs the statements of a scene file in this session", example: "load examples/pendulum.scene", read: reads(Rule::load, |r, p| Ok(Box::new(Load::read(r, p)?))) },
+    Topic { word: "format", keywords: &["format"], form: "format plain|unicode|latex", about: "sets the default output format (Unicode at start)", example: "format latex", read: reads(Rule::format_stmt, |r, p| Ok(Box::new(FormatStmt::read(r, p)))) },
     Topic { word: "latex", keywords: &["latex", "unicode", "plain"], form: "latex | unicode | plain", about: "reprints the last result in that format", example: "latex", read: None },
     Topic { word: "history", keywords: &["history"], form: "history", about: "lists the remembered input lines (REPL)", example: "history", read: reads(Rule::history, |_, _| Ok(Box::new(History))) },
-    Topic { word: "help", keywords: &["help"], form: "help [STATEMENT]", about: "this help", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(r.help(p)))) },
+    Topic { word: "help", keywords: &["help"], form: "help [TOPIC]", about: "this help: with a topic (one or more words, as listed: `help energy at`), its form, what it does and an example", example: "help simulate", read: reads(Rule::help, |r, p| Ok(Box::new(Help::read(r, p, help)?))) },
 ];
 
 /// The words that start a statement, in registry order (for "did you mean" and completion).
@@ -153,4 +157,42 @@ pub fn parse_scene(text: &str) -> Result<Vec<Statement>, SceneError> {
 pub fn parse_statement_at(text: &str, start: usize, end: usize) -> Result<Option<Statement>, SceneError> {
     let node = parser::parse_statement_at(text, start, end, &LANGUAGE)?;
     Ok(node.map(|node| Statement { node, span: (start, end) }))
+}
+
+/// The help for `topic` (its words separated by single blanks): the form, what it does, an
+/// example, and the longer topics that begin with it (`energy` names `energy at`); with no
+/// topic, the overview. An unknown topic is `Err` with the nearest topic, if one is near.
+pub fn help(topic: Option<&str>) -> Result<String, Option<&'static str>> {
+    let Some(w) = topic else { return Ok(overview()) };
+    let w = if ["plain", "unicode"].contains(&w) { "latex" } else { w };
+    // `transform (point)` may be asked for without its brackets.
+    let bare = |word: &str| word.replace(['(', ')'], "");
+    let found = REGISTRY
+        .iter()
+        .find(|t| t.word == w || bare(t.word) == w || (t.word == "define" && ["L", "H", "="].contains(&w)));
+    let Some(t) = found else { return Err(did_you_mean(w, REGISTRY.iter().map(|t| t.word))) };
+    let mut s = format!("{}\n  {}\n  example: {}", t.form, t.about, t.example);
+    if t.word == "simulate" {
+        let methods: Vec<String> = crate::simulate::method::method_table().iter().map(|l| format!("    {l}")).collect();
+        s.push_str(&format!("\n  methods:\n{}", methods.join("\n")));
+    }
+    let longer: Vec<String> = REGISTRY
+        .iter()
+        .filter(|u| u.word.strip_prefix(t.word).is_some_and(|rest| rest.starts_with(' ')))
+        .map(|u| format!("`help {}`", u.word))
+        .collect();
+    if !longer.is_empty() {
+        s.push_str(&format!("\n  see also: {}", longer.join(", ")));
+    }
+    Ok(s)
+}
+
+/// Every topic with its form.
+fn overview() -> String {
+    let mut s = String::from("statements (`help NAME` for details):\n");
+    for t in REGISTRY {
+        s.push_str(&format!("  {:<12} {}\n", t.word, t.form));
+    }
+    s.push_str("`#` starts a comment; a statement continues on the next line while a bracket is open, after a trailing operator, or on an indented line.");
+    s
 }

@@ -61,7 +61,7 @@ fn word_at(line: &str, pos: usize) -> (usize, &str) {
 }
 
 /// Completions of the word ending at `pos`: statements at the start of a line, methods
-/// after `with`, help topics after `help`, otherwise known symbols and derivations.
+/// after `with`, help topics after `help` (word by word), otherwise known symbols and derivations.
 pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>) {
     let (start, word) = word_at(line, pos);
     let before: Vec<&str> = line[..start].split_whitespace().collect();
@@ -72,7 +72,16 @@ pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>
             .flat_map(|m| std::iter::once(m.name).chain(m.aliases.iter().copied()))
             .map(str::to_string)
             .collect(),
-        Some(&"help") => TOPICS.iter().map(|t| t.word.to_string()).collect(),
+        Some(&"help") => TOPICS.iter().map(|t| t.word.split(' ').next().unwrap_or(t.word).to_string()).collect(),
+        // The next word of a topic of several words: `help energy ` → `at`.
+        Some(_) if before.len() > 1 && before[0] == "help" => {
+            let typed = before[1..].join(" ");
+            TOPICS
+                .iter()
+                .filter_map(|t| t.word.strip_prefix(typed.as_str())?.strip_prefix(' ')?.split(' ').next())
+                .map(str::to_string)
+                .collect()
+        }
         Some(&"as") | Some(&"format") => ["plain", "unicode", "latex"].iter().map(|s| s.to_string()).collect(),
         Some(&"plot") => ["phase", "energy", "path", "poincare", "work_precision"]
             .iter()
@@ -278,7 +287,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
         }
         pending.push_str(&line);
         open.push_line(&line);
-        if open.is_incomplete() && !blank && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+        if open.is_incomplete() && !blank && pending.len() as u64 <= super::syntax::source::MAX_SCENE_BYTES {
             continue;
         }
         // An indented line continues the statement above it, as in a scene file
@@ -289,7 +298,7 @@ pub fn run(history: Option<PathBuf>, cache: Cache) -> usize {
             if let Ok(Some(next)) = read_line_bounded(&mut input, MAX_LINE_BYTES) {
                 let continues = next.starts_with([' ', '\t']) && !next.trim().is_empty();
                 lookahead = Some(next);
-                if continues && pending.len() as u64 <= super::session::MAX_SCENE_BYTES {
+                if continues && pending.len() as u64 <= super::syntax::source::MAX_SCENE_BYTES {
                     continue;
                 }
             }

@@ -1,7 +1,9 @@
-//! Executing statements: `exec` dispatches each to its handler with where it is (an
-//! `At`); here are the declarations, expressions, lazy definitions and derivations,
-//! printing, `load` and the plan's closing. The session's data is in `state.rs`; the other
-//! statement families are in `statements/`, one file each.
+//! Running statements, and what many of them share: `run_scene` / `run_line` run a text
+//! (`exec` dispatches each statement to its own `Stmt::run` with where it is, an `At`);
+//! expressions are parsed and checked against the declarations, definitions demanded and
+//! substituted, derivations looked up, built and recorded, and the plan closed. The session's
+//! data is in `state.rs`; every statement, with its type, reader and handler, is in
+//! `statements/`, one family per file.
 //!
 //! Demand-driven evaluation: a definition (`H = legendre(L)`, `E = el(L)`) and a `simulate`
 //! only record what they would build. Outputs — `print`, a bare derivation (`el`), `plot`,
@@ -12,26 +14,20 @@
 //! a derivation's key, so re-running a scene with other numbers reuses the derivations —
 //! from memory in the same process, from the disk cache ([`crate::cache`]) in another.
 
-use std::collections::{BTreeSet, HashMap};
-use std::path::{Path, PathBuf};
+use std::collections::HashMap;
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use miette::NamedSource;
 
 use super::engine::backend::SystemRef;
 use super::registry::{parse_scene, Statement};
-use super::state::{
-    backend_error, interruption, short, At, DefBody, DefEntry, Mode, Options, Param, Printed, Refs, Session,
-};
-use super::statements::Stmt;
-use super::syntax::ast::{
-    symbol_span, AllowNonfinite, Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, FormatStmt, Functions,
-    Help, History, Item, Load, Parameters, Print, Src,
-};
+use super::state::{backend_error, interruption, short, At, DefBody, Mode, Options, Refs, Session};
+use super::syntax::ast::{symbol_span, DerivCall, DerivKind, Src};
 use super::syntax::error::{did_you_mean, ErrorKind, SceneError, Span};
+use super::syntax::source::{line_breaks, refuse_lookalikes};
 use crate::expr::{Expr, Symbol};
 use crate::parse::{parse_with, Declarations};
-use crate::print::{render, Format};
 
 /// The derivations usable as functions inside expressions.
 const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "pb", "energy", "accelerations"];
@@ -39,12 +35,6 @@ const DERIVATION_NAMES: &[&str] = &["el", "legendre", "hamilton", "conserved", "
 pub use super::engine::plan::{PlanEntry, Status, Step};
 pub use crate::cache::Cache;
 use crate::cache::{CacheKey, Value};
-
-/// The deepest chain of `load` statements.
-pub(super) const MAX_LOAD_DEPTH: usize = 8;
-
-/// The largest scene file read, in bytes.
-pub const MAX_SCENE_BYTES: u64 = 4 << 20;
 
 /// The plan entries a REPL keeps (see `Session::bound_plan`).
 const MAX_REPL_PLAN: usize = 2048;
@@ -206,82 +196,6 @@ impl Session {
         } else {
             None
         }
-    }
-
-    pub(super) fn declare_coordinates(&mut self, names: &[Src]) -> Result<(), SceneError> {
-        let mut seen = BTreeSet::new();
-        for n in names {
-            let name = n.text.as_str();
-            if !seen.insert(name) || self.coords.iter().any(|c| c.name() == name) {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("coordinate `{name}` is declared twice"))
-                    .at(n.span)
-                    .label("declared again here"));
-            }
-            if let Some(what) = self.name_in_use(name) {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{name}` is already {what}"))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            if name == "t" {
-                return Err(SceneError::new(ErrorKind::Redeclared, "`t` is time and cannot be a coordinate")
-                    .at(n.span)
-                    .hint("choose another name"));
-            }
-        }
-        self.coords.extend(names.iter().map(|n| Symbol::new(&n.text)));
-        Ok(())
-    }
-
-    pub(super) fn declare_parameters(
-        &mut self,
-        params: &[(Src, Option<Src>)],
-        positive: bool,
-    ) -> Result<(), SceneError> {
-        for (n, v) in params {
-            let name = n.text.as_str();
-            if let Some(what) = self.name_in_use(name).filter(|w| *w != "a parameter") {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{name}` is already {what}"))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            let value = match v {
-                Some(src) => {
-                    let (e, refs) = self.expr(src)?;
-                    if !refs.is_empty() {
-                        return Err(SceneError::new(ErrorKind::Syntax, "a parameter value must be a number")
-                            .at(src.span)
-                            .hint("use numbers and earlier parameters only"));
-                    }
-                    Some(self.number(&e, src.span)?)
-                }
-                None => self.params.get(name).and_then(|p| p.value),
-            };
-            let was_positive = self.params.get(name).is_some_and(|p| p.positive);
-            if positive {
-                if let Some(x) = value.filter(|x| *x <= 0.0) {
-                    return Err(SceneError::new(
-                        ErrorKind::BadNumber,
-                        format!("`{name}` is declared positive but its value is {x}"),
-                    )
-                    .at(n.span)
-                    .hint("drop `positive` or give a positive value"));
-                }
-            }
-            self.params.insert(name.to_string(), Param { value, positive: positive || was_positive });
-        }
-        Ok(())
-    }
-
-    pub(super) fn declare_functions(&mut self, names: &[Src]) -> Result<(), SceneError> {
-        for n in names {
-            if let Some(what) = self.name_in_use(&n.text).filter(|w| *w != "a function") {
-                return Err(SceneError::new(ErrorKind::Redeclared, format!("`{}` is already {what}", n.text))
-                    .at(n.span)
-                    .label("already declared"));
-            }
-            self.functions.insert(n.text.clone());
-        }
-        Ok(())
     }
 
     // ----- expressions ---------------------------------------------------------------------
@@ -521,61 +435,6 @@ impl Session {
 
     // ----- definitions ---------------------------------------------------------------------
 
-    pub(super) fn define(&mut self, at: At, name: &Src, value: &DefValue) -> Result<(), SceneError> {
-        let n = name.text.as_str();
-        if let Some(what) = self.name_in_use(n).filter(|w| *w != "a definition") {
-            return Err(SceneError::new(ErrorKind::Redeclared, format!("`{n}` is already {what}"))
-                .at(name.span)
-                .label("cannot be redefined")
-                .hint("choose another name for the definition"));
-        }
-        if n == "t" {
-            return Err(SceneError::new(ErrorKind::Redeclared, "`t` is time and cannot be defined").at(name.span));
-        }
-        let body = match value {
-            DefValue::Expr(src) => {
-                let (raw, refs) = self.expr(src)?;
-                DefBody::Expr { raw, refs }
-            }
-            DefValue::Derivation(call) => {
-                let mut args = Vec::new();
-                for a in &call.args {
-                    args.push(self.expr(a)?);
-                }
-                DefBody::Deriv { kind: call.kind, args, span: call.span }
-            }
-        };
-        let id = self.defs.len();
-        self.defs.push(DefEntry { name: n.to_string(), body, line: at.line, value: None, demanded: false });
-        // The value of the definition this one supersedes is a memo: a later definition that
-        // captured the old version recomputes it from its body, and a REPL redefining `L` ten
-        // thousand times does not keep ten thousand derived values.
-        if let Some(old) = self.def_names.insert(n.to_string(), id) {
-            self.defs[old].value = None;
-            // Nothing can reach an unreferenced superseded definition: in a long-lived REPL
-            // its body goes too (a scene keeps it, for the plan's list of skipped work).
-            if self.opts.mode == Mode::Repl && !self.referenced.contains(&old) {
-                match &mut self.defs[old].body {
-                    DefBody::Expr { raw, refs } => {
-                        *raw = Expr::zero();
-                        *refs = Vec::new();
-                    }
-                    DefBody::Deriv { args, .. } => *args = Vec::new(),
-                }
-            }
-        }
-        if self.opts.mode == Mode::Repl {
-            let v = self.demand_def(at, id)?;
-            let printed = match v {
-                Value::Expr(e) => Printed::Named(n.to_string(), e),
-                Value::Lines(l) => Printed::Lines(l),
-                _ => return Ok(()),
-            };
-            self.print_all(vec![printed], None);
-        }
-        Ok(())
-    }
-
     pub(super) fn demand_def(&mut self, at: At, id: usize) -> Result<Value, SceneError> {
         if let Some(v) = &self.defs[id].value {
             return Ok(v.clone());
@@ -806,102 +665,6 @@ impl Session {
             _ => Ok(vec![]),
         }
     }
-
-    // ----- printing ------------------------------------------------------------------------
-
-    pub(super) fn printed_item(&mut self, at: At, item: &Item) -> Result<Printed, SceneError> {
-        match item {
-            Item::Derivation(call) => Ok(match self.derive_call(at, call)? {
-                Value::Expr(e) => Printed::Named(call.kind.keyword().to_string(), e),
-                Value::Lines(l) => Printed::Lines(l),
-                _ => Printed::Lines(vec![]),
-            }),
-            Item::Expr(src) => {
-                let (raw, refs) = self.expr(src)?;
-                if let (Some(s), [(_, id)]) = (raw.as_sym(), &refs[..]) {
-                    let name = s.name().to_string();
-                    return Ok(match self.demand_def(at, *id)? {
-                        Value::Expr(e) => Printed::Named(name, e),
-                        Value::Lines(l) => Printed::Lines(l),
-                        _ => Printed::Lines(vec![]),
-                    });
-                }
-                Ok(Printed::Value(printable(&self.resolve(at, &raw, &refs)?)))
-            }
-        }
-    }
-
-    pub(super) fn print_all(&mut self, printed: Vec<Printed>, format: Option<Format>) {
-        let f = format.unwrap_or(self.opts.format);
-        for p in &printed {
-            match p {
-                Printed::Named(n, e) => {
-                    let name = match f {
-                        // A bracket's label `{f, g}` is not a name: its braces are escaped.
-                        Format::Latex if n.starts_with('{') => n.replace('{', "\\{").replace('}', "\\}"),
-                        Format::Latex => render(&Expr::var(n), f),
-                        _ => n.clone(),
-                    };
-                    self.output.push(format!("{name} = {}", render(e, f)));
-                }
-                Printed::Value(e) => self.output.push(render(e, f)),
-                Printed::Lines(lines) => {
-                    for l in lines {
-                        self.output.push(crate::report::render_line(l, f));
-                    }
-                }
-            }
-        }
-        self.last_printed = printed;
-    }
-
-    pub(super) fn load(&mut self, path: &Src) -> Result<(), SceneError> {
-        if self.load_depth >= MAX_LOAD_DEPTH {
-            return Err(SceneError::new(ErrorKind::Io, format!("`load` nested deeper than {MAX_LOAD_DEPTH} files"))
-                .at(path.span)
-                .hint("a scene probably loads itself"));
-        }
-        let p = PathBuf::from(&path.text);
-        let full = if p.is_absolute() { p } else { self.opts.base_dir.join(p) };
-        let text = read_scene(&full).map_err(|e| {
-            if e.has_source() {
-                e
-            } else {
-                let span = e.span.unwrap_or(path.span);
-                let e = if e.span.is_none() { e.at(span) } else { e };
-                e.with_source(&self.source)
-            }
-        })?;
-        let name = full.display().to_string();
-        self.load_depth += 1;
-        let r = self.run_text(&name, &text);
-        self.load_depth -= 1;
-        r?;
-        self.output.push(format!("loaded {name}"));
-        Ok(())
-    }
-}
-
-/// An expression as `print` shows it: `0` when it is identically zero (a symbolic proof by
-/// the canonical normal form, as a Jacobi-identity check expects), otherwise with
-/// inverse-function compositions (`exp(log x)`, `sinh(asinh x)`, …) reduced under their domain
-/// conditions.
-pub(super) fn printable(e: &Expr) -> Expr {
-    if e.is_zero() {
-        return e.clone();
-    }
-    if crate::canonical::decide_zero(e) == crate::canonical::ZeroCheck::Proven {
-        return Expr::zero();
-    }
-    // The command line's `simplify` (identities such as sin² + cos² = 1 that tidying alone does
-    // not see), kept when it is shorter: tidying orders the terms the way the notes print them.
-    let tidied = crate::canonical::reduce::tidy(e);
-    let simplified = crate::simplify::simplify(e);
-    if simplified.op_count() < tidied.op_count() {
-        crate::canonical::reduce::tidy(&simplified)
-    } else {
-        tidied
-    }
 }
 
 pub(super) fn deriv_step(kind: DerivKind) -> Step {
@@ -916,83 +679,9 @@ pub(super) fn deriv_step(kind: DerivKind) -> Step {
     }
 }
 
-pub(super) fn format_name(f: Format) -> &'static str {
-    match f {
-        Format::Plain => "plain",
-        Format::Unicode => "unicode",
-        Format::Latex => "latex",
-    }
-}
-
 /// Numbers in messages and reports ([`crate::print::fmt_num`]), where the scene's statements
 /// import it from.
 pub use crate::print::fmt_num;
-
-/// Reads a scene file: at most [`MAX_SCENE_BYTES`], valid UTF-8, or a clear error. The limit
-/// holds for anything the path names (a device such as `/dev/zero`, a pipe): the read
-/// itself stops one byte past it, so no input can make it allocate more.
-pub fn read_scene(path: &Path) -> Result<String, SceneError> {
-    use std::io::Read;
-    let cannot = |e: std::io::Error| SceneError::new(ErrorKind::Io, format!("cannot read `{}`: {e}", path.display()));
-    let too_large = |size: String| {
-        SceneError::new(
-            ErrorKind::TooLarge,
-            format!("`{}` is {size}; scene files are limited to {} MB", path.display(), MAX_SCENE_BYTES >> 20),
-        )
-        .hint("a scene is a short list of statements; generate large inputs as data files")
-    };
-    let meta = std::fs::metadata(path).map_err(cannot)?;
-    if meta.is_dir() {
-        return Err(SceneError::new(ErrorKind::Io, format!("cannot read `{}`: it is a directory", path.display()))
-            .hint("give the path of a scene file"));
-    }
-    if meta.is_file() && meta.len() > MAX_SCENE_BYTES {
-        return Err(too_large(format!("{:.1} MB", meta.len() as f64 / 1e6)));
-    }
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes)).map_err(cannot)?;
-    if bytes.len() as u64 > MAX_SCENE_BYTES {
-        return Err(too_large("not a regular file and longer than the limit".to_string()));
-    }
-    // A byte-order mark some editors write is not part of the scene.
-    if bytes.starts_with("\u{feff}".as_bytes()) {
-        bytes.drain(..3);
-    }
-    String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
-        let col = bytes[..at].iter().rev().take_while(|&&b| b != b'\n').count() + 1;
-        SceneError::new(
-            ErrorKind::Encoding,
-            format!("`{}` is not UTF-8: invalid byte 0x{:02x} at line {line}, column {col}", path.display(), bytes[at]),
-        )
-        .hint("save the scene as UTF-8 (Greek letters such as θ must be UTF-8 encoded)")
-    })
-}
-
-/// Refuses a look-alike character (Cyrillic, full-width, combining mark) anywhere in a scene
-/// but comments and quoted paths, at its location (the command line does the
-/// same for its arguments).
-fn refuse_lookalikes(text: &str) -> Result<(), SceneError> {
-    let (mut in_comment, mut in_quote) = (false, false);
-    for (i, c) in text.char_indices() {
-        match c {
-            '\n' => (in_comment, in_quote) = (false, false),
-            '#' if !in_quote => in_comment = true,
-            '"' if !in_comment => in_quote = !in_quote,
-            _ if in_comment || in_quote => {}
-            _ => {
-                if let Some(what) = crate::parse::lookalike_kind(c) {
-                    return Err(SceneError::new(ErrorKind::Syntax, crate::parse::lookalike_message(c, what))
-                        .at((i, i + c.len_utf8()))
-                        .hint(crate::parse::LOOKALIKE_HINT));
-                }
-            }
-        }
-    }
-    Ok(())
-}
 
 impl Session {
     /// Lazy definitions and simulations nothing asked for, and the standard derivations
@@ -1051,122 +740,5 @@ impl Session {
     /// The plan as text, for `--explain`.
     pub fn explain(&self) -> String {
         super::engine::plan::explain(&self.plan)
-    }
-}
-
-/// The scene's text with every lone carriage return (old Mac line ends) read as a line break,
-/// as editors show it; `\r\n` stays. The length is unchanged, so spans stay true.
-fn line_breaks(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.contains('\r') {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let bytes = text.as_bytes();
-    let mut out = String::with_capacity(text.len());
-    for (i, c) in text.char_indices() {
-        if c == '\r' && bytes.get(i + 1) != Some(&b'\n') {
-            out.push('\n');
-        } else {
-            out.push(c);
-        }
-    }
-    std::borrow::Cow::Owned(out)
-}
-
-impl Stmt for Coordinates {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_coordinates(&self.0)
-    }
-}
-
-impl Stmt for Parameters {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_parameters(&self.params, self.positive)
-    }
-}
-
-impl Stmt for Functions {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.declare_functions(&self.0)
-    }
-}
-
-impl Stmt for Define {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        s.define(at, &self.name, &self.value)
-    }
-}
-
-impl Stmt for Derive {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        let call = &self.call;
-        let v = s.derive_call(at, call)?;
-        let printed = match v {
-            Value::Expr(e) => {
-                let label = match call.kind {
-                    DerivKind::Legendre => "H".to_string(),
-                    DerivKind::Energy => "E".to_string(),
-                    _ => format!("{{{}}}", call.args.iter().map(|a| a.text.trim()).collect::<Vec<_>>().join(", ")),
-                };
-                Printed::Named(label, e)
-            }
-            Value::Lines(l) => Printed::Lines(l),
-            _ => return Ok(()),
-        };
-        s.print_all(vec![printed], self.format);
-        Ok(())
-    }
-}
-
-impl Stmt for Print {
-    fn run(&self, s: &mut Session, at: At) -> Result<(), SceneError> {
-        let mut printed = Vec::new();
-        for item in &self.items {
-            printed.push(s.printed_item(at, item)?);
-        }
-        s.print_all(printed, self.format);
-        Ok(())
-    }
-}
-
-impl Stmt for Load {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.load(&self.0)
-    }
-}
-
-impl Stmt for Help {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        let text = super::help::help(self.0.as_ref().map(|w| w.text.as_str()));
-        s.output.push(text);
-        Ok(())
-    }
-}
-
-impl Stmt for History {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.output.push("(history is kept by the REPL)".to_string());
-        Ok(())
-    }
-}
-
-impl Stmt for AllowNonfinite {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        s.allow_nonfinite = true;
-        Ok(())
-    }
-}
-
-impl Stmt for FormatStmt {
-    fn run(&self, s: &mut Session, _: At) -> Result<(), SceneError> {
-        if self.set_default {
-            s.opts.format = self.format;
-            s.output.push(format!("output format: {}", format_name(self.format)));
-        } else if s.last_printed.is_empty() {
-            s.output.push("nothing to reprint yet".to_string());
-        } else {
-            let last = s.last_printed.clone();
-            s.print_all(last, Some(self.format));
-        }
-        Ok(())
     }
 }

@@ -3,8 +3,6 @@
 //! parses them with its current declarations (which functions exist, which symbols are
 //! positive): declarations earlier in a scene change how later text parses.
 
-use crate::print::Format;
-
 pub use super::error::Span;
 
 /// A piece of source: an expression, a name or a path, with its byte span in the scene.
@@ -180,75 +178,6 @@ pub struct StabilizeSpec {
     pub rate: Option<Src>,
     /// The whole clause.
     pub span: Span,
-}
-
-/// `coordinates θ, φ`
-#[derive(Clone, Debug)]
-pub struct Coordinates(pub Vec<Src>);
-
-/// `parameters m = 1, l positive`
-#[derive(Clone, Debug)]
-pub struct Parameters {
-    /// Names and optional values.
-    pub params: Vec<(Src, Option<Src>)>,
-    /// `positive` at the end.
-    pub positive: bool,
-}
-
-/// `functions V`
-#[derive(Clone, Debug)]
-pub struct Functions(pub Vec<Src>);
-
-/// `name = …`
-#[derive(Clone, Debug)]
-pub struct Define {
-    /// The name defined.
-    pub name: Src,
-    /// Its value.
-    pub value: DefValue,
-}
-
-/// `el`, `legendre`, `pb f, g`: derive and print.
-#[derive(Clone, Debug)]
-pub struct Derive {
-    /// The derivation.
-    pub call: DerivCall,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `print …`
-#[derive(Clone, Debug)]
-pub struct Print {
-    /// What to print.
-    pub items: Vec<Item>,
-    /// `as latex`.
-    pub format: Option<Format>,
-}
-
-/// `load FILE`
-#[derive(Clone, Debug)]
-pub struct Load(pub Src);
-
-/// `help`, `help WORD`
-#[derive(Clone, Debug)]
-pub struct Help(pub Option<Src>);
-
-/// `history`
-#[derive(Clone, Debug)]
-pub struct History;
-
-/// `allow nonfinite`: later exports keep inf and NaN.
-#[derive(Clone, Debug)]
-pub struct AllowNonfinite;
-
-/// `latex` (reprint the last result) or `format unicode` (set the default).
-#[derive(Clone, Debug)]
-pub struct FormatStmt {
-    /// The format.
-    pub format: Format,
-    /// `format …` sets the default; a bare format name reprints.
-    pub set_default: bool,
 }
 
 /// The span of the first whole-word occurrence of `spelled` in `src`, else all of `src`.

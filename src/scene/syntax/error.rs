@@ -15,7 +15,7 @@ pub type Span = (usize, usize);
 pub enum ErrorKind {
     /// The statement's shape is wrong (a missing `=`, an unbalanced parenthesis).
     Syntax,
-    /// The first word names no statement.
+    /// The first word names no statement, or `help`'s topic no help topic.
     UnknownStatement,
     /// A symbol that is neither a coordinate, a parameter, a definition nor `t`.
     UndefinedSymbol,

@@ -11,10 +11,7 @@
 pub(crate) use pest::iterators::Pair;
 use pest::Parser as _;
 
-use super::ast::{
-    Coordinates, DefValue, Define, DerivCall, DerivKind, Derive, EnsembleSpec, EventSpec, FormatStmt, Functions, Help,
-    Item, Load, Parameters, Print, SimSpec, Src, StabilizeSpec,
-};
+use super::ast::{DerivCall, DerivKind, EnsembleSpec, EventSpec, Item, SimSpec, Src, StabilizeSpec};
 use super::error::{did_you_mean, ErrorKind, SceneError, Span};
 use crate::print::Format;
 
@@ -330,87 +327,12 @@ fn syntax_error(src: &str, base: usize, e: pest::error::Error<Rule>, words: &[&s
     err
 }
 
-/// Keyword pairs carry no information beyond the statement's rule. (Every `kw_*` rule of
-/// `grammar/scene.pest` is listed: a test reads the grammar and checks it.)
+/// Keyword pairs carry no information beyond the statement's rule. The rules are every `kw_*`
+/// rule of the grammar, listed by `build.rs` as it reads `grammar/*.pest` (a test checks the
+/// list against the rules pest generated).
 #[doc(hidden)]
 pub fn is_kw(rule: Rule) -> bool {
-    matches!(
-        rule,
-        Rule::kw_as
-            | Rule::kw_chaos_map
-            | Rule::kw_lie
-            | Rule::kw_geodesic
-            | Rule::kw_metric
-            | Rule::kw_embedding
-            | Rule::kw_ritz
-            | Rule::kw_integral
-            | Rule::kw_action
-            | Rule::kw_order
-            | Rule::kw_flow
-            | Rule::kw_at
-            | Rule::kw_near
-            | Rule::kw_small
-            | Rule::kw_unperturbed
-            | Rule::kw_principal
-            | Rule::kw_each
-            | Rule::kw_step
-            | Rule::kw_on
-            | Rule::kw_solve
-            | Rule::kw_separation
-            | Rule::kw_animate
-            | Rule::kw_stabilize
-            | Rule::kw_every
-            | Rule::kw_points
-            | Rule::kw_force
-            | Rule::kw_rayleigh
-            | Rule::kw_constraint
-            | Rule::kw_velocity
-            | Rule::kw_average
-            | Rule::kw_transform
-            | Rule::kw_new
-            | Rule::kw_frequency
-            | Rule::kw_amplitudes
-            | Rule::kw_against
-            | Rule::kw_work_precision
-            | Rule::kw_coordinates
-            | Rule::kw_dt
-            | Rule::kw_energy
-            | Rule::kw_export
-            | Rule::kw_for
-            | Rule::kw_format
-            | Rule::kw_from
-            | Rule::kw_functions
-            | Rule::kw_help
-            | Rule::kw_history
-            | Rule::kw_allow
-            | Rule::kw_nonfinite
-            | Rule::kw_in
-            | Rule::kw_load
-            | Rule::kw_parameters
-            | Rule::kw_path
-            | Rule::kw_phase
-            | Rule::kw_plot
-            | Rule::kw_positive
-            | Rule::kw_print
-            | Rule::kw_simulate
-            | Rule::kw_steps
-            | Rule::kw_t
-            | Rule::kw_to
-            | Rule::kw_tol
-            | Rule::kw_drift
-            | Rule::kw_max_steps
-            | Rule::kw_time_limit
-            | Rule::kw_stop
-            | Rule::kw_after
-            | Rule::kw_vs
-            | Rule::kw_when
-            | Rule::kw_with
-            | Rule::kw_poincare
-            | Rule::kw_series
-            | Rule::kw_about
-            | Rule::kw_jacobian
-            | Rule::kw_map
-    )
+    include!(concat!(env!("OUT_DIR"), "/keyword_rules.rs"))
 }
 
 /// Reads a statement's pest pairs into its statement type: the helpers every statement's
@@ -441,7 +363,7 @@ impl Reader {
 
     /// A declared name, or the members of a family `x[0..4]` (x0 … x4, each with the family's
     /// span): the plain symbols that `x[i]` names in expressions.
-    fn family_or_name(&self, q: &Pair<Rule>) -> Result<Vec<Src>, SceneError> {
+    pub(crate) fn family_or_name(&self, q: &Pair<Rule>) -> Result<Vec<Src>, SceneError> {
         if q.as_rule() != Rule::name_family {
             return Ok(vec![self.src(q)]);
         }
@@ -564,122 +486,9 @@ impl Reader {
         p.clone().into_inner().filter(|q| !is_kw(q.as_rule())).collect()
     }
 
-    /// `coordinates θ, φ` or a family `coordinates x[0..4]`.
-    pub(crate) fn coordinates(&self, p: Pair<Rule>) -> Result<Coordinates, SceneError> {
-        let mut names = Vec::new();
-        for q in self.inner(&p) {
-            names.extend(self.family_or_name(&q)?);
-        }
-        Ok(Coordinates(self.declared(names)?))
-    }
-
-    /// `functions V`.
-    pub(crate) fn functions(&self, p: Pair<Rule>) -> Result<Functions, SceneError> {
-        Ok(Functions(self.declared(self.inner(&p).into_iter().flat_map(|q| self.names(q)).collect())?))
-    }
-
-    /// `name = …`: an expression or a derivation.
-    pub fn definition(&self, p: Pair<Rule>) -> Result<Define, SceneError> {
-        let span = self.span(&p);
-        let mut it = self.inner(&p).into_iter();
-        let name = it.next().map(|n| self.declared(vec![self.src(&n)])).transpose()?.and_then(|mut v| v.pop());
-        let value = it.next();
-        match (name, value) {
-            (Some(name), Some(v)) if v.as_rule() == Rule::derivation => {
-                Ok(Define { name, value: DefValue::Derivation(self.deriv_call(v)?) })
-            }
-            (Some(name), Some(v)) => Ok(Define { name, value: DefValue::Expr(self.src(&v)) }),
-            _ => Err(SceneError::new(ErrorKind::Syntax, "malformed definition").at(span)),
-        }
-    }
-
-    /// `el`, `pb f, g`, … with an optional format.
-    pub fn derive(&self, p: Pair<Rule>) -> Result<Derive, SceneError> {
-        let span = self.span(&p);
-        let mut format = None;
-        let mut kind = None;
-        let mut args = Vec::new();
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::deriv_kw => kind = DerivKind::from_keyword(q.as_str()),
-                Rule::sexpr => args.push(self.src(&q)),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        let kind = kind.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a derivation").at(span))?;
-        Ok(Derive { call: DerivCall { kind, args, span }, format })
-    }
-
-    /// `print ITEM, … [as FORMAT]`.
-    pub(crate) fn print(&self, p: Pair<Rule>) -> Result<Print, SceneError> {
-        let mut items = Vec::new();
-        let mut format = None;
-        for q in self.inner(&p) {
-            match q.as_rule() {
-                Rule::print_item => items.push(self.item(q)?),
-                Rule::as_format => format = Some(self.format(q)),
-                _ => {}
-            }
-        }
-        Ok(Print { items, format })
-    }
-
     /// `simulate …`.
     pub fn simulate_stmt(&self, p: Pair<Rule>) -> Result<SimSpec, SceneError> {
         self.simulate(self.inner(&p), self.span(&p))
-    }
-
-    /// `load FILE`.
-    pub(crate) fn load(&self, p: Pair<Rule>) -> Result<Load, SceneError> {
-        let span = self.span(&p);
-        let path = self.inner(&p).into_iter().next().map(|q| self.path(q));
-        Ok(Load(path.ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected a file").at(span))?))
-    }
-
-    /// `help [WORD]`.
-    pub(crate) fn help(&self, p: Pair<Rule>) -> Help {
-        Help(self.inner(&p).into_iter().next().map(|q| self.src(&q)))
-    }
-
-    /// `format NAME` (sets the default) or a bare format name (reprints).
-    pub(crate) fn format_stmt(&self, p: Pair<Rule>) -> FormatStmt {
-        let set_default = p.as_str().trim_start().starts_with("format");
-        let f = self.inner(&p).iter().find(|q| q.as_rule() == Rule::format_name).map(Self::format_name);
-        FormatStmt { format: f.unwrap_or(Format::Unicode), set_default }
-    }
-
-    /// `parameters …`: the names, their values if given, and `positive`.
-    pub fn parameters_stmt(&self, p: Pair<Rule>) -> Result<Parameters, SceneError> {
-        let inner = self.inner(&p);
-        let mut params = Vec::new();
-        let mut positive = false;
-        for q in inner {
-            match q.as_rule() {
-                Rule::param => {
-                    let pspan = self.span(&q);
-                    let mut it = q.into_inner();
-                    let Some(first) = it.next() else { continue };
-                    let names = self.declared(self.family_or_name(&first)?)?;
-                    let values: Vec<Src> = it.map(|v| self.src(&v)).collect();
-                    if values.is_empty() {
-                        params.extend(names.into_iter().map(|n| (n, None)));
-                    } else if values.len() == names.len() {
-                        params.extend(names.into_iter().zip(values.into_iter().map(Some)));
-                    } else {
-                        return Err(SceneError::new(
-                            ErrorKind::Syntax,
-                            format!("`{}` has {} members but {} values", first.as_str(), names.len(), values.len()),
-                        )
-                        .at(pspan)
-                        .hint("give one value per member, in order, or none; a parameter declared without a value goes before the family or gets `= value`"));
-                    }
-                }
-                Rule::assumption => positive = true,
-                _ => {}
-            }
-        }
-        Ok(Parameters { params, positive })
     }
 
     pub(crate) fn simulate<'i>(&self, inner: Vec<Pair<'i, Rule>>, span: Span) -> Result<SimSpec, SceneError> {

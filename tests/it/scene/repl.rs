@@ -116,6 +116,21 @@ fn a_loaded_scene_runs_in_the_session() {
     assert!(out.contains("cannot read `./missing.scene`"), "{out}");
 }
 
+/// `help` with a topic of several words through the REPL binary: the row's form, and an
+/// unknown topic shown as an error with a caret under its words, the session going on.
+#[test]
+fn help_takes_a_topic_of_several_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out) =
+        session("help energy at\nhelp energy\nhelp foo bar\nhelp pb\n", &dir.path().join("h"), dir.path());
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("lagrangian> help energy at\nenergy at q = …, q' = … | energy at q = …, p_q = …\n"), "{out}");
+    assert!(out.contains("\n  see also: `help energy at`\n"), "{out}");
+    let err = &out[out.find("lagrangian> help foo bar").expect("the unknown topic")..];
+    assert!(err.contains("no help for `foo bar`") && err.contains("help foo bar") && err.contains('┬'), "{err}");
+    assert!(out.contains("example: pb θ, p_θ"), "{out}");
+}
+
 /// A statement continued over 100 000 piped lines is one entry, evaluated whole: the sum
 /// 1 + 0 + 1 + … + 99 999 = 4 999 950 001. (The reader used to rescan the whole statement on
 /// every line, so this took over a minute; it now reads each line once.)
@@ -188,5 +203,9 @@ mod unit {
         assert_eq!(complete(line, line.len(), &names), (6, vec!["theta0".to_string()]));
         let line = "print θ";
         assert_eq!(complete(line, line.len(), &names).1, ["θ'"]);
+        // Help topics word by word: `energy` and `export` begin longer topics.
+        assert_eq!(complete("help ener", 9, &names).1, ["energy"]);
+        assert_eq!(complete("help energy ", 12, &names).1, ["at"]);
+        assert_eq!(complete("help export p", 13, &names).1, ["poincare"]);
     }
 }

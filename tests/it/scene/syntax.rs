@@ -19,13 +19,79 @@ mod help {
     #[test]
     fn every_statement_has_help_with_an_example_that_parses() {
         for word in statement_words() {
-            let text = help(Some(word));
+            let text = help(Some(word)).unwrap_or_else(|near| panic!("no help for `{word}` (near: {near:?})"));
             assert!(text.contains("example: "), "no help for `{word}`: {text}");
         }
         for t in TOPICS {
             let parsed = parse_scene(t.example);
             assert!(matches!(&parsed, Ok(v) if v.len() == 1), "`{}`: {parsed:?}", t.example);
         }
+    }
+}
+
+/// `help` with a topic of several words (`help energy at`), in a scene as in the REPL: the
+/// answer is the topic's own row, and an unknown topic is an error at its words.
+mod help_topics {
+    use lagrangian::scene::help::TOPICS;
+    use lagrangian::scene::{ErrorKind, Mode, Options, Session};
+
+    fn help(mode: Mode, line: &str) -> Result<String, lagrangian::scene::SceneError> {
+        let mut s = Session::new(Options::new(mode));
+        match mode {
+            Mode::Scene => s.run_scene("help.scene", line)?,
+            Mode::Repl => s.run_line(line)?,
+        }
+        Ok(s.take_output().join("\n"))
+    }
+
+    fn row(word: &str) -> &'static lagrangian::scene::help::Topic {
+        TOPICS.iter().find(|t| t.word == word).unwrap_or_else(|| panic!("no row `{word}`"))
+    }
+
+    #[test]
+    fn a_topic_of_two_words_is_its_own_row() {
+        let at = row("energy at");
+        let expected = format!("{}\n  {}\n  example: {}", at.form, at.about, at.example);
+        for mode in [Mode::Scene, Mode::Repl] {
+            assert_eq!(help(mode, "help energy at").unwrap(), expected, "{mode:?}");
+            // Blanks between the words do not matter.
+            assert_eq!(help(mode, "help  energy   at").unwrap(), expected, "{mode:?}");
+        }
+        // The point transformation, with or without its brackets.
+        let point = row("transform (point)");
+        for line in ["help transform (point)", "help transform point"] {
+            assert!(help(Mode::Scene, line).unwrap().starts_with(point.form), "{line}");
+        }
+    }
+
+    #[test]
+    fn a_one_word_topic_names_the_longer_topics_it_begins() {
+        let energy = row("energy");
+        let text = help(Mode::Scene, "help energy").unwrap();
+        assert!(text.starts_with(&format!("{}\n  {}\n  example: {}", energy.form, energy.about, energy.example)));
+        assert!(text.ends_with("\n  see also: `help energy at`"), "{text}");
+        let text = help(Mode::Repl, "help export").unwrap();
+        assert!(text.ends_with("\n  see also: `help export poincare`"), "{text}");
+        // A topic that begins no other has no such line.
+        assert!(!help(Mode::Scene, "help pb").unwrap().contains("see also"));
+    }
+
+    #[test]
+    fn an_unknown_topic_is_refused_at_its_words() {
+        for mode in [Mode::Scene, Mode::Repl] {
+            let e = help(mode, "coordinates x\nhelp enrgy at").unwrap_err();
+            assert_eq!(e.kind, ErrorKind::UnknownStatement, "{e:?}");
+            assert_eq!(e.message, "no help for `enrgy at`");
+            // `enrgy at` is bytes 19..27 of the text.
+            assert_eq!(e.span, Some((19, 27)));
+            assert_eq!(e.hint.as_deref(), Some("did you mean `help energy at`?"));
+            let e = help(mode, "help foo bar").unwrap_err();
+            assert_eq!((e.kind, e.span), (ErrorKind::UnknownStatement, Some((5, 12))));
+            assert_eq!(e.hint.as_deref(), Some("`help` lists every topic"));
+        }
+        // One word as before, now also an error with its place.
+        let e = help(Mode::Repl, "help simulat").unwrap_err();
+        assert_eq!((e.span, e.hint.as_deref()), (Some((5, 12)), Some("did you mean `help simulate`?")));
     }
 }
 
@@ -61,12 +127,17 @@ mod registry {
 
 mod parser {
     use super::read_one;
-    use lagrangian::scene::ast::{DefValue, Parameters};
+    use lagrangian::scene::ast::DefValue;
+    use lagrangian::scene::statements::declare::Parameters;
+    use lagrangian::scene::statements::define::Define;
+    use lagrangian::scene::statements::print::Derive;
     use lagrangian::scene::syntax::parser::*;
     use lagrangian::Format;
 
-    /// `is_kw` names every keyword rule of the grammar and nothing else (the rule names are
-    /// read here, in a test, so the parser itself never classifies rules by their names).
+    /// `is_kw` (its list written by `build.rs` from the grammar) names every keyword rule pest
+    /// generated and nothing else: a keyword rule the script missed, or a rule it took for
+    /// one, fails here (the rule names are read in a test, so the parser itself never
+    /// classifies rules by their names).
     #[test]
     fn is_kw_lists_exactly_the_keyword_rules() {
         for &rule in Rule::all_rules() {
@@ -99,7 +170,7 @@ mod parser {
     #[test]
     fn parameters_with_assumption() {
         let Parameters { params, positive } =
-            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, |r, p| r.parameters_stmt(p));
+            read_one("parameters m = 1, l = 2/3, g = 9.81 positive", Rule::parameters, Parameters::read);
         assert!(positive);
         assert_eq!(params.len(), 3);
         assert_eq!(params[1].1.as_ref().map(|v| v.text.as_str()), Some("2/3"));
@@ -107,10 +178,10 @@ mod parser {
 
     #[test]
     fn definitions_and_derivations() {
-        let define = |s| read_one(s, Rule::definition, |r, p| r.definition(p));
+        let define = |s| read_one(s, Rule::definition, Define::read);
         assert!(matches!(define("H = legendre(L)").value, DefValue::Derivation(_)));
         assert!(matches!(define("H2 = legendre(L) + 1").value, DefValue::Expr(_)));
-        let derive = |s| read_one(s, Rule::derive_stmt, |r, p| r.derive(p));
+        let derive = |s| read_one(s, Rule::derive_stmt, Derive::read);
         assert!(matches!(derive("el as latex").format, Some(Format::Latex)));
         assert_eq!(derive("pb Lx, Ly").call.args.len(), 2);
     }
