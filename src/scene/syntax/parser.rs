@@ -464,6 +464,29 @@ impl Settings {
     }
 }
 
+/// Refuses a name given twice in one list of a statement (`ritz … from x = 0, x = 1`,
+/// `average … with x = A cos(θ), x = B cos(θ)`, `solve a, a`): its reader would keep one of the
+/// two and drop the other without a word. The second is refused at its span; `what` says what a
+/// list of `name = …` gives (`start value`), `None` for a list of names. Names compare as written: these
+/// lists name coordinates and new symbols, which have one spelling.
+pub(crate) fn once_each<'a>(names: impl IntoIterator<Item = &'a Src>, what: Option<&str>) -> Result<(), SceneError> {
+    let mut seen: Vec<&Src> = Vec::new();
+    for n in names {
+        if seen.iter().any(|f| f.text.trim() == n.text.trim()) {
+            let name = n.text.trim();
+            return Err(SceneError::new(ErrorKind::Syntax, format!("`{name}` is given twice"))
+                .at(n.span)
+                .label("again here")
+                .hint(match what {
+                    Some(what) => format!("keep one {what} for `{name}`"),
+                    None => format!("name `{name}` once"),
+                }));
+        }
+        seen.push(n);
+    }
+    Ok(())
+}
+
 /// Reads a statement's pest pairs into its statement type: the helpers every statement's
 /// reader shares (spans, names, paths, formats, the `simulate`-like options).
 #[doc(hidden)]

@@ -109,3 +109,79 @@ fn two_events_on_one_run_both_act() {
     assert!((sec["t"][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-8, "{sec:?}");
     assert!((sec["t"][1] - 2.0 * std::f64::consts::PI / 3.0).abs() < 1e-8, "{sec:?}");
 }
+
+/// One name twice in a statement's list of `name = …` (or of names): refused at the second,
+/// where the readers kept one of the two silently (`series L about x = 0, x = 1` expanded about
+/// x = 1; `average … with x = A cos(θ), x = 2 A cos(θ)` averaged the second trial function,
+/// `ritz` took the first start value). `needle` ends with the second occurrence of `name`.
+#[test]
+fn a_name_given_twice_in_a_list_is_refused_at_its_second_occurrence() {
+    let base = "coordinates x\nparameters k = 1\nL = 1/2 x'^2 - 1/2 k x^2 - 1/4 x^4\n";
+    let ritz = "ritz with x = a t (1 - t) + t";
+    #[rustfmt::skip]
+    let cases: Vec<(String, &str, &str, &str)> = vec![
+        // (statement, name, needle, what the hint names; empty for a list of names)
+        ("series L about x = 0, x = 1 order 2".into(), "x", "0, x", "expansion point"),
+        ("series cos(x) in x, x order 2".into(), "x", "x, x", ""),
+        (format!("{ritz}, x = b t for t in 0..1 from x = 0 to x = 1 solve a, b"), "x", "+ t, x", "trial path"),
+        (format!("{ritz} for t in 0..1 from x = 0, x = 1 to x = 1 solve a"), "x", "0, x", "start value"),
+        (format!("{ritz} for t in 0..1 from x = 0 to x = 1, x = 2 solve a"), "x", "1, x", "end value"),
+        (format!("{ritz} for t in 0..1 from x = 0 to x = 1 solve a, a"), "a", "a, a", ""),
+        ("average L with x = A cos(θ), x = 2 A cos(θ) phase θ frequency ω amplitudes A".into(), "x", "(θ), x", "trial function"),
+        ("average L with x = A cos(θ) phase θ frequency ω amplitudes A, A".into(), "A", "A, A", ""),
+    ];
+    let mut shown = String::new();
+    for (stmt, name, needle, what) in &cases {
+        let scene = format!("{base}{stmt}\n");
+        let e = refusal(&scene);
+        assert_eq!(e.kind, ErrorKind::Syntax, "{stmt}: {e:?}");
+        assert_eq!(e.message, format!("`{name}` is given twice"), "{stmt}: {e:?}");
+        let at = scene.rfind(needle).expect("the needle is in the scene") + needle.len() - name.len();
+        assert_eq!(e.span, Some((at, at + name.len())), "{stmt}: {e:?}");
+        let hint =
+            if what.is_empty() { format!("name `{name}` once") } else { format!("keep one {what} for `{name}`") };
+        assert_eq!(e.hint.as_deref(), Some(hint.as_str()), "{stmt}");
+        shown.push_str(&e.render(false));
+        shown.push('\n');
+    }
+    support::snapshot("scene_repeated_names", &shown);
+}
+
+/// The command line: clap refuses a single-valued flag given twice; a `name=value` list
+/// (`--set`, `--params`, `--at`) refuses a name given twice, in one flag or in two, where the
+/// map kept the last value (K = 0.1 of `K=0.9,K=0.1`) and `flow` the last `k`.
+#[test]
+fn the_command_line_refuses_a_flag_or_a_name_given_twice() {
+    let map = ["map", "p = p + K sin(q)", "q = q + p", "--vars", "q,p", "--from", "1,0.5", "--steps", "3"];
+    let flow = ["flow", "1/2 p_q^2 + 1/2 k q^2", "--coords", "q", "--at", "q=1,p_q=0", "--time", "1"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            [&map[..], &["--params", "K=0.9,K=0.1"]].concat(),
+            "error: --params gives `K` twice (`K=0.9` and `K=0.1`); keep one",
+        ),
+        (
+            [&map[..], &["--params", "K=0.9", "--params", "K=0.1"]].concat(),
+            "error: --params gives `K` twice (`K=0.9` and `K=0.1`); keep one",
+        ),
+        ([&flow[..], &["--set", "k=1,k=4"]].concat(), "error: --set gives `k` twice (`k=1` and `k=4`); keep one"),
+        (
+            [&flow[..], &["--set", "k=1", "--tol", "1e-9", "--tol", "1e-6"]].concat(),
+            "'--tol <TOL>' cannot be used multiple times",
+        ),
+        ([&flow[..], &["--set", "k=1", "--time", "2"]].concat(), "'--time <TIME>' cannot be used multiple times"),
+    ];
+    for (args, says) in &cases {
+        let (code, out, err) = support::run(args);
+        assert_eq!(code, 2, "{args:?}: {out}{err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    // Each value alone is accepted, and the two differ (so keeping either silently mattered).
+    let last = |args: &[&str]| {
+        let (code, out, err) = support::run(args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        out
+    };
+    let a = last(&[&map[..], &["--params", "K=0.9"]].concat());
+    let b = last(&[&map[..], &["--params", "K=0.1"]].concat());
+    assert_ne!(a, b);
+}
