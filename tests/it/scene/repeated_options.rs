@@ -185,3 +185,23 @@ fn the_command_line_refuses_a_flag_or_a_name_given_twice() {
     let b = last(&[&map[..], &["--params", "K=0.1"]].concat());
     assert_ne!(a, b);
 }
+
+/// `lagrangian average`: a coordinate with two `--trial`s (the average used the last) and an
+/// amplitude named twice (its condition was printed twice) are refused; one of each is accepted.
+#[test]
+fn the_command_line_average_refuses_a_trial_or_an_amplitude_given_twice() {
+    let l = "1/2 x'^2 - 1/2 x^2 - 1/4 x^4";
+    for (extra, says) in [
+        (&["--trial", "x = 2 A cos(θ)"][..], "error: --trial gives `x` twice; keep one trial function for it"),
+        (&["--amplitudes", "A,A"][..], "error: --amplitudes gives `A` twice; name it once"),
+    ] {
+        let args = [&["average", l, "--trial", "x = A cos(θ)"][..], extra].concat();
+        let (code, out, err) = support::run(&args);
+        assert_eq!(code, 2, "{args:?}: {out}{err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    let (code, out, err) = support::run(&["average", l, "--trial", "x = A cos(θ)", "--amplitudes", "A"]);
+    assert_eq!(code, 0, "{err}");
+    // ⟨½ x'² − ½ x² − ¼ x⁴⟩ for x = A cos θ, θ' = ω: A²ω²/4 − A²/4 − 3A⁴/32.
+    assert!(out.contains("A^2 (ω^2/4 - 3 A^2/32 - 1/4)"), "{out}");
+}
