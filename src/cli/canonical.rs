@@ -383,6 +383,10 @@ fn average(args: AverageArgs) -> Result<(), Failure> {
             .split_once('=')
             .ok_or_else(|| bad_input(format!("error: trial `{t}` is not of the form `x = expression`")))?;
         let coord = parse_var(lhs.trim(), &decls)?;
+        // Two trial functions of one coordinate: the average would use one and drop the other.
+        if trials.iter().any(|t: &Trial| t.coord == coord) {
+            return Err(bad_input(format!("error: --trial gives `{coord}` twice; keep one trial function for it")));
+        }
         let (_, expr) = parse_arg(rhs, &decls)?;
         trials.push(Trial { coord, expr });
     }
@@ -396,7 +400,11 @@ fn average(args: AverageArgs) -> Result<(), Failure> {
         }
         set.into_iter().collect()
     } else {
-        amplitudes.iter().map(|a| parse_var(a, &decls)).collect::<Result<_, _>>()?
+        let amps: Vec<Symbol> = amplitudes.iter().map(|a| parse_var(a, &decls)).collect::<Result<_, _>>()?;
+        if let Some(k) = (1..amps.len()).find(|&k| amps[..k].contains(&amps[k])) {
+            return Err(bad_input(format!("error: --amplitudes gives `{}` twice; name it once", amps[k])));
+        }
+        amps
     };
     let avg =
         canonical::average_lagrangian(&l, &trials, &th, &w, &amps).map_err(|e| bad_input(format!("error: {e}")))?;

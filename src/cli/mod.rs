@@ -105,9 +105,12 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
 /// `name=value` pairs of a numeric option (`--set m=1,k=2`, `--params`): a plain name and a
 /// finite number each, and a name declared `--positive` must have a positive value, as a
 /// scene's `parameters positive m = -1` is refused: the symbolic stages simplified with
-/// `m > 0` (`sqrt(m^2) = m`), so a negative value would give a silently wrong number.
+/// `m > 0` (`sqrt(m^2) = m`), so a negative value would give a silently wrong number. A name
+/// given twice (`--set k=1,k=4`, or in two `--set`) is refused: its users keep one of the two
+/// values, which one depending on the command, and the other would be dropped without a word.
 pub fn name_values(flag: &str, pairs: &[String], positive: &[String]) -> Result<Vec<(String, f64)>, Failure> {
-    let mut values = Vec::new();
+    let mut values: Vec<(String, f64)> = Vec::new();
+    let mut written: Vec<&str> = Vec::new();
     for kv in pairs {
         let Some((k, v)) = kv.split_once('=') else {
             return Err(bad_input(format!("error: {flag} takes name=value, got `{kv}`")));
@@ -125,7 +128,15 @@ pub fn name_values(flag: &str, pairs: &[String], positive: &[String]) -> Result<
                 v.trim()
             )));
         }
+        if let Some(i) = values.iter().position(|(n, _)| *n == k) {
+            return Err(bad_input(format!(
+                "error: {flag} gives `{k}` twice (`{}` and `{}`); keep one",
+                written[i].trim(),
+                kv.trim()
+            )));
+        }
         values.push((k, x));
+        written.push(kv);
     }
     Ok(values)
 }

@@ -9,7 +9,7 @@ use crate::scene::state::{At, Session};
 use crate::scene::statements::{Output, Stmt};
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
-use crate::scene::syntax::parser::{Pair, Reader, Rule};
+use crate::scene::syntax::parser::{Pair, Reader, Rule, Settings};
 
 /// `animate …`.
 #[derive(Clone, Debug)]
@@ -36,6 +36,7 @@ impl AnimateSpec {
         let mut run = None;
         let mut path = None;
         let (mut fps, mut duration, mut size) = (None, None, None);
+        let mut given = Settings::default();
         for q in inner {
             match q.as_rule() {
                 Rule::anim_point => {
@@ -47,14 +48,17 @@ impl AnimateSpec {
                 Rule::name => run = Some(r.src(&q)),
                 Rule::path => path = Some(r.path(q)),
                 Rule::anim_option => {
+                    let clause = r.src(&q);
                     let parts: Vec<Pair<Rule>> = q.into_inner().collect();
                     if let [key, value] = &parts[..] {
                         let v = Some(r.src(value));
-                        match key.as_str() {
-                            "fps" => fps = v,
-                            "duration" => duration = v,
-                            _ => size = v,
-                        }
+                        let (word, slot) = match key.as_str() {
+                            "fps" => ("fps", &mut fps),
+                            "duration" => ("duration", &mut duration),
+                            _ => ("size", &mut size),
+                        };
+                        given.give(word, word, clause)?;
+                        *slot = v;
                     }
                 }
                 _ => {}

@@ -17,7 +17,7 @@ use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
-use crate::scene::syntax::parser::{Pair, Reader, Rule};
+use crate::scene::syntax::parser::{once_each, Pair, Reader, Rule};
 
 /// `average [L] with x = … phase θ frequency ω amplitudes A, B`
 #[derive(Clone, Debug)]
@@ -170,6 +170,8 @@ impl Average {
                 _ => {}
             }
         }
+        once_each(trials.iter().map(|(x, _)| x), Some("trial function"))?;
+        once_each(&amplitudes, None)?;
         let mut it = names.into_iter();
         Ok(match (it.next(), it.next()) {
             (Some(phase), Some(frequency)) => Average { l, trials, phase, frequency, amplitudes, small, format },

@@ -9,7 +9,7 @@ use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
-use crate::scene::syntax::parser::{Pair, Reader, Rule};
+use crate::scene::syntax::parser::{once_each, Pair, Reader, Rule};
 
 /// `series f in x, … [order N]` or `series L about q = q0, … [order N]`.
 #[derive(Clone, Debug)]
@@ -58,6 +58,8 @@ impl Series {
                 _ => {}
             }
         }
+        once_each(about.iter().map(|(q, _)| q), Some("expansion point"))?;
+        once_each(&small, None)?;
         let mut it = exprs.into_iter();
         let f = it.next().ok_or_else(|| SceneError::new(ErrorKind::Syntax, "malformed `series`").at(span))?;
         Ok(Series { f, small, about, order: it.next(), format })

@@ -8,7 +8,7 @@ use crate::scene::state::{At, Session};
 use crate::scene::statements::Stmt;
 use crate::scene::syntax::ast::Src;
 use crate::scene::syntax::error::{ErrorKind, SceneError};
-use crate::scene::syntax::parser::{Pair, Reader, Rule};
+use crate::scene::syntax::parser::{once_each, Pair, Reader, Rule};
 
 /// `ritz …`.
 #[derive(Clone, Debug)]
@@ -71,6 +71,10 @@ impl RitzSpec {
                 _ => {}
             }
         }
+        once_each(trials.iter().map(|(x, _)| x), Some("trial path"))?;
+        once_each(from.iter().map(|(x, _)| x), Some("start value"))?;
+        once_each(to.iter().map(|(x, _)| x), Some("end value"))?;
+        once_each(&unknowns, None)?;
         match (time_var, t0, t1) {
             (Some(time_var), Some(t0), Some(t1)) => {
                 Ok(RitzSpec { l, trials, time_var, t0, t1, from, to, unknowns, guess, format })

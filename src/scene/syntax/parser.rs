@@ -335,6 +335,80 @@ pub fn is_kw(rule: Rule) -> bool {
     include!(concat!(env!("OUT_DIR"), "/keyword_rules.rs"))
 }
 
+/// The settings one statement's options have given so far, each with the clause that gave it
+/// first. Reading a setting twice would keep one value and drop the other without a word
+/// (`tol = 1e-9 … tol = 1e-6` ran at the second), so the second clause is refused at its span,
+/// naming the first. Clauses that add to a list (`record when …`, `stop when …`) are not
+/// settings and never come here.
+#[derive(Default)]
+pub(crate) struct Settings {
+    /// The setting, the word that gave it, and the clause as written.
+    first: Vec<(&'static str, &'static str, Src)>,
+}
+
+impl Settings {
+    /// Records that `clause` (the whole option as written, starting with `word`) gives
+    /// `setting`, or refuses it when an earlier clause gave that setting.
+    pub(crate) fn give(&mut self, setting: &'static str, word: &'static str, clause: Src) -> Result<(), SceneError> {
+        let Some((_, first_word, first)) = self.first.iter().find(|(s, _, _)| *s == setting) else {
+            self.first.push((setting, word, clause));
+            return Ok(());
+        };
+        let message = if *first_word == word {
+            format!("`{word}` is given twice")
+        } else {
+            format!("`{word}` and `{first_word}` both set {setting}")
+        };
+        let label = if *first_word == word { "again here".to_string() } else { format!("also sets {setting}") };
+        Err(SceneError::new(ErrorKind::Syntax, message)
+            .at(clause.span)
+            .label(label)
+            .hint(format!("keep one of `{}` (given first) and `{}`", first.text, clause.text)))
+    }
+
+    /// The setting a `simulate`-like option clause gives (two words may give one setting:
+    /// `steps = N` is the step `(t1 − t0)/N`), and the word it starts with; `None` for a
+    /// clause that is not a setting.
+    fn of(rule: Rule) -> Option<(&'static str, &'static str)> {
+        Some(match rule {
+            Rule::method => ("the method", "with"),
+            Rule::step => ("the step", "dt"),
+            Rule::steps => ("the step", "steps"),
+            Rule::tolerance => ("the tolerance", "tol"),
+            Rule::every => ("every", "every"),
+            Rule::points => ("points", "points"),
+            Rule::drift => ("drift", "drift"),
+            Rule::max_steps => ("max_steps", "max_steps"),
+            Rule::time_limit => ("time_limit", "time_limit"),
+            Rule::stabilize => ("stabilize", "stabilize"),
+            _ => return None,
+        })
+    }
+}
+
+/// Refuses a name given twice in one list of a statement (`ritz … from x = 0, x = 1`,
+/// `average … with x = A cos(θ), x = B cos(θ)`, `solve a, a`): its reader would keep one of the
+/// two and drop the other without a word. The second is refused at its span; `what` says what a
+/// list of `name = …` gives (`start value`), `None` for a list of names. Names compare as written: these
+/// lists name coordinates and new symbols, which have one spelling.
+pub(crate) fn once_each<'a>(names: impl IntoIterator<Item = &'a Src>, what: Option<&str>) -> Result<(), SceneError> {
+    let mut seen: Vec<&Src> = Vec::new();
+    for n in names {
+        if seen.iter().any(|f| f.text.trim() == n.text.trim()) {
+            let name = n.text.trim();
+            return Err(SceneError::new(ErrorKind::Syntax, format!("`{name}` is given twice"))
+                .at(n.span)
+                .label("again here")
+                .hint(match what {
+                    Some(what) => format!("keep one {what} for `{name}`"),
+                    None => format!("name `{name}` once"),
+                }));
+        }
+        seen.push(n);
+    }
+    Ok(())
+}
+
 /// Reads a statement's pest pairs into its statement type: the helpers every statement's
 /// reader shares (spans, names, paths, formats, the `simulate`-like options).
 #[doc(hidden)]
@@ -510,7 +584,11 @@ impl Reader {
         let mut max_steps = None;
         let mut time_limit = None;
         let mut ensemble = None;
+        let mut given = Settings::default();
         for q in inner.into_iter().filter(|q| !is_kw(q.as_rule())) {
+            if let Some((setting, word)) = Settings::of(q.as_rule()) {
+                given.give(setting, word, self.src(&q))?;
+            }
             match q.as_rule() {
                 Rule::ensemble => ensemble = Some(self.ensemble(q)),
                 Rule::init => {

@@ -11,6 +11,7 @@ mod graph;
 mod parity;
 mod print;
 mod progress;
+mod repeated_options;
 mod repl;
 #[cfg(unix)]
 mod repl_pty;
