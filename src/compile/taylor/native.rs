@@ -1531,14 +1531,22 @@ impl TaylorEmitter<'_, '_> {
                 let w = self.weighted(a, c);
                 let sv = self.times_rk(w);
                 let w = self.weighted(a, s);
-                let cv = self.times_rk(w);
-                self.put(s, sv);
-                let cv = if matches!(op, Op::SinCos { .. }) {
-                    let m = self.c(-1.0);
-                    self.b.ins().fmul(cv, m)
-                } else {
-                    cv
+                let cv = match (op, self.k) {
+                    // `(x · (1/k)) · (−1)` is `x · (−(1/k))` bit for bit (rounding to nearest
+                    // commutes with negation): one multiplication less, on the chain from one
+                    // order to the next.
+                    (Op::SinCos { .. }, Order::Fixed(k)) => {
+                        let m = self.c(-(1.0 / k as f64));
+                        self.b.ins().fmul(w, m)
+                    }
+                    (Op::SinCos { .. }, Order::Runtime { .. }) => {
+                        let cv = self.times_rk(w);
+                        let m = self.c(-1.0);
+                        self.b.ins().fmul(cv, m)
+                    }
+                    _ => self.times_rk(w),
                 };
+                self.put(s, sv);
                 self.put(c, cv);
             }
             Op::Exp { d, a } => {
