@@ -399,6 +399,8 @@ fn compile_taylor_code(
                 reloads: 0,
                 windows,
                 mirror,
+                last_order: (form == Form::Whole).then_some(max_order),
+                dead_last: if form == Form::Whole { tape.dead_at_last_order() } else { Vec::new() },
                 inv_diag: Vec::new(),
                 ssa_orders: ssa_orders(tape, expansion),
                 sin_cos_slot: None,
@@ -547,6 +549,10 @@ struct TaylorEmitter<'a, 'b> {
     windows: Windows,
     /// Whole expansions: where the mirror images of the rows start ([`TaylorEmitter::pair`]).
     mirror: Option<usize>,
+    /// Whole expansions: the last order, at which the rows of `dead_last` are left out
+    /// ([`TaylorTape::dead_at_last_order`]).
+    last_order: Option<usize>,
+    dead_last: Vec<bool>,
     /// `W q'' = F`: the reciprocals of the diagonal of `W₀`'s Cholesky factor, from order 0.
     inv_diag: Vec<Value>,
     /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
@@ -1527,30 +1533,53 @@ impl TaylorEmitter<'_, '_> {
         Some(kink)
     }
 
+    /// Order `k` of the cosine (`cosh`) of a pair, from its weighted sum `w`.
+    fn cos_order(&mut self, op: &Op, w: Value) -> Value {
+        match (op, self.k) {
+            // `(x · (1/k)) · (−1)` is `x · (−(1/k))` bit for bit (rounding to nearest
+            // commutes with negation): one multiplication less, on the chain from one
+            // order to the next.
+            (Op::SinCos { .. }, Order::Fixed(k)) => {
+                let m = self.c(-(1.0 / k as f64));
+                self.b.ins().fmul(w, m)
+            }
+            (Op::SinCos { .. }, Order::Runtime { .. }) => {
+                let cv = self.times_rk(w);
+                let m = self.c(-1.0);
+                self.b.ins().fmul(cv, m)
+            }
+            _ => self.times_rk(w),
+        }
+    }
+
+    /// Whether row `r` is left out at this order: the last of a whole expansion, where
+    /// nothing reads it ([`TaylorTape::dead_at_last_order`]).
+    fn dead_at_last_order(&self, r: u32) -> bool {
+        matches!(self.k, Order::Fixed(k) if Some(k) == self.last_order) && self.dead_last[r as usize]
+    }
+
     /// Order `k` of a function's recurrence (the operations `order` leaves to it); `None` when
     /// a constant exponent's row has no constant.
     fn function_order(&mut self, op: &Op) -> Option<()> {
         let (k, zero) = (Ix::K, Ix::at(0));
         match *op {
             Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
+                if self.dead_at_last_order(c) {
+                    let w = self.weighted(a, c);
+                    let sv = self.times_rk(w);
+                    self.put(s, sv);
+                    return Some(());
+                }
+                if self.dead_at_last_order(s) {
+                    let w = self.weighted(a, s);
+                    let cv = self.cos_order(op, w);
+                    self.put(c, cv);
+                    return Some(());
+                }
                 let w = self.weighted(a, c);
                 let sv = self.times_rk(w);
                 let w = self.weighted(a, s);
-                let cv = match (op, self.k) {
-                    // `(x · (1/k)) · (−1)` is `x · (−(1/k))` bit for bit (rounding to nearest
-                    // commutes with negation): one multiplication less, on the chain from one
-                    // order to the next.
-                    (Op::SinCos { .. }, Order::Fixed(k)) => {
-                        let m = self.c(-(1.0 / k as f64));
-                        self.b.ins().fmul(w, m)
-                    }
-                    (Op::SinCos { .. }, Order::Runtime { .. }) => {
-                        let cv = self.times_rk(w);
-                        let m = self.c(-1.0);
-                        self.b.ins().fmul(cv, m)
-                    }
-                    _ => self.times_rk(w),
-                };
+                let cv = self.cos_order(op, w);
                 self.put(s, sv);
                 self.put(c, cv);
             }
