@@ -455,6 +455,32 @@ impl TaylorTape {
         self.weighted[r as usize]
     }
 
+    /// Per row, whether its last coefficient of an expansion is read by nothing: one half of
+    /// a sine–cosine (or sinh–cosh) pair that only its partner's recurrence reads, at later
+    /// orders, and that is no output, no argument of `abs` and not weighted (the double
+    /// pendulum's `cos θ₁` and `cos θ₂`, whose sines alone enter `F`). A whole expansion
+    /// leaves these coefficients out at its last order (`TaylorEmitter::dead_at_last_order`).
+    pub(super) fn dead_at_last_order(&self) -> Vec<bool> {
+        let mut read = vec![false; self.n_rows];
+        for &r in self.outputs.iter().chain(&self.abs_args) {
+            read[r as usize] = true;
+        }
+        for op in &self.ops {
+            for r in op.sources().chain(op.weighted_operands()) {
+                read[r as usize] = true;
+            }
+        }
+        let mut dead = vec![false; self.n_rows];
+        for op in &self.ops {
+            if let Op::SinCos { s, c, .. } | Op::SinhCosh { s, c, .. } = *op {
+                for r in [s, c] {
+                    dead[r as usize] = !read[r as usize] && self.weighted[r as usize].is_none();
+                }
+            }
+        }
+        dead
+    }
+
     /// The value of a constant row (`None` for any other row).
     pub(super) fn row_constant(&self, r: u32) -> Option<f64> {
         (r as usize).checked_sub(self.n_inputs).and_then(|i| self.consts.get(i)).copied()

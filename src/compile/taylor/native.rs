@@ -399,6 +399,8 @@ fn compile_taylor_code(
                 reloads: 0,
                 windows,
                 mirror,
+                last_order: (form == Form::Whole).then_some(max_order),
+                dead_last: if form == Form::Whole { tape.dead_at_last_order() } else { Vec::new() },
                 inv_diag: Vec::new(),
                 ssa_orders: ssa_orders(tape, expansion),
                 sin_cos_slot: None,
@@ -547,6 +549,10 @@ struct TaylorEmitter<'a, 'b> {
     windows: Windows,
     /// Whole expansions: where the mirror images of the rows start ([`TaylorEmitter::pair`]).
     mirror: Option<usize>,
+    /// Whole expansions: the last order, at which the rows of `dead_last` are left out
+    /// ([`TaylorTape::dead_at_last_order`]).
+    last_order: Option<usize>,
+    dead_last: Vec<bool>,
     /// `W q'' = F`: the reciprocals of the diagonal of `W₀`'s Cholesky factor, from order 0.
     inv_diag: Vec<Value>,
     /// Unrolled code reads the last `ssa_orders` orders (`k`, and `k − 1` if 2) as SSA
@@ -1146,8 +1152,7 @@ impl TaylorEmitter<'_, '_> {
     /// `2 Σ_{1≤j<k−j} a_j a_{k−j} + (a_{k/2}² or 0)`.
     fn square_inner(&mut self, r: u32) -> Value {
         let half = self.sum(r, Ix::at(1), r, Ix::k(-1), Len::HalfInner, Weight::One);
-        let two = self.c(2.0);
-        let twice = self.b.ins().fmul(half, two);
+        let twice = self.twice(half);
         let mid = match self.k {
             Order::Fixed(k) if k % 2 == 0 => {
                 let m = self.at(r, k / 2);
@@ -1172,12 +1177,19 @@ impl TaylorEmitter<'_, '_> {
     /// `Σ_{j=0}^{k} a_j a_{k−j}` (`square`): the inner sum, then `2a₀ · a_k`.
     fn square(&mut self, r: u32) -> Value {
         let inner = self.square_inner(r);
-        let two = self.c(2.0);
         let a0 = self.coef(r, Ix::at(0));
-        let a0x2 = self.b.ins().fmul(a0, two);
+        let a0x2 = self.twice(a0);
         let ak = self.coef(r, Ix::K);
         let late = self.b.ins().fmul(a0x2, ak);
         self.b.ins().fadd(inner, late)
+    }
+
+    /// `2 · x`, as `x + x` (the same bits, NaN and signed zeros included). An expansion has
+    /// more multiplications than additions (the double pendulum at order 11: 934 and 610), and
+    /// AMD's Zen cores run the two on separate pipes (two each), so the multiplication pipes
+    /// are the busier ones.
+    fn twice(&mut self, x: Value) -> Value {
+        self.b.ins().fadd(x, x)
     }
 
     /// `x · (1/k)`.
@@ -1483,9 +1495,8 @@ impl TaylorEmitter<'_, '_> {
                     let acc = self.square_inner(d);
                     let ak = self.coef(a, k);
                     let num = self.b.ins().fsub(ak, acc);
-                    let two = self.c(2.0);
                     let d0 = self.coef(d, zero);
-                    let den = self.b.ins().fmul(d0, two);
+                    let den = self.twice(d0);
                     let v = self.times_recip(num, den);
                     self.put(d, v);
                 }
@@ -1522,23 +1533,54 @@ impl TaylorEmitter<'_, '_> {
         Some(kink)
     }
 
+    /// Order `k` of the cosine (`cosh`) of a pair, from its weighted sum `w`.
+    fn cos_order(&mut self, op: &Op, w: Value) -> Value {
+        match (op, self.k) {
+            // `(x · (1/k)) · (−1)` is `x · (−(1/k))` bit for bit (rounding to nearest
+            // commutes with negation): one multiplication less, on the chain from one
+            // order to the next.
+            (Op::SinCos { .. }, Order::Fixed(k)) => {
+                let m = self.c(-(1.0 / k as f64));
+                self.b.ins().fmul(w, m)
+            }
+            (Op::SinCos { .. }, Order::Runtime { .. }) => {
+                let cv = self.times_rk(w);
+                let m = self.c(-1.0);
+                self.b.ins().fmul(cv, m)
+            }
+            _ => self.times_rk(w),
+        }
+    }
+
+    /// Whether row `r` is left out at this order: the last of a whole expansion, where
+    /// nothing reads it ([`TaylorTape::dead_at_last_order`]).
+    fn dead_at_last_order(&self, r: u32) -> bool {
+        matches!(self.k, Order::Fixed(k) if Some(k) == self.last_order) && self.dead_last[r as usize]
+    }
+
     /// Order `k` of a function's recurrence (the operations `order` leaves to it); `None` when
     /// a constant exponent's row has no constant.
     fn function_order(&mut self, op: &Op) -> Option<()> {
         let (k, zero) = (Ix::K, Ix::at(0));
         match *op {
             Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
+                if self.dead_at_last_order(c) {
+                    let w = self.weighted(a, c);
+                    let sv = self.times_rk(w);
+                    self.put(s, sv);
+                    return Some(());
+                }
+                if self.dead_at_last_order(s) {
+                    let w = self.weighted(a, s);
+                    let cv = self.cos_order(op, w);
+                    self.put(c, cv);
+                    return Some(());
+                }
                 let w = self.weighted(a, c);
                 let sv = self.times_rk(w);
                 let w = self.weighted(a, s);
-                let cv = self.times_rk(w);
+                let cv = self.cos_order(op, w);
                 self.put(s, sv);
-                let cv = if matches!(op, Op::SinCos { .. }) {
-                    let m = self.c(-1.0);
-                    self.b.ins().fmul(cv, m)
-                } else {
-                    cv
-                };
                 self.put(c, cv);
             }
             Op::Exp { d, a } => {
@@ -1575,9 +1617,8 @@ impl TaylorEmitter<'_, '_> {
                 let sq = if kind.plus_square() { sq } else { self.b.ins().fneg(sq) };
                 let inner = self.square_inner(r);
                 let num = self.b.ins().fsub(sq, inner);
-                let two = self.c(2.0);
                 let r0 = self.coef(r, zero);
-                let den = self.b.ins().fmul(r0, two);
+                let den = self.twice(r0);
                 let rv = self.times_recip(num, den);
                 let ak = self.coef(a, k);
                 let ak = if kind.neg() { self.b.ins().fneg(ak) } else { ak };
