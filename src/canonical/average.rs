@@ -54,6 +54,9 @@ pub enum AverageError {
         /// The limit.
         limit: u32,
     },
+    /// Two trial functions for one coordinate: which one was meant is not guessed.
+    #[error("`{0}` has two trial functions: give one per coordinate")]
+    TrialGivenTwice(String),
     /// A velocity of a coordinate without a trial function remains.
     #[error("`{0}` remains after substituting the trial functions: give a trial function for every coordinate")]
     UnreplacedVelocity(String),
@@ -220,6 +223,9 @@ pub fn average_lagrangian(
     for t in trials {
         // Check each trial on its own first, so an error names the trial, not its derivative.
         fourier(&expand(&t.expr), phase)?;
+        if map.contains_key(&t.coord) {
+            return Err(AverageError::TrialGivenTwice(t.coord.to_string()));
+        }
         map.insert(t.coord.clone(), t.expr.clone());
         map.insert(t.coord.prime(), w.times(&diff(&t.expr, phase)));
     }

@@ -165,6 +165,16 @@ fn non_periodic_or_non_polynomial_trials_are_refused() {
         &[],
     );
     assert!(matches!(missing, Err(AverageError::UnreplacedVelocity(_))));
+    // Two trials for one coordinate (a front end that lets them through, a Python dict keyed by
+    // both "x" and a Symbol x): refused, not the last one silently kept.
+    let twice = average_lagrangian(
+        &l,
+        &[Trial { coord: sym("x"), expr: p("A cos(θ)") }, Trial { coord: sym("x"), expr: p("2 A cos(θ)") }],
+        &sym("θ"),
+        &sym("w"),
+        &[sym("A")],
+    );
+    assert!(matches!(&twice, Err(AverageError::TrialGivenTwice(x)) if x == "x"), "{twice:?}");
 }
 
 /// The relations solved numerically along A for the hard spring (σ = 1, m = ω0 = l0 = 1),
