@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 16 item 4: `cargo bench ${CARGO_PROFILE:+--profile "$CARGO_PROFILE"} --bench robust` and SymEngine (in a throwaway virtual
+# Large inputs against SymEngine: `cargo bench ${CARGO_PROFILE:+--profile "$CARGO_PROFILE"} --bench robust` and SymEngine (in a throwaway virtual
 # environment) on the same inputs, back to back in one run.
 #
 #   benches/anchors/robust_symengine.sh                     # bench profile (release)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One command for the whole comparison (issue 14): makes a throwaway virtual environment,
+# One command for the whole comparison with SymPy, SciPy, SymEngine and heyoka: makes a throwaway virtual environment,
 # installs the anchors' packages one by one (an anchor whose install fails is skipped with a
 # note), runs `cargo bench --bench pipeline` and every anchor back to back, writes
 # benches/anchors/RESULTS.md, and removes the environment.
