@@ -424,6 +424,26 @@ pub enum Indicator {
     Megno,
 }
 
+impl Indicator {
+    /// Every indicator, in the order an error message lists them.
+    pub const ALL: [Indicator; 3] = [Indicator::Megno, Indicator::Fli, Indicator::Lyapunov];
+
+    /// The indicator's name in scenes and in Python (`megno`, `fli`, `lyapunov`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Indicator::Lyapunov => "lyapunov",
+            Indicator::Fli => "fli",
+            Indicator::Megno => "megno",
+        }
+    }
+
+    /// The indicator of that name; `None` for any other word (the front ends say which names
+    /// exist: [`Indicator::ALL`]).
+    pub fn named(name: &str) -> Option<Indicator> {
+        Indicator::ALL.into_iter().find(|i| i.name() == name)
+    }
+}
+
 /// An indicator over many initial conditions, in parallel (rayon), within the default
 /// [`Budget`] for each orbit (its time budget counted from the orbit's start). A start whose
 /// integration fails (escapes to infinity, hits a singularity, runs out of the budget) gets

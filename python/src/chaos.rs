@@ -120,12 +120,9 @@ impl PySystem {
         let names = self.canonical_names();
         let n = names.len();
         let x0 = canonical_start(x0, &names)?;
-        let (tangents, megno) = match which {
-            "lyapunov" => (n, false),
-            "megno" | "fli" => (1, true),
-            other => {
-                return Err(exc::ArgumentError::new_err(format!("unknown indicator `{other}`: megno, fli or lyapunov")))
-            }
+        let (tangents, megno) = match Indicator::named(which).ok_or_else(|| unknown_indicator(which))? {
+            Indicator::Lyapunov => (n, false),
+            Indicator::Megno | Indicator::Fli => (1, true),
         };
         let var = self.variational_system(py, tangents, megno)?;
         let y0 = match tangent {
@@ -191,14 +188,7 @@ impl PySystem {
         }
         let flat = f64_vec(&a)?;
         let rows: Vec<Vec<f64>> = flat.chunks(n.max(1)).map(<[f64]>::to_vec).collect();
-        let which = match which {
-            "megno" => Indicator::Megno,
-            "fli" => Indicator::Fli,
-            "lyapunov" => Indicator::Lyapunov,
-            other => {
-                return Err(exc::ArgumentError::new_err(format!("unknown indicator `{other}`: megno, fli or lyapunov")))
-            }
-        };
+        let which = Indicator::named(which).ok_or_else(|| unknown_indicator(which))?;
         let stop = match megno_stop {
             None => None,
             Some(_) if which != Indicator::Megno => {
@@ -300,4 +290,10 @@ impl PySystem {
         d.set_item("names", names)?;
         Ok(d)
     }
+}
+
+/// The error for an indicator name the library does not know, listing the ones it does.
+fn unknown_indicator(name: &str) -> PyErr {
+    let known: Vec<&str> = Indicator::ALL.iter().map(|i| i.name()).collect();
+    exc::ArgumentError::new_err(format!("unknown indicator `{name}`: {}", known.join(", ")))
 }

@@ -185,25 +185,6 @@ pub(in crate::scene) fn variational_run_refusals<'a>(
     Ok(refuse)
 }
 
-/// The indicator a keyword names.
-pub(in crate::scene) fn indicator(word: &str) -> Option<Indicator> {
-    match word {
-        "lyapunov" => Some(Indicator::Lyapunov),
-        "megno" => Some(Indicator::Megno),
-        "fli" => Some(Indicator::Fli),
-        _ => None,
-    }
-}
-
-/// The keyword of an indicator.
-fn word_of(which: Indicator) -> &'static str {
-    match which {
-        Indicator::Lyapunov => "lyapunov",
-        Indicator::Megno => "megno",
-        Indicator::Fli => "fli",
-    }
-}
-
 fn label(which: Indicator) -> &'static str {
     match which {
         Indicator::Lyapunov => "maximal Lyapunov exponent λ",
@@ -355,7 +336,7 @@ impl Session {
 
     /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
     pub(in crate::scene) fn chaos(&mut self, at: At, spec: &ChaosSpec) -> Result<(), SceneError> {
-        let which = indicator(&spec.indicator.text)
+        let which = Indicator::named(&spec.indicator.text)
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`"))?;
         if spec.map {
             self.chaos_map(at, spec, which)
@@ -565,7 +546,7 @@ impl Session {
         if which != Indicator::Megno {
             return Err(SceneError::new(
                 ErrorKind::Syntax,
-                format!("`stop megno >= …` applies to MEGNO maps only, not to a `{}` map", word_of(which)),
+                format!("`stop megno >= …` applies to MEGNO maps only, not to a `{}` map", which.name()),
             )
             .at(s.span)
             .hint(
@@ -915,7 +896,7 @@ impl Session {
         runs: &[Src],
     ) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
-        let which = indicator(&word.text)
+        let which = Indicator::named(&word.text)
             .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`").at(word.span))?;
         let usable = |c: &ChaosRun| which != Indicator::Megno || c.which != Indicator::Lyapunov;
         let mut chosen = Vec::new();
