@@ -403,6 +403,12 @@ impl<'a> Orbit<'a> {
 }
 
 impl Indicators {
+    /// This orbit as a chaos map's cell: the indicator's value and when the early stop ended
+    /// it.
+    pub fn cell(&self, which: Indicator) -> Cell {
+        Cell { value: self.value(which), stopped_at: self.stopped_at }
+    }
+
     /// The number a chaos map shows for this orbit.
     pub fn value(&self, which: Indicator) -> f64 {
         match which {
@@ -465,6 +471,11 @@ pub struct Cell {
     pub stopped_at: Option<f64>,
 }
 
+impl Cell {
+    /// A cell without an orbit (its start failed, or lies off the map's level set).
+    pub const BLANK: Cell = Cell { value: f64::NAN, stopped_at: None };
+}
+
 /// [`chaos_map`] within `budget` (its deadline is for the whole map), with each cell marked
 /// when the budget's [`MegnoStop`] ended its orbit early. A start whose integration fails or
 /// runs out of the budget gets NaN, as in [`chaos_map`].
@@ -498,8 +509,8 @@ fn cells(orbits: Vec<Result<Indicators, IntegrateError>>, which: Indicator) -> V
     orbits
         .into_iter()
         .map(|r| match r {
-            Ok(r) => Cell { value: r.value(which), stopped_at: r.stopped_at },
-            Err(_) => Cell { value: f64::NAN, stopped_at: None },
+            Ok(r) => r.cell(which),
+            Err(_) => Cell::BLANK,
         })
         .collect()
 }

@@ -86,10 +86,12 @@ pub fn run(cmd: ChaosCommand) -> Result<(), Failure> {
     let state: Vec<String> = system.coordinates().iter().chain(system.momenta()).map(|s| s.to_string()).collect();
     let mut x0 = Vec::with_capacity(state.len());
     for name in &state {
-        match start.iter().filter(|(k, _)| k == name).map(|(_, v)| *v).collect::<Vec<_>>()[..] {
-            [v] => x0.push(v),
-            [] => return Err(bad_input(format!("error: --at has no value for `{name}` (give {})", state.join(", ")))),
-            _ => return Err(bad_input(format!("error: --at gives `{name}` more than once"))),
+        // `name_values` has refused a name given twice.
+        match start.iter().find(|(k, _)| k == name) {
+            Some((_, v)) => x0.push(*v),
+            None => {
+                return Err(bad_input(format!("error: --at has no value for `{name}` (give {})", state.join(", "))))
+            }
         }
     }
     if let Some((k, _)) = start.iter().find(|(k, _)| !state.contains(k)) {

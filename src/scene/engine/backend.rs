@@ -179,9 +179,7 @@ pub trait Backend {
             .iter()
             .enumerate()
             .map(|(k, x0)| {
-                let out = self
-                    .indicators(compiled, x0, t_end, tol, budget)
-                    .map(|r| crate::chaos::Cell { value: r.value(which), stopped_at: r.stopped_at });
+                let out = self.indicators(compiled, x0, t_end, tol, budget).map(|r| r.cell(which));
                 progress((k + 1) as f64 / n);
                 out
             })
@@ -321,10 +319,7 @@ impl Backend for NativeBackend {
         simulate::with_progress(&done, starts.len(), progress, || {
             crate::chaos::indicators_map_counting(var, starts, t_end, tol, budget, &done)
                 .into_iter()
-                .map(|r| {
-                    r.map(|r| crate::chaos::Cell { value: r.value(which), stopped_at: r.stopped_at })
-                        .map_err(chaos_error)
-                })
+                .map(|r| r.map(|r| r.cell(which)).map_err(chaos_error))
                 .collect()
         })
         .unwrap_or_else(|_| {

@@ -449,7 +449,7 @@ impl Session {
         }
         // A start whose integration fails (escapes, meets a singularity) is blank too, but
         // counted apart from the cells off the level set.
-        let blank = crate::chaos::Cell { value: f64::NAN, stopped_at: None };
+        let blank = crate::chaos::Cell::BLANK;
         let mut computed = computed.into_iter().map(|r| r.unwrap_or(blank));
         let cells: Vec<crate::chaos::Cell> =
             on_surface.iter().map(|&on| if on { computed.next().unwrap_or(blank) } else { blank }).collect();
