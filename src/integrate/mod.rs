@@ -63,8 +63,8 @@ pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, S
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;
 pub use solver::{
-    Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status, StopReason,
-    Trajectory,
+    sort_in_time, Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status,
+    StopReason, Trajectory,
 };
 pub use splitting::Splitting;
 pub use taylor::{Taylor, TaylorSystem, TaylorWork, MIN_TOL};

@@ -742,7 +742,7 @@ impl Drive<'_, '_> {
                 }
                 g_prev[i] = g1;
             }
-            hits.sort_by(|a, b| (dir * a.t).total_cmp(&(dir * b.t)));
+            crate::integrate::sort_in_time(&mut hits, dir);
             let mut until = t;
             for h in hits {
                 let (i, te) = (h.index, h.t);
