@@ -62,9 +62,10 @@ pub use dop853::Dop853;
 pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};
 pub use rk::ExplicitRk;
+pub(crate) use solver::sort_in_time;
 pub use solver::{
-    sort_in_time, Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status,
-    StopReason, Trajectory,
+    Crossing, Event, EventAction, EventRecord, Integrate, Options, Output, Solver, Stats, Status, StopReason,
+    Trajectory,
 };
 pub use splitting::Splitting;
 pub use taylor::{Taylor, TaylorSystem, TaylorWork, MIN_TOL};

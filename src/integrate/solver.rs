@@ -346,7 +346,7 @@ pub struct EventRecord {
 /// Not generic, and not a closure inside the generic solver: a `sort_by` there is compiled
 /// once per system × method pair (the standard library's stable sort is ~1,500 lines of LLVM IR
 /// per instantiation, and the solver has dozens), which showed as compile time in every build.
-pub fn sort_in_time(hits: &mut [EventRecord], dir: f64) {
+pub(crate) fn sort_in_time(hits: &mut [EventRecord], dir: f64) {
     hits.sort_by(|a, b| (dir * a.t).total_cmp(&(dir * b.t)));
 }
 
