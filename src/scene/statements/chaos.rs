@@ -185,6 +185,12 @@ pub(in crate::scene) fn variational_run_refusals<'a>(
     Ok(refuse)
 }
 
+/// The error for a word that names no indicator (the grammar's keywords make it unreachable
+/// from scene text; kept as an error, not a panic).
+fn unknown_indicator() -> SceneError {
+    SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`")
+}
+
 fn label(which: Indicator) -> &'static str {
     match which {
         Indicator::Lyapunov => "maximal Lyapunov exponent λ",
@@ -336,8 +342,7 @@ impl Session {
 
     /// `megno …`, `lyapunov …`, `fli …`, `chaos_map …`.
     pub(in crate::scene) fn chaos(&mut self, at: At, spec: &ChaosSpec) -> Result<(), SceneError> {
-        let which = Indicator::named(&spec.indicator.text)
-            .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`"))?;
+        let which = Indicator::named(&spec.indicator.text).ok_or_else(unknown_indicator)?;
         if spec.map {
             self.chaos_map(at, spec, which)
         } else {
@@ -896,8 +901,7 @@ impl Session {
         runs: &[Src],
     ) -> Result<crate::plot::Figure, SceneError> {
         use crate::plot::{Figure, Series};
-        let which = Indicator::named(&word.text)
-            .ok_or_else(|| SceneError::new(ErrorKind::Syntax, "expected `lyapunov`, `megno` or `fli`").at(word.span))?;
+        let which = Indicator::named(&word.text).ok_or_else(|| unknown_indicator().at(word.span))?;
         let usable = |c: &ChaosRun| which != Indicator::Megno || c.which != Indicator::Lyapunov;
         let mut chosen = Vec::new();
         if runs.is_empty() {
