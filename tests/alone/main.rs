@@ -1,7 +1,9 @@
 //! Tests that measure the whole process: resident memory, live interned nodes, and growth
-//! exponents from wall times. Tests running beside them would disturb the measure (another
-//! thread interning nodes, or two busy threads on a 2-core machine doubling a time), so they
-//! live apart from the `it` binary and take [`alone`] to run one at a time.
+//! exponents from the CPU time of the thread that does the work. Tests running beside them in
+//! the same process would disturb the measure (another thread interning nodes or allocating, or
+//! competing for the thread's cache), so they live apart from the `it` binary and take [`alone`]
+//! to run one at a time. Other processes may run meanwhile (CI runs the Python tests beside
+//! `cargo test`): they change neither a thread's CPU time nor this process's memory.
 
 use std::sync::{Mutex, MutexGuard};
 
