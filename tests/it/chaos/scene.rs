@@ -57,9 +57,9 @@ fn double_pendulum_example_separates_regular_from_chaotic_motion() {
 
     // The spectrum: Liouville's theorem (det Φ = 1) makes the exponents sum to zero up to the
     // integration error, and a Hamiltonian spectrum comes in ± pairs. Each exponent is printed
-    // to 6 decimals, so the printed four of an exactly zero-sum spectrum may sum to ±2e-6;
-    // the unrounded sum is held to 1e-10 by `chaos::indicators::hamiltonian_spectrum_comes_in_opposite_pairs`. (The bound was 1e-6, which
-    // held by luck of the rounding: a change of the last bits moved one printed digit.)
+    // to 6 decimals, so the printed four of an exactly zero-sum spectrum may sum to ±2e-6; the
+    // unrounded sum is held to 1e-10 by
+    // `chaos::indicators::hamiltonian_spectrum_comes_in_opposite_pairs`.
     let line = out.lines().find(|l| l.starts_with("spectrum:")).unwrap();
     let spectrum: Vec<f64> =
         line.split(": ").nth(2).unwrap().split(" (").next().unwrap().split(", ").map(|s| s.parse().unwrap()).collect();
