@@ -1,16 +1,23 @@
 //! Batch expansions: `B` initial conditions of one [`TaylorOde`] expanded together, one per
 //! lane of [`Lanes<B>`], by the same interpreter as a single expansion (see `lanes.rs` for
 //! why the lanes get the scalar method's bits); and, once native code pays (the tiers of the
-//! single run's code), by native lane-pair code: the whole expansion compiled with every value
-//! an `F64X2` of two lanes (`NativeTaylor::compile_lanes`), run once per pair of lanes, each
-//! lane with the scalar native code's bits (which are the interpreter's). A pair whose `W₀`
-//! needs the interpreter (not finite, or not positive definite: LU) sends the whole batch
-//! expansion back to the interpreter, which handles it lane by lane as before.
+//! single run's code), by native code:
 //!
-//! The per-order mass-matrix solve of a `W q'' = F` system factors `W₀` lane by lane (each
-//! lane's pivots are its own) and, when every lane's factor is Cholesky's, runs the
-//! substitutions on whole lanes; a lane whose `W₀` is not positive definite is solved alone,
-//! by LU, as the scalar method does.
+//! - *wide code* where the host's vector registers hold the lanes (8 per AVX-512 register, 4
+//!   per AVX2 one; `wide.rs`): the tape's recurrences of each order ≥ 1 for all lanes at once,
+//!   with order 0, the mass matrix's factor and solve and the state's next coefficients here,
+//!   in Rust on whole lanes, between the orders;
+//! - else *lane-pair code*: the whole expansion compiled with every value an `F64X2` of two
+//!   lanes (`NativeTaylor::compile_lanes`), run once per pair of lanes. A pair whose `W₀` needs
+//!   the interpreter (not finite, or not positive definite: LU) sends the whole batch
+//!   expansion back to the interpreter, which handles it lane by lane as before.
+//!
+//! Either way each lane has the scalar native code's bits (which are the interpreter's).
+//!
+//! The per-order mass-matrix solve of a `W q'' = F` system factors `W₀` on whole lanes when
+//! every lane's is positive definite (Cholesky), else lane by lane (each lane's pivots are its
+//! own); when every lane's factor is Cholesky's it runs the substitutions on whole lanes, and a
+//! lane whose `W₀` is not positive definite is solved alone, by LU, as the scalar method does.
 
 // Lanes, rows and factor entries are addressed by index, as the layout is written.
 #![allow(clippy::needless_range_loop)]
@@ -19,6 +26,8 @@ use super::interp::{cholesky_solve, dot_rev};
 use super::lanes::{Lane, Lanes};
 use super::native::{LanePair, NativeTaylor, Ran};
 use super::ode::Derivative;
+use super::tiers::BatchCode;
+use super::wide::WideTaylor;
 use super::TaylorOde;
 use crate::integrate::TaylorBatchSystem;
 use crate::linalg::{factor, solve, Factor};
@@ -79,30 +88,48 @@ impl<const B: usize> LaneWork<B> {
 }
 
 impl TaylorOde {
-    /// Whether a batch expansion has run on native lane-pair code (see the module's
-    /// documentation; it is compiled in the single run's tiers, and never when native code is
-    /// off), rather than on the interpreter's lanes.
+    /// Whether a batch expansion has run on native code (wide code or lane-pair code, see the
+    /// module's documentation; it is compiled in the single run's tiers, and never when native
+    /// code is off), rather than on the interpreter's lanes.
     pub fn native_lanes_ran(&self) -> bool {
         self.native.lanes_ran()
     }
 
-    /// The lane-pair code for batch expansions of `order`; none for a non-symmetric `W`,
-    /// whose LU solve the whole expansion does not do (as for the single run).
-    fn compile_lanes(&self, order: usize) -> Option<NativeTaylor> {
-        if crate::compile::jit::jit_disabled_by_env() || self.solve.as_ref().is_some_and(|m| !m.symmetric) {
+    /// Whether a batch expansion has run on wide code (`wide.rs`: 4 or 8 lanes per vector
+    /// register, on hosts with AVX2 or AVX-512), rather than on lane pairs or the interpreter.
+    pub fn wide_lanes_ran(&self) -> bool {
+        self.native.wide_ran()
+    }
+
+    /// The code for batch expansions of `order` over `lanes` lanes: wide code where the host
+    /// has the vector registers, else lane-pair code, which a non-symmetric `W` does not get
+    /// (its LU solve is not in the whole expansion, as for the single run).
+    fn compile_batch(&self, order: usize, lanes: usize) -> Option<BatchCode> {
+        if crate::compile::jit::jit_disabled_by_env() {
+            return None;
+        }
+        if let Some(code) = WideTaylor::compile(&self.tape, order + 1, order - 1, lanes) {
+            return Some(BatchCode::Wide(code));
+        }
+        if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
             return None;
         }
         NativeTaylor::compile_lanes(&self.tape, order + 1, order - 1, &self.expansion(order))
+            .map(|code| BatchCode::Pairs(Box::new(code)))
     }
 
-    /// [`TaylorOde::expand_lanes`] by the native lane-pair code, one call per pair of lanes;
-    /// `false` (with `out` partly written) when there is no such code yet or a pair's `W₀`
-    /// needs the interpreter, which then redoes the whole batch.
-    fn expand_native_lanes<const B: usize>(&self, w: &mut LaneWork<B>, t: &[f64], y: &[f64], out: &mut [f64]) -> bool {
+    /// [`TaylorOde::expand_lanes`] by the native lane-pair code `code`, one call per pair of
+    /// lanes; `false` (with `out` partly written) when a pair's `W₀` needs the interpreter,
+    /// which then redoes the whole batch.
+    fn expand_native_lanes<const B: usize>(
+        &self,
+        code: &NativeTaylor,
+        w: &mut LaneWork<B>,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [f64],
+    ) -> bool {
         let order = w.order;
-        let Some(code) = self.native.lanes_tiered(&self.tape, order, B, || self.compile_lanes(order)) else {
-            return false;
-        };
         let (s, dim) = (order + 1, self.dim);
         if w.pairs.is_empty() {
             let mut consts = vec![0.0; self.tape.n_rows() * s];
@@ -150,10 +177,12 @@ impl TaylorOde {
     /// Expands `B` states at once, each lane exactly as [`TaylorOde::expand_in_place`] would
     /// (the same bits). `t[l]`, `y[l · dim ..]` is lane `l`'s point; its coefficients go to
     /// `out[l · dim · (order + 1) + i · (order + 1) + k]`. A lane whose mass matrix is not
-    /// finite or is singular is marked in `failed`; the others are unaffected.
+    /// finite or is singular is marked in `failed`; the others are unaffected. Orders ≥ 1 of
+    /// the tape run on `wide` code when given, else in the interpreter.
     #[inline(always)]
     fn expand_lanes<const B: usize>(
         &self,
+        wide: Option<&WideTaylor>,
         w: &mut LaneWork<B>,
         t: &[f64],
         y: &[f64],
@@ -177,15 +206,20 @@ impl TaylorOde {
             }
         }
         for k in 0..order {
-            if self.tape.run_order_inline(c, s, k).is_err() {
-                // Only `abs` fails, and `batchable` keeps it out.
-                failed.fill(true);
-                return;
+            match wide {
+                Some(code) if k > 0 => code.run_order(c, k),
+                _ => {
+                    if self.tape.run_order_inline(c, s, k).is_err() {
+                        // Only `abs` fails, and `batchable` keeps it out.
+                        failed.fill(true);
+                        return;
+                    }
+                }
             }
             if let Some(m) = &self.solve {
                 let n = m.n;
                 let out_row = |j: usize| self.tape.output_row(j);
-                if k == 0 {
+                if k == 0 && !(m.symmetric && self.cholesky_lanes(&mut w.factor, &mut w.inv, &mut w.kinds, c, s)) {
                     let (w0, fm) = (&mut w.w0, &mut w.fm);
                     for l in 0..B {
                         for (e, &o) in w0.iter_mut().zip(&m.w) {
@@ -276,6 +310,57 @@ impl TaylorOde {
     }
 }
 
+impl TaylorOde {
+    /// `W₀`'s Cholesky factor in every lane at once, by `linalg::factor`'s operations in its
+    /// order (so each lane has the bits of factoring its own `W₀`), when every lane's `W₀` is
+    /// finite and positive definite past `linalg::singular_below`; else `false`, and the caller
+    /// factors the lanes one by one. Factoring lane by lane was a fifth of a batch expansion of
+    /// the double pendulum on wide code (BENCHMARKS.md).
+    #[inline(always)]
+    fn cholesky_lanes<const B: usize>(
+        &self,
+        f: &mut [Lanes<B>],
+        inv: &mut [Lanes<B>],
+        kinds: &mut [Factor; B],
+        c: &[Lanes<B>],
+        s: usize,
+    ) -> bool {
+        let Some(m) = &self.solve else { return false };
+        let n = m.n;
+        for (e, &o) in f.iter_mut().zip(&m.w) {
+            *e = c[self.tape.output_row(o) * s];
+        }
+        if f.iter().any(|x| x.0.iter().any(|v| !v.is_finite())) {
+            return false;
+        }
+        let scale = f.iter().fold(Lanes::splat(0.0), |acc, x| acc.zip(*x, |a, x| a.max(x.abs())));
+        let tol = Lanes::splat(n as f64 * f64::EPSILON) * scale;
+        for j in 0..n {
+            let mut d = f[j * n + j];
+            for k in 0..j {
+                d -= f[j * n + k] * f[j * n + k];
+            }
+            if (0..B).any(|l| d.lane(l) <= tol.lane(l)) {
+                return false;
+            }
+            let l = d.map(f64::sqrt);
+            f[j * n + j] = l;
+            for i in j + 1..n {
+                let mut x = f[i * n + j];
+                for k in 0..j {
+                    x -= f[i * n + k] * f[j * n + k];
+                }
+                f[i * n + j] = x / l;
+            }
+        }
+        for i in 0..n {
+            inv[i] = Lanes::splat(1.0) / f[i * n + i];
+        }
+        *kinds = [Factor::Cholesky; B];
+        true
+    }
+}
+
 impl TaylorBatchSystem for TaylorOde {
     type Batch = TaylorBatch;
 
@@ -299,33 +384,65 @@ impl TaylorBatchSystem for TaylorOde {
     }
 
     fn expand_batch(&self, batch: &mut TaylorBatch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
-        let native = match batch {
-            TaylorBatch::Two(w) => self.expand_native_lanes(w, t, y, out),
-            TaylorBatch::Four(w) => self.expand_native_lanes(w, t, y, out),
-            TaylorBatch::Eight(w) => self.expand_native_lanes(w, t, y, out),
-        };
-        if native {
-            return;
-        }
         match batch {
-            TaylorBatch::Two(w) => self.expand_lanes(w, t, y, out, failed),
-            TaylorBatch::Four(w) => {
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU has AVX2 (checked just above).
-                    return unsafe { self.expand_lanes_avx2(w, t, y, out, failed) };
+            TaylorBatch::Two(w) => self.expand_batch_of(w, t, y, out, failed),
+            TaylorBatch::Four(w) => self.expand_batch_of(w, t, y, out, failed),
+            TaylorBatch::Eight(w) => self.expand_batch_of(w, t, y, out, failed),
+        }
+    }
+}
+
+impl TaylorOde {
+    /// A batch expansion over `B` lanes on the code the tiers have for it: wide code, else
+    /// lane pairs, else (or when a pair needs LU) the interpreter.
+    fn expand_batch_of<const B: usize>(
+        &self,
+        w: &mut LaneWork<B>,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [f64],
+        failed: &mut [bool],
+    ) {
+        let order = w.order;
+        let wide = match self.native.lanes_tiered(&self.tape, order, B, || self.compile_batch(order, B)) {
+            Some(BatchCode::Wide(code)) if code.lanes() == B => Some(code),
+            Some(BatchCode::Pairs(code)) => {
+                if self.expand_native_lanes(code, w, t, y, out) {
+                    return;
                 }
-                self.expand_lanes(w, t, y, out, failed)
+                None
             }
-            TaylorBatch::Eight(w) => {
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx512f") {
-                    // SAFETY: the CPU has AVX-512F (checked just above).
-                    return unsafe { self.expand_lanes_avx512(w, t, y, out, failed) };
-                }
-                self.expand_lanes(w, t, y, out, failed)
+            _ => None,
+        };
+        self.expand_lanes_at_width(wide, w, t, y, out, failed);
+        if wide.is_some() {
+            self.native.note_lanes_ran();
+            self.native.note_wide_ran();
+        }
+    }
+
+    /// [`TaylorOde::expand_lanes`] compiled for the vector registers `B` lanes fill.
+    fn expand_lanes_at_width<const B: usize>(
+        &self,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [f64],
+        failed: &mut [bool],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if B == 8 && std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F (checked just above).
+                return unsafe { self.expand_lanes_avx512(wide, w, t, y, out, failed) };
+            }
+            if B >= 4 && std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just above).
+                return unsafe { self.expand_lanes_avx2(wide, w, t, y, out, failed) };
             }
         }
+        self.expand_lanes(wide, w, t, y, out, failed)
     }
 }
 
@@ -337,26 +454,28 @@ impl TaylorBatchSystem for TaylorOde {
 #[cfg(target_arch = "x86_64")]
 impl TaylorOde {
     #[target_feature(enable = "avx2")]
-    unsafe fn expand_lanes_avx2(
+    unsafe fn expand_lanes_avx2<const B: usize>(
         &self,
-        w: &mut LaneWork<4>,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
         t: &[f64],
         y: &[f64],
         out: &mut [f64],
         failed: &mut [bool],
     ) {
-        self.expand_lanes(w, t, y, out, failed)
+        self.expand_lanes(wide, w, t, y, out, failed)
     }
 
     #[target_feature(enable = "avx512f")]
-    unsafe fn expand_lanes_avx512(
+    unsafe fn expand_lanes_avx512<const B: usize>(
         &self,
-        w: &mut LaneWork<8>,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
         t: &[f64],
         y: &[f64],
         out: &mut [f64],
         failed: &mut [bool],
     ) {
-        self.expand_lanes(w, t, y, out, failed)
+        self.expand_lanes(wide, w, t, y, out, failed)
     }
 }

@@ -30,6 +30,7 @@ mod lanes;
 mod native;
 mod ode;
 mod tiers;
+mod wide;
 
 pub use batch::{LaneWork, TaylorBatch};
 pub use ir::{KinkAt, TaylorTape};

@@ -7,6 +7,7 @@ use std::sync::{Arc, OnceLock};
 use crate::compile::jit::jit_disabled_by_env;
 
 use super::native::{compact_pays, unrolled_terms, NativeTaylor, TaylorNative, MAX_NATIVE_TAYLOR_TERMS};
+use super::wide::WideTaylor;
 use super::TaylorTape;
 
 /// How many expansions a [`TaylorOde`](super::TaylorOde) with native code switched on
@@ -60,12 +61,24 @@ pub(super) struct NativeCache {
     by_order: Vec<OnceLock<Option<TaylorNative>>>,
     /// `compact[p]`: compact code, run until `by_order[p]` exists.
     compact: Vec<OnceLock<Option<TaylorNative>>>,
-    /// Batch expansions' lane-pair code per order (`batch.rs`), and the lanes expanded so far
-    /// without it.
-    lanes: Vec<OnceLock<Option<Arc<NativeTaylor>>>>,
+    /// Batch expansions' code per order (`batch.rs`), and the lanes expanded so far without it.
+    lanes: Vec<OnceLock<Option<Arc<BatchCode>>>>,
     lane_uses: AtomicUsize,
-    /// Whether a batch expansion has run on lane-pair code to its end.
+    /// Whether a batch expansion has run on native code (wide or lane pairs) to its end.
     lanes_ran: AtomicBool,
+    /// Whether a batch expansion has run on wide code to its end.
+    wide_ran: AtomicBool,
+}
+
+/// The machine code of batch expansions of one order.
+#[derive(Debug)]
+pub(super) enum BatchCode {
+    /// The tape's recurrences over 4 or 8 lanes in the host's vector registers (`wide.rs`),
+    /// one order per call; order 0 and the mass matrix's solve stay in Rust.
+    Wide(WideTaylor),
+    /// The whole expansion in Cranelift's 2-lane vectors, one call per pair of lanes
+    /// (`NativeTaylor::compile_lanes`): hosts without AVX2.
+    Pairs(Box<NativeTaylor>),
 }
 impl NativeCache {
     /// Compact code after `compact_after` expansions, then unrolled code after `after` (small
@@ -83,6 +96,7 @@ impl NativeCache {
             lanes: (0..=MAX_NATIVE_ORDER).map(|_| OnceLock::new()).collect(),
             lane_uses: AtomicUsize::new(0),
             lanes_ran: AtomicBool::new(false),
+            wide_ran: AtomicBool::new(false),
         })
     }
 
@@ -135,16 +149,16 @@ impl NativeCache {
         self.by_order[order].get_or_init(compile).clone()
     }
 
-    /// The lane-pair code a batch expansion of `order` over `width` lanes runs on, in the tiers
-    /// of the final code (a lane counts as one expansion): `None` until then, or when native
-    /// code is off or the tape has none (too large to unroll, or `abs`).
+    /// The code a batch expansion of `order` over `width` lanes runs on, in the tiers of the
+    /// final code (a lane counts as one expansion): `None` until then, or when native code is
+    /// off or the tape has none (too large to unroll, or `abs`).
     pub(super) fn lanes_tiered(
         &self,
         tape: &TaylorTape,
         order: usize,
         width: usize,
-        compile: impl FnOnce() -> Option<NativeTaylor>,
-    ) -> Option<&NativeTaylor> {
+        compile: impl FnOnce() -> Option<BatchCode>,
+    ) -> Option<&BatchCode> {
         if !self.allowed || !(2..=MAX_NATIVE_ORDER).contains(&order) {
             return None;
         }
@@ -163,16 +177,28 @@ impl NativeCache {
         slot.get_or_init(|| compile().map(Arc::new)).as_deref()
     }
 
-    /// Records that a batch expansion ran on lane-pair code to its end.
+    /// Records that a batch expansion ran on native code (wide or lane pairs) to its end.
     pub(super) fn note_lanes_ran(&self) {
         if !self.lanes_ran.load(Ordering::Relaxed) {
             self.lanes_ran.store(true, Ordering::Relaxed);
         }
     }
 
-    /// Whether a batch expansion has run on lane-pair code to its end.
+    /// Whether a batch expansion has run on native code (wide or lane pairs) to its end.
     pub(super) fn lanes_ran(&self) -> bool {
         self.lanes_ran.load(Ordering::Relaxed)
+    }
+
+    /// Records that a batch expansion ran on wide code to its end.
+    pub(super) fn note_wide_ran(&self) {
+        if !self.wide_ran.load(Ordering::Relaxed) {
+            self.wide_ran.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Whether a batch expansion has run on wide code to its end.
+    pub(super) fn wide_ran(&self) -> bool {
+        self.wide_ran.load(Ordering::Relaxed)
     }
 
     /// The code compiled so far for `order` (the final code if it exists, else compact code),

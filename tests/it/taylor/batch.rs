@@ -157,9 +157,9 @@ fn batch_bits(
     runs.iter().map(|r| r.as_ref().map(|r| r.y.last().unwrap().iter().map(|x| x.to_bits()).collect())).collect()
 }
 
-/// Once native code is on, the batch expands through native lane-pair code (it is compiled,
-/// for the order the run used) and gives the interpreter lanes' bits, which are the single
-/// run's, at every lane width.
+/// Once native code is on, the batch expands through native code (it is compiled, for the
+/// order the run used) and gives the interpreter lanes' bits, which are the single run's, at
+/// every lane width: lane pairs at 2 lanes, and at 4 and 8 where the host has no wide code.
 #[test]
 fn native_lane_pairs_give_the_interpreter_lanes_bits() {
     let plain: TaylorOde = double_pendulum().compile_taylor().unwrap();
@@ -173,14 +173,17 @@ fn native_lane_pairs_give_the_interpreter_lanes_bits() {
         let native = plain.clone().with_native(true);
         assert!(!native.native_lanes_ran());
         assert_eq!(batch_bits(&native, lanes, &m, 0.0..3.0, &starts), want, "{lanes} lanes");
-        assert!(native.native_lanes_ran(), "{lanes} lanes: the lane-pair code ran");
+        assert_eq!(native.native_lanes_ran(), jit_on(), "{lanes} lanes: native code ran");
+        assert_eq!(native.wide_lanes_ran(), wide_expected(lanes), "{lanes} lanes: wide code, else lane pairs");
     }
 }
 
 /// A `W` that is symmetric but, in one lane, not positive definite (`W = 2 − x²` at x = 1.8,
 /// where the single run factors by LU), among starts of positive `W`: the first eight run on
-/// the native lane-pair code once it exists; while the LU start is in a lane (in the second
-/// eight) the batch goes back to the interpreter; every start gets the single run's bits.
+/// native code once it exists. While the LU start is in a lane (in the second eight), lane-pair
+/// code (2 lanes) hands the batch back to the interpreter, and wide code (8 lanes, where the
+/// host has it) solves that lane by LU between its orders. Every start gets the single run's
+/// bits.
 #[test]
 fn a_lane_whose_mass_matrix_needs_lu_falls_back_to_the_interpreter() {
     let sys = System::from_lagrangian("1/2 (2 - x^2) x'^2 - 1/2 x^2", &["x"]).unwrap();
@@ -195,9 +198,75 @@ fn a_lane_whose_mass_matrix_needs_lu_falls_back_to_the_interpreter() {
         })
         .collect();
     assert!(alone[12].is_some(), "the LU start integrates alone");
-    let native = plain.clone().with_native(true);
-    for round in 0..3 {
-        assert_eq!(batch_bits(&native, 8, &m, 0.0..0.5, &starts), alone, "round {round}");
+    for lanes in [2, 8] {
+        let native = plain.clone().with_native(true);
+        for round in 0..3 {
+            assert_eq!(batch_bits(&native, lanes, &m, 0.0..0.5, &starts), alone, "{lanes} lanes, round {round}");
+        }
+        assert_eq!(native.native_lanes_ran(), jit_on(), "{lanes} lanes");
+        assert_eq!(native.wide_lanes_ran(), wide_expected(lanes), "{lanes} lanes");
     }
-    assert!(native.native_lanes_ran());
+}
+
+/// Whether this host runs batch expansions of `lanes` lanes on wide code: the JIT is on and the
+/// vector registers hold that many lanes (AVX-512F: 8, AVX2: 4).
+fn wide_expected(lanes: usize) -> bool {
+    #[cfg(all(target_arch = "x86_64", unix))]
+    let host = match lanes {
+        8 => std::arch::is_x86_feature_detected!("avx512f"),
+        4 => std::arch::is_x86_feature_detected!("avx2"),
+        _ => false,
+    };
+    #[cfg(not(all(target_arch = "x86_64", unix)))]
+    let host = false;
+    jit_on() && host
+}
+
+/// Whether native code is on (the JIT is not switched off by the environment).
+fn jit_on() -> bool {
+    !std::env::var_os(lagrangian::compile::NO_JIT_ENV).is_some_and(|v| !v.is_empty() && v != "0")
+}
+
+/// Wide code (4 lanes per AVX2 register, 8 per AVX-512 register) gives the interpreter lanes'
+/// bits for every recurrence: a first-order system with every function, roots, constant and
+/// variable powers, quotients and the time, at both widths. Where the host lacks the registers
+/// the batch runs on lane pairs and the bits are the same.
+#[test]
+fn wide_code_gives_the_interpreter_lanes_bits_for_every_operation() {
+    let f = [
+        "sin(y) cos(x) + tan(x/3) + exp(-x^2) + log(2 + y^2) + atan2(y, 1 + x^2) + erf(x/2) - 1/(2 + z^2)",
+        "sinh(x/4) - cosh(y/5) + tanh(x) + asin(x/4) + acos(y/8) + atan(x y) + sqrt(3 + x^2) + asinh(y) \
+         + acosh(2 + x^2) + atanh(y/8)",
+        "(2 + x^2)^(1/3) + (1 + y^2)^0.7 + (2 + x^2)^(1 + y/3) + t/10 - z + sec(x/3) + csc(1 + y^2/4) \
+         + coth(2 + x^2) + (x - 3)^(1/3)",
+    ]
+    .map(|e| lagrangian::parse(e).unwrap());
+    let plain = TaylorOde::from_exprs(&f, &["x", "y", "z"], &[]).unwrap();
+    let starts: Vec<Vec<f64>> =
+        (0..24).map(|i| vec![-0.5 + i as f64 / 24.0, 0.4 - i as f64 / 30.0, (i % 5) as f64 / 4.0]).collect();
+    let m = Taylor::new(1e-12);
+    let interpreted = plain.clone().with_native(false);
+    let want = batch_bits(&interpreted, 8, &m, 0.0..0.3, &starts);
+    assert!(want.iter().all(Option::is_some), "every start integrates");
+    for lanes in [4, 8] {
+        let native = plain.clone().with_native(true);
+        assert_eq!(batch_bits(&native, lanes, &m, 0.0..0.3, &starts), want, "{lanes} lanes");
+        assert_eq!(native.wide_lanes_ran(), wide_expected(lanes), "{lanes} lanes: the wide code ran");
+    }
+}
+
+/// The double pendulum (a `W q'' = F` system, its solve in Rust between the wide code's orders)
+/// on wide code at the host's widths, against the interpreter lanes, which are the single runs.
+#[test]
+fn wide_code_gives_the_interpreter_lanes_bits_for_a_mass_matrix_system() {
+    let plain: TaylorOde = double_pendulum().compile_taylor().unwrap();
+    let starts = starts();
+    let m = Taylor::new(1e-12);
+    let want = batch_bits(&plain.clone().with_native(false), 8, &m, 0.0..3.0, &starts);
+    for lanes in [4, 8] {
+        let native = plain.clone().with_native(true);
+        assert_eq!(batch_bits(&native, lanes, &m, 0.0..3.0, &starts), want, "{lanes} lanes");
+        assert_eq!(native.wide_lanes_ran(), wide_expected(lanes), "{lanes} lanes: the wide code ran");
+        assert_eq!(native.native_lanes_ran(), jit_on(), "{lanes} lanes: native code ran");
+    }
 }

@@ -1,0 +1,74 @@
+"""Issue 28's ensemble rows of BENCHMARKS.md, both sides in one run: double-pendulum starts at
+rest on an n × n grid of (θ1, θ2) in [−2, 2]², to t = 10, on one thread, at each tolerance.
+
+Ours: `System.ensemble(..., "taylor", threads=1)`, the call a user makes (text → derived →
+compiled once before timing → the batch Taylor method). heyoka.py: `taylor_adaptive_batch` at
+its `recommended_simd_size()`, built once from the same Lagrangian through `heyoka.lagrangian`,
+propagating one batch of starts after another. Rounds alternate between the two sides; each
+side's time is the process CPU time of a round (`time.process_time`), and the row gives the
+median over the rounds. Run through `bash python/benchmarks/run.sh batch.py` (release build);
+`BATCH_ROUNDS` sets the rounds (default 5).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import time
+
+import numpy as np
+
+import heyoka as hy
+import lagrangian as lg
+
+from bench import HEYOKA_L, L_TEXT, PARAMS, T
+
+ROWS = [(32, 1e-12), (40, 1e-16), (40, 1e-10), (40, 1e-8), (40, 1e-6)]
+
+
+def main() -> None:
+    rounds = int(os.environ.get("BATCH_ROUNDS", "5"))
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
+    print(f"# heyoka {hy.__version__}, recommended SIMD size {hy.recommended_simd_size()}, {rounds} rounds")
+    exec(HEYOKA_L, g := {})
+    sys_ = lg.System.from_lagrangian(L_TEXT, ["θ1", "θ2"], params=PARAMS, positive=list(PARAMS))
+    bs = hy.recommended_simd_size()
+    print("| starts | tol | heyoka batch | ours | ours ÷ heyoka | median max-abs difference of final states |")
+    print("|---|---|---|---|---|---|")
+    for side, tol in ROWS:
+        angles = np.linspace(-2.0, 2.0, side)
+        starts = np.array([[a, b, 0.0, 0.0] for a in angles for b in angles])
+        ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
+
+        def ours():
+            return sys_.ensemble((0, T), starts, "taylor", tol=tol, threads=1, progress=False).y
+
+        def heyoka():
+            out = np.empty_like(starts)
+            for k in range(0, len(starts), bs):
+                ta.set_time(0.0)
+                ta.state[:] = starts[k : k + bs].T
+                ta.propagate_until(T)
+                out[k : k + bs] = ta.state.T
+            return out
+
+        ours(), heyoka()  # both compiled and warm before timing
+        t_ours, t_hy = [], []
+        for _ in range(rounds):
+            for f, acc in ((ours, t_ours), (heyoka, t_hy)):
+                t0 = time.process_time()
+                y = f()
+                acc.append(time.process_time() - t0)
+                if f is ours:
+                    y_ours = y
+                else:
+                    y_hy = y
+        o, h = statistics.median(t_ours), statistics.median(t_hy)
+        diff = np.median(np.max(np.abs(y_ours - y_hy), axis=1))
+        print(f"| {side * side} | {tol:.0e} | {1e3 * h:.0f} ms | {1e3 * o:.0f} ms | {o / h:.2f} | {diff:.1e} |")
+    print(f"# load after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
