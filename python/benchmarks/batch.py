@@ -3,8 +3,9 @@ rest on an n × n grid of (θ1, θ2) in [−2, 2]², to t = 10, on one thread, a
 
 Ours: `System.ensemble(..., "taylor", threads=1)`, the call a user makes (text → derived →
 compiled once before timing → the batch Taylor method). heyoka.py: `taylor_adaptive_batch` at
-its `recommended_simd_size()`, built once from the same Lagrangian through `heyoka.lagrangian`,
-propagating one batch of starts after another. Rounds alternate between the two sides; each
+its `recommended_simd_size()` and, where that is not 8, also at 8 (the lanes of an AVX-512
+register, which earlier rows of BENCHMARKS.md used), built once from the same Lagrangian through
+`heyoka.lagrangian`, propagating one batch of starts after another. Rounds alternate between the two sides; each
 side's time is the process CPU time of a round (`time.process_time`), and the row gives the
 median over the rounds. Run through `bash python/benchmarks/run.sh batch.py` (release build);
 `BATCH_ROUNDS` sets the rounds (default 5).
@@ -33,40 +34,47 @@ def main() -> None:
     print(f"# heyoka {hy.__version__}, recommended SIMD size {hy.recommended_simd_size()}, {rounds} rounds")
     exec(HEYOKA_L, g := {})
     sys_ = lg.System.from_lagrangian(L_TEXT, ["θ1", "θ2"], params=PARAMS, positive=list(PARAMS))
-    bs = hy.recommended_simd_size()
-    print("| starts | tol | heyoka batch | ours | ours ÷ heyoka | median max-abs difference of final states |")
-    print("|---|---|---|---|---|---|")
+    sizes = sorted({hy.recommended_simd_size(), 8})
+    cols = " | ".join(f"heyoka batch {b}" for b in sizes)
+    ratios = " | ".join(f"ours ÷ heyoka {b}" for b in sizes)
+    print(f"| starts | tol | {cols} | ours | {ratios} | median max-abs difference of final states |")
+    print("|---" * (4 + 2 * len(sizes)) + "|")
     for side, tol in ROWS:
         angles = np.linspace(-2.0, 2.0, side)
         starts = np.array([[a, b, 0.0, 0.0] for a in angles for b in angles])
-        ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
 
         def ours():
             return sys_.ensemble((0, T), starts, "taylor", tol=tol, threads=1, progress=False).y
 
-        def heyoka():
-            out = np.empty_like(starts)
-            for k in range(0, len(starts), bs):
-                ta.set_time(0.0)
-                ta.state[:] = starts[k : k + bs].T
-                ta.propagate_until(T)
-                out[k : k + bs] = ta.state.T
-            return out
+        def heyoka(bs):
+            ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
 
-        ours(), heyoka()  # both compiled and warm before timing
-        t_ours, t_hy = [], []
+            def run():
+                out = np.empty_like(starts)
+                for k in range(0, len(starts), bs):
+                    ta.set_time(0.0)
+                    ta.state[:] = starts[k : k + bs].T
+                    ta.propagate_until(T)
+                    out[k : k + bs] = ta.state.T
+                return out
+
+            return run
+
+        sides = [ours] + [heyoka(b) for b in sizes]
+        for f in sides:
+            f()  # compiled and warm before timing
+        times = [[] for _ in sides]
+        finals = [None for _ in sides]
         for _ in range(rounds):
-            for f, acc in ((ours, t_ours), (heyoka, t_hy)):
+            for i, f in enumerate(sides):
                 t0 = time.process_time()
-                y = f()
-                acc.append(time.process_time() - t0)
-                if f is ours:
-                    y_ours = y
-                else:
-                    y_hy = y
-        o, h = statistics.median(t_ours), statistics.median(t_hy)
-        diff = np.median(np.max(np.abs(y_ours - y_hy), axis=1))
-        print(f"| {side * side} | {tol:.0e} | {1e3 * h:.0f} ms | {1e3 * o:.0f} ms | {o / h:.2f} | {diff:.1e} |")
+                finals[i] = f()
+                times[i].append(time.process_time() - t0)
+        med = [statistics.median(t) for t in times]
+        diff = max(np.median(np.max(np.abs(finals[0] - y), axis=1)) for y in finals[1:])
+        hy_cols = " | ".join(f"{1e3 * m:.0f} ms" for m in med[1:])
+        hy_ratios = " | ".join(f"{med[0] / m:.2f}" for m in med[1:])
+        print(f"| {side * side} | {tol:.0e} | {hy_cols} | {1e3 * med[0]:.0f} ms | {hy_ratios} | {diff:.1e} |")
     print(f"# load after: {os.getloadavg()}")
 
 

@@ -49,6 +49,8 @@ pub use rhs::{
     SeparableHamiltonian,
 };
 pub use tape::{CompileOptions, Instr, OpCounts, Tape, LANES};
+#[doc(hidden)]
+pub use taylor::wide_encoding_samples;
 pub use taylor::{
     Derivative, KinkAt, LaneWork, TaylorBatch, TaylorError, TaylorNative, TaylorOde, TaylorTape,
     AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS,

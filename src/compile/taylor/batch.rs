@@ -23,11 +23,11 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::interp::{cholesky_solve, dot_rev};
-use super::lanes::{Lane, Lanes};
+use super::lanes::{BatchLayout, Lane, Lanes};
 use super::native::{LanePair, NativeTaylor, Ran};
 use super::ode::Derivative;
 use super::tiers::BatchCode;
-use super::wide::WideTaylor;
+use super::wide::{Glue, GlueSolve, WideTaylor};
 use super::TaylorOde;
 use crate::integrate::TaylorBatchSystem;
 use crate::linalg::{factor, solve, Factor};
@@ -36,14 +36,11 @@ use crate::linalg::{factor, solve, Factor};
 #[derive(Clone, Debug)]
 pub struct LaneWork<const B: usize> {
     order: usize,
-    /// The tape's rows, `row · (order + 1) + k`.
+    /// The tape's rows (`row · (order + 1) + k`), the accelerations' rows of a `W q'' = F`
+    /// system, `W₀`'s factor per lane and for a Cholesky factor its diagonal's reciprocals, and
+    /// the solve's right-hand side, where `layout` puts them.
     c: Vec<Lanes<B>>,
-    /// The accelerations' rows (`W q'' = F` systems).
-    acc: Vec<Lanes<B>>,
-    /// `W₀`'s factor per lane, and for a Cholesky factor its diagonal's reciprocals.
-    factor: Vec<Lanes<B>>,
-    inv: Vec<Lanes<B>>,
-    rhs: Vec<Lanes<B>>,
+    layout: BatchLayout,
     /// Each lane's factorisation of `W₀`, with its own LU permutation.
     kinds: [Factor; B],
     perms: Vec<f64>,
@@ -68,16 +65,13 @@ pub enum TaylorBatch {
 
 impl<const B: usize> LaneWork<B> {
     fn new(ode: &TaylorOde, order: usize) -> Self {
-        let s = order + 1;
-        let n = ode.solve.as_ref().map_or(0, |m| m.n);
+        let layout = ode.batch_layout(order);
+        let n = layout.n;
         let z = Lanes::splat(0.0);
         LaneWork {
             order,
-            c: vec![z; ode.tape.n_rows() * s],
-            acc: vec![z; n * s],
-            factor: vec![z; n * n],
-            inv: vec![z; n],
-            rhs: vec![z; n],
+            c: vec![z; layout.len()],
+            layout,
             kinds: [Factor::Cholesky; B],
             perms: vec![0.0; n * B],
             w0: vec![0.0; n * n],
@@ -108,7 +102,7 @@ impl TaylorOde {
         if crate::compile::jit::jit_disabled_by_env() {
             return None;
         }
-        if let Some(code) = WideTaylor::compile(&self.tape, order + 1, order - 1, lanes) {
+        if let Some(code) = WideTaylor::compile(&self.tape, &self.glue(order), order - 1, lanes) {
             return Some(BatchCode::Wide(code));
         }
         if self.solve.as_ref().is_some_and(|m| !m.symmetric) {
@@ -116,6 +110,28 @@ impl TaylorOde {
         }
         NativeTaylor::compile_lanes(&self.tape, order + 1, order - 1, &self.expansion(order))
             .map(|code| BatchCode::Pairs(Box::new(code)))
+    }
+
+    /// What the wide code does between the tape's orders (`wide::Glue`), in the layout of a
+    /// batch expansion of `order`.
+    fn glue(&self, order: usize) -> Glue {
+        let layout = self.batch_layout(order);
+        let derivs = self.derivs.iter().map(|d| match *d {
+            Derivative::Output(j) => self.tape.output_row(j),
+            Derivative::State(j) => j,
+            Derivative::Solve(j) => layout.acc_row(j),
+        });
+        let solve = self.solve.as_ref().map(|m| {
+            let f = m.f.iter().map(|&o| self.tape.output_row(o) as u32).collect();
+            let varying = m.varying.iter().map(|v| v.iter().map(|&(l, r)| (l, r as u32)).collect()).collect();
+            GlueSolve { f, varying }
+        });
+        Glue { derivs: derivs.map(|r| r as u32).collect(), solve, layout }
+    }
+
+    /// Where a batch expansion of `order` keeps its values.
+    fn batch_layout(&self, order: usize) -> BatchLayout {
+        BatchLayout { rows: self.tape.n_rows(), n: self.solve.as_ref().map_or(0, |m| m.n), stride: order + 1 }
     }
 
     /// [`TaylorOde::expand_lanes`] by the native lane-pair code `code`, one call per pair of
@@ -207,7 +223,13 @@ impl TaylorOde {
         }
         for k in 0..order {
             match wide {
-                Some(code) if k > 0 => code.run_order(c, k),
+                Some(code) if k > 0 => {
+                    code.run_order(c, k);
+                    if w.kinds.iter().all(|k| matches!(k, Factor::Cholesky)) {
+                        code.run_glue(c, k);
+                        continue;
+                    }
+                }
                 _ => {
                     if self.tape.run_order_inline(c, s, k).is_err() {
                         // Only `abs` fails, and `batchable` keeps it out.
@@ -219,7 +241,8 @@ impl TaylorOde {
             if let Some(m) = &self.solve {
                 let n = m.n;
                 let out_row = |j: usize| self.tape.output_row(j);
-                if k == 0 && !(m.symmetric && self.cholesky_lanes(&mut w.factor, &mut w.inv, &mut w.kinds, c, s)) {
+                let ly = w.layout;
+                if k == 0 && !(m.symmetric && self.cholesky_lanes(c, ly, &mut w.kinds)) {
                     let (w0, fm) = (&mut w.w0, &mut w.fm);
                     for l in 0..B {
                         for (e, &o) in w0.iter_mut().zip(&m.w) {
@@ -239,20 +262,20 @@ impl TaylorOde {
                             (0..n).for_each(|i| fm[i * n + i] = 1.0);
                             w.kinds[l] = Factor::Cholesky;
                             for i in 0..n * n {
-                                w.factor[i].set_lane(l, fm[i]);
+                                c[ly.factor(i)].set_lane(l, fm[i]);
                             }
                             for i in 0..n {
-                                w.inv[i].set_lane(l, 1.0);
+                                c[ly.inv(i)].set_lane(l, 1.0);
                             }
                             continue;
                         };
                         w.kinds[l] = kind;
                         for i in 0..n * n {
-                            w.factor[i].set_lane(l, fm[i]);
+                            c[ly.factor(i)].set_lane(l, fm[i]);
                         }
                         if matches!(kind, Factor::Cholesky) {
                             for i in 0..n {
-                                w.inv[i].set_lane(l, 1.0 / fm[i * n + i]);
+                                c[ly.inv(i)].set_lane(l, 1.0 / fm[i * n + i]);
                             }
                         }
                     }
@@ -260,35 +283,36 @@ impl TaylorOde {
                 for i in 0..n {
                     let mut v = c[out_row(m.f[i]) * s + k];
                     for &(l, r) in &m.varying[i] {
-                        v -= dot_rev(&c[r * s + 1..=r * s + k], &w.acc[l * s..l * s + k], true);
+                        v -= dot_rev(&c[r * s + 1..=r * s + k], &c[ly.acc(l, 0)..ly.acc(l, k)], true);
                     }
-                    w.rhs[i] = v;
+                    c[ly.rhs(i)] = v;
                 }
                 if w.kinds.iter().all(|k| matches!(k, Factor::Cholesky)) {
-                    cholesky_solve(&w.factor, &w.inv, n, &mut w.rhs);
+                    let (head, rhs) = c.split_at_mut(ly.rhs(0));
+                    cholesky_solve(&head[ly.factor(0)..ly.inv(0)], &head[ly.inv(0)..ly.inv(n)], n, &mut rhs[..n]);
                 } else {
                     let (mut fm, mut x, mut tmp) = (vec![0.0; n * n], vec![0.0; n], vec![0.0; n]);
                     for l in 0..B {
                         for i in 0..n * n {
-                            fm[i] = w.factor[i].lane(l);
+                            fm[i] = c[ly.factor(i)].lane(l);
                         }
                         for i in 0..n {
-                            x[i] = w.rhs[i].lane(l);
+                            x[i] = c[ly.rhs(i)].lane(l);
                         }
                         match w.kinds[l] {
                             Factor::Cholesky => {
-                                let inv: Vec<f64> = (0..n).map(|i| w.inv[i].lane(l)).collect();
+                                let inv: Vec<f64> = (0..n).map(|i| c[ly.inv(i)].lane(l)).collect();
                                 cholesky_solve(&fm, &inv, n, &mut x);
                             }
                             Factor::Lu => solve(Factor::Lu, &fm, &w.perms[l * n..(l + 1) * n], n, &mut x, &mut tmp),
                         }
                         for i in 0..n {
-                            w.rhs[i].set_lane(l, x[i]);
+                            c[ly.rhs(i)].set_lane(l, x[i]);
                         }
                     }
                 }
                 for i in 0..n {
-                    w.acc[i * s + k] = w.rhs[i];
+                    c[ly.acc(i, k)] = c[ly.rhs(i)];
                 }
             }
             let inv = Lanes::splat(1.0 / (k + 1) as f64);
@@ -296,7 +320,7 @@ impl TaylorOde {
                 let v = match self.derivs[i] {
                     Derivative::Output(j) => c[self.tape.output_row(j) * s + k],
                     Derivative::State(j) => c[j * s + k],
-                    Derivative::Solve(j) => w.acc[j * s + k],
+                    Derivative::Solve(j) => c[w.layout.acc(j, k)],
                 };
                 c[i * s + k + 1] = v * inv;
             }
@@ -317,16 +341,11 @@ impl TaylorOde {
     /// factors the lanes one by one. Factoring lane by lane was a fifth of a batch expansion of
     /// the double pendulum on wide code (BENCHMARKS.md).
     #[inline(always)]
-    fn cholesky_lanes<const B: usize>(
-        &self,
-        f: &mut [Lanes<B>],
-        inv: &mut [Lanes<B>],
-        kinds: &mut [Factor; B],
-        c: &[Lanes<B>],
-        s: usize,
-    ) -> bool {
+    fn cholesky_lanes<const B: usize>(&self, c: &mut [Lanes<B>], ly: BatchLayout, kinds: &mut [Factor; B]) -> bool {
         let Some(m) = &self.solve else { return false };
-        let n = m.n;
+        let (n, s) = (m.n, ly.stride);
+        let (c, tail) = c.split_at_mut(ly.factor(0));
+        let (f, inv) = tail.split_at_mut(n * n);
         for (e, &o) in f.iter_mut().zip(&m.w) {
             *e = c[self.tape.output_row(o) * s];
         }

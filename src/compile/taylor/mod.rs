@@ -40,3 +40,5 @@ pub use tiers::{
     AUTO_NATIVE_AFTER_EXPANSIONS, COMPACT_ABOVE_TERMS, COMPACT_AFTER_EXPANSIONS, NATIVE_AFTER_EXPANSIONS,
     UNROLL_AFTER_EXPANSIONS,
 };
+#[doc(hidden)]
+pub use wide::wide_encoding_samples;

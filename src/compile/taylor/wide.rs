@@ -23,8 +23,28 @@
 use std::collections::HashMap;
 
 use super::ir::{Op, Weight};
-use super::lanes::Lanes;
+use super::lanes::{BatchLayout, Lanes};
 use super::TaylorTape;
+
+/// What a batch expansion does between two orders of the tape (`TaylorOde::expand_lanes`):
+/// the per-order solve of a `W q'' = F` system with `W₀`'s Cholesky factor, and the state's
+/// next coefficients.
+#[derive(Clone, Debug)]
+pub(crate) struct Glue {
+    /// Per state component, the row whose order `k` is its derivative's (a tape row, a state
+    /// row, or an acceleration's row of the layout).
+    pub(crate) derivs: Vec<u32>,
+    pub(crate) solve: Option<GlueSolve>,
+    pub(crate) layout: BatchLayout,
+}
+
+/// The solve of [`Glue`]: per row `i` of `W`, the row of `F_i` and the varying entries
+/// (acceleration `l`, coefficient row `r`).
+#[derive(Clone, Debug)]
+pub(crate) struct GlueSolve {
+    pub(crate) f: Vec<u32>,
+    pub(crate) varying: Vec<Vec<(usize, u32)>>,
+}
 
 /// The vector operations the recurrences use (their opcodes in map `0F`, prefix `66`).
 #[derive(Clone, Copy)]
@@ -157,7 +177,17 @@ struct Emitter<'t> {
 
 impl Emitter<'_> {
     fn at(&self, row: u32, j: usize) -> Rm {
-        Rm::Mem(Base::Coefs, ((row as usize * self.stride + j) * self.slot) as u32)
+        self.slot_at(row as usize * self.stride + j)
+    }
+
+    /// Entry `i` of the buffer.
+    fn slot_at(&self, i: usize) -> Rm {
+        Rm::Mem(Base::Coefs, (i * self.slot) as u32)
+    }
+
+    fn store_at(&mut self, i: usize, v: u8) {
+        let Rm::Mem(_, disp) = self.slot_at(i) else { unreachable!() };
+        self.asm.store(Base::Coefs, disp, v);
     }
 
     fn konst(&mut self, x: f64) -> Rm {
@@ -354,6 +384,49 @@ impl Emitter<'_> {
         self.asm.op(V::Mul, v, v, Rm::Reg(13));
     }
 
+    /// What `expand_lanes` does after order `k` of the tape when every lane's `W₀` has a
+    /// Cholesky factor: the right-hand side `F_k − Σ W_j a_{k−j}`, the two substitutions of
+    /// `cholesky_solve`, the accelerations' order `k`, and the state's order `k + 1`, with the
+    /// same operations in the same order.
+    fn glue(&mut self, g: &Glue, k: usize) {
+        let ly = g.layout;
+        if let Some(GlueSolve { f, varying }) = &g.solve {
+            let n = f.len();
+            for i in 0..n {
+                self.load_at(8, f[i], k);
+                for &(l, r) in &varying[i] {
+                    let acc = ly.acc_row(l) as u32;
+                    self.sum4(9, (r, 1), (acc, 0), k, Weight::One, k, (false, true));
+                    self.asm.op(V::Sub, 8, 8, Rm::Reg(9));
+                }
+                self.store_at(ly.rhs(i), 8);
+            }
+            let forward: Vec<(usize, Vec<usize>)> = (0..n).map(|i| (i, (0..i).map(|j| i * n + j).collect())).collect();
+            let backward = (0..n).rev().map(|i| (i, (i + 1..n).map(|j| j * n + i).collect::<Vec<_>>()));
+            for (i, entries) in forward.into_iter().chain(backward) {
+                self.asm.load(8, self.slot_at(ly.rhs(i)));
+                for e in entries {
+                    // The entry `(i, j)` or `(j, i)` times `x_j`, `j` the entry's other index.
+                    let j = if e / n == i { e % n } else { e / n };
+                    self.asm.load(9, self.slot_at(ly.factor(e)));
+                    self.asm.op(V::Mul, 9, 9, self.slot_at(ly.rhs(j)));
+                    self.asm.op(V::Sub, 8, 8, Rm::Reg(9));
+                }
+                self.asm.op(V::Mul, 8, 8, self.slot_at(ly.inv(i)));
+                self.store_at(ly.rhs(i), 8);
+            }
+            for i in 0..n {
+                self.asm.load(8, self.slot_at(ly.rhs(i)));
+                self.store_at(ly.acc(i, k), 8);
+            }
+        }
+        for (i, &r) in g.derivs.iter().enumerate() {
+            self.load_at(8, r, k);
+            self.op_const(V::Mul, 8, 8, 1.0 / (k + 1) as f64);
+            self.store_at(i * self.stride + k + 1, 8);
+        }
+    }
+
     /// The weighted row of `r`, which `weigh_rows` gives every weighted operand.
     fn weighted_of(&self, r: u32) -> Option<u32> {
         self.tape.weighted_row(r)
@@ -527,13 +600,13 @@ impl Emitter<'_> {
 /// (`Lanes<lanes>` coefficient buffers of a fixed stride): one entry point per order.
 pub(crate) struct WideTaylor {
     code: ExecutableCode,
-    /// `entries[k − 1]`: the offset of order `k`'s code.
-    entries: Vec<usize>,
+    /// `entries[k − 1]`: the offsets of order `k`'s recurrences and of its glue.
+    entries: Vec<(usize, usize)>,
     /// The constants, each splat over the lanes, at the address the code reads them from.
     consts: Vec<f64>,
     lanes: usize,
-    stride: usize,
-    rows: usize,
+    /// The length of the buffers it runs on.
+    len: usize,
 }
 
 impl std::fmt::Debug for WideTaylor {
@@ -550,8 +623,9 @@ impl WideTaylor {
     /// The code for `lanes` lanes (8: AVX-512F, 4: AVX2), if the host has those registers, the
     /// tape has only operations the emitter takes, and the system lets code be mapped
     /// executable.
-    pub(crate) fn compile(tape: &TaylorTape, stride: usize, max_order: usize, lanes: usize) -> Option<WideTaylor> {
-        if !host_has(lanes) || max_order >= stride {
+    pub(crate) fn compile(tape: &TaylorTape, glue: &Glue, max_order: usize, lanes: usize) -> Option<WideTaylor> {
+        let stride = glue.layout.stride;
+        if !host_has(lanes) || max_order >= stride || glue.layout.rows != tape.n_rows() {
             return None;
         }
         let (vb, slot) = (lanes * 8, std::mem::size_of::<Lanes<8>>());
@@ -566,20 +640,24 @@ impl WideTaylor {
         };
         let mut entries = Vec::with_capacity(max_order);
         for k in 1..=max_order {
-            entries.push(e.asm.code.len());
+            let tape_at = e.asm.code.len();
             for op in tape.ops() {
                 e.order(op, k)?;
             }
             e.asm.ret();
+            let glue_at = e.asm.code.len();
+            e.glue(glue, k);
+            e.asm.ret();
+            entries.push((tape_at, glue_at));
         }
         // Displacements are 32-bit: a buffer past 2 GiB has no code.
-        let span = tape.n_rows() * stride * slot;
+        let span = glue.layout.len() * slot;
         if span > i32::MAX as usize || e.consts.len() * vb > i32::MAX as usize {
             return None;
         }
         let consts = e.consts.iter().flat_map(|&x| std::iter::repeat(x).take(lanes)).collect();
         let code = ExecutableCode::new(&e.asm.code)?;
-        Some(WideTaylor { code, entries, consts, lanes, stride, rows: tape.n_rows() })
+        Some(WideTaylor { code, entries, consts, lanes, len: glue.layout.len() })
     }
 
     /// The number of lanes.
@@ -587,21 +665,29 @@ impl WideTaylor {
         self.lanes
     }
 
-    /// Computes order `k` (`1..=max_order`) of every row of `c` (the interpreter's
-    /// `run_order`, with the same bits in every lane).
+    /// Computes order `k` (`1..=max_order`) of every row of the tape in `c` (the
+    /// interpreter's `run_order`, with the same bits in every lane).
     pub(crate) fn run_order<const B: usize>(&self, c: &mut [Lanes<B>], k: usize) {
+        self.call(c, self.entries[k - 1].0);
+    }
+
+    /// `expand_lanes`' work after order `k` of the tape, when every lane's `W₀` has a
+    /// Cholesky factor (see `Emitter::glue`).
+    pub(crate) fn run_glue<const B: usize>(&self, c: &mut [Lanes<B>], k: usize) {
+        self.call(c, self.entries[k - 1].1);
+    }
+
+    fn call<const B: usize>(&self, c: &mut [Lanes<B>], entry: usize) {
         assert!(
             B == self.lanes && std::mem::size_of::<Lanes<B>>() == std::mem::size_of::<Lanes<8>>(),
             "wide Taylor code of {} lanes run on {B}",
             self.lanes
         );
-        assert!(c.len() >= self.rows * self.stride, "wide Taylor buffer too short");
-        let entry = self.entries[k - 1];
-        // SAFETY: the code at `entry` is order `k`'s, emitted above for this tape, stride and
-        // width: it reads and writes `c` only at rows below `rows` and orders below `stride`
-        // (checked just above), reads only `consts`, and uses only the vector registers the
-        // host has (`host_has`, checked when compiled) and those the System V convention lets
-        // a callee clobber.
+        assert!(c.len() >= self.len, "wide Taylor buffer too short");
+        // SAFETY: the code at `entry` was emitted above for this buffer's layout and width: it
+        // reads and writes `c` only below `len` entries (checked just above), reads only
+        // `consts`, and uses only the vector registers the host has (`host_has`, checked when
+        // compiled) and those the System V convention lets a callee clobber.
         unsafe {
             let f: extern "sysv64" fn(*mut f64, *const f64) = std::mem::transmute(self.code.ptr.add(entry));
             f(c.as_mut_ptr().cast(), self.consts.as_ptr());
@@ -681,60 +767,23 @@ impl Drop for ExecutableCode {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The encodings against the bytes GNU as 2.40 gives for the same instructions in Intel
-    /// syntax, with `{disp32}` and `{vex3}` asking for the forms the encoder writes.
-    #[test]
-    fn encodings_match_the_assembler() {
-        let mut z = Asm { code: vec![], zmm: true };
-        // vaddpd zmm1, zmm2, zmm3
-        z.op(V::Add, 1, 2, Rm::Reg(3));
-        // vmulpd zmm9, zmm10, [rdi + 0x100]
-        z.op(V::Mul, 9, 10, Rm::Mem(Base::Coefs, 0x100));
-        // vmovupd zmm12, [rsi + 0x40]
-        z.load(12, Rm::Mem(Base::Consts, 0x40));
-        // vmovupd [rdi + 0x80], zmm15
-        z.store(Base::Coefs, 0x80, 15);
-        // vpxorq zmm8, zmm8, [rsi]
-        z.op(V::Xor, 8, 8, Rm::Mem(Base::Consts, 0));
-        // vdivpd zmm13, zmm13, zmm11
-        z.op(V::Div, 13, 13, Rm::Reg(11));
-        let want: Vec<u8> = [
-            &[0x62, 0xF1, 0xED, 0x48, 0x58, 0xCB][..],
-            &[0x62, 0x71, 0xAD, 0x48, 0x59, 0x8F, 0x00, 0x01, 0x00, 0x00],
-            &[0x62, 0x71, 0xFD, 0x48, 0x10, 0xA6, 0x40, 0x00, 0x00, 0x00],
-            &[0x62, 0x71, 0xFD, 0x48, 0x11, 0xBF, 0x80, 0x00, 0x00, 0x00],
-            &[0x62, 0x71, 0xBD, 0x48, 0xEF, 0x86, 0x00, 0x00, 0x00, 0x00],
-            &[0x62, 0x51, 0x95, 0x48, 0x5E, 0xEB],
-        ]
-        .concat();
-        assert_eq!(z.code, want);
-
-        let mut y = Asm { code: vec![], zmm: false };
-        // vsubpd ymm1, ymm2, ymm3
-        y.op(V::Sub, 1, 2, Rm::Reg(3));
-        // vmovupd ymm9, [rdi + 0x20]
-        y.load(9, Rm::Mem(Base::Coefs, 0x20));
-        // vxorpd ymm0, ymm0, [rsi + 0x20]
-        y.op(V::Xor, 0, 0, Rm::Mem(Base::Consts, 0x20));
-        // vmovupd [rdi + 0x20], ymm12
-        y.store(Base::Coefs, 0x20, 12);
-        // vmulpd ymm10, ymm11, ymm12
-        y.op(V::Mul, 10, 11, Rm::Reg(12));
-        // vzeroupper; ret
-        y.ret();
-        let want: Vec<u8> = [
-            &[0xC4, 0xE1, 0x6D, 0x5C, 0xCB][..],
-            &[0xC4, 0x61, 0x7D, 0x10, 0x8F, 0x20, 0x00, 0x00, 0x00],
-            &[0xC4, 0xE1, 0x7D, 0x57, 0x86, 0x20, 0x00, 0x00, 0x00],
-            &[0xC4, 0x61, 0x7D, 0x11, 0xA7, 0x20, 0x00, 0x00, 0x00],
-            &[0xC4, 0x41, 0x25, 0x59, 0xD4],
-            &[0xC5, 0xF8, 0x77, 0xC3],
-        ]
-        .concat();
-        assert_eq!(y.code, want);
-    }
+/// The encoder's bytes for a fixed list of instructions, in the `zmm` and the `ymm` forms, for
+/// the test that checks them against an assembler's (`tests/it/taylor/batch.rs`).
+#[doc(hidden)]
+pub fn wide_encoding_samples() -> [Vec<u8>; 2] {
+    let mut z = Asm { code: vec![], zmm: true };
+    z.op(V::Add, 1, 2, Rm::Reg(3));
+    z.op(V::Mul, 9, 10, Rm::Mem(Base::Coefs, 0x100));
+    z.load(12, Rm::Mem(Base::Consts, 0x40));
+    z.store(Base::Coefs, 0x80, 15);
+    z.op(V::Xor, 8, 8, Rm::Mem(Base::Consts, 0));
+    z.op(V::Div, 13, 13, Rm::Reg(11));
+    let mut y = Asm { code: vec![], zmm: false };
+    y.op(V::Sub, 1, 2, Rm::Reg(3));
+    y.load(9, Rm::Mem(Base::Coefs, 0x20));
+    y.op(V::Xor, 0, 0, Rm::Mem(Base::Consts, 0x20));
+    y.store(Base::Coefs, 0x20, 12);
+    y.op(V::Mul, 10, 11, Rm::Reg(12));
+    y.ret();
+    [z.code, y.code]
 }
