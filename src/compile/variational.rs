@@ -235,8 +235,8 @@ impl TaylorSystem for Variational {
 }
 
 /// The chaos maps' batch: the variational system is its [`TaylorOde`], so its lanes are that
-/// tape's batch expansions (native lane pairs once the tiers compile them), each lane with the
-/// single expansion's bits.
+/// tape's batch expansions (native wide or lane-pair code once the tiers compile it), each lane
+/// with the single expansion's bits.
 impl TaylorBatchSystem for Variational {
     type Batch = <TaylorOde as TaylorBatchSystem>::Batch;
 

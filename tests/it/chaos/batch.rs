@@ -66,7 +66,7 @@ fn assert_alone(
 
 /// The 6 × 6 map with the early stop (Ȳ ≥ 5 after t = 10) and two tangent vectors (the
 /// Lyapunov spectrum's renormalisation as well as MEGNO's quadrature): every cell, stopped or
-/// run to the end, regular or chaotic, has its single run's bits, on native lane-pair code
+/// run to the end, regular or chaotic, has its single run's bits, on native batch code
 /// and on the interpreter's lanes.
 #[test]
 fn a_map_in_lanes_equals_its_cells_run_alone_bit_for_bit() {
