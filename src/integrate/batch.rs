@@ -70,12 +70,14 @@ pub struct LaneRun {
     pub steps: usize,
 }
 
-/// One lane's view of the system: the coefficients the batch expansion wrote for it, handed
-/// to the single method's step as if it had expanded them itself.
+/// One lane's view of the system: the coefficients the batch expansion wrote for it (lane
+/// `lane` of the batch's output, which all the lanes share and read in turn), handed to the
+/// single method's step as if it had expanded them itself.
 struct LaneSystem<'a, S> {
     sys: &'a S,
     order: usize,
-    coeffs: Mutex<Vec<f64>>,
+    lane: usize,
+    coeffs: &'a Mutex<Vec<f64>>,
 }
 
 impl<S: TaylorSystem> TaylorSystem for LaneSystem<'_, S> {
@@ -89,8 +91,9 @@ impl<S: TaylorSystem> TaylorSystem for LaneSystem<'_, S> {
         if order != self.order {
             return self.sys.taylor_coefficients(t, y, order, buf);
         }
+        let len = self.sys.dim() * (order + 1);
         let c = self.coeffs.lock().unwrap_or_else(|e| e.into_inner());
-        buf[..c.len()].copy_from_slice(&c);
+        buf[..len].copy_from_slice(&c[self.lane * len..(self.lane + 1) * len]);
         Ok(())
     }
     fn non_finite(&self, t: f64, y: &[f64], order: usize, at: usize) -> StepFailure {
@@ -282,8 +285,9 @@ impl Taylor {
         let mut batch = sys.batch(order, lanes)?;
         let width = S::lanes(&batch);
         let (dim, s) = (sys.dim(), order + 1);
-        let slots: Vec<LaneSystem<S>> =
-            (0..width).map(|_| LaneSystem { sys, order, coeffs: Mutex::new(vec![0.0; dim * s]) }).collect();
+        // The batch's output, each lane's coefficients read by its solver's step.
+        let out = Mutex::new(vec![0.0; width * dim * s]);
+        let slots: Vec<LaneSystem<S>> = (0..width).map(|lane| LaneSystem { sys, order, lane, coeffs: &out }).collect();
         let mut ended: Vec<(usize, Option<T::Output>)> = Vec::new();
         let take = || {
             let index = queue.fetch_add(1, Ordering::Relaxed);
@@ -314,7 +318,6 @@ impl Taylor {
         };
         let mut active: Vec<Option<Running<S, T::Lane>>> = (0..width).map(|lane| fill(lane, &mut ended)).collect();
         let (mut ts, mut ys) = (vec![0.0; width], vec![0.0; width * dim]);
-        let mut out = vec![0.0; width * dim * s];
         let mut failed = vec![false; width];
         while active.iter().any(Option::is_some) {
             if cancel.is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
@@ -328,7 +331,7 @@ impl Taylor {
                 }
             }
             failed.fill(false);
-            sys.expand_batch(&mut batch, &ts, &ys, &mut out, &mut failed);
+            sys.expand_batch(&mut batch, &ts, &ys, &mut out.lock().unwrap_or_else(|e| e.into_inner()), &mut failed);
             for lane in 0..width {
                 let Some(r) = active[lane].as_mut() else { continue };
                 let end = if failed[lane] {
@@ -336,8 +339,6 @@ impl Taylor {
                 } else if let Some(output) = task.before_step(&mut r.lane, &r.solver) {
                     Some(Some(output))
                 } else {
-                    let coeffs = &out[lane * dim * s..(lane + 1) * dim * s];
-                    slots[lane].coeffs.lock().unwrap_or_else(|e| e.into_inner()).copy_from_slice(coeffs);
                     let step = r.solver.step();
                     task.after_step(&mut r.lane, &mut r.solver, step).map(Some)
                 };
