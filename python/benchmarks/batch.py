@@ -23,7 +23,7 @@ import numpy as np
 import heyoka as hy
 import lagrangian as lg
 
-from bench import HEYOKA_L, L_TEXT, PARAMS, T
+from double_pendulum import HEYOKA_L, L_TEXT, PARAMS, T, heyoka_batch
 
 ROWS = [(32, 1e-12), (40, 1e-16), (40, 1e-10), (40, 1e-8), (40, 1e-6)]
 
@@ -46,21 +46,7 @@ def main() -> None:
         def ours():
             return sys_.ensemble((0, T), starts, "taylor", tol=tol, threads=1, progress=False).y
 
-        def heyoka(bs):
-            ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
-
-            def run():
-                out = np.empty_like(starts)
-                for k in range(0, len(starts), bs):
-                    ta.set_time(0.0)
-                    ta.state[:] = starts[k : k + bs].T
-                    ta.propagate_until(T)
-                    out[k : k + bs] = ta.state.T
-                return out
-
-            return run
-
-        sides = [ours] + [heyoka(b) for b in sizes]
+        sides = [ours] + [heyoka_batch(g["SYS"], starts, b, tol) for b in sizes]
         for f in sides:
             f()  # compiled and warm before timing
         times = [[] for _ in sides]

@@ -27,14 +27,9 @@ import time
 import numpy as np
 
 import lagrangian as lg
+from double_pendulum import HEYOKA_L, L_TEXT, PARAMS, T, heyoka_batch
 
-L_TEXT = (
-    "1/2 (m1 + m2) l1^2 θ1'^2 + m2 l1 l2 θ1' θ2' cos(θ1 - θ2) + 1/2 m2 l2^2 θ2'^2"
-    " + (m1 + m2) g l1 cos(θ1) + m2 g l2 cos(θ2)"
-)
-PARAMS = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 Y0 = [2.0, 2.5, 0.0, 0.0]
-T = 10.0
 
 
 def best(f, reps):
@@ -177,15 +172,6 @@ def main():
     print(f"\n# load after: {os.getloadavg()}")
 
 
-HEYOKA_L = """
-import heyoka as hy
-th1, th2, w1, w2 = hy.make_vars("θ1", "θ2", "w1", "w2")
-G = 9.81
-L = w1 * w1 + 0.5 * w2 * w2 + w1 * w2 * hy.cos(th1 - th2) + 2.0 * G * hy.cos(th1) + G * hy.cos(th2)
-SYS = hy.lagrangian(L, [th1, th2], [w1, w2])
-"""
-
-
 def cold(code: str, cache_dir: str | None = None) -> float:
     """Runs `code` in a fresh interpreter and returns the seconds it prints: the time after the
     imports (both packages imported before the clock starts), text to the first final state.
@@ -251,16 +237,7 @@ def heyoka_rows():
     ours_ens = lambda: sys_.ensemble((0, T), starts, "taylor", tol=tol, threads=1, progress=False).y  # noqa: E731
     ours_ens()  # compile once, as heyoka's integrator below is built once
     bs = hy.recommended_simd_size()
-    ta = hy.taylor_adaptive_batch(g["SYS"], np.zeros((4, bs)), tol=tol)
-
-    def hy_ens():
-        out = np.empty_like(starts)
-        for k in range(0, len(starts), bs):
-            ta.set_time(0.0)
-            ta.state[:] = starts[k : k + bs].T
-            ta.propagate_until(T)
-            out[k : k + bs] = ta.state.T
-        return out
+    hy_ens = heyoka_batch(g["SYS"], starts, bs, tol)
 
     ours_t, _, ours_y = best(ours_ens, 3)
     hy_t, _, hy_y = best(hy_ens, 3)

@@ -81,6 +81,16 @@ impl<const B: usize> LaneWork<B> {
     }
 }
 
+/// The points of a batch expansion and where its results go (see [`TaylorOde::expand_lanes`]):
+/// lane `l`'s time `t[l]` and state `y[l · dim ..]`, its coefficients in `out`, its failure in
+/// `failed[l]`.
+struct Points<'a> {
+    t: &'a [f64],
+    y: &'a [f64],
+    out: &'a mut [f64],
+    failed: &'a mut [bool],
+}
+
 impl TaylorOde {
     /// Whether a batch expansion has run on native code (wide code or lane-pair code, see the
     /// module's documentation; it is compiled in the single run's tiers, and never when native
@@ -196,15 +206,8 @@ impl TaylorOde {
     /// finite or is singular is marked in `failed`; the others are unaffected. Orders ≥ 1 of
     /// the tape run on `wide` code when given, else in the interpreter.
     #[inline(always)]
-    fn expand_lanes<const B: usize>(
-        &self,
-        wide: Option<&WideTaylor>,
-        w: &mut LaneWork<B>,
-        t: &[f64],
-        y: &[f64],
-        out: &mut [f64],
-        failed: &mut [bool],
-    ) {
+    fn expand_lanes<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
+        let Points { t, y, out, failed } = x;
         let order = w.order;
         let s = order + 1;
         let dim = self.dim;
@@ -433,7 +436,7 @@ impl TaylorOde {
             }
             _ => None,
         };
-        self.expand_lanes_at_width(wide, w, t, y, out, failed);
+        self.expand_lanes_at_width(wide, w, Points { t, y, out, failed });
         if wide.is_some() {
             self.native.note_lanes_ran();
             self.native.note_wide_ran();
@@ -441,27 +444,19 @@ impl TaylorOde {
     }
 
     /// [`TaylorOde::expand_lanes`] compiled for the vector registers `B` lanes fill.
-    fn expand_lanes_at_width<const B: usize>(
-        &self,
-        wide: Option<&WideTaylor>,
-        w: &mut LaneWork<B>,
-        t: &[f64],
-        y: &[f64],
-        out: &mut [f64],
-        failed: &mut [bool],
-    ) {
+    fn expand_lanes_at_width<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
         #[cfg(target_arch = "x86_64")]
         {
             if B == 8 && std::arch::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the CPU has AVX-512F (checked just above).
-                return unsafe { self.expand_lanes_avx512(wide, w, t, y, out, failed) };
+                return unsafe { self.expand_lanes_avx512(wide, w, x) };
             }
             if B >= 4 && std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU has AVX2 (checked just above).
-                return unsafe { self.expand_lanes_avx2(wide, w, t, y, out, failed) };
+                return unsafe { self.expand_lanes_avx2(wide, w, x) };
             }
         }
-        self.expand_lanes(wide, w, t, y, out, failed)
+        self.expand_lanes(wide, w, x)
     }
 }
 
@@ -473,16 +468,8 @@ impl TaylorOde {
 #[cfg(target_arch = "x86_64")]
 impl TaylorOde {
     #[target_feature(enable = "avx2")]
-    unsafe fn expand_lanes_avx2<const B: usize>(
-        &self,
-        wide: Option<&WideTaylor>,
-        w: &mut LaneWork<B>,
-        t: &[f64],
-        y: &[f64],
-        out: &mut [f64],
-        failed: &mut [bool],
-    ) {
-        self.expand_lanes(wide, w, t, y, out, failed)
+    unsafe fn expand_lanes_avx2<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
+        self.expand_lanes(wide, w, x)
     }
 
     #[target_feature(enable = "avx512f")]
@@ -490,11 +477,8 @@ impl TaylorOde {
         &self,
         wide: Option<&WideTaylor>,
         w: &mut LaneWork<B>,
-        t: &[f64],
-        y: &[f64],
-        out: &mut [f64],
-        failed: &mut [bool],
+        x: Points<'_>,
     ) {
-        self.expand_lanes(wide, w, t, y, out, failed)
+        self.expand_lanes(wide, w, x)
     }
 }
