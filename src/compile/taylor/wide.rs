@@ -24,6 +24,7 @@ use std::collections::HashMap;
 
 use super::ir::{Op, Weight};
 use super::lanes::{BatchLayout, Lanes};
+use super::native::{unrolled_terms, MAX_NATIVE_TAYLOR_TERMS};
 use super::TaylorTape;
 
 /// What a batch expansion does between two orders of the tape (`TaylorOde::expand_lanes`):
@@ -620,12 +621,15 @@ impl std::fmt::Debug for WideTaylor {
 }
 
 impl WideTaylor {
-    /// The code for `lanes` lanes (8: AVX-512F, 4: AVX2), if the host has those registers, the
-    /// tape has only operations the emitter takes, and the system lets code be mapped
-    /// executable.
+    /// The code for `lanes` lanes (8: AVX-512F, 4: AVX2) of orders `1..=max_order`, if the host
+    /// has those registers, the tape has only operations the emitter takes and at most
+    /// `MAX_NATIVE_TAYLOR_TERMS` terms unrolled, and the system lets code be mapped executable.
     pub(crate) fn compile(tape: &TaylorTape, glue: &Glue, max_order: usize, lanes: usize) -> Option<WideTaylor> {
         let stride = glue.layout.stride;
-        if !host_has(lanes) || max_order >= stride || glue.layout.rows != tape.n_rows() {
+        // Past the lane-pair code's size the unrolled code no longer fits the instruction
+        // cache; such tapes batch on the interpreter's lanes.
+        let too_large = unrolled_terms(tape, max_order) > MAX_NATIVE_TAYLOR_TERMS;
+        if !host_has(lanes) || too_large || max_order >= stride || glue.layout.rows != tape.n_rows() {
             return None;
         }
         let (vb, slot) = (lanes * 8, std::mem::size_of::<Lanes<8>>());
