@@ -5,8 +5,9 @@
 //!
 //! - *wide code* where the host's vector registers hold the lanes (8 per AVX-512 register, 4
 //!   per AVX2 one; `wide.rs`): the tape's recurrences of each order ≥ 1 for all lanes at once,
-//!   with order 0, the mass matrix's factor and solve and the state's next coefficients here,
-//!   in Rust on whole lanes, between the orders;
+//!   and between the orders the mass matrix's solve and the state's next coefficients when
+//!   every lane's `W₀` is Cholesky's; order 0 (libm), `W₀`'s factor and an LU lane's solve are
+//!   here, in Rust;
 //! - else *lane-pair code*: the whole expansion compiled with every value an `F64X2` of two
 //!   lanes (`NativeTaylor::compile_lanes`), run once per pair of lanes. A pair whose `W₀` needs
 //!   the interpreter (not finite, or not positive definite: LU) sends the whole batch

@@ -74,10 +74,11 @@ pub(super) struct NativeCache {
 #[derive(Debug)]
 pub(super) enum BatchCode {
     /// The tape's recurrences over 4 or 8 lanes in the host's vector registers (`wide.rs`),
-    /// one order per call; order 0 and the mass matrix's solve stay in Rust.
+    /// and the work between two orders, one order per call; order 0 and `W₀`'s factor stay in
+    /// Rust.
     Wide(WideTaylor),
     /// The whole expansion in Cranelift's 2-lane vectors, one call per pair of lanes
-    /// (`NativeTaylor::compile_lanes`): hosts without AVX2.
+    /// (`NativeTaylor::compile_lanes`): hosts without AVX2, and batches of 2 lanes.
     Pairs(Box<NativeTaylor>),
 }
 impl NativeCache {

@@ -183,11 +183,16 @@ impl Emitter<'_> {
 
     /// Entry `i` of the buffer.
     fn slot_at(&self, i: usize) -> Rm {
-        Rm::Mem(Base::Coefs, (i * self.slot) as u32)
+        Rm::Mem(Base::Coefs, self.disp(i))
+    }
+
+    /// The displacement of entry `i` (`compile` checks that every entry's fits 31 bits).
+    fn disp(&self, i: usize) -> u32 {
+        (i * self.slot) as u32
     }
 
     fn store_at(&mut self, i: usize, v: u8) {
-        let Rm::Mem(_, disp) = self.slot_at(i) else { unreachable!() };
+        let disp = self.disp(i);
         self.asm.store(Base::Coefs, disp, v);
     }
 
@@ -230,12 +235,10 @@ impl Emitter<'_> {
     /// Writes order `k` of row `r` from register `v` and, if `r` has one, of its weighted row
     /// (`v · k`), as the interpreter's `put`.
     fn put(&mut self, r: u32, k: usize, v: u8) {
-        let Rm::Mem(_, disp) = self.at(r, k) else { unreachable!() };
-        self.asm.store(Base::Coefs, disp, v);
+        self.store_at(r as usize * self.stride + k, v);
         if let Some(w) = self.tape.weighted_row(r) {
             self.op_const(V::Mul, WEIGHTED_TMP, v, k as f64);
-            let Rm::Mem(_, disp) = self.at(w, k) else { unreachable!() };
-            self.asm.store(Base::Coefs, disp, WEIGHTED_TMP);
+            self.store_at(w as usize * self.stride + k, WEIGHTED_TMP);
         }
     }
 
