@@ -364,18 +364,14 @@ impl Emitter<'_> {
         }
     }
 
-    /// `d = (x_k − acc · rk) · (1/row₀)` with `acc` in register `acc` (the quotient
-    /// recurrences of `log`, `atan`, `asin` and `pow`); `neg`: `−x_k`; `rk`: whether `acc` is
-    /// scaled by `1/k`.
-    #[allow(clippy::too_many_arguments)] // the recurrence's rows and its two variants
-    fn quotient(&mut self, d: u8, x: u32, neg: bool, acc: u8, rk: bool, row: u32, k: usize) {
+    /// `d = (x_k − acc / k) · (1/row₀)` with `acc` in register `acc` (the quotient
+    /// recurrences of `log`, `atan`, `asin` and `pow`); `neg`: `−x_k`.
+    fn quotient(&mut self, d: u8, x: u32, neg: bool, acc: u8, row: u32, k: usize) {
         self.load_at(d, x, k);
         if neg {
             self.neg(d, d);
         }
-        if rk {
-            self.op_const(V::Mul, acc, acc, 1.0 / k as f64);
-        }
+        self.op_const(V::Mul, acc, acc, 1.0 / k as f64);
         self.asm.op(V::Sub, d, d, Rm::Reg(acc));
         self.reciprocal(13, None, row);
         self.asm.op(V::Mul, d, d, Rm::Reg(13));
@@ -431,11 +427,6 @@ impl Emitter<'_> {
         }
     }
 
-    /// The weighted row of `r`, which `weigh_rows` gives every weighted operand.
-    fn weighted_of(&self, r: u32) -> Option<u32> {
-        self.tape.weighted_row(r)
-    }
-
     /// Order `k` of operation `op`; `None` for an operation this emitter does not take (`abs`,
     /// a constant power of a non-constant row), whose tape then has no wide code.
     fn order(&mut self, op: &Op, k: usize) -> Option<()> {
@@ -487,7 +478,7 @@ impl Emitter<'_> {
                 self.put(d, k, 8);
             }
             Op::SinCos { s, c, a } | Op::SinhCosh { s, c, a } => {
-                let wa = self.weighted_of(a)?;
+                let wa = self.tape.weighted_row(a)?;
                 self.weighted(8, wa, c, k);
                 self.op_const(V::Mul, 8, 8, rk);
                 self.weighted(9, wa, s, k);
@@ -499,19 +490,19 @@ impl Emitter<'_> {
                 self.put(c, k, 9);
             }
             Op::Exp { d, a } => {
-                let wa = self.weighted_of(a)?;
+                let wa = self.tape.weighted_row(a)?;
                 self.weighted(8, wa, d, k);
                 self.op_const(V::Mul, 8, 8, rk);
                 self.put(d, k, 8);
             }
             Op::Log { d, a } => {
-                let wd = self.weighted_of(d)?;
+                let wd = self.tape.weighted_row(d)?;
                 self.weighted_short(9, wd, a, k);
-                self.quotient(8, a, false, 9, true, a, k);
+                self.quotient(8, a, false, 9, a, k);
                 self.put(d, k, 8);
             }
             Op::Tan { d, a, u, hyp } => {
-                let wa = self.weighted_of(a)?;
+                let wa = self.tape.weighted_row(a)?;
                 self.weighted(8, wa, u, k);
                 self.op_const(V::Mul, 8, 8, rk);
                 self.put(d, k, 8);
@@ -530,9 +521,9 @@ impl Emitter<'_> {
                 self.asm.op(V::Sub, 10, 10, Rm::Reg(11));
                 self.reciprocal(12, Some(2.0), r);
                 self.asm.op(V::Mul, 10, 10, Rm::Reg(12));
-                let wd = self.weighted_of(d)?;
+                let wd = self.tape.weighted_row(d)?;
                 self.weighted_short(9, wd, r, k);
-                self.quotient(8, a, kind.neg(), 9, true, r, k);
+                self.quotient(8, a, kind.neg(), 9, r, k);
                 self.put(r, k, 10);
                 self.put(d, k, 8);
             }
@@ -541,14 +532,14 @@ impl Emitter<'_> {
                 if hyp {
                     self.neg(10, 10);
                 }
-                let wd = self.weighted_of(d)?;
+                let wd = self.tape.weighted_row(d)?;
                 self.weighted_short(9, wd, u, k);
-                self.quotient(8, a, false, 9, true, u, k);
+                self.quotient(8, a, false, 9, u, k);
                 self.put(u, k, 10);
                 self.put(d, k, 8);
             }
             Op::Erf { d, a, e } => {
-                let wa = self.weighted_of(a)?;
+                let wa = self.tape.weighted_row(a)?;
                 self.weighted(8, wa, e, k);
                 self.op_const(V::Mul, 8, 8, rk);
                 self.op_const(V::Mul, 8, 8, std::f64::consts::FRAC_2_SQRT_PI);
@@ -558,7 +549,7 @@ impl Emitter<'_> {
                 self.square(10, a, k);
                 self.square(11, b, k);
                 self.asm.op(V::Add, 10, 10, Rm::Reg(11));
-                let (wa, wb, wd) = (self.weighted_of(a)?, self.weighted_of(b)?, self.weighted_of(d)?);
+                let (wa, wb, wd) = (self.tape.weighted_row(a)?, self.tape.weighted_row(b)?, self.tape.weighted_row(d)?);
                 self.weighted(8, wa, b, k);
                 self.weighted(9, wb, a, k);
                 self.asm.op(V::Sub, 8, 8, Rm::Reg(9));
@@ -583,13 +574,13 @@ impl Emitter<'_> {
                 self.put(d, k, 8);
             }
             Op::PowVar { d, a, b, l, m } => {
-                let wl = self.weighted_of(l)?;
+                let wl = self.tape.weighted_row(l)?;
                 self.weighted_short(9, wl, a, k);
-                self.quotient(8, a, false, 9, true, a, k);
+                self.quotient(8, a, false, 9, a, k);
                 self.put(l, k, 8);
                 self.cauchy(8, b, l, k);
                 self.put(m, k, 8);
-                let wm = self.weighted_of(m)?;
+                let wm = self.tape.weighted_row(m)?;
                 self.weighted(8, wm, d, k);
                 self.op_const(V::Mul, 8, 8, rk);
                 self.put(d, k, 8);
@@ -702,21 +693,11 @@ impl WideTaylor {
     }
 }
 
-/// Whether the host has the vector registers of `lanes` lanes.
+/// Whether the host has the vector registers of `lanes` lanes (4 or 8) and runs the code's
+/// calling convention: [`simd_lanes`](crate::compile::simd_lanes) at least `lanes`, on x86-64
+/// Unix.
 fn host_has(lanes: usize) -> bool {
-    #[cfg(all(target_arch = "x86_64", unix))]
-    {
-        match lanes {
-            8 => std::arch::is_x86_feature_detected!("avx512f"),
-            4 => std::arch::is_x86_feature_detected!("avx2"),
-            _ => false,
-        }
-    }
-    #[cfg(not(all(target_arch = "x86_64", unix)))]
-    {
-        let _ = lanes;
-        false
-    }
+    cfg!(all(target_arch = "x86_64", unix)) && matches!(lanes, 4 | 8) && crate::compile::simd_lanes() >= lanes
 }
 
 /// Machine code in pages mapped readable and executable (never writable and executable at

@@ -208,18 +208,12 @@ fn a_lane_whose_mass_matrix_needs_lu_falls_back_to_the_interpreter() {
     }
 }
 
-/// Whether this host runs batch expansions of `lanes` lanes on wide code: the JIT is on and the
-/// vector registers hold that many lanes (AVX-512F: 8, AVX2: 4).
+/// Whether this host runs batch expansions of `lanes` lanes on wide code: the JIT is on, the
+/// host is x86-64 Unix, and its vector registers hold that many lanes (`simd_lanes`: 8 with
+/// AVX-512F, 4 with AVX2).
 fn wide_expected(lanes: usize) -> bool {
-    #[cfg(all(target_arch = "x86_64", unix))]
-    let host = match lanes {
-        8 => std::arch::is_x86_feature_detected!("avx512f"),
-        4 => std::arch::is_x86_feature_detected!("avx2"),
-        _ => false,
-    };
-    #[cfg(not(all(target_arch = "x86_64", unix)))]
-    let host = false;
-    jit_on() && host
+    let host = cfg!(all(target_arch = "x86_64", unix)) && matches!(lanes, 4 | 8);
+    jit_on() && host && lagrangian::compile::simd_lanes() >= lanes
 }
 
 /// Whether native code is on (the JIT is not switched off by the environment).
