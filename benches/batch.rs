@@ -9,6 +9,7 @@
 //! ```text
 //! cargo bench --bench batch                 # 32 × 32 at tol 1e-12 and 40 × 40 at 1e-10
 //! BATCH_ROUNDS=9 cargo bench --bench batch
+//! BATCH_PROFILE=1e-12 cargo bench --bench batch   # that row's batch side alone (for perf)
 //! ```
 
 use lagrangian::compile::simd_lanes;
@@ -48,7 +49,12 @@ fn main() {
     println!("lanes: {lanes}; load {}", std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim());
     println!("| starts | tol | one at a time (ms) | batch (ms) | ratio |");
     println!("|---|---|---|---|---|");
+    // Under a profiler: one row's batch side alone, no comparison.
+    let profile: Option<f64> = std::env::var("BATCH_PROFILE").ok().and_then(|s| s.parse().ok());
     for (side, tol) in [(32usize, 1e-12), (40, 1e-16), (40, 1e-10), (40, 1e-8), (40, 1e-6)] {
+        if profile.is_some_and(|p| p != tol) {
+            continue;
+        }
         let starts: Vec<Vec<f64>> = (0..side * side)
             .map(|k| {
                 let (i, j) = (k / side, k % side);
@@ -71,6 +77,14 @@ fn main() {
                 .map(|r| r.unwrap().y.pop().unwrap())
                 .collect()
         };
+        if profile.is_some() {
+            let t0 = thread_cpu();
+            for _ in 0..rounds {
+                std::hint::black_box(batch());
+            }
+            println!("batch side alone, {tol:e}: {:.0} ms a round", (thread_cpu() - t0) * 1e3 / rounds as f64);
+            continue;
+        }
         assert_eq!(single(), batch(), "the batch gives the single runs' states");
         let (mut ts, mut tb) = (Vec::new(), Vec::new());
         for _ in 0..rounds {

@@ -44,6 +44,7 @@ pub mod eval;
 pub mod expr;
 pub mod func;
 pub mod integrate;
+pub mod lanes;
 #[doc(hidden)]
 pub mod linalg;
 pub mod mechanics;

@@ -24,13 +24,14 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::interp::{cholesky_solve, dot_rev};
-use super::lanes::{BatchLayout, Lane, Lanes};
+use super::layout::BatchLayout;
 use super::native::{LanePair, NativeTaylor, Ran};
 use super::ode::Derivative;
 use super::tiers::BatchCode;
 use super::wide::{Glue, GlueSolve, WideTaylor};
 use super::TaylorOde;
 use crate::integrate::TaylorBatchSystem;
+use crate::lanes::{Lane, Lanes};
 use crate::linalg::{factor, solve, Factor};
 
 /// The scratch of `B`-lane expansions of one order.

@@ -4,8 +4,8 @@ use super::ir::KinkAt;
 use super::native::TaylorNative;
 
 use super::ir::{Op, Weight};
-use super::lanes::Lane;
 use super::TaylorTape;
+use crate::lanes::Lane;
 
 impl TaylorTape {
     /// Whether the argument of some `abs` changes sign between the expansion point and `h`

@@ -26,7 +26,7 @@
 mod batch;
 mod interp;
 mod ir;
-mod lanes;
+mod layout;
 mod native;
 mod ode;
 mod tiers;

@@ -23,9 +23,10 @@
 use std::collections::HashMap;
 
 use super::ir::{Op, Weight};
-use super::lanes::{BatchLayout, Lanes};
+use super::layout::BatchLayout;
 use super::native::{unrolled_terms, MAX_NATIVE_TAYLOR_TERMS};
 use super::TaylorTape;
+use crate::lanes::Lanes;
 
 /// What a batch expansion does between two orders of the tape (`TaylorOde::expand_lanes`):
 /// the per-order solve of a `W q'' = F` system with `W₀`'s Cholesky factor, and the state's

@@ -1,5 +1,6 @@
-//! The value type the Taylor interpreter computes with: one `f64` for a single expansion, or
-//! [`Lanes<B>`], `B` independent expansions side by side (one initial condition per lane).
+//! The value type of batch arithmetic: one `f64` for a single run, or [`Lanes<B>`], `B`
+//! independent runs side by side (one initial condition per lane). The Taylor interpreter
+//! computes with it (`compile/taylor`), and so does the batch Taylor step (`integrate/batch.rs`).
 //!
 //! Why one generic interpreter rather than a second, vectorised one: every operation of
 //! [`Lanes`] is the `f64` operation applied lane by lane, in the same order, so lane `i` of a
@@ -173,44 +174,5 @@ impl<const B: usize> Lane for Lanes<B> {
     #[inline(always)]
     fn set_lane(&mut self, i: usize, x: f64) {
         self.0[i] = x;
-    }
-}
-
-/// Where a batch expansion keeps its values, all in one buffer of [`Lanes`] so that the wide
-/// code (`wide.rs`) reaches every one from one address: the tape's `rows` rows of `stride`
-/// coefficients, then the accelerations' rows of a `W q'' = F` system (`n` rows, the same
-/// stride), `W₀`'s factor (`n²` entries, row-major), its diagonal's reciprocals (`n`) and the
-/// right-hand side of one order's solve (`n`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct BatchLayout {
-    pub(super) rows: usize,
-    pub(super) n: usize,
-    pub(super) stride: usize,
-}
-
-impl BatchLayout {
-    /// The row of acceleration `l`.
-    pub(super) fn acc_row(&self, l: usize) -> usize {
-        self.rows + l
-    }
-    /// Order `j` of acceleration `l`.
-    pub(super) fn acc(&self, l: usize, j: usize) -> usize {
-        self.acc_row(l) * self.stride + j
-    }
-    /// Entry `e` of `W₀`'s factor.
-    pub(super) fn factor(&self, e: usize) -> usize {
-        (self.rows + self.n) * self.stride + e
-    }
-    /// The reciprocal of the factor's diagonal entry `i`.
-    pub(super) fn inv(&self, i: usize) -> usize {
-        self.factor(self.n * self.n) + i
-    }
-    /// Entry `i` of the solve's right-hand side.
-    pub(super) fn rhs(&self, i: usize) -> usize {
-        self.inv(self.n) + i
-    }
-    /// The buffer's length.
-    pub(super) fn len(&self) -> usize {
-        self.rhs(self.n)
     }
 }
