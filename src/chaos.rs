@@ -27,7 +27,7 @@ use rayon::prelude::*;
 
 use crate::compile::Variational;
 use crate::integrate::{
-    FailureReason, Integrate, IntegrateError, LaneTask, Solver, Status, Taylor, TaylorSystem, BATCH_FROM_ORDER,
+    FailureReason, Integrate, IntegrateError, LaneTask, RunState, Status, Taylor, BATCH_FROM_ORDER,
 };
 
 /// What a chaos statement may spend: Taylor steps per orbit, wall-clock time for all its
@@ -285,7 +285,7 @@ impl<'a> Orbit<'a> {
     }
 
     /// The budget before a step: the orbit's steps and the deadline (read every 64 steps).
-    fn check_budget<X: TaylorSystem>(&self, solver: &Solver<'_, X, Taylor>) -> Result<(), IntegrateError> {
+    fn check_budget<V: RunState>(&self, solver: &V) -> Result<(), IntegrateError> {
         let budget = self.budget;
         let stop = |reason: FailureReason| IntegrateError {
             t: solver.t(),
@@ -306,11 +306,7 @@ impl<'a> Orbit<'a> {
     /// Takes in the step `solver` has just taken (with `status`): the MEGNO quadrature on its
     /// polynomial, the tangent vectors' renormalisation (written back into the solver), the
     /// sample, the early stop. Whether the orbit has ended.
-    fn after_step<X: TaylorSystem>(
-        &mut self,
-        solver: &mut Solver<'_, X, Taylor>,
-        status: Status,
-    ) -> Result<bool, IntegrateError> {
+    fn after_step<V: RunState>(&mut self, solver: &mut V, status: Status) -> Result<bool, IntegrateError> {
         let sys = self.sys;
         let (n, m, dim) = (sys.n(), sys.tangents(), sys.dim());
         let (t0, t1) = (solver.previous().0, solver.t());
@@ -322,7 +318,7 @@ impl<'a> Orbit<'a> {
                 // Only the accumulator's polynomial (the last of `dim`): the other components'
                 // were a tenth of a chaos map's time. Same bits as `interpolate`'s.
                 let theta = (s - t0) / (t1 - t0);
-                let integral = match solver.work().dense_component(dim - 1, theta) {
+                let integral = match solver.dense_component(dim - 1, theta) {
                     Some(v) if t1 != t0 => v,
                     _ => {
                         solver.interpolate(s, &mut self.buf)?;
@@ -386,7 +382,7 @@ impl<'a> Orbit<'a> {
     }
 
     /// The indicators of the ended orbit.
-    fn finish<X: TaylorSystem>(&mut self, solver: &Solver<'_, X, Taylor>) -> Indicators {
+    fn finish<V: RunState>(&mut self, solver: &V) -> Indicators {
         let sys = self.sys;
         let t = solver.t();
         let (ybar_int, sy_int) = (self.ybar_int, self.sy_int);
@@ -631,22 +627,18 @@ impl<'a> LaneTask for Orbits<'a> {
     type Lane = Orbit<'a>;
     type Output = Result<Indicators, IntegrateError>;
 
-    fn begin<X: TaylorSystem>(&self, _: usize, _: &Solver<'_, X, Taylor>) -> Result<Orbit<'a>, Self::Output> {
+    fn begin<V: RunState>(&self, _: usize, _: &V) -> Result<Orbit<'a>, Self::Output> {
         Ok(Orbit::new(self.sys, self.budget, self.deadline.of(self.budget)))
     }
 
-    fn before_step<X: TaylorSystem>(
-        &self,
-        orbit: &mut Orbit<'a>,
-        solver: &Solver<'_, X, Taylor>,
-    ) -> Option<Self::Output> {
+    fn before_step<V: RunState>(&self, orbit: &mut Orbit<'a>, solver: &V) -> Option<Self::Output> {
         self.ended(orbit.check_budget(solver).err().map(Err))
     }
 
-    fn after_step<X: TaylorSystem>(
+    fn after_step<V: RunState>(
         &self,
         orbit: &mut Orbit<'a>,
-        solver: &mut Solver<'_, X, Taylor>,
+        solver: &mut V,
         step: Result<Status, IntegrateError>,
     ) -> Option<Self::Output> {
         self.ended(match step.and_then(|status| orbit.after_step(solver, status)) {

@@ -14,6 +14,7 @@
 use crate::diff::Differentiator;
 use crate::expr::{Expr, Symbol};
 use crate::integrate::{Rhs, RhsError as StepError, StepFailure, TaylorBatchSystem, TaylorSystem};
+use crate::lanes::Lanes;
 use crate::mechanics::System;
 
 use super::error::CompileError;
@@ -246,7 +247,14 @@ impl TaylorBatchSystem for Variational {
     fn lanes(batch: &Self::Batch) -> usize {
         <TaylorOde as TaylorBatchSystem>::lanes(batch)
     }
-    fn expand_batch(&self, batch: &mut Self::Batch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
+    fn expand_batch<const B: usize>(
+        &self,
+        batch: &mut Self::Batch,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [Lanes<B>],
+        failed: &mut [bool],
+    ) {
         self.taylor.expand_batch(batch, t, y, out, failed)
     }
 }

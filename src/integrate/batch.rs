@@ -1,29 +1,34 @@
-//! Many trajectories of one system by the Taylor method, several expanded at once: the
-//! batch mode of ensembles, sweeps and chaos maps.
+//! Many trajectories of one system by the Taylor method, several expanded and stepped at
+//! once: the batch mode of ensembles, sweeps and chaos maps.
 //!
-//! Each trajectory keeps its own [`Solver`] (its own step size, its own end, its own
-//! failure); only the expansion, the costly part of a step, is shared: the lanes' states go
-//! through one [`TaylorBatchSystem::expand_batch`], and each solver then steps with its
-//! lane's coefficients. Since a lane's coefficients are the bits a single expansion gives
-//! (the system's promise), and the step, the dense output and the bookkeeping are the single
-//! method's own code, every trajectory is bit for bit the one [`Taylor`] computes alone,
-//! whatever its neighbours. A trajectory that ends loads the next unstarted one into its lane,
-//! taken from a queue the drivers of all threads share.
+//! Each trajectory keeps its own state, step size, end and failure (a [`Track`]); the lanes'
+//! states go through one [`TaylorBatchSystem::expand_batch`], whose coefficients come back
+//! lane beside lane ([`Lanes<B>`]), and one step of all lanes then reads them there: the
+//! norms of the step size and the series sums of the state update are lane-wise operations,
+//! the step size's roots are taken lane by lane by the single method's own function, and the
+//! update and the bookkeeping are the single method's, lane by lane. Since a lane's
+//! coefficients are the bits a single expansion gives (the system's promise), and every
+//! operation of a step is the single run's in the single run's order ([`Lanes`] operates lane
+//! by lane, never fusing a multiply and an add), every trajectory is bit for bit the one
+//! [`Taylor`] computes alone, whatever its neighbours. A trajectory that ends loads the next
+//! unstarted one into its lane, taken from a queue the drivers of all threads share.
 //!
 //! What a run does around each step is its [`LaneTask`]: the ensembles keep states at given
 //! times and hand every failure back to be run alone (which reproduces its error exactly);
 //! the chaos maps integrate MEGNO's quadrature, renormalise the tangent vectors, apply their
 //! early stop and budget, and keep a failure's error, by the same per-step code as their
-//! single run.
+//! single run, which sees one trajectory through [`RunState`] as its single run sees a
+//! [`Solver`].
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
-use super::error::{IntegrateError, RhsError, StepFailure};
-use super::solver::{Integrate, Solver, Status};
-use super::taylor::{Taylor, TaylorSystem};
+use super::error::{check_finite, FailureReason, IntegrateError, StepFailure};
+use super::solver::{hermite, Solver, Status};
+use super::taylor::{polynomial, step_norms, StepConstants, Taylor, TaylorSystem};
+use super::{add_scaled, Method};
 use crate::cancel::CancelToken;
+use crate::lanes::{Lane, Lanes};
 
 /// The lowest Taylor order at which the batch has been measured no slower than one start at a
 /// time. On 8-lane wide code (AVX-512) the batch takes 0.83–1.06× the time of single runs on
@@ -40,13 +45,20 @@ pub trait TaylorBatchSystem: TaylorSystem {
     /// Scratch for expansions of `order` over about `lanes` lanes (the system chooses the
     /// width it supports nearest), or `None` when this system cannot be expanded in batches.
     fn batch(&self, order: usize, lanes: usize) -> Option<Self::Batch>;
-    /// The number of lanes of `batch`.
+    /// The number of lanes of `batch`: 2, 4 or 8.
     fn lanes(batch: &Self::Batch) -> usize;
-    /// Expands lane `l`'s state `(t[l], y[l · dim ..])` into
-    /// `out[l · dim · (order + 1) + i · (order + 1) + k]`, with exactly the bits
-    /// [`TaylorSystem::taylor_coefficients`] gives for it; lanes the system cannot expand are
-    /// marked in `failed`.
-    fn expand_batch(&self, batch: &mut Self::Batch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]);
+    /// Expands lane `l`'s state `(t[l], y[l · dim ..])` into lane `l` of
+    /// `out[i · (order + 1) + k]`, with exactly the bits [`TaylorSystem::taylor_coefficients`]
+    /// gives for it; lanes the system cannot expand are marked in `failed`. `B` is
+    /// [`TaylorBatchSystem::lanes`] of `batch`.
+    fn expand_batch<const B: usize>(
+        &self,
+        batch: &mut Self::Batch,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [Lanes<B>],
+        failed: &mut [bool],
+    );
 }
 
 /// Which states a batch run keeps of each trajectory.
@@ -70,74 +82,190 @@ pub struct LaneRun {
     pub steps: usize,
 }
 
-/// One lane's view of the system: the coefficients the batch expansion wrote for it (lane
-/// `lane` of the batch's output, which all the lanes share and read in turn), handed to the
-/// single method's step as if it had expanded them itself.
-struct LaneSystem<'a, S> {
-    sys: &'a S,
-    order: usize,
-    lane: usize,
-    coeffs: &'a Mutex<Vec<f64>>,
+/// One trajectory between steps, as a driver's per-step code sees it: a single run's
+/// [`Solver`], or a lane of the batch. The chaos indicators' bookkeeping and the ensembles'
+/// kept states are written once against this, so the batch runs the single run's code.
+pub trait RunState {
+    /// Current time.
+    fn t(&self) -> f64;
+    /// Current state.
+    fn y(&self) -> &[f64];
+    /// Time and state before the last step.
+    fn previous(&self) -> (f64, &[f64]);
+    /// Accepted steps so far.
+    fn steps(&self) -> usize;
+    /// The state at `t` inside the last step ([`Solver::interpolate`]).
+    fn interpolate(&mut self, t: f64, out: &mut [f64]) -> Result<(), IntegrateError>;
+    /// Component `i` of the last step's dense output at the fraction `theta` of the step
+    /// ([`super::TaylorWork::dense_component`]).
+    fn dense_component(&self, i: usize, theta: f64) -> Option<f64>;
+    /// Replaces the state ([`Solver::set_state`]).
+    fn set_state(&mut self, t: f64, y: &[f64]);
 }
 
-impl<S: TaylorSystem> TaylorSystem for LaneSystem<'_, S> {
-    fn dim(&self) -> usize {
-        self.sys.dim()
+impl<S: TaylorSystem + ?Sized> RunState for Solver<'_, S, Taylor> {
+    fn t(&self) -> f64 {
+        Solver::t(self)
     }
-    fn scratch_len(&self, order: usize) -> usize {
-        self.sys.scratch_len(order)
+    fn y(&self) -> &[f64] {
+        Solver::y(self)
     }
-    fn taylor_coefficients(&self, t: f64, y: &[f64], order: usize, buf: &mut [f64]) -> Result<(), RhsError> {
-        if order != self.order {
-            return self.sys.taylor_coefficients(t, y, order, buf);
-        }
-        let len = self.sys.dim() * (order + 1);
-        let c = self.coeffs.lock().unwrap_or_else(|e| e.into_inner());
-        buf[..len].copy_from_slice(&c[self.lane * len..(self.lane + 1) * len]);
-        Ok(())
+    fn previous(&self) -> (f64, &[f64]) {
+        Solver::previous(self)
     }
-    fn non_finite(&self, t: f64, y: &[f64], order: usize, at: usize) -> StepFailure {
-        self.sys.non_finite(t, y, order, at)
+    fn steps(&self) -> usize {
+        Solver::steps(self)
+    }
+    fn interpolate(&mut self, t: f64, out: &mut [f64]) -> Result<(), IntegrateError> {
+        Solver::interpolate(self, t, out)
+    }
+    fn dense_component(&self, i: usize, theta: f64) -> Option<f64> {
+        self.work().dense_component(i, theta)
+    }
+    fn set_state(&mut self, t: f64, y: &[f64]) {
+        Solver::set_state(self, t, y)
     }
 }
 
 /// What a batch run does with each trajectory around the single method's steps: its own
 /// bookkeeping between steps (an ensemble's kept states, a chaos indicator's quadrature and
 /// renormalisation), its budget, and when it ends. The driver ([`Taylor::integrate_lanes`])
-/// owns the lanes, the expansions and the refills; the task sees one trajectory's [`Solver`]
-/// at a time, exactly as a driver stepping that trajectory alone would, so a task that does
-/// the same as its single-run driver gives the same bits.
-///
-/// The methods are generic over the solver's system because the lanes' system is the
-/// driver's own view of `S` (the batch's coefficients handed to the single method's step).
+/// owns the lanes, the expansions, the steps and the refills; the task sees one trajectory at
+/// a time through [`RunState`], exactly as a driver stepping that trajectory alone sees its
+/// [`Solver`], so a task that does the same as its single-run driver gives the same bits.
 pub trait LaneTask {
     /// One trajectory's bookkeeping between steps.
     type Lane;
     /// What a trajectory gives when it ends.
     type Output;
-    /// Begins trajectory `index` on its fresh solver: its bookkeeping, or at once its output
-    /// when it has no step to take.
-    fn begin<X: TaylorSystem>(&self, index: usize, solver: &Solver<'_, X, Taylor>) -> Result<Self::Lane, Self::Output>;
+    /// Begins trajectory `index` at its start: its bookkeeping, or at once its output when it
+    /// has no step to take.
+    fn begin<V: RunState>(&self, index: usize, run: &V) -> Result<Self::Lane, Self::Output>;
     /// Called before each step: `Some` ends the trajectory there with that output (a budget).
-    fn before_step<X: TaylorSystem>(
-        &self,
-        lane: &mut Self::Lane,
-        solver: &Solver<'_, X, Taylor>,
-    ) -> Option<Self::Output>;
-    /// Called with each step's result (the solver has taken it, or failed): `Some` ends the
+    fn before_step<V: RunState>(&self, lane: &mut Self::Lane, run: &V) -> Option<Self::Output>;
+    /// Called with each step's result (the step was taken, or failed): `Some` ends the
     /// trajectory with that output.
-    fn after_step<X: TaylorSystem>(
+    fn after_step<V: RunState>(
         &self,
         lane: &mut Self::Lane,
-        solver: &mut Solver<'_, X, Taylor>,
+        run: &mut V,
         step: Result<Status, IntegrateError>,
     ) -> Option<Self::Output>;
 }
 
+/// One trajectory of a batch run: what its [`Solver`] and [`super::TaylorWork`] would hold
+/// (the coefficients of its last step stay in its lane of the batch's output until the next
+/// expansion).
+struct Track {
+    t: f64,
+    y: Vec<f64>,
+    t_prev: f64,
+    y_prev: Vec<f64>,
+    /// The compensated update's running error.
+    comp: Vec<f64>,
+    /// The last step's size, whose polynomial is the lane's coefficients.
+    h_last: f64,
+    dense_ready: bool,
+    steps: usize,
+    /// Derivatives at both ends of the last step, for Hermite interpolation (computed lazily).
+    rates: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+impl Track {
+    fn error(&self, reason: FailureReason) -> IntegrateError {
+        IntegrateError { t: self.t, state: self.y.clone(), reason, steps: self.steps }
+    }
+
+    /// The method's reset ([`Method::reset`]): no compensation carried, no dense output.
+    fn reset(&mut self) {
+        self.comp.fill(0.0);
+        self.dense_ready = false;
+    }
+}
+
+/// A lane's trajectory seen by its [`LaneTask`]: its [`Track`] and the batch's coefficients.
+struct LaneView<'a, S: ?Sized, const B: usize> {
+    track: &'a mut Track,
+    coeffs: &'a [Lanes<B>],
+    lane: usize,
+    order: usize,
+    sys: &'a S,
+    method: &'a Taylor,
+}
+
+impl<S: TaylorSystem + ?Sized, const B: usize> LaneView<'_, S, B> {
+    /// Component `i` of the last step's series at `x = θ h` (`TaylorWork::series_at`).
+    fn series_at(&self, i: usize, x: f64) -> f64 {
+        let s = self.order + 1;
+        let mut row = [0.0; 101];
+        for (r, c) in row.iter_mut().zip(&self.coeffs[i * s..(i + 1) * s]) {
+            *r = c.lane(self.lane);
+        }
+        polynomial(&row[..s], x, 0)
+    }
+}
+
+impl<S: TaylorSystem + ?Sized, const B: usize> RunState for LaneView<'_, S, B> {
+    fn t(&self) -> f64 {
+        self.track.t
+    }
+    fn y(&self) -> &[f64] {
+        &self.track.y
+    }
+    fn previous(&self) -> (f64, &[f64]) {
+        (self.track.t_prev, &self.track.y_prev)
+    }
+    fn steps(&self) -> usize {
+        self.track.steps
+    }
+    fn interpolate(&mut self, t: f64, out: &mut [f64]) -> Result<(), IntegrateError> {
+        let tr = &*self.track;
+        let h = tr.t - tr.t_prev;
+        if h == 0.0 {
+            out.copy_from_slice(&tr.y);
+            return Ok(());
+        }
+        let theta = (t - tr.t_prev) / h;
+        if tr.dense_ready {
+            let x = theta * tr.h_last;
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = self.series_at(i, x);
+            }
+            return Ok(());
+        }
+        if self.track.rates.is_none() {
+            let (tr, n) = (&*self.track, self.track.y.len());
+            let (mut f0, mut f1) = (vec![0.0; n], vec![0.0; n]);
+            let r = Method::<S>::rate(self.method, self.sys, tr.t_prev, &tr.y_prev, &mut f0)
+                .and_then(|_| Method::<S>::rate(self.method, self.sys, tr.t, &tr.y, &mut f1));
+            if let Err(StepFailure(reason)) = r {
+                return Err(tr.error(reason));
+            }
+            self.track.rates = Some((f0, f1));
+        }
+        let tr = &*self.track;
+        if let Some((f0, f1)) = &tr.rates {
+            hermite(theta, h, (&tr.y_prev, f0), (&tr.y, f1), out);
+        }
+        Ok(())
+    }
+    fn dense_component(&self, i: usize, theta: f64) -> Option<f64> {
+        let tr = &*self.track;
+        (tr.dense_ready && i < tr.y.len()).then(|| self.series_at(i, theta * tr.h_last))
+    }
+    fn set_state(&mut self, t: f64, y: &[f64]) {
+        let tr = &mut *self.track;
+        tr.t = t;
+        tr.y.copy_from_slice(y);
+        tr.rates = None;
+        tr.reset();
+    }
+}
+
 /// A trajectory in a lane.
-struct Running<'s, S: TaylorSystem, L> {
+struct Running<L> {
     index: usize,
-    solver: Solver<'s, LaneSystem<'s, S>, Taylor>,
+    track: Track,
     lane: L,
 }
 
@@ -162,7 +290,7 @@ impl LaneTask for Keep<'_> {
     type Lane = Kept;
     type Output = Option<LaneRun>;
 
-    fn begin<X: TaylorSystem>(&self, index: usize, _: &Solver<'_, X, Taylor>) -> Result<Kept, Option<LaneRun>> {
+    fn begin<V: RunState>(&self, index: usize, _: &V) -> Result<Kept, Option<LaneRun>> {
         let (y0, t0) = (self.starts[index], self.span.start);
         let mut run = LaneRun { t: vec![], y: vec![], steps: 0 };
         let mut next = 0;
@@ -188,35 +316,35 @@ impl LaneTask for Keep<'_> {
         Ok(Kept { run, next, dense: vec![0.0; y0.len()] })
     }
 
-    fn before_step<X: TaylorSystem>(&self, _: &mut Kept, solver: &Solver<'_, X, Taylor>) -> Option<Option<LaneRun>> {
-        (solver.steps() >= self.max_steps).then_some(None)
+    fn before_step<V: RunState>(&self, _: &mut Kept, run: &V) -> Option<Option<LaneRun>> {
+        (run.steps() >= self.max_steps).then_some(None)
     }
 
-    fn after_step<X: TaylorSystem>(
+    fn after_step<V: RunState>(
         &self,
         kept: &mut Kept,
-        solver: &mut Solver<'_, X, Taylor>,
+        run: &mut V,
         step: Result<Status, IntegrateError>,
     ) -> Option<Option<LaneRun>> {
         let Ok(status) = step else { return Some(None) };
         let finished = status == Status::Finished;
-        let done = |kept: &mut Kept, solver: &Solver<'_, X, Taylor>| {
-            let run = std::mem::replace(&mut kept.run, LaneRun { t: vec![], y: vec![], steps: 0 });
-            Some(Some(LaneRun { steps: solver.steps(), ..run }))
+        let done = |kept: &mut Kept, run: &V| {
+            let kept_run = std::mem::replace(&mut kept.run, LaneRun { t: vec![], y: vec![], steps: 0 });
+            Some(Some(LaneRun { steps: run.steps(), ..kept_run }))
         };
         match self.output {
             BatchOutput::Final => {
                 if finished {
-                    kept.run.t.push(solver.t());
-                    kept.run.y.push(solver.y().to_vec());
-                    return done(kept, solver);
+                    kept.run.t.push(run.t());
+                    kept.run.y.push(run.y().to_vec());
+                    return done(kept, run);
                 }
             }
             BatchOutput::Times(times) => {
                 let dir = (self.span.end - self.span.start).signum();
-                let until = solver.t();
+                let until = run.t();
                 while kept.next < times.len() && dir * (times[kept.next] - until) <= 0.0 {
-                    if solver.interpolate(times[kept.next], &mut kept.dense).is_err() {
+                    if run.interpolate(times[kept.next], &mut kept.dense).is_err() {
                         return Some(None);
                     }
                     kept.run.t.push(times[kept.next]);
@@ -224,7 +352,7 @@ impl LaneTask for Keep<'_> {
                     kept.next += 1;
                 }
                 if finished || kept.next == times.len() {
-                    return done(kept, solver);
+                    return done(kept, run);
                 }
             }
         }
@@ -261,14 +389,15 @@ impl Taylor {
 
     /// The batch driver under [`Taylor::integrate_batch`] and the chaos maps: the starts of
     /// `starts` over `span` in lanes of batch expansions (about `lanes` wide), each with its
-    /// own [`Solver`] and `task`'s bookkeeping around its steps. A lane whose trajectory ends
-    /// takes the next start from `queue` (the index of the next untaken start), which several
-    /// drivers, one per thread, may share: each start is taken by one of them, and their lanes
-    /// idle only once no start is left. Returns `None` when the system cannot batch; else, for
-    /// each start this driver took, its index and the task's output, or `None` for a start the
-    /// driver hands back: its solver could not start, or its lane's expansion failed. A start
-    /// running when the run is cancelled is not listed. The caller runs the starts handed back
-    /// or not listed alone, which reproduces what the single run does with them.
+    /// own state and step size and `task`'s bookkeeping around its steps. A lane whose
+    /// trajectory ends takes the next start from `queue` (the index of the next untaken
+    /// start), which several drivers, one per thread, may share: each start is taken by one of
+    /// them, and their lanes idle only once no start is left. Returns `None` when the system
+    /// cannot batch; else, for each start this driver took, its index and the task's output,
+    /// or `None` for a start the driver hands back: it could not start (its state or span is
+    /// not finite, or of the wrong length), or its lane's expansion failed. A start running
+    /// when the run is cancelled is not listed. The caller runs the starts handed back or not
+    /// listed alone, which reproduces what the single run does with them.
     #[allow(clippy::too_many_arguments)] // a single run's inputs, the lanes and their queue
     pub fn integrate_lanes<S: TaylorBatchSystem, T: LaneTask>(
         &self,
@@ -282,73 +411,249 @@ impl Taylor {
     ) -> Option<Vec<(usize, Option<T::Output>)>> {
         self.validate().ok()?;
         let order = self.taylor_order().clamp(2, 100);
-        let mut batch = sys.batch(order, lanes)?;
-        let width = S::lanes(&batch);
+        let batch = sys.batch(order, lanes)?;
+        let run = Starts { sys, order, span, starts, queue };
+        match S::lanes(&batch) {
+            2 => Some(self.drive::<S, T, 2>(run, batch, task, cancel)),
+            4 => Some(self.drive::<S, T, 4>(run, batch, task, cancel)),
+            8 => Some(self.drive::<S, T, 8>(run, batch, task, cancel)),
+            _ => None,
+        }
+    }
+}
+
+/// What a batch driver runs: `starts` of `sys` over `span` at `order`, taken from `queue`.
+struct Starts<'a, S> {
+    sys: &'a S,
+    order: usize,
+    span: Range<f64>,
+    starts: &'a [&'a [f64]],
+    queue: &'a AtomicUsize,
+}
+
+impl<S: TaylorSystem> Starts<'_, S> {
+    /// The next untaken start, if any.
+    fn take(&self) -> Option<usize> {
+        let index = self.queue.fetch_add(1, Ordering::Relaxed);
+        (index < self.starts.len()).then_some(index)
+    }
+
+    /// Start `index`'s track, or `None` when a single run would refuse it ([`Solver::new`]'s
+    /// checks; the tolerances are checked once for the whole batch).
+    fn track(&self, index: usize) -> Option<Track> {
+        let (y0, t0) = (self.starts[index], self.span.start);
+        let ok = y0.len() == self.sys.dim()
+            && t0.is_finite()
+            && self.span.end.is_finite()
+            && y0.iter().all(|v| v.is_finite());
+        ok.then(|| Track {
+            t: t0,
+            y: y0.to_vec(),
+            t_prev: t0,
+            y_prev: y0.to_vec(),
+            comp: vec![0.0; y0.len()],
+            h_last: 0.0,
+            dense_ready: false,
+            steps: 0,
+            rates: None,
+        })
+    }
+}
+
+impl Taylor {
+    /// [`Taylor::integrate_lanes`] on `B` lanes.
+    fn drive<S: TaylorBatchSystem, T: LaneTask, const B: usize>(
+        &self,
+        run: Starts<'_, S>,
+        mut batch: S::Batch,
+        task: &T,
+        cancel: Option<&CancelToken>,
+    ) -> Vec<(usize, Option<T::Output>)> {
+        let (sys, order) = (run.sys, run.order);
         let (dim, s) = (sys.dim(), order + 1);
-        // The batch's output, each lane's coefficients read by its solver's step.
-        let out = Mutex::new(vec![0.0; width * dim * s]);
-        let slots: Vec<LaneSystem<S>> = (0..width).map(|lane| LaneSystem { sys, order, lane, coeffs: &out }).collect();
+        let constants = StepConstants::new(order);
+        let mut coeffs = vec![Lanes::<B>::splat(0.0); dim * s];
         let mut ended: Vec<(usize, Option<T::Output>)> = Vec::new();
-        let take = || {
-            let index = queue.fetch_add(1, Ordering::Relaxed);
-            (index < starts.len()).then_some(index)
-        };
-        // Starts a trajectory in `lane`; `None` when it has nothing to step (done or refused).
-        let start = |index: usize, lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
-            let Ok(solver) = self.solver(&slots[lane], span.start, starts[index], span.end) else {
-                ended.push((index, None));
-                return None;
-            };
-            match task.begin(index, &solver) {
-                Ok(lane) => Some(Running { index, solver, lane }),
-                Err(out) => {
-                    ended.push((index, Some(out)));
-                    None
-                }
-            }
-        };
-        // Loads trajectories into `lane` until one has steps to take, or none is left.
-        let fill = |lane: usize, ended: &mut Vec<(usize, Option<T::Output>)>| {
-            while let Some(j) = take() {
-                if let Some(r) = start(j, lane, ended) {
-                    return Some(r);
+        // Loads trajectories into a lane until one has steps to take, or none is left.
+        let fill = |ended: &mut Vec<(usize, Option<T::Output>)>, coeffs: &[Lanes<B>], lane: usize| {
+            while let Some(index) = run.take() {
+                let Some(mut track) = run.track(index) else {
+                    ended.push((index, None));
+                    continue;
+                };
+                let view = LaneView { track: &mut track, coeffs, lane, order, sys, method: self };
+                match task.begin(index, &view) {
+                    Ok(l) => return Some(Running { index, track, lane: l }),
+                    Err(out) => ended.push((index, Some(out))),
                 }
             }
             None
         };
-        let mut active: Vec<Option<Running<S, T::Lane>>> = (0..width).map(|lane| fill(lane, &mut ended)).collect();
-        let (mut ts, mut ys) = (vec![0.0; width], vec![0.0; width * dim]);
-        let mut failed = vec![false; width];
+        let mut active: Vec<Option<Running<T::Lane>>> = (0..B).map(|l| fill(&mut ended, &coeffs, l)).collect();
+        let (mut ts, mut ys) = (vec![0.0; B], vec![0.0; B * dim]);
+        let mut failed = vec![false; B];
+        let mut steps: [Option<Result<Status, IntegrateError>>; B] = std::array::from_fn(|_| None);
+        let zero = Lanes::<B>::splat(0.0);
+        let mut scratch = LaneScratch { y: vec![zero; dim], inc: vec![zero; dim], inc_lane: vec![0.0; dim] };
         while active.iter().any(Option::is_some) {
             if cancel.is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
-                return Some(ended);
+                return ended;
             }
             for (lane, r) in active.iter().enumerate() {
                 // An empty lane expands its last state again, which is finite.
                 if let Some(r) = r {
-                    ts[lane] = r.solver.t();
-                    ys[lane * dim..(lane + 1) * dim].copy_from_slice(r.solver.y());
+                    ts[lane] = r.track.t;
+                    ys[lane * dim..(lane + 1) * dim].copy_from_slice(&r.track.y);
                 }
             }
             failed.fill(false);
-            sys.expand_batch(&mut batch, &ts, &ys, &mut out.lock().unwrap_or_else(|e| e.into_inner()), &mut failed);
-            for lane in 0..width {
+            sys.expand_batch(&mut batch, &ts, &ys, &mut coeffs, &mut failed);
+            // Which lanes step: a failed expansion hands its start back, a task may end one.
+            let mut stepping = [false; B];
+            for lane in 0..B {
                 let Some(r) = active[lane].as_mut() else { continue };
                 let end = if failed[lane] {
                     Some(None)
-                } else if let Some(output) = task.before_step(&mut r.lane, &r.solver) {
-                    Some(Some(output))
                 } else {
-                    let step = r.solver.step();
-                    task.after_step(&mut r.lane, &mut r.solver, step).map(Some)
+                    let view = LaneView { track: &mut r.track, coeffs: &coeffs, lane, order, sys, method: self };
+                    task.before_step(&mut r.lane, &view).map(Some)
                 };
-                let Some(output) = end else { continue };
-                if let Some(done) = active[lane].take() {
-                    ended.push((done.index, output));
+                match end {
+                    None => stepping[lane] = true,
+                    Some(output) => {
+                        if let Some(done) = active[lane].take() {
+                            ended.push((done.index, output));
+                        }
+                        active[lane] = fill(&mut ended, &coeffs, lane);
+                    }
                 }
-                active[lane] = fill(lane, &mut ended);
+            }
+            let at = (order, run.span.end);
+            self.step_lanes(sys, at, constants, &coeffs, &mut active, &stepping, &mut scratch, &mut steps);
+            for lane in 0..B {
+                let (Some(step), Some(r)) = (steps[lane].take(), active[lane].as_mut()) else { continue };
+                let mut view = LaneView { track: &mut r.track, coeffs: &coeffs, lane, order, sys, method: self };
+                let Some(output) = task.after_step(&mut r.lane, &mut view, step) else { continue };
+                if let Some(done) = active[lane].take() {
+                    ended.push((done.index, Some(output)));
+                }
+                active[lane] = fill(&mut ended, &coeffs, lane);
             }
         }
-        Some(ended)
+        ended
     }
+
+    /// One step of every lane marked in `stepping`, from the batch's coefficients: what
+    /// [`Solver::step`] and the single method's step do, the norms and the series sums on
+    /// whole lanes, the rest lane by lane, each lane with its single run's bits. Each stepped
+    /// lane's result goes to `steps`.
+    #[allow(clippy::too_many_arguments)] // the batch's parts, borrowed apart
+    fn step_lanes<S: TaylorSystem, L, const B: usize>(
+        &self,
+        sys: &S,
+        (order, t_end): (usize, f64),
+        constants: StepConstants,
+        coeffs: &[Lanes<B>],
+        active: &mut [Option<Running<L>>],
+        stepping: &[bool; B],
+        scratch: &mut LaneScratch<B>,
+        steps: &mut [Option<Result<Status, IntegrateError>>; B],
+    ) {
+        let (p, s) = (order, order + 1);
+        let mut go = *stepping;
+        let mut remaining = [0.0; B];
+        for lane in 0..B {
+            let Some(r) = active[lane].as_mut().filter(|_| go[lane]) else { continue };
+            let tr = &r.track;
+            remaining[lane] = t_end - tr.t;
+            if remaining[lane] == 0.0 {
+                steps[lane] = Some(Ok(Status::Finished));
+                go[lane] = false;
+                continue;
+            }
+            for (y, &v) in scratch.y.iter_mut().zip(&tr.y) {
+                y.set_lane(lane, v);
+            }
+        }
+        // The step sizes: norms on whole lanes, the roots lane by lane (`Taylor::step`).
+        let (x0, np1, np) = step_norms(&scratch.y, coeffs, p);
+        let mut h = Lanes::<B>::splat(0.0);
+        for lane in (0..B).filter(|&l| go[l]) {
+            let mut hl = self.step_of_norms(x0.lane(lane), np1.lane(lane), np.lane(lane), constants);
+            if let Some(m) = self.h_max {
+                hl = hl.min(m);
+            }
+            let req = remaining[lane];
+            h.set_lane(lane, if hl >= req.abs() { req } else { req.signum() * hl });
+        }
+        // The increments `h Σ_{k≥1} c_k h^{k−1}` on whole lanes.
+        for (inc, row) in scratch.inc.iter_mut().zip(coeffs.chunks_exact(s)) {
+            *inc = h * polynomial(row, h, 1);
+        }
+        for lane in (0..B).filter(|&l| go[l]) {
+            let Some(r) = active[lane].as_mut() else { continue };
+            for (d, v) in scratch.inc_lane.iter_mut().zip(&scratch.inc) {
+                *d = v.lane(lane);
+            }
+            let step = LaneStep { lane, h: h.lane(lane), remaining: remaining[lane], t_end };
+            steps[lane] = Some(self.finish_step(sys, p, coeffs, step, &mut r.track, &scratch.inc_lane));
+        }
+    }
+
+    /// The rest of one lane's step once its size `h` and increment `inc` are known, as
+    /// [`Solver::step`] and the single method's step do it: the failures, the update and the
+    /// bookkeeping.
+    fn finish_step<S: TaylorSystem, const B: usize>(
+        &self,
+        sys: &S,
+        p: usize,
+        coeffs: &[Lanes<B>],
+        LaneStep { lane, h, remaining, t_end }: LaneStep,
+        tr: &mut Track,
+        inc: &[f64],
+    ) -> Result<Status, IntegrateError> {
+        tr.t_prev = tr.t;
+        tr.y_prev.copy_from_slice(&tr.y);
+        tr.rates = None;
+        tr.dense_ready = false;
+        let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * tr.t.abs() || h == 0.0;
+        if collapsed || inc.iter().any(|v| !v.is_finite()) {
+            // A non-finite coefficient is the cause if there is one; the scan runs only here.
+            let first = coeffs.iter().position(|c| !c.lane(lane).is_finite());
+            let failure = match first {
+                Some(at) => Some(sys.non_finite(tr.t, &tr.y, p, at).0),
+                None => collapsed.then_some(FailureReason::StepSizeCollapse { h }),
+            };
+            if let Some(reason) = failure {
+                tr.reset();
+                return Err(tr.error(reason));
+            }
+        }
+        add_scaled(&mut tr.y, self.compensated.then_some(&mut tr.comp[..]), 1.0, inc);
+        tr.h_last = h;
+        tr.dense_ready = true;
+        if let Err(StepFailure(reason)) = check_finite(&tr.y) {
+            tr.y.copy_from_slice(&tr.y_prev);
+            tr.reset();
+            return Err(tr.error(reason));
+        }
+        tr.steps += 1;
+        tr.t = if h == remaining { t_end } else { tr.t_prev + h };
+        Ok(if tr.t == t_end { Status::Finished } else { Status::Stepped })
+    }
+}
+
+/// One lane's step: its size, what was left of the span before it, and the span's end.
+struct LaneStep {
+    lane: usize,
+    h: f64,
+    remaining: f64,
+    t_end: f64,
+}
+
+/// The batch step's scratch: the lanes' states and increments, and one lane's increment.
+struct LaneScratch<const B: usize> {
+    y: Vec<Lanes<B>>,
+    inc: Vec<Lanes<B>>,
+    inc_lane: Vec<f64>,
 }

@@ -17,6 +17,7 @@
 
 use super::error::{FailureReason, StepFailure};
 use super::{add_scaled, Method, MethodInfo, RhsError};
+use crate::lanes::Lane;
 
 /// A system whose solution can be expanded in a Taylor series at any state: the integrators'
 /// view of a compiled Taylor tape (`compile::TaylorOde`).
@@ -162,27 +163,22 @@ impl Taylor {
         Ok(())
     }
 
-    /// The Jorba–Zou step size from the coefficients of the last expansion (in `w`). The
-    /// roots `(s/‖y_[m]‖)^{1/m}` are taken in base-2 logarithms,
-    /// `h = 2^{min_m log₂(s/‖y_[m]‖)/m + log₂ safety}`: two `log2` and one `exp2` (6 % of a
-    /// Kepler step in a profile) where two `powf` were 7 %, and multiplications by `1/m`.
+    /// The Jorba–Zou step size from the coefficients of the last expansion (in `w`).
     fn step_size(&self, y: &[f64], w: &TaylorWork) -> f64 {
-        let p = w.order;
-        let s = p + 1;
-        let n = y.len();
-        let coeffs = &w.buf[..n * s];
-        // Maxima by comparison, without `f64::max`'s handling of NaN in either operand (a NaN
-        // entry is skipped alike: `v > m` is false; `m` is never NaN).
-        let larger = |m: f64, v: f64| if v > m { v } else { m };
-        let x0 = y.iter().fold(0.0f64, |m, v| larger(m, v.abs()));
-        let (mut np1, mut np) = (0.0f64, 0.0f64);
-        for row in coeffs.chunks_exact(s) {
-            np1 = larger(np1, row[p - 1].abs());
-            np = larger(np, row[p].abs());
-        }
+        let (x0, np1, np) = step_norms(y, &w.buf[..y.len() * (w.order + 1)], w.order);
+        self.step_of_norms(x0, np1, np, w.constants)
+    }
+
+    /// The Jorba–Zou step size from the state's norm `x0 = ‖y₀‖∞` and the last two orders'
+    /// `np1 = ‖y_[p−1]‖∞`, `np = ‖y_[p]‖∞` ([`step_norms`]). The roots `(s/‖y_[m]‖)^{1/m}` are taken in base-2 logarithms,
+    /// `h = 2^{min_m log₂(s/‖y_[m]‖)/m + log₂ safety}`: two `log2` and one `exp2` (6 % of a
+    /// Kepler step in a profile) where two `powf` were 7 %, and multiplications by `1/m`. The
+    /// batch step calls this lane by lane, so each lane has the single run's step.
+    #[inline]
+    pub(crate) fn step_of_norms(&self, x0: f64, np1: f64, np: f64, k: StepConstants) -> f64 {
         let scale = if self.rtol * x0 <= self.atol { 1.0 } else { x0 };
         let (a, b) = (scale / np1, scale / np);
-        let [inv1, inv] = w.inv_orders;
+        let [inv1, inv] = k.inv_orders;
         // Only the smaller root is used. When a bracket of each `log2` from its exponent and
         // mantissa tells which one that is, only its `log2` is taken; the bits are those of
         // taking both.
@@ -193,8 +189,25 @@ impl Taylor {
             // `log2(0) = −∞`, so `h = 0`.
             None => (a.log2() * inv1).min(b.log2() * inv),
         };
-        (root + w.safety_log2).exp2()
+        (root + k.safety_log2).exp2()
     }
+}
+
+/// The norms the step size needs, `(‖y₀‖∞, ‖y_[p−1]‖∞, ‖y_[p]‖∞)`, from the state `y` and its
+/// coefficients (`i · (p + 1) + k`), for one run (`f64`) or lane by lane ([`Lanes`]).
+/// Maxima by comparison, without `f64::max`'s handling of NaN in either operand (a NaN entry
+/// is skipped alike: `v > m` is false; `m` is never NaN).
+#[inline(always)]
+pub(crate) fn step_norms<L: Lane>(y: &[L], coeffs: &[L], p: usize) -> (L, L, L) {
+    let larger = |m: L, v: L| m.zip(v.map(f64::abs), |m, v| if v > m { v } else { m });
+    let zero = L::splat(0.0);
+    let x0 = y.iter().fold(zero, |m, &v| larger(m, v));
+    let (mut np1, mut np) = (zero, zero);
+    for row in coeffs.chunks_exact(p + 1) {
+        np1 = larger(np1, row[p - 1]);
+        np = larger(np, row[p]);
+    }
+    (x0, np1, np)
 }
 
 /// Whether `log2(a) · ia < log2(b) · ib` (`Some(true)`), `>` (`Some(false)`), or `None` when
@@ -229,6 +242,25 @@ pub fn smaller_root(a: f64, ia: f64, b: f64, ib: f64) -> Option<bool> {
     }
 }
 
+/// What the step size needs of the order `p`, computed once per run.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StepConstants {
+    /// `log₂` of Jorba & Zou's safety factor `exp(−2 − 0.7/(p − 1))` of the step size.
+    safety_log2: f64,
+    /// `1/(p − 1)` and `1/p`, the roots of the step size (multiplications, off the step's
+    /// chain of dependent operations, where divisions were on it).
+    inv_orders: [f64; 2],
+}
+
+impl StepConstants {
+    pub(crate) fn new(p: usize) -> Self {
+        StepConstants {
+            safety_log2: (-2.0 - 0.7 / (p - 1) as f64) * std::f64::consts::LOG2_E,
+            inv_orders: [1.0 / (p - 1) as f64, 1.0 / p as f64],
+        }
+    }
+}
+
 /// Scratch storage of a [`Taylor`] integration.
 pub struct TaylorWork {
     order: usize,
@@ -240,11 +272,7 @@ pub struct TaylorWork {
     /// The last step's size; its polynomial is the state's rows of `buf` (dense output).
     h_last: f64,
     dense_ready: bool,
-    /// `log₂` of Jorba & Zou's safety factor `exp(−2 − 0.7/(p − 1))` of the step size.
-    safety_log2: f64,
-    /// `1/(p − 1)` and `1/p`, the roots of the step size (multiplications, off the step's
-    /// chain of dependent operations, where divisions were on it).
-    inv_orders: [f64; 2],
+    constants: StepConstants,
     /// The system that last wrote `buf` (its address), which may then skip what it writes
     /// identically every time ([`TaylorSystem::taylor_coefficients_again`]).
     written_by: Option<usize>,
@@ -302,20 +330,20 @@ impl TaylorWork {
 /// expansion (BENCHMARKS.md).
 #[inline]
 #[doc(hidden)]
-pub fn polynomial(c: &[f64], x: f64, lo: usize) -> f64 {
+pub fn polynomial<L: Lane>(c: &[L], x: L, lo: usize) -> L {
     let c = &c[lo.min(c.len())..];
     let (head, tail) = c.split_at(c.len().min(HORNER_TERMS));
     let x2 = x * x;
     let x4 = x2 * x2;
     let full = tail.len() / 4;
     let (blocks, last) = tail.split_at(4 * full);
-    let block = |b: &[f64; 4]| (b[0] + b[1] * x) + (b[2] + b[3] * x) * x2;
+    let block = |b: &[L; 4]| (b[0] + b[1] * x) + (b[2] + b[3] * x) * x2;
     let (mut acc, below) = match *last {
         [c0, c1, c2] => ((c0 + c1 * x) + c2 * x2, full),
         [c0, c1] => (c0 + c1 * x, full),
         [c0] => (c0, full),
         _ if full > 0 => (block(blocks[4 * (full - 1)..4 * full].try_into().expect("a block of 4")), full - 1),
-        _ => (0.0, 0),
+        _ => (L::splat(0.0), 0),
     };
     for j in (0..below).rev() {
         acc = acc * x4 + block(blocks[4 * j..4 * j + 4].try_into().expect("a block of 4"));
@@ -350,8 +378,7 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
             inc: vec![0.0; n],
             h_last: 0.0,
             dense_ready: false,
-            safety_log2: (-2.0 - 0.7 / (p - 1) as f64) * std::f64::consts::LOG2_E,
-            inv_orders: [1.0 / (p - 1) as f64, 1.0 / p as f64],
+            constants: StepConstants::new(p),
             written_by: None,
         }
     }

@@ -84,13 +84,23 @@ impl<const B: usize> LaneWork<B> {
 }
 
 /// The points of a batch expansion and where its results go (see [`TaylorOde::expand_lanes`]):
-/// lane `l`'s time `t[l]` and state `y[l · dim ..]`, its coefficients in `out`, its failure in
-/// `failed[l]`.
-struct Points<'a> {
+/// lane `l`'s time `t[l]` and state `y[l · dim ..]`, its coefficients in lane `l` of `out`,
+/// its failure in `failed[l]`. `O` is the caller's width, which the batch's equals.
+struct Points<'a, const O: usize> {
     t: &'a [f64],
     y: &'a [f64],
-    out: &'a mut [f64],
+    out: &'a mut [Lanes<O>],
     failed: &'a mut [bool],
+}
+
+/// Copies a batch's state rows into the caller's lanes (of the same width).
+#[inline(always)]
+fn copy_lanes<const B: usize, const O: usize>(out: &mut [Lanes<O>], c: &[Lanes<B>]) {
+    for (o, v) in out.iter_mut().zip(c) {
+        for l in 0..B.min(O) {
+            o.0[l] = v.0[l];
+        }
+    }
 }
 
 impl TaylorOde {
@@ -149,13 +159,13 @@ impl TaylorOde {
     /// [`TaylorOde::expand_lanes`] by the native lane-pair code `code`, one call per pair of
     /// lanes; `false` (with `out` partly written) when a pair's `W₀` needs the interpreter,
     /// which then redoes the whole batch.
-    fn expand_native_lanes<const B: usize>(
+    fn expand_native_lanes<const B: usize, const O: usize>(
         &self,
         code: &NativeTaylor,
         w: &mut LaneWork<B>,
         t: &[f64],
         y: &[f64],
-        out: &mut [f64],
+        out: &mut [Lanes<O>],
     ) -> bool {
         let order = w.order;
         let (s, dim) = (order + 1, self.dim);
@@ -184,10 +194,10 @@ impl TaylorOde {
             if code.run_lanes(c) != Ran::Done {
                 return false;
             }
-            for (h, l) in [l0, l1].into_iter().enumerate() {
-                let lane = &mut out[l * dim * s..(l + 1) * dim * s];
-                for (x, v) in lane.iter_mut().zip(&c[..dim * s]) {
-                    *x = v.0[h];
+            for (o, v) in out.iter_mut().zip(&c[..dim * s]) {
+                if l1 < O {
+                    o.0[l0] = v.0[0];
+                    o.0[l1] = v.0[1];
                 }
             }
         }
@@ -208,7 +218,12 @@ impl TaylorOde {
     /// finite or is singular is marked in `failed`; the others are unaffected. Orders ≥ 1 of
     /// the tape run on `wide` code when given, else in the interpreter.
     #[inline(always)]
-    fn expand_lanes<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
+    fn expand_lanes<const B: usize, const O: usize>(
+        &self,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
+        x: Points<'_, O>,
+    ) {
         let Points { t, y, out, failed } = x;
         let order = w.order;
         let s = order + 1;
@@ -330,12 +345,7 @@ impl TaylorOde {
                 c[i * s + k + 1] = v * inv;
             }
         }
-        for l in 0..B {
-            let lane = &mut out[l * dim * s..(l + 1) * dim * s];
-            for (x, v) in lane.iter_mut().zip(&c[..dim * s]) {
-                *x = v.lane(l);
-            }
-        }
+        copy_lanes(out, &c[..dim * s]);
     }
 }
 
@@ -407,11 +417,21 @@ impl TaylorBatchSystem for TaylorOde {
         }
     }
 
-    fn expand_batch(&self, batch: &mut TaylorBatch, t: &[f64], y: &[f64], out: &mut [f64], failed: &mut [bool]) {
-        match batch {
-            TaylorBatch::Two(w) => self.expand_batch_of(w, t, y, out, failed),
-            TaylorBatch::Four(w) => self.expand_batch_of(w, t, y, out, failed),
-            TaylorBatch::Eight(w) => self.expand_batch_of(w, t, y, out, failed),
+    fn expand_batch<const B: usize>(
+        &self,
+        batch: &mut TaylorBatch,
+        t: &[f64],
+        y: &[f64],
+        out: &mut [Lanes<B>],
+        failed: &mut [bool],
+    ) {
+        // The caller's width is the batch's (`lanes`); any other is refused.
+        let x = Points { t, y, out, failed };
+        match (batch, B) {
+            (TaylorBatch::Two(w), 2) => self.expand_batch_of(w, x),
+            (TaylorBatch::Four(w), 4) => self.expand_batch_of(w, x),
+            (TaylorBatch::Eight(w), 8) => self.expand_batch_of(w, x),
+            _ => x.failed.fill(true),
         }
     }
 }
@@ -419,14 +439,8 @@ impl TaylorBatchSystem for TaylorOde {
 impl TaylorOde {
     /// A batch expansion over `B` lanes on the code the tiers have for it: wide code, else
     /// lane pairs, else (or when a pair needs LU) the interpreter.
-    fn expand_batch_of<const B: usize>(
-        &self,
-        w: &mut LaneWork<B>,
-        t: &[f64],
-        y: &[f64],
-        out: &mut [f64],
-        failed: &mut [bool],
-    ) {
+    fn expand_batch_of<const B: usize, const O: usize>(&self, w: &mut LaneWork<B>, x: Points<'_, O>) {
+        let Points { t, y, out, failed } = x;
         let order = w.order;
         let wide = match self.native.lanes_tiered(&self.tape, order, B, || self.compile_batch(order, B)) {
             Some(BatchCode::Wide(code)) if code.lanes() == B => Some(code),
@@ -446,7 +460,12 @@ impl TaylorOde {
     }
 
     /// [`TaylorOde::expand_lanes`] compiled for the vector registers `B` lanes fill.
-    fn expand_lanes_at_width<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
+    fn expand_lanes_at_width<const B: usize, const O: usize>(
+        &self,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
+        x: Points<'_, O>,
+    ) {
         #[cfg(target_arch = "x86_64")]
         {
             if B == 8 && std::arch::is_x86_feature_detected!("avx512f") {
@@ -470,16 +489,21 @@ impl TaylorOde {
 #[cfg(target_arch = "x86_64")]
 impl TaylorOde {
     #[target_feature(enable = "avx2")]
-    unsafe fn expand_lanes_avx2<const B: usize>(&self, wide: Option<&WideTaylor>, w: &mut LaneWork<B>, x: Points<'_>) {
+    unsafe fn expand_lanes_avx2<const B: usize, const O: usize>(
+        &self,
+        wide: Option<&WideTaylor>,
+        w: &mut LaneWork<B>,
+        x: Points<'_, O>,
+    ) {
         self.expand_lanes(wide, w, x)
     }
 
     #[target_feature(enable = "avx512f")]
-    unsafe fn expand_lanes_avx512<const B: usize>(
+    unsafe fn expand_lanes_avx512<const B: usize, const O: usize>(
         &self,
         wide: Option<&WideTaylor>,
         w: &mut LaneWork<B>,
-        x: Points<'_>,
+        x: Points<'_, O>,
     ) {
         self.expand_lanes(wide, w, x)
     }
