@@ -471,7 +471,6 @@ impl Taylor {
     ) -> Vec<(usize, Option<T::Output>)> {
         let (sys, order) = (run.sys, run.order);
         let (dim, s) = (sys.dim(), order + 1);
-        let constants = StepConstants::new(order);
         let mut coeffs = vec![Lanes::<B>::splat(0.0); dim * s];
         let mut ended: Vec<(usize, Option<T::Output>)> = Vec::new();
         // Loads trajectories into a lane until one has steps to take, or none is left.
@@ -492,9 +491,15 @@ impl Taylor {
         let mut active: Vec<Option<Running<T::Lane>>> = (0..B).map(|l| fill(&mut ended, &coeffs, l)).collect();
         let (mut ts, mut ys) = (vec![0.0; B], vec![0.0; B * dim]);
         let mut failed = vec![false; B];
-        let mut steps: [Option<Result<Status, IntegrateError>>; B] = std::array::from_fn(|_| None);
         let zero = Lanes::<B>::splat(0.0);
-        let mut scratch = LaneScratch { y: vec![zero; dim], inc: vec![zero; dim], inc_lane: vec![0.0; dim] };
+        let mut scratch = LaneScratch {
+            y: vec![zero; dim],
+            inc: vec![zero; dim],
+            inc_lane: vec![0.0; dim],
+            stepping: [false; B],
+            steps: std::array::from_fn(|_| None),
+        };
+        let plan = StepPlan { sys, order, t_end: run.span.end, constants: StepConstants::new(order) };
         while active.iter().any(Option::is_some) {
             if cancel.is_some_and(CancelToken::is_cancelled) || crate::cancel::interrupted() {
                 return ended;
@@ -528,10 +533,10 @@ impl Taylor {
                     }
                 }
             }
-            let at = (order, run.span.end);
-            self.step_lanes(sys, at, constants, &coeffs, &mut active, &stepping, &mut scratch, &mut steps);
+            scratch.stepping = stepping;
+            self.step_lanes_at_width(&plan, &coeffs, &mut active, &mut scratch);
             for lane in 0..B {
-                let (Some(step), Some(r)) = (steps[lane].take(), active[lane].as_mut()) else { continue };
+                let (Some(step), Some(r)) = (scratch.steps[lane].take(), active[lane].as_mut()) else { continue };
                 let mut view = LaneView { track: &mut r.track, coeffs: &coeffs, lane, order, sys, method: self };
                 let Some(output) = task.after_step(&mut r.lane, &mut view, step) else { continue };
                 if let Some(done) = active[lane].take() {
@@ -547,20 +552,18 @@ impl Taylor {
     /// [`Solver::step`] and the single method's step do, the norms and the series sums on
     /// whole lanes, the rest lane by lane, each lane with its single run's bits. Each stepped
     /// lane's result goes to `steps`.
-    #[allow(clippy::too_many_arguments)] // the batch's parts, borrowed apart
+    #[inline(always)]
     fn step_lanes<S: TaylorSystem, L, const B: usize>(
         &self,
-        sys: &S,
-        (order, t_end): (usize, f64),
-        constants: StepConstants,
+        plan: &StepPlan<'_, S>,
         coeffs: &[Lanes<B>],
         active: &mut [Option<Running<L>>],
-        stepping: &[bool; B],
         scratch: &mut LaneScratch<B>,
-        steps: &mut [Option<Result<Status, IntegrateError>>; B],
     ) {
+        let StepPlan { sys, order, t_end, constants } = *plan;
         let (p, s) = (order, order + 1);
-        let mut go = *stepping;
+        let steps = &mut scratch.steps;
+        let mut go = scratch.stepping;
         let mut remaining = [0.0; B];
         for lane in 0..B {
             let Some(r) = active[lane].as_mut().filter(|_| go[lane]) else { continue };
@@ -651,9 +654,78 @@ struct LaneStep {
     t_end: f64,
 }
 
-/// The batch step's scratch: the lanes' states and increments, and one lane's increment.
+/// The batch step's scratch: the lanes' states and increments, one lane's increment, which
+/// lanes step, and their steps' results.
 struct LaneScratch<const B: usize> {
     y: Vec<Lanes<B>>,
     inc: Vec<Lanes<B>>,
     inc_lane: Vec<f64>,
+    stepping: [bool; B],
+    steps: [Option<Result<Status, IntegrateError>>; B],
+}
+
+/// What every step of a batch run shares: the system, the order, the span's end and the step
+/// size's constants.
+struct StepPlan<'a, S> {
+    sys: &'a S,
+    order: usize,
+    t_end: f64,
+    constants: StepConstants,
+}
+
+impl<S> Clone for StepPlan<'_, S> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<S> Copy for StepPlan<'_, S> {}
+
+impl Taylor {
+    /// [`Taylor::step_lanes`] compiled for the vector registers `B` lanes fill, as the batch
+    /// expansion is: the same IEEE operations in the same order (no fused multiply-add is
+    /// enabled), so the bits do not change.
+    fn step_lanes_at_width<S: TaylorSystem, L, const B: usize>(
+        &self,
+        plan: &StepPlan<'_, S>,
+        coeffs: &[Lanes<B>],
+        active: &mut [Option<Running<L>>],
+        scratch: &mut LaneScratch<B>,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if B == 8 && std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F (checked just above).
+                return unsafe { self.step_lanes_avx512(plan, coeffs, active, scratch) };
+            }
+            if B >= 4 && std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just above).
+                return unsafe { self.step_lanes_avx2(plan, coeffs, active, scratch) };
+            }
+        }
+        self.step_lanes(plan, coeffs, active, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn step_lanes_avx512<S: TaylorSystem, L, const B: usize>(
+        &self,
+        plan: &StepPlan<'_, S>,
+        coeffs: &[Lanes<B>],
+        active: &mut [Option<Running<L>>],
+        scratch: &mut LaneScratch<B>,
+    ) {
+        self.step_lanes(plan, coeffs, active, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn step_lanes_avx2<S: TaylorSystem, L, const B: usize>(
+        &self,
+        plan: &StepPlan<'_, S>,
+        coeffs: &[Lanes<B>],
+        active: &mut [Option<Running<L>>],
+        scratch: &mut LaneScratch<B>,
+    ) {
+        self.step_lanes(plan, coeffs, active, scratch)
+    }
 }

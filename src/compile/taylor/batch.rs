@@ -96,10 +96,9 @@ struct Points<'a, const O: usize> {
 /// Copies a batch's state rows into the caller's lanes (of the same width).
 #[inline(always)]
 fn copy_lanes<const B: usize, const O: usize>(out: &mut [Lanes<O>], c: &[Lanes<B>]) {
+    let n = B.min(O);
     for (o, v) in out.iter_mut().zip(c) {
-        for l in 0..B.min(O) {
-            o.0[l] = v.0[l];
-        }
+        o.0[..n].copy_from_slice(&v.0[..n]);
     }
 }
 
