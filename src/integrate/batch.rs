@@ -537,6 +537,7 @@ impl Taylor {
             self.step_lanes_at_width(&plan, &coeffs, &mut active, &mut scratch);
             for lane in 0..B {
                 let (Some(step), Some(r)) = (scratch.steps[lane].take(), active[lane].as_mut()) else { continue };
+                let step = step.map_err(|e| *e);
                 let mut view = LaneView { track: &mut r.track, coeffs: &coeffs, lane, order, sys, method: self };
                 let Some(output) = task.after_step(&mut r.lane, &mut view, step) else { continue };
                 if let Some(done) = active[lane].take() {
@@ -599,7 +600,8 @@ impl Taylor {
                 *d = v.lane(lane);
             }
             let step = LaneStep { lane, h: h.lane(lane), remaining: remaining[lane], t_end };
-            steps[lane] = Some(self.finish_step(sys, p, coeffs, step, &mut r.track, &scratch.inc_lane));
+            steps[lane] =
+                Some(self.finish_step(sys, p, coeffs, step, &mut r.track, &scratch.inc_lane).map_err(Box::new));
         }
     }
 
@@ -661,7 +663,8 @@ struct LaneScratch<const B: usize> {
     inc: Vec<Lanes<B>>,
     inc_lane: Vec<f64>,
     stepping: [bool; B],
-    steps: [Option<Result<Status, IntegrateError>>; B],
+    /// (An error is boxed: the lanes' results are moved on every step, and failures are rare.)
+    steps: [Option<Result<Status, Box<IntegrateError>>>; B],
 }
 
 /// What every step of a batch run shares: the system, the order, the span's end and the step

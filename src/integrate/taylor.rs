@@ -328,7 +328,7 @@ impl TaylorWork {
 /// per block. With the update around them, the four polynomials of a double-pendulum step at
 /// order 11 are the step's own 549 instructions (571 before), against 3,022 in the
 /// expansion (BENCHMARKS.md).
-#[inline]
+#[inline(always)]
 #[doc(hidden)]
 pub fn polynomial<L: Lane>(c: &[L], x: L, lo: usize) -> L {
     let c = &c[lo.min(c.len())..];
