@@ -4,7 +4,11 @@
 //! collision beside an escape).
 
 use lagrangian::compile::TaylorOde;
-use lagrangian::integrate::{BatchOutput, Integrate, Options, Taylor};
+use std::sync::atomic::AtomicUsize;
+
+use lagrangian::integrate::{
+    BatchOutput, Integrate, IntegrateError, LaneTask, Options, RunState, Solver, Status, Taylor,
+};
 use lagrangian::mechanics::System;
 use lagrangian::simulate::{self, Compiled, MethodId, RunOptions, Sampling, SimulateError, Trajectory};
 
@@ -271,6 +275,78 @@ fn wide_code_gives_the_interpreter_lanes_bits_for_a_mass_matrix_system() {
 /// `vmovupd [rdi + 0x80], zmm15`; `vpxorq zmm8, zmm8, [rsi]`; `vdivpd zmm13, zmm13, zmm11`; and
 /// `vsubpd ymm1, ymm2, ymm3`; `vmovupd ymm9, [rdi + 0x20]`; `vxorpd ymm0, ymm0, [rsi + 0x20]`;
 /// `vmovupd [rdi + 0x20], ymm12`; `vmulpd ymm10, ymm11, ymm12`; `vzeroupper`; `ret`.
+/// What a driver's per-step code reads of one trajectory, as bits: the time, the state, the
+/// step before, the dense output (whole and one component) inside the step; every third step
+/// it replaces the state (as the chaos maps renormalise) and reads the interpolant again,
+/// which is then Hermite's, as a single run's solver does after `set_state`.
+fn observe<V: RunState>(run: &mut V, seen: &mut Vec<u64>) {
+    let (t, n) = (run.t(), run.y().len());
+    let (t0, y0) = run.previous();
+    seen.extend([t.to_bits(), t0.to_bits(), run.steps() as u64]);
+    seen.extend(y0.iter().chain(run.y()).map(|x| x.to_bits()));
+    let mut out = vec![0.0; n];
+    let mid = 0.5 * (t0 + t);
+    run.interpolate(mid, &mut out).unwrap();
+    seen.extend(out.iter().map(|x| x.to_bits()));
+    seen.push(run.dense_component(n - 1, 0.3).map_or(0, f64::to_bits));
+    if run.steps() % 3 == 0 {
+        let y: Vec<f64> = run.y().iter().map(|v| 0.5 * v).collect();
+        run.set_state(t, &y);
+        assert_eq!(run.dense_component(0, 0.3), None, "no dense output after set_state");
+        run.interpolate(mid, &mut out).unwrap();
+        seen.extend(out.iter().map(|x| x.to_bits()));
+    }
+}
+
+/// A task that records [`observe`] after every step, for 12 steps.
+struct Observe;
+
+impl LaneTask for Observe {
+    type Lane = Vec<u64>;
+    type Output = Vec<u64>;
+    fn begin<V: RunState>(&self, _: usize, _: &V) -> Result<Vec<u64>, Vec<u64>> {
+        Ok(Vec::new())
+    }
+    fn before_step<V: RunState>(&self, seen: &mut Vec<u64>, run: &V) -> Option<Vec<u64>> {
+        (run.steps() == 12).then(|| std::mem::take(seen))
+    }
+    fn after_step<V: RunState>(
+        &self,
+        seen: &mut Vec<u64>,
+        run: &mut V,
+        step: Result<Status, IntegrateError>,
+    ) -> Option<Vec<u64>> {
+        step.unwrap();
+        observe(run, seen);
+        None
+    }
+}
+
+/// A lane of the batch answers the per-step code's questions (state, previous step, dense
+/// output, one component, `set_state` and the Hermite interpolant after it) with the bits a
+/// single run's `Solver` gives, so the chaos maps' and ensembles' shared per-step code runs the
+/// single run's arithmetic on lanes; with compensated summation too.
+#[test]
+fn a_lane_answers_as_a_single_runs_solver() {
+    let ode = double_pendulum().compile_taylor().unwrap();
+    let starts = starts();
+    let refs: Vec<&[f64]> = starts.iter().map(Vec::as_slice).collect();
+    for m in [Taylor::new(1e-12), Taylor::new(1e-12).compensated()] {
+        let queue = AtomicUsize::new(0);
+        let lanes = m.integrate_lanes(&ode, 8, 0.0..10.0, &refs, &queue, &Observe, None).unwrap();
+        assert_eq!(lanes.len(), starts.len());
+        for (index, seen) in lanes {
+            let mut solver = Solver::new(&m, &ode, 0.0, &starts[index], 10.0).unwrap();
+            let mut alone = Vec::new();
+            while solver.steps() < 12 {
+                solver.step().unwrap();
+                observe(&mut solver, &mut alone);
+            }
+            assert_eq!(seen, Some(alone), "start {:?}, compensated {}", starts[index], m.compensated);
+        }
+    }
+}
+
 #[test]
 fn the_wide_encoder_writes_the_assemblers_bytes() {
     let [zmm, ymm] = lagrangian::compile::wide_encoding_samples();
