@@ -494,8 +494,8 @@ impl Taylor {
         let zero = Lanes::<B>::splat(0.0);
         let mut scratch = LaneScratch {
             y: vec![zero; dim],
+            comp: vec![zero; dim],
             inc: vec![zero; dim],
-            inc_lane: vec![0.0; dim],
             stepping: [false; B],
             steps: std::array::from_fn(|_| None),
         };
@@ -590,39 +590,51 @@ impl Taylor {
             let req = remaining[lane];
             h.set_lane(lane, if hl >= req.abs() { req } else { req.signum() * hl });
         }
-        // The increments `h Σ_{k≥1} c_k h^{k−1}` on whole lanes.
+        // The increments `h Σ_{k≥1} c_k h^{k−1}` on whole lanes, which lanes' are not finite,
+        // and the updated states (the single step's `add_scaled`, on whole lanes; a lane that
+        // fails keeps its state).
+        let mut finite = [true; B];
         for (inc, row) in scratch.inc.iter_mut().zip(coeffs.chunks_exact(s)) {
             *inc = h * polynomial(row, h, 1);
+            for l in 0..B {
+                finite[l] &= inc.0[l].is_finite();
+            }
         }
+        if self.compensated {
+            for lane in (0..B).filter(|&l| go[l]) {
+                let Some(r) = active[lane].as_ref() else { continue };
+                for (c, &v) in scratch.comp.iter_mut().zip(&r.track.comp) {
+                    c.set_lane(lane, v);
+                }
+            }
+        }
+        let comp = self.compensated.then_some(&mut scratch.comp[..]);
+        add_scaled(&mut scratch.y, comp, Lanes::splat(1.0), &scratch.inc);
         for lane in (0..B).filter(|&l| go[l]) {
             let Some(r) = active[lane].as_mut() else { continue };
-            for (d, v) in scratch.inc_lane.iter_mut().zip(&scratch.inc) {
-                *d = v.lane(lane);
-            }
-            let step = LaneStep { lane, h: h.lane(lane), remaining: remaining[lane], t_end };
-            steps[lane] =
-                Some(self.finish_step(sys, p, coeffs, step, &mut r.track, &scratch.inc_lane).map_err(Box::new));
+            let step = LaneStep { lane, h: h.lane(lane), finite: finite[lane], remaining: remaining[lane], t_end };
+            let taken = self.finish_step(sys, p, coeffs, step, &mut r.track, scratch);
+            scratch.steps[lane] = Some(taken.map_err(Box::new));
         }
     }
 
-    /// The rest of one lane's step once its size `h` and increment `inc` are known, as
-    /// [`Solver::step`] and the single method's step do it: the failures, the update and the
-    /// bookkeeping.
+    /// The rest of one lane's step once its size, its increment's finiteness and its updated
+    /// state (lane `lane` of `scratch.y`, `scratch.comp`) are known, as [`Solver::step`] and
+    /// the single method's step do it: the failures, the update and the bookkeeping.
     fn finish_step<S: TaylorSystem, const B: usize>(
         &self,
         sys: &S,
         p: usize,
         coeffs: &[Lanes<B>],
-        LaneStep { lane, h, remaining, t_end }: LaneStep,
+        LaneStep { lane, h, finite, remaining, t_end }: LaneStep,
         tr: &mut Track,
-        inc: &[f64],
+        scratch: &LaneScratch<B>,
     ) -> Result<Status, IntegrateError> {
         tr.t_prev = tr.t;
-        tr.y_prev.copy_from_slice(&tr.y);
         tr.rates = None;
         tr.dense_ready = false;
         let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * tr.t.abs() || h == 0.0;
-        if collapsed || inc.iter().any(|v| !v.is_finite()) {
+        if collapsed || !finite {
             // A non-finite coefficient is the cause if there is one; the scan runs only here.
             let first = coeffs.iter().position(|c| !c.lane(lane).is_finite());
             let failure = match first {
@@ -630,11 +642,21 @@ impl Taylor {
                 None => collapsed.then_some(FailureReason::StepSizeCollapse { h }),
             };
             if let Some(reason) = failure {
+                tr.y_prev.copy_from_slice(&tr.y);
                 tr.reset();
                 return Err(tr.error(reason));
             }
         }
-        add_scaled(&mut tr.y, self.compensated.then_some(&mut tr.comp[..]), 1.0, inc);
+        // The state before the step becomes the previous one; the lane's update the current.
+        std::mem::swap(&mut tr.y, &mut tr.y_prev);
+        for (y, v) in tr.y.iter_mut().zip(&scratch.y) {
+            *y = v.lane(lane);
+        }
+        if self.compensated {
+            for (c, v) in tr.comp.iter_mut().zip(&scratch.comp) {
+                *c = v.lane(lane);
+            }
+        }
         tr.h_last = h;
         tr.dense_ready = true;
         if let Err(StepFailure(reason)) = check_finite(&tr.y) {
@@ -648,20 +670,22 @@ impl Taylor {
     }
 }
 
-/// One lane's step: its size, what was left of the span before it, and the span's end.
+/// One lane's step: its size, whether its increment is finite, what was left of the span before it, and the span's end.
 struct LaneStep {
     lane: usize,
     h: f64,
+    /// Whether its increment is finite.
+    finite: bool,
     remaining: f64,
     t_end: f64,
 }
 
-/// The batch step's scratch: the lanes' states and increments, one lane's increment, which
-/// lanes step, and their steps' results.
+/// The batch step's scratch: the lanes' states, compensations and increments, which lanes
+/// step, and their steps' results.
 struct LaneScratch<const B: usize> {
     y: Vec<Lanes<B>>,
+    comp: Vec<Lanes<B>>,
     inc: Vec<Lanes<B>>,
-    inc_lane: Vec<f64>,
     stepping: [bool; B],
     /// (An error is boxed: the lanes' results are moved on every step, and failures are rare.)
     steps: [Option<Result<Status, Box<IntegrateError>>>; B],

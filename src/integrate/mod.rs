@@ -275,17 +275,19 @@ pub trait Method<S: ?Sized> {
 /// Adds `scale · inc` to `y`, with Kahan's compensated summation when `comp` is given: the
 /// low-order bits lost in each addition are carried in `comp` and fed into the next one, so
 /// the round-off of a long run grows like `√N ε` (random walk) instead of `N ε`.
-#[inline]
-pub(crate) fn add_scaled(y: &mut [f64], comp: Option<&mut [f64]>, scale: f64, inc: &[f64]) {
+/// Generic over [`Lane`](crate::lanes::Lane) so that the batch Taylor step updates its lanes
+/// with these same operations.
+#[inline(always)]
+pub(crate) fn add_scaled<L: crate::lanes::Lane>(y: &mut [L], comp: Option<&mut [L]>, scale: L, inc: &[L]) {
     match comp {
         None => {
             for (yi, di) in y.iter_mut().zip(inc) {
-                *yi += scale * di;
+                *yi += scale * *di;
             }
         }
         Some(c) => {
             for ((yi, di), ci) in y.iter_mut().zip(inc).zip(c.iter_mut()) {
-                let d = scale * di - *ci;
+                let d = scale * *di - *ci;
                 let s = *yi + d;
                 *ci = (s - *yi) - d;
                 *yi = s;
