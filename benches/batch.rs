@@ -83,6 +83,17 @@ fn main() {
                 std::hint::black_box(batch());
             }
             let ms = (thread_cpu() - t0) * 1e3 / rounds as f64;
+            // The ensemble's own path (chunks of starts, trajectories built), for comparison.
+            let (t1, wall) = (thread_cpu(), std::time::Instant::now());
+            for _ in 0..rounds {
+                std::hint::black_box(simulate::ensemble(&c, &starts, &o, Some(1), &mut |_| {}));
+            }
+            let per = |x: f64| x * 1e3 / rounds as f64;
+            println!(
+                "simulate::ensemble, threads 1: {:.0} ms CPU (all threads) a round, {:.0} ms wall",
+                per(thread_cpu() - t1),
+                per(wall.elapsed().as_secs_f64())
+            );
             let runs = m.integrate_batch(&ode, lanes, 0.0..10.0, &refs, BatchOutput::Final, usize::MAX, None).unwrap();
             let steps: usize = runs.iter().map(|r| r.as_ref().map_or(0, |r| r.steps)).sum();
             println!(

@@ -270,23 +270,45 @@ struct Running<L> {
 }
 
 /// The ensemble's task: the states [`BatchOutput`] asks for, a step budget, and every failure
-/// handed back (`None`) to be run alone.
-struct Keep<'a> {
+/// handed back (`None`) to be run alone; ended trajectories are counted in `done` (a progress
+/// report's count) when given.
+pub struct KeepStates<'a> {
     span: Range<f64>,
     starts: &'a [&'a [f64]],
     output: BatchOutput<'a>,
     max_steps: usize,
+    done: Option<&'a AtomicUsize>,
 }
 
-/// An ensemble trajectory's kept states, its next output time, and a buffer for the dense
+impl<'a> KeepStates<'a> {
+    /// The task of [`Taylor::integrate_batch`]: `starts` over `span`, keeping `output`, each
+    /// trajectory at most `max_steps` steps.
+    pub fn new(span: Range<f64>, starts: &'a [&'a [f64]], output: BatchOutput<'a>, max_steps: usize) -> Self {
+        KeepStates { span, starts, output, max_steps, done: None }
+    }
+
+    /// Counts every trajectory that ends in `done`.
+    pub fn counting(self, done: &'a AtomicUsize) -> Self {
+        KeepStates { done: Some(done), ..self }
+    }
+
+    fn ended(&self, out: Option<Option<LaneRun>>) -> Option<Option<LaneRun>> {
+        if let (Some(_), Some(done)) = (&out, self.done) {
+            done.fetch_add(1, Ordering::Relaxed);
+        }
+        out
+    }
+}
+
+/// A [`KeepStates`] trajectory's kept states, its next output time, and a buffer for the dense
 /// output.
-struct Kept {
+pub struct Kept {
     run: LaneRun,
     next: usize,
     dense: Vec<f64>,
 }
 
-impl LaneTask for Keep<'_> {
+impl LaneTask for KeepStates<'_> {
     type Lane = Kept;
     type Output = Option<LaneRun>;
 
@@ -317,10 +339,23 @@ impl LaneTask for Keep<'_> {
     }
 
     fn before_step<V: RunState>(&self, _: &mut Kept, run: &V) -> Option<Option<LaneRun>> {
-        (run.steps() >= self.max_steps).then_some(None)
+        self.ended((run.steps() >= self.max_steps).then_some(None))
     }
 
     fn after_step<V: RunState>(
+        &self,
+        kept: &mut Kept,
+        run: &mut V,
+        step: Result<Status, IntegrateError>,
+    ) -> Option<Option<LaneRun>> {
+        let out = self.keep(kept, run, step);
+        self.ended(out)
+    }
+}
+
+impl KeepStates<'_> {
+    /// [`LaneTask::after_step`], uncounted.
+    fn keep<V: RunState>(
         &self,
         kept: &mut Kept,
         run: &mut V,
@@ -377,7 +412,7 @@ impl Taylor {
         max_steps: usize,
         cancel: Option<&CancelToken>,
     ) -> Option<Vec<Option<LaneRun>>> {
-        let task = Keep { span: span.clone(), starts, output, max_steps };
+        let task = KeepStates::new(span.clone(), starts, output, max_steps);
         let queue = AtomicUsize::new(0);
         let ran = self.integrate_lanes(sys, lanes, span, starts, &queue, &task, cancel)?;
         let mut runs: Vec<Option<LaneRun>> = vec![None; starts.len()];

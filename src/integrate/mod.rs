@@ -57,7 +57,7 @@ mod splitting;
 #[doc(hidden)]
 pub mod taylor;
 
-pub use batch::{BatchOutput, LaneRun, LaneTask, RunState, TaylorBatchSystem, BATCH_FROM_ORDER};
+pub use batch::{BatchOutput, KeepStates, LaneRun, LaneTask, RunState, TaylorBatchSystem, BATCH_FROM_ORDER};
 pub use dop853::Dop853;
 pub use error::{fmt_state, fmt_value, FailureReason, IntegrateError, RhsError, StepFailure};
 pub use gauss::{Gauss, Gauss4, Gauss6, ImplicitSolver};

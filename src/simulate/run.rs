@@ -16,8 +16,8 @@ use crate::cancel::CancelToken;
 use crate::compile::{ConstrainedRhs, Projected, Stabilization, Tape, VariationalStepper};
 use crate::integrate::{
     fmt_value, BatchOutput, Crossing, Dop853, Event, EventRecord, ExplicitRk, FailureReason, Gauss, Integrate,
-    IntegrateError, Jacobian, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason, Taylor,
-    BATCH_FROM_ORDER,
+    IntegrateError, Jacobian, KeepStates, Method, Options, Rhs, RhsError, Separable, Splitting, Status, StopReason,
+    Taylor, BATCH_FROM_ORDER,
 };
 
 /// Which states a run keeps.
@@ -363,11 +363,6 @@ pub fn ensemble(
     out.into_iter().map(|r| r.unwrap_or(Err(SimulateError::Internal("an ensemble start ran nowhere")))).collect()
 }
 
-/// How many trajectories one batch driver takes: enough for its lanes to refill many times
-/// (lanes idle only at the very end of a chunk), few enough for the chunks to spread over
-/// the workers.
-const BATCH_CHUNK_LANES: usize = 16;
-
 /// [`ensemble`] by the Taylor method's batch mode ([`Taylor::integrate_batch`]), when the run
 /// asks for nothing it lacks: final states or states at given times, no events, no energy
 /// check. `None`: the run goes one start at a time. Each trajectory is bit for bit the one
@@ -400,26 +395,29 @@ fn taylor_batch(
     if method.taylor_order() < BATCH_FROM_ORDER {
         return None;
     }
+    // One batch driver per worker thread, all taking starts from one queue: a lane idles only
+    // once no start is left (chunks of starts, one driver each, idled lanes at every chunk's
+    // end: 16 % of a one-thread ensemble's time at tol 1e-12).
     let lanes = crate::compile::simd_lanes();
-    let chunks: Vec<&[Vec<f64>]> = starts.chunks(lanes * BATCH_CHUNK_LANES).collect();
-    let runs = par_map_with_progress(&chunks, threads, progress, |chunk| {
-        let refs: Vec<&[f64]> = chunk.iter().map(Vec::as_slice).collect();
-        let span = opts.t0..opts.t1;
-        method.integrate_batch(ode, lanes, span, &refs, output, opts.budget(), opts.cancel.as_ref())
-    })
-    .ok()?;
-    let mut out = Vec::with_capacity(starts.len());
-    for runs in runs {
-        out.extend(runs?.into_iter().map(|run| {
-            run.map(|r| Trajectory {
-                t: r.t,
-                y: r.y,
-                steps: r.steps,
-                evaluations: r.steps,
-                energy: Ledger::from_report(None, None),
-                ..Trajectory::default()
-            })
-        }));
+    let refs: Vec<&[f64]> = starts.iter().map(Vec::as_slice).collect();
+    let (queue, done) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let task = KeepStates::new(opts.t0..opts.t1, &refs, output, opts.budget()).counting(&done);
+    let drive = || {
+        rayon::broadcast(|_| {
+            method.integrate_lanes(ode, lanes, opts.t0..opts.t1, &refs, &queue, &task, opts.cancel.as_ref())
+        })
+    };
+    let drivers = with_progress(&done, starts.len(), progress, || in_pool(threads, drive)).ok()?;
+    let mut out: Vec<Option<Trajectory>> = vec![None; starts.len()];
+    for (index, run) in drivers.into_iter().collect::<Option<Vec<_>>>()?.into_iter().flatten() {
+        out[index] = run.flatten().map(|r| Trajectory {
+            t: r.t,
+            y: r.y,
+            steps: r.steps,
+            evaluations: r.steps,
+            energy: Ledger::from_report(None, None),
+            ..Trajectory::default()
+        });
     }
     Some(out)
 }
@@ -459,17 +457,20 @@ pub fn par_map_with_progress<T: Sync, R: Send>(
             })
             .collect::<Vec<_>>()
     };
-    with_progress(&done, items.len(), progress, || match threads {
-        Some(k) => match rayon::ThreadPoolBuilder::new().num_threads(k.max(1)).build() {
-            Ok(pool) => pool.install(work),
-            Err(_) => work(),
-        },
-        None => work(),
-    })
+    with_progress(&done, items.len(), progress, || in_pool(threads, work))
+}
+
+/// `work` on a pool of `threads` worker threads, or on rayon's global pool.
+fn in_pool<R: Send>(threads: Option<usize>, work: impl FnOnce() -> R + Send) -> R {
+    match threads.map(|k| rayon::ThreadPoolBuilder::new().num_threads(k.max(1)).build()) {
+        Some(Ok(pool)) => pool.install(work),
+        _ => work(),
+    }
 }
 
 /// `work` on a thread of its own, while this thread reports `done / n` every 50 ms (`work`
-/// counts its finished items in `done`) and `1` at its end.
+/// counts its finished items in `done`) and `1` at its end. The wait ends as soon as `work`
+/// does (it signals its end; a fixed sleep made every run last a multiple of 50 ms).
 pub fn with_progress<R: Send>(
     done: &AtomicUsize,
     n: usize,
@@ -477,11 +478,18 @@ pub fn with_progress<R: Send>(
     work: impl FnOnce() -> R + Send,
 ) -> Result<R, WorkerPanicked> {
     let n = n.max(1) as f64;
+    let (finished, wait) = std::sync::mpsc::channel::<()>();
     std::thread::scope(|scope| {
-        let handle = scope.spawn(work);
-        while !handle.is_finished() {
+        let handle = scope.spawn(move || {
+            // Dropped at the end of `work`, or as it unwinds: either ends the wait.
+            let _finished = finished;
+            work()
+        });
+        progress(done.load(Ordering::Relaxed) as f64 / n);
+        while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+            wait.recv_timeout(std::time::Duration::from_millis(50))
+        {
             progress(done.load(Ordering::Relaxed) as f64 / n);
-            std::thread::sleep(std::time::Duration::from_millis(50));
         }
         progress(1.0);
         handle.join().map_err(|_| WorkerPanicked)
