@@ -397,7 +397,7 @@ fn taylor_batch(
     }
     // One batch driver per worker thread, all taking starts from one queue: a lane idles only
     // once no start is left (chunks of starts, one driver each, idled lanes at every chunk's
-    // end: 16 % of a one-thread ensemble's time at tol 1e-12).
+    // end), as the chaos maps do.
     let lanes = crate::compile::simd_lanes();
     let refs: Vec<&[f64]> = starts.iter().map(Vec::as_slice).collect();
     let (queue, done) = (AtomicUsize::new(0), AtomicUsize::new(0));
