@@ -31,11 +31,11 @@ use crate::cancel::CancelToken;
 use crate::lanes::{Lane, Lanes};
 
 /// The lowest Taylor order at which the batch has been measured no slower than one start at a
-/// time. On 8-lane wide code (AVX-512) the batch takes 0.83–1.06× the time of single runs on
-/// the double pendulum at tol 1e-6 (order 8), 0.83× at order 9 and 0.41–0.86× from order 11 to 20
-/// (`cargo bench --bench batch`, BENCHMARKS.md, "The Taylor method's batch mode"); below order 8
-/// it is unmeasured, so one start at a time. Either way each start's result has the single
-/// run's bits. The ensembles and the chaos maps batch from this order.
+/// time. On 8-lane wide code (AVX-512), with the step on whole lanes, the batch takes 0.65× the
+/// time of single runs on the double pendulum at tol 1e-6 (order 8) and 0.35–0.61× from order 11
+/// to 20 (`cargo bench --bench batch`, BENCHMARKS.md, "The Taylor method's batch mode"); below
+/// order 8 it is unmeasured, so one start at a time. Either way each start's result has the
+/// single run's bits. The ensembles and the chaos maps batch from this order.
 pub const BATCH_FROM_ORDER: usize = 8;
 
 /// A [`TaylorSystem`] that can also expand several states at once.
