@@ -78,12 +78,15 @@ fn main() {
                 .collect()
         };
         if profile.is_some() {
+            // One untimed run of each side first: each compiles its system's native code on
+            // first use (the two sides hold different compiled systems).
+            std::hint::black_box((batch(), simulate::ensemble(&c, &starts, &o, Some(1), &mut |_| {})));
             let t0 = thread_cpu();
             for _ in 0..rounds {
                 std::hint::black_box(batch());
             }
             let ms = (thread_cpu() - t0) * 1e3 / rounds as f64;
-            // The ensemble's own path (chunks of starts, trajectories built), for comparison.
+            // The ensemble's own path (its driver, trajectories built), for comparison.
             let (t1, wall) = (thread_cpu(), std::time::Instant::now());
             for _ in 0..rounds {
                 std::hint::black_box(simulate::ensemble(&c, &starts, &o, Some(1), &mut |_| {}));
