@@ -213,7 +213,7 @@ impl TaylorOde {
 
     /// Expands `B` states at once, each lane exactly as [`TaylorOde::expand_in_place`] would
     /// (the same bits). `t[l]`, `y[l · dim ..]` is lane `l`'s point; its coefficients go to
-    /// `out[l · dim · (order + 1) + i · (order + 1) + k]`. A lane whose mass matrix is not
+    /// lane `l` of `out[i · (order + 1) + k]`. A lane whose mass matrix is not
     /// finite or is singular is marked in `failed`; the others are unaffected. Orders ≥ 1 of
     /// the tape run on `wide` code when given, else in the interpreter.
     #[inline(always)]
