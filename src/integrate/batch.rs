@@ -24,8 +24,8 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::error::{check_finite, FailureReason, IntegrateError, StepFailure};
-use super::solver::{hermite, Solver, Status};
-use super::taylor::{polynomial, step_norms, StepConstants, Taylor, TaylorSystem};
+use super::solver::{check_start, hermite, Solver, Status};
+use super::taylor::{polynomial, refused_step, step_norms, StepConstants, Taylor, TaylorSystem};
 use super::{add_scaled, Method};
 use crate::cancel::CancelToken;
 use crate::lanes::{Lane, Lanes};
@@ -472,14 +472,10 @@ impl<S: TaylorSystem> Starts<'_, S> {
     }
 
     /// Start `index`'s track, or `None` when a single run would refuse it ([`Solver::new`]'s
-    /// checks; the tolerances are checked once for the whole batch).
-    fn track(&self, index: usize) -> Option<Track> {
+    /// checks, `check_start`).
+    fn track(&self, method: &Taylor, index: usize) -> Option<Track> {
         let (y0, t0) = (self.starts[index], self.span.start);
-        let ok = y0.len() == self.sys.dim()
-            && t0.is_finite()
-            && self.span.end.is_finite()
-            && y0.iter().all(|v| v.is_finite());
-        ok.then(|| Track {
+        check_start(method, self.sys, t0, y0, self.span.end).ok().map(|_| Track {
             t: t0,
             y: y0.to_vec(),
             t_prev: t0,
@@ -509,7 +505,7 @@ impl Taylor {
         // Loads trajectories into a lane until one has steps to take, or none is left.
         let fill = |ended: &mut Vec<(usize, Option<T::Output>)>, coeffs: &[Lanes<B>], lane: usize| {
             while let Some(index) = run.take() {
-                let Some(mut track) = run.track(index) else {
+                let Some(mut track) = run.track(self, index) else {
                     ended.push((index, None));
                     continue;
                 };
@@ -666,19 +662,11 @@ impl Taylor {
         tr.t_prev = tr.t;
         tr.rates = None;
         tr.dense_ready = false;
-        let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * tr.t.abs() || h == 0.0;
-        if collapsed || !finite {
-            // A non-finite coefficient is the cause if there is one; the scan runs only here.
-            let first = coeffs.iter().position(|c| !c.lane(lane).is_finite());
-            let failure = match first {
-                Some(at) => Some(sys.non_finite(tr.t, &tr.y, p, at).0),
-                None => collapsed.then_some(FailureReason::StepSizeCollapse { h }),
-            };
-            if let Some(reason) = failure {
-                tr.y_prev.copy_from_slice(&tr.y);
-                tr.reset();
-                return Err(tr.error(reason));
-            }
+        let first = || coeffs.iter().position(|c| !c.lane(lane).is_finite());
+        if let Some(StepFailure(reason)) = refused_step(sys, (tr.t, &tr.y), p, h, finite, first) {
+            tr.y_prev.copy_from_slice(&tr.y);
+            tr.reset();
+            return Err(tr.error(reason));
         }
         // The state before the step becomes the previous one; the lane's update the current.
         std::mem::swap(&mut tr.y, &mut tr.y_prev);

@@ -56,37 +56,7 @@ pub struct Solver<'s, S: ?Sized, M: Method<S>> {
 impl<'s, S: ?Sized, M: Method<S>> Solver<'s, S, M> {
     /// Starts at `(t0, y0)` heading for `t_stop` (which may be earlier than `t0`).
     pub fn new(method: &'s M, sys: &'s S, t0: f64, y0: &[f64], t_stop: f64) -> Result<Self, IntegrateError> {
-        let invalid = |msg: String| IntegrateError {
-            t: t0,
-            state: y0.to_vec(),
-            reason: FailureReason::InvalidInput(msg),
-            steps: 0,
-        };
-        let n = method.dim(sys);
-        if y0.len() != n {
-            return Err(invalid(format!("initial state has {} entries, the system has dimension {n}", y0.len())));
-        }
-        if !t0.is_finite() || !t_stop.is_finite() {
-            return Err(invalid(format!("time span {t0}..{t_stop} is not finite")));
-        }
-        if let Some(i) = y0.iter().position(|v| !v.is_finite()) {
-            return Err(invalid(format!("initial state component {i} is {}", y0[i])));
-        }
-        if let Some(h) = method.fixed_step() {
-            if !(h.is_finite() && h > 0.0) {
-                return Err(invalid(format!("step size {h} must be positive and finite")));
-            }
-            // A step below the spacing of f64 values near the span would leave `t` where it
-            // is (or move it by a rounding error), so the grid would not be the grid asked for.
-            let t_max = t0.abs().max(t_stop.abs());
-            let resolution = 4.0 * f64::EPSILON * t_max;
-            if t0 != t_stop && h <= resolution {
-                return Err(invalid(format!(
-                    "step size {h:e} is below the time resolution of f64 near t = {t_max:e} (about {resolution:e}); use a larger step"
-                )));
-            }
-        }
-        method.check().map_err(invalid)?;
+        check_start(method, sys, t0, y0, t_stop)?;
         Ok(Solver {
             method,
             sys,
@@ -678,4 +648,42 @@ fn run<S: ?Sized, M: Method<S>>(
     }
     traj.stats = Stats { steps: solver.steps, rejected: solver.rejected() };
     Ok(traj)
+}
+
+/// What [`Solver::new`] refuses: a state of the wrong length or not finite, a time span not
+/// finite, a bad fixed step, the method's own check. The batch drivers start their lanes by it.
+pub(crate) fn check_start<S: ?Sized, M: Method<S>>(
+    method: &M,
+    sys: &S,
+    t0: f64,
+    y0: &[f64],
+    t_stop: f64,
+) -> Result<(), IntegrateError> {
+    let invalid =
+        |msg: String| IntegrateError { t: t0, state: y0.to_vec(), reason: FailureReason::InvalidInput(msg), steps: 0 };
+    let n = method.dim(sys);
+    if y0.len() != n {
+        return Err(invalid(format!("initial state has {} entries, the system has dimension {n}", y0.len())));
+    }
+    if !t0.is_finite() || !t_stop.is_finite() {
+        return Err(invalid(format!("time span {t0}..{t_stop} is not finite")));
+    }
+    if let Some(i) = y0.iter().position(|v| !v.is_finite()) {
+        return Err(invalid(format!("initial state component {i} is {}", y0[i])));
+    }
+    if let Some(h) = method.fixed_step() {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(invalid(format!("step size {h} must be positive and finite")));
+        }
+        // A step below the spacing of f64 values near the span would leave `t` where it
+        // is (or move it by a rounding error), so the grid would not be the grid asked for.
+        let t_max = t0.abs().max(t_stop.abs());
+        let resolution = 4.0 * f64::EPSILON * t_max;
+        if t0 != t_stop && h <= resolution {
+            return Err(invalid(format!(
+                    "step size {h:e} is below the time resolution of f64 near t = {t_max:e} (about {resolution:e}); use a larger step"
+                )));
+        }
+    }
+    method.check().map_err(invalid)
 }

@@ -210,6 +210,29 @@ pub(crate) fn step_norms<L: Lane>(y: &[L], coeffs: &[L], p: usize) -> (L, L, L) 
     (x0, np1, np)
 }
 
+/// Why a step of size `h` from `(t, y)` is refused before its update, if it is: a non-finite
+/// coefficient of the expansion (`first_non_finite` finds it; `∞` in the last orders makes `h`
+/// zero), else a step size that collapsed to nothing (NaN, zero, or below the resolution of
+/// `t`). `inc_finite`: whether the step's increments are finite; when they are and `h` has not
+/// collapsed, the coefficients are not scanned. The single step and the batch step both ask.
+pub(crate) fn refused_step<S: TaylorSystem + ?Sized>(
+    sys: &S,
+    (t, y): (f64, &[f64]),
+    p: usize,
+    h: f64,
+    inc_finite: bool,
+    first_non_finite: impl FnOnce() -> Option<usize>,
+) -> Option<StepFailure> {
+    let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0;
+    if !collapsed && inc_finite {
+        return None;
+    }
+    match first_non_finite() {
+        Some(at) => Some(sys.non_finite(t, y, p, at)),
+        None => collapsed.then_some(StepFailure(FailureReason::StepSizeCollapse { h })),
+    }
+}
+
 /// Whether `log2(a) · ia < log2(b) · ib` (`Some(true)`), `>` (`Some(false)`), or `None` when
 /// the brackets below cannot tell (values within about `0.09 · max(ia, ib)` of each other in
 /// `log2`, or `a`, `b` not positive normal numbers). For `x = 2^e · m`, `1 ≤ m < 2`,
@@ -416,16 +439,9 @@ impl<S: TaylorSystem + ?Sized> Method<S> for Taylor {
         for (inc, row) in w.inc.iter_mut().zip(coeffs.chunks_exact(s)) {
             *inc = h * polynomial(row, h, 1);
         }
-        let collapsed = h.is_nan() || h.abs() <= 16.0 * f64::EPSILON * t.abs() || h == 0.0;
-        if collapsed || w.inc.iter().any(|v| !v.is_finite()) {
-            // A non-finite coefficient is the cause if there is one (`∞` in the last orders
-            // makes `h` zero); the scan runs only here.
-            if let Some(at) = coeffs.iter().position(|x| !x.is_finite()) {
-                return Err(sys.non_finite(t, y, p, at));
-            }
-            if collapsed {
-                return Err(StepFailure(FailureReason::StepSizeCollapse { h }));
-            }
+        let finite = w.inc.iter().all(|v| v.is_finite());
+        if let Some(failure) = refused_step(sys, (t, y), p, h, finite, || coeffs.iter().position(|x| !x.is_finite())) {
+            return Err(failure);
         }
         sys.check_step(&w.buf, p, h)?;
         add_scaled(y, self.compensated.then_some(&mut w.comp[..]), 1.0, &w.inc);
